@@ -1,0 +1,1 @@
+//! ballbot (in progress)

@@ -1,0 +1,1 @@
+//! caster (in progress)

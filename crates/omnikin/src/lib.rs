@@ -1,0 +1,78 @@
+//! # omnikin — kinematics of three-wheeled omnidirectional robots
+//!
+//! The core of the omnikin toolkit, the same code on a microcontroller and on a PC:
+//!
+//! * **`#![no_std]`, no `alloc`**: nothing here allocates; every call is a few fixed-size
+//!   matrix–vector products on values precomputed when the model was built.
+//! * **generic over `f32` and `f64`** through the sealed [`Real`] trait.
+//! * **never panics on input**: constructors return [`GeometryError`] for a geometry that cannot
+//!   work (naming the parameter, wheel and rule), calls return [`InputError`] for non-finite
+//!   input or a singular configuration.
+//!
+//! ## Robots (one module each, same verbs)
+//!
+//! | module | robot | paper | inverse | forward |
+//! |---|---|---|---|---|
+//! | [`sphere`] | sphere rolled by an internal 3-omni-wheel platform | 000 | [`sphere::SphereOmni::wheel_rates`] | [`sphere::SphereOmni::body_twist`] |
+//! | [`ballbot`] | body balancing on a ball, 3 omni-wheels | 001 | [`ballbot::Ballbot::wheel_rates`] | [`ballbot::Ballbot::body_twist`] |
+//! | [`caster`] | base on three off-centred steerable wheels | 003 | [`caster::Caster3::motor_rates`] | [`caster::Caster3::body_twist`] |
+//!
+//! Shared value types are [`Twist2`] and [`Pose2`]; [`se2`] integrates a twist exactly.
+//! Frames and signs follow REP-103 (x forward, y left, z up, counter-clockwise positive) and
+//! the project conventions: where a printed paper formula is wrong (errata E1–E4 of the seed
+//! digest) the physically correct one is implemented and the module docs say so.
+//!
+//! ## Features
+//!
+//! | feature | default | adds |
+//! |---|---|---|
+//! | `std` | yes | [`description`]: robot description files (TOML) with validation; `std::error::Error` |
+//!
+//! Build for firmware with `default-features = false`.
+#![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+#[cfg(feature = "std")]
+extern crate std;
+
+mod error;
+mod real;
+mod types;
+
+pub mod ballbot;
+pub mod caster;
+pub mod se2;
+pub mod sphere;
+
+#[cfg(feature = "std")]
+pub mod description;
+
+pub use error::{GeometryError, InputError};
+pub use real::Real;
+pub use types::{Pose2, Twist2};
+
+/// Largest accepted 2-norm condition number of a robot's 3×3 wheel-constraint matrix. Above it
+/// a wheel-rate error of 1 % can become a body-velocity error of more than 10 × 1000 %; such a
+/// geometry is rejected at construction with [`GeometryError::IllConditioned`].
+pub const MAX_CONDITION: f64 = 1.0e3;
+
+/// 2-norm condition number `σ_max/σ_min` of a 3×3 matrix (∞ if singular), computed in the
+/// model's scalar type and reported as `f64`.
+pub(crate) fn condition_number<T: Real>(m: &nalgebra::Matrix3<T>) -> f64 {
+    let sv = m.singular_values();
+    let (mut lo, mut hi) = (sv[0], sv[0]);
+    for &s in sv.iter() {
+        if s < lo {
+            lo = s;
+        }
+        if s > hi {
+            hi = s;
+        }
+    }
+    if lo <= T::zero() {
+        f64::INFINITY
+    } else {
+        (hi / lo).to_f64()
+    }
+}

@@ -1,0 +1,1 @@
+//! sphere (in progress)
