@@ -1,1 +1,373 @@
-//! description (in progress)
+//! Robot description files (TOML) and the compiled-in presets (feature `std`).
+//!
+//! A description names the robot's `kind`, its `[geometry]` and optional motor `[limits]`:
+//!
+//! ```toml
+//! kind = "sphere-omni"            # or "ballbot", "caster3"
+//! name = "my-sphere"              # optional, defaults to the kind
+//!
+//! [geometry]                      # keys depend on the kind, see robots/*.toml
+//! shell_radius = 0.15             # m
+//! wheel_radius = 0.07             # m
+//! tilt_deg = 45.0                 # angles in degrees only where the key says `_deg`
+//! roller_angle_deg = 45.0
+//! azimuths_deg = [0.0, 120.0, 240.0]
+//!
+//! [limits]                        # optional, every key optional
+//! max_wheel_rate = 12.0           # rad/s
+//! max_wheel_accel = 60.0          # rad/s²
+//! ```
+//!
+//! Loading validates everything and reports the first problem as a [`DescriptionError`] that
+//! names the file, the line (for syntax and schema errors) or the field, and the rule broken:
+//! unknown keys, missing fields, wrong types, non-positive lengths, a wheel larger than the
+//! shell, out-of-range angles, singular geometry.
+
+use std::format;
+use std::string::{String, ToString};
+
+use serde::Deserialize;
+
+use crate::ballbot::{Ballbot, BallbotParams};
+use crate::caster::{Caster3, CasterParams};
+use crate::sphere::{SphereOmni, SphereParams};
+use crate::{GeometryError, Real, Robot};
+
+/// The compiled-in presets: `(name, TOML text)`, identical to the files in `robots/`.
+pub const PRESETS: [(&str, &str); 3] = [
+    (
+        "sphere-omni",
+        include_str!("../../../robots/sphere-omni.toml"),
+    ),
+    ("ballbot", include_str!("../../../robots/ballbot.toml")),
+    ("caster3", include_str!("../../../robots/caster3.toml")),
+];
+
+/// A robot description that failed to load: where, which field, which rule.
+///
+/// Displayed as `FILE: FIELD: RULE`, or `FILE:LINE: RULE` for syntax and schema errors (the
+/// rule then names the key, e.g. "unknown field `colour`").
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{source_name}{}{}: {rule}",
+    line.map(|l| format!(":{l}")).unwrap_or_default(),
+    if field.is_empty() { String::new() } else { format!(": {field}") })]
+pub struct DescriptionError {
+    /// The file path, or `preset <name>`.
+    pub source_name: String,
+    /// 1-based line of the offending text, when known.
+    pub line: Option<usize>,
+    /// The field, as a TOML key path (`geometry.wheel_radius`), or `file` / `kind`; empty for
+    /// syntax and schema errors, whose rule names the key.
+    pub field: String,
+    /// What is wrong and what is allowed.
+    pub rule: String,
+}
+
+/// Optional motor limits from the `[limits]` table; absent keys are `None` (unlimited).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Limits {
+    /// Largest wheel (roll) rate magnitude, rad/s.
+    pub max_wheel_rate: Option<f64>,
+    /// Largest wheel (roll) acceleration magnitude, rad/s².
+    pub max_wheel_accel: Option<f64>,
+    /// Largest steer rate magnitude (caster only), rad/s.
+    pub max_steer_rate: Option<f64>,
+    /// Largest steer acceleration magnitude (caster only), rad/s².
+    pub max_steer_accel: Option<f64>,
+}
+
+/// The geometry of a described robot, in SI units (radians), ready to build a model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Geometry {
+    /// Spherical robot (paper 000).
+    Sphere(SphereParams<f64>),
+    /// Ballbot (paper 001).
+    Ballbot(BallbotParams<f64>),
+    /// Three-caster base (paper 003).
+    Caster(CasterParams<f64>),
+}
+
+/// A validated robot description.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobotDescription {
+    /// The robot's name (the `name` key, or its kind).
+    pub name: String,
+    /// Where it came from: a file path or `preset <name>`.
+    pub source_name: String,
+    /// Geometry in SI units.
+    pub geometry: Geometry,
+    /// Motor limits.
+    pub limits: Limits,
+}
+
+#[derive(Deserialize)]
+struct Header {
+    kind: Option<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct File<G> {
+    #[allow(dead_code)]
+    kind: String,
+    name: Option<String>,
+    #[allow(dead_code)]
+    description: Option<String>,
+    geometry: G,
+    #[serde(default)]
+    limits: Limits,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SphereGeometry {
+    shell_radius: f64,
+    wheel_radius: f64,
+    tilt_deg: f64,
+    roller_angle_deg: f64,
+    azimuths_deg: [f64; 3],
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BallbotGeometry {
+    ball_radius: f64,
+    wheel_radius: f64,
+    zenith_deg: f64,
+    azimuths_deg: [f64; 3],
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CasterGeometry {
+    mount_radius: f64,
+    eccentricity: f64,
+    wheel_radius: f64,
+    mount_angles_deg: [f64; 3],
+}
+
+const KINDS: &str = "one of \"sphere-omni\", \"ballbot\", \"caster3\"";
+
+impl RobotDescription {
+    /// The compiled-in preset called `name` (`sphere-omni`, `ballbot`, `caster3`).
+    pub fn preset(name: &str) -> Option<Self> {
+        let (_, text) = PRESETS.iter().find(|(n, _)| *n == name)?;
+        // The presets are tested to load; a failure here would be a build defect.
+        Self::from_toml_str(text, &format!("preset {name}")).ok()
+    }
+
+    /// A preset name or a path to a TOML file, as `ROBOT` on the command line.
+    pub fn resolve(robot: &str) -> Result<Self, DescriptionError> {
+        if let Some(d) = Self::preset(robot) {
+            return Ok(d);
+        }
+        let path = std::path::Path::new(robot);
+        if !path.exists() && !robot.contains(['/', '\\', '.']) {
+            return Err(DescriptionError {
+                source_name: robot.to_string(),
+                line: None,
+                field: "robot".into(),
+                rule: format!(
+                    "no preset or file of that name (presets: {})",
+                    PRESETS.map(|(n, _)| n).join(", ")
+                ),
+            });
+        }
+        Self::load(path)
+    }
+
+    /// Loads and validates a description file.
+    pub fn load(path: &std::path::Path) -> Result<Self, DescriptionError> {
+        let source = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| DescriptionError {
+            source_name: source.clone(),
+            line: None,
+            field: "file".into(),
+            rule: format!("cannot read: {e}"),
+        })?;
+        Self::from_toml_str(&text, &source)
+    }
+
+    /// Parses and validates a description from TOML text; `source_name` names it in errors.
+    pub fn from_toml_str(text: &str, source_name: &str) -> Result<Self, DescriptionError> {
+        let err = |line, field: &str, rule: String| DescriptionError {
+            source_name: source_name.to_string(),
+            line,
+            field: field.to_string(),
+            rule,
+        };
+        let de_err = |e: toml::de::Error| {
+            let line = e
+                .span()
+                .map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count());
+            err(line, "", e.message().trim().to_string())
+        };
+        let header: Header = toml::from_str(text).map_err(de_err)?;
+        let kind = header
+            .kind
+            .ok_or_else(|| err(None, "kind", format!("missing; must be {KINDS}")))?;
+        let d = match kind.as_str() {
+            "sphere-omni" => {
+                let f: File<SphereGeometry> = toml::from_str(text).map_err(de_err)?;
+                let g = &f.geometry;
+                let p = SphereParams {
+                    shell_radius: g.shell_radius,
+                    wheel_radius: [g.wheel_radius; 3],
+                    tilt: g.tilt_deg.to_radians(),
+                    roller_angle: g.roller_angle_deg.to_radians(),
+                    azimuths: g.azimuths_deg.map(f64::to_radians),
+                };
+                SphereOmni::new(p).map_err(|e| geometry_error(e, source_name, "sphere-omni"))?;
+                (f.name, Geometry::Sphere(p), f.limits)
+            }
+            "ballbot" => {
+                let f: File<BallbotGeometry> = toml::from_str(text).map_err(de_err)?;
+                let g = &f.geometry;
+                if !(g.zenith_deg > 0.0 && g.zenith_deg < 90.0) {
+                    return Err(err(
+                        None,
+                        "geometry.zenith_deg",
+                        format!("must be strictly between 0 and 90 (got {})", g.zenith_deg),
+                    ));
+                }
+                let p = BallbotParams {
+                    ball_radius: g.ball_radius,
+                    wheel_radius: g.wheel_radius,
+                    zenith: g.zenith_deg.to_radians(),
+                    azimuths: g.azimuths_deg.map(f64::to_radians),
+                };
+                Ballbot::new(p).map_err(|e| geometry_error(e, source_name, "ballbot"))?;
+                (f.name, Geometry::Ballbot(p), f.limits)
+            }
+            "caster3" => {
+                let f: File<CasterGeometry> = toml::from_str(text).map_err(de_err)?;
+                let g = &f.geometry;
+                let p = CasterParams {
+                    mount_radius: g.mount_radius,
+                    eccentricity: g.eccentricity,
+                    wheel_radius: g.wheel_radius,
+                    mount_angles: g.mount_angles_deg.map(f64::to_radians),
+                };
+                Caster3::new(p).map_err(|e| geometry_error(e, source_name, "caster3"))?;
+                (f.name, Geometry::Caster(p), f.limits)
+            }
+            other => {
+                return Err(err(
+                    None,
+                    "kind",
+                    format!("unknown robot kind \"{other}\"; must be {KINDS}"),
+                ));
+            }
+        };
+        let (name, geometry, limits) = d;
+        for (field, value) in [
+            ("limits.max_wheel_rate", limits.max_wheel_rate),
+            ("limits.max_wheel_accel", limits.max_wheel_accel),
+            ("limits.max_steer_rate", limits.max_steer_rate),
+            ("limits.max_steer_accel", limits.max_steer_accel),
+        ] {
+            if let Some(v) = value
+                && !(v.is_finite() && v > 0.0)
+            {
+                return Err(err(
+                    None,
+                    field,
+                    format!("must be a finite number > 0 (got {v})"),
+                ));
+            }
+        }
+        if !matches!(geometry, Geometry::Caster(_))
+            && (limits.max_steer_rate.is_some() || limits.max_steer_accel.is_some())
+        {
+            return Err(err(
+                None,
+                "limits.max_steer_rate",
+                format!("steer limits apply only to kind \"caster3\", not \"{kind}\""),
+            ));
+        }
+        Ok(Self {
+            name: name.unwrap_or(kind),
+            source_name: source_name.to_string(),
+            geometry,
+            limits,
+        })
+    }
+
+    /// The robot's kind as written in files and on the command line.
+    pub fn kind(&self) -> &'static str {
+        match self.geometry {
+            Geometry::Sphere(_) => "sphere-omni",
+            Geometry::Ballbot(_) => "ballbot",
+            Geometry::Caster(_) => "caster3",
+        }
+    }
+
+    /// Builds the kinematic model in scalar type `T` (`f32` or `f64`).
+    pub fn build<T: Real>(&self) -> Result<Robot<T>, DescriptionError> {
+        let c = |x: f64| T::of(x);
+        let kind = self.kind();
+        let wrap = |e| geometry_error(e, &self.source_name, kind);
+        Ok(match self.geometry {
+            Geometry::Sphere(p) => Robot::Sphere(
+                SphereOmni::new(SphereParams {
+                    shell_radius: c(p.shell_radius),
+                    wheel_radius: p.wheel_radius.map(c),
+                    tilt: c(p.tilt),
+                    roller_angle: c(p.roller_angle),
+                    azimuths: p.azimuths.map(c),
+                })
+                .map_err(wrap)?,
+            ),
+            Geometry::Ballbot(p) => Robot::Ballbot(
+                Ballbot::new(BallbotParams {
+                    ball_radius: c(p.ball_radius),
+                    wheel_radius: c(p.wheel_radius),
+                    zenith: c(p.zenith),
+                    azimuths: p.azimuths.map(c),
+                })
+                .map_err(wrap)?,
+            ),
+            Geometry::Caster(p) => Robot::Caster(
+                Caster3::new(CasterParams {
+                    mount_radius: c(p.mount_radius),
+                    eccentricity: c(p.eccentricity),
+                    wheel_radius: c(p.wheel_radius),
+                    mount_angles: p.mount_angles.map(c),
+                })
+                .map_err(wrap)?,
+            ),
+        })
+    }
+}
+
+/// Maps a core geometry error to the TOML key it is about.
+fn geometry_error(e: GeometryError, source_name: &str, kind: &str) -> DescriptionError {
+    let core_field = match e {
+        GeometryError::NonFinite { field }
+        | GeometryError::NotPositive { field, .. }
+        | GeometryError::AngleOutOfRange { field, .. } => field,
+        GeometryError::WheelTooLarge { .. } => "wheel_radius",
+        GeometryError::DeadWheel { .. } => "roller_angle",
+        GeometryError::IllConditioned { .. } => "",
+    };
+    let base = core_field.split('[').next().unwrap_or(core_field);
+    let key = match (kind, base) {
+        (_, "") => match kind {
+            "sphere-omni" => "geometry (tilt_deg, roller_angle_deg, azimuths_deg)",
+            "ballbot" => "geometry.azimuths_deg",
+            _ => "geometry.mount_angles_deg",
+        }
+        .to_string(),
+        (_, "tilt" | "roller_angle" | "azimuths" | "zenith" | "mount_angles") => {
+            format!("geometry.{base}_deg")
+        }
+        _ => format!("geometry.{base}"),
+    };
+    DescriptionError {
+        source_name: source_name.to_string(),
+        line: None,
+        field: key,
+        rule: e.to_string(),
+    }
+}

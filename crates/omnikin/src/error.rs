@@ -19,7 +19,9 @@ pub enum GeometryError {
         value: f64,
     },
     /// A sphere wheel does not fit inside the shell (`wheel_radius ≥ shell_radius`).
-    #[error("wheel {wheel}: wheel radius {wheel_radius} m must be smaller than the shell radius {shell_radius} m")]
+    #[error(
+        "wheel {wheel}: wheel radius {wheel_radius} m must be smaller than the shell radius {shell_radius} m"
+    )]
     WheelTooLarge {
         /// 1-based wheel index.
         wheel: usize,
@@ -53,7 +55,9 @@ pub enum GeometryError {
     },
     /// The wheels' constraint directions are (nearly) linearly dependent: the 3×3 map from body
     /// motion to wheel rates is singular or too ill-conditioned to invert reliably.
-    #[error("{what} is singular or ill-conditioned: condition number {condition:.3e} exceeds {max:.1e} (wheels nearly coplanar or parallel)")]
+    #[error(
+        "{what} is singular or ill-conditioned: condition number {condition:.3e} exceeds {max:.1e} (wheels nearly coplanar or parallel)"
+    )]
     IllConditioned {
         /// The matrix, e.g. `"wheel constraint matrix S = [s1; s2; s3]"`.
         what: &'static str,

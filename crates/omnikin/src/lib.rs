@@ -17,6 +17,21 @@
 //! | [`ballbot`] | body balancing on a ball, 3 omni-wheels | 001 | [`ballbot::Ballbot::wheel_rates`] | [`ballbot::Ballbot::body_twist`] |
 //! | [`caster`] | base on three off-centred steerable wheels | 003 | [`caster::Caster3::motor_rates`] | [`caster::Caster3::body_twist`] |
 //!
+//! ```
+//! use omnikin::sphere::{SphereOmni, SphereParams};
+//! use omnikin::Twist2;
+//!
+//! // The robot of paper 000 in single precision, as on its microcontroller.
+//! let robot = SphereOmni::<f32>::new(SphereParams::preset())?;
+//! // 0.1 m/s forward (platform frame), no turning, no shell spin: paper 000, eqs. 5.6–5.7.
+//! let rates = robot.wheel_rates(Twist2::new(0.1, 0.0, 0.0), 0.0)?;
+//! assert!((rates[0] - -1.428571).abs() < 1e-5);
+//! // Forward kinematics gives the motion back.
+//! let twist = robot.body_twist(rates, 0.0)?;
+//! assert!((twist.vx - 0.1).abs() < 1e-6);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! Shared value types are [`Twist2`] and [`Pose2`]; [`se2`] integrates a twist exactly.
 //! Frames and signs follow REP-103 (x forward, y left, z up, counter-clockwise positive) and
 //! the project conventions: where a printed paper formula is wrong (errata E1–E4 of the seed
@@ -31,7 +46,6 @@
 //! Build for firmware with `default-features = false`.
 #![no_std]
 #![forbid(unsafe_code)]
-#![warn(missing_docs)]
 
 #[cfg(feature = "std")]
 extern crate std;
@@ -48,9 +62,24 @@ pub mod sphere;
 #[cfg(feature = "std")]
 pub mod description;
 
+/// The linear-algebra crate of the public API (vectors such as [`sphere::SphereOmni::levers`]).
+pub use nalgebra;
+
 pub use error::{GeometryError, InputError};
 pub use real::Real;
 pub use types::{Pose2, Twist2};
+
+/// Any of the three robot models, for code that takes the robot as data (a description file,
+/// a command-line argument).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Robot<T> {
+    /// Spherical robot with an internal omni-wheel platform (paper 000).
+    Sphere(sphere::SphereOmni<T>),
+    /// Ball-balancing robot (paper 001).
+    Ballbot(ballbot::Ballbot<T>),
+    /// Base with three off-centred steerable wheels (paper 003).
+    Caster(caster::Caster3<T>),
+}
 
 /// Largest accepted 2-norm condition number of a robot's 3×3 wheel-constraint matrix. Above it
 /// a wheel-rate error of 1 % can become a body-velocity error of more than 10 × 1000 %; such a

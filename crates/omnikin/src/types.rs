@@ -30,7 +30,11 @@ impl<T: Real> Twist2<T> {
     #[inline]
     pub fn rotated(self, angle: T) -> Self {
         let (s, c) = angle.sin_cos();
-        Self::new(c * self.vx - s * self.vy, s * self.vx + c * self.vy, self.yaw_rate)
+        Self::new(
+            c * self.vx - s * self.vy,
+            s * self.vx + c * self.vy,
+            self.yaw_rate,
+        )
     }
 
     /// Robot-frame twist → world-frame twist for a robot whose heading is `heading` (rad):

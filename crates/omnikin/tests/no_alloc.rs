@@ -1,0 +1,96 @@
+//! The kinematics calls of all three robots never touch the heap: a counting global allocator
+//! sees zero allocations on this thread while they run (including their error paths).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use omnikin::ballbot::{Ballbot, BallbotParams};
+use omnikin::caster::{Caster3, CasterParams, CasterRates};
+use omnikin::sphere::{SphereOmni, SphereParams};
+use omnikin::{Pose2, Twist2, se2};
+
+struct Counting;
+
+thread_local! {
+    static ALLOCS: Cell<usize> = const { Cell::new(0) };
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCS.with(|c| c.set(c.get() + 1));
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCS.with(|c| c.set(c.get() + 1));
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations<R>(f: impl FnOnce() -> R) -> (usize, R) {
+    let before = ALLOCS.with(|c| c.get());
+    let r = std::hint::black_box(f());
+    (ALLOCS.with(|c| c.get()) - before, r)
+}
+
+#[test]
+fn the_counter_counts() {
+    let (n, v) = allocations(|| vec![1u8; 16]);
+    assert_eq!(v.len(), 16);
+    assert!(n >= 1, "the counting allocator must see a Vec");
+}
+
+#[test]
+fn kinematics_calls_allocate_nothing() {
+    let (n, _) = allocations(|| {
+        let mut acc = 0.0f64;
+        let tw = Twist2::new(0.1, -0.05, 0.3);
+        // Construction too: it is all fixed-size.
+        let s = SphereOmni::new(SphereParams::<f64>::preset()).unwrap();
+        let w = s.wheel_rates(tw, 0.0).unwrap();
+        acc += w[0] + s.wheel_rates_world(tw, 0.4, 0.1).unwrap()[1];
+        acc += s.body_twist(w, 0.0).unwrap().vx + s.shell_spin(w, 0.3).unwrap();
+        acc += s.wheel_rates(Twist2::new(f64::NAN, 0.0, 0.0), 0.0).is_err() as u8 as f64;
+
+        let b = Ballbot::new(BallbotParams::<f64>::preset()).unwrap();
+        let w = b.wheel_rates(tw, 0.0).unwrap();
+        acc += b.body_twist(w, 0.0).unwrap().vy + b.wheel_rates_world(tw, 1.0, 0.0).unwrap()[2];
+        acc += b.model_torques([0.1, 0.2, 0.3], 0.5).unwrap()[0];
+        acc += b.wheel_torques([0.1, 0.2, 0.3], 0.5).unwrap()[1];
+        acc += b.model_rates(w, 0.5).unwrap()[2] + b.ball_displacement(w, 0.0, 0.1).unwrap()[0];
+
+        let c = Caster3::new(CasterParams::<f64>::preset()).unwrap();
+        let steer = [0.1, -0.2, 0.3];
+        let r = c.motor_rates(tw, 0.2, steer).unwrap();
+        let f = c.body_twist(&r, 0.2, steer).unwrap();
+        acc += f.twist.vx + f.slip_residual;
+        acc += c.det_j2(0.2, steer);
+        acc += c.spin_in_place(steer, 0.5).unwrap().yaw_rate;
+        acc += c.turn_in_place(steer, 0.5).unwrap().roll[0];
+        acc += c
+            .translation_from_wheel1(0.2, steer, 1.0, 0.1)
+            .unwrap()
+            .0
+            .vx;
+        let _ = c.fixed_steer_motion(0.2, steer);
+        acc += c
+            .body_twist(
+                &CasterRates {
+                    roll: [f64::NAN; 3],
+                    steer: [0.0; 3],
+                },
+                0.0,
+                steer,
+            )
+            .is_err() as u8 as f64;
+
+        let p = se2::integrate(Pose2::default(), tw, 0.01);
+        acc + p.x
+    });
+    assert_eq!(n, 0, "kinematics allocated {n} times");
+}
