@@ -1,0 +1,31 @@
+//! # omnikin-sim — simulate and evaluate motion the way paper 000 evaluated its robot
+//!
+//! Paper 000 ran each trajectory three times, tracked the robot on video and compared the mean
+//! trajectory (with a 95 % confidence band) to the theoretical one; paper 003 §4 explains how
+//! imperfect motor speeds and acceleration phases make wheels slip. This crate does the same
+//! in simulation, and on real tracked data:
+//!
+//! * [`profile`]: which disturbances to simulate (TOML): stepper quantisation, motor lag and
+//!   acceleration limits (ramp phases), speed fluctuation, wheel-radius errors, shell spin
+//!   (random and speed-dependent), roller hand-over, floor slip, tracking offset and noise.
+//! * [`simulate_trial`]: the kinematic plant — the plan's motor set-points through the motor
+//!   models and the forward kinematics, integrated exactly on SE(2).
+//! * [`run_trials`]: seeded parallel Monte Carlo; trial `i` draws from its own ChaCha8 stream,
+//!   so results do not depend on the number of threads.
+//! * [`metrics`]: deviation from the planned path (m and % of path), end-point and heading
+//!   errors, mean trajectory with a Student-t 95 % band, fitted circle and radius ratio,
+//!   repeatability.
+//! * [`track`]: real tracked runs (`t,x,y[,heading]` CSV), aligned to a plan's start of motion
+//!   and resampled onto its time grid, so the same metrics apply to hardware experiments.
+#![warn(missing_docs)]
+
+pub mod metrics;
+mod monte_carlo;
+mod motor;
+mod plant;
+pub mod profile;
+pub mod track;
+
+pub use monte_carlo::{run_trials, trial_rng};
+pub use plant::{SimError, Trial, simulate_trial};
+pub use profile::Profile;

@@ -1,0 +1,329 @@
+//! Disturbance profiles: which imperfections the plant simulates, read from TOML.
+//!
+//! Every section and key is optional; an empty profile (the default) is the ideal kinematic
+//! plant, which reproduces a plan to integration precision. Example:
+//!
+//! ```toml
+//! rate = 1000.0                 # plant integration rate, Hz
+//! hold = "linear"               # motor set-points between plan samples: "linear" or "zoh"
+//!
+//! [wheel_motor]                 # omni-wheel / roll motors
+//! steps_per_rev = 200           # stepper quantisation (with microsteps)
+//! microsteps = 16
+//! max_step_rate = 40000.0       # steps/s; faster commands are clipped
+//! lag_time_constant = 0.005     # s, first-order lag of the motor rate
+//! max_accel = 300.0             # rad/s², ramp phases (paper 003 §4.2)
+//! fluctuation_abs = 0.02        # rad/s, speed fluctuation amplitude (paper 003 §4.1)
+//! fluctuation_rel = 0.01        # fraction of the rate, added to fluctuation_abs
+//! fluctuation_period = 0.01     # s, the fluctuation is constant over this period
+//! radius_error_std = 0.003      # relative wheel-radius error, drawn per wheel per trial
+//! rate_bias_rel = 0.0           # relative rate bias (clock or gear-ratio error)
+//!
+//! [steer_motor]                 # caster steering motors: the same motor keys
+//!
+//! [shell_spin]                  # sphere-omni only (ballbot: the ball's spin)
+//! std = 0.01                    # rad/s, constant random spin per trial
+//! slip_gain = 0.875             # speed-dependent spin Ω3 = gain·|V|^exponent·ω̃_z
+//! slip_exponent = 1.22
+//!
+//! [roller]                      # sphere-omni: roller hand-over modulation of each wheel
+//! amplitude = 0.02              # relative rate modulation
+//! rollers = 8                   # rollers per wheel (modulation period 2π/rollers)
+//!
+//! [floor]                       # slip of the whole body on the floor
+//! rel_std = 0.01                # relative velocity error (Ornstein–Uhlenbeck process)
+//! corr_time = 0.5               # s, its correlation time
+//!
+//! [tracking]                    # what the camera sees
+//! offset = [0.0, 0.0]           # tracked point in the robot frame relative to the centre, m
+//! noise_std = 0.001             # m, white position noise per frame
+//! ```
+
+use serde::Deserialize;
+
+/// Motor imperfections (roll/omni-wheel motors, or caster steering motors). All optional.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotorProfile {
+    /// Full steps per revolution of a stepper (quantisation); needs `microsteps` too.
+    pub steps_per_rev: Option<u32>,
+    /// Microsteps per full step (default 1).
+    pub microsteps: Option<u32>,
+    /// Largest step rate, steps/s (microsteps included); faster commands are clipped.
+    pub max_step_rate: Option<f64>,
+    /// Time constant of a first-order lag of the motor rate, s.
+    pub lag_time_constant: Option<f64>,
+    /// Largest acceleration of the motor rate, rad/s² (ramp phases, paper 003 §4.2).
+    pub max_accel: Option<f64>,
+    /// Absolute amplitude of the speed fluctuation, rad/s (paper 003 §4.1).
+    pub fluctuation_abs: Option<f64>,
+    /// Relative amplitude of the speed fluctuation (fraction of the rate).
+    pub fluctuation_rel: Option<f64>,
+    /// Period over which a fluctuation value holds, s (default: one plant step).
+    pub fluctuation_period: Option<f64>,
+    /// Standard deviation of the relative wheel-radius error, drawn per wheel per trial.
+    pub radius_error_std: Option<f64>,
+    /// Relative rate bias of every motor of this kind (step-generator clock or gear-ratio
+    /// error): the motor runs at `(1 + bias)` times its rate. A constant speed error, the
+    /// worst case of paper 003 §4.1's fluctuation.
+    pub rate_bias_rel: Option<f64>,
+}
+
+/// Spin of the sphere's shell (or the ballbot's ball) about the vertical. All optional.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpinProfile {
+    /// Standard deviation of a constant random spin per trial, rad/s.
+    pub std: Option<f64>,
+    /// Gain `g` of the speed-dependent spin slip `Ω3 = g·|V|^p·ω̃_z` (|V| in m/s): the shell
+    /// gives way to the wheels' reaction torque when the platform turns (paper 000's suspected
+    /// cause of the large circles at 0.4–0.5 m/s).
+    pub slip_gain: Option<f64>,
+    /// Exponent `p` of the speed-dependent spin slip (default 1).
+    pub slip_exponent: Option<f64>,
+}
+
+/// Roller hand-over of the sphere's omni-wheels: the effective rate of wheel `i` is modulated
+/// by `1 + amplitude·cos(rollers·q_i + phase_i)` (random phase per trial and wheel).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RollerProfile {
+    /// Relative modulation amplitude.
+    pub amplitude: Option<f64>,
+    /// Rollers per wheel (default 8).
+    pub rollers: Option<u32>,
+}
+
+/// Floor slip: the body-frame velocity is scaled by `1 + e(t)` per axis, `e` an
+/// Ornstein–Uhlenbeck process with standard deviation `rel_std` and correlation time
+/// `corr_time`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FloorProfile {
+    /// Stationary standard deviation of the relative velocity error.
+    pub rel_std: Option<f64>,
+    /// Correlation time, s (default 0.5).
+    pub corr_time: Option<f64>,
+}
+
+/// What an external tracker (camera) records.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrackingProfile {
+    /// Tracked point relative to the robot centre in the robot frame, m.
+    pub offset: Option<[f64; 2]>,
+    /// Standard deviation of white position noise per recorded sample, m.
+    pub noise_std: Option<f64>,
+}
+
+/// How motor set-points are interpolated between plan samples.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Hold {
+    /// Linear ramp between samples (a stepper driver's ramp generator).
+    #[default]
+    Linear,
+    /// Zero-order hold: each sample's rate until the next.
+    Zoh,
+}
+
+/// A complete disturbance profile (see the module docs for the TOML form).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Profile {
+    /// Plant integration rate, Hz (default 1000).
+    pub rate: Option<f64>,
+    /// Set-point interpolation between plan samples.
+    #[serde(default)]
+    pub hold: Hold,
+    /// Roll / omni-wheel motors.
+    #[serde(default)]
+    pub wheel_motor: MotorProfile,
+    /// Caster steering motors.
+    #[serde(default)]
+    pub steer_motor: MotorProfile,
+    /// Shell (ball) spin.
+    #[serde(default)]
+    pub shell_spin: SpinProfile,
+    /// Roller hand-over.
+    #[serde(default)]
+    pub roller: RollerProfile,
+    /// Floor slip.
+    #[serde(default)]
+    pub floor: FloorProfile,
+    /// Tracking.
+    #[serde(default)]
+    pub tracking: TrackingProfile,
+}
+
+/// A profile that failed to load: file, line or field, rule.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{file}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+pub struct ProfileError {
+    /// The file (or `<string>`).
+    pub file: String,
+    /// 1-based line, when known.
+    pub line: Option<usize>,
+    /// What is wrong: the key and the rule.
+    pub message: String,
+}
+
+impl Profile {
+    /// The plant integration rate, Hz.
+    pub fn rate_hz(&self) -> f64 {
+        self.rate.unwrap_or(1000.0)
+    }
+
+    /// Reads and validates a profile file.
+    pub fn load(path: &std::path::Path) -> Result<Self, ProfileError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| ProfileError {
+            file: file.clone(),
+            line: None,
+            message: format!("cannot read: {e}"),
+        })?;
+        Self::from_toml_str(&text, &file)
+    }
+
+    /// Parses and validates a profile from TOML text.
+    pub fn from_toml_str(text: &str, file: &str) -> Result<Self, ProfileError> {
+        let p: Profile = toml::from_str(text).map_err(|e| ProfileError {
+            file: file.to_string(),
+            line: e
+                .span()
+                .map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count()),
+            message: e.message().trim().to_string(),
+        })?;
+        p.validate().map_err(|message| ProfileError {
+            file: file.to_string(),
+            line: None,
+            message,
+        })?;
+        Ok(p)
+    }
+
+    /// Checks every value's range; the error names the key and the rule.
+    pub fn validate(&self) -> Result<(), String> {
+        fn positive(key: &str, v: Option<f64>) -> Result<(), String> {
+            match v {
+                Some(x) if !(x.is_finite() && x > 0.0) => {
+                    Err(format!("{key}: must be a finite number > 0 (got {x})"))
+                }
+                _ => Ok(()),
+            }
+        }
+        fn non_negative(key: &str, v: Option<f64>) -> Result<(), String> {
+            match v {
+                Some(x) if !(x.is_finite() && x >= 0.0) => {
+                    Err(format!("{key}: must be a finite number ≥ 0 (got {x})"))
+                }
+                _ => Ok(()),
+            }
+        }
+        positive("rate", self.rate)?;
+        if self.rate_hz() > 1.0e6 {
+            return Err(format!("rate: at most 1e6 Hz (got {})", self.rate_hz()));
+        }
+        for (name, m) in [
+            ("wheel_motor", &self.wheel_motor),
+            ("steer_motor", &self.steer_motor),
+        ] {
+            if m.steps_per_rev == Some(0) || m.microsteps == Some(0) {
+                return Err(format!("{name}.steps_per_rev / microsteps: must be ≥ 1"));
+            }
+            if m.microsteps.is_some() && m.steps_per_rev.is_none() {
+                return Err(format!("{name}.microsteps: needs {name}.steps_per_rev"));
+            }
+            positive(&format!("{name}.max_step_rate"), m.max_step_rate)?;
+            if m.max_step_rate.is_some() && m.steps_per_rev.is_none() {
+                return Err(format!("{name}.max_step_rate: needs {name}.steps_per_rev"));
+            }
+            positive(&format!("{name}.lag_time_constant"), m.lag_time_constant)?;
+            positive(&format!("{name}.max_accel"), m.max_accel)?;
+            non_negative(&format!("{name}.fluctuation_abs"), m.fluctuation_abs)?;
+            non_negative(&format!("{name}.fluctuation_rel"), m.fluctuation_rel)?;
+            positive(&format!("{name}.fluctuation_period"), m.fluctuation_period)?;
+            non_negative(&format!("{name}.radius_error_std"), m.radius_error_std)?;
+            if let Some(b) = m.rate_bias_rel
+                && !(b.is_finite() && b.abs() < 1.0)
+            {
+                return Err(format!(
+                    "{name}.rate_bias_rel: must be finite with |bias| < 1 (got {b})"
+                ));
+            }
+        }
+        non_negative("shell_spin.std", self.shell_spin.std)?;
+        non_negative("shell_spin.slip_gain", self.shell_spin.slip_gain)?;
+        non_negative("shell_spin.slip_exponent", self.shell_spin.slip_exponent)?;
+        non_negative("roller.amplitude", self.roller.amplitude)?;
+        if self.roller.amplitude.unwrap_or(0.0) >= 1.0 {
+            return Err("roller.amplitude: must be < 1".into());
+        }
+        if self.roller.rollers == Some(0) {
+            return Err("roller.rollers: must be ≥ 1".into());
+        }
+        non_negative("floor.rel_std", self.floor.rel_std)?;
+        positive("floor.corr_time", self.floor.corr_time)?;
+        non_negative("tracking.noise_std", self.tracking.noise_std)?;
+        if let Some(o) = self.tracking.offset
+            && !o.iter().all(|x| x.is_finite())
+        {
+            return Err("tracking.offset: must be finite".into());
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn module_doc_example_parses() {
+        let doc = include_str!("profile.rs");
+        let example: String = doc
+            .lines()
+            .skip_while(|l| !l.starts_with("//! ```toml"))
+            .skip(1)
+            .take_while(|l| !l.starts_with("//! ```"))
+            .map(|l| l.trim_start_matches("//!").trim_start_matches(' '))
+            .collect::<Vec<_>>()
+            .join("\n");
+        let p = Profile::from_toml_str(&example, "doc").unwrap();
+        assert_eq!(p.wheel_motor.steps_per_rev, Some(200));
+        assert_eq!(p.hold, Hold::Linear);
+        assert_eq!(p.roller.rollers, Some(8));
+    }
+
+    #[test]
+    fn empty_profile_is_ideal() {
+        let p = Profile::from_toml_str("", "empty").unwrap();
+        assert_eq!(p, Profile::default());
+        assert_eq!(p.rate_hz(), 1000.0);
+    }
+
+    #[test]
+    fn bad_profiles_name_the_key() {
+        let e = Profile::from_toml_str("[wheel_motor]\nmax_accel = -3\n", "p.toml").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "p.toml: wheel_motor.max_accel: must be a finite number > 0 (got -3)"
+        );
+        let e = Profile::from_toml_str("rate = 1000.0\n[floor]\nrel_sdt = 0.1\n", "p.toml")
+            .unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("p.toml:3: unknown field `rel_sdt`"),
+            "{e}"
+        );
+        let e = Profile::from_toml_str("hold = \"cubic\"\n", "p.toml").unwrap_err();
+        assert!(e.to_string().contains("p.toml:1"), "{e}");
+        let e = Profile::from_toml_str("[roller]\namplitude = 1.5\n", "p.toml").unwrap_err();
+        assert!(e.to_string().contains("roller.amplitude"), "{e}");
+        let e = Profile::from_toml_str("[steer_motor]\nmicrosteps = 16\n", "p.toml").unwrap_err();
+        assert!(
+            e.to_string().contains("needs steer_motor.steps_per_rev"),
+            "{e}"
+        );
+    }
+}

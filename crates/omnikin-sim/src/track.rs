@@ -1,0 +1,267 @@
+//! Tracked trajectories (e.g. from video): reading `t,x,y[,heading]` CSV files, aligning them
+//! in time with a plan (start of motion), and resampling them onto the plan's time grid.
+
+use std::io::Read;
+use std::path::Path;
+
+use omnikin_plan::Plan;
+
+use crate::metrics::Run;
+
+/// A tracked run as recorded: strictly increasing times with positions (and headings).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Track {
+    /// Times, s.
+    pub t: Vec<f64>,
+    /// Positions, m (world frame).
+    pub xy: Vec<[f64; 2]>,
+    /// Headings, rad, when the file has a `heading` column.
+    pub heading: Option<Vec<f64>>,
+}
+
+/// A tracked file that could not be read: file, line, column, rule.
+#[derive(Debug, thiserror::Error)]
+#[error("{file}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+pub struct TrackError {
+    /// The file.
+    pub file: String,
+    /// 1-based line (the header is line 1), when known.
+    pub line: Option<usize>,
+    /// What is wrong.
+    pub message: String,
+}
+
+/// How a track is put on the plan's clock and frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Alignment {
+    /// Displacement from the first position that counts as "moving", m.
+    pub motion_threshold_m: f64,
+    /// Also translate the track so its position at the start of motion is the plan's.
+    pub align_position: bool,
+}
+
+impl Default for Alignment {
+    fn default() -> Self {
+        Self {
+            motion_threshold_m: 0.005,
+            align_position: true,
+        }
+    }
+}
+
+impl Track {
+    /// Reads a tracked CSV file (see [`Track::read_csv`]).
+    pub fn load(path: &Path) -> Result<Self, TrackError> {
+        let file = path.display().to_string();
+        let f = std::fs::File::open(path).map_err(|e| TrackError {
+            file: file.clone(),
+            line: None,
+            message: format!("cannot open: {e}"),
+        })?;
+        Self::read_csv(f, &file)
+    }
+
+    /// Reads `t,x,y` with an optional `heading` column (any order, extra columns ignored).
+    /// Every value must be a finite number and time must increase strictly.
+    pub fn read_csv<R: Read>(input: R, file: &str) -> Result<Self, TrackError> {
+        let err = |line: Option<usize>, message: String| TrackError {
+            file: file.to_string(),
+            line,
+            message,
+        };
+        let mut r = csv::ReaderBuilder::new()
+            .trim(csv::Trim::All)
+            .from_reader(input);
+        let header = r
+            .headers()
+            .map_err(|e| err(Some(1), format!("cannot read the header: {e}")))?
+            .clone();
+        let find = |n: &str| header.iter().position(|h| h == n);
+        let (Some(it), Some(ix), Some(iy)) = (find("t"), find("x"), find("y")) else {
+            return Err(err(
+                Some(1),
+                format!(
+                    "the header must name columns t,x,y (optional heading); found \"{}\"",
+                    header.iter().collect::<Vec<_>>().join(",")
+                ),
+            ));
+        };
+        let ih = find("heading");
+        let mut track = Track {
+            t: Vec::new(),
+            xy: Vec::new(),
+            heading: ih.map(|_| Vec::new()),
+        };
+        for (k, rec) in r.records().enumerate() {
+            let line = k + 2;
+            let rec = rec.map_err(|e| err(Some(line), e.to_string()))?;
+            let get = |i: usize, name: &str| -> Result<f64, TrackError> {
+                let s = rec
+                    .get(i)
+                    .ok_or_else(|| err(Some(line), format!("column {name}: missing value")))?;
+                let v: f64 = s.parse().map_err(|_| {
+                    err(
+                        Some(line),
+                        format!("column {name}: \"{s}\" is not a number"),
+                    )
+                })?;
+                if v.is_finite() {
+                    Ok(v)
+                } else {
+                    Err(err(Some(line), format!("column {name}: {s} is not finite")))
+                }
+            };
+            let t = get(it, "t")?;
+            if let Some(&prev) = track.t.last()
+                && t <= prev
+            {
+                return Err(err(
+                    Some(line),
+                    format!("column t: time {t} does not increase (previous {prev})"),
+                ));
+            }
+            track.t.push(t);
+            track.xy.push([get(ix, "x")?, get(iy, "y")?]);
+            if let (Some(i), Some(h)) = (ih, track.heading.as_mut()) {
+                h.push(get(i, "heading")?);
+            }
+        }
+        if track.t.len() < 2 {
+            return Err(err(None, "needs at least two samples".into()));
+        }
+        Ok(track)
+    }
+
+    /// Index of the first sample farther than `threshold` from the first position.
+    fn motion_start(xy: &[[f64; 2]], threshold: f64) -> usize {
+        let p0 = xy[0];
+        xy.iter()
+            .position(|p| (p[0] - p0[0]).hypot(p[1] - p0[1]) > threshold)
+            .unwrap_or(0)
+            .saturating_sub(1)
+    }
+
+    /// Puts the track on the plan's time grid: the track's start of motion is matched to the
+    /// plan's, positions (and headings) are linearly interpolated at every plan sample time
+    /// (held at the ends), and with `align_position` the track is translated so that both start
+    /// moving from the same point.
+    pub fn resample(&self, plan: &Plan, align: Alignment) -> Run {
+        let plan_xy: Vec<[f64; 2]> = plan.samples.iter().map(|s| [s.pose.x, s.pose.y]).collect();
+        let kp = Self::motion_start(&plan_xy, align.motion_threshold_m);
+        let kt = Self::motion_start(&self.xy, align.motion_threshold_m);
+        let shift = self.t[kt] - plan.samples[kp].t;
+        let offset = if align.align_position {
+            [
+                plan_xy[kp][0] - self.xy[kt][0],
+                plan_xy[kp][1] - self.xy[kt][1],
+            ]
+        } else {
+            [0.0, 0.0]
+        };
+        let mut j = 0usize;
+        let mut xy = Vec::with_capacity(plan.samples.len());
+        let mut heading = self
+            .heading
+            .as_ref()
+            .map(|_| Vec::with_capacity(plan.samples.len()));
+        for s in &plan.samples {
+            let t = s.t + shift;
+            while j + 1 < self.t.len() - 1 && self.t[j + 1] <= t {
+                j += 1;
+            }
+            let (t0, t1) = (self.t[j], self.t[j + 1]);
+            let f = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
+            let (a, b) = (self.xy[j], self.xy[j + 1]);
+            xy.push([
+                a[0] + f * (b[0] - a[0]) + offset[0],
+                a[1] + f * (b[1] - a[1]) + offset[1],
+            ]);
+            if let (Some(h), Some(out)) = (&self.heading, heading.as_mut()) {
+                out.push(h[j] + f * (h[j + 1] - h[j]));
+            }
+        }
+        Run { xy, heading }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use omnikin::{Pose2, Twist2};
+    use omnikin_plan::Sample;
+
+    fn line_plan() -> Plan {
+        // Still for 1 s, then 0.1 m/s along x for 2 s, sampled at 10 Hz.
+        Plan {
+            samples: (0..=30)
+                .map(|k| {
+                    let t = k as f64 * 0.1;
+                    let x = if t <= 1.0 { 0.0 } else { 0.1 * (t - 1.0) };
+                    Sample {
+                        t,
+                        pose: Pose2::new(x, 0.0, 0.0),
+                        twist: Twist2::default(),
+                        wheel_rates: [0.0; 3],
+                        steer: None,
+                    }
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn alignment_matches_start_of_motion_and_position() {
+        // The same motion recorded by a camera that started 3.5 s earlier, 2 m away.
+        let text: String = std::iter::once("t,x,y\n".to_string())
+            .chain((0..=70).map(|k| {
+                let t = k as f64 * 0.1;
+                let x = if t <= 4.5 { 0.0 } else { 0.1 * (t - 4.5) };
+                format!("{t},{},{}\n", 2.0 + x, 1.0)
+            }))
+            .collect();
+        let track = Track::read_csv(text.as_bytes(), "cam.csv").unwrap();
+        let run = track.resample(&line_plan(), Alignment::default());
+        let plan = line_plan();
+        for (p, s) in run.xy.iter().zip(&plan.samples) {
+            assert!(
+                (p[0] - s.pose.x).abs() < 1e-9 && p[1].abs() < 1e-9,
+                "{p:?} vs {:?}",
+                s.pose
+            );
+        }
+    }
+
+    #[test]
+    fn malformed_tracks_name_file_and_line() {
+        let e = Track::read_csv("time,x,y\n0,0,0\n".as_bytes(), "a.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("a.csv:1: the header must name columns t,x,y"),
+            "{e}"
+        );
+        let e = Track::read_csv("t,x,y\n0,0,0\n0.1,zero,0\n".as_bytes(), "a.csv")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(e, "a.csv:3: column x: \"zero\" is not a number");
+        let e = Track::read_csv("t,x,y\n0,0,0\n0,1,0\n".as_bytes(), "a.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("a.csv:3: column t: time 0 does not increase"),
+            "{e}"
+        );
+        let e = Track::read_csv("t,x,y,heading\n0,0,0,inf\n".as_bytes(), "a.csv")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(e, "a.csv:2: column heading: inf is not finite");
+        let e = Track::read_csv("t,x,y\n0,0,0\n".as_bytes(), "a.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("at least two"), "{e}");
+        let e = Track::read_csv("t,x,y\n0,0\n".as_bytes(), "a.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("a.csv:2:"), "{e}");
+    }
+}
