@@ -9,7 +9,9 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod args;
+mod figures;
 mod kinematics;
+mod sim;
 
 use args::{Triple, finite_f64};
 
@@ -45,6 +47,11 @@ enum Command {
     Torques(TorquesArgs),
     /// Validate a robot description and print its derived geometry, conditioning and limits.
     Check(CheckArgs),
+    /// Monte-Carlo simulation of a plan under motor and slip disturbances, with the paper's
+    /// metrics and figure (paper 000 §6, paper 003 §4).
+    Simulate(sim::SimulateArgs),
+    /// The same metrics and figure for real tracked runs (CSV t,x,y[,heading]) against a plan.
+    Evaluate(sim::EvaluateArgs),
 }
 
 /// `omnikin inverse`.
@@ -146,6 +153,8 @@ fn main() -> ExitCode {
         Command::Forward(a) => kinematics::forward(&a),
         Command::Torques(a) => kinematics::torques(&a),
         Command::Check(a) => kinematics::check(&a),
+        Command::Simulate(a) => sim::simulate(&a),
+        Command::Evaluate(a) => sim::evaluate_tracks(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

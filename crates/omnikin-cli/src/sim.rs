@@ -1,0 +1,270 @@
+//! `simulate` and `evaluate`: Monte-Carlo simulation of a plan, and the same metrics on real
+//! tracked runs.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use omnikin::description::RobotDescription;
+use omnikin_plan::Plan;
+use omnikin_sim::metrics::{MeanTrajectory, Metrics, Run, evaluate, mean_trajectory};
+use omnikin_sim::track::{Alignment, Track};
+use omnikin_sim::{Profile, Trial, run_trials};
+use serde_json::json;
+
+/// `omnikin simulate`.
+#[derive(clap::Args, Debug)]
+pub struct SimulateArgs {
+    /// Plan CSV (t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3[,s1,s2,s3,sd1,sd2,sd3]), e.g. from `omnikin plan`.
+    pub plan: PathBuf,
+    /// Robot: preset name (sphere-omni, ballbot, caster3) or path to a TOML description.
+    #[arg(long)]
+    pub robot: String,
+    /// Disturbance profile (TOML; see the omnikin-sim docs). Default: the ideal kinematic plant.
+    #[arg(long, value_name = "PROFILE.toml")]
+    pub disturbances: Option<PathBuf>,
+    /// Number of Monte-Carlo trials.
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=100_000))]
+    pub trials: u64,
+    /// Random seed: the same seed gives the same numbers on any number of threads.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Output directory (created): metrics.json, trials.csv, mean.csv, figure.svg.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// `omnikin evaluate`.
+#[derive(clap::Args, Debug)]
+pub struct EvaluateArgs {
+    /// The plan the runs followed (plan CSV).
+    #[arg(long)]
+    pub plan: PathBuf,
+    /// Tracked runs: CSV files with columns t,x,y and optionally heading.
+    #[arg(required = true, value_name = "TRACK.csv")]
+    pub tracks: Vec<PathBuf>,
+    /// Displacement from the first tracked position that counts as the start of motion, m.
+    #[arg(long, default_value_t = 0.005)]
+    pub motion_threshold: f64,
+    /// Keep the tracked coordinates as they are (default: translate each run so it starts
+    /// moving from the plan's start point).
+    #[arg(long)]
+    pub no_align_position: bool,
+    /// Output directory (created): metrics.json, runs.csv, mean.csv, figure.svg.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+fn create_dir(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("cannot create output directory {}", dir.display()))
+}
+
+fn write_file(
+    path: &Path,
+    write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
+) -> Result<()> {
+    let f =
+        std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+    let mut w = std::io::BufWriter::new(f);
+    write(&mut w)
+        .and_then(|_| w.flush())
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Writes `mean.csv`: the mean trajectory, its 95 % half-widths, and the plan.
+pub fn write_mean(path: &Path, plan: &Plan, mean: &MeanTrajectory) -> Result<()> {
+    write_file(path, |w| {
+        writeln!(w, "t,x,y,x_ci95,y_ci95,plan_x,plan_y")?;
+        for (k, s) in plan.samples.iter().enumerate() {
+            let (m, h) = (mean.mean[k], mean.half_width[k]);
+            writeln!(
+                w,
+                "{},{},{},{},{},{},{}",
+                s.t, m[0], m[1], h[0], h[1], s.pose.x, s.pose.y
+            )?;
+        }
+        Ok(())
+    })
+}
+
+fn write_trials(path: &Path, trials: &[Trial]) -> Result<()> {
+    write_file(path, |w| {
+        writeln!(w, "trial,t,x,y,heading,tracked_x,tracked_y,slip_residual")?;
+        for (i, tr) in trials.iter().enumerate() {
+            for k in 0..tr.t.len() {
+                let (p, q) = (tr.pose[k], tr.tracked[k]);
+                writeln!(
+                    w,
+                    "{i},{},{},{},{},{},{},{}",
+                    tr.t[k], p.x, p.y, p.heading, q[0], q[1], tr.slip_residual[k]
+                )?;
+            }
+        }
+        Ok(())
+    })
+}
+
+/// The runs the metrics are computed on: what the tracker saw, with the true headings.
+pub fn runs_of(trials: &[Trial]) -> Vec<Run> {
+    trials
+        .iter()
+        .map(|t| Run {
+            xy: t.tracked.clone(),
+            heading: Some(t.pose.iter().map(|p| p.heading).collect()),
+        })
+        .collect()
+}
+
+/// A progress bar on stderr when it is a terminal; silent otherwise.
+pub fn progress_bar(len: u64, what: &str) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let pb = indicatif::ProgressBar::new(len);
+    pb.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{msg} [{bar:30}] {pos}/{len} trials, {elapsed} (eta {eta})",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
+    pb.set_message(what.to_string());
+    pb
+}
+
+/// Prints the headline metrics for a person.
+pub fn print_summary(m: &Metrics) {
+    eprintln!(
+        "{} run(s), path {:.3} m in {:.2} s: max deviation {:.4} m ({:.2} % of path), RMS {:.4} m, end-point error {:.4} m, max deviation from the mean {:.4} m",
+        m.runs,
+        m.path_length_m,
+        m.duration_s,
+        m.max_deviation_m,
+        m.max_deviation_pct_of_path,
+        m.rms_deviation_m,
+        m.end_point_error_m,
+        m.max_deviation_from_mean_m
+    );
+    if let (Some(p), Some(f), Some(r)) = (m.planned_circle, m.fitted_circle, m.radius_ratio) {
+        eprintln!(
+            "circle: planned radius {:.4} m, fitted {:.4} m (centre {:.4}, {:.4}), ratio {:.3}",
+            p.radius, f.radius, f.center[0], f.center[1], r
+        );
+    }
+}
+
+pub fn simulate(a: &SimulateArgs) -> Result<()> {
+    let d = RobotDescription::resolve(&a.robot)?;
+    let robot = d.build::<f64>()?;
+    let plan = Plan::load_csv(&a.plan)?;
+    let profile = match &a.disturbances {
+        Some(p) => Profile::load(p)?,
+        None => Profile::default(),
+    };
+    create_dir(&a.out)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads.unwrap_or(0))
+        .build()
+        .context("cannot start worker threads")?;
+    let pb = progress_bar(a.trials, "simulating");
+    let trials = pool.install(|| {
+        run_trials(&robot, &plan, &profile, a.trials as usize, a.seed, &|| {
+            pb.inc(1)
+        })
+    })?;
+    pb.finish_and_clear();
+    let runs = runs_of(&trials);
+    let metrics = evaluate(&plan, &runs);
+    let mean = mean_trajectory(&runs, 0.95);
+    let meta = json!({
+        "robot": d.name, "kind": d.kind(), "plan": a.plan.display().to_string(),
+        "disturbances": a.disturbances.as_ref().map(|p| p.display().to_string()),
+        "trials": a.trials, "seed": a.seed, "plant_rate_hz": profile.rate_hz(),
+    });
+    let mut j = serde_json::to_value(&metrics)?;
+    j["simulation"] = meta;
+    write_file(&a.out.join("metrics.json"), |w| {
+        writeln!(
+            w,
+            "{}",
+            serde_json::to_string_pretty(&j).unwrap_or_default()
+        )
+    })?;
+    write_trials(&a.out.join("trials.csv"), &trials)?;
+    write_mean(&a.out.join("mean.csv"), &plan, &mean)?;
+    crate::figures::trajectory_figure(
+        &a.out.join("figure.svg"),
+        &format!("{} — {} trials of {}", d.name, a.trials, a.plan.display()),
+        &plan,
+        &runs,
+        &mean,
+    )?;
+    print_summary(&metrics);
+    eprintln!(
+        "wrote {}/{{metrics.json, trials.csv, mean.csv, figure.svg}}",
+        a.out.display()
+    );
+    Ok(())
+}
+
+pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
+    if !(a.motion_threshold.is_finite() && a.motion_threshold > 0.0) {
+        bail!(
+            "--motion-threshold must be a finite number > 0 (got {})",
+            a.motion_threshold
+        );
+    }
+    let plan = Plan::load_csv(&a.plan)?;
+    let align = Alignment {
+        motion_threshold_m: a.motion_threshold,
+        align_position: !a.no_align_position,
+    };
+    let mut runs = Vec::new();
+    for f in &a.tracks {
+        runs.push(Track::load(f)?.resample(&plan, align));
+    }
+    create_dir(&a.out)?;
+    let metrics = evaluate(&plan, &runs);
+    let mean = mean_trajectory(&runs, 0.95);
+    let mut j = serde_json::to_value(&metrics)?;
+    j["evaluation"] = json!({
+        "plan": a.plan.display().to_string(),
+        "tracks": a.tracks.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+        "motion_threshold_m": a.motion_threshold, "align_position": !a.no_align_position,
+    });
+    write_file(&a.out.join("metrics.json"), |w| {
+        writeln!(
+            w,
+            "{}",
+            serde_json::to_string_pretty(&j).unwrap_or_default()
+        )
+    })?;
+    write_file(&a.out.join("runs.csv"), |w| {
+        writeln!(w, "run,t,x,y")?;
+        for (i, r) in runs.iter().enumerate() {
+            for (k, p) in r.xy.iter().enumerate() {
+                writeln!(w, "{i},{},{},{}", plan.samples[k].t, p[0], p[1])?;
+            }
+        }
+        Ok(())
+    })?;
+    write_mean(&a.out.join("mean.csv"), &plan, &mean)?;
+    crate::figures::trajectory_figure(
+        &a.out.join("figure.svg"),
+        &format!("{} tracked run(s) vs {}", runs.len(), a.plan.display()),
+        &plan,
+        &runs,
+        &mean,
+    )?;
+    print_summary(&metrics);
+    eprintln!(
+        "wrote {}/{{metrics.json, runs.csv, mean.csv, figure.svg}}",
+        a.out.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,247 @@
+//! `omnikin simulate` and `omnikin evaluate`: outputs, determinism, and bad input.
+
+use std::path::{Path, PathBuf};
+
+use assert_cmd::Command;
+use omnikin::sphere::{SphereOmni, SphereParams};
+use omnikin::{Pose2, Twist2};
+use omnikin_plan::{Plan, Sample};
+use predicates::prelude::*;
+use serde_json::Value;
+
+fn omnikin() -> Command {
+    Command::cargo_bin("omnikin").unwrap()
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("omnikin-sim-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Paper 000, eq. 6.3 at ω0 = 1 rad/s, Rt = 0.2 m, 50 Hz, written as a plan CSV.
+fn circle_plan(dir: &Path) -> PathBuf {
+    let m = SphereOmni::new(SphereParams::preset()).unwrap();
+    let (rt, w0) = (0.2, 1.0);
+    let samples = (0..=314)
+        .map(|k| {
+            let t = k as f64 / 50.0;
+            let (s, c) = (w0 * t).sin_cos();
+            let pose = Pose2::new(rt * c, rt * s, w0 * t);
+            let twist = Twist2::new(-rt * w0 * s, rt * w0 * c, w0);
+            Sample {
+                t,
+                pose,
+                twist,
+                wheel_rates: m.wheel_rates_world(twist, pose.heading, 0.0).unwrap(),
+                steer: None,
+            }
+        })
+        .collect();
+    let path = dir.join("circle.csv");
+    Plan { samples }.save_csv(&path).unwrap();
+    path
+}
+
+fn metrics(dir: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("metrics.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn ideal_simulation_matches_the_plan_and_writes_everything() {
+    let d = tmp("ideal");
+    let plan = circle_plan(&d);
+    let out = d.join("out");
+    omnikin()
+        .args([
+            "simulate",
+            plan.to_str().unwrap(),
+            "--robot",
+            "sphere-omni",
+            "--trials",
+            "3",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .assert()
+        .success()
+        .stderr(predicate::str::contains("ratio 1.000"));
+    for f in ["metrics.json", "trials.csv", "mean.csv", "figure.svg"] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    let m = metrics(&out);
+    assert!(m["max_deviation_m"].as_f64().unwrap() < 1e-9, "{m}");
+    assert!((m["radius_ratio"].as_f64().unwrap() - 1.0).abs() < 1e-6);
+    assert_eq!(m["runs"], 3);
+    let svg = std::fs::read_to_string(out.join("figure.svg")).unwrap();
+    assert!(svg.contains("planned (theoretical)") && svg.contains("x [m]"));
+    let trials = std::fs::read_to_string(out.join("trials.csv")).unwrap();
+    assert!(trials.starts_with("trial,t,x,y,heading,tracked_x,tracked_y,slip_residual\n"));
+    assert_eq!(trials.lines().count(), 1 + 3 * 315);
+}
+
+#[test]
+fn same_seed_same_metrics_on_one_and_two_threads() {
+    let d = tmp("seed");
+    let plan = circle_plan(&d);
+    let profile = d.join("noisy.toml");
+    std::fs::write(&profile, "[wheel_motor]\nfluctuation_rel = 0.05\nradius_error_std = 0.01\n[tracking]\nnoise_std = 0.002\n").unwrap();
+    let run = |threads: &str, seed: &str| {
+        let out = d.join(format!("out-{threads}-{seed}"));
+        omnikin()
+            .args([
+                "simulate",
+                plan.to_str().unwrap(),
+                "--robot",
+                "sphere-omni",
+                "--disturbances",
+                profile.to_str().unwrap(),
+                "--trials",
+                "6",
+                "--seed",
+                seed,
+                "--threads",
+                threads,
+                "--out",
+                out.to_str().unwrap(),
+            ])
+            .assert()
+            .success();
+        let mut m = metrics(&out);
+        m.as_object_mut().unwrap().remove("simulation");
+        m
+    };
+    let (a, b) = (run("1", "5"), run("2", "5"));
+    assert_eq!(a, b);
+    assert!(
+        a["max_deviation_m"].as_f64().unwrap() > 1e-4,
+        "noise must show: {a}"
+    );
+    assert_ne!(a, run("2", "6"));
+}
+
+#[test]
+fn bad_inputs_name_file_and_rule() {
+    let d = tmp("bad");
+    let plan = circle_plan(&d);
+    let out = d.join("out");
+    let bad_plan = d.join("bad.csv");
+    std::fs::write(
+        &bad_plan,
+        "t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3\n0,0,0,0,0,0,0,0,0,0\n0.1,0,0,0,0,0,0,0,oops,0\n",
+    )
+    .unwrap();
+    omnikin()
+        .args([
+            "simulate",
+            bad_plan.to_str().unwrap(),
+            "--robot",
+            "sphere-omni",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains(
+            "bad.csv:3: column w2: \"oops\" is not a number",
+        ));
+    let profile = d.join("p.toml");
+    std::fs::write(&profile, "[wheel_motor]\nmax_accel = -1\n").unwrap();
+    omnikin()
+        .args([
+            "simulate",
+            plan.to_str().unwrap(),
+            "--robot",
+            "sphere-omni",
+            "--disturbances",
+            profile.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains(
+            "wheel_motor.max_accel: must be a finite number > 0",
+        ));
+    omnikin()
+        .args([
+            "simulate",
+            plan.to_str().unwrap(),
+            "--robot",
+            "caster3",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("caster3"));
+    omnikin()
+        .args([
+            "simulate",
+            plan.to_str().unwrap(),
+            "--robot",
+            "sphere-omni",
+            "--trials",
+            "0",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .assert()
+        .failure()
+        .code(2);
+}
+
+#[test]
+fn evaluate_a_hand_made_tracked_run() {
+    let d = tmp("eval");
+    let plan = circle_plan(&d);
+    // A camera run: started 2 s before the robot, in its own coordinates (offset by (1, 1)),
+    // on a circle 10 % larger than planned.
+    let mut text = String::from("t,x,y\n");
+    for k in 0..=400 {
+        let t = k as f64 * 0.02;
+        let tm = (t - 2.0).max(0.0);
+        let (s, c) = tm.sin_cos();
+        text.push_str(&format!(
+            "{t:.2},{:.6},{:.6}\n",
+            1.0 + 0.2 + 0.22 * (c - 1.0),
+            1.0 + 0.22 * s
+        ));
+    }
+    let track = d.join("run1.csv");
+    std::fs::write(&track, &text).unwrap();
+    let out = d.join("eval");
+    omnikin()
+        .args([
+            "evaluate",
+            "--plan",
+            plan.to_str().unwrap(),
+            track.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .assert()
+        .success();
+    let m = metrics(&out);
+    assert!(
+        (m["radius_ratio"].as_f64().unwrap() - 1.1).abs() < 0.01,
+        "{m}"
+    );
+    assert!(m["max_deviation_m"].as_f64().unwrap() > 0.03);
+    assert!(out.join("figure.svg").exists() && out.join("runs.csv").exists());
+    let bad = d.join("bad.csv");
+    std::fs::write(&bad, "t,x,y\n0,0,0\n0.02,0,\n").unwrap();
+    omnikin()
+        .args([
+            "evaluate",
+            "--plan",
+            plan.to_str().unwrap(),
+            bad.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("bad.csv:3: column y"));
+}
