@@ -52,6 +52,9 @@ enum Command {
     Simulate(sim::SimulateArgs),
     /// The same metrics and figure for real tracked runs (CSV t,x,y[,heading]) against a plan.
     Evaluate(sim::EvaluateArgs),
+    /// Re-run a paper's whole experiment design in simulation and tabulate our figures next
+    /// to the paper's (sphere-2019: paper 000's squares and circles at four speeds).
+    Reproduce(sim::ReproduceArgs),
 }
 
 /// `omnikin inverse`.
@@ -155,6 +158,7 @@ fn main() -> ExitCode {
         Command::Check(a) => kinematics::check(&a),
         Command::Simulate(a) => sim::simulate(&a),
         Command::Evaluate(a) => sim::evaluate_tracks(&a),
+        Command::Reproduce(a) => sim::reproduce(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

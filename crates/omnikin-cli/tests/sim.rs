@@ -245,3 +245,51 @@ fn evaluate_a_hand_made_tracked_run() {
         .failure()
         .stderr(predicate::str::contains("bad.csv:3: column y"));
 }
+
+#[test]
+fn reproduce_sphere_2019_writes_the_table_and_figures() {
+    let d = tmp("repro");
+    let out = d.join("r");
+    let assert = omnikin()
+        .args([
+            "reproduce",
+            "sphere-2019",
+            "--trials",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .assert()
+        .success();
+    let stdout = String::from_utf8_lossy(&assert.get_output().stdout).to_string();
+    assert!(
+        stdout.contains("| circle-0.5 |") && stdout.contains("What the kinematic plant explains")
+    );
+    let csv = std::fs::read_to_string(out.join("table.csv")).unwrap();
+    let mut rows = csv::Reader::from_reader(csv.as_bytes());
+    let header = rows.headers().unwrap().clone();
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let mut n = 0;
+    for r in rows.records() {
+        let r = r.unwrap();
+        n += 1;
+        let ideal: f64 = r[col("ideal_max_deviation_pct_of_path")].parse().unwrap();
+        assert!(
+            ideal < 0.01,
+            "ideal plant must reproduce {}: {ideal}",
+            &r[0]
+        );
+        if &r[0] == "circle-0.4" || &r[0] == "circle-0.5" {
+            let want = if &r[0] == "circle-0.4" { 1.4 } else { 1.6 };
+            let got: f64 = r[col("spin_slip_radius_ratio")].parse().unwrap();
+            assert!((got - want).abs() < 0.06, "{}: {got}", &r[0]);
+            let hw: f64 = r[col("hardware_radius_ratio")].parse().unwrap();
+            assert!((hw - 1.0).abs() < 0.03, "{}: {hw}", &r[0]);
+        }
+    }
+    assert_eq!(n, 8);
+    for s in ["square-0.1", "square-0.5", "circle-0.1", "circle-0.5"] {
+        assert!(out.join(format!("{s}-hardware.svg")).exists(), "{s}");
+    }
+    assert!(out.join("table.md").exists() && out.join("metrics.json").exists());
+}

@@ -15,6 +15,8 @@
 //! * [`metrics`]: deviation from the planned path (m and % of path), end-point and heading
 //!   errors, mean trajectory with a Student-t 95 % band, fitted circle and radius ratio,
 //!   repeatability.
+//! * [`reproduce`]: paper 000's whole experiment design re-run under three profiles, with a
+//!   table of our figures next to the paper's.
 //! * [`track`]: real tracked runs (`t,x,y[,heading]` CSV), aligned to a plan's start of motion
 //!   and resampled onto its time grid, so the same metrics apply to hardware experiments.
 #![warn(missing_docs)]
@@ -24,6 +26,7 @@ mod monte_carlo;
 mod motor;
 mod plant;
 pub mod profile;
+pub mod reproduce;
 pub mod track;
 
 pub use monte_carlo::{run_trials, trial_rng};
