@@ -1,13 +1,49 @@
 //! # omnikin-plan — from a path to time-stamped wheel commands
 //!
 //! The planning layer of omnikin (paper 000, §5–6): a planned trajectory `r_C(t)` with a
-//! heading law is turned into wheel rates through the core kinematics, sample by sample.
+//! heading law `ψ(t)` is turned into wheel rates through the core kinematics, sample by
+//! sample, within the motor limits of the robot file. Units are SI (m, s, rad); positions,
+//! velocities and headings are in the world frame (REP-103: x, y on the floor, counter-clockwise
+//! positive), as in the project conventions.
 //!
-//! * [`Plan`] / [`Sample`]: a sampled plan and its CSV/JSON file format (conventions.md:
-//!   `t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3`, the caster adding `s1,s2,s3,sd1,sd2,sd3`),
-//!   read back with line-numbered validation.
+//! | module | what |
+//! |---|---|
+//! | [`path`] | arc-length parametrised paths: polylines (stops or fillets), arcs, circles, quintic splines |
+//! | [`heading`] | heading laws: constant, tangent to the motion (paper 000, eq. 5.5), a profile along the path |
+//! | [`profile`] | rest-to-rest 1-D velocity profiles: trapezoid and S-curve |
+//! | [`planner`] | timing under motor limits (re-timing, time-optimal forward–backward pass) and sampling |
+//! | [`generators`] | paper 000's experiments: the square (eq. 6.1) and the circle (eq. 6.3) |
+//! | [`waypoints`] | waypoint files (CSV or TOML) with `file:line` errors |
+//! | [`Plan`] / [`Sample`] | the sampled plan and its CSV/JSON format (conventions.md: `t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3`, the caster adding `s1,s2,s3,sd1,sd2,sd3`) |
+//!
+//! ```
+//! use omnikin::description::RobotDescription;
+//! use omnikin_plan::generators::Square;
+//! use omnikin_plan::planner::{plan, OnLimit};
+//! use omnikin_plan::RobotModel;
+//!
+//! let robot = RobotModel::from_description(&RobotDescription::preset("sphere-omni").unwrap())?;
+//! // Paper 000's square at 0.1 m/s (k = 1): four 4 s legs plus 5 % ramps.
+//! let sq = Square::paper(1.0);
+//! let planned = plan(&sq.path()?, &sq.heading(), &robot, &sq.options(100.0, OnLimit::Retime))?;
+//! assert!((planned.report.duration - 4.0 * 4.2).abs() < 1e-9);
+//! let peak = planned.report.peaks[0]; // wheel rate
+//! assert!(peak.value <= 12.0);
+//! # Ok::<(), omnikin_plan::PlanningError>(())
+//! ```
 #![warn(missing_docs)]
 
+mod error;
 mod plan;
 
-pub use plan::{Plan, PlanError, Sample};
+pub mod generators;
+pub mod heading;
+pub mod path;
+pub mod planner;
+pub mod profile;
+pub mod robot;
+pub mod waypoints;
+
+pub use error::{PlanningError, Violation};
+pub use plan::{CASTER_COLUMNS, COLUMNS, Plan, PlanError, Sample};
+pub use robot::{MotorRates, Quantity, RobotModel};

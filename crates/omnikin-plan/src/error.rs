@@ -1,0 +1,87 @@
+//! Errors of the planner: what was asked, what is wrong, and by how much.
+
+use crate::robot::Quantity;
+
+/// A motor limit a requested (fixed) timing would break: the worst excess along the plan.
+///
+/// Displays as `wheel 2 needs 14.10 rad/s at t = 1.23 s, limit 12 rad/s (+17.5 %)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Violation {
+    /// Which limit.
+    pub quantity: Quantity,
+    /// Motor number, 1-based (wheel or steer motor 1, 2, 3).
+    pub motor: usize,
+    /// The magnitude the plan needs (rad/s or rad/s²).
+    pub needed: f64,
+    /// When, s from the start of the plan.
+    pub t: f64,
+    /// The robot file's limit (same unit).
+    pub limit: f64,
+}
+
+impl Violation {
+    /// Excess over the limit, percent.
+    pub fn excess_pct(&self) -> f64 {
+        (self.needed / self.limit - 1.0) * 100.0
+    }
+}
+
+impl std::fmt::Display for Violation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let q = self.quantity;
+        write!(
+            f,
+            "{} {} needs {:.2} {} at t = {:.2} s, limit {} {} (+{:.1} %; limits.{})",
+            q.motor(),
+            self.motor,
+            self.needed,
+            q.unit(),
+            self.t,
+            self.limit,
+            q.unit(),
+            self.excess_pct(),
+            q.key()
+        )
+    }
+}
+
+/// Everything that can go wrong while planning.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PlanningError {
+    /// The path cannot be built (waypoints, fillets, splines); the message names the waypoint,
+    /// leg or segment and the rule.
+    #[error("invalid path: {0}")]
+    InvalidPath(String),
+    /// A parameter is out of range.
+    #[error("{name} = {value}: {rule}")]
+    InvalidParameter {
+        /// The parameter.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+        /// What is allowed.
+        rule: &'static str,
+    },
+    /// A fixed timing (re-timing not allowed) needs more than a motor can give.
+    #[error("{0}")]
+    LimitExceeded(Violation),
+    /// The request cannot be planned as stated (e.g. a constant-speed law on a path with stops).
+    #[error("{0}")]
+    Infeasible(String),
+    /// The core kinematics rejected an input (non-finite value).
+    #[error("kinematics: {0}")]
+    Kinematics(#[from] omnikin::InputError),
+    /// The robot model could not be built.
+    #[error("robot: {0}")]
+    Robot(String),
+    /// A waypoint file is malformed: file, line and what is wrong.
+    #[error("{file}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Waypoints {
+        /// The file.
+        file: String,
+        /// 1-based line, when known.
+        line: Option<usize>,
+        /// What is wrong.
+        message: String,
+    },
+}

@@ -1,0 +1,747 @@
+//! Planar paths parametrised by arc length `s` (m): straight segments, circular arcs, full
+//! circles and quintic splines, chained into one [`Path`].
+//!
+//! A path is purely geometric — where the robot's centre goes, not when. Every primitive answers
+//! the same question at arc length `s`: the world-frame point `r_C(s)` (m), the unit tangent
+//! `dr_C/ds` and the signed curvature `κ(s)` (1/m, positive turning counter-clockwise). The
+//! planner ([`crate::planner`]) adds a heading law and a timing `s(t)` to obtain the trajectory
+//! `r_C(t)` of paper 000, §5.
+//!
+//! Besides its geometry a path carries **stops**: arc lengths where the robot must be at rest
+//! (the corners of a polyline planned with [`Corners::Stop`], as in paper 000's square,
+//! eq. 6.1).
+
+use crate::PlanningError;
+use crate::heading::Side;
+
+/// A point of a path: position, direction and curvature at one arc length.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathPoint {
+    /// World-frame position `r_C(s) = (x, y)`, m.
+    pub point: [f64; 2],
+    /// Unit tangent `dr_C/ds` (world frame, dimensionless): the direction of travel.
+    pub tangent: [f64; 2],
+    /// Signed curvature `κ = dφ/ds`, 1/m (`φ` the tangent's angle; > 0 turning
+    /// counter-clockwise, 0 on straight segments).
+    pub curvature: f64,
+}
+
+impl PathPoint {
+    /// Direction of travel `atan2(t_y, t_x)` in (−π, π], rad (the heading of paper 000,
+    /// eq. 5.5, before unwrapping).
+    pub fn direction(&self) -> f64 {
+        self.tangent[1].atan2(self.tangent[0])
+    }
+}
+
+/// What a polyline does at a corner (a waypoint where the direction changes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Corners {
+    /// Straight legs with a full stop at every corner (paper 000's square, eq. 6.1). Waypoints
+    /// where the direction does not change are passed without stopping.
+    Stop,
+    /// Each corner is rounded by a circular fillet of this radius (m), tangent to both legs, so
+    /// the robot need not stop. The curvature jumps from 0 to `1/radius` where a fillet meets a
+    /// leg: with a heading law that follows the curvature (tangent heading) the wheel rates jump
+    /// there too, and the planner stops the robot at those points (use [`Path::spline`] for a
+    /// path with continuous curvature).
+    Fillet {
+        /// Fillet radius, m (> 0).
+        radius: f64,
+    },
+}
+
+/// Points per quintic segment in the arc-length lookup table.
+const TABLE: usize = 32;
+/// 5-point Gauss–Legendre nodes on [0, 1] and weights.
+const GL_X: [f64; 5] = [
+    0.046_910_077_030_668,
+    0.230_765_344_947_158,
+    0.5,
+    0.769_234_655_052_842,
+    0.953_089_922_969_332,
+];
+const GL_W: [f64; 5] = [
+    0.118_463_442_528_095,
+    0.239_314_335_249_683,
+    0.284_444_444_444_444,
+    0.239_314_335_249_683,
+    0.118_463_442_528_095,
+];
+
+/// One quintic polynomial segment `p(u) = Σ c_k u^k`, `u ∈ [0, 1]`, with its arc-length table.
+#[derive(Clone, Debug, PartialEq)]
+struct Quintic {
+    /// Coefficients `c_0..c_5` for x and y.
+    c: [[f64; 2]; 6],
+    /// `cum[k]` = arc length from `u = 0` to `u = k/TABLE`, m.
+    cum: [f64; TABLE + 1],
+}
+
+impl Quintic {
+    /// Quintic Hermite segment from end values `p`, first derivatives `v` and second
+    /// derivatives `a` with respect to `u` at `u = 0` and `u = 1`.
+    fn hermite(
+        p0: [f64; 2],
+        v0: [f64; 2],
+        a0: [f64; 2],
+        p1: [f64; 2],
+        v1: [f64; 2],
+        a1: [f64; 2],
+    ) -> Self {
+        let mut c = [[0.0; 2]; 6];
+        for d in 0..2 {
+            let dp = p1[d] - p0[d];
+            c[0][d] = p0[d];
+            c[1][d] = v0[d];
+            c[2][d] = 0.5 * a0[d];
+            c[3][d] = 10.0 * dp - 6.0 * v0[d] - 4.0 * v1[d] - 0.5 * (3.0 * a0[d] - a1[d]);
+            c[4][d] = -15.0 * dp + 8.0 * v0[d] + 7.0 * v1[d] + 0.5 * (3.0 * a0[d] - 2.0 * a1[d]);
+            c[5][d] = 6.0 * dp - 3.0 * v0[d] - 3.0 * v1[d] - 0.5 * (a0[d] - a1[d]);
+        }
+        let mut q = Self {
+            c,
+            cum: [0.0; TABLE + 1],
+        };
+        for k in 0..TABLE {
+            let (u0, u1) = (k as f64 / TABLE as f64, (k + 1) as f64 / TABLE as f64);
+            q.cum[k + 1] = q.cum[k] + q.gauss(u0, u1);
+        }
+        q
+    }
+
+    /// Position, first and second derivative with respect to `u`.
+    fn eval(&self, u: f64) -> ([f64; 2], [f64; 2], [f64; 2]) {
+        let c = &self.c;
+        let mut p = [0.0; 2];
+        let mut d1 = [0.0; 2];
+        let mut d2 = [0.0; 2];
+        for d in 0..2 {
+            p[d] = c[0][d]
+                + u * (c[1][d] + u * (c[2][d] + u * (c[3][d] + u * (c[4][d] + u * c[5][d]))));
+            d1[d] = c[1][d]
+                + u * (2.0 * c[2][d]
+                    + u * (3.0 * c[3][d] + u * (4.0 * c[4][d] + u * 5.0 * c[5][d])));
+            d2[d] = 2.0 * c[2][d] + u * (6.0 * c[3][d] + u * (12.0 * c[4][d] + u * 20.0 * c[5][d]));
+        }
+        (p, d1, d2)
+    }
+
+    /// `|dp/du|`, m.
+    fn speed(&self, u: f64) -> f64 {
+        let (_, d1, _) = self.eval(u);
+        d1[0].hypot(d1[1])
+    }
+
+    /// Arc length between `u0` and `u1` by 5-point Gauss–Legendre quadrature.
+    fn gauss(&self, u0: f64, u1: f64) -> f64 {
+        let w = u1 - u0;
+        GL_X.iter()
+            .zip(GL_W)
+            .map(|(&x, wt)| wt * self.speed(u0 + w * x))
+            .sum::<f64>()
+            * w
+    }
+
+    fn length(&self) -> f64 {
+        self.cum[TABLE]
+    }
+
+    /// The curve parameter `u` at arc length `s` (table lookup, then Newton on the quadrature).
+    fn u_at(&self, s: f64) -> f64 {
+        let s = s.clamp(0.0, self.length());
+        let k = match self.cum.binary_search_by(|c| c.total_cmp(&s)) {
+            Ok(k) => k.min(TABLE - 1),
+            Err(k) => k.saturating_sub(1).min(TABLE - 1),
+        };
+        let (u0, u1) = (k as f64 / TABLE as f64, (k + 1) as f64 / TABLE as f64);
+        let span = self.cum[k + 1] - self.cum[k];
+        let mut u = if span > 0.0 {
+            u0 + (s - self.cum[k]) / span * (u1 - u0)
+        } else {
+            u0
+        };
+        for _ in 0..4 {
+            let f = self.cum[k] + self.gauss(u0, u) - s;
+            let sp = self.speed(u);
+            if sp <= 0.0 {
+                break;
+            }
+            u = (u - f / sp).clamp(u0, u1);
+        }
+        u
+    }
+
+    fn at(&self, s: f64) -> PathPoint {
+        let u = self.u_at(s);
+        let (p, d1, d2) = self.eval(u);
+        let sp = d1[0].hypot(d1[1]);
+        PathPoint {
+            point: p,
+            tangent: [d1[0] / sp, d1[1] / sp],
+            curvature: (d1[0] * d2[1] - d1[1] * d2[0]) / (sp * sp * sp),
+        }
+    }
+}
+
+/// One primitive of a path, parametrised by its own arc length.
+#[derive(Clone, Debug, PartialEq)]
+enum Piece {
+    Line {
+        start: [f64; 2],
+        dir: [f64; 2],
+        len: f64,
+    },
+    Arc {
+        centre: [f64; 2],
+        radius: f64,
+        start_angle: f64,
+        /// Signed sweep, rad (> 0 counter-clockwise).
+        sweep: f64,
+    },
+    Quintic(Box<Quintic>),
+}
+
+impl Piece {
+    fn length(&self) -> f64 {
+        match self {
+            Piece::Line { len, .. } => *len,
+            Piece::Arc { radius, sweep, .. } => radius * sweep.abs(),
+            Piece::Quintic(q) => q.length(),
+        }
+    }
+
+    fn at(&self, s: f64) -> PathPoint {
+        let s = s.clamp(0.0, self.length());
+        match self {
+            Piece::Line { start, dir, .. } => PathPoint {
+                point: [start[0] + s * dir[0], start[1] + s * dir[1]],
+                tangent: *dir,
+                curvature: 0.0,
+            },
+            Piece::Arc {
+                centre,
+                radius,
+                start_angle,
+                sweep,
+            } => {
+                let sign = sweep.signum();
+                let a = start_angle + sign * s / radius;
+                let (sa, ca) = a.sin_cos();
+                PathPoint {
+                    point: [centre[0] + radius * ca, centre[1] + radius * sa],
+                    tangent: [-sign * sa, sign * ca],
+                    curvature: sign / radius,
+                }
+            }
+            Piece::Quintic(q) => q.at(s),
+        }
+    }
+}
+
+/// Where a path's pieces meet: the geometry seen from both sides, and whether the robot stops.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Join {
+    /// Arc length of the join, m.
+    pub s: f64,
+    /// The end of the piece before the join.
+    pub before: PathPoint,
+    /// The start of the piece after it.
+    pub after: PathPoint,
+    /// `true` when the robot must be at rest here (a [`Corners::Stop`] corner).
+    pub stop: bool,
+}
+
+/// A planar path `r_C(s)` parametrised by arc length `s ∈ [0, length]` (m), world frame.
+///
+/// Built from waypoints ([`Path::polyline`], [`Path::spline`]) or as an arc or circle
+/// ([`Path::arc`], [`Path::circle`]). Evaluate with [`Path::at`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Path {
+    pieces: Vec<Piece>,
+    /// Arc length at the start of each piece, plus the total length at the end.
+    offsets: Vec<f64>,
+    /// Whether the robot stops at the start of piece `k` (index `k ≥ 1`).
+    stop_before: Vec<bool>,
+    /// Arc length of each input waypoint on the path (closest point for filleted corners).
+    waypoint_s: Vec<f64>,
+}
+
+fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [a[0] - b[0], a[1] - b[1]]
+}
+fn norm(a: [f64; 2]) -> f64 {
+    a[0].hypot(a[1])
+}
+fn cross(a: [f64; 2], b: [f64; 2]) -> f64 {
+    a[0] * b[1] - a[1] * b[0]
+}
+fn dot(a: [f64; 2], b: [f64; 2]) -> f64 {
+    a[0] * b[0] + a[1] * b[1]
+}
+
+/// Largest turn at a waypoint (rad) that a fillet or a spline can round: beyond it the path
+/// nearly reverses and has to stop instead.
+const MAX_SMOOTH_TURN: f64 = 179.0 * std::f64::consts::PI / 180.0;
+
+/// Checks waypoints: at least two, finite, no two consecutive ones equal. Returns the legs'
+/// unit directions and lengths.
+fn legs(points: &[[f64; 2]]) -> Result<(Vec<[f64; 2]>, Vec<f64>), PlanningError> {
+    if points.len() < 2 {
+        return Err(PlanningError::InvalidPath(format!(
+            "a path needs at least 2 waypoints, got {}",
+            points.len()
+        )));
+    }
+    for (i, p) in points.iter().enumerate() {
+        if !(p[0].is_finite() && p[1].is_finite()) {
+            return Err(PlanningError::InvalidPath(format!(
+                "waypoint {}: ({}, {}) is not finite",
+                i + 1,
+                p[0],
+                p[1]
+            )));
+        }
+    }
+    let mut dirs = Vec::with_capacity(points.len() - 1);
+    let mut lens = Vec::with_capacity(points.len() - 1);
+    for (i, w) in points.windows(2).enumerate() {
+        let d = sub(w[1], w[0]);
+        let l = norm(d);
+        if l <= 1e-9 {
+            return Err(PlanningError::InvalidPath(format!(
+                "waypoint {} ({}, {}) repeats waypoint {}; consecutive waypoints must differ by more than 1e-9 m",
+                i + 2,
+                w[1][0],
+                w[1][1],
+                i + 1
+            )));
+        }
+        dirs.push([d[0] / l, d[1] / l]);
+        lens.push(l);
+    }
+    Ok((dirs, lens))
+}
+
+impl Path {
+    fn from_pieces(pieces: Vec<Piece>, stop_before: Vec<bool>, waypoint_s: Vec<f64>) -> Self {
+        let mut offsets = Vec::with_capacity(pieces.len() + 1);
+        let mut s = 0.0;
+        for p in &pieces {
+            offsets.push(s);
+            s += p.length();
+        }
+        offsets.push(s);
+        Self {
+            pieces,
+            offsets,
+            stop_before,
+            waypoint_s,
+        }
+    }
+
+    /// A polyline through `waypoints` (world frame, m): straight legs, with a full stop or a
+    /// circular fillet at every corner (see [`Corners`]).
+    ///
+    /// # Errors
+    /// [`PlanningError::InvalidPath`] for fewer than two waypoints, a non-finite or repeated
+    /// waypoint, a fillet that does not fit on its legs (naming the leg and the lengths), a
+    /// non-positive fillet radius, or a corner that reverses direction (turn above 179°) when
+    /// filleting.
+    pub fn polyline(waypoints: &[[f64; 2]], corners: Corners) -> Result<Self, PlanningError> {
+        let (dirs, lens) = legs(waypoints)?;
+        let n = waypoints.len();
+        // Turn angle at each interior waypoint k = 1..n-2.
+        let turn = |k: usize| {
+            let (a, b) = (dirs[k - 1], dirs[k]);
+            cross(a, b).atan2(dot(a, b))
+        };
+        match corners {
+            Corners::Stop => {
+                let mut pieces = Vec::new();
+                let mut stop_before = Vec::new();
+                let mut waypoint_s = vec![0.0];
+                let mut s = 0.0;
+                for k in 0..n - 1 {
+                    let stop = k > 0 && turn(k).abs() > 1e-9;
+                    // Merge collinear legs into one piece so nothing marks a join there.
+                    if k > 0 && !stop {
+                        if let Some(Piece::Line { len, .. }) = pieces.last_mut() {
+                            *len += lens[k];
+                        }
+                    } else {
+                        pieces.push(Piece::Line {
+                            start: waypoints[k],
+                            dir: dirs[k],
+                            len: lens[k],
+                        });
+                        stop_before.push(stop);
+                    }
+                    s += lens[k];
+                    waypoint_s.push(s);
+                }
+                Ok(Self::from_pieces(pieces, stop_before, waypoint_s))
+            }
+            Corners::Fillet { radius } => {
+                if !(radius.is_finite() && radius > 0.0) {
+                    return Err(PlanningError::InvalidParameter {
+                        name: "fillet radius",
+                        value: radius,
+                        rule: "must be a finite number > 0 (m)",
+                    });
+                }
+                // Tangent length r·tan(|turn|/2) at each interior corner.
+                let mut tlen = vec![0.0; n];
+                for k in 1..n - 1 {
+                    let th = turn(k);
+                    if th.abs() > MAX_SMOOTH_TURN {
+                        return Err(PlanningError::InvalidPath(format!(
+                            "waypoint {} ({}, {}) turns by {:.1}°: a fillet cannot round a reversal; use stops at the corners",
+                            k + 1,
+                            waypoints[k][0],
+                            waypoints[k][1],
+                            th.to_degrees()
+                        )));
+                    }
+                    tlen[k] = radius * (th.abs() / 2.0).tan();
+                }
+                for j in 0..n - 1 {
+                    let need = tlen[j] + tlen[j + 1];
+                    if need > lens[j] * (1.0 + 1e-12) {
+                        return Err(PlanningError::InvalidPath(format!(
+                            "a fillet of radius {radius} m does not fit on leg {} (waypoints {} → {}, {:.4} m long): its corners need {:.4} + {:.4} m of it",
+                            j + 1,
+                            j + 1,
+                            j + 2,
+                            lens[j],
+                            tlen[j],
+                            tlen[j + 1]
+                        )));
+                    }
+                }
+                let mut pieces = Vec::new();
+                let mut waypoint_s = vec![0.0];
+                let mut s = 0.0;
+                for j in 0..n - 1 {
+                    let start = [
+                        waypoints[j][0] + tlen[j] * dirs[j][0],
+                        waypoints[j][1] + tlen[j] * dirs[j][1],
+                    ];
+                    let len = lens[j] - tlen[j] - tlen[j + 1];
+                    if len > 1e-12 {
+                        pieces.push(Piece::Line {
+                            start,
+                            dir: dirs[j],
+                            len,
+                        });
+                        s += len;
+                    }
+                    if j + 1 < n - 1 {
+                        let k = j + 1;
+                        let th = turn(k);
+                        if tlen[k] > 0.0 {
+                            let sign = th.signum();
+                            let a = dirs[k - 1];
+                            let normal = [-sign * a[1], sign * a[0]];
+                            let p0 = [
+                                waypoints[k][0] - tlen[k] * a[0],
+                                waypoints[k][1] - tlen[k] * a[1],
+                            ];
+                            let centre = [p0[0] + radius * normal[0], p0[1] + radius * normal[1]];
+                            let start_angle = (p0[1] - centre[1]).atan2(p0[0] - centre[0]);
+                            let arc = Piece::Arc {
+                                centre,
+                                radius,
+                                start_angle,
+                                sweep: th,
+                            };
+                            let l = arc.length();
+                            pieces.push(arc);
+                            waypoint_s.push(s + l / 2.0);
+                            s += l;
+                        } else {
+                            waypoint_s.push(s);
+                        }
+                    }
+                }
+                waypoint_s.push(s);
+                let stops = vec![false; pieces.len()];
+                Ok(Self::from_pieces(pieces, stops, waypoint_s))
+            }
+        }
+    }
+
+    /// A circular arc (world frame): centre `centre` (m), radius `radius` (m), starting at polar
+    /// angle `start_angle` (rad) about the centre and sweeping `sweep` rad (> 0
+    /// counter-clockwise, < 0 clockwise; may exceed 2π for several turns).
+    ///
+    /// # Errors
+    /// [`PlanningError::InvalidParameter`] for a non-finite value, a radius ≤ 0 or a sweep of 0.
+    pub fn arc(
+        centre: [f64; 2],
+        radius: f64,
+        start_angle: f64,
+        sweep: f64,
+    ) -> Result<Self, PlanningError> {
+        for (name, v) in [
+            ("centre x", centre[0]),
+            ("centre y", centre[1]),
+            ("start angle", start_angle),
+        ] {
+            if !v.is_finite() {
+                return Err(PlanningError::InvalidParameter {
+                    name,
+                    value: v,
+                    rule: "must be finite",
+                });
+            }
+        }
+        if !(radius.is_finite() && radius > 0.0) {
+            return Err(PlanningError::InvalidParameter {
+                name: "radius",
+                value: radius,
+                rule: "must be a finite number > 0 (m)",
+            });
+        }
+        if !(sweep.is_finite() && sweep != 0.0) {
+            return Err(PlanningError::InvalidParameter {
+                name: "sweep",
+                value: sweep,
+                rule: "must be finite and non-zero (rad)",
+            });
+        }
+        let piece = Piece::Arc {
+            centre,
+            radius,
+            start_angle,
+            sweep,
+        };
+        let l = piece.length();
+        Ok(Self::from_pieces(vec![piece], vec![false], vec![0.0, l]))
+    }
+
+    /// `turns` full circles of radius `radius` (m) about `centre`, starting at polar angle
+    /// `start_angle` (rad); `turns > 0` counter-clockwise, `< 0` clockwise. With centre at the
+    /// origin and `start_angle = 0` this is the path of paper 000, eq. 6.3:
+    /// `x = R_t cos φ`, `y = R_t sin φ`.
+    ///
+    /// # Errors
+    /// As [`Path::arc`]; `turns` must be finite and non-zero.
+    pub fn circle(
+        centre: [f64; 2],
+        radius: f64,
+        start_angle: f64,
+        turns: f64,
+    ) -> Result<Self, PlanningError> {
+        if !(turns.is_finite() && turns != 0.0) {
+            return Err(PlanningError::InvalidParameter {
+                name: "turns",
+                value: turns,
+                rule: "must be finite and non-zero",
+            });
+        }
+        Self::arc(centre, radius, start_angle, turns * std::f64::consts::TAU)
+    }
+
+    /// A smooth curve through `waypoints` (world frame, m) with **continuous curvature**: a
+    /// quintic Hermite spline on chord-length knots `t_k` (`t_{k+1} − t_k = |P_{k+1} − P_k|`).
+    ///
+    /// At an interior waypoint `P_k` the first and second derivatives are those of the parabola
+    /// through `P_{k−1}, P_k, P_{k+1}` (Bessel's three-point rule):
+    /// `D1_k = (Δ_k m_{k−1} + Δ_{k−1} m_k)/(Δ_{k−1} + Δ_k)`, `D2_k = 2(m_k − m_{k−1})/(Δ_{k−1} + Δ_k)`
+    /// with `m_j` the unit chord directions and `Δ_j` the chord lengths; at the two ends `D1` is
+    /// the end parabola's slope and `D2 = 0` (zero curvature, so the robot starts and stops on a
+    /// straight). Both derivatives are shared by the segments meeting at a waypoint, so the curve
+    /// is C² and its curvature continuous; each waypoint only moves the curve between its
+    /// neighbours. Arc length comes from a 32-interval Gauss–Legendre table per segment,
+    /// inverted by Newton's method.
+    ///
+    /// # Errors
+    /// [`PlanningError::InvalidPath`] for fewer than two waypoints, a non-finite or repeated
+    /// waypoint, a reversal (turn above 179° at a waypoint) or a segment whose speed `|dp/du|`
+    /// nearly vanishes (a cusp; spread the waypoints more evenly).
+    pub fn spline(waypoints: &[[f64; 2]]) -> Result<Self, PlanningError> {
+        let (m, d) = legs(waypoints)?;
+        let n = waypoints.len();
+        let mut d1 = vec![[0.0; 2]; n];
+        let mut d2 = vec![[0.0; 2]; n];
+        if n == 2 {
+            d1[0] = m[0];
+            d1[1] = m[0];
+        } else {
+            for k in 1..n - 1 {
+                let turn = cross(m[k - 1], m[k]).atan2(dot(m[k - 1], m[k]));
+                if turn.abs() > MAX_SMOOTH_TURN {
+                    return Err(PlanningError::InvalidPath(format!(
+                        "waypoint {} ({}, {}) turns by {:.1}°: a smooth spline cannot pass a reversal; use a polyline with stops",
+                        k + 1,
+                        waypoints[k][0],
+                        waypoints[k][1],
+                        turn.to_degrees()
+                    )));
+                }
+                let (da, db) = (d[k - 1], d[k]);
+                for c in 0..2 {
+                    d1[k][c] = (db * m[k - 1][c] + da * m[k][c]) / (da + db);
+                    d2[k][c] = 2.0 * (m[k][c] - m[k - 1][c]) / (da + db);
+                }
+            }
+            // End slopes of the parabolas through the first and last three waypoints.
+            let c0 = 2.0 * (m[1][0] - m[0][0]) / (d[0] + d[1]);
+            let c1 = 2.0 * (m[1][1] - m[0][1]) / (d[0] + d[1]);
+            d1[0] = [m[0][0] - c0 * d[0] / 2.0, m[0][1] - c1 * d[0] / 2.0];
+            let (a, b) = (n - 3, n - 2);
+            let e0 = 2.0 * (m[b][0] - m[a][0]) / (d[a] + d[b]);
+            let e1 = 2.0 * (m[b][1] - m[a][1]) / (d[a] + d[b]);
+            d1[n - 1] = [m[b][0] + e0 * d[b] / 2.0, m[b][1] + e1 * d[b] / 2.0];
+        }
+        let mut pieces = Vec::with_capacity(n - 1);
+        let mut waypoint_s = vec![0.0];
+        let mut s = 0.0;
+        for k in 0..n - 1 {
+            let h = d[k];
+            let sc = |v: [f64; 2], f: f64| [v[0] * f, v[1] * f];
+            let q = Quintic::hermite(
+                waypoints[k],
+                sc(d1[k], h),
+                sc(d2[k], h * h),
+                waypoints[k + 1],
+                sc(d1[k + 1], h),
+                sc(d2[k + 1], h * h),
+            );
+            let min_speed = (0..=256)
+                .map(|i| q.speed(i as f64 / 256.0))
+                .fold(f64::INFINITY, f64::min);
+            if min_speed.is_nan() || min_speed <= 1e-3 * h || !q.length().is_finite() {
+                return Err(PlanningError::InvalidPath(format!(
+                    "spline segment {} (waypoints {} → {}) has a cusp (|dp/du| falls to {:.2e} m); spread the waypoints more evenly",
+                    k + 1,
+                    k + 1,
+                    k + 2,
+                    min_speed
+                )));
+            }
+            s += q.length();
+            waypoint_s.push(s);
+            pieces.push(Piece::Quintic(Box::new(q)));
+        }
+        let stops = vec![false; pieces.len()];
+        Ok(Self::from_pieces(pieces, stops, waypoint_s))
+    }
+
+    /// Total arc length, m.
+    pub fn length(&self) -> f64 {
+        self.offsets[self.pieces.len()]
+    }
+
+    /// Index of the piece containing arc length `s` (the later one at a join).
+    fn piece_index(&self, s: f64) -> usize {
+        let n = self.pieces.len();
+        match self.offsets[..n].binary_search_by(|o| o.total_cmp(&s)) {
+            Ok(k) => k,
+            Err(k) => k.saturating_sub(1),
+        }
+    }
+
+    /// Point, unit tangent and curvature at arc length `s` (m), clamped to `[0, length]`. At a
+    /// join between pieces the later piece answers (see [`Path::joins`] for both sides).
+    pub fn at(&self, s: f64) -> PathPoint {
+        let s = if s.is_nan() {
+            0.0
+        } else {
+            s.clamp(0.0, self.length())
+        };
+        let k = self.piece_index(s);
+        self.pieces[k].at(s - self.offsets[k])
+    }
+
+    /// Like [`Path::at`], but at a join [`Side::Before`] evaluates the piece that ends there
+    /// (the incoming direction and curvature) and [`Side::After`] the one that starts there.
+    pub fn at_side(&self, s: f64, side: Side) -> PathPoint {
+        let s = if s.is_nan() {
+            0.0
+        } else {
+            s.clamp(0.0, self.length())
+        };
+        let mut k = self.piece_index(s);
+        if side == Side::Before && k > 0 && s <= self.offsets[k] {
+            k -= 1;
+        }
+        self.pieces[k].at(s - self.offsets[k])
+    }
+
+    /// The interior joins between pieces, in order, each seen from both sides: where the
+    /// curvature may jump (fillets) and where the robot must stop ([`Corners::Stop`]).
+    pub fn joins(&self) -> Vec<Join> {
+        (1..self.pieces.len())
+            .map(|k| {
+                let prev = &self.pieces[k - 1];
+                Join {
+                    s: self.offsets[k],
+                    before: prev.at(prev.length()),
+                    after: self.pieces[k].at(0.0),
+                    stop: self.stop_before[k],
+                }
+            })
+            .collect()
+    }
+
+    /// Arc lengths (m) of the interior points where the robot must be at rest.
+    pub fn stops(&self) -> Vec<f64> {
+        self.joins()
+            .into_iter()
+            .filter(|j| j.stop)
+            .map(|j| j.s)
+            .collect()
+    }
+
+    /// Arc length (m) on the path of each waypoint it was built from (the middle of the fillet
+    /// for a rounded corner; `[0, length]` for an arc or circle). Used to key a heading profile
+    /// to the waypoints.
+    pub fn waypoint_arc_lengths(&self) -> &[f64] {
+        &self.waypoint_s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quintic_hermite_meets_its_end_conditions() {
+        let q = Quintic::hermite(
+            [0.0, 1.0],
+            [2.0, 0.5],
+            [0.3, -1.0],
+            [1.0, -2.0],
+            [-1.0, 0.7],
+            [4.0, 2.0],
+        );
+        let (p, v, a) = q.eval(1.0);
+        for (got, want) in [(p, [1.0, -2.0]), (v, [-1.0, 0.7]), (a, [4.0, 2.0])] {
+            assert!(
+                (got[0] - want[0]).abs() < 1e-12 && (got[1] - want[1]).abs() < 1e-12,
+                "{got:?} vs {want:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn arc_length_inversion_is_consistent() {
+        let p = Path::spline(&[[0.0, 0.0], [1.0, 0.5], [2.0, -0.3], [2.5, 1.0]]).unwrap();
+        // Summing chords over a fine grid of s reproduces the length: s is arc length.
+        let n = 20_000;
+        let mut chord = 0.0;
+        let mut prev = p.at(0.0).point;
+        for i in 1..=n {
+            let q = p.at(p.length() * i as f64 / n as f64).point;
+            chord += norm(sub(q, prev));
+            prev = q;
+        }
+        assert!(
+            (chord - p.length()).abs() < 1e-6 * p.length(),
+            "{chord} vs {}",
+            p.length()
+        );
+    }
+}

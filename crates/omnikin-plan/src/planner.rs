@@ -1,0 +1,1283 @@
+//! The planner: path + heading law + timing → a sampled [`Plan`] of wheel commands that
+//! respects the robot's motor limits (paper 000, §5: `r_C(t)`, `ψ(t)` → wheel rates by
+//! eqs. 5.6–5.7; likewise for the ballbot, paper 001, and the caster base, paper 003, eq. 2).
+//!
+//! # How a plan is made
+//!
+//! 1. **Moves.** The path is cut into *moves* that start and end at rest: at its stops
+//!    ([`crate::path::Corners::Stop`]) and wherever the wheel rates per unit speed jump (the
+//!    tangent or the heading rate `dψ/ds` jumps — e.g. where a fillet meets a leg under the
+//!    tangent heading law); a jump in wheel rate at non-zero speed would need infinite wheel
+//!    acceleration. Under the tangent law (paper 000, eq. 5.5) a stop where the direction
+//!    changes gets a **turn in place** from the old to the new direction.
+//! 2. **Geometry along a move.** Each move has a parameter `σ` (arc length `s` in m, or the
+//!    turned angle in rad for a turn in place) and a configuration `q(σ) = (x, y, ψ)`. Because
+//!    every robot's motor rates are linear in the world twist `q̇ = q'(σ) σ̇`, they are
+//!    `w(σ, σ̇) = A(σ) σ̇` with `A(σ)` the core inverse kinematics applied to `q'(σ)`
+//!    (including the heading-rate term `ψ' = dψ/ds`), and the motor accelerations are
+//!    `ẇ = A(σ) σ̈ + A'(σ) σ̇²`. `A` is tabulated on a grid of `σ` (≤ 2 mm or 2 mrad); for the
+//!    caster the steer angles `γ(σ)` obey `dγ/dσ = J2(θ, γ) q'(σ)` (paper 003, eq. 5), which
+//!    does not depend on the timing, so they are integrated once along the grid (RK4).
+//! 3. **Timing**, one of [`Timing`]:
+//!    * [`Timing::Profile`]: a trapezoidal or S-curve profile per move with the requested
+//!      speed, acceleration and jerk. If a motor would exceed its limit the move is slowed by a
+//!      uniform **time dilation** `σ_λ(t) = σ(λt)`: rates scale with `λ`, accelerations with
+//!      `λ²`, so `λ = min(1, limit_rate/peak_rate, √(limit_accel/peak_accel))` (the ramps keep
+//!      their share of the move's time). [`OnLimit::Reject`] refuses instead.
+//!    * [`Timing::ConstantSpeed`]: constant speed from start to end (paper 000's circle law,
+//!      eq. 6.3, which starts at full speed); slowed or rejected like a profile.
+//!    * [`Timing::TimeOptimal`]: the fastest timing within all limits, by the classic
+//!      **forward–backward pass over the path parameter** on `x = σ̇²`. On each grid cell
+//!      `σ̈ = (x_{k+1} − x_k)/(2h)` is constant; every acceleration limit (the requested path
+//!      acceleration and each motor's `|A_i σ̈ + A_i' x| ≤ limit`, at both ends of the cell) is
+//!      linear in the unknown end value, so each step picks the largest admissible one exactly.
+//!      Speed caps: `x ≤ v_max²`, `x ≤ (limit_rate_i/|A_i|)²` (the wheel-rate cap
+//!      `v_max(s) = max_rate / max_i |∂w_i/∂v(s)|`), and `x ≤ limit_accel_i/|A_i'|` (speed at
+//!      which the robot can still hold its speed). The forward pass accelerates from rest as
+//!      hard as allowed, the backward pass does the same from the end; the timing is the
+//!      pointwise minimum. Jerk is not limited in this mode.
+//! 4. **Sampling** at the requested rate: pose, world twist, motor rates from the core
+//!    inverse kinematics (sphere: `SphereOmni::wheel_rates_world`, ballbot:
+//!    `Ballbot::wheel_rates_world`, caster: `Caster3::motor_rates`). Finally every sample is
+//!    checked against the limits (rates at each sample, accelerations as differences between
+//!    consecutive samples); a residual excess from the grid approximation is removed by slowing
+//!    the offending move further.
+
+use omnikin::{Pose2, Robot, Twist2};
+
+use crate::PlanningError;
+use crate::error::Violation;
+use crate::heading::{HeadingLaw, Side, wrap_pi};
+use crate::path::Path;
+use crate::plan::{Plan, Sample};
+use crate::profile::{Profile1D, ProfileKind};
+use crate::robot::{Quantity, RobotModel};
+
+/// Requested limits of the motion itself (not the motors'): along the path, and for turns in
+/// place.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotionLimits {
+    /// Largest speed along the path, m/s.
+    pub max_speed: f64,
+    /// Largest tangential acceleration along the path, m/s².
+    pub max_accel: f64,
+    /// Largest jerk along the path, m/s³ (S-curve profiles only).
+    pub max_jerk: f64,
+    /// Largest yaw rate of a turn in place, rad/s.
+    pub max_yaw_rate: f64,
+    /// Largest yaw acceleration of a turn in place, rad/s² (an S-curve turn uses the jerk
+    /// `max_yaw_accel · max_jerk / max_accel`, so its ramps take as long as the path's).
+    pub max_yaw_accel: f64,
+}
+
+impl Default for MotionLimits {
+    /// 0.2 m/s, 0.5 m/s², 5 m/s³; turns in place 1 rad/s, 2 rad/s².
+    fn default() -> Self {
+        Self {
+            max_speed: 0.2,
+            max_accel: 0.5,
+            max_jerk: 5.0,
+            max_yaw_rate: 1.0,
+            max_yaw_accel: 2.0,
+        }
+    }
+}
+
+impl MotionLimits {
+    fn validate(&self, jerk: bool) -> Result<(), PlanningError> {
+        let mut items = vec![
+            ("max speed", self.max_speed),
+            ("max acceleration", self.max_accel),
+            ("max yaw rate", self.max_yaw_rate),
+            ("max yaw acceleration", self.max_yaw_accel),
+        ];
+        if jerk {
+            items.push(("max jerk", self.max_jerk));
+        }
+        for (name, v) in items {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(PlanningError::InvalidParameter {
+                    name,
+                    value: v,
+                    rule: "must be a finite number > 0",
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// How the planner times the path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Timing {
+    /// A trapezoidal or S-curve profile per move (rest to rest) within `limits`; slowed
+    /// uniformly (time dilation) where a motor limit would be exceeded.
+    Profile {
+        /// Trapezoid or S-curve.
+        kind: ProfileKind,
+        /// Speed, acceleration and jerk limits of the motion.
+        limits: MotionLimits,
+    },
+    /// The fastest timing that respects `limits` and every motor limit (forward–backward pass;
+    /// jerk not limited).
+    TimeOptimal {
+        /// Speed and acceleration limits of the motion.
+        limits: MotionLimits,
+    },
+    /// Constant speed `speed` (m/s) from the first sample to the last, no ramps — paper 000's
+    /// circle law (eq. 6.3), which starts at full speed. Only for paths without stops.
+    ConstantSpeed {
+        /// Speed along the path, m/s.
+        speed: f64,
+    },
+}
+
+/// What to do when a requested (non-optimal) timing would exceed a motor limit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OnLimit {
+    /// Slow the offending moves down until every limit holds, and report it.
+    Retime,
+    /// Refuse with [`PlanningError::LimitExceeded`] naming the motor, the rate, the time and
+    /// the excess.
+    Reject,
+}
+
+/// Initial steer angles of a caster base (ignored for other robots).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum InitialSteer {
+    /// Given steer angles `γ_i`, rad.
+    Given([f64; 3]),
+    /// The configuration the first motion needs: each wheel trails its steering axis so its
+    /// steer rate is zero at the start. Wheel `i`'s steering axis `F_i` moves with
+    /// `v_F = (ẋ, ẏ) + θ̇ k × D(cos(α_i+θ), sin(α_i+θ))` (direction `χ`); the steer rate
+    /// (paper 003, eq. 3) vanishes for `sin(β_i − χ) = θ̇ d/|v_F|`, which has two solutions.
+    /// The planner takes the **trailing** one, `β_i = χ + π − asin(θ̇ d/|v_F|)` (for a pure
+    /// translation `β_i = χ + π`, a roll rate `φ̇ = v/r > 0`), because it is the stable
+    /// equilibrium of `dγ/ds`: a leading wheel (`β_i = χ`) would need ever larger steer rates
+    /// to follow any curve (errors grow like `e^{s/d}`), as a shopping-cart caster flips round.
+    /// `γ_i = β_i − α_i − θ` is wrapped into (−π, π].
+    Aligned,
+}
+
+/// Everything the planner needs besides the path, heading law and robot.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlanOptions {
+    /// The timing law.
+    pub timing: Timing,
+    /// Re-time or reject when a motor limit would be exceeded (not used by
+    /// [`Timing::TimeOptimal`], which never exceeds one).
+    pub on_limit: OnLimit,
+    /// Sampling rate of the output, Hz (samples at `k / rate`, plus the exact end time).
+    pub rate: f64,
+    /// Caster only: initial steer angles.
+    pub initial_steer: InitialSteer,
+}
+
+/// What limited the timing of (part of) a plan.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Limiter {
+    /// The requested speed along the path.
+    MaxSpeed,
+    /// The requested acceleration along the path.
+    MaxAccel,
+    /// The requested yaw rate of a turn in place.
+    MaxYawRate,
+    /// The requested yaw acceleration of a turn in place.
+    MaxYawAccel,
+    /// A constant speed fixed by the request (paper 000's circle law).
+    RequestedSpeed,
+    /// A motor limit of the robot file.
+    Motor {
+        /// Which limit.
+        quantity: Quantity,
+        /// Motor number, 1-based.
+        motor: usize,
+    },
+}
+
+impl std::fmt::Display for Limiter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Limiter::MaxSpeed => write!(f, "max speed"),
+            Limiter::MaxAccel => write!(f, "max acceleration"),
+            Limiter::MaxYawRate => write!(f, "max yaw rate (turn in place)"),
+            Limiter::MaxYawAccel => write!(f, "max yaw acceleration (turn in place)"),
+            Limiter::RequestedSpeed => write!(f, "requested speed"),
+            Limiter::Motor { quantity, motor } => {
+                write!(
+                    f,
+                    "limits.{} ({} {motor})",
+                    quantity.key(),
+                    quantity.motor()
+                )
+            }
+        }
+    }
+}
+
+/// The peak of one motor quantity over a plan.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Peak {
+    /// Which quantity.
+    pub quantity: Quantity,
+    /// Motor number (1-based) where the peak is.
+    pub motor: usize,
+    /// Peak magnitude (rad/s or rad/s²; accelerations are differences between consecutive
+    /// samples divided by their time step).
+    pub value: f64,
+    /// Time of the peak, s.
+    pub t: f64,
+    /// The robot file's limit, if any.
+    pub limit: Option<f64>,
+}
+
+/// A move slowed down because of a motor limit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Retiming {
+    /// Index of the move (0-based, in order).
+    pub move_index: usize,
+    /// Time-dilation factor `λ ≤ 1` (the move takes `1/λ` times as long).
+    pub factor: f64,
+    /// The limit that set it.
+    pub limiter: Limiter,
+}
+
+/// What a move does.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MoveKind {
+    /// Travel along the path from arc length `s0` to `s1`, m.
+    Travel {
+        /// Start arc length, m.
+        s0: f64,
+        /// End arc length, m.
+        s1: f64,
+    },
+    /// Turn in place by `angle` rad (tangent heading law at a stop).
+    Turn {
+        /// Signed angle, rad.
+        angle: f64,
+    },
+}
+
+/// One move of a plan: what it does, when, and how fast.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MoveSummary {
+    /// What it does.
+    pub kind: MoveKind,
+    /// Start time, s.
+    pub t0: f64,
+    /// Duration, s.
+    pub duration: f64,
+    /// Peak speed along the path (m/s) or yaw rate of a turn (rad/s).
+    pub peak_speed: f64,
+}
+
+/// How a plan came out: duration, length, peaks against limits, what limited the timing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlanReport {
+    /// Duration, s.
+    pub duration: f64,
+    /// Path length, m.
+    pub path_length: f64,
+    /// The moves, in order.
+    pub moves: Vec<MoveSummary>,
+    /// Peak of every limited-or-not motor quantity (wheel rate and acceleration; the caster adds
+    /// steer rate and acceleration).
+    pub peaks: Vec<Peak>,
+    /// Moves slowed down because of a motor limit ([`Timing::Profile`] /
+    /// [`Timing::ConstantSpeed`] with [`OnLimit::Retime`]).
+    pub retimed: Vec<Retiming>,
+    /// What limited the speed, with the share of the plan's time (0–1) it was active
+    /// (sorted, largest first).
+    pub active: Vec<(Limiter, f64)>,
+    /// `true` when the plan starts at non-zero speed (paper 000's circle law): the robot must
+    /// already move as the first sample says.
+    pub starts_moving: bool,
+}
+
+/// A plan and its report.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Planned {
+    /// The sampled plan (conventions' columns).
+    pub plan: Plan,
+    /// Summary for people.
+    pub report: PlanReport,
+}
+
+/// Grid step in the move parameter (m or rad).
+const GRID_STEP: f64 = 2e-3;
+/// Fewest grid cells per move.
+const MIN_CELLS: usize = 16;
+/// Most grid cells per move.
+const MAX_CELLS: usize = 400_000;
+/// The planner aims this fraction below each motor limit, so the final check on the samples
+/// (which is strict) passes despite the grid approximation.
+const MARGIN: f64 = 1.0 - 1e-4;
+
+/// Configuration and its derivative with respect to the move parameter.
+#[derive(Clone, Copy, Debug)]
+struct Config {
+    pose: Pose2<f64>,
+    /// `q'(σ) = (dx/dσ, dy/dσ, dψ/dσ)`.
+    dq: [f64; 3],
+}
+
+#[derive(Clone, Debug)]
+enum MoveTiming {
+    Profile { p: Profile1D, lambda: f64 },
+    Constant { v: f64 },
+    Grid { h: f64, x: Vec<f64>, t: Vec<f64> },
+}
+
+impl MoveTiming {
+    fn duration(&self, len: f64) -> f64 {
+        match self {
+            MoveTiming::Profile { p, lambda } => p.duration() / lambda,
+            MoveTiming::Constant { v } => len / v,
+            MoveTiming::Grid { t, .. } => *t.last().unwrap_or(&0.0),
+        }
+    }
+
+    /// `(σ, σ̇, σ̈)` at time `t` into the move.
+    fn eval(&self, t: f64, len: f64) -> (f64, f64, f64) {
+        match self {
+            MoveTiming::Profile { p, lambda } => {
+                let (s, v, a) = p.eval(lambda * t);
+                (s, lambda * v, lambda * lambda * a)
+            }
+            MoveTiming::Constant { v } => ((v * t).clamp(0.0, len), *v, 0.0),
+            MoveTiming::Grid { h, x, t: times } => {
+                let n = x.len() - 1;
+                let k = match times.binary_search_by(|a| a.total_cmp(&t)) {
+                    Ok(k) => k.min(n.saturating_sub(1)),
+                    Err(k) => k.saturating_sub(1).min(n.saturating_sub(1)),
+                };
+                let u = (x[k + 1] - x[k]) / (2.0 * h);
+                let v0 = x[k].max(0.0).sqrt();
+                let tau = (t - times[k]).clamp(0.0, times[k + 1] - times[k]);
+                let s = (k as f64 * h + v0 * tau + 0.5 * u * tau * tau).clamp(0.0, len);
+                ((s).min(len), (v0 + u * tau).max(0.0), u)
+            }
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+enum Kind {
+    Travel { s0: f64, s1: f64 },
+    Turn { x: f64, y: f64, psi0: f64, dir: f64 },
+}
+
+/// A move with its grid: heading (unwrapped), `A`, `A'` and the caster's steer angles.
+#[derive(Clone, Debug)]
+struct Move {
+    kind: Kind,
+    len: f64,
+    h: f64,
+    psi: Vec<f64>,
+    a: Vec<[f64; 6]>,
+    b: Vec<[f64; 6]>,
+    gamma: Vec<[f64; 3]>,
+    timing: MoveTiming,
+    t0: f64,
+    /// Extra cap factor on `x` per grid point (time-optimal repair).
+    cap_scale: Vec<f64>,
+}
+
+struct Ctx<'a> {
+    path: &'a Path,
+    heading: &'a HeadingLaw,
+    robot: &'a RobotModel,
+}
+
+impl Ctx<'_> {
+    /// Configuration at parameter `sigma` of a move; `hint` is an unwrapped heading within
+    /// ±π of the answer (for the tangent law).
+    fn config(&self, kind: &Kind, len: f64, sigma: f64, hint: f64) -> Config {
+        match *kind {
+            Kind::Travel { s0, .. } => {
+                let side = if sigma >= len {
+                    Side::Before
+                } else {
+                    Side::After
+                };
+                let s = s0 + sigma.clamp(0.0, len);
+                let p = self.path.at_side(s, side);
+                let (psi, dpsi) = match self.heading {
+                    HeadingLaw::Constant(c) => (*c, 0.0),
+                    HeadingLaw::Tangent { offset } => {
+                        let d = p.direction() + offset;
+                        (hint + wrap_pi(d - hint), p.curvature)
+                    }
+                    HeadingLaw::Profile(prof) => prof.at(s, side),
+                };
+                Config {
+                    pose: Pose2::new(p.point[0], p.point[1], psi),
+                    dq: [p.tangent[0], p.tangent[1], dpsi],
+                }
+            }
+            Kind::Turn { x, y, psi0, dir } => Config {
+                pose: Pose2::new(x, y, psi0 + dir * sigma.clamp(0.0, len)),
+                dq: [0.0, 0.0, dir],
+            },
+        }
+    }
+
+    /// Motor rates per unit `σ̇` (the columns `A(σ)`), and `dγ/dσ` for the caster.
+    fn rates_per_speed(&self, c: &Config, gamma: [f64; 3]) -> Result<[f64; 6], PlanningError> {
+        self.robot.channel_rates(
+            c.pose.heading,
+            Twist2::new(c.dq[0], c.dq[1], c.dq[2]),
+            gamma,
+        )
+    }
+
+    /// One RK4 step of `dγ/dσ = J2(θ, γ) q'(σ)` from `(sigma, gamma)` by `step`.
+    fn steer_step(
+        &self,
+        kind: &Kind,
+        len: f64,
+        sigma: f64,
+        gamma: [f64; 3],
+        step: f64,
+        hint: f64,
+    ) -> Result<[f64; 3], PlanningError> {
+        if !self.robot.is_caster() || step == 0.0 {
+            return Ok(gamma);
+        }
+        let f = |s: f64, g: [f64; 3]| -> Result<[f64; 3], PlanningError> {
+            let c = self.config(kind, len, s, hint);
+            let r = self.rates_per_speed(&c, g)?;
+            Ok([r[3], r[4], r[5]])
+        };
+        let add =
+            |g: [f64; 3], k: [f64; 3], f: f64| [g[0] + f * k[0], g[1] + f * k[1], g[2] + f * k[2]];
+        let k1 = f(sigma, gamma)?;
+        let k2 = f(sigma + step / 2.0, add(gamma, k1, step / 2.0))?;
+        let k3 = f(sigma + step / 2.0, add(gamma, k2, step / 2.0))?;
+        let k4 = f(sigma + step, add(gamma, k3, step))?;
+        Ok(core::array::from_fn(|i| {
+            gamma[i] + step / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        }))
+    }
+
+    /// Builds a move's grid starting from heading `psi_start` and steer angles `gamma0`.
+    fn build_move(
+        &self,
+        kind: Kind,
+        len: f64,
+        psi_start: f64,
+        gamma0: [f64; 3],
+    ) -> Result<Move, PlanningError> {
+        let n = ((len / GRID_STEP).ceil() as usize).clamp(MIN_CELLS, MAX_CELLS);
+        let h = len / n as f64;
+        let mut psi = Vec::with_capacity(n + 1);
+        let mut a = Vec::with_capacity(n + 1);
+        let mut gamma = Vec::with_capacity(n + 1);
+        let mut hint = psi_start;
+        let mut g = gamma0;
+        for k in 0..=n {
+            let sigma = k as f64 * h;
+            if k > 0 {
+                g = self.steer_step(&kind, len, sigma - h, g, h, hint)?;
+            }
+            let c = self.config(&kind, len, sigma, hint);
+            hint = c.pose.heading;
+            psi.push(hint);
+            a.push(self.rates_per_speed(&c, g)?);
+            gamma.push(g);
+        }
+        let b = derivative(&a, h);
+        Ok(Move {
+            kind,
+            len,
+            h,
+            psi,
+            a,
+            b,
+            gamma,
+            timing: MoveTiming::Constant { v: 1.0 },
+            t0: 0.0,
+            cap_scale: vec![1.0; n + 1],
+        })
+    }
+
+    /// Steer angles at `sigma` within a move, and the configuration there.
+    fn state(&self, mv: &Move, sigma: f64) -> Result<(Config, [f64; 3]), PlanningError> {
+        let n = mv.a.len() - 1;
+        let k = ((sigma / mv.h).floor().max(0.0) as usize).min(n);
+        let hint = mv.psi[k];
+        let c = self.config(&mv.kind, mv.len, sigma, hint);
+        let g = self.steer_step(
+            &mv.kind,
+            mv.len,
+            k as f64 * mv.h,
+            mv.gamma[k],
+            sigma - k as f64 * mv.h,
+            hint,
+        )?;
+        Ok((c, g))
+    }
+}
+
+/// Central differences of a tabulated vector function (one-sided at the ends).
+fn derivative(a: &[[f64; 6]], h: f64) -> Vec<[f64; 6]> {
+    let n = a.len() - 1;
+    (0..=n)
+        .map(|k| {
+            let (lo, hi) = (k.saturating_sub(1), (k + 1).min(n));
+            let d = (hi - lo) as f64 * h;
+            core::array::from_fn(|i| (a[hi][i] - a[lo][i]) / d)
+        })
+        .collect()
+}
+
+/// `true` when two derivative vectors `q'` differ (a jump in the wheel rates per unit speed).
+fn jumps(a: [f64; 3], b: [f64; 3]) -> bool {
+    (0..3).any(|i| (a[i] - b[i]).abs() > 1e-9 * (1.0 + a[i].abs().max(b[i].abs())))
+}
+
+/// The steer angles of the trailing configuration for the first motion (see
+/// [`InitialSteer::Aligned`]).
+fn aligned_steer(robot: &RobotModel, c: &Config) -> [f64; 3] {
+    let Robot::Caster(m) = &robot.model else {
+        return [0.0; 3];
+    };
+    let p = m.params();
+    let th = c.pose.heading;
+    core::array::from_fn(|i| {
+        let (sa, ca) = (p.mount_angles[i] + th).sin_cos();
+        let vf = [
+            c.dq[0] - c.dq[2] * p.mount_radius * sa,
+            c.dq[1] + c.dq[2] * p.mount_radius * ca,
+        ];
+        let speed = vf[0].hypot(vf[1]);
+        if speed < 1e-12 {
+            return 0.0;
+        }
+        let chi = vf[1].atan2(vf[0]);
+        let rho = (c.dq[2] * p.eccentricity / speed).clamp(-1.0, 1.0);
+        let beta = chi + std::f64::consts::PI - rho.asin();
+        wrap_pi(beta - p.mount_angles[i] - th)
+    })
+}
+
+/// Peak ratios of a move under a timing: `(rate ratio, channel, t, value)` and the same for
+/// accelerations, from a dense evaluation (≥ 2000 points, ≤ 0.5 ms apart).
+struct MovePeaks {
+    rate: (f64, usize, f64, f64),
+    accel: (f64, usize, f64, f64),
+}
+
+fn move_peaks(robot: &RobotModel, mv: &Move, timing: &MoveTiming) -> MovePeaks {
+    let dur = timing.duration(mv.len);
+    let m = ((dur / 5e-4).ceil() as usize).clamp(2000, 400_000);
+    let n = mv.a.len() - 1;
+    let mut out = MovePeaks {
+        rate: (0.0, 0, 0.0, 0.0),
+        accel: (0.0, 0, 0.0, 0.0),
+    };
+    for j in 0..=m {
+        let t = dur * j as f64 / m as f64;
+        let (s, v, acc) = timing.eval(t, mv.len);
+        let pos = (s / mv.h).clamp(0.0, n as f64);
+        let k = (pos.floor() as usize).min(n.saturating_sub(1));
+        let f = pos - k as f64;
+        for ch in 0..robot.channels() {
+            let a = mv.a[k][ch] * (1.0 - f) + mv.a[k + 1][ch] * f;
+            let b = mv.b[k][ch] * (1.0 - f) + mv.b[k + 1][ch] * f;
+            let w = (a * v).abs();
+            let wd = (a * acc + b * v * v).abs();
+            if let Some(lim) = robot.rate_limit(ch)
+                && w / lim > out.rate.0 * (1.0 + 1e-9)
+            {
+                out.rate = (w / lim, ch, t, w);
+            }
+            if let Some(lim) = robot.accel_limit(ch)
+                && wd / lim > out.accel.0 * (1.0 + 1e-9)
+            {
+                out.accel = (wd / lim, ch, t, wd);
+            }
+        }
+    }
+    out
+}
+
+/// One constraint `|c·y + e| ≤ bound` on the unknown end value `y` of a grid cell.
+fn bound_interval(c: f64, e: f64, bound: f64) -> (f64, f64) {
+    if c.abs() < 1e-300 {
+        return if e.abs() <= bound {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        } else {
+            (f64::INFINITY, f64::NEG_INFINITY)
+        };
+    }
+    let (p, q) = ((-bound - e) / c, (bound - e) / c);
+    if p < q { (p, q) } else { (q, p) }
+}
+
+/// The time-optimal forward–backward pass over one move (see the module docs). Returns the
+/// grid timing and, per cell, what limited it.
+fn time_optimal(
+    robot: &RobotModel,
+    mv: &Move,
+    v_user: f64,
+    a_user: f64,
+    user: (Limiter, Limiter),
+) -> Result<(MoveTiming, Vec<Limiter>), PlanningError> {
+    let n = mv.a.len() - 1;
+    let h = mv.h;
+    let chans = robot.channels();
+    // Speed caps on x = σ̇².
+    let mut cap = vec![0.0; n + 1];
+    let mut cap_src = vec![user.0; n + 1];
+    for k in 0..=n {
+        let mut c = v_user * v_user;
+        let mut src = user.0;
+        for ch in 0..chans {
+            let a = mv.a[k][ch].abs();
+            let b = mv.b[k][ch].abs();
+            if let Some(l) = robot.rate_limit(ch)
+                && a > 0.0
+                && (l * MARGIN / a).powi(2) < c
+            {
+                c = (l * MARGIN / a).powi(2);
+                src = Limiter::Motor {
+                    quantity: Quantity::of(ch, false),
+                    motor: ch % 3 + 1,
+                };
+            }
+            if let Some(l) = robot.accel_limit(ch)
+                && b > 0.0
+                && l * MARGIN / b < c
+            {
+                c = l * MARGIN / b;
+                src = Limiter::Motor {
+                    quantity: Quantity::of(ch, true),
+                    motor: ch % 3 + 1,
+                };
+            }
+        }
+        cap[k] = c * mv.cap_scale[k];
+        cap_src[k] = src;
+    }
+    // Largest admissible unknown end value of cell k (forward: y = x_{k+1} given x_k = known;
+    // backward: y = x_k given x_{k+1} = known).
+    let step = |k: usize, known: f64, forward: bool| -> (f64, Limiter) {
+        let (a0, b0, a1, b1) = (&mv.a[k], &mv.b[k], &mv.a[k + 1], &mv.b[k + 1]);
+        let i2h = 1.0 / (2.0 * h);
+        let mut hi = if forward { cap[k + 1] } else { cap[k] };
+        let mut src = if forward { cap_src[k + 1] } else { cap_src[k] };
+        let mut consider = |c: f64, e: f64, bound: f64, who: Limiter| {
+            let (_, u) = bound_interval(c, e, bound);
+            if u < hi {
+                hi = u;
+                src = who;
+            }
+        };
+        // Requested path acceleration: |x1 − x0| ≤ 2h a_user.
+        if forward {
+            consider(i2h, -known * i2h, a_user, user.1);
+        } else {
+            consider(-i2h, known * i2h, a_user, user.1);
+        }
+        for ch in 0..chans {
+            let Some(l) = robot.accel_limit(ch) else {
+                continue;
+            };
+            let l = l * MARGIN;
+            let who = Limiter::Motor {
+                quantity: Quantity::of(ch, true),
+                motor: ch % 3 + 1,
+            };
+            if forward {
+                consider(a0[ch] * i2h, (b0[ch] - a0[ch] * i2h) * known, l, who);
+                consider(a1[ch] * i2h + b1[ch], -a1[ch] * known * i2h, l, who);
+            } else {
+                consider(b0[ch] - a0[ch] * i2h, a0[ch] * known * i2h, l, who);
+                consider(-a1[ch] * i2h, (a1[ch] * i2h + b1[ch]) * known, l, who);
+            }
+        }
+        (hi.max(0.0), src)
+    };
+    let mut fwd = vec![0.0; n + 1];
+    let mut fwd_src = vec![user.0; n + 1];
+    for k in 0..n {
+        let (y, src) = step(k, fwd[k], true);
+        fwd[k + 1] = y;
+        fwd_src[k + 1] = src;
+    }
+    let mut bwd = vec![0.0; n + 1];
+    let mut bwd_src = vec![user.0; n + 1];
+    for k in (0..n).rev() {
+        let (y, src) = step(k, bwd[k + 1], false);
+        bwd[k] = y;
+        bwd_src[k] = src;
+    }
+    let x: Vec<f64> = (0..=n).map(|k| fwd[k].min(bwd[k])).collect();
+    let mut t = vec![0.0; n + 1];
+    let mut who = Vec::with_capacity(n);
+    for k in 0..n {
+        let den = x[k].sqrt() + x[k + 1].sqrt();
+        if den.is_nan() || den <= 0.0 {
+            return Err(PlanningError::Infeasible(format!(
+                "the motor limits allow no motion at parameter {:.4} of a move (speed cap 0)",
+                k as f64 * h
+            )));
+        }
+        t[k + 1] = t[k] + 2.0 * h / den;
+        let at_cap = |j: usize| x[j] >= cap[j] * (1.0 - 1e-9);
+        who.push(if at_cap(k) || at_cap(k + 1) {
+            if at_cap(k) {
+                cap_src[k]
+            } else {
+                cap_src[k + 1]
+            }
+        } else if fwd[k + 1] <= bwd[k + 1] {
+            fwd_src[k + 1]
+        } else {
+            bwd_src[k]
+        });
+    }
+    Ok((MoveTiming::Grid { h, x, t }, who))
+}
+
+/// Plans `path` with the heading law `heading` for `robot` (see the module docs for how).
+///
+/// # Errors
+/// * [`PlanningError::InvalidParameter`] for a bad rate, limit or heading value;
+/// * [`PlanningError::LimitExceeded`] when `opts.on_limit` is [`OnLimit::Reject`] and the
+///   requested timing needs more than a motor limit allows (the worst excess: motor, value,
+///   time, limit, percent);
+/// * [`PlanningError::Infeasible`] for a constant-speed law on a path with stops, or a speed
+///   cap of zero;
+/// * [`PlanningError::Kinematics`] if the kinematics meet a non-finite number.
+pub fn plan(
+    path: &Path,
+    heading: &HeadingLaw,
+    robot: &RobotModel,
+    opts: &PlanOptions,
+) -> Result<Planned, PlanningError> {
+    heading.validate()?;
+    if !(opts.rate.is_finite() && opts.rate > 0.0) {
+        return Err(PlanningError::InvalidParameter {
+            name: "rate",
+            value: opts.rate,
+            rule: "sampling rate must be a finite number > 0 (Hz)",
+        });
+    }
+    match opts.timing {
+        Timing::Profile { kind, limits } => limits.validate(kind == ProfileKind::SCurve)?,
+        Timing::TimeOptimal { limits } => limits.validate(false)?,
+        Timing::ConstantSpeed { speed } => {
+            if !(speed.is_finite() && speed > 0.0) {
+                return Err(PlanningError::InvalidParameter {
+                    name: "speed",
+                    value: speed,
+                    rule: "must be a finite number > 0 (m/s)",
+                });
+            }
+        }
+    }
+    if let InitialSteer::Given(g) = opts.initial_steer
+        && g.iter().any(|v| !v.is_finite())
+    {
+        return Err(PlanningError::InvalidParameter {
+            name: "initial steer",
+            value: g.into_iter().find(|v| !v.is_finite()).unwrap_or(f64::NAN),
+            rule: "steer angles must be finite (rad)",
+        });
+    }
+    let ctx = Ctx {
+        path,
+        heading,
+        robot,
+    };
+    let mut moves = build_moves(&ctx, opts)?;
+    if matches!(opts.timing, Timing::ConstantSpeed { .. }) && moves.len() != 1 {
+        return Err(PlanningError::Infeasible(format!(
+            "a constant-speed law cannot stop, but this path/heading law needs {} stops",
+            moves.len() - 1
+        )));
+    }
+    let mut retimed = Vec::new();
+    let mut active_w: Vec<(Limiter, f64)> = Vec::new();
+    let mut t0 = 0.0;
+    for (i, mv) in moves.iter_mut().enumerate() {
+        mv.t0 = t0;
+        let (timing, limiters) = initial_timing(robot, mv, opts, i, &mut retimed)?;
+        mv.timing = timing;
+        t0 += mv.timing.duration(mv.len);
+        active_w.extend(limiters);
+    }
+    // Sample, check strictly, slow down what still exceeds (grid approximation), repeat.
+    for round in 0..25 {
+        let mut t0 = 0.0;
+        for mv in moves.iter_mut() {
+            mv.t0 = t0;
+            t0 += mv.timing.duration(mv.len);
+        }
+        let plan = sample(&ctx, &moves, opts.rate)?;
+        let peaks = plan_peaks(&plan, robot);
+        let worst = peaks
+            .iter()
+            .filter_map(|p| p.limit.map(|l| (p, p.value / l)))
+            .filter(|(_, r)| *r > 1.0 + 1e-9)
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        match worst {
+            None => {
+                let report = report(
+                    path,
+                    &moves,
+                    plan.duration(),
+                    peaks,
+                    retimed,
+                    active_w,
+                    &plan,
+                );
+                return Ok(Planned { plan, report });
+            }
+            Some((p, ratio)) if round < 24 => {
+                let p = *p;
+                let idx = moves.iter().rposition(|m| m.t0 <= p.t).unwrap_or(0);
+                if opts.on_limit == OnLimit::Reject
+                    && !matches!(opts.timing, Timing::TimeOptimal { .. })
+                {
+                    // Only a grid-approximation residue can get here; refuse like the dense check.
+                    return Err(PlanningError::LimitExceeded(Violation {
+                        quantity: p.quantity,
+                        motor: p.motor,
+                        needed: p.value,
+                        t: p.t,
+                        limit: p.limit.unwrap_or(f64::NAN),
+                    }));
+                }
+                let f = if p.quantity.is_accel() {
+                    ratio.sqrt()
+                } else {
+                    ratio
+                };
+                let limiter = Limiter::Motor {
+                    quantity: p.quantity,
+                    motor: p.motor,
+                };
+                let mv = &mut moves[idx];
+                match &mut mv.timing {
+                    MoveTiming::Profile { lambda, .. } => {
+                        *lambda *= 0.999 / f;
+                        note_retime(&mut retimed, idx, *lambda, limiter);
+                    }
+                    MoveTiming::Constant { v } => {
+                        *v *= 0.999 / f;
+                        note_retime(&mut retimed, idx, *v, limiter);
+                    }
+                    MoveTiming::Grid { .. } => {
+                        let (s, _, _) = mv.timing.eval(p.t - mv.t0, mv.len);
+                        let k = (s / mv.h) as usize;
+                        let n = mv.cap_scale.len();
+                        for j in k.saturating_sub(3)..(k + 4).min(n) {
+                            mv.cap_scale[j] *= 0.98 / (f * f);
+                        }
+                        let (v_user, a_user, user) = user_limits(opts, &mv.kind);
+                        let (timing, _) = time_optimal(robot, mv, v_user, a_user, user)?;
+                        mv.timing = timing;
+                    }
+                }
+            }
+            Some((p, _)) => {
+                return Err(PlanningError::Infeasible(format!(
+                    "could not bring {} {} within {} after repeated slow-downs (peak {:.3} {})",
+                    p.quantity.motor(),
+                    p.motor,
+                    p.quantity.key(),
+                    p.value,
+                    p.quantity.unit()
+                )));
+            }
+        }
+    }
+    unreachable!("the loop returns on its last round")
+}
+
+fn note_retime(retimed: &mut Vec<Retiming>, idx: usize, factor: f64, limiter: Limiter) {
+    if let Some(r) = retimed.iter_mut().find(|r| r.move_index == idx) {
+        r.factor = r.factor.min(factor);
+    } else {
+        retimed.push(Retiming {
+            move_index: idx,
+            factor,
+            limiter,
+        });
+    }
+}
+
+/// The requested speed/acceleration for a move's kind, and their limiter labels.
+fn user_limits(opts: &PlanOptions, kind: &Kind) -> (f64, f64, (Limiter, Limiter)) {
+    let limits = match opts.timing {
+        Timing::Profile { limits, .. } | Timing::TimeOptimal { limits } => limits,
+        Timing::ConstantSpeed { speed } => MotionLimits {
+            max_speed: speed,
+            ..MotionLimits::default()
+        },
+    };
+    match kind {
+        Kind::Travel { .. } => (
+            limits.max_speed,
+            limits.max_accel,
+            (Limiter::MaxSpeed, Limiter::MaxAccel),
+        ),
+        Kind::Turn { .. } => (
+            limits.max_yaw_rate,
+            limits.max_yaw_accel,
+            (Limiter::MaxYawRate, Limiter::MaxYawAccel),
+        ),
+    }
+}
+
+/// The first timing of a move, before the final check on the samples.
+fn initial_timing(
+    robot: &RobotModel,
+    mv: &Move,
+    opts: &PlanOptions,
+    idx: usize,
+    retimed: &mut Vec<Retiming>,
+) -> Result<(MoveTiming, Vec<(Limiter, f64)>), PlanningError> {
+    let timing = match opts.timing {
+        Timing::TimeOptimal { .. } => {
+            let (v_user, a_user, user) = user_limits(opts, &mv.kind);
+            let (timing, who) = time_optimal(robot, mv, v_user, a_user, user)?;
+            let MoveTiming::Grid { t, .. } = &timing else {
+                unreachable!("time_optimal returns a grid timing")
+            };
+            let weights = who
+                .iter()
+                .enumerate()
+                .map(|(k, w)| (*w, t[k + 1] - t[k]))
+                .collect();
+            return Ok((timing, weights));
+        }
+        Timing::Profile { kind, limits } => {
+            let (v, a, j) = match mv.kind {
+                Kind::Travel { .. } => (limits.max_speed, limits.max_accel, limits.max_jerk),
+                Kind::Turn { .. } => (
+                    limits.max_yaw_rate,
+                    limits.max_yaw_accel,
+                    limits.max_yaw_accel * limits.max_jerk / limits.max_accel,
+                ),
+            };
+            MoveTiming::Profile {
+                p: Profile1D::new(kind, mv.len, v, a, j)?,
+                lambda: 1.0,
+            }
+        }
+        Timing::ConstantSpeed { speed } => MoveTiming::Constant { v: speed },
+    };
+    let peaks = move_peaks(robot, mv, &timing);
+    let (rr, ra) = (peaks.rate.0, peaks.accel.0);
+    let dur = timing.duration(mv.len);
+    let user_label = match (&opts.timing, &mv.kind) {
+        (Timing::ConstantSpeed { .. }, _) => Limiter::RequestedSpeed,
+        (_, Kind::Travel { .. }) => Limiter::MaxSpeed,
+        (_, Kind::Turn { .. }) => Limiter::MaxYawRate,
+    };
+    if rr <= 1.0 && ra <= 1.0 {
+        return Ok((timing, vec![(user_label, dur)]));
+    }
+    let (ratio, (_, ch, _, _), accel) = if rr >= ra.sqrt() {
+        (rr, peaks.rate, false)
+    } else {
+        (ra.sqrt(), peaks.accel, true)
+    };
+    let quantity = Quantity::of(ch, accel);
+    if opts.on_limit == OnLimit::Reject {
+        let worst = if rr >= ra {
+            (peaks.rate, false)
+        } else {
+            (peaks.accel, true)
+        };
+        let ((_, ch, t, value), accel) = worst;
+        let quantity = Quantity::of(ch, accel);
+        let limit = if accel {
+            robot.accel_limit(ch)
+        } else {
+            robot.rate_limit(ch)
+        }
+        .unwrap_or(f64::NAN);
+        return Err(PlanningError::LimitExceeded(Violation {
+            quantity,
+            motor: ch % 3 + 1,
+            needed: value,
+            t: t + mv.t0,
+            limit,
+        }));
+    }
+    let lambda = MARGIN / ratio;
+    let limiter = Limiter::Motor {
+        quantity,
+        motor: ch % 3 + 1,
+    };
+    note_retime(retimed, idx, lambda, limiter);
+    let timing = match timing {
+        MoveTiming::Profile { p, .. } => MoveTiming::Profile { p, lambda },
+        MoveTiming::Constant { v } => MoveTiming::Constant { v: v * lambda },
+        g => g,
+    };
+    let dur = timing.duration(mv.len);
+    Ok((timing, vec![(limiter, dur)]))
+}
+
+/// Cuts the path into moves (see the module docs) and builds their grids.
+fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, PlanningError> {
+    let path = ctx.path;
+    let len = path.length();
+    let heading_rate = |s: f64, side: Side, curvature: f64| match ctx.heading {
+        HeadingLaw::Constant(_) => 0.0,
+        HeadingLaw::Tangent { .. } => curvature,
+        HeadingLaw::Profile(p) => p.at(s, side).1,
+    };
+    // Cut points: stops, and joins where q' jumps.
+    let mut cuts: Vec<f64> = Vec::new();
+    for j in path.joins() {
+        let before = [
+            j.before.tangent[0],
+            j.before.tangent[1],
+            heading_rate(j.s, Side::Before, j.before.curvature),
+        ];
+        let after = [
+            j.after.tangent[0],
+            j.after.tangent[1],
+            heading_rate(j.s, Side::After, j.after.curvature),
+        ];
+        if j.stop || jumps(before, after) {
+            cuts.push(j.s);
+        }
+    }
+    for s in ctx.heading.breakpoints() {
+        if s > 0.0 && s < len {
+            let p_before = path.at_side(s, Side::Before);
+            let p_after = path.at_side(s, Side::After);
+            let before = [
+                p_before.tangent[0],
+                p_before.tangent[1],
+                heading_rate(s, Side::Before, p_before.curvature),
+            ];
+            let after = [
+                p_after.tangent[0],
+                p_after.tangent[1],
+                heading_rate(s, Side::After, p_after.curvature),
+            ];
+            if jumps(before, after) {
+                cuts.push(s);
+            }
+        }
+    }
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
+    let mut bounds = vec![0.0];
+    bounds.extend(cuts.into_iter().filter(|&s| s > 1e-12 && s < len - 1e-12));
+    bounds.push(len);
+
+    let first = path.at_side(0.0, Side::After);
+    let mut psi = match ctx.heading {
+        HeadingLaw::Constant(c) => *c,
+        HeadingLaw::Tangent { offset } => first.direction() + offset,
+        HeadingLaw::Profile(p) => p.at(0.0, Side::After).0,
+    };
+    let mut gamma = match opts.initial_steer {
+        InitialSteer::Given(g) => g,
+        InitialSteer::Aligned => {
+            let kind = Kind::Travel {
+                s0: 0.0,
+                s1: bounds[1],
+            };
+            let c = ctx.config(&kind, bounds[1], 0.0, psi);
+            aligned_steer(ctx.robot, &c)
+        }
+    };
+    if !ctx.robot.is_caster() {
+        gamma = [0.0; 3];
+    }
+    let mut moves = Vec::new();
+    for w in bounds.windows(2) {
+        let (s0, s1) = (w[0], w[1]);
+        if let HeadingLaw::Tangent { offset } = ctx.heading
+            && s0 > 0.0
+        {
+            let want = path.at_side(s0, Side::After).direction() + offset;
+            let delta = wrap_pi(want - psi);
+            if delta.abs() > 1e-9 {
+                let p = path.at(s0).point;
+                let kind = Kind::Turn {
+                    x: p[0],
+                    y: p[1],
+                    psi0: psi,
+                    dir: delta.signum(),
+                };
+                let mv = ctx.build_move(kind, delta.abs(), psi, gamma)?;
+                psi += delta;
+                gamma = *mv.gamma.last().unwrap_or(&gamma);
+                moves.push(mv);
+            }
+        }
+        let mv = ctx.build_move(Kind::Travel { s0, s1 }, s1 - s0, psi, gamma)?;
+        psi = *mv.psi.last().unwrap_or(&psi);
+        gamma = *mv.gamma.last().unwrap_or(&gamma);
+        moves.push(mv);
+    }
+    Ok(moves)
+}
+
+/// Samples the timed moves at `rate` Hz (plus the exact end time).
+fn sample(ctx: &Ctx, moves: &[Move], rate: f64) -> Result<Plan, PlanningError> {
+    let last = moves.last().expect("a path has at least one move");
+    let total = last.t0 + last.timing.duration(last.len);
+    let mut times = Vec::new();
+    let mut j = 0usize;
+    loop {
+        let t = j as f64 / rate;
+        if t >= total - 1e-9 * total.max(1.0) {
+            break;
+        }
+        times.push(t);
+        j += 1;
+    }
+    times.push(total);
+    let caster = ctx.robot.is_caster();
+    let mut samples = Vec::with_capacity(times.len());
+    let mut m = 0;
+    for &t in &times {
+        while m + 1 < moves.len() && t >= moves[m + 1].t0 {
+            m += 1;
+        }
+        let mv = &moves[m];
+        let (sigma, v, _) = mv.timing.eval(t - mv.t0, mv.len);
+        let (c, gamma) = ctx.state(mv, sigma)?;
+        let twist = Twist2::new(c.dq[0] * v, c.dq[1] * v, c.dq[2] * v);
+        let r = ctx.robot.rates(c.pose.heading, twist, gamma)?;
+        samples.push(Sample {
+            t,
+            pose: c.pose,
+            twist,
+            wheel_rates: r.wheel,
+            steer: if caster {
+                Some((gamma, r.steer.unwrap_or([0.0; 3])))
+            } else {
+                None
+            },
+        });
+    }
+    Ok(Plan { samples })
+}
+
+/// Peaks of every motor quantity over a sampled plan, against the robot's limits: rates at the
+/// samples, accelerations as differences of consecutive samples over their time step.
+pub fn plan_peaks(plan: &Plan, robot: &RobotModel) -> Vec<Peak> {
+    let chans = robot.channels();
+    let value = |s: &Sample, ch: usize| -> f64 {
+        if ch < 3 {
+            s.wheel_rates[ch]
+        } else {
+            s.steer.map(|(_, r)| r[ch - 3]).unwrap_or(0.0)
+        }
+    };
+    let mut out = Vec::new();
+    for accel in [false, true] {
+        for group in [0..3, 3..6] {
+            if group.start >= chans {
+                continue;
+            }
+            let quantity = Quantity::of(group.start, accel);
+            let mut best = Peak {
+                quantity,
+                motor: 1,
+                value: 0.0,
+                t: 0.0,
+                limit: if accel {
+                    robot.accel_limit(group.start)
+                } else {
+                    robot.rate_limit(group.start)
+                },
+            };
+            for ch in group {
+                if accel {
+                    for w in plan.samples.windows(2) {
+                        let d = ((value(&w[1], ch) - value(&w[0], ch)) / (w[1].t - w[0].t)).abs();
+                        if d > best.value * (1.0 + 1e-9) {
+                            best.value = d;
+                            best.motor = ch % 3 + 1;
+                            best.t = w[1].t;
+                        }
+                    }
+                } else {
+                    for s in &plan.samples {
+                        let r = value(s, ch).abs();
+                        if r > best.value * (1.0 + 1e-9) {
+                            best.value = r;
+                            best.motor = ch % 3 + 1;
+                            best.t = s.t;
+                        }
+                    }
+                }
+            }
+            out.push(best);
+        }
+    }
+    out
+}
+
+fn report(
+    path: &Path,
+    moves: &[Move],
+    duration: f64,
+    peaks: Vec<Peak>,
+    retimed: Vec<Retiming>,
+    active_w: Vec<(Limiter, f64)>,
+    plan: &Plan,
+) -> PlanReport {
+    let mut active: Vec<(Limiter, f64)> = Vec::new();
+    let total: f64 = active_w.iter().map(|a| a.1).sum();
+    for (l, w) in active_w {
+        match active.iter_mut().find(|a| a.0 == l) {
+            Some(a) => a.1 += w,
+            None => active.push((l, w)),
+        }
+    }
+    if total > 0.0 {
+        for a in &mut active {
+            a.1 /= total;
+        }
+    }
+    active.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let moves = moves
+        .iter()
+        .map(|m| {
+            let dur = m.timing.duration(m.len);
+            let peak = match &m.timing {
+                MoveTiming::Profile { p, lambda } => p.peak_speed() * lambda,
+                MoveTiming::Constant { v } => *v,
+                MoveTiming::Grid { x, .. } => x.iter().fold(0.0_f64, |a, &b| a.max(b)).sqrt(),
+            };
+            MoveSummary {
+                kind: match m.kind {
+                    Kind::Travel { s0, s1 } => MoveKind::Travel { s0, s1 },
+                    Kind::Turn { dir, .. } => MoveKind::Turn { angle: dir * m.len },
+                },
+                t0: m.t0,
+                duration: dur,
+                peak_speed: peak,
+            }
+        })
+        .collect();
+    let first = plan.samples.first();
+    PlanReport {
+        duration,
+        path_length: path.length(),
+        moves,
+        peaks,
+        retimed,
+        active,
+        starts_moving: first.is_some_and(|s| {
+            s.twist.vx.hypot(s.twist.vy) > 1e-12 || s.twist.yaw_rate.abs() > 1e-12
+        }),
+    }
+}

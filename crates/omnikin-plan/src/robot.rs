@@ -1,0 +1,175 @@
+//! The robot as the planner sees it: a core kinematic model plus the motor limits of its
+//! description file, with the motor rates arranged as up to six "channels"
+//! (wheel 1–3, and for the caster steer 1–3).
+
+use omnikin::description::{Limits, RobotDescription};
+use omnikin::{Robot, Twist2};
+
+use crate::PlanningError;
+
+/// A robot model with its motor limits (from the robot file's `[limits]`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobotModel {
+    /// Display name (the description's `name`).
+    pub name: String,
+    /// The kinematic model (paper 000 sphere, paper 001 ballbot or paper 003 caster base).
+    pub model: Robot<f64>,
+    /// Motor limits; `None` = unlimited.
+    pub limits: Limits,
+}
+
+/// Motor rates of one instant: wheel (roll) rates and, for the caster, steer rates (rad/s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotorRates {
+    /// Wheel rates `w1, w2, w3` (sphere `χ̇_i`, ballbot `ψ̇_i`, caster roll `φ̇_i`), rad/s.
+    pub wheel: [f64; 3],
+    /// Caster only: steer rates `γ̇_i`, rad/s.
+    pub steer: Option<[f64; 3]>,
+}
+
+/// A limited quantity of one motor.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Quantity {
+    /// Wheel (roll) rate, rad/s (`limits.max_wheel_rate`).
+    WheelRate,
+    /// Wheel (roll) acceleration, rad/s² (`limits.max_wheel_accel`).
+    WheelAccel,
+    /// Caster steer rate, rad/s (`limits.max_steer_rate`).
+    SteerRate,
+    /// Caster steer acceleration, rad/s² (`limits.max_steer_accel`).
+    SteerAccel,
+}
+
+impl Quantity {
+    /// The robot file key of the limit, e.g. `max_wheel_rate`.
+    pub fn key(self) -> &'static str {
+        match self {
+            Quantity::WheelRate => "max_wheel_rate",
+            Quantity::WheelAccel => "max_wheel_accel",
+            Quantity::SteerRate => "max_steer_rate",
+            Quantity::SteerAccel => "max_steer_accel",
+        }
+    }
+
+    /// Unit, `rad/s` or `rad/s²`.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Quantity::WheelRate | Quantity::SteerRate => "rad/s",
+            Quantity::WheelAccel | Quantity::SteerAccel => "rad/s²",
+        }
+    }
+
+    /// The motor kind, `wheel` or `steer`.
+    pub fn motor(self) -> &'static str {
+        match self {
+            Quantity::WheelRate | Quantity::WheelAccel => "wheel",
+            Quantity::SteerRate | Quantity::SteerAccel => "steer",
+        }
+    }
+
+    /// `true` for an acceleration.
+    pub fn is_accel(self) -> bool {
+        matches!(self, Quantity::WheelAccel | Quantity::SteerAccel)
+    }
+
+    /// The quantity of channel `ch` (0–2 wheels, 3–5 steer motors) and order (rate/accel).
+    pub(crate) fn of(ch: usize, accel: bool) -> Self {
+        match (ch < 3, accel) {
+            (true, false) => Quantity::WheelRate,
+            (true, true) => Quantity::WheelAccel,
+            (false, false) => Quantity::SteerRate,
+            (false, true) => Quantity::SteerAccel,
+        }
+    }
+}
+
+impl RobotModel {
+    /// Builds the `f64` model of a validated description.
+    ///
+    /// # Errors
+    /// [`PlanningError::Robot`] if the model cannot be built (it can for every description that
+    /// loaded).
+    pub fn from_description(d: &RobotDescription) -> Result<Self, PlanningError> {
+        let model = d
+            .build::<f64>()
+            .map_err(|e| PlanningError::Robot(e.to_string()))?;
+        Ok(Self {
+            name: d.name.clone(),
+            model,
+            limits: d.limits,
+        })
+    }
+
+    /// `true` for the caster base (paper 003), whose plans carry steer angles and rates.
+    pub fn is_caster(&self) -> bool {
+        matches!(self.model, Robot::Caster(_))
+    }
+
+    /// Number of motor channels: 3, or 6 for the caster.
+    pub fn channels(&self) -> usize {
+        if self.is_caster() { 6 } else { 3 }
+    }
+
+    /// Rate limit (rad/s) of channel `ch` (0–2 wheels, 3–5 steer motors).
+    pub fn rate_limit(&self, ch: usize) -> Option<f64> {
+        if ch < 3 {
+            self.limits.max_wheel_rate
+        } else {
+            self.limits.max_steer_rate
+        }
+    }
+
+    /// Acceleration limit (rad/s²) of channel `ch`.
+    pub fn accel_limit(&self, ch: usize) -> Option<f64> {
+        if ch < 3 {
+            self.limits.max_wheel_accel
+        } else {
+            self.limits.max_steer_accel
+        }
+    }
+
+    /// **Inverse kinematics** through the core crate for a world-frame twist `(ẋ, ẏ, ψ̇)`
+    /// (m/s, m/s, rad/s) at heading `ψ` (rad) — sphere: `SphereOmni::wheel_rates_world` with
+    /// shell spin `Ω3 = 0` (paper 000, eqs. 5.6–5.7); ballbot: `Ballbot::wheel_rates_world`
+    /// with ball spin 0 (paper 001); caster: `Caster3::motor_rates` at steer angles `steer`
+    /// (rad; paper 003, eq. 2). The result is linear in the twist.
+    ///
+    /// # Errors
+    /// [`PlanningError::Kinematics`] for non-finite input.
+    pub fn rates(
+        &self,
+        heading: f64,
+        twist_world: Twist2<f64>,
+        steer: [f64; 3],
+    ) -> Result<MotorRates, PlanningError> {
+        Ok(match &self.model {
+            Robot::Sphere(m) => MotorRates {
+                wheel: m.wheel_rates_world(twist_world, heading, 0.0)?,
+                steer: None,
+            },
+            Robot::Ballbot(m) => MotorRates {
+                wheel: m.wheel_rates_world(twist_world, heading, 0.0)?,
+                steer: None,
+            },
+            Robot::Caster(m) => {
+                let r = m.motor_rates(twist_world, heading, steer)?;
+                MotorRates {
+                    wheel: r.roll,
+                    steer: Some(r.steer),
+                }
+            }
+        })
+    }
+
+    /// [`RobotModel::rates`] as a channel vector (steer entries 0 for robots without steering).
+    pub(crate) fn channel_rates(
+        &self,
+        heading: f64,
+        twist_world: Twist2<f64>,
+        steer: [f64; 3],
+    ) -> Result<[f64; 6], PlanningError> {
+        let r = self.rates(heading, twist_world, steer)?;
+        let s = r.steer.unwrap_or([0.0; 3]);
+        Ok([r.wheel[0], r.wheel[1], r.wheel[2], s[0], s[1], s[2]])
+    }
+}
