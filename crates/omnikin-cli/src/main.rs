@@ -11,6 +11,8 @@ use clap::{Parser, Subcommand};
 mod args;
 mod figures;
 mod kinematics;
+mod plan;
+mod plot;
 mod sim;
 
 use args::{Triple, finite_f64};
@@ -47,6 +49,9 @@ enum Command {
     Torques(TorquesArgs),
     /// Validate a robot description and print its derived geometry, conditioning and limits.
     Check(CheckArgs),
+    /// Plan a trajectory (paper 000's square or circle, or a path through waypoints) within
+    /// the robot file's motor limits and write its wheel commands as CSV or JSON.
+    Plan(plan::PlanArgs),
     /// Monte-Carlo simulation of a plan under motor and slip disturbances, with the paper's
     /// metrics and figure (paper 000 §6, paper 003 §4).
     Simulate(sim::SimulateArgs),
@@ -156,6 +161,7 @@ fn main() -> ExitCode {
         Command::Forward(a) => kinematics::forward(&a),
         Command::Torques(a) => kinematics::torques(&a),
         Command::Check(a) => kinematics::check(&a),
+        Command::Plan(a) => plan::run(&a),
         Command::Simulate(a) => sim::simulate(&a),
         Command::Evaluate(a) => sim::evaluate_tracks(&a),
         Command::Reproduce(a) => sim::reproduce(&a),
