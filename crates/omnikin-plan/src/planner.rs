@@ -380,8 +380,9 @@ struct Move {
     gamma: Vec<[f64; 3]>,
     timing: MoveTiming,
     t0: f64,
-    /// Extra cap factor on `x` per grid point (time-optimal repair).
-    cap_scale: Vec<f64>,
+    /// Factor (≤ 1) on the motor limits the time-optimal pass aims at, lowered when the final
+    /// check on the samples finds a residual excess.
+    limit_scale: f64,
 }
 
 struct Ctx<'a> {
@@ -395,13 +396,15 @@ impl Ctx<'_> {
     /// ±π of the answer (for the tangent law).
     fn config(&self, kind: &Kind, len: f64, sigma: f64, hint: f64) -> Config {
         match *kind {
-            Kind::Travel { s0, .. } => {
-                let side = if sigma >= len {
-                    Side::Before
+            Kind::Travel { s0, s1 } => {
+                // The end is evaluated exactly at `s1` on the incoming side (`s0 + len` can
+                // round past a join and pick the next piece's direction).
+                let s = s0 + sigma.max(0.0);
+                let (s, side) = if sigma >= len || s >= s1 {
+                    (s1, Side::Before)
                 } else {
-                    Side::After
+                    (s, Side::After)
                 };
-                let s = s0 + sigma.clamp(0.0, len);
                 let p = self.path.at_side(s, side);
                 let (psi, dpsi) = match self.heading {
                     HeadingLaw::Constant(c) => (*c, 0.0),
@@ -477,7 +480,7 @@ impl Ctx<'_> {
         let mut hint = psi_start;
         let mut g = gamma0;
         for k in 0..=n {
-            let sigma = k as f64 * h;
+            let sigma = if k == n { len } else { k as f64 * h };
             if k > 0 {
                 g = self.steer_step(&kind, len, sigma - h, g, h, hint)?;
             }
@@ -498,7 +501,7 @@ impl Ctx<'_> {
             gamma,
             timing: MoveTiming::Constant { v: 1.0 },
             t0: 0.0,
-            cap_scale: vec![1.0; n + 1],
+            limit_scale: 1.0,
         })
     }
 
@@ -628,6 +631,7 @@ fn time_optimal(
     let n = mv.a.len() - 1;
     let h = mv.h;
     let chans = robot.channels();
+    let margin = MARGIN * mv.limit_scale;
     // Speed caps on x = σ̇².
     let mut cap = vec![0.0; n + 1];
     let mut cap_src = vec![user.0; n + 1];
@@ -639,9 +643,9 @@ fn time_optimal(
             let b = mv.b[k][ch].abs();
             if let Some(l) = robot.rate_limit(ch)
                 && a > 0.0
-                && (l * MARGIN / a).powi(2) < c
+                && (l * margin / a).powi(2) < c
             {
-                c = (l * MARGIN / a).powi(2);
+                c = (l * margin / a).powi(2);
                 src = Limiter::Motor {
                     quantity: Quantity::of(ch, false),
                     motor: ch % 3 + 1,
@@ -649,16 +653,16 @@ fn time_optimal(
             }
             if let Some(l) = robot.accel_limit(ch)
                 && b > 0.0
-                && l * MARGIN / b < c
+                && l * margin / b < c
             {
-                c = l * MARGIN / b;
+                c = l * margin / b;
                 src = Limiter::Motor {
                     quantity: Quantity::of(ch, true),
                     motor: ch % 3 + 1,
                 };
             }
         }
-        cap[k] = c * mv.cap_scale[k];
+        cap[k] = c;
         cap_src[k] = src;
     }
     // Largest admissible unknown end value of cell k (forward: y = x_{k+1} given x_k = known;
@@ -666,10 +670,15 @@ fn time_optimal(
     let step = |k: usize, known: f64, forward: bool| -> (f64, Limiter) {
         let (a0, b0, a1, b1) = (&mv.a[k], &mv.b[k], &mv.a[k + 1], &mv.b[k + 1]);
         let i2h = 1.0 / (2.0 * h);
-        let mut hi = if forward { cap[k + 1] } else { cap[k] };
-        let mut src = if forward { cap_src[k + 1] } else { cap_src[k] };
+        let (cap_y, cap_who) = if forward {
+            (cap[k + 1], cap_src[k + 1])
+        } else {
+            (cap[k], cap_src[k])
+        };
+        let (mut lo, mut hi, mut src) = (0.0_f64, cap_y, cap_who);
         let mut consider = |c: f64, e: f64, bound: f64, who: Limiter| {
-            let (_, u) = bound_interval(c, e, bound);
+            let (l, u) = bound_interval(c, e, bound);
+            lo = lo.max(l);
             if u < hi {
                 hi = u;
                 src = who;
@@ -685,7 +694,7 @@ fn time_optimal(
             let Some(l) = robot.accel_limit(ch) else {
                 continue;
             };
-            let l = l * MARGIN;
+            let l = l * margin;
             let who = Limiter::Motor {
                 quantity: Quantity::of(ch, true),
                 motor: ch % 3 + 1,
@@ -698,7 +707,13 @@ fn time_optimal(
                 consider(-a1[ch] * i2h, (a1[ch] * i2h + b1[ch]) * known, l, who);
             }
         }
-        (hi.max(0.0), src)
+        if lo > hi {
+            // No admissible end value: the known end is too fast for this cell in this
+            // direction (e.g. the forward pass meeting a sharp drop of the cap). The other
+            // pass bounds the speed here, so this one leaves only the cap.
+            return (cap_y, cap_who);
+        }
+        (hi, src)
     };
     let mut fwd = vec![0.0; n + 1];
     let mut fwd_src = vec![user.0; n + 1];
@@ -869,15 +884,12 @@ pub fn plan(
                     }
                     MoveTiming::Constant { v } => {
                         *v *= 0.999 / f;
-                        note_retime(&mut retimed, idx, *v, limiter);
+                        if let Timing::ConstantSpeed { speed } = opts.timing {
+                            note_retime(&mut retimed, idx, *v / speed, limiter);
+                        }
                     }
                     MoveTiming::Grid { .. } => {
-                        let (s, _, _) = mv.timing.eval(p.t - mv.t0, mv.len);
-                        let k = (s / mv.h) as usize;
-                        let n = mv.cap_scale.len();
-                        for j in k.saturating_sub(3)..(k + 4).min(n) {
-                            mv.cap_scale[j] *= 0.98 / (f * f);
-                        }
+                        mv.limit_scale *= 0.995 / ratio;
                         let (v_user, a_user, user) = user_limits(opts, &mv.kind);
                         let (timing, _) = time_optimal(robot, mv, v_user, a_user, user)?;
                         mv.timing = timing;
