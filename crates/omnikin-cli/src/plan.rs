@@ -537,6 +537,14 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
             ),
             None => "no limit in the robot file".into(),
         };
+        if p.value < 1e-9 {
+            eprintln!(
+                "{name} {:>9.3} {:<7} (constant), {limit}",
+                0.0,
+                p.quantity.unit()
+            );
+            continue;
+        }
         eprintln!(
             "{name} {:>9.3} {:<7} ({} {} at t = {:.2} s), {limit}",
             p.value,
