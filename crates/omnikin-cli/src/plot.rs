@@ -80,10 +80,6 @@ pub struct Band {
 impl Band {
     /// The band between two curves: `upper` forwards, then `lower` backwards (e.g. `mean ± h`
     /// in a time series, or the left and right borders of a path band).
-    #[allow(
-        dead_code,
-        reason = "for confidence bands in the simulator's figures; the plan figure has none"
-    )]
     pub fn between(
         label: impl Into<String>,
         upper: &[(f64, f64)],
