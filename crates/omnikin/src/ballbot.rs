@@ -43,7 +43,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::real::{finite, finite_param, finite3, positive};
+use crate::real::{finite, finite_out, finite_param, finite3, positive};
 use crate::{GeometryError, InputError, MAX_CONDITION, Pose2, Real, Twist2, condition_number, se2};
 
 /// Geometry of a ballbot (paper 001). Lengths in metres, angles in radians.
@@ -178,7 +178,7 @@ impl<T: Real> Ballbot<T> {
             omega_rel.into(),
             ["omega_rel.x", "omega_rel.y", "omega_rel.z"],
         )?;
-        Ok((self.kb * omega_rel).into())
+        finite_out((self.kb * omega_rel).into(), "wheel_rates")
     }
 
     /// The ball's angular velocity relative to the body, `ω = (−v_y/R_b, v_x/R_b, Ω_z − β̇)`
@@ -188,11 +188,11 @@ impl<T: Real> Ballbot<T> {
         twist.check_finite()?;
         finite(ball_spin, "ball_spin")?;
         let inv = T::one() / self.params.ball_radius;
-        Ok(Vector3::new(
-            -twist.vy * inv,
-            twist.vx * inv,
-            ball_spin - twist.yaw_rate,
-        ))
+        let w: [T; 3] = finite_out(
+            [-twist.vy * inv, twist.vx * inv, ball_spin - twist.yaw_rate],
+            "relative rate",
+        )?;
+        Ok(Vector3::from(w))
     }
 
     /// **Inverse kinematics**: wheel rates (rad/s) for the ball-centre velocity
@@ -200,7 +200,7 @@ impl<T: Real> Ballbot<T> {
     /// (rad/s) and ball spin about the vertical `ball_spin` (rad/s, usually 0). Not limited.
     pub fn wheel_rates(&self, twist: Twist2<T>, ball_spin: T) -> Result<[T; 3], InputError> {
         let w = self.relative_rate(twist, ball_spin)?;
-        Ok((self.kb * w).into())
+        finite_out((self.kb * w).into(), "wheel_rates")
     }
 
     /// [`Ballbot::wheel_rates`] for a **world-frame** ball velocity and body yaw `yaw = β`
@@ -223,7 +223,11 @@ impl<T: Real> Ballbot<T> {
             wheel_rates,
             ["wheel_rates[0]", "wheel_rates[1]", "wheel_rates[2]"],
         )?;
-        Ok(self.kb_inv * Vector3::from(wheel_rates))
+        let w: [T; 3] = finite_out(
+            (self.kb_inv * Vector3::from(wheel_rates)).into(),
+            "relative rate",
+        )?;
+        Ok(Vector3::from(w))
     }
 
     /// **Forward kinematics**: ball-centre velocity (m/s, body-yaw-aligned frame) and body yaw
@@ -233,7 +237,8 @@ impl<T: Real> Ballbot<T> {
         finite(ball_spin, "ball_spin")?;
         let w = self.relative_rate_from_wheels(wheel_rates)?;
         let rb = self.params.ball_radius;
-        Ok(Twist2::new(rb * w.y, -rb * w.x, ball_spin - w.z))
+        let [vx, vy, wz] = finite_out([rb * w.y, -rb * w.x, ball_spin - w.z], "twist")?;
+        Ok(Twist2::new(vx, vy, wz))
     }
 
     /// `A(β) = Rz(β) A(0)`: the projection matrix of paper 001 at body yaw `β`, columns
@@ -252,7 +257,10 @@ impl<T: Real> Ballbot<T> {
             ["wheel_torques[0]", "wheel_torques[1]", "wheel_torques[2]"],
         )?;
         finite(yaw, "yaw")?;
-        Ok((self.projection(yaw) * Vector3::from(wheel_torques)).into())
+        finite_out(
+            (self.projection(yaw) * Vector3::from(wheel_torques)).into(),
+            "model_torques",
+        )
     }
 
     /// **Model torques → wheel torques**: `[T1, T2, T3] = A(β)⁻¹ [Tx, Ty, Tz]` (N·m), the exact
@@ -263,7 +271,10 @@ impl<T: Real> Ballbot<T> {
             ["model_torques[0]", "model_torques[1]", "model_torques[2]"],
         )?;
         finite(yaw, "yaw")?;
-        Ok((self.a0_inv * (rot_z(-yaw) * Vector3::from(model_torques))).into())
+        finite_out(
+            (self.a0_inv * (rot_z(-yaw) * Vector3::from(model_torques))).into(),
+            "wheel_torques",
+        )
     }
 
     /// **Wheel rates → model rates** `v = A(β)⁻ᵀ ψ̇` (rad/s), the rates power-conjugate to the
@@ -276,7 +287,7 @@ impl<T: Real> Ballbot<T> {
         )?;
         finite(yaw, "yaw")?;
         let v_body = self.a0_inv.transpose() * Vector3::from(wheel_rates);
-        Ok((rot_z(yaw) * v_body).into())
+        finite_out((rot_z(yaw) * v_body).into(), "model_rates")
     }
 
     /// **Model rates → wheel rates** `ψ̇ = A(β)ᵀ v` (rad/s): the dual of
@@ -291,7 +302,10 @@ impl<T: Real> Ballbot<T> {
             ["model_rates[0]", "model_rates[1]", "model_rates[2]"],
         )?;
         finite(yaw, "yaw")?;
-        Ok((self.projection(yaw).transpose() * Vector3::from(model_rates)).into())
+        finite_out(
+            (self.projection(yaw).transpose() * Vector3::from(model_rates)).into(),
+            "wheel_rates",
+        )
     }
 
     /// **Odometry step** (paper 001): world-frame ball displacement `(dx, dy)` (m) from the
@@ -318,7 +332,7 @@ impl<T: Real> Ballbot<T> {
             Pose2::new(T::zero(), T::zero(), yaw_start),
             se2::twist_exp(body_step, T::one()),
         );
-        Ok([p.x, p.y])
+        finite_out([p.x, p.y], "ball displacement")
     }
 }
 

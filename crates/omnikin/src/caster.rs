@@ -360,7 +360,7 @@ impl<T: Real> Caster3<T> {
     ///
     /// # Errors
     /// [`InputError::NonFinite`] naming `"vx"`, `"vy"`, `"yaw_rate"`, `"heading"` or
-    /// `"steer[i]"`.
+    /// `"steer[i]"`; [`InputError::Overflow`] when finite inputs give non-finite rates.
     pub fn motor_rates(
         &self,
         twist_world: Twist2<T>,
@@ -378,6 +378,8 @@ impl<T: Real> Caster3<T> {
             out.roll[i] = a[0] * q[0] + a[1] * q[1] + a[2] * q[2];
             out.steer[i] = b[0] * q[0] + b[1] * q[1] + b[2] * q[2];
         }
+        crate::real::finite_out(out.roll, "roll rates")?;
+        crate::real::finite_out(out.steer, "steer rates")?;
         Ok(out)
     }
 

@@ -77,6 +77,13 @@ pub enum InputError {
         /// The input's name (e.g. `"vx"`, `"wheel_rates[2]"`).
         field: &'static str,
     },
+    /// The inputs are finite but the result is not representable (overflow to ±∞ or NaN), e.g.
+    /// `vx = 1e308`.
+    #[error("{quantity} overflowed: the inputs are too large for the result to be finite")]
+    Overflow {
+        /// The output that overflowed (e.g. `"wheel_rates"`).
+        quantity: &'static str,
+    },
     /// The requested motion passes through a kinematic singularity of the robot.
     #[error("singular configuration: {reason}")]
     Singular {

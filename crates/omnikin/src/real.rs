@@ -68,6 +68,20 @@ pub(crate) fn finite3<T: Real>(
     Ok(x)
 }
 
+/// `Ok(x)` if every element of the result `x` is finite, otherwise
+/// [`crate::InputError::Overflow`] naming `quantity`.
+#[inline]
+pub(crate) fn finite_out<T: Real, const N: usize>(
+    x: [T; N],
+    quantity: &'static str,
+) -> Result<[T; N], crate::InputError> {
+    if x.iter().all(|v| v.is_finite()) {
+        Ok(x)
+    } else {
+        Err(crate::InputError::Overflow { quantity })
+    }
+}
+
 /// Checks a geometry parameter is finite and strictly positive.
 #[inline]
 pub(crate) fn positive<T: Real>(x: T, field: &'static str) -> Result<T, crate::GeometryError> {

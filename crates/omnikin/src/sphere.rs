@@ -36,7 +36,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::real::{finite, finite_param, finite3, positive};
+use crate::real::{finite, finite_out, finite_param, finite3, positive};
 use crate::{GeometryError, InputError, MAX_CONDITION, Real, Twist2, condition_number};
 
 /// Geometry of a spherical robot with an internal three-omni-wheel platform (paper 000, §4 and
@@ -216,7 +216,7 @@ impl<T: Real> SphereOmni<T> {
             omega_rel.into(),
             ["omega_rel.x", "omega_rel.y", "omega_rel.z"],
         )?;
-        Ok((self.g * omega_rel).into())
+        finite_out((self.g * omega_rel).into(), "wheel_rates")
     }
 
     /// Shell angular velocity relative to the platform, `ω̃ = (1/R) e3 × V + (Ω3 − ψ̇) e3`
@@ -226,11 +226,15 @@ impl<T: Real> SphereOmni<T> {
         twist.check_finite()?;
         finite(shell_spin, "shell_spin")?;
         let inv_r = T::one() / self.params.shell_radius;
-        Ok(Vector3::new(
-            -twist.vy * inv_r,
-            twist.vx * inv_r,
-            shell_spin - twist.yaw_rate,
-        ))
+        let w: [T; 3] = finite_out(
+            [
+                -twist.vy * inv_r,
+                twist.vx * inv_r,
+                shell_spin - twist.yaw_rate,
+            ],
+            "relative rate",
+        )?;
+        Ok(Vector3::from(w))
     }
 
     /// Absolute angular velocity of the shell, `Ω = (1/R) e3 × V + Ω3 e3` (rad/s, platform
@@ -253,7 +257,7 @@ impl<T: Real> SphereOmni<T> {
     /// rolling", the paper's choice). The rates are not limited.
     pub fn wheel_rates(&self, twist: Twist2<T>, shell_spin: T) -> Result<[T; 3], InputError> {
         let w = self.relative_rate(twist, shell_spin)?;
-        Ok((self.g * w).into())
+        finite_out((self.g * w).into(), "wheel_rates")
     }
 
     /// [`SphereOmni::wheel_rates`] for a **world-frame** velocity `ṙ_C` and platform heading
@@ -276,7 +280,11 @@ impl<T: Real> SphereOmni<T> {
             wheel_rates,
             ["wheel_rates[0]", "wheel_rates[1]", "wheel_rates[2]"],
         )?;
-        Ok(self.g_inv * Vector3::from(wheel_rates))
+        let w: [T; 3] = finite_out(
+            (self.g_inv * Vector3::from(wheel_rates)).into(),
+            "relative rate",
+        )?;
+        Ok(Vector3::from(w))
     }
 
     /// **Forward kinematics** (inverse of eqs. 5.6–5.7): the platform-frame twist (shell-centre
@@ -287,7 +295,8 @@ impl<T: Real> SphereOmni<T> {
         finite(shell_spin, "shell_spin")?;
         let w = self.relative_rate_from_wheels(wheel_rates)?;
         let big_r = self.params.shell_radius;
-        Ok(Twist2::new(big_r * w.y, -big_r * w.x, shell_spin - w.z))
+        let [vx, vy, wz] = finite_out([big_r * w.y, -big_r * w.x, shell_spin - w.z], "twist")?;
+        Ok(Twist2::new(vx, vy, wz))
     }
 
     /// Shell spin `Ω3 = ω̃_z + ψ̇` (rad/s) from the wheel rates and a measured platform yaw rate
@@ -295,6 +304,10 @@ impl<T: Real> SphereOmni<T> {
     /// special means" (eq. 5.6 read backwards).
     pub fn shell_spin(&self, wheel_rates: [T; 3], yaw_rate: T) -> Result<T, InputError> {
         finite(yaw_rate, "yaw_rate")?;
-        Ok(self.relative_rate_from_wheels(wheel_rates)?.z + yaw_rate)
+        let [spin] = finite_out(
+            [self.relative_rate_from_wheels(wheel_rates)?.z + yaw_rate],
+            "shell_spin",
+        )?;
+        Ok(spin)
     }
 }

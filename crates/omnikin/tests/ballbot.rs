@@ -308,3 +308,64 @@ fn bad_geometry_and_input() {
         Err(InputError::NonFinite { field: "yaw_start" })
     );
 }
+
+/// At α = 30° (sin α ≠ cos α) the projection matrix and the velocity map follow paper 001's
+/// formulas written out here independently: `A(β)` rows `cos α cos β_i`, `cos α sin β_i`,
+/// `sin α`; wheel rates `ψ̇ = A(β)ᵀ v` with model rates `v = (R_b/r_w)(−ω_x, −ω_y, ω_z)`
+/// (world-yaw frame), and the E2 closed-form inverse.
+#[test]
+fn maps_at_a_zenith_other_than_45_degrees() {
+    let alpha = 30.0 * DEG;
+    let (rb, rw) = (0.1, 0.04);
+    let m = Ballbot::new(BallbotParams {
+        ball_radius: rb,
+        wheel_radius: rw,
+        zenith: alpha,
+        azimuths: [0.0, 120.0 * DEG, -120.0 * DEG],
+    })
+    .unwrap();
+    let (sa, ca) = alpha.sin_cos();
+    let yaw = 0.7;
+    let az = [yaw, yaw + 120.0 * DEG, yaw - 120.0 * DEG];
+    let t = [0.3, -0.2, 0.5];
+    let expected: [f64; 3] = [
+        ca * (0..3).map(|i| t[i] * az[i].cos()).sum::<f64>(),
+        ca * (0..3).map(|i| t[i] * az[i].sin()).sum::<f64>(),
+        sa * t.iter().sum::<f64>(),
+    ];
+    assert!(close(m.model_torques(t, yaw).unwrap(), expected, 1e-14));
+    // E2 closed form at β = 0 with sin α ≠ cos α.
+    let (tx, ty, tz) = (0.3, -0.7, 0.2);
+    let s3 = 3f64.sqrt();
+    let inv = [
+        (tz / sa + 2.0 * tx / ca) / 3.0,
+        (tz / sa - tx / ca + s3 * ty / ca) / 3.0,
+        (tz / sa - tx / ca - s3 * ty / ca) / 3.0,
+    ];
+    assert!(close(
+        m.wheel_torques([tx, ty, tz], 0.0).unwrap(),
+        inv,
+        1e-13
+    ));
+    // Velocity duality: wheel rates of a world-frame motion equal A(β)ᵀ v.
+    let tw_world = Twist2::new(0.2, -0.3, 0.4);
+    let tw_body = tw_world.to_robot(yaw);
+    let omega_body = Vector3::new(-tw_body.vy / rb, tw_body.vx / rb, -tw_body.yaw_rate);
+    let k = rb / rw;
+    let (s, c) = yaw.sin_cos();
+    // Model rates in the world-yaw frame: rotate the body-frame (−kω_x, −kω_y) by β.
+    let vb = [-k * omega_body.x, -k * omega_body.y];
+    let v = [
+        c * vb[0] - s * vb[1],
+        s * vb[0] + c * vb[1],
+        k * omega_body.z,
+    ];
+    let psi: [f64; 3] =
+        core::array::from_fn(|i| ca * az[i].cos() * v[0] + ca * az[i].sin() * v[1] + sa * v[2]);
+    assert!(close(
+        m.wheel_rates_world(tw_world, yaw, 0.0).unwrap(),
+        psi,
+        1e-12
+    ));
+    assert!(close(m.wheel_rates_from_model(v, yaw).unwrap(), psi, 1e-12));
+}

@@ -297,3 +297,66 @@ fn bad_input_is_an_error_not_a_panic() {
         Err(InputError::NonFinite { field: "heading" })
     );
 }
+
+/// Finite inputs whose result overflows are an error, not ±∞ or NaN in the output.
+#[test]
+fn overflow_is_an_error() {
+    let m = preset();
+    assert_eq!(
+        m.wheel_rates(Twist2::new(1e308, 0.0, 0.0), 0.0),
+        Err(InputError::Overflow {
+            quantity: "relative rate"
+        })
+    );
+    // Whatever the magnitude: a finite answer or an Overflow error, never ±∞/NaN in Ok.
+    for big in [1e300, 1e307, f64::MAX] {
+        for w in [[big, -big, big], [big, big, big], [-big, 0.0, big]] {
+            match m.body_twist(w, 0.0) {
+                Ok(t) => assert!(t.is_finite(), "{t:?}"),
+                Err(e) => assert!(matches!(e, InputError::Overflow { .. }), "{e}"),
+            }
+            match m.wheel_rates(Twist2::new(w[0], w[1], w[2]), 0.0) {
+                Ok(r) => assert!(r.iter().all(|x| x.is_finite())),
+                Err(e) => assert!(matches!(e, InputError::Overflow { .. }), "{e}"),
+            }
+        }
+    }
+}
+
+/// The digest's closed form of `s_i` (paper 000, §4) at angles other than 45° (where
+/// sin = cos would hide a swap), and `s_i·n_i = (R − R_i) sin ξ`.
+#[test]
+fn levers_match_the_closed_form_at_other_angles() {
+    let (big_r, rw, delta, xi) = (0.2, 0.05, 30.0 * DEG, 60.0 * DEG);
+    let phi = [10.0 * DEG, 130.0 * DEG, 250.0 * DEG];
+    let m = SphereOmni::new(SphereParams {
+        shell_radius: big_r,
+        wheel_radius: [rw; 3],
+        tilt: delta,
+        roller_angle: xi,
+        azimuths: phi,
+    })
+    .unwrap();
+    let l = big_r - rw;
+    for i in 0..3 {
+        let (sp, cp) = phi[i].sin_cos();
+        let (sd, cd) = delta.sin_cos();
+        let (sx, cx) = xi.sin_cos();
+        let s = Vector3::new(sp * cx + cp * cd * sx, -(cp * cx - cd * sp * sx), sd * sx) * l;
+        assert!(
+            (m.levers()[i] - s).norm() < 1e-15,
+            "wheel {i}: {:?} vs {s:?}",
+            m.levers()[i]
+        );
+        assert!((m.s_dot_n()[i] - l * sx).abs() < 1e-15);
+        let r = Vector3::new(sd * cp, sd * sp, -cd) * l;
+        assert!((m.wheel_centres()[i] - r).norm() < 1e-15);
+    }
+    // And the wheel rate of eq. 5.7 computed by hand for wheel 1, V = (0.1, 0.2), ψ̇ = 0.3.
+    let (v, yaw) = ([0.1, 0.2], 0.3);
+    let w_rel = Vector3::new(-v[1] / big_r, v[0] / big_r, -yaw);
+    let s1 = m.levers()[0];
+    let expected = (big_r / rw) * s1.dot(&w_rel) / (l * xi.sin());
+    let got = m.wheel_rates(Twist2::new(v[0], v[1], yaw), 0.0).unwrap()[0];
+    assert!((got - expected).abs() < 1e-12, "{got} vs {expected}");
+}
