@@ -16,6 +16,9 @@
 //! | [`sphere`] | sphere rolled by an internal 3-omni-wheel platform | 000 | [`sphere::SphereOmni::wheel_rates`] | [`sphere::SphereOmni::body_twist`] |
 //! | [`ballbot`] | body balancing on a ball, 3 omni-wheels | 001 | [`ballbot::Ballbot::wheel_rates`] | [`ballbot::Ballbot::body_twist`] |
 //! | [`caster`] | base on three off-centred steerable wheels | 003 | [`caster::Caster3::motor_rates`] | [`caster::Caster3::body_twist`] |
+//! | [`odometry`] | all three: encoder angles → pose (exact SE(2) steps), heading from wheels, gyro or yaw; caster slip residual, sphere shell spin | 000, 001, 003 | — | [`odometry::Odometry::update`] |
+//! | [`ahrs`] | attitude and gyro bias from gyro + accelerometer + magnetometer (Mahony 2008) | 000 | — | [`ahrs::Mahony::update`] |
+//! | [`estimator`] | Kalman filter over (x, y, heading): odometry prediction, delayed camera fixes (WPILib-style replay), χ² gate | 000 | — | [`estimator::PoseEstimator::add_fix`] |
 //!
 //! ```
 //! use omnikin::sphere::{SphereOmni, SphereParams};
@@ -54,8 +57,11 @@ mod error;
 mod real;
 mod types;
 
+pub mod ahrs;
 pub mod ballbot;
 pub mod caster;
+pub mod estimator;
+pub mod odometry;
 pub mod se2;
 pub mod sphere;
 
