@@ -8,8 +8,9 @@
 //! report (`MahonyAHRS`): the correction `e = â × v̂ + ê_m` (measured × predicted reference
 //! directions) drives the gyro rates through a proportional gain `k_P` and an integral term
 //! `b̂̇ = −k_I e` that converges to the gyro bias. Two deliberate differences from that report:
-//! the magnetometer term is projected on the estimated vertical, so magnetic disturbances only
-//! affect the yaw (not roll and pitch), and the reference field's horizontal direction is a
+//! the magnetometer term is the sine of the horizontal heading error applied about the
+//! estimated vertical (its gain does not depend on the field's dip, and a magnetic disturbance
+//! acts on the yaw, reaching roll and pitch only through the small bias transient), and the reference field's horizontal direction is a
 //! parameter (REP-103 world frames are east-north-up, so magnetic north is `+y`, azimuth π/2,
 //! unless you choose otherwise). The quaternion is advanced with the exact exponential of the
 //! corrected rate over the step.
@@ -177,8 +178,9 @@ impl<T: Real> Mahony<T> {
     /// frame). An accelerometer reading of zero length (free fall) skips the gravity correction;
     /// a magnetometer reading with no horizontal component skips the heading correction.
     ///
-    /// With `v̂ = q⁻¹ e_z` and `ŵ = q⁻¹ b` the predicted directions of gravity and the field,
-    /// `e = â × v̂ + ((m̂ × ŵ)·v̂) v̂`, `b̂ ← b̂ − k_I e dt`, `ω = gyro − b̂ + k_P e`,
+    /// With `v̂ = q⁻¹ e_z` the predicted direction of gravity, `h = q m` the measured field in the
+    /// world and `δ` the angle from its horizontal part to the reference azimuth,
+    /// `e = â × v̂ + sin(δ) v̂`, `b̂ ← b̂ − k_I e dt`, `ω = gyro − b̂ + k_P e`,
     /// `q ← q ⊗ exp(ω dt)` (Mahony et al. 2008, eqs. 32–33).
     ///
     /// # Errors
@@ -210,16 +212,16 @@ impl<T: Real> Mahony<T> {
             e += (a / an).cross(&up);
         }
         if let Some(m) = m {
-            // Reference field: the measured field in the world, its horizontal part turned to
-            // the reference azimuth (Madgwick 2010's b = (|h_xy|, 0, h_z), generalised).
+            // Heading error from the horizontal part of the measured field mapped into the
+            // world: `sin δ = (ĥ_xy × b̂_xy)_z` with `b̂_xy` the reference direction; applied
+            // about the vertical only (Madgwick 2010's reference `b = (|h_xy|, 0, h_z)`, with
+            // the dip removed so the yaw gain does not depend on it).
             let h = self.q * m;
             let hxy = h.x.hypot(h.y);
             if hxy > T::EPSILON * m.norm() {
                 let (s, c) = self.field_azimuth.sin_cos();
-                let b = Vector3::new(hxy * c, hxy * s, h.z);
-                let w = inv * b;
-                let em = (m / m.norm()).cross(&(w / w.norm()));
-                e += up * em.dot(&up);
+                let sin_delta = (h.x * s - h.y * c) / hxy;
+                e += up * sin_delta;
             }
         }
         let bias = self.bias - e * (self.gains.ki * dt);

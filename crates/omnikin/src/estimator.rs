@@ -364,9 +364,15 @@ impl<T: Real, const N: usize> PoseEstimator<T, N> {
         self.current().t
     }
 
-    /// Oldest time a fix may carry, s (older fixes get [`EstimatorError::FixTooOld`]).
+    /// Oldest time a fix may carry, s (older fixes get [`EstimatorError::FixTooOld`]): the
+    /// state before the oldest buffered step, or, when fixes have filled all `N` entries since
+    /// the last prediction, the end of the oldest step.
     pub fn oldest_time(&self) -> T {
-        self.base.t
+        if self.len == N {
+            self.buf[self.head].t
+        } else {
+            self.base.t
+        }
     }
 
     /// Number of fixes rejected by the gate since the last accepted one: a long run means the
@@ -562,10 +568,11 @@ impl<T: Real, const N: usize> PoseEstimator<T, N> {
                 latest: latest.to_f64(),
             });
         }
-        if fix.t < self.base.t {
+        let oldest = self.oldest_time();
+        if fix.t < oldest {
             return Err(EstimatorError::FixTooOld {
                 t: fix.t.to_f64(),
-                oldest: self.base.t.to_f64(),
+                oldest: oldest.to_f64(),
             });
         }
         let gate_of = |f: &Fix<T>| {
