@@ -399,7 +399,12 @@ pub fn check(a: &CheckArgs) -> Result<()> {
                 text.push(format!(
                     "  turning in place, wheels tangential (γ = ±90°): {yaw:.4} rad/s"
                 ));
-                j["max_speed_m_per_s"] = json!(v);
+                // Same shape as the other robots: one entry per direction (all equal here).
+                j["max_speed_m_per_s"] = json!(
+                    (0..8)
+                        .map(|k| json!({"direction_deg": 45.0 * k as f64, "speed": v}))
+                        .collect::<Vec<_>>()
+                );
                 j["max_yaw_rate_rad_per_s"] = json!(yaw);
             }
         }

@@ -7,7 +7,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use omnikin::description::RobotDescription;
 use omnikin_plan::Plan;
-use omnikin_sim::metrics::{MeanTrajectory, Metrics, Run, evaluate, mean_trajectory};
+use omnikin_sim::metrics::{
+    MeanTrajectory, Metrics, Run, evaluate, mean_trajectory, tracked_reference,
+};
 use omnikin_sim::track::{Alignment, Track};
 use omnikin_sim::{Profile, Trial, run_trials};
 use serde_json::json;
@@ -53,9 +55,26 @@ pub struct EvaluateArgs {
     /// moving from the plan's start point).
     #[arg(long)]
     pub no_align_position: bool,
+    /// Where the tracked marker sits on the robot: X,Y in the robot frame, m (default 0,0:
+    /// the centre). The runs are compared with the planned path of that point.
+    #[arg(long, allow_hyphen_values = true, value_name = "X,Y", value_parser = parse_pair)]
+    pub tracking_offset: Option<[f64; 2]>,
     /// Output directory (created): metrics.json, runs.csv, mean.csv, figure.svg.
     #[arg(long)]
     pub out: PathBuf,
+}
+
+/// Parses `X,Y` (two finite numbers).
+fn parse_pair(s: &str) -> Result<[f64; 2], String> {
+    let v: Vec<&str> = s.split(',').collect();
+    if v.len() != 2 {
+        return Err(format!(
+            "expected two comma-separated numbers X,Y (m), got \"{s}\""
+        ));
+    }
+    let x = crate::args::finite_f64(v[0])?;
+    let y = crate::args::finite_f64(v[1])?;
+    Ok([x, y])
 }
 
 fn create_dir(dir: &Path) -> Result<()> {
@@ -93,14 +112,26 @@ pub fn write_mean(path: &Path, plan: &Plan, mean: &MeanTrajectory) -> Result<()>
 
 fn write_trials(path: &Path, trials: &[Trial]) -> Result<()> {
     write_file(path, |w| {
-        writeln!(w, "trial,t,x,y,heading,tracked_x,tracked_y,slip_residual")?;
+        writeln!(
+            w,
+            "trial,t,x,y,heading,tracked_x,tracked_y,slip_residual,q1,q2,q3"
+        )?;
         for (i, tr) in trials.iter().enumerate() {
             for k in 0..tr.t.len() {
                 let (p, q) = (tr.pose[k], tr.tracked[k]);
                 writeln!(
                     w,
-                    "{i},{},{},{},{},{},{},{}",
-                    tr.t[k], p.x, p.y, p.heading, q[0], q[1], tr.slip_residual[k]
+                    "{i},{},{},{},{},{},{},{},{},{},{}",
+                    tr.t[k],
+                    p.x,
+                    p.y,
+                    p.heading,
+                    q[0],
+                    q[1],
+                    tr.slip_residual[k],
+                    tr.encoder_angles[k][0],
+                    tr.encoder_angles[k][1],
+                    tr.encoder_angles[k][2]
                 )?;
             }
         }
@@ -166,6 +197,9 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
         Some(p) => Profile::load(p)?,
         None => Profile::default(),
     };
+    if let Some(why) = omnikin_sim::plan_mismatch(&robot, &plan) {
+        eprintln!("warning: {}: {why}", a.plan.display());
+    }
     create_dir(&a.out)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads.unwrap_or(0))
@@ -179,6 +213,8 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     })?;
     pb.finish_and_clear();
     let runs = runs_of(&trials);
+    // Metrics compare what the tracker saw with the planned path of the tracked point.
+    let plan = tracked_reference(&plan, profile.tracking.offset.unwrap_or([0.0; 2]));
     let metrics = evaluate(&plan, &runs);
     let mean = mean_trajectory(&runs, 0.95);
     let meta = json!({
@@ -219,7 +255,10 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
             a.motion_threshold
         );
     }
-    let plan = Plan::load_csv(&a.plan)?;
+    let plan = tracked_reference(
+        &Plan::load_csv(&a.plan)?,
+        a.tracking_offset.unwrap_or([0.0; 2]),
+    );
     let align = Alignment {
         motion_threshold_m: a.motion_threshold,
         align_position: !a.no_align_position,
@@ -236,6 +275,7 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
         "plan": a.plan.display().to_string(),
         "tracks": a.tracks.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
         "motion_threshold_m": a.motion_threshold, "align_position": !a.no_align_position,
+        "tracking_offset_m": a.tracking_offset.unwrap_or([0.0; 2]),
     });
     write_file(&a.out.join("metrics.json"), |w| {
         writeln!(

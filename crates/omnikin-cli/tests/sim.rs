@@ -77,7 +77,7 @@ fn ideal_simulation_matches_the_plan_and_writes_everything() {
     let svg = std::fs::read_to_string(out.join("figure.svg")).unwrap();
     assert!(svg.contains("planned (theoretical)") && svg.contains("x [m]"));
     let trials = std::fs::read_to_string(out.join("trials.csv")).unwrap();
-    assert!(trials.starts_with("trial,t,x,y,heading,tracked_x,tracked_y,slip_residual\n"));
+    assert!(trials.starts_with("trial,t,x,y,heading,tracked_x,tracked_y,slip_residual,q1,q2,q3\n"));
     assert_eq!(trials.lines().count(), 1 + 3 * 315);
 }
 
@@ -292,4 +292,82 @@ fn reproduce_sphere_2019_writes_the_table_and_figures() {
         assert!(out.join(format!("{s}-hardware.svg")).exists(), "{s}");
     }
     assert!(out.join("table.md").exists() && out.join("metrics.json").exists());
+}
+
+#[test]
+fn evaluate_with_marker_offset_and_wrapped_heading() {
+    let d = tmp("marker");
+    let plan_path = circle_plan(&d);
+    let plan = Plan::load_csv(&plan_path).unwrap();
+    // A perfect run tracked by a marker 0.05 m to the robot's left, heading reported in (−π, π].
+    let mut text = String::from("t,x,y,heading\n");
+    for s in &plan.samples {
+        let (sn, cs) = s.pose.heading.sin_cos();
+        let h = (s.pose.heading + core::f64::consts::PI).rem_euclid(core::f64::consts::TAU)
+            - core::f64::consts::PI;
+        text.push_str(&format!(
+            "{},{},{},{}\n",
+            s.t,
+            s.pose.x - 0.05 * sn,
+            s.pose.y + 0.05 * cs,
+            h
+        ));
+    }
+    let track = d.join("marker.csv");
+    std::fs::write(&track, text).unwrap();
+    let out = d.join("eval");
+    omnikin()
+        .args([
+            "evaluate",
+            "--plan",
+            plan_path.to_str().unwrap(),
+            track.to_str().unwrap(),
+            "--tracking-offset",
+            "0,0.05",
+            "--no-align-position",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .assert()
+        .success();
+    let m = metrics(&out);
+    assert!(m["max_deviation_m"].as_f64().unwrap() < 1e-9, "{m}");
+    assert!(m["max_heading_error_rad"].as_f64().unwrap() < 1e-9, "{m}");
+    omnikin()
+        .args([
+            "evaluate",
+            "--plan",
+            plan_path.to_str().unwrap(),
+            track.to_str().unwrap(),
+            "--tracking-offset",
+            "0.05",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("two comma-separated numbers"));
+}
+
+#[test]
+fn simulating_a_plan_on_the_wrong_robot_warns() {
+    let d = tmp("wrong");
+    let plan = circle_plan(&d);
+    omnikin()
+        .args([
+            "simulate",
+            plan.to_str().unwrap(),
+            "--robot",
+            "ballbot",
+            "--trials",
+            "1",
+            "--out",
+            d.join("o").to_str().unwrap(),
+        ])
+        .assert()
+        .success()
+        .stderr(
+            predicate::str::contains("warning:")
+                .and(predicate::str::contains("planned for another robot")),
+        );
 }

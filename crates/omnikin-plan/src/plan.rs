@@ -209,8 +209,12 @@ impl Plan {
         }
         let mut samples = Vec::new();
         for (k, rec) in r.records().enumerate() {
-            let line = k + 2;
-            let rec = rec.map_err(|e| err(Some(line), format!("{e}")))?;
+            // The reader's own line numbers: blank lines are skipped, not counted out.
+            let rec = rec.map_err(|e| {
+                let line = e.position().map_or(k + 2, |p| p.line() as usize);
+                err(Some(line), format!("{e}"))
+            })?;
+            let line = rec.position().map_or(k + 2, |p| p.line() as usize);
             let get = |i: usize, name: &str| -> Result<f64, PlanError> {
                 let s = rec
                     .get(i)

@@ -27,8 +27,10 @@ mod motor;
 mod plant;
 pub mod profile;
 pub mod reproduce;
+pub mod sensors;
+pub mod sil;
 pub mod track;
 
 pub use monte_carlo::{run_trials, trial_rng};
-pub use plant::{SimError, Trial, simulate_trial};
+pub use plant::{SimError, Trial, plan_mismatch, simulate_trial};
 pub use profile::Profile;

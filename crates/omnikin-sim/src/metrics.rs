@@ -79,6 +79,25 @@ pub struct Metrics {
     pub radius_ratio: Option<f64>,
 }
 
+/// `a − b` folded into (−π, π]: headings that differ by whole turns are equal.
+pub fn angle_diff(a: f64, b: f64) -> f64 {
+    let d = a - b;
+    d - core::f64::consts::TAU * (d / core::f64::consts::TAU).round()
+}
+
+/// The plan as seen by a tracker that follows a point at the horizontal `offset` (robot frame,
+/// m) from the robot centre: each planned position moved by the offset rotated with the
+/// planned heading. Metrics of tracked runs are computed against this path.
+pub fn tracked_reference(plan: &Plan, offset: [f64; 2]) -> Plan {
+    let mut out = plan.clone();
+    for s in &mut out.samples {
+        let (sn, cs) = s.pose.heading.sin_cos();
+        s.pose.x += cs * offset[0] - sn * offset[1];
+        s.pose.y += sn * offset[0] + cs * offset[1];
+    }
+    out
+}
+
 /// Two-sided Student-t quantile for `level` (e.g. 0.95) with `n − 1` degrees of freedom.
 pub fn t_quantile(level: f64, n: usize) -> f64 {
     if n < 2 {
@@ -276,7 +295,7 @@ pub fn evaluate(plan: &Plan, runs: &[Run]) -> Metrics {
             let e = h
                 .iter()
                 .zip(&plan.samples)
-                .map(|(h, s)| (h - s.pose.heading).abs())
+                .map(|(h, s)| angle_diff(*h, s.pose.heading).abs())
                 .fold(0.0, f64::max);
             max_head = Some(max_head.map_or(e, |m: f64| m.max(e)));
         }

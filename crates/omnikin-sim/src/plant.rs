@@ -25,6 +25,9 @@ pub struct Trial {
     pub slip_residual: Vec<f64>,
     /// Actual cumulative wheel (roll) angles, rad: the encoders' ground truth.
     pub wheel_angles: Vec<[f64; 3]>,
+    /// What the wheel encoders read, rad: `wheel_angles` quantised down to whole counts
+    /// (`[encoder] counts_per_rev`; equal to `wheel_angles` without an encoder profile).
+    pub encoder_angles: Vec<[f64; 3]>,
     /// Caster: actual steer angles, rad.
     pub steer_angles: Vec<[f64; 3]>,
 }
@@ -111,7 +114,29 @@ pub fn simulate_trial(
         tracked: Vec::with_capacity(n),
         slip_residual: Vec::with_capacity(n),
         wheel_angles: Vec::with_capacity(n),
+        encoder_angles: Vec::with_capacity(n),
         steer_angles: Vec::with_capacity(n),
+    };
+    let count = profile
+        .encoder
+        .counts_per_rev
+        .map(|c| core::f64::consts::TAU / c as f64);
+    let height = profile.tracking.height.unwrap_or(0.0);
+    let tilt_gain = profile.tracking.tilt_gain.unwrap_or(0.0);
+    // Previous recorded (time, position) and (time, velocity) of the centre, for the
+    // quasi-static lean: velocities and accelerations by differences between samples, so the
+    // step-to-step jitter of a stepper does not read as acceleration.
+    let mut last_position: Option<(f64, [f64; 2])> = None;
+    let mut last_velocity: Option<(f64, [f64; 2])> = None;
+    // Shell (ballbot: ball) spin about the vertical, Ω3 = const + g·|V|^p·ω̃_z, added to the
+    // yaw rate of a twist computed with Ω3 = 0 (where ω̃_z = −yaw rate).
+    let (spin_gain, spin_exp) = (
+        profile.shell_spin.slip_gain.unwrap_or(0.0),
+        profile.shell_spin.slip_exponent.unwrap_or(1.0),
+    );
+    let with_spin = |tw0: Twist2<f64>| {
+        let spin = const_spin + spin_gain * tw0.vx.hypot(tw0.vy).powf(spin_exp) * (-tw0.yaw_rate);
+        Twist2::new(tw0.vx, tw0.vy, tw0.yaw_rate + spin)
     };
     let mut record = |t: f64,
                       pose: Pose2<f64>,
@@ -124,16 +149,45 @@ pub fn simulate_trial(
             pose.x + c * offset[0] - s * offset[1],
             pose.y + s * offset[0] + c * offset[1],
         ];
+        if tilt_gain > 0.0 && height != 0.0 {
+            let here = [pose.x, pose.y];
+            if let Some((t0, p0)) = last_position
+                && t > t0
+            {
+                let v = [(here[0] - p0[0]) / (t - t0), (here[1] - p0[1]) / (t - t0)];
+                if let Some((t1, v1)) = last_velocity
+                    && t > t1
+                {
+                    // Two backward differences one interval apart (centred on the previous
+                    // sample).
+                    let dt = t - t1;
+                    let a = [(v[0] - v1[0]) / dt, (v[1] - v1[1]) / dt];
+                    let norm = a[0].hypot(a[1]);
+                    if norm > 0.0 {
+                        let lean = (tilt_gain * norm / 9.80665).atan();
+                        let shift = -height * lean.sin() / norm;
+                        p[0] += shift * a[0];
+                        p[1] += shift * a[1];
+                    }
+                }
+                last_velocity = Some((t, v));
+            }
+            last_position = Some((t, here));
+        }
         if noise > 0.0 {
             p[0] += noise * gauss(rng);
             p[1] += noise * gauss(rng);
         }
+        let angles: [f64; 3] = core::array::from_fn(|i| wheels[i].angle());
         out.t.push(t);
         out.pose.push(pose);
         out.tracked.push(p);
         out.slip_residual.push(slip);
-        out.wheel_angles
-            .push(core::array::from_fn(|i| wheels[i].angle()));
+        out.wheel_angles.push(angles);
+        out.encoder_angles.push(match count {
+            Some(q) => angles.map(|a| (a / q).floor() * q),
+            None => angles,
+        });
         out.steer_angles.push(steer);
     };
     record(first.t, pose, 0.0, &wheels, steer, rng);
@@ -167,16 +221,8 @@ pub fn simulate_trial(
             }
             let kin = |source| SimError::Kinematics { t, source };
             let mut twist = match robot {
-                Robot::Sphere(m) => {
-                    let tw0 = m.body_twist(w, 0.0).map_err(kin)?;
-                    // ω̃_z = −tw0.yaw_rate; Ω3 = const + g·|V|^p·ω̃_z.
-                    let speed = tw0.vx.hypot(tw0.vy);
-                    let g = profile.shell_spin.slip_gain.unwrap_or(0.0);
-                    let p = profile.shell_spin.slip_exponent.unwrap_or(1.0);
-                    let spin = const_spin + g * speed.powf(p) * (-tw0.yaw_rate);
-                    Twist2::new(tw0.vx, tw0.vy, tw0.yaw_rate + spin)
-                }
-                Robot::Ballbot(m) => m.body_twist(w, const_spin).map_err(kin)?,
+                Robot::Sphere(m) => with_spin(m.body_twist(w, 0.0).map_err(kin)?),
+                Robot::Ballbot(m) => with_spin(m.body_twist(w, 0.0).map_err(kin)?),
                 Robot::Caster(m) => {
                     let mut sd = [0.0; 3];
                     let mut steer_next = steer;
@@ -212,4 +258,45 @@ pub fn simulate_trial(
         record(b.t, pose, slip, &wheels, steer, rng);
     }
     Ok(out)
+}
+
+/// Checks that `plan`'s wheel (and steer) rates are what `robot`'s inverse kinematics give for
+/// the planned motion. Returns a description of the largest disagreement when it exceeds
+/// 1e-6 rad/s relative, e.g. a plan made for another robot or geometry. (Simulating a nominal
+/// plan on a deliberately different robot file is legitimate, so callers usually warn.)
+pub fn plan_mismatch(robot: &Robot<f64>, plan: &Plan) -> Option<String> {
+    let mut worst: Option<(f64, f64, usize, f64, f64)> = None; // (excess, t, wheel, plan, robot)
+    for s in &plan.samples {
+        let expected: Option<Vec<f64>> = match robot {
+            Robot::Sphere(m) => m
+                .wheel_rates_world(s.twist, s.pose.heading, 0.0)
+                .ok()
+                .map(|w| w.to_vec()),
+            Robot::Ballbot(m) => m
+                .wheel_rates_world(s.twist, s.pose.heading, 0.0)
+                .ok()
+                .map(|w| w.to_vec()),
+            Robot::Caster(m) => s
+                .steer
+                .and_then(|(g, _)| m.motor_rates(s.twist, s.pose.heading, g).ok())
+                .map(|r| r.roll.iter().chain(&r.steer).copied().collect()),
+        };
+        let Some(expected) = expected else { continue };
+        let planned: Vec<f64> = s
+            .wheel_rates
+            .iter()
+            .chain(s.steer.iter().flat_map(|(_, sd)| sd.iter()))
+            .copied()
+            .collect();
+        for (i, (&p, &e)) in planned.iter().zip(&expected).enumerate() {
+            let excess = (p - e).abs() / (1.0 + e.abs());
+            if excess > 1e-6 && worst.is_none_or(|w| excess > w.0) {
+                worst = Some((excess, s.t, i, p, e));
+            }
+        }
+    }
+    worst.map(|(_, t, i, p, e)| {
+        let name = if i < 3 { format!("w{}", i + 1) } else { format!("sd{}", i - 2) };
+        format!("the plan's {name} = {p:.6} rad/s at t = {t:.3} s, but this robot's inverse kinematics give {e:.6} rad/s (planned for another robot or geometry?)")
+    })
 }

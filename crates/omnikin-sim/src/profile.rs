@@ -36,7 +36,12 @@
 //!
 //! [tracking]                    # what the camera sees
 //! offset = [0.0, 0.0]           # tracked point in the robot frame relative to the centre, m
+//! height = -0.03                # m above the centre (paper 000: platform top, 30 mm below)
+//! tilt_gain = 1.0               # quasi-static lean toward the acceleration (0: level)
 //! noise_std = 0.001             # m, white position noise per frame
+//!
+//! [encoder]                     # every robot: encoder quantisation of the wheel angles
+//! counts_per_rev = 4096
 //! ```
 
 use serde::Deserialize;
@@ -107,13 +112,33 @@ pub struct FloorProfile {
 }
 
 /// What an external tracker (camera) records.
+///
+/// The tracked point sits at `offset` (horizontal, robot frame) and `height` above the robot's
+/// centre (the sphere's shell centre; paper 000 tracked the platform top, 120 mm above the floor
+/// contact, i.e. 30 mm *below* the centre of its 0.15 m shell: `height = -0.03`). A kinematic
+/// plant keeps the platform level, so the height matters only with `tilt_gain`: a quasi-static
+/// lean `θ = atan(tilt_gain·|a|/g)` of the platform toward the body's acceleration `a`, which
+/// moves the tracked point horizontally by `−height·sin θ` along `a`. This is a stand-in for
+/// the platform's rocking, not a dynamic model.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrackingProfile {
-    /// Tracked point relative to the robot centre in the robot frame, m.
+    /// Horizontal position of the tracked point relative to the robot centre, robot frame, m.
     pub offset: Option<[f64; 2]>,
+    /// Height of the tracked point above the robot centre, m (negative: below).
+    pub height: Option<f64>,
+    /// Gain of the quasi-static lean toward the acceleration (0: level platform).
+    pub tilt_gain: Option<f64>,
     /// Standard deviation of white position noise per recorded sample, m.
     pub noise_std: Option<f64>,
+}
+
+/// Wheel encoders: the recorded wheel angles are quantised to whole counts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EncoderProfile {
+    /// Counts per wheel revolution (after any quadrature multiplication).
+    pub counts_per_rev: Option<u32>,
 }
 
 /// How motor set-points are interpolated between plan samples.
@@ -154,6 +179,9 @@ pub struct Profile {
     /// Tracking.
     #[serde(default)]
     pub tracking: TrackingProfile,
+    /// Wheel encoders.
+    #[serde(default)]
+    pub encoder: EncoderProfile,
 }
 
 /// A profile that failed to load: file, line or field, rule.
@@ -265,6 +293,15 @@ impl Profile {
         non_negative("floor.rel_std", self.floor.rel_std)?;
         positive("floor.corr_time", self.floor.corr_time)?;
         non_negative("tracking.noise_std", self.tracking.noise_std)?;
+        non_negative("tracking.tilt_gain", self.tracking.tilt_gain)?;
+        if let Some(h) = self.tracking.height
+            && !h.is_finite()
+        {
+            return Err(format!("tracking.height: must be finite (got {h})"));
+        }
+        if self.encoder.counts_per_rev == Some(0) {
+            return Err("encoder.counts_per_rev: must be ≥ 1".into());
+        }
         if let Some(o) = self.tracking.offset
             && !o.iter().all(|x| x.is_finite())
         {

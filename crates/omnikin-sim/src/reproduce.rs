@@ -125,9 +125,10 @@ pub fn sphere_2019_series(
 /// Assumed imperfections of a small stepper-driven sphere that a kinematic plant can carry:
 /// 200-step motors at 16 microsteps (20 kHz step-rate limit), ±1 % speed fluctuation held for
 /// 10 ms (paper 003 §4.1), 1 % wheel-radius scatter, 2 % roller hand-over modulation with 6
-/// rollers, a random shell spin of 0.003 rad/s (paper 000 found Ω3 ≈ 0 at low
-/// speed), 2 % floor slip (0.5 s correlation) and 2 mm video
-/// tracking noise (the paper's camera hung 2.5 m above the floor).
+/// rollers, 4096-count encoders, a random shell spin of 0.003 rad/s (paper 000 found Ω3 ≈ 0 at low
+/// speed), 2 % floor slip (0.5 s correlation), and a video tracker on the platform top (30 mm
+/// below the shell centre, quasi-static lean toward the acceleration) with 2 mm noise (the
+/// paper's camera hung 2.5 m above the floor).
 pub fn hardware_profile() -> Profile {
     Profile {
         rate: Some(1000.0),
@@ -152,9 +153,16 @@ pub fn hardware_profile() -> Profile {
             rel_std: Some(0.02),
             corr_time: Some(0.5),
         },
+        // Paper 000 tracked the platform top, 120 mm above the floor contact: 30 mm below the
+        // shell centre; a quasi-static lean stands in for the platform's rocking.
         tracking: TrackingProfile {
             offset: None,
+            height: Some(-0.03),
+            tilt_gain: Some(1.0),
             noise_std: Some(0.002),
+        },
+        encoder: crate::profile::EncoderProfile {
+            counts_per_rev: Some(4096),
         },
         ..Default::default()
     }
@@ -220,9 +228,13 @@ pub fn run_series(
                 heading: Some(t.pose.iter().map(|p| p.heading).collect()),
             })
             .collect();
+        let reference = crate::metrics::tracked_reference(
+            &series.plan,
+            profile.tracking.offset.unwrap_or([0.0; 2]),
+        );
         out.push(Outcome {
             profile: name,
-            metrics: evaluate(&series.plan, &runs),
+            metrics: evaluate(&reference, &runs),
             runs,
         });
     }
@@ -242,6 +254,10 @@ pub struct Row {
     pub speed_m_per_s: f64,
     /// What the paper reports.
     pub paper: String,
+    /// The paper's bound on the maximum deviation, % of path (low-speed series only).
+    pub paper_max_deviation_pct_of_path: Option<f64>,
+    /// The paper's fitted/planned radius (the 0.4 and 0.5 m/s circles only).
+    pub paper_radius_ratio: Option<f64>,
     /// Ideal plant: max deviation, % of path.
     pub ideal_max_deviation_pct_of_path: f64,
     /// Hardware profile: max deviation, % of path.
@@ -269,6 +285,15 @@ pub fn row(series: &Series, outcomes: &[Outcome]) -> Row {
         series: series.name.clone(),
         speed_m_per_s: series.speed,
         paper: series.paper.to_string(),
+        paper_max_deviation_pct_of_path: (series.k <= 2.0)
+            .then_some(PAPER_LOW_SPEED_MAX_DEVIATION_PCT),
+        paper_radius_ratio: match series.experiment {
+            Experiment::Circle => PAPER_RADIUS_RATIOS
+                .iter()
+                .find(|(v, _)| (v - series.speed).abs() < 1e-9)
+                .map(|(_, r)| *r),
+            Experiment::Square => None,
+        },
         ideal_max_deviation_pct_of_path: i.map_or(f64::NAN, |m| m.max_deviation_pct_of_path),
         hardware_max_deviation_pct_of_path: h.map_or(f64::NAN, |m| m.max_deviation_pct_of_path),
         hardware_max_deviation_from_mean_m: h.map_or(f64::NAN, |m| m.max_deviation_from_mean_m),
@@ -317,27 +342,17 @@ pub fn table_markdown(rows: &[Row], trials: usize, seed: u64) -> String {
     s
 }
 
-/// The results table as CSV (one header row, one row per series).
+/// The results table as CSV (one header row naming the [`Row`] fields, one row per series;
+/// absent values empty).
 pub fn table_csv(rows: &[Row]) -> String {
-    let mut s = String::from(
-        "series,speed_m_per_s,paper,ideal_max_deviation_pct_of_path,hardware_max_deviation_pct_of_path,hardware_max_deviation_from_mean_m,hardware_radius_ratio,spin_slip_max_deviation_pct_of_path,spin_slip_radius_ratio\n",
-    );
-    let o = |v: Option<f64>| v.map_or(String::new(), |x| x.to_string());
+    let mut w = csv::Writer::from_writer(Vec::new());
     for r in rows {
-        s.push_str(&format!(
-            "{},{},\"{}\",{},{},{},{},{},{}\n",
-            r.series,
-            r.speed_m_per_s,
-            r.paper,
-            r.ideal_max_deviation_pct_of_path,
-            r.hardware_max_deviation_pct_of_path,
-            r.hardware_max_deviation_from_mean_m,
-            o(r.hardware_radius_ratio),
-            r.spin_slip_max_deviation_pct_of_path,
-            o(r.spin_slip_radius_ratio)
-        ));
+        // Serialising plain numbers, strings and options into memory cannot fail.
+        let _ = w.serialize(r);
     }
-    s
+    w.into_inner()
+        .map(|b| String::from_utf8_lossy(&b).into_owned())
+        .unwrap_or_default()
 }
 
 #[cfg(test)]
@@ -352,6 +367,32 @@ mod tests {
             assert!((1.0 / (1.0 - s) - ratio).abs() < 1e-12);
         }
         assert!(p > 0.0 && g > 0.0);
+    }
+
+    #[test]
+    fn csv_table_has_a_header_and_quotes_text() {
+        let row = Row {
+            series: "circle-0.4".into(),
+            speed_m_per_s: 0.4,
+            paper: "fitted radius 1.4 × planned, repeatably".into(),
+            paper_max_deviation_pct_of_path: None,
+            paper_radius_ratio: Some(1.4),
+            ideal_max_deviation_pct_of_path: 0.0,
+            hardware_max_deviation_pct_of_path: 2.0,
+            hardware_max_deviation_from_mean_m: 0.05,
+            hardware_radius_ratio: Some(1.004),
+            spin_slip_max_deviation_pct_of_path: 14.8,
+            spin_slip_radius_ratio: Some(1.413),
+        };
+        let text = table_csv(&[row]);
+        let mut r = csv::Reader::from_reader(text.as_bytes());
+        let h = r.headers().unwrap().clone();
+        assert_eq!(&h[0], "series");
+        assert!(h.iter().any(|c| c == "paper_radius_ratio"));
+        let rec = r.records().next().unwrap().unwrap();
+        assert_eq!(&rec[2], "fitted radius 1.4 × planned, repeatably");
+        assert_eq!(&rec[3], "");
+        assert_eq!(&rec[4], "1.4");
     }
 
     #[test]

@@ -93,8 +93,12 @@ impl Track {
             heading: ih.map(|_| Vec::new()),
         };
         for (k, rec) in r.records().enumerate() {
-            let line = k + 2;
-            let rec = rec.map_err(|e| err(Some(line), e.to_string()))?;
+            // The reader's own line numbers: blank lines are skipped, not counted out.
+            let rec = rec.map_err(|e| {
+                let line = e.position().map_or(k + 2, |p| p.line() as usize);
+                err(Some(line), e.to_string())
+            })?;
+            let line = rec.position().map_or(k + 2, |p| p.line() as usize);
             let get = |i: usize, name: &str| -> Result<f64, TrackError> {
                 let s = rec
                     .get(i)
@@ -124,6 +128,13 @@ impl Track {
             track.xy.push([get(ix, "x")?, get(iy, "y")?]);
             if let (Some(i), Some(h)) = (ih, track.heading.as_mut()) {
                 h.push(get(i, "heading")?);
+            }
+        }
+        // Unwrap the heading (trackers often report it in (−π, π]).
+        if let Some(h) = track.heading.as_mut() {
+            for k in 1..h.len() {
+                let d = h[k] - h[k - 1];
+                h[k] = h[k - 1] + d - core::f64::consts::TAU * (d / core::f64::consts::TAU).round();
             }
         }
         if track.t.len() < 2 {
@@ -229,6 +240,28 @@ mod tests {
                 s.pose
             );
         }
+    }
+
+    #[test]
+    fn blank_lines_keep_line_numbers_and_headings_unwrap() {
+        let e = Track::read_csv("t,x,y\n0,0,0\n\n0.1,0,0\n0.2,bad,0\n".as_bytes(), "a.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("a.csv:5: column x"), "{e}");
+        let t = Track::read_csv(
+            "t,x,y,heading\n0,0,0,3.1\n0.1,0,0,-3.1\n0.2,0,0,-3.0\n".as_bytes(),
+            "a.csv",
+        )
+        .unwrap();
+        let h = t.heading.unwrap();
+        assert!(
+            (h[1] - (2.0 * core::f64::consts::PI - 3.1)).abs() < 1e-12,
+            "{h:?}"
+        );
+        assert!(
+            (h[2] - (2.0 * core::f64::consts::PI - 3.0)).abs() < 1e-12,
+            "{h:?}"
+        );
     }
 
     #[test]

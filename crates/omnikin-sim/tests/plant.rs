@@ -422,3 +422,137 @@ fn presets_simulate() {
     let e = simulate_trial(&robot, &cplan, &Profile::default(), &mut trial_rng(3, 0)).unwrap_err();
     assert!(e.to_string().contains("not caster3"), "{e}");
 }
+
+#[test]
+fn encoder_quantisation_floors_to_whole_counts() {
+    let plan = paper_circle(0.2, 1.0, 50.0);
+    let p = Profile::from_toml_str("[encoder]\ncounts_per_rev = 100\n", "test").unwrap();
+    let t = simulate_trial(&sphere(), &plan, &p, &mut trial_rng(0, 0)).unwrap();
+    let q = core::f64::consts::TAU / 100.0;
+    let mut moved = false;
+    for (e, w) in t.encoder_angles.iter().zip(&t.wheel_angles) {
+        for i in 0..3 {
+            let counts = e[i] / q;
+            assert!(
+                (counts - counts.round()).abs() < 1e-9,
+                "not whole counts: {counts}"
+            );
+            assert!(
+                e[i] <= w[i] + 1e-12 && w[i] - e[i] < q,
+                "{} vs {}",
+                e[i],
+                w[i]
+            );
+            moved |= e[i] != w[i];
+        }
+    }
+    assert!(moved);
+}
+
+#[test]
+fn tracking_offset_rotates_with_heading_and_matches_its_reference() {
+    // A marker 0.1 m ahead of the centre on the circle (heading ψ = ω0 t).
+    let plan = paper_circle(0.2, 1.0, 50.0);
+    let p = Profile::from_toml_str("[tracking]\noffset = [0.1, 0.0]\n", "test").unwrap();
+    let t = simulate_trial(&sphere(), &plan, &p, &mut trial_rng(0, 0)).unwrap();
+    for (k, s) in plan.samples.iter().enumerate() {
+        let (sn, cs) = s.pose.heading.sin_cos();
+        let want = [s.pose.x + 0.1 * cs, s.pose.y + 0.1 * sn];
+        assert!((t.tracked[k][0] - want[0]).hypot(t.tracked[k][1] - want[1]) < 1e-9);
+    }
+    let run = [Run {
+        xy: t.tracked.clone(),
+        heading: None,
+    }];
+    let against_centre = evaluate(&plan, &run);
+    let against_marker = evaluate(
+        &omnikin_sim::metrics::tracked_reference(&plan, [0.1, 0.0]),
+        &run,
+    );
+    assert!(against_centre.max_deviation_m > 0.05);
+    assert!(
+        against_marker.max_deviation_m < 1e-9
+            && (against_marker.radius_ratio.unwrap() - 1.0).abs() < 1e-9
+    );
+}
+
+#[test]
+fn quasi_static_lean_moves_a_low_tracking_point_toward_the_acceleration() {
+    // On the circle the acceleration points to the centre (|a| = Rt ω0²); a point 30 mm below
+    // the shell centre leans toward it by 0.03·sin(atan(|a|/g)).
+    let (rt, w0) = (0.2, 2.5);
+    let plan = paper_circle(rt, w0, 100.0);
+    let p =
+        Profile::from_toml_str("[tracking]\nheight = -0.03\ntilt_gain = 1.0\n", "test").unwrap();
+    let t = simulate_trial(&sphere(), &plan, &p, &mut trial_rng(0, 0)).unwrap();
+    let lean = 0.03 * (rt * w0 * w0 / 9.80665).atan().sin();
+    for k in 10..plan.samples.len() {
+        let r = t.tracked[k][0].hypot(t.tracked[k][1]);
+        assert!(
+            (r - (rt - lean)).abs() < 2e-5,
+            "k {k}: radius {r} vs {}",
+            rt - lean
+        );
+    }
+}
+
+#[test]
+fn ballbot_plant_reproduces_its_plan_and_caster_slip_shows_with_a_bad_wheel() {
+    use omnikin::ballbot::{Ballbot, BallbotParams};
+    let b = Ballbot::new(BallbotParams::preset()).unwrap();
+    let samples = (0..=200)
+        .map(|k| {
+            let t = k as f64 / 100.0;
+            let (pose, twist) = (
+                Pose2::new(0.3 * t, 0.0, 0.2 * t),
+                Twist2::new(0.3, 0.0, 0.2),
+            );
+            Sample {
+                t,
+                pose,
+                twist,
+                wheel_rates: b.wheel_rates_world(twist, pose.heading, 0.0).unwrap(),
+                steer: None,
+            }
+        })
+        .collect();
+    let plan = Plan { samples };
+    let t = simulate_trial(
+        &Robot::Ballbot(b),
+        &plan,
+        &Profile::default(),
+        &mut trial_rng(0, 0),
+    )
+    .unwrap();
+    let end = t.pose.last().unwrap();
+    // The ball rolls straight along world x while the body turns (the twist above is
+    // world-frame): a straight line, not an arc.
+    // Second-order error of the linear set-point hold (the body-frame twist rotates).
+    assert!(
+        (end.x - 0.6).abs() < 1e-6 && end.y.abs() < 1e-6 && (end.heading - 0.4).abs() < 1e-9,
+        "{end:?}"
+    );
+    // Caster: the same bias on every motor keeps the wheels consistent (no slip, a different
+    // path); per-wheel radius scatter makes them disagree, and the least-squares fit shows it.
+    let (cplan, m) = caster_single_wheel_plan(0.3, 1.5, 4.0, 1.0, 100.0);
+    let fight = Profile::from_toml_str("[wheel_motor]\nradius_error_std = 0.05\n", "test").unwrap();
+    let fair = Profile::from_toml_str(
+        "[steer_motor]\nrate_bias_rel = 0.05\n[wheel_motor]\nrate_bias_rel = 0.05\n",
+        "test",
+    )
+    .unwrap();
+    let bad = simulate_trial(&Robot::Caster(m), &cplan, &fight, &mut trial_rng(0, 0)).unwrap();
+    let good = simulate_trial(&Robot::Caster(m), &cplan, &fair, &mut trial_rng(0, 0)).unwrap();
+    let max = |t: &omnikin_sim::Trial| t.slip_residual.iter().cloned().fold(0.0, f64::max);
+    assert!(max(&good) < 1e-12, "{}", max(&good));
+    assert!(max(&bad) > 1e-3, "{}", max(&bad));
+}
+
+#[test]
+fn plan_mismatch_is_detected() {
+    let plan = paper_circle(0.2, 1.0, 50.0);
+    assert!(omnikin_sim::plan_mismatch(&sphere(), &plan).is_none());
+    let d = RobotDescription::preset("ballbot").unwrap();
+    let why = omnikin_sim::plan_mismatch(&d.build::<f64>().unwrap(), &plan).unwrap();
+    assert!(why.contains("inverse kinematics"), "{why}");
+}

@@ -26,7 +26,10 @@
 //!   `sinα` ([`Ballbot::model_torques`]) and its inverse ([`Ballbot::wheel_torques`]). Their
 //!   power-conjugate rates are the model rates `v = A(β)⁻ᵀ ψ̇` ([`Ballbot::model_rates`]), so
 //!   `T·ψ̇ = (A T)·v` exactly: the velocity map `ψ̇ = A(β)ᵀ v` is the dual of the torque map.
-//!   In the body frame `v = (R_b/r_w)(−ω_x, −ω_y, ω_z)`.
+//!   In the body frame `v = (R_b/r_w)(−ω_x, −ω_y, ω_z)`. Sign note: the torque the wheels
+//!   exert on the ball is `τ_ball = (R_b/r_w)(−Tx, −Ty, Tz)` (body frame at `β = 0`), i.e. the
+//!   model's `Tx`, `Ty` are opposite to the ball torque about x and y, as the paper's
+//!   projection defines them; `Tz` has the ball torque's sign.
 //! * **Odometry step** ([`Ballbot::ball_displacement`]): wheel-angle increments and the body
 //!   yaw at both ends of the step → world-frame ball displacement; the body's own rotation
 //!   (which turns every wheel through `sinα`) produces no displacement.

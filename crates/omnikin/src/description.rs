@@ -8,7 +8,7 @@
 //!
 //! [geometry]                      # keys depend on the kind, see robots/*.toml
 //! shell_radius = 0.15             # m
-//! wheel_radius = 0.07             # m
+//! wheel_radius = 0.07             # m (or one per wheel: [0.07, 0.0702, 0.0699])
 //! tilt_deg = 45.0                 # angles in degrees only where the key says `_deg`
 //! roller_angle_deg = 45.0
 //! azimuths_deg = [0.0, 120.0, 240.0]
@@ -119,11 +119,31 @@ struct File<G> {
     limits: Limits,
 }
 
+/// One value for all three wheels, or one per wheel.
+#[derive(Deserialize)]
+#[serde(
+    untagged,
+    expecting = "a radius in m, or a list of three radii (one per wheel)"
+)]
+enum PerWheel {
+    All(f64),
+    Each([f64; 3]),
+}
+
+impl PerWheel {
+    fn each(&self) -> [f64; 3] {
+        match *self {
+            PerWheel::All(r) => [r; 3],
+            PerWheel::Each(r) => r,
+        }
+    }
+}
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SphereGeometry {
     shell_radius: f64,
-    wheel_radius: f64,
+    wheel_radius: PerWheel,
     tilt_deg: f64,
     roller_angle_deg: f64,
     azimuths_deg: [f64; 3],
@@ -213,7 +233,7 @@ impl RobotDescription {
                 let g = &f.geometry;
                 let p = SphereParams {
                     shell_radius: g.shell_radius,
-                    wheel_radius: [g.wheel_radius; 3],
+                    wheel_radius: g.wheel_radius.each(),
                     tilt: g.tilt_deg.to_radians(),
                     roller_angle: g.roller_angle_deg.to_radians(),
                     azimuths: g.azimuths_deg.map(f64::to_radians),
@@ -341,6 +361,17 @@ impl RobotDescription {
     }
 }
 
+/// The 1-based wheel an error is about: from a `[i]` index or the error's wheel number.
+fn wheel_of(index: &str, e: &GeometryError) -> usize {
+    match e {
+        GeometryError::WheelTooLarge { wheel, .. } => *wheel,
+        _ => index
+            .trim_matches(['[', ']'])
+            .parse::<usize>()
+            .map_or(1, |i| i + 1),
+    }
+}
+
 /// Maps a core geometry error to the TOML key it is about.
 fn geometry_error(e: GeometryError, source_name: &str, kind: &str) -> DescriptionError {
     let core_field = match e {
@@ -352,6 +383,7 @@ fn geometry_error(e: GeometryError, source_name: &str, kind: &str) -> Descriptio
         GeometryError::IllConditioned { .. } => "",
     };
     let base = core_field.split('[').next().unwrap_or(core_field);
+    let index = core_field.strip_prefix(base).unwrap_or("");
     let key = match (kind, base) {
         (_, "") => match kind {
             "sphere-omni" => "geometry (tilt_deg, roller_angle_deg, azimuths_deg)",
@@ -361,6 +393,9 @@ fn geometry_error(e: GeometryError, source_name: &str, kind: &str) -> Descriptio
         .to_string(),
         (_, "tilt" | "roller_angle" | "azimuths" | "zenith" | "mount_angles") => {
             format!("geometry.{base}_deg")
+        }
+        ("sphere-omni", "wheel_radius") => {
+            format!("geometry.wheel_radius (wheel {})", wheel_of(index, &e))
         }
         _ => format!("geometry.{base}"),
     };

@@ -96,8 +96,22 @@ fn negative_radius_names_field_and_rule() {
     let e = error_of(&sphere_with("wheel_radius = 0.07", "wheel_radius = -0.07"));
     assert_eq!(
         e,
-        "robots/test.toml: geometry.wheel_radius: wheel_radius[0] must be > 0 (got -0.07)"
+        "robots/test.toml: geometry.wheel_radius (wheel 1): wheel_radius[0] must be > 0 (got -0.07)"
     );
+    // One radius per wheel: the third is bad.
+    let e = error_of(&sphere_with("wheel_radius = 0.07", "wheel_radius = [0.07, 0.07, -0.01]"));
+    assert!(e.contains("geometry.wheel_radius (wheel 3)") && e.contains("must be > 0"), "{e}");
+    let e = error_of(&sphere_with("wheel_radius = 0.07", "wheel_radius = [0.07, 0.07]"));
+    assert!(e.contains("a radius in m, or a list of three radii"), "{e}");
+    let ok = RobotDescription::from_toml_str(
+        &sphere_with("wheel_radius = 0.07", "wheel_radius = [0.07, 0.071, 0.069]"),
+        "t",
+    )
+    .unwrap();
+    match ok.geometry {
+        Geometry::Sphere(p) => assert_eq!(p.wheel_radius, [0.07, 0.071, 0.069]),
+        _ => panic!("wrong kind"),
+    }
 }
 
 #[test]

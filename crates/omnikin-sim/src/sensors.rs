@@ -1,0 +1,481 @@
+//! Sensor emission: what a robot's encoders, IMU and an external camera would have recorded
+//! during a simulated [`Trial`], so odometry and state estimation can be tested end to end
+//! against known ground truth.
+//!
+//! From the trial's true cumulative wheel angles, steer angles and poses at the plan's sample
+//! times, [`emit`] produces, with a seeded RNG:
+//!
+//! * the **encoder log** of conventions.md (`t,q1,q2,q3` cumulative wheel angles, `s1,s2,s3` for
+//!   the caster, optional `gyro_z` and `yaw`), angles quantised to whole counts of a counting
+//!   encoder (`floor`, `counts_per_rev`);
+//! * a level **IMU** (3-axis gyro with constant bias and white noise, accelerometer = specific
+//!   force, magnetometer = the world field in the body frame) for AHRS tests;
+//! * **camera fixes** of the robot centre every `period` seconds with Gaussian noise, a fixed
+//!   latency (the fix is stamped with the time it was taken and carries its arrival time) and
+//!   occasional outliers.
+//!
+//! The true yaw rate is the central difference of the trial's heading (second order in the
+//! sample interval); the true acceleration its second difference.
+
+use std::io::Write;
+
+use omnikin::Robot;
+use rand::RngExt;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use serde::Deserialize;
+
+use crate::Trial;
+
+/// Gyro z (yaw-rate) channel written into the encoder log. All values rad/s.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GyroProfile {
+    /// Standard deviation of white noise per sample, rad/s.
+    pub noise_std: f64,
+    /// Constant bias, rad/s.
+    pub bias: f64,
+    /// Standard deviation of an extra constant bias drawn per trial, rad/s.
+    pub bias_std: f64,
+}
+
+/// Absolute yaw channel (e.g. an AHRS or compass heading) written into the encoder log.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct YawProfile {
+    /// Standard deviation of white noise per sample, rad.
+    pub noise_std: f64,
+    /// Report the yaw wrapped into (−π, π] like a real AHRS (default: unwrapped).
+    #[serde(default)]
+    pub wrap: bool,
+}
+
+/// Level 9-axis IMU for AHRS tests.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImuProfile {
+    /// Gyro white noise per sample and axis, rad/s.
+    pub gyro_noise_std: f64,
+    /// Constant gyro bias, body frame, rad/s.
+    pub gyro_bias: [f64; 3],
+    /// Accelerometer white noise per axis, m/s².
+    pub accel_noise_std: f64,
+    /// Magnetometer white noise per axis, µT.
+    pub mag_noise_std: f64,
+    /// Earth field in the world frame (east-north-up), µT.
+    pub field: [f64; 3],
+}
+
+impl Default for ImuProfile {
+    /// Noise-free, unbiased; field 20 µT north (+y), 45 µT down.
+    fn default() -> Self {
+        Self {
+            gyro_noise_std: 0.0,
+            gyro_bias: [0.0; 3],
+            accel_noise_std: 0.0,
+            mag_noise_std: 0.0,
+            field: [0.0, 20.0, -45.0],
+        }
+    }
+}
+
+/// External camera (e.g. paper 000's overhead camera) tracking the robot centre.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraProfile {
+    /// Time between frames, s (fixes are taken at the first sample at or after each multiple).
+    pub period: f64,
+    /// Delay from taking a frame to its arrival, s.
+    pub latency: f64,
+    /// Position noise per axis, m.
+    pub noise_std: f64,
+    /// Heading noise, rad; `None`: position-only fixes.
+    pub heading_noise_std: Option<f64>,
+    /// Probability that a frame is an outlier (mis-detection).
+    pub outlier_probability: f64,
+    /// How far an outlier lands from the truth, m (random direction).
+    pub outlier_distance: f64,
+}
+
+impl Default for CameraProfile {
+    /// 10 Hz, 100 ms latency, 5 mm noise, position only, no outliers.
+    fn default() -> Self {
+        Self {
+            period: 0.1,
+            latency: 0.1,
+            noise_std: 0.005,
+            heading_noise_std: None,
+            outlier_probability: 0.0,
+            outlier_distance: 0.5,
+        }
+    }
+}
+
+/// Which sensors to emit and how imperfect they are. Every section optional (TOML-loadable).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorProfile {
+    /// Wheel-encoder resolution, counts per revolution (`None`: exact angles).
+    pub counts_per_rev: Option<u32>,
+    /// Caster steer-encoder resolution, counts per revolution (`None`: exact angles).
+    pub steer_counts_per_rev: Option<u32>,
+    /// Emit a `gyro_z` column.
+    pub gyro: Option<GyroProfile>,
+    /// Emit a `yaw` column.
+    pub yaw: Option<YawProfile>,
+    /// Emit a 9-axis IMU log.
+    pub imu: Option<ImuProfile>,
+    /// Emit camera fixes.
+    pub camera: Option<CameraProfile>,
+}
+
+/// One row of the encoder log (conventions.md, "Encoder log CSV for odometry").
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EncoderRow {
+    /// Time, s.
+    pub t: f64,
+    /// Cumulative wheel angles as the encoders read them, rad.
+    pub q: [f64; 3],
+    /// Caster: steer angles as read, rad.
+    pub steer: Option<[f64; 3]>,
+    /// Gyro z rate, rad/s.
+    pub gyro_z: Option<f64>,
+    /// Absolute yaw, rad.
+    pub yaw: Option<f64>,
+}
+
+/// One IMU sample (body frame: x forward, y left, z up).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuRow {
+    /// Time, s.
+    pub t: f64,
+    /// Angular rate, rad/s.
+    pub gyro: [f64; 3],
+    /// Specific force, m/s² (`+9.81` on z at rest).
+    pub accel: [f64; 3],
+    /// Magnetic field, µT.
+    pub mag: [f64; 3],
+}
+
+/// One camera fix of the robot centre (world frame).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraFix {
+    /// When the frame was taken, s.
+    pub t: f64,
+    /// When it arrived, s (`t + latency`).
+    pub arrival: f64,
+    /// Measured x, m.
+    pub x: f64,
+    /// Measured y, m.
+    pub y: f64,
+    /// Measured heading, rad (if the camera measures it).
+    pub heading: Option<f64>,
+    /// Ground truth for tests: this frame is an injected outlier.
+    pub outlier: bool,
+}
+
+/// Everything [`emit`] produced.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Sensors {
+    /// The encoder log, one row per trial sample.
+    pub encoder: Vec<EncoderRow>,
+    /// The IMU log (empty without [`SensorProfile::imu`]).
+    pub imu: Vec<ImuRow>,
+    /// Camera fixes in order of the time taken (empty without [`SensorProfile::camera`]).
+    pub fixes: Vec<CameraFix>,
+    /// The gyro-z bias actually applied in this trial (profile bias + drawn part), rad/s.
+    pub gyro_bias: f64,
+}
+
+fn gauss(rng: &mut ChaCha8Rng) -> f64 {
+    StandardNormal.sample(rng)
+}
+
+fn quantise(x: f64, counts_per_rev: Option<u32>) -> f64 {
+    match counts_per_rev {
+        Some(n) if n > 0 => {
+            let step = std::f64::consts::TAU / n as f64;
+            (x / step).floor() * step
+        }
+        _ => x,
+    }
+}
+
+fn wrap(x: f64) -> f64 {
+    let y = (x + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+    if y <= -std::f64::consts::PI {
+        y + std::f64::consts::TAU
+    } else {
+        y
+    }
+}
+
+/// Derivative of `f` at sample `k` (central difference; one-sided at the ends).
+fn derivative(t: &[f64], k: usize, f: impl Fn(usize) -> f64) -> f64 {
+    let n = t.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let (a, b) = if k == 0 {
+        (0, 1)
+    } else if k + 1 == n {
+        (n - 2, n - 1)
+    } else {
+        (k - 1, k + 1)
+    };
+    (f(b) - f(a)) / (t[b] - t[a])
+}
+
+/// Second derivative of `f` at sample `k` (three-point formula for uneven spacing; 0 at ends).
+fn second_derivative(t: &[f64], k: usize, f: impl Fn(usize) -> f64) -> f64 {
+    if k == 0 || k + 1 >= t.len() {
+        return 0.0;
+    }
+    let (h0, h1) = (t[k] - t[k - 1], t[k + 1] - t[k]);
+    2.0 * (h0 * f(k + 1) - (h0 + h1) * f(k) + h1 * f(k - 1)) / (h0 * h1 * (h0 + h1))
+}
+
+/// The sensor logs a robot running `trial` would have recorded (see the module docs). `robot`
+/// decides whether steer angles are written (caster). All randomness comes from `rng`.
+pub fn emit(
+    robot: &Robot<f64>,
+    trial: &Trial,
+    profile: &SensorProfile,
+    rng: &mut ChaCha8Rng,
+) -> Sensors {
+    let caster = matches!(robot, Robot::Caster(_));
+    let t = &trial.t;
+    let n = t.len().min(trial.pose.len()).min(trial.wheel_angles.len());
+    let heading = |k: usize| trial.pose[k].heading;
+    let mut out = Sensors::default();
+    if let Some(g) = profile.gyro {
+        out.gyro_bias = g.bias + g.bias_std * gauss(rng);
+    }
+    for k in 0..n {
+        let q = trial.wheel_angles[k].map(|x| quantise(x, profile.counts_per_rev));
+        let steer = caster.then(|| {
+            trial
+                .steer_angles
+                .get(k)
+                .copied()
+                .unwrap_or([0.0; 3])
+                .map(|x| quantise(x, profile.steer_counts_per_rev))
+        });
+        let gyro_z = profile
+            .gyro
+            .map(|g| derivative(&t[..n], k, heading) + out.gyro_bias + g.noise_std * gauss(rng));
+        let yaw = profile.yaw.map(|y| {
+            let v = heading(k) + y.noise_std * gauss(rng);
+            if y.wrap { wrap(v) } else { v }
+        });
+        out.encoder.push(EncoderRow {
+            t: t[k],
+            q,
+            steer,
+            gyro_z,
+            yaw,
+        });
+    }
+    if let Some(imu) = profile.imu {
+        for k in 0..n {
+            let (s, c) = heading(k).sin_cos();
+            let ax = second_derivative(&t[..n], k, |i| trial.pose[i].x);
+            let ay = second_derivative(&t[..n], k, |i| trial.pose[i].y);
+            let wz = derivative(&t[..n], k, heading);
+            let f = imu.field;
+            let mut row = ImuRow {
+                t: t[k],
+                gyro: [0.0, 0.0, wz],
+                accel: [c * ax + s * ay, -s * ax + c * ay, 9.81],
+                mag: [c * f[0] + s * f[1], -s * f[0] + c * f[1], f[2]],
+            };
+            for i in 0..3 {
+                row.gyro[i] += imu.gyro_bias[i] + imu.gyro_noise_std * gauss(rng);
+                row.accel[i] += imu.accel_noise_std * gauss(rng);
+                row.mag[i] += imu.mag_noise_std * gauss(rng);
+            }
+            out.imu.push(row);
+        }
+    }
+    if let Some(cam) = profile.camera
+        && cam.period > 0.0
+        && n > 0
+    {
+        let mut next = t[0];
+        for k in 0..n {
+            if t[k] + 1e-9 < next {
+                continue;
+            }
+            while next <= t[k] + 1e-9 {
+                next += cam.period;
+            }
+            let p = trial.pose[k];
+            let mut fix = CameraFix {
+                t: t[k],
+                arrival: t[k] + cam.latency,
+                x: p.x + cam.noise_std * gauss(rng),
+                y: p.y + cam.noise_std * gauss(rng),
+                heading: cam.heading_noise_std.map(|s| p.heading + s * gauss(rng)),
+                outlier: false,
+            };
+            if rng.random::<f64>() < cam.outlier_probability {
+                let dir = rng.random_range(0.0..std::f64::consts::TAU);
+                fix.x += cam.outlier_distance * dir.cos();
+                fix.y += cam.outlier_distance * dir.sin();
+                fix.outlier = true;
+            }
+            out.fixes.push(fix);
+        }
+    }
+    out
+}
+
+fn num(x: f64) -> String {
+    // Shortest representation that reads back exactly.
+    format!("{x}")
+}
+
+/// Writes the encoder log CSV of conventions.md: `t,q1,q2,q3`, then `s1,s2,s3` (caster),
+/// `gyro_z`, `yaw` when the rows carry them (decided by the first row).
+pub fn write_encoder_log<W: Write>(rows: &[EncoderRow], mut out: W) -> std::io::Result<()> {
+    let first = rows.first();
+    let (steer, gyro, yaw) = (
+        first.is_some_and(|r| r.steer.is_some()),
+        first.is_some_and(|r| r.gyro_z.is_some()),
+        first.is_some_and(|r| r.yaw.is_some()),
+    );
+    let mut header = String::from("t,q1,q2,q3");
+    if steer {
+        header.push_str(",s1,s2,s3");
+    }
+    if gyro {
+        header.push_str(",gyro_z");
+    }
+    if yaw {
+        header.push_str(",yaw");
+    }
+    writeln!(out, "{header}")?;
+    for r in rows {
+        let mut line = format!(
+            "{},{},{},{}",
+            num(r.t),
+            num(r.q[0]),
+            num(r.q[1]),
+            num(r.q[2])
+        );
+        if steer {
+            let s = r.steer.unwrap_or([f64::NAN; 3]);
+            line.push_str(&format!(",{},{},{}", num(s[0]), num(s[1]), num(s[2])));
+        }
+        if gyro {
+            line.push_str(&format!(",{}", num(r.gyro_z.unwrap_or(f64::NAN))));
+        }
+        if yaw {
+            line.push_str(&format!(",{}", num(r.yaw.unwrap_or(f64::NAN))));
+        }
+        writeln!(out, "{line}")?;
+    }
+    out.flush()
+}
+
+/// Writes camera fixes as the tracked-trajectory CSV of conventions.md, `t,x,y` plus `heading`
+/// when the fixes carry it, plus an `arrival` column (s): `t` is when the frame was taken.
+pub fn write_fixes<W: Write>(fixes: &[CameraFix], mut out: W) -> std::io::Result<()> {
+    let heading = fixes.first().is_some_and(|f| f.heading.is_some());
+    writeln!(
+        out,
+        "{}",
+        if heading {
+            "t,x,y,heading,arrival"
+        } else {
+            "t,x,y,arrival"
+        }
+    )?;
+    for f in fixes {
+        match (heading, f.heading) {
+            (true, h) => writeln!(
+                out,
+                "{},{},{},{},{}",
+                num(f.t),
+                num(f.x),
+                num(f.y),
+                num(h.unwrap_or(f64::NAN)),
+                num(f.arrival)
+            )?,
+            (false, _) => writeln!(
+                out,
+                "{},{},{},{}",
+                num(f.t),
+                num(f.x),
+                num(f.y),
+                num(f.arrival)
+            )?,
+        }
+    }
+    out.flush()
+}
+
+/// Writes the IMU log: `t,gx,gy,gz,ax,ay,az,mx,my,mz` (rad/s, m/s², µT; body frame).
+pub fn write_imu<W: Write>(rows: &[ImuRow], mut out: W) -> std::io::Result<()> {
+    writeln!(out, "t,gx,gy,gz,ax,ay,az,mx,my,mz")?;
+    for r in rows {
+        let v: Vec<String> = std::iter::once(r.t)
+            .chain(r.gyro)
+            .chain(r.accel)
+            .chain(r.mag)
+            .map(num)
+            .collect();
+        writeln!(out, "{}", v.join(","))?;
+    }
+    out.flush()
+}
+
+/// Writes the trial's true poses as the pose CSV of conventions.md, `t,x,y,heading` (the
+/// ground truth to compare `omnikin odometry` output with).
+pub fn write_truth<W: Write>(trial: &Trial, mut out: W) -> std::io::Result<()> {
+    writeln!(out, "t,x,y,heading")?;
+    for (t, p) in trial.t.iter().zip(&trial.pose) {
+        writeln!(
+            out,
+            "{},{},{},{}",
+            num(*t),
+            num(p.x),
+            num(p.y),
+            num(p.heading)
+        )?;
+    }
+    out.flush()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantisation_floors_to_whole_counts() {
+        let step = std::f64::consts::TAU / 1000.0;
+        assert_eq!(quantise(2.5 * step, Some(1000)), 2.0 * step);
+        assert_eq!(quantise(-0.5 * step, Some(1000)), -step);
+        assert_eq!(quantise(0.123, None), 0.123);
+    }
+
+    #[test]
+    fn derivatives_of_a_parabola_are_exact() {
+        let t = [0.0, 0.1, 0.25, 0.3, 0.5];
+        let f = |i: usize| 3.0 * t[i] * t[i] + t[i];
+        for k in 1..4 {
+            assert!((second_derivative(&t, k, f) - 6.0).abs() < 1e-9);
+        }
+        // Central difference on even spacing of a parabola is exact.
+        let u = [0.0, 0.1, 0.2];
+        let g = |i: usize| 3.0 * u[i] * u[i];
+        assert!((derivative(&u, 1, g) - 0.6).abs() < 1e-12);
+    }
+
+    #[test]
+    fn wrap_range() {
+        let pi = std::f64::consts::PI;
+        assert!((wrap(3.0 * pi) - pi).abs() < 1e-12);
+        assert!((wrap(-0.5 - 4.0 * pi) + 0.5).abs() < 1e-12);
+    }
+}
