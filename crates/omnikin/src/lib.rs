@@ -18,6 +18,8 @@
 //! | [`caster`] | base on three off-centred steerable wheels | 003 | [`caster::Caster3::motor_rates`] | [`caster::Caster3::body_twist`] |
 //! | [`odometry`] | all three: encoder angles → pose (exact SE(2) steps), heading from wheels, gyro or yaw; caster slip residual, sphere shell spin | 000, 001, 003 | — | [`odometry::Odometry::update`] |
 //! | [`ahrs`] | attitude and gyro bias from gyro + accelerometer + magnetometer (Mahony 2008) | 000 | — | [`ahrs::Mahony::update`] |
+//! | [`runtime`] | all three: fixed-rate control loop over hardware traits — limits, desaturation, velocity/trajectory/stop/e-stop modes, watchdog, faults | 000 Fig. 1, 001 | [`runtime::Runtime::cycle`] | odometry |
+//! | [`link`] | all three: operator link — postcard + COBS + CRC-32 frames, versioned, sequenced, optional HMAC-SHA256 tags and replay window | 000 Fig. 1 | — | — |
 //! | [`estimator`] | Kalman filter over (x, y, heading): odometry prediction, delayed camera fixes (WPILib-style replay), χ² gate | 000 | — | [`estimator::PoseEstimator::add_fix`] |
 //!
 //! ```
@@ -61,7 +63,9 @@ pub mod ahrs;
 pub mod ballbot;
 pub mod caster;
 pub mod estimator;
+pub mod link;
 pub mod odometry;
+pub mod runtime;
 pub mod se2;
 pub mod sphere;
 

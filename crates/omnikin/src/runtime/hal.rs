@@ -1,0 +1,163 @@
+//! Hardware traits: what a board (or the simulator) must provide to run the control loop.
+//!
+//! Four small traits, in the spirit of `embedded-hal`: each is implemented once per board and
+//! knows nothing about kinematics. All values are SI; angles and rates are about each motor's
+//! own axis (right-hand rule, as in the project conventions), IMU vectors are in the robot frame
+//! (x forward, y left, z up).
+//!
+//! A firmware crate implements them on its peripherals, for example on a Cortex-M board:
+//!
+//! * [`Clock`]: a free-running microsecond counter (SysTick or a 32-bit timer extended to
+//!   64 bits in its overflow interrupt);
+//! * [`Encoders`]: quadrature timers read as counts and converted with
+//!   [`crate::odometry::counts_to_radians`] (or step counters of the stepper drivers for
+//!   open-loop steppers);
+//! * [`Imu`]: an SPI/I²C gyro and accelerometer, converted to rad/s and m/s²;
+//! * [`MotorOutputs`]: PWM/velocity set-points of the motor drivers, **or** [`StepOutputs`] for
+//!   stepper drivers (step/dir pins driven by timers), wrapped in [`Steppers`] which converts
+//!   rad/s to step frequencies.
+//!
+//! Every method returns a `Result` with the board's own error type; the runtime never panics
+//! on a hardware error, it raises [`super::Faults::HARDWARE`] and brings the robot to rest.
+
+use crate::Real;
+
+/// A free-running monotonic clock.
+pub trait Clock {
+    /// Microseconds since an arbitrary epoch; must never decrease (64 bits: no wrap-around in
+    /// practice).
+    fn now_us(&mut self) -> u64;
+}
+
+/// Cumulative motor angles, rad, since power-up (or any fixed reference).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EncoderAngles<T> {
+    /// Wheel (roll) angles `q_i`, rad, about each wheel's axis (right-hand rule).
+    pub wheel: [T; 3],
+    /// Caster steer angles `γ_i` relative to the body, rad (counter-clockwise); zeros for the
+    /// sphere and the ballbot.
+    pub steer: [T; 3],
+}
+
+/// Reads the motor encoders.
+pub trait Encoders<T> {
+    /// The board's error (bus error, encoder not responding, …).
+    type Error: core::fmt::Debug;
+    /// The cumulative angles now. Called exactly once per control cycle.
+    fn read(&mut self) -> Result<EncoderAngles<T>, Self::Error>;
+}
+
+/// One inertial sample in the robot frame (x forward, y left, z up).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuSample<T> {
+    /// Angular rate, rad/s (`gyro[2]` is the yaw rate, counter-clockwise positive).
+    pub gyro: [T; 3],
+    /// Specific force, m/s² (about `(0, 0, +9.81)` at rest).
+    pub accel: [T; 3],
+}
+
+/// Reads the inertial sensor.
+pub trait Imu<T> {
+    /// The board's error.
+    type Error: core::fmt::Debug;
+    /// The newest sample, or `Ok(None)` when no new sample is ready this cycle.
+    fn read(&mut self) -> Result<Option<ImuSample<T>>, Self::Error>;
+}
+
+/// A board without an IMU: always `Ok(None)`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoImu;
+
+impl<T> Imu<T> for NoImu {
+    type Error = core::convert::Infallible;
+    fn read(&mut self) -> Result<Option<ImuSample<T>>, Self::Error> {
+        Ok(None)
+    }
+}
+
+/// Motor set-points of one cycle, rad/s.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotorCommand<T> {
+    /// Wheel (roll) rates, rad/s, about each wheel's axis (right-hand rule).
+    pub wheel: [T; 3],
+    /// Caster steer rates, rad/s (zeros for the sphere and the ballbot).
+    pub steer: [T; 3],
+}
+
+impl<T: Real> MotorCommand<T> {
+    /// All motors at rest.
+    pub fn zero() -> Self {
+        Self {
+            wheel: [T::zero(); 3],
+            steer: [T::zero(); 3],
+        }
+    }
+}
+
+/// Motors driven by rate set-points (velocity-controlled drivers).
+pub trait MotorOutputs<T> {
+    /// The board's error.
+    type Error: core::fmt::Debug;
+    /// Applies the set-points; they hold until the next call. Called exactly once per cycle.
+    fn set_rates(&mut self, command: &MotorCommand<T>) -> Result<(), Self::Error>;
+}
+
+/// Stepper drivers driven by step frequencies (step/dir interface).
+pub trait StepOutputs {
+    /// The board's error.
+    type Error: core::fmt::Debug;
+    /// Sets the signed step frequencies, steps/s (sign = direction pin): wheels 1–3, then the
+    /// caster's steer motors 1–3 (zero for the other robots).
+    fn set_step_frequencies(&mut self, hz: [f32; 6]) -> Result<(), Self::Error>;
+}
+
+/// Adapts [`StepOutputs`] to [`MotorOutputs`]: `f = ω · steps_per_rev · microsteps / 2π`,
+/// clamped to `±max_step_rate` (steps/s). No allocation; the conversion is a multiply per motor.
+#[derive(Clone, Copy, Debug)]
+pub struct Steppers<S> {
+    /// The stepper outputs.
+    pub outputs: S,
+    /// Microsteps per radian of each motor (wheels 1–3, steer 1–3).
+    pub steps_per_rad: [f32; 6],
+    /// Largest step frequency a driver accepts, steps/s.
+    pub max_step_rate: f32,
+}
+
+impl<S> Steppers<S> {
+    /// Steppers with `steps_per_rev` full steps and `microsteps` per full step on every motor.
+    pub fn new(outputs: S, steps_per_rev: u32, microsteps: u32, max_step_rate: f32) -> Self {
+        let k = (steps_per_rev as f32 * microsteps as f32) / core::f32::consts::TAU;
+        Self {
+            outputs,
+            steps_per_rad: [k; 6],
+            max_step_rate,
+        }
+    }
+
+    /// The step frequencies (steps/s) for a rate command.
+    pub fn frequencies<T: Real>(&self, command: &MotorCommand<T>) -> [f32; 6] {
+        let mut hz = [0.0f32; 6];
+        for i in 0..6 {
+            let w = if i < 3 {
+                command.wheel[i]
+            } else {
+                command.steer[i - 3]
+            };
+            let f = w.to_f64() as f32 * self.steps_per_rad[i];
+            hz[i] = if f.is_finite() {
+                f.clamp(-self.max_step_rate, self.max_step_rate)
+            } else {
+                0.0
+            };
+        }
+        hz
+    }
+}
+
+impl<T: Real, S: StepOutputs> MotorOutputs<T> for Steppers<S> {
+    type Error = S::Error;
+    fn set_rates(&mut self, command: &MotorCommand<T>) -> Result<(), Self::Error> {
+        let hz = self.frequencies(command);
+        self.outputs.set_step_frequencies(hz)
+    }
+}

@@ -1,0 +1,220 @@
+//! The robot side never touches the heap: a counting global allocator sees zero allocations on
+//! this thread across control cycles in every mode, command handling (including rejected
+//! commands), plan upload, and the link codec (encode, decode, drops).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use omnikin::link::{
+    CHUNK_POINTS, Endpoint, FrameReader, Key, MAX_FRAME, Message, Telemetry, WirePoint, serve,
+};
+use omnikin::runtime::hal::{EncoderAngles, Encoders, MotorCommand, MotorOutputs, NoImu};
+use omnikin::runtime::{Command, Config, Frame, Mode, PlanPoint, Runtime};
+use omnikin::sphere::{SphereOmni, SphereParams};
+use omnikin::{Pose2, Robot, Twist2};
+
+struct Counting;
+
+thread_local! {
+    static ALLOCS: Cell<usize> = const { Cell::new(0) };
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCS.with(|c| c.set(c.get() + 1));
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCS.with(|c| c.set(c.get() + 1));
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations<R>(f: impl FnOnce() -> R) -> (usize, R) {
+    let before = ALLOCS.with(|c| c.get());
+    let r = std::hint::black_box(f());
+    (ALLOCS.with(|c| c.get()) - before, r)
+}
+
+struct Board {
+    wheel: [f32; 3],
+    rates: [f32; 3],
+}
+impl Encoders<f32> for Board {
+    type Error = ();
+    fn read(&mut self) -> Result<EncoderAngles<f32>, ()> {
+        Ok(EncoderAngles {
+            wheel: self.wheel,
+            steer: [0.0; 3],
+        })
+    }
+}
+struct Out<'a>(&'a mut [f32; 3]);
+impl MotorOutputs<f32> for Out<'_> {
+    type Error = ();
+    fn set_rates(&mut self, c: &MotorCommand<f32>) -> Result<(), ()> {
+        *self.0 = c.wheel;
+        Ok(())
+    }
+}
+
+struct Wire {
+    op: Endpoint,
+    robot: Endpoint,
+    reader: FrameReader<MAX_FRAME>,
+    frame: [u8; MAX_FRAME],
+}
+
+impl Wire {
+    /// A command through the full link path: encode → bytes → reader → decode → serve.
+    fn send(&mut self, msg: &Message, rt: &mut Runtime<f32, 128>, now: u64) {
+        let len = self.op.encode(msg, &mut self.frame).unwrap();
+        self.reader.feed(&self.frame[..len], &mut self.robot, |r| {
+            if let Ok((_, m)) = r {
+                serve(rt, &m, true, now);
+            }
+        });
+    }
+}
+
+#[test]
+fn the_counter_counts() {
+    let (n, v) = allocations(|| vec![1u8; 16]);
+    assert_eq!(v.len(), 16);
+    assert!(n >= 1);
+}
+
+#[test]
+fn control_cycles_and_link_allocate_nothing() {
+    let robot = Robot::Sphere(SphereOmni::<f32>::new(SphereParams::preset()).unwrap());
+    let mut cfg = Config::new(100.0);
+    cfg.rate_limits.wheel = Some(12.0);
+    cfg.wheel_accel = Some(400.0);
+    cfg.slew.jerk = Some(20.0);
+    // Built outside the measured region (construction is allowed to be anywhere, but the
+    // runtime is a plain value: no allocation there either).
+    let (n0, rt) = allocations(|| Runtime::<f32, 128>::new(robot, cfg, Pose2::default()));
+    assert_eq!(n0, 0);
+    let mut rt = rt.unwrap();
+    let mut board = Board {
+        wheel: [0.0; 3],
+        rates: [0.0; 3],
+    };
+    let key = Key::new(b"0123456789abcdef").unwrap();
+    let mut w = Wire {
+        op: Endpoint::new(Some(key), 1_000),
+        robot: Endpoint::new(Some(key), 1),
+        reader: FrameReader::new(),
+        frame: [0u8; MAX_FRAME],
+    };
+    let points: [PlanPoint<f32>; 40] = core::array::from_fn(|k| PlanPoint {
+        t: k as f32 * 0.05,
+        pose: Pose2::new(0.005 * k as f32, 0.0, 0.0),
+        twist: Twist2::new(0.1, 0.0, 0.0),
+    });
+
+    let mut now = 0u64;
+    let mut cycles = 0usize;
+    let (n, ()) = allocations(|| {
+        let mut cycle = |rt: &mut Runtime<f32, 128>, board: &mut Board, now: &mut u64| {
+            let mut out = [0.0f32; 3];
+            let st = rt.cycle(*now, board, &mut NoImu, &mut Out(&mut out));
+            board.rates = out;
+            for i in 0..3 {
+                board.wheel[i] += board.rates[i] * 0.01;
+            }
+            *now += 10_000;
+            cycles += 1;
+            st
+        };
+        w.send(&Message::Hello { protocol: 1 }, &mut rt, now);
+        w.send(
+            &Message::SetVelocity {
+                frame: Frame::Robot,
+                vx: 0.3,
+                vy: 0.1,
+                yaw_rate: 0.5,
+            },
+            &mut rt,
+            now,
+        );
+        for _ in 0..100 {
+            w.send(&Message::Heartbeat, &mut rt, now);
+            cycle(&mut rt, &mut board, &mut now);
+        }
+        // Rejected commands (NaN, over-limit) and a corrupt frame.
+        w.send(
+            &Message::SetVelocity {
+                frame: Frame::World,
+                vx: f32::NAN,
+                vy: 0.0,
+                yaw_rate: 0.0,
+            },
+            &mut rt,
+            now,
+        );
+        let _ = rt.handle(
+            Command::Velocity {
+                twist: Twist2::new(9.0, 0.0, 0.0),
+                frame: Frame::Robot,
+            },
+            now,
+        );
+        let len = w.op.encode(&Message::Heartbeat, &mut w.frame).unwrap();
+        w.frame[3] ^= 0x55;
+        w.reader.feed(&w.frame[..len], &mut w.robot, |_| {});
+        // Plan upload in chunks, then trajectory mode.
+        w.send(&Message::Stop, &mut rt, now);
+        for _ in 0..100 {
+            w.send(&Message::Heartbeat, &mut rt, now);
+            cycle(&mut rt, &mut board, &mut now);
+        }
+        w.send(&Message::PlanBegin { id: 1, len: 40 }, &mut rt, now);
+        for (k, c) in points.chunks(CHUNK_POINTS).enumerate() {
+            let mut v = heapless::Vec::new();
+            for p in c {
+                let _ = v.push(WirePoint::from_point(p));
+            }
+            w.send(
+                &Message::PlanChunk {
+                    id: 1,
+                    offset: (k * CHUNK_POINTS) as u16,
+                    points: v,
+                },
+                &mut rt,
+                now,
+            );
+        }
+        w.send(&Message::PlanStart { id: 1 }, &mut rt, now);
+        assert_eq!(rt.mode(), Mode::Trajectory);
+        for _ in 0..250 {
+            w.send(&Message::Heartbeat, &mut rt, now);
+            let st = cycle(&mut rt, &mut board, &mut now);
+            // Telemetry encoding too.
+            let tm = Telemetry::new(&st, w.robot.counters());
+            let _ = w
+                .robot
+                .encode(&Message::Telemetry(tm), &mut w.frame)
+                .unwrap();
+        }
+        // Watchdog stop and e-stop.
+        for _ in 0..100 {
+            cycle(&mut rt, &mut board, &mut now);
+        }
+        w.send(&Message::EStop, &mut rt, now);
+        for _ in 0..10 {
+            cycle(&mut rt, &mut board, &mut now);
+        }
+    });
+    assert_eq!(n, 0, "{n} allocations in {cycles} control cycles");
+    assert_eq!(cycles, 560);
+    assert_eq!(rt.mode(), Mode::EStop);
+    assert_eq!(rt.rejected(), 2);
+    assert_eq!(w.robot.counters().crc, 1);
+}
