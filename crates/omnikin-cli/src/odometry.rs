@@ -1,0 +1,439 @@
+//! `omnikin odometry LOG.csv --robot R [--imu] [--fixes FIXES.csv] --out poses.csv [--plot F.svg]`:
+//! wheel odometry (and camera fusion) over a recorded encoder log, with the core's
+//! [`omnikin::odometry::Odometry`] and [`omnikin::estimator::PoseEstimator`].
+//!
+//! Input: the encoder log of conventions.md (`t,q1,q2,q3` cumulative wheel angles in rad, or
+//! counts with `--counts-per-rev`; `s1,s2,s3` steer angles for caster3; optional `gyro_z`
+//! rad/s and `yaw` rad). Fixes: `t,x,y` with optional `heading` and `arrival` (s; when the fix
+//! reached the robot, default `t`); each fix is handed to the filter when it arrives and fused
+//! at the time it was taken. Output: `t,x,y,heading` per log row. Bad files are rejected with
+//! `FILE:LINE: column NAME: what is wrong`.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use omnikin::description::RobotDescription;
+use omnikin::estimator::{EstimatorError, Fix, FixOutcome, PoseEstimator, ProcessNoise};
+use omnikin::nalgebra::{Matrix3, Vector3};
+use omnikin::odometry::{EncoderReading, HeadingInput, Odometry};
+use omnikin::{Pose2, Robot};
+
+use crate::args::{Triple, finite_f64};
+
+/// Odometry-step history kept for late camera fixes (at 100 Hz: 2.5 s).
+const HISTORY: usize = 256;
+
+/// `omnikin odometry`.
+#[derive(clap::Args, Debug)]
+pub struct OdometryArgs {
+    /// Encoder log CSV: t,q1,q2,q3 (rad, cumulative), caster3 adds s1,s2,s3 (rad); optional
+    /// gyro_z (rad/s) and yaw (rad).
+    pub log: PathBuf,
+    /// Robot: preset name (sphere-omni, ballbot, caster3) or path to a TOML description.
+    #[arg(long)]
+    pub robot: String,
+    /// Heading from the IMU instead of the wheels: the log's `yaw` column (absolute heading) if
+    /// present, otherwise its `gyro_z` column (integrated, trapezoidal rule).
+    #[arg(long)]
+    pub imu: bool,
+    /// Camera fixes CSV: t,x,y (m) with optional heading (rad) and arrival (s); fused by a
+    /// Kalman filter at the time each was taken, outliers rejected by a 99.9 % chi-square gate.
+    #[arg(long, value_name = "FIXES.csv")]
+    pub fixes: Option<PathBuf>,
+    /// Output pose CSV: t,x,y,heading (world frame, heading unwrapped).
+    #[arg(long, value_name = "poses.csv")]
+    pub out: PathBuf,
+    /// Also draw the path (odometry, fused estimate, fixes) and the heading to an SVG file.
+    #[arg(long, value_name = "FILE.svg")]
+    pub plot: Option<PathBuf>,
+    /// The q (and s) columns are encoder counts with this many counts per revolution.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub counts_per_rev: Option<u32>,
+    /// Starting pose X,Y,HEADING (m, m, rad; world frame).
+    #[arg(long, allow_hyphen_values = true, value_name = "X,Y,H")]
+    pub initial_pose: Option<Triple>,
+    /// Standard deviation of a fix's x and y, m.
+    #[arg(long, default_value_t = 0.01, value_parser = positive_f64)]
+    pub fix_std: f64,
+    /// Standard deviation of a fix's heading, rad (fixes with a heading column).
+    #[arg(long, default_value_t = 0.05, value_parser = positive_f64)]
+    pub fix_heading_std: f64,
+    /// Gyro bias to subtract from gyro_z, rad/s.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub gyro_bias: f64,
+}
+
+fn positive_f64(s: &str) -> std::result::Result<f64, String> {
+    let v = finite_f64(s)?;
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("must be > 0, got \"{s}\""))
+    }
+}
+
+/// A numeric CSV table: header names and rows (with their 1-based line numbers).
+struct Table {
+    file: String,
+    header: Vec<String>,
+    rows: Vec<(usize, Vec<f64>)>,
+}
+
+impl Table {
+    /// Reads `path`; every value must be a finite number; blank lines are skipped.
+    fn read(path: &Path) -> Result<Self> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).with_context(|| format!("{file}: cannot read"))?;
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| !l.trim().is_empty());
+        let Some((_, head)) = lines.next() else {
+            bail!("{file}:1: empty file, expected a header row");
+        };
+        let header: Vec<String> = head
+            .trim_start_matches('\u{feff}')
+            .split(',')
+            .map(|h| h.trim().to_string())
+            .collect();
+        let mut rows = Vec::new();
+        for (i, line) in lines {
+            let n = i + 1;
+            let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+            if cells.len() != header.len() {
+                bail!(
+                    "{file}:{n}: {} values, but the header has {} columns",
+                    cells.len(),
+                    header.len()
+                );
+            }
+            let mut v = Vec::with_capacity(cells.len());
+            for (c, name) in cells.iter().zip(&header) {
+                let x: f64 = c.parse().map_err(|_| {
+                    anyhow::anyhow!("{file}:{n}: column {name}: \"{c}\" is not a number")
+                })?;
+                if !x.is_finite() {
+                    bail!("{file}:{n}: column {name}: {c} is not finite");
+                }
+                v.push(x);
+            }
+            rows.push((n, v));
+        }
+        // Time must increase strictly.
+        let t = table_index(&header, "t")
+            .ok_or_else(|| anyhow::anyhow!("{file}:1: missing column t"))?;
+        for w in rows.windows(2) {
+            if w[1].1[t] <= w[0].1[t] {
+                bail!(
+                    "{file}:{}: column t: time {} does not increase (previous {} on line {})",
+                    w[1].0,
+                    w[1].1[t],
+                    w[0].1[t],
+                    w[0].0
+                );
+            }
+        }
+        Ok(Self { file, header, rows })
+    }
+
+    fn col(&self, name: &str) -> Option<usize> {
+        table_index(&self.header, name)
+    }
+
+    /// Indices of required columns, or an error naming all missing ones.
+    fn require(&self, names: &[&str], why: &str) -> Result<Vec<usize>> {
+        let missing: Vec<&str> = names
+            .iter()
+            .copied()
+            .filter(|n| self.col(n).is_none())
+            .collect();
+        if !missing.is_empty() {
+            bail!(
+                "{}:1: missing column(s) {} ({why})",
+                self.file,
+                missing.join(", ")
+            );
+        }
+        Ok(names.iter().filter_map(|n| self.col(n)).collect())
+    }
+}
+
+fn table_index(header: &[String], name: &str) -> Option<usize> {
+    header.iter().position(|h| h == name)
+}
+
+/// What the run produced, for the summary and the plot.
+struct Output {
+    t: Vec<f64>,
+    odometry: Vec<Pose2<f64>>,
+    estimate: Vec<Pose2<f64>>,
+}
+
+/// Runs `omnikin odometry`.
+pub fn run(args: &OdometryArgs) -> Result<()> {
+    let description = RobotDescription::resolve(&args.robot)?;
+    let robot = description.build::<f64>()?;
+    let caster = matches!(robot, Robot::Caster(_));
+    let log = Table::read(&args.log)?;
+    let q = log.require(&["t", "q1", "q2", "q3"], "an encoder log needs t,q1,q2,q3")?;
+    let s = if caster {
+        log.require(
+            &["s1", "s2", "s3"],
+            "caster3 needs its steer angles s1,s2,s3",
+        )?
+    } else {
+        Vec::new()
+    };
+    enum Source {
+        Wheels,
+        Gyro(usize),
+        Yaw(usize),
+    }
+    let source = match (args.imu, log.col("yaw"), log.col("gyro_z")) {
+        (false, _, _) => Source::Wheels,
+        (true, Some(y), _) => Source::Yaw(y),
+        (true, None, Some(g)) => Source::Gyro(g),
+        (true, None, None) => bail!(
+            "{}:1: --imu needs a yaw or gyro_z column (header: {})",
+            log.file,
+            log.header.join(",")
+        ),
+    };
+    if log.rows.is_empty() {
+        bail!("{}: no samples after the header", log.file);
+    }
+    let scale = args
+        .counts_per_rev
+        .map_or(1.0, |n| std::f64::consts::TAU / n as f64);
+    let start = args.initial_pose.map_or(Pose2::new(0.0, 0.0, 0.0), |p| {
+        Pose2::new(p.0[0], p.0[1], p.0[2])
+    });
+
+    let fixes = match &args.fixes {
+        Some(path) => Some(read_fixes(path, args)?),
+        None => None,
+    };
+    let t0 = log.rows[0].1[q[0]];
+    let mut est = PoseEstimator::<f64, HISTORY>::new(
+        t0,
+        start,
+        Matrix3::from_diagonal(&Vector3::new(1e-4, 1e-4, 1e-4)),
+        ProcessNoise::wheel_odometry(),
+    )?;
+    let mut odo = Odometry::new(robot, start);
+    let mut out = Output {
+        t: Vec::new(),
+        odometry: Vec::new(),
+        estimate: Vec::new(),
+    };
+    let (mut accepted, mut rejected, mut too_old) = (0usize, 0usize, 0usize);
+    let mut next_fix = 0;
+    let mut max_slip = (0.0f64, t0);
+    let mut spin_sum = (0.0f64, 0usize);
+    let mut path = 0.0;
+    for (line, v) in &log.rows {
+        let at = |i: usize| v[i];
+        let t = at(q[0]);
+        let wheels = [at(q[1]) * scale, at(q[2]) * scale, at(q[3]) * scale];
+        let steer = if caster {
+            [at(s[0]) * scale, at(s[1]) * scale, at(s[2]) * scale]
+        } else {
+            [0.0; 3]
+        };
+        let heading = match source {
+            Source::Wheels => HeadingInput::Wheels,
+            Source::Gyro(g) => HeadingInput::GyroRate(at(g) - args.gyro_bias),
+            Source::Yaw(y) => HeadingInput::Absolute(at(y)),
+        };
+        let step = odo
+            .update(&EncoderReading::with_steer(t, wheels, steer), heading)
+            .with_context(|| format!("{}:{line}", log.file))?;
+        path += step.delta.x.hypot(step.delta.y);
+        if step.slip_residual > max_slip.0 {
+            max_slip = (step.slip_residual, t);
+        }
+        if let Some(x) = step.shell_spin {
+            spin_sum = (spin_sum.0 + x, spin_sum.1 + 1);
+        }
+        if step.dt > 0.0 {
+            est.predict(t, step.delta)
+                .with_context(|| format!("{}:{line}", log.file))?;
+        }
+        if let Some((fix_file, fixes)) = &fixes {
+            while next_fix < fixes.len() && fixes[next_fix].1 <= t {
+                let (fline, _, fix) = (fixes[next_fix].0, fixes[next_fix].1, fixes[next_fix].2);
+                next_fix += 1;
+                match est.add_fix(&fix) {
+                    Ok(FixOutcome::Accepted { .. }) => accepted += 1,
+                    Ok(FixOutcome::Rejected { mahalanobis2, gate }) => {
+                        rejected += 1;
+                        eprintln!(
+                            "warning: {fix_file}:{fline}: fix at t = {} s rejected as an outlier (d² = {mahalanobis2:.1} > {gate:.1})",
+                            fix.t
+                        );
+                    }
+                    Err(EstimatorError::FixTooOld { .. }) => too_old += 1,
+                    Err(e) => return Err(anyhow::anyhow!("{fix_file}:{fline}: {e}")),
+                }
+            }
+        }
+        out.t.push(t);
+        out.odometry.push(step.pose);
+        out.estimate.push(if fixes.is_some() {
+            est.pose()
+        } else {
+            step.pose
+        });
+    }
+
+    let mut csv = String::from("t,x,y,heading\n");
+    for (t, p) in out.t.iter().zip(&out.estimate) {
+        let _ = writeln!(csv, "{t},{},{},{}", p.x, p.y, p.heading);
+    }
+    std::fs::write(&args.out, csv)
+        .with_context(|| format!("{}: cannot write", args.out.display()))?;
+
+    let end = out.estimate.last().copied().unwrap_or(start);
+    let duration = out.t.last().copied().unwrap_or(t0) - t0;
+    eprintln!(
+        "robot: {} ({}); heading from {}",
+        description.name,
+        description.kind(),
+        match source {
+            Source::Wheels => "the wheels",
+            Source::Gyro(_) => "gyro_z (integrated)",
+            Source::Yaw(_) => "the yaw column",
+        }
+    );
+    eprintln!(
+        "{} samples over {duration:.3} s; odometry path {path:.4} m; end pose x {:.4} m, y {:.4} m, heading {:.4} rad",
+        out.t.len(),
+        end.x,
+        end.y,
+        end.heading
+    );
+    if caster {
+        eprintln!(
+            "largest slip residual {:.4} m/s at t = {} s",
+            max_slip.0, max_slip.1
+        );
+    }
+    if spin_sum.1 > 0 {
+        eprintln!(
+            "mean {} spin about the vertical (from wheels + IMU heading): {:.4} rad/s",
+            if matches!(robot, Robot::Sphere(_)) {
+                "shell"
+            } else {
+                "ball"
+            },
+            spin_sum.0 / spin_sum.1 as f64
+        );
+    }
+    if let Some((_, f)) = &fixes {
+        let p = out.odometry.last().copied().unwrap_or(start);
+        eprintln!(
+            "fixes: {accepted} fused, {rejected} rejected as outliers, {too_old} older than the history, {} after the log; fused end differs from pure odometry by {:.4} m",
+            f.len() - next_fix,
+            (p.x - end.x).hypot(p.y - end.y)
+        );
+    }
+    eprintln!("wrote {}", args.out.display());
+    if let Some(svg) = &args.plot {
+        let fix_points: Vec<(f64, f64)> = fixes
+            .as_ref()
+            .map(|(_, f)| f.iter().map(|(_, _, x)| (x.x, x.y)).collect())
+            .unwrap_or_default();
+        figure(svg, &out, &fix_points, fixes.is_some())?;
+        eprintln!("wrote {}", svg.display());
+    }
+    Ok(())
+}
+
+/// Fixes with their line, arrival time and the filter's measurement, sorted by arrival.
+type Fixes = (String, Vec<(usize, f64, Fix<f64>)>);
+
+fn read_fixes(path: &Path, args: &OdometryArgs) -> Result<Fixes> {
+    let table = Table::read(path)?;
+    let c = table.require(&["t", "x", "y"], "fixes need t,x,y")?;
+    let heading = table.col("heading");
+    let arrival = table.col("arrival");
+    let mut fixes = Vec::with_capacity(table.rows.len());
+    for (line, v) in &table.rows {
+        let t = v[c[0]];
+        let arr = arrival.map_or(t, |a| v[a]);
+        if arr < t {
+            bail!(
+                "{}:{line}: column arrival: {arr} is before the fix was taken (t = {t})",
+                table.file
+            );
+        }
+        fixes.push((
+            *line,
+            arr,
+            Fix {
+                t,
+                x: v[c[1]],
+                y: v[c[2]],
+                heading: heading.map(|h| v[h]),
+                std_xy: args.fix_std,
+                std_heading: args.fix_heading_std,
+            },
+        ));
+    }
+    fixes.sort_by(|a, b| a.1.total_cmp(&b.1));
+    Ok((table.file, fixes))
+}
+
+fn figure(svg: &Path, out: &Output, fixes: &[(f64, f64)], fused: bool) -> Result<()> {
+    use crate::plot::{PALETTE, Series, draw_err, time_panel, xy_panel};
+    use plotters::prelude::*;
+    let root = SVGBackend::new(svg, (1300, 640)).into_drawing_area();
+    root.fill(&WHITE).map_err(draw_err)?;
+    let (left, right) = root.split_horizontally(700);
+    let xy = |p: &[Pose2<f64>]| p.iter().map(|p| (p.x, p.y)).collect::<Vec<_>>();
+    let th = |p: &[Pose2<f64>]| {
+        out.t
+            .iter()
+            .zip(p)
+            .map(|(&t, p)| (t, p.heading))
+            .collect::<Vec<_>>()
+    };
+    let mut paths = vec![Series::solid(
+        "wheel odometry",
+        xy(&out.odometry),
+        PALETTE[0],
+    )];
+    let mut headings = vec![Series::solid(
+        "wheel odometry",
+        th(&out.odometry),
+        PALETTE[0],
+    )];
+    if fused {
+        paths.push(Series::solid(
+            "fused with fixes",
+            xy(&out.estimate),
+            PALETTE[1],
+        ));
+        headings.push(Series::solid(
+            "fused with fixes",
+            th(&out.estimate),
+            PALETTE[1],
+        ));
+        if !fixes.is_empty() {
+            paths.push(Series::dashed("camera fixes", fixes.to_vec(), PALETTE[3]));
+        }
+    }
+    xy_panel(
+        &left,
+        "estimated path (world frame)",
+        "x [m]",
+        "y [m]",
+        &paths,
+        &[],
+        &[],
+    )?;
+    time_panel(&right, "heading", "heading [rad]", &headings, &[], None)?;
+    root.present().map_err(draw_err)?;
+    Ok(())
+}
