@@ -99,9 +99,18 @@ fn negative_radius_names_field_and_rule() {
         "robots/test.toml: geometry.wheel_radius (wheel 1): wheel_radius[0] must be > 0 (got -0.07)"
     );
     // One radius per wheel: the third is bad.
-    let e = error_of(&sphere_with("wheel_radius = 0.07", "wheel_radius = [0.07, 0.07, -0.01]"));
-    assert!(e.contains("geometry.wheel_radius (wheel 3)") && e.contains("must be > 0"), "{e}");
-    let e = error_of(&sphere_with("wheel_radius = 0.07", "wheel_radius = [0.07, 0.07]"));
+    let e = error_of(&sphere_with(
+        "wheel_radius = 0.07",
+        "wheel_radius = [0.07, 0.07, -0.01]",
+    ));
+    assert!(
+        e.contains("geometry.wheel_radius (wheel 3)") && e.contains("must be > 0"),
+        "{e}"
+    );
+    let e = error_of(&sphere_with(
+        "wheel_radius = 0.07",
+        "wheel_radius = [0.07, 0.07]",
+    ));
     assert!(e.contains("a radius in m, or a list of three radii"), "{e}");
     let ok = RobotDescription::from_toml_str(
         &sphere_with("wheel_radius = 0.07", "wheel_radius = [0.07, 0.071, 0.069]"),
