@@ -62,6 +62,20 @@ fn cs<T: Real>(a: T) -> (T, T) {
     (c, s)
 }
 
+/// Cosines and sines of one wheel's angles (see [`Caster3::wheel_trig`]).
+#[derive(Clone, Copy)]
+struct WheelTrig<T> {
+    /// `cos(α_i + θ)`, `sin(α_i + θ)`: direction of `C→F_i` in the world.
+    ca: T,
+    sa: T,
+    /// `cos β_i`, `sin β_i`, `β_i = α_i + θ + γ_i`: the wheel's world direction.
+    cb: T,
+    sb: T,
+    /// `cos γ_i`, `sin γ_i`: the steer angle.
+    cg: T,
+    sg: T,
+}
+
 /// All six rates zero (`CasterRates::default()` needs `T: Default`, which `Real` does not imply).
 #[inline]
 fn zero_rates<T: Real>() -> CasterRates<T> {
@@ -119,6 +133,8 @@ pub struct Caster3<T> {
     /// `L = D + d`, m: length scale used to make the yaw column commensurate with the linear
     /// ones in tolerances.
     scale: T,
+    /// `(cos α_i, sin α_i)` of the mounting angles.
+    mount_cs: [(T, T); 3],
 }
 
 /// The six motor rates of a three-caster base.
@@ -209,6 +225,7 @@ impl<T: Real> Caster3<T> {
         let big_d_over_r = finite_param(big_d / r, "mount_radius / wheel_radius")?;
         let big_d_over_d = finite_param(big_d / d, "mount_radius / eccentricity")?;
         let scale = finite_param(big_d + d, "mount_radius + eccentricity")?;
+        let mount_cs = [cs(a[0]), cs(a[1]), cs(a[2])];
         Ok(Self {
             params,
             inv_r,
@@ -216,6 +233,7 @@ impl<T: Real> Caster3<T> {
             big_d_over_r,
             big_d_over_d,
             scale,
+            mount_cs,
         })
     }
 
@@ -236,6 +254,27 @@ impl<T: Real> Caster3<T> {
             a[1] + heading + steer[1],
             a[2] + heading + steer[2],
         ]
+    }
+
+    /// The cosines and sines of `α_i + θ`, `β_i = α_i + θ + γ_i` and `γ_i` for the three wheels
+    /// from four `sin_cos` evaluations (the heading and each steer angle) and the precomputed
+    /// `(cos α_i, sin α_i)`, by the angle-addition formulas.
+    #[inline]
+    fn wheel_trig(&self, heading: T, steer: [T; 3]) -> [WheelTrig<T>; 3] {
+        let (ct, st) = cs(heading);
+        core::array::from_fn(|i| {
+            let (cm, sm) = self.mount_cs[i];
+            let (cg, sg) = cs(steer[i]);
+            let (ca, sa) = (cm * ct - sm * st, sm * ct + cm * st);
+            WheelTrig {
+                ca,
+                sa,
+                cb: ca * cg - sa * sg,
+                sb: sa * cg + ca * sg,
+                cg,
+                sg,
+            }
+        })
     }
 
     /// Row `i` of `J1` (× `1/r`-scaled): `[−cos β_i/r, −sin β_i/r, −(D/r) sin γ_i]`.
@@ -370,11 +409,20 @@ impl<T: Real> Caster3<T> {
         let q = twist_world.check_finite()?.to_array();
         finite(heading, "heading")?;
         finite3(steer, STEER)?;
-        let beta = self.wheel_directions(heading, steer);
+        let trig = self.wheel_trig(heading, steer);
         let mut out = zero_rates();
-        for i in 0..3 {
-            let a = self.j1_row(beta[i], steer[i]);
-            let b = self.j2_row(beta[i], steer[i]);
+        for (i, w) in trig.iter().enumerate() {
+            // Rows i of J1 and J2 (see `j1_row`, `j2_row`).
+            let a = [
+                -w.cb * self.inv_r,
+                -w.sb * self.inv_r,
+                -self.big_d_over_r * w.sg,
+            ];
+            let b = [
+                w.sb * self.inv_d,
+                -w.cb * self.inv_d,
+                -self.big_d_over_d * w.cg - T::one(),
+            ];
             out.roll[i] = a[0] * q[0] + a[1] * q[1] + a[2] * q[2];
             out.steer[i] = b[0] * q[0] + b[1] * q[1] + b[2] * q[2];
         }
@@ -421,10 +469,9 @@ impl<T: Real> Caster3<T> {
         let mut pos = [[T::zero(); 2]; 3];
         let mut vel = [[T::zero(); 2]; 3];
         let (mut pbar, mut mbar) = ([T::zero(); 2], [T::zero(); 2]);
+        let trig = self.wheel_trig(heading, steer);
         for i in 0..3 {
-            let a = p.mount_angles[i] + heading;
-            let (ca, sa) = cs(a);
-            let (cb, sb) = cs(a + steer[i]);
+            let WheelTrig { ca, sa, cb, sb, .. } = trig[i];
             pos[i] = [big_d * ca + d * cb, big_d * sa + d * sb];
             let (u, w) = (r * rates.roll[i], d * rates.steer[i]);
             vel[i] = [-u * cb + w * sb, -u * sb - w * cb];
