@@ -11,6 +11,7 @@ use clap::{Parser, Subcommand};
 mod args;
 mod figures;
 mod kinematics;
+mod odometry;
 mod plan;
 mod plot;
 mod sim;
@@ -60,6 +61,9 @@ enum Command {
     /// Re-run a paper's whole experiment design in simulation and tabulate our figures next
     /// to the paper's (sphere-2019: paper 000's squares and circles at four speeds).
     Reproduce(sim::ReproduceArgs),
+    /// Wheel odometry over an encoder log (t,q1,q2,q3[,s1,s2,s3][,gyro_z][,yaw]), optionally
+    /// with the IMU heading and fused with camera fixes; writes t,x,y,heading.
+    Odometry(odometry::OdometryArgs),
 }
 
 /// `omnikin inverse`.
@@ -165,6 +169,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => sim::simulate(&a),
         Command::Evaluate(a) => sim::evaluate_tracks(&a),
         Command::Reproduce(a) => sim::reproduce(&a),
+        Command::Odometry(a) => odometry::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -37,6 +37,53 @@ pub struct SimulateArgs {
     /// Output directory (created): metrics.json, trials.csv, mean.csv, figure.svg.
     #[arg(long)]
     pub out: PathBuf,
+    /// Also write what each trial's sensors recorded, for `omnikin odometry`:
+    /// DIR/sensors/trial-NNN/{encoders.csv, fixes.csv, imu.csv, truth.csv}.
+    #[arg(long)]
+    pub emit_sensors: bool,
+    /// Sensor profile for --emit-sensors (TOML: counts_per_rev, [gyro], [yaw], [imu], [camera];
+    /// see omnikin_sim::sensors). Default: 4096-count encoders, a gyro, camera fixes at 10 Hz.
+    #[arg(long, value_name = "SENSORS.toml", requires = "emit_sensors")]
+    pub sensors: Option<PathBuf>,
+}
+
+/// Writes the sensor logs of every trial under `dir/sensors/`.
+fn emit_sensors(
+    dir: &Path,
+    robot: &omnikin::Robot<f64>,
+    trials: &[Trial],
+    sensors: Option<&Path>,
+    seed: u64,
+) -> Result<()> {
+    use omnikin_sim::sensors::{
+        SensorProfile, emit, write_encoder_log, write_fixes, write_imu, write_truth,
+    };
+    let profile = match sensors {
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("cannot read sensor profile {}", p.display()))?;
+            SensorProfile::from_toml_str(&text, &p.display().to_string())?
+        }
+        None => SensorProfile::typical(),
+    };
+    for (i, trial) in trials.iter().enumerate() {
+        // A stream of its own, so sensor noise does not change the plant's numbers.
+        let mut rng = omnikin_sim::trial_rng(seed ^ 0x5E45_0125_5E45_0125, i);
+        let s = emit(robot, trial, &profile, &mut rng);
+        let d = dir.join("sensors").join(format!("trial-{i:03}"));
+        create_dir(&d)?;
+        write_file(&d.join("encoders.csv"), |w| {
+            write_encoder_log(&s.encoder, w)
+        })?;
+        write_file(&d.join("truth.csv"), |w| write_truth(trial, w))?;
+        if !s.fixes.is_empty() {
+            write_file(&d.join("fixes.csv"), |w| write_fixes(&s.fixes, w))?;
+        }
+        if !s.imu.is_empty() {
+            write_file(&d.join("imu.csv"), |w| write_imu(&s.imu, w))?;
+        }
+    }
+    Ok(())
 }
 
 /// `omnikin evaluate`.
@@ -240,10 +287,17 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
         &runs,
         &mean,
     )?;
+    if a.emit_sensors {
+        emit_sensors(&a.out, &robot, &trials, a.sensors.as_deref(), a.seed)?;
+        eprintln!(
+            "sensor logs: {}/sensors/trial-NNN/{{encoders.csv, fixes.csv, imu.csv, truth.csv}}",
+            a.out.display().to_string().trim_end_matches('/')
+        );
+    }
     print_summary(&metrics);
     eprintln!(
         "wrote {}/{{metrics.json, trials.csv, mean.csv, figure.svg}}",
-        a.out.display()
+        a.out.display().to_string().trim_end_matches('/')
     );
     Ok(())
 }
@@ -304,7 +358,7 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
     print_summary(&metrics);
     eprintln!(
         "wrote {}/{{metrics.json, runs.csv, mean.csv, figure.svg}}",
-        a.out.display()
+        a.out.display().to_string().trim_end_matches('/')
     );
     Ok(())
 }

@@ -371,3 +371,101 @@ fn simulating_a_plan_on_the_wrong_robot_warns() {
                 .and(predicate::str::contains("planned for another robot")),
         );
 }
+
+/// Issue 5 end to end: the simulator's sensor logs fed to `omnikin odometry` give back the
+/// simulated ground truth — to encoder quantisation with encoders alone, and within the camera
+/// noise when fused with the (late, noisy) camera fixes under a shell-spin disturbance.
+#[test]
+fn simulate_emit_sensors_then_odometry_recovers_the_truth() {
+    let d = tmp("sensors");
+    let plan = circle_plan(&d);
+    let out = d.join("sim");
+    let profile = d.join("spin.toml");
+    std::fs::write(&profile, "[shell_spin]\nstd = 0.05\n").unwrap();
+    omnikin()
+        .args([
+            "simulate",
+            plan.to_str().unwrap(),
+            "--robot",
+            "sphere-omni",
+            "--disturbances",
+            profile.to_str().unwrap(),
+            "--trials",
+            "2",
+            "--emit-sensors",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .assert()
+        .success();
+    let trial = out.join("sensors").join("trial-000");
+    for f in ["encoders.csv", "truth.csv", "fixes.csv"] {
+        assert!(trial.join(f).exists(), "{f}");
+    }
+    let read = |p: &Path| -> Vec<[f64; 3]> {
+        let mut r = csv::Reader::from_path(p).unwrap();
+        let h = r.headers().unwrap().clone();
+        let col = |n: &str| h.iter().position(|c| c == n).unwrap();
+        let (x, y, th) = (col("x"), col("y"), col("heading"));
+        r.records()
+            .map(|rec| {
+                let rec = rec.unwrap();
+                [
+                    rec[x].parse().unwrap(),
+                    rec[y].parse().unwrap(),
+                    rec[th].parse().unwrap(),
+                ]
+            })
+            .collect()
+    };
+    let truth = read(&trial.join("truth.csv"));
+    let start = format!("{},{},{}", truth[0][0], truth[0][1], truth[0][2]);
+    let end_error = |poses: &[[f64; 3]]| {
+        let (a, b) = (poses.last().unwrap(), truth.last().unwrap());
+        (a[0] - b[0]).hypot(a[1] - b[1])
+    };
+    // Encoders alone assume no shell spin: the spin makes them drift.
+    let wheels = d.join("wheels.csv");
+    omnikin()
+        .args([
+            "odometry",
+            trial.join("encoders.csv").to_str().unwrap(),
+            "--robot",
+            "sphere-omni",
+            "--initial-pose",
+            &start,
+            "--out",
+            wheels.to_str().unwrap(),
+        ])
+        .assert()
+        .success();
+    let drift = end_error(&read(&wheels));
+    // With the camera fixes fused, the estimate stays near the truth.
+    let fused = d.join("fused.csv");
+    omnikin()
+        .args([
+            "odometry",
+            trial.join("encoders.csv").to_str().unwrap(),
+            "--robot",
+            "sphere-omni",
+            "--imu",
+            "--fixes",
+            trial.join("fixes.csv").to_str().unwrap(),
+            "--initial-pose",
+            &start,
+            "--out",
+            fused.to_str().unwrap(),
+        ])
+        .assert()
+        .success();
+    let fused_error = end_error(&read(&fused));
+    eprintln!("end error: wheels only {drift:.4} m, fused with camera fixes {fused_error:.4} m");
+    assert!(
+        fused_error < 0.03,
+        "fused end error {fused_error} m (wheels-only {drift} m)"
+    );
+    assert!(
+        fused_error < drift,
+        "fusion must beat wheels-only: {fused_error} vs {drift}"
+    );
+}

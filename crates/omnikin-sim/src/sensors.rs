@@ -129,6 +129,38 @@ pub struct SensorProfile {
     pub camera: Option<CameraProfile>,
 }
 
+impl SensorProfile {
+    /// What `omnikin simulate --emit-sensors` records without a `--sensors` file: 4096-count
+    /// wheel (and steer) encoders, a gyro z channel with 0.002 rad/s noise, a level IMU and
+    /// camera fixes at 10 Hz with 100 ms latency and 5 mm noise ([`CameraProfile::default`]).
+    pub fn typical() -> Self {
+        Self {
+            counts_per_rev: Some(4096),
+            steer_counts_per_rev: Some(4096),
+            gyro: Some(GyroProfile {
+                noise_std: 0.002,
+                bias: 0.0,
+                bias_std: 0.0,
+            }),
+            yaw: None,
+            imu: Some(ImuProfile::default()),
+            camera: Some(CameraProfile::default()),
+        }
+    }
+
+    /// Reads a sensor profile from TOML text (every key of the types above; unknown keys are
+    /// errors naming the line).
+    pub fn from_toml_str(text: &str, file: &str) -> Result<Self, crate::profile::ProfileError> {
+        toml::from_str(text).map_err(|e| crate::profile::ProfileError {
+            file: file.to_string(),
+            line: e
+                .span()
+                .map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count()),
+            message: e.message().trim().to_string(),
+        })
+    }
+}
+
 /// One row of the encoder log (conventions.md, "Encoder log CSV for odometry").
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EncoderRow {
