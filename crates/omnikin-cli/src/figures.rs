@@ -14,7 +14,10 @@ const RUN_GREY: RGBColor = RGBColor(185, 185, 185);
 
 /// The band around a 2-D mean path: at each sample the per-axis half-widths `(hx, hy)` are
 /// projected on the path normal (`|n_x| hx + |n_y| hy`), giving the left and right borders.
-fn band_polygon(mean: &[[f64; 2]], half: &[[f64; 2]]) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+/// One border of a band: points in data units.
+type Border = Vec<(f64, f64)>;
+
+fn band_polygon(mean: &[[f64; 2]], half: &[[f64; 2]]) -> (Border, Border) {
     let n = mean.len();
     let mut left = Vec::with_capacity(n);
     let mut right = Vec::with_capacity(n);
