@@ -1,0 +1,124 @@
+//! Runs `N` control cycles of one robot, or `N` calls of one kernel, for instruction counting
+//! (`bench/instructions.sh` runs it under callgrind at two values of `N`: the difference of
+//! the counts divided by the difference of the `N`s is the cost of one cycle or call, without
+//! the set-up).
+//!
+//! `omnikin-cycle-driver WHAT N`, `WHAT` one of
+//! * `sphere`, `ballbot`, `caster`: a full control cycle ([`omnikin_bench::Loop::step`]);
+//! * `ROBOT-inverse`, `ROBOT-forward`, `ROBOT-odometry`: one kinematics call or odometry step
+//!   on the shared input table.
+
+use std::hint::black_box;
+
+use omnikin::Robot;
+use omnikin::caster::CasterRates;
+use omnikin::odometry::{EncoderReading, HeadingInput, Odometry};
+use omnikin::runtime::{Faults, Mode};
+use omnikin_bench::{Inputs, K, Loop, robot};
+
+fn usage() -> ! {
+    eprintln!(
+        "usage: omnikin-cycle-driver WHAT N\n  WHAT: sphere|ballbot|caster (control cycle), \
+         or ROBOT-inverse|ROBOT-forward|ROBOT-odometry"
+    );
+    std::process::exit(2);
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let (Some(what), Some(n)) = (args.get(1), args.get(2).and_then(|s| s.parse::<u64>().ok()))
+    else {
+        usage()
+    };
+    let (name, kernel) = what.split_once('-').unwrap_or((what.as_str(), "cycle"));
+    let Some(rob) = robot(name) else { usage() };
+    let inp = Inputs::new();
+    let k = |i: u64| i as usize & (K - 1);
+    match (kernel, rob) {
+        ("cycle", _) => {
+            let mut lp = Loop::new(rob);
+            let mut last = None;
+            for _ in 0..n {
+                last = Some(black_box(lp.step(&inp)));
+            }
+            if let Some(st) = last {
+                // Every cycle must have run the full path (a stopped loop would be cheaper).
+                assert_eq!(st.mode, Mode::Velocity, "{st:?}");
+                // LIMIT (a motor limit shaped the command) is part of the work; nothing else.
+                assert_eq!(st.faults.0 & !Faults::LIMIT.0, 0, "{st:?}");
+            }
+        }
+        ("inverse", Robot::Sphere(s)) => {
+            for i in 0..n {
+                black_box(
+                    s.wheel_rates(black_box(inp.twist[k(i)]), black_box(0.0))
+                        .unwrap(),
+                );
+            }
+        }
+        ("inverse", Robot::Ballbot(b)) => {
+            for i in 0..n {
+                black_box(
+                    b.wheel_rates(black_box(inp.twist[k(i)]), black_box(0.0))
+                        .unwrap(),
+                );
+            }
+        }
+        ("inverse", Robot::Caster(c)) => {
+            for i in 0..n {
+                let r = c.motor_rates(
+                    black_box(inp.twist[k(i)]),
+                    black_box(inp.heading[k(i)]),
+                    black_box(inp.steer[k(i)]),
+                );
+                black_box(r.unwrap());
+            }
+        }
+        ("forward", Robot::Sphere(s)) => {
+            for i in 0..n {
+                let w = black_box([inp.twist[k(i)].vx, inp.twist[k(i)].vy, 0.3]);
+                black_box(s.body_twist(w, black_box(0.0)).unwrap());
+            }
+        }
+        ("forward", Robot::Ballbot(b)) => {
+            for i in 0..n {
+                let w = black_box([inp.twist[k(i)].vx, inp.twist[k(i)].vy, 0.3]);
+                black_box(b.body_twist(w, black_box(0.0)).unwrap());
+            }
+        }
+        ("forward", Robot::Caster(c)) => {
+            for i in 0..n {
+                let t = inp.twist[k(i)];
+                let rates = black_box(CasterRates {
+                    roll: [t.vx, t.vy, t.yaw_rate],
+                    steer: [t.vy, t.yaw_rate, t.vx],
+                });
+                let r = c.body_twist(
+                    &rates,
+                    black_box(inp.heading[k(i)]),
+                    black_box(inp.steer[k(i)]),
+                );
+                black_box(r.unwrap());
+            }
+        }
+        ("odometry", rob) => {
+            let mut odo = Odometry::new(rob, omnikin::Pose2::new(0.0, 0.0, 0.0));
+            let (mut t, mut yaw, mut wheel) = (0.0f64, 0.0f64, [0.0f64; 3]);
+            for i in 0..n {
+                for j in 0..3 {
+                    wheel[j] += inp.dist_step[k(i)][j] * 20.0;
+                }
+                t += 1e-3;
+                yaw += 1e-3 * inp.twist[k(i)].yaw_rate;
+                let reading = EncoderReading::with_steer(
+                    black_box(t),
+                    black_box(wheel),
+                    black_box(inp.steer[k(i)]),
+                );
+                let step = odo.update(&reading, HeadingInput::Absolute(black_box(yaw)));
+                black_box(step.unwrap());
+            }
+        }
+        _ => usage(),
+    }
+}
