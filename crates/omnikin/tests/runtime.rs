@@ -482,9 +482,18 @@ fn gyro_disagreeing_with_the_wheels_is_slip() {
     rig.cmd(vel(0.1, 0.0, 0.2)).unwrap();
     rig.run(30, true);
     assert!(rig.log.iter().all(|s| !s.faults.contains(Faults::SLIP)));
+    // A 1 rad/s disagreement passes the 0.5 rad/s threshold after the 0.1 s low-pass: 7 cycles.
     rig.board.gyro_offset = 1.0;
-    let st = rig.run(3, true);
-    assert!(st.faults.contains(Faults::SLIP));
+    let n = (0..30)
+        .position(|_| rig.run(1, true).faults.contains(Faults::SLIP))
+        .expect("slip must be detected");
+    assert_eq!(n, 7);
+    // A brief glitch (2 cycles) is filtered out.
+    rig.board.gyro_offset = 0.0;
+    rig.run(60, true);
+    rig.board.gyro_offset = 1.0;
+    let st = rig.run(2, true);
+    assert!(!st.faults.contains(Faults::SLIP));
 }
 
 #[test]

@@ -55,7 +55,8 @@ impl Faults {
     /// below 1, or the wheel-acceleration limit was active).
     pub const LIMIT: Faults = Faults(1 << 0);
     /// Wheel slip detected: the gyro's yaw rate disagrees with the wheels' by more than
-    /// [`Config::slip_yaw_rate`], or the caster's slip residual exceeds [`Config::slip_speed`].
+    /// [`Config::slip_yaw_rate`], or the caster's slip residual exceeds [`Config::slip_speed`]
+    /// (both low-passed over [`Config::slip_filter`]).
     pub const SLIP: Faults = Faults(1 << 1);
     /// No valid command or heartbeat within [`Config::watchdog`] seconds.
     pub const LINK_LOST: Faults = Faults(1 << 2);
@@ -307,6 +308,9 @@ pub struct Config<T> {
     pub slip_yaw_rate: T,
     /// Slip threshold on the caster's least-squares residual, m/s.
     pub slip_speed: T,
+    /// Time constant of the first-order low-pass applied to both slip signals before the
+    /// thresholds, s (encoder quantisation makes single-cycle rates noisy).
+    pub slip_filter: T,
     /// Take the heading change from the gyro (when an IMU sample arrives) instead of the
     /// wheels.
     pub heading_from_gyro: bool,
@@ -315,7 +319,8 @@ pub struct Config<T> {
 impl<T: Real> Config<T> {
     /// Defaults for a loop at `rate_hz`: no motor limits, 1 m/s², 4 rad/s², no jerk limit,
     /// accepted bounds 2 m/s and 10 rad/s, watchdog 0.5 s, gains 2/s, corrections ≤ 0.1 m/s
-    /// and 0.5 rad/s, slip thresholds 0.5 rad/s and 0.05 m/s, heading from the wheels.
+    /// and 0.5 rad/s, slip thresholds 0.5 rad/s and 0.05 m/s filtered over 0.1 s, heading from
+    /// the wheels.
     pub fn new(rate_hz: T) -> Self {
         Self {
             rate_hz,
@@ -340,6 +345,7 @@ impl<T: Real> Config<T> {
             max_yaw_correction: T::of(0.5),
             slip_yaw_rate: T::of(0.5),
             slip_speed: T::of(0.05),
+            slip_filter: T::of(0.1),
             heading_from_gyro: false,
         }
     }
@@ -388,6 +394,7 @@ impl<T: Real> Config<T> {
         nonneg(self.max_yaw_correction, "max_yaw_correction")?;
         pos(self.slip_yaw_rate, "slip_yaw_rate")?;
         pos(self.slip_speed, "slip_speed")?;
+        nonneg(self.slip_filter, "slip_filter")?;
         Ok(())
     }
 }
@@ -479,6 +486,8 @@ pub struct Runtime<T, const N: usize> {
     imu: Option<ImuSample<T>>,
     twist: Twist2<T>,
     slip_residual: T,
+    /// Low-passed |gyro − wheel yaw rate| (rad/s) and caster residual (m/s).
+    slip_state: [T; 2],
     rejected: u32,
 }
 
@@ -533,6 +542,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             imu: None,
             twist: zero_twist(),
             slip_residual: z,
+            slip_state: [z; 2],
             rejected: 0,
         })
     }
@@ -880,14 +890,15 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                             if step.dt > T::zero() {
                                 self.twist = step.twist;
                                 self.slip_residual = step.slip_residual;
-                                if step.slip_residual > cfg.slip_speed {
-                                    faults.insert(Faults::SLIP);
-                                }
+                                let k = step.dt / (cfg.slip_filter + step.dt);
+                                let st = &mut self.slip_state;
+                                st[1] += k * (step.slip_residual - st[1]);
                                 if let Some(s) = self.imu {
                                     let wheel_rate = step.wheel_heading_change / step.dt;
-                                    if (s.gyro[2] - wheel_rate).abs() > cfg.slip_yaw_rate {
-                                        faults.insert(Faults::SLIP);
-                                    }
+                                    st[0] += k * ((s.gyro[2] - wheel_rate).abs() - st[0]);
+                                }
+                                if st[0] > cfg.slip_yaw_rate || st[1] > cfg.slip_speed {
+                                    faults.insert(Faults::SLIP);
                                 }
                             }
                             if t > T::of(REBASE_S) {

@@ -1,0 +1,304 @@
+//! Host side of the operator link: transports (UDP, serial port), key files, and the framing
+//! loop shared by `omnikin robot` and `omnikin drive`.
+
+use std::io::{ErrorKind, Read, Write};
+use std::net::{SocketAddr, UdpSocket};
+use std::path::Path;
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use omnikin::link::{DropReason, Endpoint, FrameReader, Key, MAX_FRAME, Message};
+
+/// Where a link goes: `HOST:PORT` or `udp:HOST:PORT` (UDP), `serial:PATH[@BAUD]` (serial port,
+/// default 115200 baud).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Address {
+    /// UDP socket address.
+    Udp(SocketAddr),
+    /// Serial device and baud rate.
+    Serial(String, u32),
+}
+
+/// Parses an address (see [`Address`]); `what` names the flag in errors.
+pub fn parse_address(s: &str, what: &str) -> Result<Address> {
+    if let Some(rest) = s.strip_prefix("serial:") {
+        let (path, baud) = match rest.rsplit_once('@') {
+            Some((p, b)) => (
+                p,
+                b.parse::<u32>().ok().filter(|b| *b > 0).with_context(|| {
+                    format!("{what}: baud rate must be a positive integer, got \"{b}\"")
+                })?,
+            ),
+            None => (rest, 115_200),
+        };
+        if path.is_empty() {
+            bail!("{what}: serial address needs a device path, e.g. serial:/dev/ttyUSB0@115200");
+        }
+        return Ok(Address::Serial(path.to_string(), baud));
+    }
+    let udp = s.strip_prefix("udp:").unwrap_or(s);
+    let addr: SocketAddr = udp.parse().with_context(|| {
+        format!("{what}: expected HOST:PORT (e.g. 127.0.0.1:7000), udp:HOST:PORT or serial:PATH[@BAUD], got \"{s}\"")
+    })?;
+    Ok(Address::Udp(addr))
+}
+
+/// Reads a shared key file: its bytes with trailing whitespace removed, 16 to 64 bytes.
+pub fn load_key(path: &Path) -> Result<Key> {
+    let bytes =
+        std::fs::read(path).with_context(|| format!("--key {}: cannot read", path.display()))?;
+    let mut end = bytes.len();
+    while end > 0 && bytes[end - 1].is_ascii_whitespace() {
+        end -= 1;
+    }
+    let k = &bytes[..end];
+    if k.len() < 16 || k.len() > 64 {
+        bail!(
+            "--key {}: key must be 16 to 64 bytes (after trailing whitespace), got {}",
+            path.display(),
+            k.len()
+        );
+    }
+    Ok(Key::new(k)?)
+}
+
+/// A byte transport: UDP datagrams (one or more frames each) or a serial byte stream.
+pub enum Transport {
+    /// UDP: a socket and the peer to send to (the robot learns its peer from valid frames).
+    Udp {
+        /// The socket (non-blocking reads with a timeout).
+        socket: UdpSocket,
+        /// Where to send.
+        peer: Option<SocketAddr>,
+    },
+    /// A serial port.
+    Serial(Box<dyn serialport::SerialPort>),
+}
+
+/// Received bytes: where from (UDP) and whether they end a datagram.
+pub struct Chunk {
+    /// Sender (UDP only).
+    pub from: Option<SocketAddr>,
+    /// The bytes.
+    pub bytes: Vec<u8>,
+    /// `true` for a UDP datagram (frames cannot continue past its end).
+    pub datagram: bool,
+}
+
+impl Transport {
+    /// Binds (`listen`) or connects to an address.
+    pub fn open(addr: &Address, listen: bool) -> Result<Self> {
+        match addr {
+            Address::Udp(a) => {
+                let socket = if listen {
+                    UdpSocket::bind(a).with_context(|| format!("--listen {a}: cannot bind"))?
+                } else {
+                    let local: SocketAddr = if a.is_ipv4() {
+                        "0.0.0.0:0".parse()?
+                    } else {
+                        "[::]:0".parse()?
+                    };
+                    UdpSocket::bind(local).context("cannot open a UDP socket")?
+                };
+                Ok(Transport::Udp {
+                    socket,
+                    peer: (!listen).then_some(*a),
+                })
+            }
+            Address::Serial(path, baud) => {
+                let port = serialport::new(path, *baud)
+                    .timeout(Duration::from_millis(1))
+                    .open()
+                    .with_context(|| format!("serial port {path}: cannot open"))?;
+                Ok(Transport::Serial(port))
+            }
+        }
+    }
+
+    /// Sends one encoded frame (to the peer for UDP; nothing if no peer is known yet).
+    pub fn send(&mut self, frame: &[u8]) -> Result<()> {
+        match self {
+            Transport::Udp { socket, peer } => {
+                if let Some(p) = peer {
+                    // A full socket buffer or an unreachable peer is a lost frame, as on radio.
+                    let _ = socket.send_to(frame, *p);
+                }
+                Ok(())
+            }
+            Transport::Serial(port) => {
+                port.write_all(frame).context("serial write")?;
+                Ok(())
+            }
+        }
+    }
+
+    /// Waits up to `timeout` for the first bytes, then takes whatever else is pending.
+    pub fn recv(&mut self, timeout: Duration) -> Result<Vec<Chunk>> {
+        let mut out = vec![];
+        let mut buf = [0u8; 4096];
+        match self {
+            Transport::Udp { socket, .. } => {
+                // Zero means "only what is pending": a 1 µs socket timeout would round up to
+                // a kernel tick (several ms).
+                let mut wait = (!timeout.is_zero()).then_some(timeout);
+                loop {
+                    match wait {
+                        Some(t) => {
+                            socket.set_nonblocking(false)?;
+                            socket.set_read_timeout(Some(t))?;
+                        }
+                        None => socket.set_nonblocking(true)?,
+                    }
+                    match socket.recv_from(&mut buf) {
+                        Ok((n, from)) => {
+                            out.push(Chunk {
+                                from: Some(from),
+                                bytes: buf[..n].to_vec(),
+                                datagram: true,
+                            });
+                            wait = None;
+                        }
+                        Err(e)
+                            if matches!(
+                                e.kind(),
+                                ErrorKind::WouldBlock
+                                    | ErrorKind::TimedOut
+                                    | ErrorKind::ConnectionRefused
+                            ) =>
+                        {
+                            if e.kind() == ErrorKind::ConnectionRefused && wait.is_some() {
+                                continue;
+                            }
+                            break;
+                        }
+                        Err(e) => return Err(e).context("UDP receive"),
+                    }
+                }
+            }
+            Transport::Serial(port) => {
+                port.set_timeout(timeout.max(Duration::from_millis(1)))?;
+                loop {
+                    match port.read(&mut buf) {
+                        Ok(0) => break,
+                        Ok(n) => {
+                            out.push(Chunk {
+                                from: None,
+                                bytes: buf[..n].to_vec(),
+                                datagram: false,
+                            });
+                            port.set_timeout(Duration::from_millis(0))?;
+                        }
+                        Err(e)
+                            if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::WouldBlock) =>
+                        {
+                            break;
+                        }
+                        Err(e) => return Err(e).context("serial read"),
+                    }
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Sets the UDP peer (the robot answers whoever sent the last valid frame).
+    pub fn set_peer(&mut self, from: Option<SocketAddr>) {
+        if let (Transport::Udp { peer, .. }, Some(f)) = (self, from) {
+            *peer = Some(f);
+        }
+    }
+}
+
+/// Codec state on top of a transport.
+pub struct Link {
+    /// The transport.
+    pub transport: Transport,
+    /// Sequence numbers, key, replay window, counters.
+    pub endpoint: Endpoint,
+    reader: FrameReader<MAX_FRAME>,
+}
+
+/// A decoded frame, or why it was dropped, with its sender.
+pub struct Received {
+    /// Sender (UDP).
+    pub from: Option<SocketAddr>,
+    /// The message, or the drop reason (already counted in the endpoint).
+    pub result: std::result::Result<(u64, Message), DropReason>,
+}
+
+impl Link {
+    /// A link over `transport`.
+    pub fn new(transport: Transport, endpoint: Endpoint) -> Self {
+        Self {
+            transport,
+            endpoint,
+            reader: FrameReader::new(),
+        }
+    }
+
+    /// Encodes and sends one message.
+    pub fn send(&mut self, msg: &Message) -> Result<()> {
+        let mut buf = [0u8; MAX_FRAME];
+        let n = self.endpoint.encode(msg, &mut buf)?;
+        self.transport.send(&buf[..n])
+    }
+
+    /// Receives for up to `timeout` and decodes every complete frame.
+    pub fn poll(&mut self, timeout: Duration) -> Result<Vec<Received>> {
+        let mut out = vec![];
+        for chunk in self.transport.recv(timeout)? {
+            let from = chunk.from;
+            self.reader
+                .feed(&chunk.bytes, &mut self.endpoint, |result| {
+                    out.push(Received { from, result })
+                });
+            if chunk.datagram {
+                self.reader.end_of_datagram(&mut self.endpoint);
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Microseconds since the Unix epoch: the first sequence number of a host sender, so a
+/// restarted operator is always above the robot's replay window.
+pub fn epoch_seq() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_micros() as u64)
+        .unwrap_or(1)
+        .max(1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn addresses() {
+        assert_eq!(
+            parse_address("127.0.0.1:7000", "--connect").unwrap(),
+            Address::Udp("127.0.0.1:7000".parse().unwrap())
+        );
+        assert_eq!(
+            parse_address("udp:127.0.0.1:7000", "--connect").unwrap(),
+            Address::Udp("127.0.0.1:7000".parse().unwrap())
+        );
+        assert_eq!(
+            parse_address("serial:/dev/ttyUSB0@57600", "--connect").unwrap(),
+            Address::Serial("/dev/ttyUSB0".into(), 57600)
+        );
+        assert_eq!(
+            parse_address("serial:/dev/ttyACM0", "--connect").unwrap(),
+            Address::Serial("/dev/ttyACM0".into(), 115_200)
+        );
+        let e = parse_address("localhost", "--connect")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--connect") && e.contains("HOST:PORT"), "{e}");
+        let e = parse_address("serial:/dev/x@fast", "--listen")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--listen") && e.contains("baud"), "{e}");
+    }
+}

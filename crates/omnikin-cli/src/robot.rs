@@ -1,0 +1,269 @@
+//! `omnikin robot --sim`: the robot runtime plus the simulated plant in real time (software in
+//! the loop), serving the operator link over UDP or a serial port.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use omnikin::description::RobotDescription;
+use omnikin::link::{Endpoint, Message, Served, Telemetry, serve};
+use omnikin::runtime::{Config, Runtime};
+use omnikin::{Pose2, Robot};
+use omnikin_sim::profile::Profile;
+use omnikin_sim::reproduce::{hardware_profile, spin_slip_profile};
+use omnikin_sim::sil::SilPlant;
+
+use crate::args::finite_f64;
+use crate::link_io::{Link, Transport, load_key, parse_address};
+
+/// Plan buffer capacity of the simulated robot, points (a firmware picks its own).
+pub const SIM_PLAN_CAPACITY: usize = 4096;
+
+/// `omnikin robot`.
+#[derive(clap::Args, Debug)]
+pub struct RobotArgs {
+    /// Run the runtime against the simulated plant (software in the loop). Required: on a real
+    /// robot the runtime runs in firmware (see examples/firmware-cortex-m4).
+    #[arg(long)]
+    pub sim: bool,
+    /// Robot: preset name (sphere-omni, ballbot, caster3) or path to a TOML description. Its
+    /// [limits] become the runtime's motor limits.
+    #[arg(long)]
+    pub robot: String,
+    /// Where to serve the link: HOST:PORT (UDP, e.g. 127.0.0.1:7000) or serial:PATH[@BAUD].
+    #[arg(long, value_name = "ADDR")]
+    pub listen: String,
+    /// Plant disturbances: ideal (default), hardware, spin-slip, or a profile TOML file.
+    #[arg(long, value_name = "PROFILE")]
+    pub disturbances: Option<String>,
+    /// Shared key file (16-64 bytes): commands must carry a valid HMAC tag, telemetry is tagged.
+    #[arg(long, value_name = "FILE")]
+    pub key: Option<PathBuf>,
+    /// Control rate, Hz.
+    #[arg(long, default_value_t = 100.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub rate: f64,
+    /// Telemetry rate, Hz (robot time).
+    #[arg(long, default_value_t = 20.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub telemetry_rate: f64,
+    /// Watchdog: no valid command or heartbeat for this long (s, robot time) → controlled stop.
+    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub watchdog: f64,
+    /// Largest linear acceleration, m/s².
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub max_accel: f64,
+    /// Largest yaw acceleration, rad/s².
+    #[arg(long, default_value_t = 4.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub max_yaw_accel: f64,
+    /// Largest linear jerk, m/s³ (default: unlimited).
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub max_jerk: Option<f64>,
+    /// Commands faster than this (m/s) are rejected as malformed.
+    #[arg(long, default_value_t = 2.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub max_speed: f64,
+    /// Commands with a larger yaw rate (rad/s) are rejected as malformed.
+    #[arg(long, default_value_t = 10.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub max_yaw_rate: f64,
+    /// Heading from the simulated gyro instead of the wheels.
+    #[arg(long)]
+    pub gyro_heading: bool,
+    /// Run the simulation this many times faster than real time (tests use 4-10).
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub time_scale: f64,
+    /// Stop after this much robot time (s) and print a JSON summary on stdout.
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub max_time: Option<f64>,
+    /// Write one CSV row per control cycle: estimate, true pose, mode, faults, counters.
+    #[arg(long, value_name = "FILE")]
+    pub log: Option<PathBuf>,
+    /// Seed of the disturbance draws.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+}
+
+fn profile(name: Option<&str>) -> Result<Profile> {
+    Ok(match name {
+        None | Some("ideal") => Profile::default(),
+        Some("hardware") => hardware_profile(),
+        Some("spin-slip") => spin_slip_profile(),
+        Some(path) => Profile::load(std::path::Path::new(path)).with_context(|| {
+            format!("--disturbances {path} (ideal, hardware, spin-slip or a TOML file)")
+        })?,
+    })
+}
+
+/// Runtime configuration from the arguments and the description's limits.
+pub fn config(a: &RobotArgs, desc: &RobotDescription) -> Result<Config<f64>> {
+    let mut c = Config::new(a.rate);
+    c.rate_limits.wheel = desc.limits.max_wheel_rate;
+    c.rate_limits.steer = desc.limits.max_steer_rate;
+    c.wheel_accel = desc.limits.max_wheel_accel;
+    c.steer_accel = desc.limits.max_steer_accel;
+    c.slew.accel = a.max_accel;
+    c.slew.yaw_accel = a.max_yaw_accel;
+    c.slew.jerk = a.max_jerk;
+    c.max_speed = a.max_speed;
+    c.max_yaw_rate = a.max_yaw_rate;
+    c.watchdog = a.watchdog;
+    c.heading_from_gyro = a.gyro_heading;
+    c.validate().map_err(|e| {
+        let flag = match e.field {
+            "rate_hz" => "rate".to_string(),
+            "max_wheel_rate" | "max_steer_rate" | "max_wheel_accel" | "max_steer_accel" => {
+                format!("{} limits.{}", a.robot, e.field)
+            }
+            f => f.replace('_', "-"),
+        };
+        anyhow::anyhow!("--{flag}: {}", e.rule)
+    })?;
+    Ok(c)
+}
+
+const LOG_HEADER: &str = "t,x,y,heading,true_x,true_y,true_heading,cmd_vx,cmd_vy,cmd_yaw_rate,w1,w2,w3,mode,faults,plan_time,ref_x,ref_y,ref_heading,last_command_t,rejected,rx_ok,rx_dropped";
+
+/// Runs the simulated robot until `--max-time` (or forever).
+pub fn run(a: &RobotArgs) -> Result<()> {
+    if !a.sim {
+        bail!(
+            "--sim is required: on a real robot the runtime runs in firmware (examples/firmware-cortex-m4)"
+        );
+    }
+    if a.time_scale <= 0.0 {
+        bail!("--time-scale must be > 0 (got {})", a.time_scale);
+    }
+    if a.telemetry_rate <= 0.0 {
+        bail!("--telemetry-rate must be > 0 (got {})", a.telemetry_rate);
+    }
+    let desc = RobotDescription::resolve(&a.robot)?;
+    let robot: Robot<f64> = desc.build()?;
+    let cfg = config(a, &desc)?;
+    let prof = profile(a.disturbances.as_deref())?;
+    let key = a.key.as_deref().map(load_key).transpose()?;
+    let addr = parse_address(&a.listen, "--listen")?;
+    let mut link = Link::new(Transport::open(&addr, true)?, Endpoint::new(key, 1));
+    let mut rt: Box<Runtime<f64, SIM_PLAN_CAPACITY>> =
+        Box::new(Runtime::new(robot, cfg, Pose2::default()).map_err(|e| anyhow::anyhow!("{e}"))?);
+    let mut plant = SilPlant::new(robot, prof, a.seed, Pose2::default());
+    let mut log = match &a.log {
+        Some(p) => {
+            let mut w = std::io::BufWriter::new(
+                std::fs::File::create(p)
+                    .with_context(|| format!("--log {}: cannot create", p.display()))?,
+            );
+            writeln!(w, "{LOG_HEADER}")?;
+            Some(w)
+        }
+        None => None,
+    };
+    eprintln!(
+        "robot: {} ({}) simulated, {} Hz control, listening on {} ({}), disturbances {}",
+        desc.name,
+        desc.kind(),
+        a.rate,
+        a.listen,
+        if key.is_some() {
+            "authenticated"
+        } else {
+            "no key"
+        },
+        a.disturbances.as_deref().unwrap_or("ideal"),
+    );
+
+    let period = 1.0 / a.rate;
+    let tele_every = ((a.rate / a.telemetry_rate).round() as u64).max(1);
+    let start = Instant::now();
+    let auth = key.is_some();
+    let mut k: u64 = 0;
+    let mut status;
+    loop {
+        let now = plant.time_us();
+        // Commands that arrived since the last cycle (the newest valid one wins).
+        let mut ack = false;
+        for r in link.poll(Duration::ZERO)? {
+            let Ok((_, msg)) = r.result else { continue };
+            match serve(&mut rt, &msg, auth, now) {
+                Served::Hello(info) => {
+                    link.transport.set_peer(r.from);
+                    link.send(&Message::HelloAck(info))?;
+                    ack = true;
+                }
+                Served::Accepted | Served::Rejected(_) => {
+                    link.transport.set_peer(r.from);
+                    ack |= matches!(
+                        msg,
+                        Message::PlanBegin { .. }
+                            | Message::PlanChunk { .. }
+                            | Message::PlanStart { .. }
+                    );
+                }
+                Served::Ignored => {}
+            }
+        }
+        status = plant.run_cycle(&mut rt);
+        if ack || k.is_multiple_of(tele_every) {
+            let t = Telemetry::new(&status, link.endpoint.counters());
+            link.send(&Message::Telemetry(t))?;
+        }
+        if let Some(w) = log.as_mut() {
+            let s = &status;
+            let tp = plant.true_pose();
+            let c = link.endpoint.counters();
+            writeln!(
+                w,
+                "{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{}",
+                s.time_us as f64 * 1e-6,
+                s.pose.x,
+                s.pose.y,
+                s.pose.heading,
+                tp.x,
+                tp.y,
+                tp.heading,
+                s.command.vx,
+                s.command.vy,
+                s.command.yaw_rate,
+                s.motors.wheel[0],
+                s.motors.wheel[1],
+                s.motors.wheel[2],
+                s.mode,
+                s.faults,
+                s.plan_time,
+                s.reference.x,
+                s.reference.y,
+                s.reference.heading,
+                s.last_command_us as f64 * 1e-6,
+                s.rejected,
+                c.ok,
+                c.dropped(),
+            )?;
+        }
+        plant.advance(period)?;
+        k += 1;
+        if a.max_time
+            .is_some_and(|m| plant.time_us() as f64 * 1e-6 >= m)
+        {
+            break;
+        }
+        let due = start + Duration::from_secs_f64(k as f64 * period / a.time_scale);
+        let now_wall = Instant::now();
+        if due > now_wall {
+            std::thread::sleep(due - now_wall);
+        }
+    }
+    if let Some(mut w) = log {
+        w.flush()?;
+    }
+    let c = link.endpoint.counters();
+    let tp = plant.true_pose();
+    let summary = serde_json::json!({
+        "time_s": plant.time_us() as f64 * 1e-6,
+        "mode": status.mode.name(),
+        "pose": [status.pose.x, status.pose.y, status.pose.heading],
+        "true_pose": [tp.x, tp.y, tp.heading],
+        "fault_history": status.fault_history.to_string(),
+        "rejected": status.rejected,
+        "plan": {"id": status.plan.id, "received": status.plan.received, "len": status.plan.len, "done": status.plan.done},
+        "link": {"ok": c.ok, "framing": c.framing, "crc": c.crc, "version": c.version, "auth": c.auth, "replay": c.replay, "malformed": c.malformed, "dropped": c.dropped()},
+    });
+    println!("{summary}");
+    Ok(())
+}
