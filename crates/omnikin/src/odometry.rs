@@ -165,6 +165,11 @@ pub struct Odometry<T> {
 /// `x` wrapped into `(−π, π]`.
 #[inline]
 pub(crate) fn wrap_angle<T: Real>(x: T) -> T {
+    // Already in range (every per-step increment): the general path below would return `x`
+    // unchanged, so skip its `round` (a libm call in no_std builds).
+    if x > -T::pi() && x <= T::pi() {
+        return x;
+    }
     let two_pi = T::two_pi();
     let mut y = x - two_pi * (x / two_pi).round();
     if y <= -T::pi() {
