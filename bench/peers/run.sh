@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Side-by-side comparison with WPILib's wpimath (C++), reproducible by anyone:
 #
-#   bench/peers/run.sh [--rounds N] [--min] [--std-math] [--keep]
+#   bench/peers/run.sh [--rounds N] [--min] [--std-math] [--instructions] [--keep]
 #
 # 1. creates a throw-away Python virtual environment in a temporary directory and installs
 #    robotpy-native-wpimath (WPILib's C++ headers and shared libraries; it pulls in
@@ -18,6 +18,8 @@
 #             less disturbed when other processes load the machine)
 # --std-math  build the Rust side with the platform libm's sin/cos (feature std-math) instead
 #             of the pure-Rust libm a no_std build uses
+# --instructions  also count instructions per call of each side with callgrind (load-independent;
+#             needs valgrind): the difference between two run lengths, so set-up cancels
 # --keep      keep the temporary directory (venv, binaries, raw outputs) and print its path
 #
 # Environment: WPIMATH_VERSION (default 2026.2.2), CXX (default g++), PYTHON (default python3).
@@ -26,6 +28,7 @@ cd "$(dirname "$0")/../.."
 
 rounds=7
 keep=0
+instructions=0
 features=()
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -33,7 +36,8 @@ while [ $# -gt 0 ]; do
     --min) export OMNIKIN_BENCH_MIN=1; shift ;;
     --std-math) features=(--features std-math); shift ;;
     --keep) keep=1; shift ;;
-    -h|--help) sed -n '2,26p' "$0"; exit 0 ;;
+    --instructions) instructions=1; shift ;;
+    -h|--help) sed -n '2,28p' "$0"; exit 0 ;;
     *) echo "unknown argument: $1" >&2; exit 2 ;;
   esac
 done
@@ -64,6 +68,34 @@ echo "== Rust harness: cargo build --release --locked -p omnikin-bench ${feature
 cargo build --release --locked --quiet -p omnikin-bench "${features[@]}" --bin omnikin-peer-harness
 target_dir=$(cargo metadata --format-version 1 --no-deps | "$python" -c 'import json,sys; print(json.load(sys.stdin)["target_directory"])')
 cp "$target_dir/release/omnikin-peer-harness" "$tmp/omnikin-peer-harness"
+
+if [ "$instructions" = 1 ]; then
+  command -v valgrind >/dev/null || { echo "--instructions needs valgrind" >&2; exit 1; }
+  echo "== instructions per call (callgrind)" >&2
+  ir() { # ir BINARY NAME N -> instructions executed by the whole run
+    valgrind --tool=callgrind --callgrind-out-file="$tmp/cg.out" "$1" --count "$2" "$3" >/dev/null 2>"$tmp/vg.err" \
+      || { cat "$tmp/vg.err" >&2; exit 1; }
+    awk '/^summary:/ {print $2}' "$tmp/cg.out"
+  }
+  per_call() { # per_call BINARY NAME N1 N2
+    local a b
+    a=$(ir "$1" "$2" "$3"); b=$(ir "$1" "$2" "$4")
+    "$python" -c "print(round(($b - $a) / ($4 - $3), 1))"
+  }
+  {
+    echo "| omnikin | instructions/call | WPILib | instructions/call | WPILib / omnikin |"
+    echo "|---|---|---|---|---|"
+    for pair in caster_inverse:swerve3_inverse caster_odometry:swerve3_odometry \
+                sphere_inverse:swerve3_inverse ballbot_inverse:swerve3_inverse \
+                plan20_11hz_time_optimal:plan20_wpilib plan20_1khz_time_optimal:plan20_wpilib; do
+      a=${pair%%:*}; b=${pair#*:}
+      case "$a" in plan20_1khz*) n1=1; n2=2 ;; plan20*) n1=1; n2=3 ;; *) n1=1000; n2=11000 ;; esac
+      ra=$(per_call "$tmp/omnikin-peer-harness" "$a" $n1 $n2)
+      rb=$(per_call "$tmp/wpimath_harness" "$b" $n1 $n2)
+      "$python" -c "print(f'| $a | {$ra:,.0f} | $b | {$rb:,.0f} | {$rb / $ra:.2f} |')"
+    done
+  } > "$tmp/instructions"
+fi
 
 loadavg() { cut -d' ' -f1 /proc/loadavg; }
 for r in $(seq 1 "$rounds"); do
@@ -114,6 +146,10 @@ for a, b in pairs:
     if a in med and b in med:
         print(f"| {a} | {fmt(med[a])} | {b} | {fmt(med[b])} | {med[b] / med[a]:.2f} |")
 print()
+if os.path.exists(f"{tmp}/instructions"):
+    print("instructions per call (callgrind; load-independent):")
+    print()
+    print(open(f"{tmp}/instructions").read())
 print("spread over rounds (min .. max):")
 for k in sorted(vals):
     v = vals[k]

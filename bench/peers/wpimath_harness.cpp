@@ -67,6 +67,10 @@ using Clock = std::chrono::steady_clock;
 
 double g_batch_ms = 20.0;
 int g_batches = 15;
+// --count NAME N: run exactly N calls of benchmark NAME, untimed (for callgrind), nothing else.
+const char* g_count_name = nullptr;
+long g_count_n = 0;
+
 
 // Times `body(i)` (one call per i); returns the median over batches of ns per call.
 template <class F>
@@ -99,6 +103,18 @@ double measure(F&& body) {
   return per[per.size() / 2];
 }
 
+// Runs benchmark `name`: timed (prints a line) or, in count mode, N plain calls.
+template <class F>
+bool run(const char* name, F&& body, double& ns) {
+  if (g_count_name) {
+    if (std::strcmp(g_count_name, name) == 0)
+      for (long i = 0; i < g_count_n; ++i) body(i);
+    return false;
+  }
+  ns = measure(body);
+  return true;
+}
+
 frc::SwerveDriveKinematics<3> swerve3() {
   // Modules at the caster's steering axes: D (cos a, sin a), a = 0, -120 deg, +120 deg.
   auto at = [](double a) {
@@ -124,21 +140,27 @@ int main(int argc, char** argv) {
   for (int a = 1; a + 1 < argc; a += 2) {
     if (!std::strcmp(argv[a], "--batch-ms")) g_batch_ms = std::atof(argv[a + 1]);
     if (!std::strcmp(argv[a], "--batches")) g_batches = std::atoi(argv[a + 1]);
+    if (!std::strcmp(argv[a], "--count") && a + 2 < argc) {
+      g_count_name = argv[a + 1];
+      g_count_n = std::atol(argv[a + 2]);
+      ++a;
+    }
   }
+  double ns = 0.0;
   const Inputs in = make_inputs();
 
   // Swerve-3 inverse: chassis speeds -> three module states (speed, angle).
   {
     auto kin = swerve3();
-    double ns = measure([&](long i) {
+    if (run("swerve3_inverse", [&](long i) {
       int k = (int)(i & (K - 1));
       frc::ChassisSpeeds cs{units::meters_per_second_t{opaque(in.vx[k])},
                             units::meters_per_second_t{opaque(in.vy[k])},
                             units::radians_per_second_t{opaque(in.w[k])}};
       auto st = kin.ToSwerveModuleStates(cs);
       keep(st);
-    });
-    std::printf("swerve3_inverse\t%.3f\t-\n", ns);
+    }, ns))
+      std::printf("swerve3_inverse\t%.3f\t-\n", ns);
   }
 
   // Swerve-3 odometry: SwerveDriveOdometry<3>::Update with gyro angle and module positions.
@@ -151,7 +173,7 @@ int main(int argc, char** argv) {
     frc::SwerveDriveOdometry<3> odo{kin, frc::Rotation2d{0_rad}, pos, frc::Pose2d{}};
     double dist[3] = {0, 0, 0};
     double yaw = 0.0;
-    double ns = measure([&](long i) {
+    if (run("swerve3_odometry", [&](long i) {
       int k = (int)(i & (K - 1));
       for (int j = 0; j < 3; ++j) dist[j] += in.dist_step[k][j];
       yaw += 1e-3 * in.w[k];
@@ -161,8 +183,8 @@ int main(int argc, char** argv) {
                 frc::Rotation2d{units::radian_t{opaque(in.steer[k][j])}}};
       const auto& pose = odo.Update(frc::Rotation2d{units::radian_t{opaque(yaw)}}, p);
       keep(pose);
-    });
-    std::printf("swerve3_odometry\t%.3f\t-\n", ns);
+    }, ns))
+      std::printf("swerve3_odometry\t%.3f\t-\n", ns);
   }
 
   // 20-waypoint trajectory with max velocity and acceleration (the Rust bench's limits).
@@ -176,13 +198,14 @@ int main(int argc, char** argv) {
     std::vector<frc::Translation2d> interior(w.begin() + 1, w.end() - 1);
     double saved_batch = g_batch_ms;
     g_batch_ms = std::max(g_batch_ms * 5, 50.0);
-    double ns = measure([&](long) {
+    bool timed = run("plan20_wpilib", [&](long) {
       frc::TrajectoryConfig cfg{0.6_mps, 1.0_mps_sq};
       auto traj = frc::TrajectoryGenerator::GenerateTrajectory(opaque(start), interior,
                                                                opaque(end), cfg);
       keep(traj);
-    });
+    }, ns);
     g_batch_ms = saved_batch;
+    if (!timed) return 0;
     // What one call produces (outside the timed loop).
     frc::TrajectoryConfig cfg{0.6_mps, 1.0_mps_sq};
     auto traj = frc::TrajectoryGenerator::GenerateTrajectory(start, interior, end, cfg);

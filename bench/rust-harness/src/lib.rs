@@ -180,3 +180,49 @@ pub fn measure(batch_ms: f64, batches: usize, mut body: impl FnMut(u64)) -> f64 
         per[per.len() / 2]
     }
 }
+
+/// The 20 waypoints of `crates/omnikin-plan/benches/plan.rs` (about 10.8 m along +x).
+pub fn waypoints20() -> Vec<[f64; 2]> {
+    (0..20)
+        .map(|k| {
+            let k = k as f64;
+            [0.5 * k, 0.4 * (0.9 * k).sin() + 0.1 * (2.3 * k).cos()]
+        })
+        .collect()
+}
+
+/// The peer comparison's planning problem: the 20-waypoint spline, tangent heading, the
+/// `sphere-omni` preset's motor limits, 0.6 m/s and 1 m/s² (WPILib's `TrajectoryConfig` gets
+/// the same two), time-optimal timing, sampled at `rate` Hz.
+pub fn plan20(
+    rate: f64,
+) -> (
+    omnikin_plan::path::Path,
+    omnikin_plan::heading::HeadingLaw,
+    omnikin_plan::RobotModel,
+    omnikin_plan::planner::PlanOptions,
+) {
+    use omnikin_plan::planner::{InitialSteer, MotionLimits, OnLimit, PlanOptions, Timing};
+    let model = omnikin_plan::RobotModel::from_description(
+        &omnikin::description::RobotDescription::preset("sphere-omni").expect("preset"),
+    )
+    .expect("preset model");
+    let path = omnikin_plan::path::Path::spline(&waypoints20()).expect("spline");
+    let limits = MotionLimits {
+        max_speed: 0.6,
+        max_accel: 1.0,
+        ..MotionLimits::default()
+    };
+    let opts = PlanOptions {
+        timing: Timing::TimeOptimal { limits },
+        on_limit: OnLimit::Retime,
+        rate,
+        initial_steer: InitialSteer::Aligned,
+    };
+    (
+        path,
+        omnikin_plan::heading::HeadingLaw::Tangent { offset: 0.0 },
+        model,
+        opts,
+    )
+}

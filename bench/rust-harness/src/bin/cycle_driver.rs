@@ -6,7 +6,9 @@
 //! `omnikin-cycle-driver WHAT N`, `WHAT` one of
 //! * `sphere`, `ballbot`, `caster`: a full control cycle ([`omnikin_bench::Loop::step`]);
 //! * `ROBOT-inverse`, `ROBOT-forward`, `ROBOT-odometry`: one kinematics call or odometry step
-//!   on the shared input table.
+//!   on the shared input table;
+//! * `plan20-RATE` (`plan20-11`, `plan20-1000`): planning the 20-waypoint spline of the peer
+//!   comparison (time-optimal, sphere-omni limits) sampled at RATE Hz.
 
 use std::hint::black_box;
 
@@ -30,6 +32,18 @@ fn main() {
     else {
         usage()
     };
+    if let Some(rate) = what.strip_prefix("plan20-") {
+        let Ok(rate) = rate.parse::<f64>() else {
+            usage()
+        };
+        let (path, heading, model, opts) = omnikin_bench::plan20(rate);
+        for _ in 0..n {
+            black_box(
+                omnikin_plan::planner::plan(black_box(&path), &heading, &model, &opts).unwrap(),
+            );
+        }
+        return;
+    }
     let (name, kernel) = what.split_once('-').unwrap_or((what.as_str(), "cycle"));
     let Some(rob) = robot(name) else { usage() };
     let inp = Inputs::new();

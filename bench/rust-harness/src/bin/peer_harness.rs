@@ -4,29 +4,70 @@
 //! every result consumed by `black_box`. One process run = one round; each benchmark prints
 //! `name<TAB>median ns per call<TAB>extra`.
 //!
-//! `omnikin-peer-harness [--batch-ms 20] [--batches 15]`
+//! `omnikin-peer-harness [--batch-ms 20] [--batches 15]`, or
+//! `omnikin-peer-harness --count NAME N`: exactly `N` untimed calls of benchmark `NAME`, nothing
+//! else (for callgrind: `bench/peers/run.sh --instructions`).
 
 use std::hint::black_box;
 
 use omnikin::caster::{Caster3, CasterParams};
-use omnikin::description::RobotDescription;
 use omnikin::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::{Pose2, Robot};
-use omnikin_bench::{Inputs, K, measure, robot};
-use omnikin_plan::RobotModel;
-use omnikin_plan::heading::HeadingLaw;
-use omnikin_plan::path::Path;
-use omnikin_plan::planner::{InitialSteer, MotionLimits, OnLimit, PlanOptions, Timing, plan};
+use omnikin_bench::{Inputs, K, measure, plan20, robot};
+use omnikin_plan::planner::{PlanOptions, Timing, plan};
 use omnikin_plan::profile::ProfileKind;
 
+/// Timed runs, or `--count NAME N`.
+struct Runner {
+    batch_ms: f64,
+    batches: usize,
+    count: Option<(String, u64)>,
+}
+
+impl Runner {
+    /// Times `body` (returns the ns per call), or in count mode runs it `N` times if `name` is
+    /// the one asked for; `None` when nothing was timed.
+    fn run(&self, name: &str, scale: f64, mut body: impl FnMut(u64)) -> Option<f64> {
+        match &self.count {
+            Some((only, n)) => {
+                if only == name {
+                    for i in 0..*n {
+                        body(i);
+                    }
+                }
+                None
+            }
+            None => Some(measure(
+                (self.batch_ms * scale).max(self.batch_ms),
+                if scale > 1.0 {
+                    self.batches.min(7)
+                } else {
+                    self.batches
+                },
+                body,
+            )),
+        }
+    }
+}
+
 fn main() {
-    let mut batch_ms = 20.0;
-    let mut batches = 15usize;
+    let mut rn = Runner {
+        batch_ms: 20.0,
+        batches: 15,
+        count: None,
+    };
     let args: Vec<String> = std::env::args().collect();
-    for w in args.windows(2) {
+    for (i, w) in args.windows(2).enumerate() {
         match w[0].as_str() {
-            "--batch-ms" => batch_ms = w[1].parse().expect("--batch-ms NUMBER"),
-            "--batches" => batches = w[1].parse().expect("--batches NUMBER"),
+            "--batch-ms" => rn.batch_ms = w[1].parse().expect("--batch-ms NUMBER"),
+            "--batches" => rn.batches = w[1].parse().expect("--batches NUMBER"),
+            "--count" => {
+                let n = args
+                    .get(i + 2)
+                    .and_then(|v| v.parse().ok())
+                    .expect("--count NAME N");
+                rn.count = Some((w[1].clone(), n));
+            }
             _ => {}
         }
     }
@@ -34,7 +75,7 @@ fn main() {
     let caster = Caster3::<f64>::new(CasterParams::preset()).unwrap();
 
     // Caster inverse: world twist + heading + steer angles -> six motor rates.
-    let ns = measure(batch_ms, batches, |i| {
+    let ns = rn.run("caster_inverse", 1.0, |i| {
         let k = i as usize & (K - 1);
         let r = caster.motor_rates(
             black_box(inp.twist[k]),
@@ -43,20 +84,23 @@ fn main() {
         );
         black_box(r.unwrap());
     });
-    println!("caster_inverse\t{ns:.3}\t-");
+    if let Some(ns) = ns {
+        println!("caster_inverse\t{ns:.3}\t-");
+    }
 
     // Sphere and ballbot inverse: robot twist (+ spin 0) -> three wheel rates.
     for name in ["sphere", "ballbot"] {
         let rob = robot(name).unwrap();
+        let label = format!("{name}_inverse");
         let ns = match rob {
-            Robot::Sphere(s) => measure(batch_ms, batches, |i| {
+            Robot::Sphere(s) => rn.run(&label, 1.0, |i| {
                 let k = i as usize & (K - 1);
                 black_box(
                     s.wheel_rates(black_box(inp.twist[k]), black_box(0.0))
                         .unwrap(),
                 );
             }),
-            Robot::Ballbot(b) => measure(batch_ms, batches, |i| {
+            Robot::Ballbot(b) => rn.run(&label, 1.0, |i| {
                 let k = i as usize & (K - 1);
                 black_box(
                     b.wheel_rates(black_box(inp.twist[k]), black_box(0.0))
@@ -65,7 +109,9 @@ fn main() {
             }),
             Robot::Caster(_) => unreachable!(),
         };
-        println!("{name}_inverse\t{ns:.3}\t-");
+        if let Some(ns) = ns {
+            println!("{label}\t{ns:.3}\t-");
+        }
     }
 
     // Caster odometry step: encoder sample (wheel angles, steer angles) + absolute yaw, like
@@ -77,7 +123,7 @@ fn main() {
         let mut odo = Odometry::new(Robot::Caster(caster), Pose2::new(0.0, 0.0, 0.0));
         let (mut t, mut yaw, mut wheel) = (0.0f64, 0.0f64, [0.0f64; 3]);
         let mut failures = 0u64;
-        let ns = measure(batch_ms, batches, |i| {
+        let ns = rn.run("caster_odometry", 1.0, |i| {
             let k = i as usize & (K - 1);
             for j in 0..3 {
                 wheel[j] += angle_step[k][j];
@@ -94,26 +140,18 @@ fn main() {
             }
         });
         assert_eq!(failures, 0, "odometry steps failed");
-        println!("caster_odometry\t{ns:.3}\t-");
+        if let Some(ns) = ns {
+            println!("caster_odometry\t{ns:.3}\t-");
+        }
     }
 
     // The 20-waypoint spline of crates/omnikin-plan/benches/plan.rs, sphere-omni limits,
     // 0.6 m/s and 1 m/s² (WPILib's TrajectoryConfig gets the same two).
     {
-        let wps: Vec<[f64; 2]> = (0..20)
-            .map(|k| {
-                let k = k as f64;
-                [0.5 * k, 0.4 * (0.9 * k).sin() + 0.1 * (2.3 * k).cos()]
-            })
-            .collect();
-        let model = RobotModel::from_description(&RobotDescription::preset("sphere-omni").unwrap())
-            .unwrap();
-        let path = Path::spline(&wps).unwrap();
-        let heading = HeadingLaw::Tangent { offset: 0.0 };
-        let limits = MotionLimits {
-            max_speed: 0.6,
-            max_accel: 1.0,
-            ..MotionLimits::default()
+        let (path, heading, model, base) = plan20(1000.0);
+        let limits = match base.timing {
+            Timing::TimeOptimal { limits } => limits,
+            _ => unreachable!(),
         };
         let configs = [
             (
@@ -124,34 +162,27 @@ fn main() {
                     limits,
                 },
             ),
-            (
-                "plan20_1khz_time_optimal",
-                1000.0,
-                Timing::TimeOptimal { limits },
-            ),
-            (
-                "plan20_11hz_time_optimal",
-                11.0,
-                Timing::TimeOptimal { limits },
-            ),
+            ("plan20_1khz_time_optimal", 1000.0, base.timing),
+            ("plan20_11hz_time_optimal", 11.0, base.timing),
         ];
         for (name, rate, timing) in configs {
             let opts = PlanOptions {
                 timing,
-                on_limit: OnLimit::Retime,
                 rate,
-                initial_steer: InitialSteer::Aligned,
+                ..base
             };
-            let out = plan(&path, &heading, &model, &opts).unwrap();
-            let n = out.plan.samples.len();
-            let dur = out.plan.samples.last().map_or(0.0, |s| s.t);
-            let ns = measure((batch_ms * 5.0).max(50.0), batches.min(7), |_| {
+            let ns = rn.run(name, 5.0, |_| {
                 black_box(plan(black_box(&path), &heading, &model, &opts).unwrap());
             });
-            println!(
-                "{name}\t{ns:.3}\tsamples={n} duration_s={dur:.3} length_m={:.3}",
-                path.length()
-            );
+            if let Some(ns) = ns {
+                let out = plan(&path, &heading, &model, &opts).unwrap();
+                let n = out.plan.samples.len();
+                let dur = out.plan.samples.last().map_or(0.0, |s| s.t);
+                println!(
+                    "{name}\t{ns:.3}\tsamples={n} duration_s={dur:.3} length_m={:.3}",
+                    path.length()
+                );
+            }
         }
     }
 }
