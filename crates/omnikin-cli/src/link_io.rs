@@ -125,10 +125,12 @@ impl Transport {
                 }
                 Ok(())
             }
-            Transport::Serial(port) => {
-                port.write_all(frame).context("serial write")?;
-                Ok(())
-            }
+            Transport::Serial(port) => match port.write_all(frame) {
+                // Nobody draining the line (a full output buffer): the frame is lost, as
+                // on a radio link; the receiver resynchronises at the next delimiter.
+                Err(e) if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::WouldBlock) => Ok(()),
+                r => r.context("serial write"),
+            },
         }
     }
 

@@ -575,3 +575,75 @@ fn malformed_and_replayed_commands_are_never_executed() {
     let s = robot.summary();
     assert_eq!(s["rejected"], 8);
 }
+
+/// Two pseudo-terminals joined by a small Python bridge stand in for a serial cable.
+const PTY_BRIDGE: &str = r#"
+import os, select, sys, time, tty
+a_m, a_s = os.openpty(); b_m, b_s = os.openpty()
+for fd in (a_s, b_s): tty.setraw(fd)
+for fd in (a_m, b_m): os.set_blocking(fd, False)
+print(os.ttyname(a_s), os.ttyname(b_s), flush=True)
+end = time.time() + float(sys.argv[1])
+while time.time() < end:
+    r, _, _ = select.select([a_m, b_m], [], [], 0.1)
+    for fd in r:
+        try: d = os.read(fd, 4096)
+        except OSError: continue
+        try: os.write(b_m if fd == a_m else a_m, d)
+        except OSError: pass  # nobody reading the other end: bytes are lost, like a cable
+"#;
+
+#[test]
+fn serial_transport_over_a_pty_pair() {
+    use std::io::BufRead;
+    let Ok(mut bridge) = Command::new("python3")
+        .args(["-c", PTY_BRIDGE, "15"])
+        .stdout(Stdio::piped())
+        .spawn()
+    else {
+        eprintln!("SKIPPED: python3 is needed for the pseudo-terminal bridge");
+        return;
+    };
+    let mut line = String::new();
+    std::io::BufReader::new(bridge.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let ptys: Vec<&str> = line.split_whitespace().collect();
+    assert_eq!(ptys.len(), 2, "bridge printed {line:?}");
+    let robot_side = format!("serial:{}@115200", ptys[0]);
+    let mut robot = Command::new(BIN)
+        .args(["robot", "--sim", "--robot", "caster3", "--time-scale", "8"])
+        .args(["--listen", &robot_side, "--max-time", "16"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(150));
+    let op = format!("serial:{}", ptys[1]);
+    let out = drive(&op, &["hello"]);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("model Caster"));
+    let out = drive(
+        &op,
+        &["velocity", "--vx", "0.1", "--vy", "0.1", "--for", "0.3"],
+    );
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("mode idle"));
+    let end = Instant::now() + Duration::from_secs(10);
+    while robot.try_wait().unwrap().is_none() && Instant::now() < end {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let _ = robot.kill();
+    let _ = bridge.kill();
+    let out = robot.wait_with_output().unwrap();
+    let _ = bridge.wait();
+    let s: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+        panic!(
+            "robot summary: {e}; stderr: {}",
+            String::from_utf8_lossy(&out.stderr)
+        )
+    });
+    println!("serial: {s}");
+    assert_eq!(s["link"]["dropped"], 0);
+    let p = &s["true_pose"];
+    assert!(p[0].as_f64().unwrap() > 0.1 && p[1].as_f64().unwrap() > 0.1);
+}
