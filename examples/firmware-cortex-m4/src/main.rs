@@ -1,0 +1,400 @@
+//! omnikin on a microcontroller: the robot runtime and the link codec, `no_std`, no heap, in
+//! `f32`, on a Cortex-M4F (QEMU `mps2-an386`), for each of the three robots.
+//!
+//! Each robot runs against a minimal in-firmware plant (motors turn as commanded; the sphere's
+//! steppers through [`Steppers`] with 3200 microsteps per revolution, so its encoders read
+//! whole steps). An in-firmware "operator" encodes authenticated frames exactly as the PC
+//! would, and the bytes go through the robot's [`FrameReader`] — the code path a UART or radio
+//! interrupt would feed. Per robot: upload a 4 s plan in chunks, follow it, then drive at
+//! 0.2 m/s and cut the link. The results go out over semihosting; the exit code says whether
+//! every check passed.
+#![no_std]
+#![no_main]
+
+use cortex_m_rt::entry;
+use cortex_m_semihosting::{debug, hprintln};
+use omnikin::ballbot::{Ballbot, BallbotParams};
+use omnikin::caster::{Caster3, CasterParams};
+use omnikin::link::{
+    CHUNK_POINTS, Endpoint, FrameReader, Key, MAX_FRAME, Message, WirePoint, heapless, serve,
+};
+use omnikin::runtime::hal::{
+    EncoderAngles, Encoders, MotorCommand, MotorOutputs, NoImu, StepOutputs, Steppers,
+};
+use omnikin::runtime::{Config, Frame, Mode, PlanPoint, Runtime};
+use omnikin::sphere::{SphereOmni, SphereParams};
+use omnikin::{Pose2, Robot, Twist2, se2};
+use panic_semihosting as _;
+
+const DT: f32 = 0.01;
+const DT_US: u64 = 10_000;
+/// Plan buffer of the firmware, points.
+const PLAN_CAPACITY: usize = 256;
+const PLAN_POINTS: usize = 81;
+
+/// Motors that turn exactly as commanded (rad/s), or steppers (steps/s, whole steps).
+struct Plant {
+    wheel: [f32; 3],
+    steer: [f32; 3],
+    rates: MotorCommand<f32>,
+    /// Stepper mode: accumulated microsteps and microsteps per radian.
+    steps: [f32; 3],
+    steps_per_rad: Option<f32>,
+}
+
+impl Plant {
+    fn new(steps_per_rad: Option<f32>) -> Self {
+        Plant {
+            wheel: [0.0; 3],
+            steer: [0.0; 3],
+            rates: MotorCommand::zero(),
+            steps: [0.0; 3],
+            steps_per_rad,
+        }
+    }
+    fn advance(&mut self) {
+        for i in 0..3 {
+            match self.steps_per_rad {
+                // `rates.wheel` holds step frequencies in stepper mode.
+                Some(k) => {
+                    self.steps[i] += self.rates.wheel[i] * DT;
+                    self.wheel[i] = libm_round(self.steps[i]) / k;
+                }
+                None => self.wheel[i] += self.rates.wheel[i] * DT,
+            }
+            self.steer[i] += self.rates.steer[i] * DT;
+        }
+    }
+    fn reading(&self) -> Reading {
+        Reading(EncoderAngles {
+            wheel: self.wheel,
+            steer: self.steer,
+        })
+    }
+}
+
+fn libm_round(x: f32) -> f32 {
+    // Round half away from zero without libm: the nearest whole step.
+    let t = x as i64 as f32;
+    let f = x - t;
+    if f >= 0.5 {
+        t + 1.0
+    } else if f <= -0.5 {
+        t - 1.0
+    } else {
+        t
+    }
+}
+
+impl MotorOutputs<f32> for Plant {
+    type Error = ();
+    fn set_rates(&mut self, c: &MotorCommand<f32>) -> Result<(), ()> {
+        self.rates = *c;
+        Ok(())
+    }
+}
+
+/// Stepper drivers: the step frequencies land in the plant's `rates.wheel`.
+struct StepPins<'a>(&'a mut Plant);
+impl StepOutputs for StepPins<'_> {
+    type Error = ();
+    fn set_step_frequencies(&mut self, hz: [f32; 6]) -> Result<(), ()> {
+        self.0.rates.wheel = [hz[0], hz[1], hz[2]];
+        self.0.rates.steer = [0.0; 3];
+        Ok(())
+    }
+}
+
+struct Reading(EncoderAngles<f32>);
+impl Encoders<f32> for Reading {
+    type Error = ();
+    fn read(&mut self) -> Result<EncoderAngles<f32>, ()> {
+        Ok(self.0)
+    }
+}
+
+/// The operator's frames, delivered byte by byte through the robot's frame reader.
+struct Wire {
+    operator: Endpoint,
+    robot: Endpoint,
+    reader: FrameReader<MAX_FRAME>,
+    buf: [u8; MAX_FRAME],
+}
+
+impl Wire {
+    fn send(&mut self, msg: &Message, rt: &mut Runtime<f32, PLAN_CAPACITY>, now: u64) {
+        let Ok(n) = self.operator.encode(msg, &mut self.buf) else {
+            return;
+        };
+        self.reader.feed(&self.buf[..n], &mut self.robot, |r| {
+            if let Ok((_, m)) = r {
+                serve(rt, &m, true, now);
+            }
+        });
+    }
+}
+
+/// A smooth rest-to-rest 4 s curve (world frame) sampled every 0.05 s.
+fn plan() -> [PlanPoint<f32>; PLAN_POINTS] {
+    let twist = |t: f32| {
+        let s = libm_sin(core::f32::consts::PI * t / 4.0);
+        Twist2::new(0.15 * s * s, 0.02 * s, 0.4 * s * s)
+    };
+    let mut pts = [PlanPoint::zero(); PLAN_POINTS];
+    let mut pose = Pose2::new(0.0, 0.0, 0.0);
+    for (k, p) in pts.iter_mut().enumerate() {
+        let t = k as f32 * 0.05;
+        *p = PlanPoint {
+            t,
+            pose,
+            twist: twist(t).to_world(pose.heading),
+        };
+        for j in 0..20 {
+            pose = se2::integrate(pose, twist(t + (j as f32 + 0.5) * 0.0025), 0.0025);
+        }
+    }
+    pts
+}
+
+fn libm_sin(x: f32) -> f32 {
+    use omnikin::nalgebra::ComplexField;
+    x.sin()
+}
+
+struct Outcome {
+    max_err: f32,
+    end_err: f32,
+    stop_s: f32,
+    ok_frames: u32,
+    dropped: u32,
+    rejected: u32,
+}
+
+fn run(robot: Robot<f32>, config: Config<f32>, steps_per_rad: Option<f32>) -> Option<Outcome> {
+    let mut rt = Runtime::<f32, PLAN_CAPACITY>::new(robot, config, Pose2::default()).ok()?;
+    let key = Key::new(b"omnikin firmware example key!!").ok()?;
+    let mut wire = Wire {
+        operator: Endpoint::new(Some(key), 1),
+        robot: Endpoint::new(Some(key), 1),
+        reader: FrameReader::new(),
+        buf: [0; MAX_FRAME],
+    };
+    let mut plant = Plant::new(steps_per_rad);
+    let mut now = 0u64;
+    let cycle = |rt: &mut Runtime<f32, PLAN_CAPACITY>, plant: &mut Plant, now: &mut u64| {
+        let mut enc = plant.reading();
+        let st = match plant.steps_per_rad {
+            Some(k) => {
+                let mut steppers = Steppers::new(StepPins(plant), 200, 16, 1.0e5);
+                steppers.steps_per_rad = [k; 6];
+                rt.cycle(*now, &mut enc, &mut NoImu, &mut steppers)
+            }
+            None => rt.cycle(*now, &mut enc, &mut NoImu, plant),
+        };
+        plant.advance();
+        *now += DT_US;
+        st
+    };
+
+    // Upload and follow the plan.
+    let pts = plan();
+    wire.send(&Message::Hello { protocol: 1 }, &mut rt, now);
+    wire.send(
+        &Message::PlanBegin {
+            id: 1,
+            len: PLAN_POINTS as u16,
+        },
+        &mut rt,
+        now,
+    );
+    for (k, c) in pts.chunks(CHUNK_POINTS).enumerate() {
+        let mut v = heapless::Vec::new();
+        for p in c {
+            v.push(WirePoint::from_point(p)).ok()?;
+        }
+        let m = Message::PlanChunk {
+            id: 1,
+            offset: (k * CHUNK_POINTS) as u16,
+            points: v,
+        };
+        wire.send(&m, &mut rt, now);
+    }
+    wire.send(&Message::PlanStart { id: 1 }, &mut rt, now);
+    if rt.mode() != Mode::Trajectory {
+        return None;
+    }
+    let mut max_err = 0.0f32;
+    for _ in 0..450 {
+        wire.send(&Message::Heartbeat, &mut rt, now);
+        let st = cycle(&mut rt, &mut plant, &mut now);
+        if st.mode == Mode::Trajectory {
+            let (dx, dy) = (st.pose.x - st.reference.x, st.pose.y - st.reference.y);
+            let e = (dx * dx + dy * dy).sqrt_f32();
+            if e > max_err {
+                max_err = e;
+            }
+        }
+    }
+    let end = pts[PLAN_POINTS - 1].pose;
+    let p = rt.pose();
+    let end_err = ((p.x - end.x) * (p.x - end.x) + (p.y - end.y) * (p.y - end.y)).sqrt_f32();
+
+    // Drive at 0.2 m/s, then the link goes silent.
+    let v = Message::SetVelocity {
+        frame: Frame::Robot,
+        vx: 0.2,
+        vy: 0.0,
+        yaw_rate: 0.0,
+    };
+    for _ in 0..100 {
+        wire.send(&v, &mut rt, now);
+        cycle(&mut rt, &mut plant, &mut now);
+    }
+    let last = now - DT_US;
+    let mut stop_s = -1.0;
+    for _ in 0..200 {
+        let st = cycle(&mut rt, &mut plant, &mut now);
+        if st.mode == Mode::Idle {
+            stop_s = (st.time_us - last) as f32 * 1e-6;
+            break;
+        }
+    }
+    let c = wire.robot.counters();
+    Some(Outcome {
+        max_err,
+        end_err,
+        stop_s,
+        ok_frames: c.ok,
+        dropped: c.dropped(),
+        rejected: rt.rejected(),
+    })
+}
+
+trait SqrtF32 {
+    fn sqrt_f32(self) -> f32;
+}
+impl SqrtF32 for f32 {
+    fn sqrt_f32(self) -> f32 {
+        use omnikin::nalgebra::ComplexField;
+        self.sqrt()
+    }
+}
+
+/// Bytes of stack painted below `main`'s frame to measure the peak stack use.
+const PAINT: usize = 96 * 1024;
+const PATTERN: u32 = 0xA5A5_5A5A;
+
+/// Fills the stack region below the current stack pointer with a pattern (leaving 256 bytes
+/// for this function). Returns the painted range `[low, high)`.
+fn paint_stack() -> (usize, usize) {
+    let sp = cortex_m::register::msp::read() as usize;
+    let (low, high) = (sp - PAINT, sp - 256);
+    let mut a = low;
+    while a < high {
+        // SAFETY: RAM below the stack pointer is unused stack on this single-threaded
+        // firmware (4 MiB of RAM, no heap, no other users).
+        unsafe { core::ptr::write_volatile(a as *mut u32, PATTERN) };
+        a += 4;
+    }
+    (low, high)
+}
+
+unsafe extern "C" {
+    /// Top of the stack (end of RAM), from cortex-m-rt's link.x.
+    static _stack_start: u32;
+}
+
+/// Peak stack use since reset, bytes: from the stack top down to the deepest word of the
+/// painted region that was overwritten (`main`'s own frame, which holds the inlined runtime,
+/// sits above the painted region and is included).
+fn stack_used((low, high): (usize, usize)) -> usize {
+    let mut a = low;
+    // SAFETY: reads of the same painted stack region.
+    while a < high && unsafe { core::ptr::read_volatile(a as *const u32) } == PATTERN {
+        a += 4;
+    }
+    let top = core::ptr::addr_of!(_stack_start) as usize;
+    top - a
+}
+
+#[entry]
+fn main() -> ! {
+    let painted = paint_stack();
+    hprintln!(
+        "omnikin firmware: Cortex-M4F, f32, plan buffer {} points, Runtime {} bytes, frame buffer {} bytes",
+        PLAN_CAPACITY,
+        core::mem::size_of::<Runtime<f32, PLAN_CAPACITY>>(),
+        MAX_FRAME
+    );
+    let mut cfg = Config::<f32>::new(100.0);
+    cfg.watchdog = 0.5;
+    cfg.slew.accel = 1.0;
+    let robots: [(&str, Option<Robot<f32>>, Option<f32>); 3] = [
+        (
+            "sphere-omni (steppers)",
+            SphereOmni::new(SphereParams::preset())
+                .ok()
+                .map(Robot::Sphere),
+            Some(3200.0 / core::f32::consts::TAU),
+        ),
+        (
+            "ballbot",
+            Ballbot::new(BallbotParams::preset())
+                .ok()
+                .map(Robot::Ballbot),
+            None,
+        ),
+        (
+            "caster3",
+            Caster3::new(CasterParams::preset()).ok().map(Robot::Caster),
+            None,
+        ),
+    ];
+    let mut all = true;
+    for (name, robot, steps) in robots {
+        let Some(robot) = robot else {
+            hprintln!("{}: model rejected", name);
+            all = false;
+            continue;
+        };
+        match run(robot, cfg, steps) {
+            Some(o) => {
+                // Stop: watchdog 0.5 s + braking 0.2 s at 1 m/s², within two cycles.
+                let pass = o.max_err < 2e-3
+                    && o.end_err < 2e-3
+                    && (0.69..=0.73).contains(&o.stop_s)
+                    && o.dropped == 0
+                    && o.rejected == 0;
+                all &= pass;
+                hprintln!(
+                    "{}: plan max error {:.6} m, end error {:.6} m; link cut at 0.2 m/s -> at rest after {:.2} s; frames ok {}, dropped {}, rejected {}: {}",
+                    name,
+                    o.max_err,
+                    o.end_err,
+                    o.stop_s,
+                    o.ok_frames,
+                    o.dropped,
+                    o.rejected,
+                    if pass { "PASS" } else { "FAIL" }
+                );
+            }
+            None => {
+                hprintln!("{}: run failed", name);
+                all = false;
+            }
+        }
+    }
+    hprintln!(
+        "peak stack since reset: {} bytes (the only RAM in use besides .data + .bss)",
+        stack_used(painted)
+    );
+    hprintln!("{}", if all { "ALL PASS" } else { "SOME FAILED" });
+    debug::exit(if all {
+        debug::EXIT_SUCCESS
+    } else {
+        debug::EXIT_FAILURE
+    });
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
