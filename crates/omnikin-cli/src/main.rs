@@ -9,12 +9,16 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod args;
+mod drive;
 mod figures;
 mod kinematics;
+mod link_io;
 mod odometry;
 mod plan;
 mod plot;
+mod robot;
 mod sim;
+mod teleop;
 
 use args::{Triple, finite_f64};
 
@@ -64,6 +68,12 @@ enum Command {
     /// Wheel odometry over an encoder log (t,q1,q2,q3[,s1,s2,s3][,gyro_z][,yaw]), optionally
     /// with the IMU heading and fused with camera fixes; writes t,x,y,heading.
     Odometry(odometry::OdometryArgs),
+    /// Run the robot side of the link: the fixed-rate control loop (limits, watchdog, e-stop)
+    /// over UDP or a serial port, on a simulated plant with `--sim`.
+    Robot(robot::RobotArgs),
+    /// Drive a robot over the link from the PC: hello, velocity, plan upload, stop, e-stop,
+    /// clear, telemetry and keyboard teleop.
+    Drive(drive::DriveArgs),
 }
 
 /// `omnikin inverse`.
@@ -170,6 +180,8 @@ fn main() -> ExitCode {
         Command::Evaluate(a) => sim::evaluate_tracks(&a),
         Command::Reproduce(a) => sim::reproduce(&a),
         Command::Odometry(a) => odometry::run(&a),
+        Command::Robot(a) => robot::run(&a),
+        Command::Drive(a) => drive::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
