@@ -76,6 +76,10 @@ struct Quintic {
     c: [[f64; 2]; 6],
     /// `cum[k]` = arc length from `u = 0` to `u = k/TABLE`, m.
     cum: [f64; TABLE + 1],
+    /// `spd[k]` = `|dp/du|` at `u = k/TABLE`, m (the slope `ds/du` of the table).
+    spd: [f64; TABLE + 1],
+    /// Smallest `|dp/du|` seen while building the table (table and quadrature nodes), m.
+    min_speed: f64,
 }
 
 impl Quintic {
@@ -102,11 +106,31 @@ impl Quintic {
         let mut q = Self {
             c,
             cum: [0.0; TABLE + 1],
+            spd: [0.0; TABLE + 1],
+            min_speed: f64::INFINITY,
         };
+        let mut min_speed = f64::INFINITY;
+        for k in 0..=TABLE {
+            q.spd[k] = q.speed(k as f64 / TABLE as f64);
+            min_speed = min_speed.min(q.spd[k]);
+        }
         for k in 0..TABLE {
             let (u0, u1) = (k as f64 / TABLE as f64, (k + 1) as f64 / TABLE as f64);
-            q.cum[k + 1] = q.cum[k] + q.gauss(u0, u1);
+            let w = u1 - u0;
+            let mut sum = 0.0;
+            for (&x, wt) in GL_X.iter().zip(GL_W) {
+                let sp = q.speed(u0 + w * x);
+                min_speed = min_speed.min(sp);
+                sum += wt * sp;
+            }
+            q.cum[k + 1] = q.cum[k] + sum * w;
         }
+        // A NaN anywhere makes the minimum NaN, so the caller's cusp check sees it.
+        q.min_speed = if q.spd.iter().any(|v| v.is_nan()) {
+            f64::NAN
+        } else {
+            min_speed
+        };
         q
     }
 
@@ -127,27 +151,38 @@ impl Quintic {
         (p, d1, d2)
     }
 
-    /// `|dp/du|`, m.
+    /// `|dp/du|`, m. (`sqrt` of the sum of squares: the derivatives of a path in metres are
+    /// far from the range where `hypot`'s overflow protection matters, and it costs several
+    /// times less.)
     fn speed(&self, u: f64) -> f64 {
-        let (_, d1, _) = self.eval(u);
-        d1[0].hypot(d1[1])
+        let c = &self.c;
+        let d = |i: usize| {
+            c[1][i]
+                + u * (2.0 * c[2][i]
+                    + u * (3.0 * c[3][i] + u * (4.0 * c[4][i] + u * 5.0 * c[5][i])))
+        };
+        let (dx, dy) = (d(0), d(1));
+        (dx * dx + dy * dy).sqrt()
     }
 
     /// Arc length between `u0` and `u1` by 5-point Gauss–Legendre quadrature.
     fn gauss(&self, u0: f64, u1: f64) -> f64 {
         let w = u1 - u0;
-        GL_X.iter()
-            .zip(GL_W)
-            .map(|(&x, wt)| wt * self.speed(u0 + w * x))
-            .sum::<f64>()
-            * w
+        let mut sum = 0.0;
+        for (&x, wt) in GL_X.iter().zip(GL_W) {
+            sum += wt * self.speed(u0 + w * x);
+        }
+        sum * w
     }
 
     fn length(&self) -> f64 {
         self.cum[TABLE]
     }
 
-    /// The curve parameter `u` at arc length `s` (table lookup, then Newton on the quadrature).
+    /// The curve parameter `u` at arc length `s`: table lookup, a cubic Hermite guess of
+    /// `u(s)` from the table's slopes `du/ds = 1/|dp/du|`, then Newton on the quadrature
+    /// `cum[k] + ∫_{u_k}^{u} |p'| du = s` until a step is below 1e-7 (usually one step;
+    /// `arc_length_inversion_solves_to_rounding` checks the result).
     fn u_at(&self, s: f64) -> f64 {
         let s = s.clamp(0.0, self.length());
         let k = match self.cum.binary_search_by(|c| c.total_cmp(&s)) {
@@ -156,18 +191,38 @@ impl Quintic {
         };
         let (u0, u1) = (k as f64 / TABLE as f64, (k + 1) as f64 / TABLE as f64);
         let span = self.cum[k + 1] - self.cum[k];
-        let mut u = if span > 0.0 {
-            u0 + (s - self.cum[k]) / span * (u1 - u0)
+        if span <= 0.0 {
+            return u0;
+        }
+        // Cubic Hermite in t = (s - cum[k]) / span for u(s) with slopes span / (TABLE |p'|).
+        let t = (s - self.cum[k]) / span;
+        let (m0, m1) = (
+            span / (TABLE as f64 * self.spd[k]),
+            span / (TABLE as f64 * self.spd[k + 1]),
+        );
+        let du = u1 - u0;
+        let (t2, t3) = (t * t, t * t * t);
+        let guess = u0 + du * (3.0 * t2 - 2.0 * t3) + m0 * (t3 - 2.0 * t2 + t) + m1 * (t3 - t2);
+        let mut u = if guess.is_finite() {
+            guess.clamp(u0, u1)
         } else {
-            u0
+            u0 + t * du
         };
+        // Newton converges quadratically: after a step of δ the error is about δ² times
+        // |s''|/(2|s'|), of order one on a segment, so a step below 1e-7 leaves ≈ 1e-14 and
+        // needs no successor. The Hermite guess usually makes the first step that small.
         for _ in 0..4 {
             let f = self.cum[k] + self.gauss(u0, u) - s;
             let sp = self.speed(u);
-            if sp <= 0.0 {
+            if sp.is_nan() || sp <= 0.0 {
                 break;
             }
-            u = (u - f / sp).clamp(u0, u1);
+            let next = (u - f / sp).clamp(u0, u1);
+            let step = (next - u).abs();
+            u = next;
+            if step <= 1e-7 {
+                break;
+            }
         }
         u
     }
@@ -175,7 +230,7 @@ impl Quintic {
     fn at(&self, s: f64) -> PathPoint {
         let u = self.u_at(s);
         let (p, d1, d2) = self.eval(u);
-        let sp = d1[0].hypot(d1[1]);
+        let sp = (d1[0] * d1[0] + d1[1] * d1[1]).sqrt();
         PathPoint {
             point: p,
             tangent: [d1[0] / sp, d1[1] / sp],
@@ -609,9 +664,7 @@ impl Path {
                 sc(d1[k + 1], h),
                 sc(d2[k + 1], h * h),
             );
-            let min_speed = (0..=256)
-                .map(|i| q.speed(i as f64 / 256.0))
-                .fold(f64::INFINITY, f64::min);
+            let min_speed = q.min_speed;
             if min_speed.is_nan() || min_speed <= 1e-3 * h || !q.length().is_finite() {
                 return Err(PlanningError::InvalidPath(format!(
                     "spline segment {} (waypoints {} → {}) has a cusp (|dp/du| falls to {:.2e} m); spread the waypoints more evenly",
@@ -632,6 +685,12 @@ impl Path {
     /// Total arc length, m.
     pub fn length(&self) -> f64 {
         self.offsets[self.pieces.len()]
+    }
+
+    /// Arc lengths (m) where the path's pieces start (and, last, its length): where the
+    /// curvature's derivative may jump.
+    pub(crate) fn piece_starts(&self) -> &[f64] {
+        &self.offsets
     }
 
     /// Index of the piece containing arc length `s` (the later one at a join).
@@ -723,6 +782,31 @@ mod tests {
                 (got[0] - want[0]).abs() < 1e-12 && (got[1] - want[1]).abs() < 1e-12,
                 "{got:?} vs {want:?}"
             );
+        }
+    }
+
+    #[test]
+    fn arc_length_inversion_solves_to_rounding() {
+        // s(u(s)) = s to rounding, for every segment, at points between and on the table nodes:
+        // the Hermite guess plus Newton must converge, not stop at the guess.
+        let p =
+            Path::spline(&[[0.0, 0.0], [1.0, 0.5], [2.0, -0.3], [2.5, 1.0], [2.6, 3.0]]).unwrap();
+        for piece in &p.pieces {
+            let Piece::Quintic(q) = piece else {
+                unreachable!("a spline is made of quintics")
+            };
+            for i in 0..=997 {
+                let s = q.length() * i as f64 / 997.0;
+                let u = q.u_at(s);
+                // Reference: a 256-interval composite quadrature from 0 to u.
+                let back: f64 = (0..256)
+                    .map(|j| q.gauss(u * j as f64 / 256.0, u * (j + 1) as f64 / 256.0))
+                    .sum();
+                let k = ((u * TABLE as f64).floor() as usize).min(TABLE - 1);
+                let table = q.cum[k] + q.gauss(k as f64 / TABLE as f64, u);
+                assert!((table - s).abs() < 1e-13, "s {s}: table gives {table}");
+                assert!((back - s).abs() < 1e-11 * q.length(), "s {s}: {back}");
+            }
         }
     }
 
