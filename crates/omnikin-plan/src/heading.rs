@@ -177,6 +177,15 @@ impl HeadingLaw {
         }
     }
 
+    /// Arc lengths (m) of a profile's points, where `d³ψ/ds³` jumps (empty for the other laws):
+    /// the planner puts grid nodes there.
+    pub(crate) fn knots(&self) -> &[f64] {
+        match self {
+            HeadingLaw::Profile(p) => &p.s,
+            _ => &[],
+        }
+    }
+
     /// Arc lengths (m) where `dψ/ds` may jump for a reason other than the path's own joins: the
     /// ends of a profile's range.
     pub fn breakpoints(&self) -> Vec<f64> {

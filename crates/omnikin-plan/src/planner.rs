@@ -15,8 +15,12 @@
 //!    every robot's motor rates are linear in the world twist `q̇ = q'(σ) σ̇`, they are
 //!    `w(σ, σ̇) = A(σ) σ̇` with `A(σ)` the core inverse kinematics applied to `q'(σ)`
 //!    (including the heading-rate term `ψ' = dψ/ds`), and the motor accelerations are
-//!    `ẇ = A(σ) σ̈ + A'(σ) σ̇²`. `A` is tabulated on a grid of `σ` (≤ 2 mm or 2 mrad); for the
-//!    caster the steer angles `γ(σ)` obey `dγ/dσ = J2(θ, γ) q'(σ)` (paper 003, eq. 5), which
+//!    `ẇ = A(σ) σ̈ + A'(σ) σ̇²`. `A` is tabulated on an **adaptive grid** of `σ`: a node at
+//!    every join of the path's pieces (where `A'` may jump, e.g. the curvature's derivative
+//!    at a spline waypoint; `A'` is taken one-sided there) and equal cells between joins,
+//!    5 cm (50 mrad for turns; a fifth of the eccentricity for the caster) refined where the
+//!    linear interpolation of `A` or `A'` between nodes would be off by more than 1 % of that
+//!    motor's largest value on the move, down to 2 mm. For the caster the steer angles `γ(σ)` obey `dγ/dσ = J2(θ, γ) q'(σ)` (paper 003, eq. 5), which
 //!    does not depend on the timing, so they are integrated once along the grid (RK4).
 //! 3. **Timing**, one of [`Timing`]:
 //!    * [`Timing::Profile`]: a trapezoidal or S-curve profile per move with the requested
@@ -26,16 +30,20 @@
 //!      their share of the move's time). [`OnLimit::Reject`] refuses instead.
 //!    * [`Timing::ConstantSpeed`]: constant speed from start to end (paper 000's circle law,
 //!      eq. 6.3, which starts at full speed); slowed or rejected like a profile.
-//!    * [`Timing::TimeOptimal`]: the fastest timing within all limits, by the classic
-//!      **forward–backward pass over the path parameter** on `x = σ̇²`. On each grid cell
-//!      `σ̈ = (x_{k+1} − x_k)/(2h)` is constant; every acceleration limit (the requested path
-//!      acceleration and each motor's `|A_i σ̈ + A_i' x| ≤ limit`, at both ends of the cell) is
-//!      linear in the unknown end value, so each step picks the largest admissible one exactly.
-//!      Speed caps: `x ≤ v_max²`, `x ≤ (limit_rate_i/|A_i|)²` (the wheel-rate cap
-//!      `v_max(s) = max_rate / max_i |∂w_i/∂v(s)|`), and `x ≤ limit_accel_i/|A_i'|` (speed at
-//!      which the robot can still hold its speed). The forward pass accelerates from rest as
-//!      hard as allowed, the backward pass does the same from the end; the timing is the
-//!      pointwise minimum. Jerk is not limited in this mode.
+//!    * [`Timing::TimeOptimal`]: the fastest timing within all limits, by a
+//!      **backward reachability pass and a greedy forward pass** over the path parameter on
+//!      `x = σ̇²` (time-optimal path parameterisation by reachability analysis, as in Pham &
+//!      Pham, "TOPP-RA", IEEE T-RO 2018). On each grid cell `σ̈ = (x_{k+1} − x_k)/(2h)` is
+//!      constant, and every acceleration limit (the requested path acceleration and each
+//!      motor's `|A_i σ̈ + A_i' x| ≤ limit`, at both ends of the cell) is linear in the two end
+//!      values: a convex polygon. Speed caps: `x ≤ v_max²` and `x ≤ (limit_rate_i/|A_i|)²`
+//!      (the wheel-rate cap `v_max(s) = max_rate / max_i |∂w_i/∂v(s)|`, with `|A_i|` raised by
+//!      its estimated bulge between nodes). The backward pass finds, from rest at the end,
+//!      the largest `x_k` from which the end is still reachable (the largest start of the
+//!      cell's polygon whose end is reachable); the forward pass then accelerates from rest as
+//!      hard as the cell allows without leaving the reachable set. No step can get stuck, and
+//!      the joint limits of all motors are respected at every node. Jerk is not limited in
+//!      this mode.
 //! 4. **Sampling** at the requested rate: pose, world twist, motor rates from the core
 //!    inverse kinematics (sphere: `SphereOmni::wheel_rates_world`, ballbot:
 //!    `Ballbot::wheel_rates_world`, caster: `Caster3::motor_rates`). Finally every sample is
@@ -304,8 +312,13 @@ pub struct Planned {
     pub report: PlanReport,
 }
 
-/// Grid step in the move parameter (m or rad).
-const GRID_STEP: f64 = 2e-3;
+/// Finest grid step in the move parameter (m or rad).
+const GRID_MIN: f64 = 2e-3;
+/// Coarsest grid step in the move parameter (m or rad).
+const GRID_MAX: f64 = 0.05;
+/// Largest linear-interpolation error of the motor rates per unit speed `A(σ)` between grid
+/// nodes, relative to the motor's largest `|A|` on the move.
+const GRID_TOL: f64 = 1e-2;
 /// Fewest grid cells per move.
 const MIN_CELLS: usize = 16;
 /// Most grid cells per move.
@@ -324,9 +337,19 @@ struct Config {
 
 #[derive(Clone, Debug)]
 enum MoveTiming {
-    Profile { p: Profile1D, lambda: f64 },
-    Constant { v: f64 },
-    Grid { h: f64, x: Vec<f64>, t: Vec<f64> },
+    Profile {
+        p: Profile1D,
+        lambda: f64,
+    },
+    Constant {
+        v: f64,
+    },
+    /// Node parameters `sig` (from 0 to the move's length), `x = σ̇²` and times at the nodes.
+    Grid {
+        sig: Vec<f64>,
+        x: Vec<f64>,
+        t: Vec<f64>,
+    },
 }
 
 impl MoveTiming {
@@ -346,16 +369,16 @@ impl MoveTiming {
                 (s, lambda * v, lambda * lambda * a)
             }
             MoveTiming::Constant { v } => ((v * t).clamp(0.0, len), *v, 0.0),
-            MoveTiming::Grid { h, x, t: times } => {
+            MoveTiming::Grid { sig, x, t: times } => {
                 let n = x.len() - 1;
                 let k = match times.binary_search_by(|a| a.total_cmp(&t)) {
                     Ok(k) => k.min(n.saturating_sub(1)),
                     Err(k) => k.saturating_sub(1).min(n.saturating_sub(1)),
                 };
-                let u = (x[k + 1] - x[k]) / (2.0 * h);
+                let u = (x[k + 1] - x[k]) / (2.0 * (sig[k + 1] - sig[k]));
                 let v0 = x[k].max(0.0).sqrt();
                 let tau = (t - times[k]).clamp(0.0, times[k + 1] - times[k]);
-                let s = (k as f64 * h + v0 * tau + 0.5 * u * tau * tau).clamp(0.0, len);
+                let s = (sig[k] + v0 * tau + 0.5 * u * tau * tau).clamp(0.0, len);
                 ((s).min(len), (v0 + u * tau).max(0.0), u)
             }
         }
@@ -368,15 +391,19 @@ enum Kind {
     Turn { x: f64, y: f64, psi0: f64, dir: f64 },
 }
 
-/// A move with its grid: heading (unwrapped), `A`, `A'` and the caster's steer angles.
+/// A move with its grid: node parameters, heading (unwrapped), `A`, `A'` and the caster's
+/// steer angles.
 #[derive(Clone, Debug)]
 struct Move {
     kind: Kind,
     len: f64,
-    h: f64,
+    sig: Vec<f64>,
     psi: Vec<f64>,
     a: Vec<[f64; 6]>,
-    b: Vec<[f64; 6]>,
+    /// `A'` at each node as seen from the cell that ends there (one-sided at a kink).
+    b_in: Vec<[f64; 6]>,
+    /// `A'` at each node as seen from the cell that starts there (one-sided at a kink).
+    b_out: Vec<[f64; 6]>,
     gamma: Vec<[f64; 3]>,
     timing: MoveTiming,
     t0: f64,
@@ -464,40 +491,119 @@ impl Ctx<'_> {
         }))
     }
 
-    /// Builds a move's grid starting from heading `psi_start` and steer angles `gamma0`.
+    /// Builds a move's grid starting from heading `psi_start` and steer angles `gamma0`. The
+    /// grid has a node at every kink `kinks` (σ where `A'` may jump: the joins of the path's
+    /// pieces) and, between kinks, equal cells of at most `step`, refined (once, by the factor
+    /// the error estimate asks for) until the linear interpolation of every motor's `A(σ)`
+    /// between nodes is within [`GRID_TOL`] of that motor's largest `|A|` on the move, or the
+    /// cells are [`GRID_MIN`].
     fn build_move(
         &self,
         kind: Kind,
         len: f64,
         psi_start: f64,
         gamma0: [f64; 3],
+        step: f64,
+        kinks: &[f64],
     ) -> Result<Move, PlanningError> {
-        let n = ((len / GRID_STEP).ceil() as usize).clamp(MIN_CELLS, MAX_CELLS);
-        let h = len / n as f64;
-        let mut psi = Vec::with_capacity(n + 1);
-        let mut a = Vec::with_capacity(n + 1);
-        let mut gamma = Vec::with_capacity(n + 1);
-        let mut hint = psi_start;
-        let mut g = gamma0;
-        for k in 0..=n {
-            let sigma = if k == n { len } else { k as f64 * h };
-            if k > 0 {
-                g = self.steer_step(&kind, len, sigma - h, g, h, hint)?;
-            }
-            let c = self.config(&kind, len, sigma, hint);
-            hint = c.pose.heading;
-            psi.push(hint);
-            a.push(self.rates_per_speed(&c, g)?);
-            gamma.push(g);
+        // Stretches between kinks, each with its number of cells.
+        let mut bounds = vec![0.0];
+        bounds.extend(
+            kinks
+                .iter()
+                .copied()
+                .filter(|&k| k > 1e-9 && k < len - 1e-9),
+        );
+        bounds.push(len);
+        let cells = |l: f64, h: f64| ((l / h).ceil() as usize).max(1);
+        let mut n: Vec<usize> = bounds
+            .windows(2)
+            .map(|w| cells(w[1] - w[0], step))
+            .collect();
+        let total: usize = n.iter().sum();
+        if total < MIN_CELLS {
+            let f = MIN_CELLS.div_ceil(total);
+            n.iter_mut().for_each(|c| *c *= f);
         }
-        let b = derivative(&a, h);
+        if n.iter().sum::<usize>() > MAX_CELLS {
+            return Err(PlanningError::Infeasible(format!(
+                "a move of length {len:.3} needs more than {MAX_CELLS} grid cells"
+            )));
+        }
+        // Each stretch starts from the end state (heading, steer angles) of the one before.
+        let caster = self.robot.is_caster();
+        let mut parts: Vec<Stretch> = Vec::with_capacity(n.len());
+        for j in 0..n.len() {
+            let (psi0, g0) = parts
+                .last()
+                .map_or((psi_start, gamma0), |p: &Stretch| p.end());
+            parts.push(self.stretch(&kind, len, bounds[j], bounds[j + 1], n[j], psi0, g0)?);
+        }
+        // Refine the stretches whose interpolation error is too large, rebuilding only them (and,
+        // for the caster, whose steer angles carry over, every stretch after the first rebuilt).
+        for _ in 0..8 {
+            let mut scale = [[0.0_f64; 6]; 2];
+            for p in &parts {
+                let ps = p.scale();
+                for i in 0..2 {
+                    for ch in 0..6 {
+                        scale[i][ch] = scale[i][ch].max(ps[i][ch]);
+                    }
+                }
+            }
+            let mut dirty = false;
+            for j in 0..parts.len() {
+                let c = n[j];
+                let h = (bounds[j + 1] - bounds[j]) / c as f64;
+                let err = parts[j].error(&scale);
+                let refine = err > GRID_TOL && h > GRID_MIN;
+                if refine {
+                    // Linear interpolation error scales with h²; aim at half the tolerance.
+                    let f = (err / (0.5 * GRID_TOL)).sqrt().min(1e3);
+                    let want = ((c as f64 * f).ceil() as usize).max(c + 1);
+                    n[j] = want.min(cells(bounds[j + 1] - bounds[j], GRID_MIN).max(c));
+                }
+                if refine || (caster && dirty) {
+                    let (psi0, g0) = if j == 0 {
+                        (psi_start, gamma0)
+                    } else {
+                        parts[j - 1].end()
+                    };
+                    parts[j] =
+                        self.stretch(&kind, len, bounds[j], bounds[j + 1], n[j], psi0, g0)?;
+                    dirty = true;
+                }
+            }
+            if !dirty {
+                break;
+            }
+            if n.iter().sum::<usize>() > MAX_CELLS {
+                return Err(PlanningError::Infeasible(format!(
+                    "a move of length {len:.3} needs more than {MAX_CELLS} grid cells"
+                )));
+            }
+        }
+        let total: usize = n.iter().sum();
+        let mut sig = Vec::with_capacity(total + 1);
+        let mut psi = Vec::with_capacity(total + 1);
+        let mut a = Vec::with_capacity(total + 1);
+        let mut gamma = Vec::with_capacity(total + 1);
+        for (j, p) in parts.iter().enumerate() {
+            let skip = usize::from(j > 0);
+            sig.extend_from_slice(&p.sig[skip..]);
+            psi.extend_from_slice(&p.psi[skip..]);
+            a.extend_from_slice(&p.a[skip..]);
+            gamma.extend_from_slice(&p.gamma[skip..]);
+        }
+        let (b_in, b_out) = derivative(&a, &sig, &n);
         Ok(Move {
             kind,
             len,
-            h,
+            sig,
             psi,
             a,
-            b,
+            b_in,
+            b_out,
             gamma,
             timing: MoveTiming::Constant { v: 1.0 },
             t0: 0.0,
@@ -505,34 +611,195 @@ impl Ctx<'_> {
         })
     }
 
+    /// One stretch of a move's grid: `n` equal cells from `s0` to `s1`, starting from heading
+    /// hint `psi0` and steer angles `g0`.
+    #[allow(clippy::too_many_arguments)]
+    fn stretch(
+        &self,
+        kind: &Kind,
+        len: f64,
+        s0: f64,
+        s1: f64,
+        n: usize,
+        psi0: f64,
+        g0: [f64; 3],
+    ) -> Result<Stretch, PlanningError> {
+        let sig: Vec<f64> = (0..=n)
+            .map(|i| {
+                if i == n {
+                    s1
+                } else {
+                    s0 + (s1 - s0) * i as f64 / n as f64
+                }
+            })
+            .collect();
+        let (psi, a, gamma) = self.grid(kind, len, psi0, g0, &sig)?;
+        Ok(Stretch { sig, psi, a, gamma })
+    }
+
+    /// Heading, `A` and steer angles at the nodes `sig` of a move.
+    #[allow(clippy::type_complexity)]
+    fn grid(
+        &self,
+        kind: &Kind,
+        len: f64,
+        psi_start: f64,
+        gamma0: [f64; 3],
+        sig: &[f64],
+    ) -> Result<(Vec<f64>, Vec<[f64; 6]>, Vec<[f64; 3]>), PlanningError> {
+        let mut psi = Vec::with_capacity(sig.len());
+        let mut a = Vec::with_capacity(sig.len());
+        let mut gamma = Vec::with_capacity(sig.len());
+        let mut hint = psi_start;
+        let mut g = gamma0;
+        for (k, &sigma) in sig.iter().enumerate() {
+            if k > 0 {
+                let h = sigma - sig[k - 1];
+                g = self.steer_step(kind, len, sig[k - 1], g, h, hint)?;
+            }
+            let c = self.config(kind, len, sigma, hint);
+            hint = c.pose.heading;
+            psi.push(hint);
+            a.push(self.rates_per_speed(&c, g)?);
+            gamma.push(g);
+        }
+        Ok((psi, a, gamma))
+    }
+
     /// Steer angles at `sigma` within a move, and the configuration there.
     fn state(&self, mv: &Move, sigma: f64) -> Result<(Config, [f64; 3]), PlanningError> {
-        let n = mv.a.len() - 1;
-        let k = ((sigma / mv.h).floor().max(0.0) as usize).min(n);
+        let k = cell(&mv.sig, sigma);
         let hint = mv.psi[k];
         let c = self.config(&mv.kind, mv.len, sigma, hint);
         let g = self.steer_step(
             &mv.kind,
             mv.len,
-            k as f64 * mv.h,
+            mv.sig[k],
             mv.gamma[k],
-            sigma - k as f64 * mv.h,
+            (sigma - mv.sig[k]).max(0.0),
             hint,
         )?;
         Ok((c, g))
     }
 }
 
-/// Central differences of a tabulated vector function (one-sided at the ends).
-fn derivative(a: &[[f64; 6]], h: f64) -> Vec<[f64; 6]> {
-    let n = a.len() - 1;
-    (0..=n)
-        .map(|k| {
-            let (lo, hi) = (k.saturating_sub(1), (k + 1).min(n));
-            let d = (hi - lo) as f64 * h;
-            core::array::from_fn(|i| (a[hi][i] - a[lo][i]) / d)
-        })
-        .collect()
+/// One stretch of a move's grid between kinks (equal cells).
+struct Stretch {
+    sig: Vec<f64>,
+    psi: Vec<f64>,
+    a: Vec<[f64; 6]>,
+    gamma: Vec<[f64; 3]>,
+}
+
+impl Stretch {
+    /// Heading and steer angles at the stretch's last node.
+    fn end(&self) -> (f64, [f64; 3]) {
+        (
+            *self.psi.last().expect("a stretch has nodes"),
+            *self.gamma.last().expect("a stretch has nodes"),
+        )
+    }
+
+    /// Largest `|A|` and `|A'|` (central differences) per channel on the stretch.
+    fn scale(&self) -> [[f64; 6]; 2] {
+        let a = &self.a;
+        let mut out = [[0.0_f64; 6]; 2];
+        for row in a {
+            for ch in 0..6 {
+                out[0][ch] = out[0][ch].max(row[ch].abs());
+            }
+        }
+        if a.len() >= 3 {
+            let h = self.sig[1] - self.sig[0];
+            for k in 1..a.len() - 1 {
+                for ch in 0..6 {
+                    let d = (a[k + 1][ch] - a[k - 1][ch]) / (2.0 * h);
+                    out[1][ch] = out[1][ch].max(d.abs());
+                }
+            }
+        }
+        out
+    }
+
+    /// Largest estimated error of linear interpolation between the nodes of `A`
+    /// (`|Δ²A|/8 = h² A''/8`) and of its central differences `A'` (inside the stretch),
+    /// relative to each channel's largest `|A|` and `|A'|` on the move (`scale`).
+    fn error(&self, scale: &[[f64; 6]; 2]) -> f64 {
+        let a = &self.a;
+        let m = a.len();
+        if m < 3 {
+            return 0.0;
+        }
+        let h = self.sig[1] - self.sig[0];
+        let inv = |s: f64, f: f64| if s > 0.0 { 1.0 / (f * s) } else { 0.0 };
+        let inv_a: [f64; 6] = core::array::from_fn(|ch| inv(scale[0][ch], 8.0));
+        // A'(k) = (A[k+1] − A[k−1]) / 2h, so Δ²A'/8 = (A[k+2] − 2A[k+1] + 2A[k−1] − A[k−2]) / 16h.
+        let inv_b: [f64; 6] = core::array::from_fn(|ch| inv(scale[1][ch], 16.0 * h));
+        let mut err = 0.0_f64;
+        for k in 1..m - 1 {
+            for ch in 0..6 {
+                let d2 = a[k - 1][ch] - 2.0 * a[k][ch] + a[k + 1][ch];
+                err = err.max(d2.abs() * inv_a[ch]);
+            }
+        }
+        for k in 2..m.saturating_sub(2) {
+            for ch in 0..6 {
+                let d = a[k + 2][ch] - 2.0 * a[k + 1][ch] + 2.0 * a[k - 1][ch] - a[k - 2][ch];
+                err = err.max(d.abs() * inv_b[ch]);
+            }
+        }
+        err
+    }
+}
+
+/// Index `k` of the grid cell `[sig[k], sig[k + 1]]` containing `sigma` (clamped).
+fn cell(sig: &[f64], sigma: f64) -> usize {
+    let n = sig.len() - 1;
+    sig.partition_point(|&x| x <= sigma)
+        .saturating_sub(1)
+        .min(n.saturating_sub(1))
+}
+
+/// Derivative of a vector function tabulated at the nodes `sig`, made of stretches of `n[j]`
+/// equal cells: central differences inside a stretch, second-order one-sided differences at
+/// the stretch ends (kinks, where the derivative may jump). Returns the derivative seen from
+/// the cell ending at each node and from the cell starting there (equal except at kinks).
+#[allow(clippy::type_complexity)]
+fn derivative(a: &[[f64; 6]], sig: &[f64], n: &[usize]) -> (Vec<[f64; 6]>, Vec<[f64; 6]>) {
+    let m = a.len();
+    let mut b_in = vec![[0.0; 6]; m];
+    let mut b_out = vec![[0.0; 6]; m];
+    let mut first = 0;
+    for &c in n {
+        let last = first + c;
+        let h = (sig[last] - sig[first]) / c as f64;
+        for k in first..=last {
+            let d: [f64; 6] = if k > first && k < last {
+                core::array::from_fn(|i| (a[k + 1][i] - a[k - 1][i]) / (2.0 * h))
+            } else if c == 1 {
+                core::array::from_fn(|i| (a[last][i] - a[first][i]) / h)
+            } else if k == first {
+                core::array::from_fn(|i| {
+                    (-3.0 * a[k][i] + 4.0 * a[k + 1][i] - a[k + 2][i]) / (2.0 * h)
+                })
+            } else {
+                core::array::from_fn(|i| {
+                    (3.0 * a[k][i] - 4.0 * a[k - 1][i] + a[k - 2][i]) / (2.0 * h)
+                })
+            };
+            if k > first {
+                b_in[k] = d;
+            }
+            if k < last {
+                b_out[k] = d;
+            }
+        }
+        first = last;
+    }
+    // The first node has no incoming cell and the last no outgoing one.
+    b_in[0] = b_out[0];
+    b_out[m - 1] = b_in[m - 1];
+    (b_in, b_out)
 }
 
 /// `true` when two derivative vectors `q'` differ (a jump in the wheel rates per unit speed).
@@ -575,7 +842,6 @@ struct MovePeaks {
 fn move_peaks(robot: &RobotModel, mv: &Move, timing: &MoveTiming) -> MovePeaks {
     let dur = timing.duration(mv.len);
     let m = ((dur / 5e-4).ceil() as usize).clamp(2000, 400_000);
-    let n = mv.a.len() - 1;
     let mut out = MovePeaks {
         rate: (0.0, 0, 0.0, 0.0),
         accel: (0.0, 0, 0.0, 0.0),
@@ -583,12 +849,11 @@ fn move_peaks(robot: &RobotModel, mv: &Move, timing: &MoveTiming) -> MovePeaks {
     for j in 0..=m {
         let t = dur * j as f64 / m as f64;
         let (s, v, acc) = timing.eval(t, mv.len);
-        let pos = (s / mv.h).clamp(0.0, n as f64);
-        let k = (pos.floor() as usize).min(n.saturating_sub(1));
-        let f = pos - k as f64;
+        let k = cell(&mv.sig, s);
+        let f = ((s - mv.sig[k]) / (mv.sig[k + 1] - mv.sig[k])).clamp(0.0, 1.0);
         for ch in 0..robot.channels() {
             let a = mv.a[k][ch] * (1.0 - f) + mv.a[k + 1][ch] * f;
-            let b = mv.b[k][ch] * (1.0 - f) + mv.b[k + 1][ch] * f;
+            let b = mv.b_out[k][ch] * (1.0 - f) + mv.b_in[k + 1][ch] * f;
             let w = (a * v).abs();
             let wd = (a * acc + b * v * v).abs();
             if let Some(lim) = robot.rate_limit(ch)
@@ -606,21 +871,123 @@ fn move_peaks(robot: &RobotModel, mv: &Move, timing: &MoveTiming) -> MovePeaks {
     out
 }
 
-/// One constraint `|c·y + e| ≤ bound` on the unknown end value `y` of a grid cell.
-fn bound_interval(c: f64, e: f64, bound: f64) -> (f64, f64) {
-    if c.abs() < 1e-300 {
-        return if e.abs() <= bound {
-            (f64::NEG_INFINITY, f64::INFINITY)
-        } else {
-            (f64::INFINITY, f64::NEG_INFINITY)
-        };
-    }
-    let (p, q) = ((-bound - e) / c, (bound - e) / c);
-    if p < q { (p, q) } else { (q, p) }
+/// Most constraints of a grid cell: the requested acceleration plus two per motor.
+const CELL_MAX: usize = 13;
+
+/// The constraints of one grid cell in the unknowns `x = x_k` (start) and `y = x_{k+1}`
+/// (end): for each `i`, `lo[i] + slope[i]·x ≤ y ≤ hi[i] + slope[i]·x`, plus `x ≤ x_max` from
+/// constraints that do not involve `y`. `who[i]` names the limit (0: the requested
+/// acceleration, `1 + ch`: motor channel `ch`'s acceleration limit).
+struct CellConstraints {
+    lo: [f64; CELL_MAX],
+    hi: [f64; CELL_MAX],
+    slope: [f64; CELL_MAX],
+    who: [u8; CELL_MAX],
+    n: usize,
+    x_max: f64,
+    x_who: u8,
 }
 
-/// The time-optimal forward–backward pass over one move (see the module docs). Returns the
-/// grid timing and, per cell, what limited it.
+impl CellConstraints {
+    fn new() -> Self {
+        Self {
+            lo: [0.0; CELL_MAX],
+            hi: [0.0; CELL_MAX],
+            slope: [0.0; CELL_MAX],
+            who: [0; CELL_MAX],
+            n: 0,
+            x_max: f64::INFINITY,
+            x_who: 0,
+        }
+    }
+
+    /// Adds `|c_y·y + c_x·x| ≤ bound`.
+    fn add(&mut self, c_y: f64, c_x: f64, bound: f64, who: u8) {
+        if c_y.abs() <= 1e-12 * c_x.abs() || c_y == 0.0 {
+            // Only x is constrained (x ≥ 0): |c_x| x ≤ bound.
+            if c_x != 0.0 && bound < self.x_max * c_x.abs() {
+                self.x_max = bound / c_x.abs();
+                self.x_who = who;
+            }
+            return;
+        }
+        let r = (bound / c_y).abs();
+        let i = self.n;
+        self.lo[i] = -r;
+        self.hi[i] = r;
+        self.slope[i] = -c_x / c_y;
+        self.who[i] = who;
+        self.n += 1;
+    }
+
+    /// The largest `x ∈ [0, x_cap]` for which some `y ∈ [0, y_max]` satisfies every
+    /// constraint, and what bounds it (`None` for `x_cap`). `x = 0, y = 0` is always
+    /// admissible, so the answer is ≥ 0.
+    fn largest_start(&self, x_cap: f64, y_max: f64) -> (f64, Option<u8>) {
+        let (mut x, mut who) = if self.x_max < x_cap {
+            (self.x_max, Some(self.x_who))
+        } else {
+            (x_cap, None)
+        };
+        // g(x) = U(x) − L(x), U the lowest upper bound (y ≤ y_max included), L the highest
+        // lower bound (y ≥ 0 included), is concave and piecewise linear with g(0) ≥ 0, and x
+        // is admissible iff g(x) ≥ 0. From the right of its root Newton's steps stay right of
+        // it and end on it after at most one step per linear piece.
+        for _ in 0..2 * CELL_MAX + 2 {
+            let (mut u, mut bu, mut iu) = (y_max, 0.0, usize::MAX);
+            let (mut l, mut bl, mut il) = (0.0_f64, 0.0, usize::MAX);
+            for i in 0..self.n {
+                let b = self.slope[i];
+                let hi = self.hi[i] + b * x;
+                if hi < u || (hi == u && b > bu) {
+                    (u, bu, iu) = (hi, b, i);
+                }
+                let lo = self.lo[i] + b * x;
+                if lo > l || (lo == l && b < bl) {
+                    (l, bl, il) = (lo, b, i);
+                }
+            }
+            let g = u - l;
+            if g >= -1e-12 * (u.abs() + l.abs()) {
+                break;
+            }
+            let slope = bu - bl;
+            if slope >= 0.0 {
+                // Cannot happen for a concave g with g(0) ≥ 0 but for rounding; stay safe.
+                x = 0.0;
+                break;
+            }
+            x = (x - g / slope).max(0.0);
+            // The limit that forces the slow-down: the lower bound's (a deceleration limit)
+            // unless it is the trivial y ≥ 0.
+            let i = if il != usize::MAX { il } else { iu };
+            who = (i != usize::MAX).then(|| self.who[i]);
+        }
+        (x.max(0.0), who)
+    }
+
+    /// The largest admissible `y ≤ y_max` given `x`, and what bounds it (`None` for `y_max`).
+    fn largest_end(&self, x: f64, y_max: f64) -> (f64, Option<u8>) {
+        let mut y = y_max;
+        let mut who = None;
+        let mut floor = 0.0_f64;
+        for i in 0..self.n {
+            let bx = self.slope[i] * x;
+            let hi = self.hi[i] + bx;
+            if hi < y {
+                y = hi;
+                who = Some(self.who[i]);
+            }
+            floor = floor.max(self.lo[i] + bx);
+        }
+        // x lies in the reachable set, so floor ≤ y up to rounding.
+        (y.max(floor.min(y_max)).max(0.0), who)
+    }
+}
+
+/// The time-optimal timing of one move (see the module docs): a reachability pass backward
+/// from rest at the end, then the greedy forward pass from rest at the start, on `x = σ̇²`.
+/// Returns the grid timing and, per cell, what limited it.
 fn time_optimal(
     robot: &RobotModel,
     mv: &Move,
@@ -629,132 +996,101 @@ fn time_optimal(
     user: (Limiter, Limiter),
 ) -> Result<(MoveTiming, Vec<Limiter>), PlanningError> {
     let n = mv.a.len() - 1;
-    let h = mv.h;
+    let sig = &mv.sig;
     let chans = robot.channels();
     let margin = MARGIN * mv.limit_scale;
-    // Speed caps on x = σ̇².
+    let motor = |ch: usize, accel: bool| Limiter::Motor {
+        quantity: Quantity::of(ch, accel),
+        motor: ch % 3 + 1,
+    };
+    let rate_limits: [Option<f64>; 6] =
+        core::array::from_fn(|ch| robot.rate_limit(ch).map(|l| l * margin));
+    let accel_limits: [Option<f64>; 6] =
+        core::array::from_fn(|ch| robot.accel_limit(ch).map(|l| l * margin));
+    // Speed caps on x = σ̇²: the requested speed and every motor's rate limit.
     let mut cap = vec![0.0; n + 1];
     let mut cap_src = vec![user.0; n + 1];
     for k in 0..=n {
         let mut c = v_user * v_user;
         let mut src = user.0;
         for ch in 0..chans {
-            let a = mv.a[k][ch].abs();
-            let b = mv.b[k][ch].abs();
-            if let Some(l) = robot.rate_limit(ch)
+            // |A| plus the estimated bulge of A between this node and its neighbours (|Δ²A|/8,
+            // doubled for its product with a changing speed), so the rate limit also holds
+            // between nodes.
+            let bulge = if k > 0 && k < n {
+                (mv.a[k - 1][ch] - 2.0 * mv.a[k][ch] + mv.a[k + 1][ch]).abs() / 4.0
+            } else {
+                0.0
+            };
+            let a = mv.a[k][ch].abs() + bulge;
+            if let Some(l) = rate_limits[ch]
                 && a > 0.0
-                && (l * margin / a).powi(2) < c
+                && (l / a).powi(2) < c
             {
-                c = (l * margin / a).powi(2);
-                src = Limiter::Motor {
-                    quantity: Quantity::of(ch, false),
-                    motor: ch % 3 + 1,
-                };
-            }
-            if let Some(l) = robot.accel_limit(ch)
-                && b > 0.0
-                && l * margin / b < c
-            {
-                c = l * margin / b;
-                src = Limiter::Motor {
-                    quantity: Quantity::of(ch, true),
-                    motor: ch % 3 + 1,
-                };
+                c = (l / a).powi(2);
+                src = motor(ch, false);
             }
         }
         cap[k] = c;
         cap_src[k] = src;
     }
-    // Largest admissible unknown end value of cell k (forward: y = x_{k+1} given x_k = known;
-    // backward: y = x_k given x_{k+1} = known).
-    let step = |k: usize, known: f64, forward: bool| -> (f64, Limiter) {
-        let (a0, b0, a1, b1) = (&mv.a[k], &mv.b[k], &mv.a[k + 1], &mv.b[k + 1]);
-        let i2h = 1.0 / (2.0 * h);
-        let (cap_y, cap_who) = if forward {
-            (cap[k + 1], cap_src[k + 1])
-        } else {
-            (cap[k], cap_src[k])
-        };
-        let (mut lo, mut hi, mut src) = (0.0_f64, cap_y, cap_who);
-        let mut consider = |c: f64, e: f64, bound: f64, who: Limiter| {
-            let (l, u) = bound_interval(c, e, bound);
-            lo = lo.max(l);
-            if u < hi {
-                hi = u;
-                src = who;
-            }
-        };
-        // Requested path acceleration: |x1 − x0| ≤ 2h a_user.
-        if forward {
-            consider(i2h, -known * i2h, a_user, user.1);
-        } else {
-            consider(-i2h, known * i2h, a_user, user.1);
-        }
+    // Constraints of cell k: requested path acceleration |y − x| ≤ 2h a_user, and each motor's
+    // acceleration |A σ̈ + A' x| ≤ limit at both ends, σ̈ = (y − x)/(2h).
+    let cell = |k: usize| {
+        let i2h = 1.0 / (2.0 * (sig[k + 1] - sig[k]));
+        let (a0, b0, a1, b1) = (&mv.a[k], &mv.b_out[k], &mv.a[k + 1], &mv.b_in[k + 1]);
+        let mut c = CellConstraints::new();
+        c.add(i2h, -i2h, a_user, 0);
         for ch in 0..chans {
-            let Some(l) = robot.accel_limit(ch) else {
-                continue;
-            };
-            let l = l * margin;
-            let who = Limiter::Motor {
-                quantity: Quantity::of(ch, true),
-                motor: ch % 3 + 1,
-            };
-            if forward {
-                consider(a0[ch] * i2h, (b0[ch] - a0[ch] * i2h) * known, l, who);
-                consider(a1[ch] * i2h + b1[ch], -a1[ch] * known * i2h, l, who);
-            } else {
-                consider(b0[ch] - a0[ch] * i2h, a0[ch] * known * i2h, l, who);
-                consider(-a1[ch] * i2h, (a1[ch] * i2h + b1[ch]) * known, l, who);
+            if let Some(l) = accel_limits[ch] {
+                c.add(a0[ch] * i2h, b0[ch] - a0[ch] * i2h, l, 1 + ch as u8);
+                c.add(a1[ch] * i2h + b1[ch], -a1[ch] * i2h, l, 1 + ch as u8);
             }
         }
-        if lo > hi {
-            // No admissible end value: the known end is too fast for this cell in this
-            // direction (e.g. the forward pass meeting a sharp drop of the cap). The other
-            // pass bounds the speed here, so this one leaves only the cap.
-            return (cap_y, cap_who);
-        }
-        (hi, src)
+        c
     };
-    let mut fwd = vec![0.0; n + 1];
-    let mut fwd_src = vec![user.0; n + 1];
-    for k in 0..n {
-        let (y, src) = step(k, fwd[k], true);
-        fwd[k + 1] = y;
-        fwd_src[k + 1] = src;
-    }
-    let mut bwd = vec![0.0; n + 1];
-    let mut bwd_src = vec![user.0; n + 1];
+    let name = |w: u8| {
+        if w == 0 {
+            user.1
+        } else {
+            motor(usize::from(w - 1), true)
+        }
+    };
+    // Backward: reach[k] = the largest x_k from which rest at the end is reachable.
+    let mut reach = vec![0.0; n + 1];
+    let mut reach_src = vec![user.0; n + 1];
     for k in (0..n).rev() {
-        let (y, src) = step(k, bwd[k + 1], false);
-        bwd[k] = y;
-        bwd_src[k] = src;
+        let (x, who) = cell(k).largest_start(cap[k], reach[k + 1]);
+        reach[k] = x;
+        reach_src[k] = who.map_or(cap_src[k], name);
     }
-    let x: Vec<f64> = (0..=n).map(|k| fwd[k].min(bwd[k])).collect();
-    let mut t = vec![0.0; n + 1];
+    // Forward: from rest, the largest admissible end value that stays reachable.
+    let mut x = vec![0.0; n + 1];
     let mut who = Vec::with_capacity(n);
+    for k in 0..n {
+        let (y, limiter) = cell(k).largest_end(x[k], reach[k + 1]);
+        x[k + 1] = y;
+        who.push(limiter.map_or(reach_src[k + 1], name));
+    }
+    let mut t = vec![0.0; n + 1];
     for k in 0..n {
         let den = x[k].sqrt() + x[k + 1].sqrt();
         if den.is_nan() || den <= 0.0 {
             return Err(PlanningError::Infeasible(format!(
                 "the motor limits allow no motion at parameter {:.4} of a move (speed cap 0)",
-                k as f64 * h
+                sig[k]
             )));
         }
-        t[k + 1] = t[k] + 2.0 * h / den;
-        let at_cap = |j: usize| x[j] >= cap[j] * (1.0 - 1e-9);
-        who.push(if at_cap(k) || at_cap(k + 1) {
-            if at_cap(k) {
-                cap_src[k]
-            } else {
-                cap_src[k + 1]
-            }
-        } else if fwd[k + 1] <= bwd[k + 1] {
-            fwd_src[k + 1]
-        } else {
-            bwd_src[k]
-        });
+        t[k + 1] = t[k] + 2.0 * (sig[k + 1] - sig[k]) / den;
     }
-    Ok((MoveTiming::Grid { h, x, t }, who))
+    Ok((
+        MoveTiming::Grid {
+            sig: sig.clone(),
+            x,
+            t,
+        },
+        who,
+    ))
 }
 
 /// Plans `path` with the heading law `heading` for `robot` (see the module docs for how).
@@ -1038,6 +1374,16 @@ fn initial_timing(
     Ok((timing, vec![(limiter, dur)]))
 }
 
+/// The starting grid step of a move, m or rad: [`GRID_MAX`], refined by
+/// [`Ctx::build_move`] where `A(σ)` needs it. The caster's steer angles change over a length
+/// of the order of its eccentricity `d` (paper 003, eq. 5), so its grid starts at `d/5`.
+fn grid_step(robot: &RobotModel) -> f64 {
+    match &robot.model {
+        Robot::Caster(m) => (m.params().eccentricity / 5.0).clamp(GRID_MIN, GRID_MAX),
+        _ => GRID_MAX,
+    }
+}
+
 /// Cuts the path into moves (see the module docs) and builds their grids.
 fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, PlanningError> {
     let path = ctx.path;
@@ -1125,13 +1471,23 @@ fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, PlanningError
                     psi0: psi,
                     dir: delta.signum(),
                 };
-                let mv = ctx.build_move(kind, delta.abs(), psi, gamma)?;
+                let step = grid_step(ctx.robot);
+                let mv = ctx.build_move(kind, delta.abs(), psi, gamma, step, &[])?;
                 psi += delta;
                 gamma = *mv.gamma.last().unwrap_or(&gamma);
                 moves.push(mv);
             }
         }
-        let mv = ctx.build_move(Kind::Travel { s0, s1 }, s1 - s0, psi, gamma)?;
+        let kind = Kind::Travel { s0, s1 };
+        let step = grid_step(ctx.robot);
+        let kinks: Vec<f64> = path
+            .piece_starts()
+            .iter()
+            .chain(ctx.heading.knots())
+            .filter(|&&k| k > s0 && k < s1)
+            .map(|k| k - s0)
+            .collect();
+        let mv = ctx.build_move(kind, s1 - s0, psi, gamma, step, &kinks)?;
         psi = *mv.psi.last().unwrap_or(&psi);
         gamma = *mv.gamma.last().unwrap_or(&gamma);
         moves.push(mv);
@@ -1291,5 +1647,57 @@ fn report(
         starts_moving: first.is_some_and(|s| {
             s.twist.vx.hypot(s.twist.vy) > 1e-12 || s.twist.yaw_rate.abs() > 1e-12
         }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Brute force: the largest x ∈ [0, x_cap] for which the y-interval is non-empty, from
+    /// every pair of a lower and an upper bound (y ≥ 0 and y ≤ y_max included).
+    fn largest_start_pairwise(c: &CellConstraints, x_cap: f64, y_max: f64) -> f64 {
+        let mut lower: Vec<(f64, f64)> = vec![(0.0, 0.0)];
+        let mut upper: Vec<(f64, f64)> = vec![(y_max, 0.0)];
+        for i in 0..c.n {
+            lower.push((c.lo[i], c.slope[i]));
+            upper.push((c.hi[i], c.slope[i]));
+        }
+        let mut best = x_cap.min(c.x_max);
+        for &(la, lb) in &lower {
+            for &(ua, ub) in &upper {
+                if lb - ub > 0.0 {
+                    best = best.min((ua - la) / (lb - ub));
+                }
+            }
+        }
+        best.max(0.0)
+    }
+
+    proptest! {
+        #[test]
+        fn reachability_step_matches_the_pairwise_lp(
+            rows in proptest::collection::vec(
+                (-50.0..50.0_f64, -50.0..50.0_f64, 0.1..100.0_f64), 1..13),
+            x_cap in 0.0..20.0_f64,
+            y_max in 0.0..20.0_f64,
+        ) {
+            let mut c = CellConstraints::new();
+            for (k, &(cy, cx, bound)) in rows.iter().enumerate() {
+                c.add(cy, cx, bound, k as u8);
+            }
+            let (x, _) = c.largest_start(x_cap, y_max);
+            let want = largest_start_pairwise(&c, x_cap, y_max);
+            prop_assert!((x - want).abs() <= 1e-9 * (1.0 + want), "{x} vs {want}");
+            // And the forward step from there finds an admissible end value.
+            let (y, _) = c.largest_end(x, y_max);
+            prop_assert!(y >= 0.0 && y <= y_max * (1.0 + 1e-12) + 1e-12);
+            for i in 0..c.n {
+                let tol = 1e-7 * (1.0 + c.hi[i].abs() + (c.slope[i] * x).abs());
+                prop_assert!(y <= c.hi[i] + c.slope[i] * x + tol, "upper {i}");
+                prop_assert!(y >= c.lo[i] + c.slope[i] * x - tol, "lower {i}");
+            }
+        }
     }
 }

@@ -7,7 +7,7 @@
 //! * `sphere`, `ballbot`, `caster`: a full control cycle ([`omnikin_bench::Loop::step`]);
 //! * `ROBOT-inverse`, `ROBOT-forward`, `ROBOT-odometry`: one kinematics call or odometry step
 //!   on the shared input table;
-//! * `plan20-RATE` (`plan20-11`, `plan20-1000`): planning the 20-waypoint spline of the peer
+//! * `plan20-RATE` (`plan20-11`, `plan20-1000`): building and planning the 20-waypoint spline of the peer
 //!   comparison (time-optimal, sphere-omni limits) sampled at RATE Hz.
 
 use std::hint::black_box;
@@ -36,11 +36,12 @@ fn main() {
         let Ok(rate) = rate.parse::<f64>() else {
             usage()
         };
-        let (path, heading, model, opts) = omnikin_bench::plan20(rate);
+        let (_, heading, model, opts) = omnikin_bench::plan20(rate);
+        let wps = omnikin_bench::waypoints20();
         for _ in 0..n {
-            black_box(
-                omnikin_plan::planner::plan(black_box(&path), &heading, &model, &opts).unwrap(),
-            );
+            // Spline and plan, as WPILib's GenerateTrajectory builds its spline too.
+            let path = omnikin_plan::path::Path::spline(black_box(&wps)).unwrap();
+            black_box(omnikin_plan::planner::plan(&path, &heading, &model, &opts).unwrap());
         }
         return;
     }

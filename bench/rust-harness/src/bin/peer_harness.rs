@@ -13,7 +13,8 @@ use std::hint::black_box;
 use omnikin::caster::{Caster3, CasterParams};
 use omnikin::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::{Pose2, Robot};
-use omnikin_bench::{Inputs, K, measure, plan20, robot};
+use omnikin_bench::{Inputs, K, measure, plan20, robot, waypoints20};
+use omnikin_plan::path::Path;
 use omnikin_plan::planner::{PlanOptions, Timing, plan};
 use omnikin_plan::profile::ProfileKind;
 
@@ -171,8 +172,11 @@ fn main() {
                 rate,
                 ..base
             };
+            // The spline is built inside the timed loop, as GenerateTrajectory builds its own.
+            let wps = waypoints20();
             let ns = rn.run(name, 5.0, |_| {
-                black_box(plan(black_box(&path), &heading, &model, &opts).unwrap());
+                let path = Path::spline(black_box(&wps)).unwrap();
+                black_box(plan(&path, &heading, &model, &opts).unwrap());
             });
             if let Some(ns) = ns {
                 let out = plan(&path, &heading, &model, &opts).unwrap();
