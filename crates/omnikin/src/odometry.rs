@@ -413,15 +413,18 @@ impl<T: Real> Odometry<T> {
                     dg[i] = wrap_angle(now.steer_angles[i] - prev.steer_angles[i]);
                     mid[i] = prev.steer_angles[i] + dg[i] * T::of(0.5);
                 }
-                // Heading 0: the least-squares twist comes out in the robot frame.
-                let f = m.body_twist(
-                    &CasterRates {
-                        roll: dq,
-                        steer: dg,
-                    },
-                    T::zero(),
-                    mid,
-                )?;
+                let rates = CasterRates {
+                    roll: dq,
+                    steer: dg,
+                };
+                // Heading 0: the least-squares twist comes out in the robot frame. The angles
+                // were checked, so the increments are finite unless a difference overflowed
+                // (then the checked path names the rate); `mid` is finite with them.
+                let f = if all_finite(&dq) && all_finite(&dg) {
+                    m.body_twist_robot_unchecked(&rates, mid)?
+                } else {
+                    m.body_twist(&rates, T::zero(), mid)?
+                };
                 Ok(WheelIncrement {
                     u: f.twist.vx,
                     v: f.twist.vy,
@@ -433,6 +436,13 @@ impl<T: Real> Odometry<T> {
             }
         }
     }
+}
+
+/// Whether every element is finite, with one branch: `0 · x` is `±0` for finite `x` and NaN
+/// for ±∞ or NaN, and a sum of them is NaN as soon as one term is.
+#[inline(always)]
+fn all_finite<T: Real>(x: &[T]) -> bool {
+    x.iter().fold(T::zero(), |acc, &v| acc + v * T::zero()) == T::zero()
 }
 
 #[inline]
