@@ -57,6 +57,12 @@ pub fn twist_exp<T: Real>(twist: Twist2<T>, dt: T) -> Pose2<T> {
 #[inline]
 pub fn compose<T: Real>(pose: Pose2<T>, delta: Pose2<T>) -> Pose2<T> {
     let (s, c) = pose.heading.sin_cos();
+    compose_rotated(pose, s, c, delta)
+}
+
+/// [`compose`] given `(s, c) = pose.heading.sin_cos()`.
+#[inline(always)]
+pub(crate) fn compose_rotated<T: Real>(pose: Pose2<T>, s: T, c: T, delta: Pose2<T>) -> Pose2<T> {
     Pose2::new(
         pose.x + c * delta.x - s * delta.y,
         pose.y + s * delta.x + c * delta.y,
