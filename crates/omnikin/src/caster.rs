@@ -272,10 +272,10 @@ impl<T: Real> Caster3<T> {
     /// The cosines and sines of `α_i + θ`, `β_i = α_i + θ + γ_i` and `γ_i` for the three wheels
     /// from four `sin_cos` evaluations (the heading and each steer angle) and the precomputed
     /// `(cos α_i, sin α_i)`, by the angle-addition formulas.
-    #[inline]
+    #[inline(always)]
     fn wheel_trig(&self, heading: T, steer: [T; 3]) -> [WheelTrig<T>; 3] {
         let (ct, st) = cs(heading);
-        core::array::from_fn(|i| {
+        let wheel = |i: usize| {
             let (cm, sm) = self.mount_cs[i];
             let (cg, sg) = cs(steer[i]);
             let (ca, sa) = (cm * ct - sm * st, sm * ct + cm * st);
@@ -287,7 +287,8 @@ impl<T: Real> Caster3<T> {
                 cg,
                 sg,
             }
-        })
+        };
+        [wheel(0), wheel(1), wheel(2)]
     }
 
     /// Row `i` of `J1` (× `1/r`-scaled): `[−cos β_i/r, −sin β_i/r, −(D/r) sin γ_i]`.
