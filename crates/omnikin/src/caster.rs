@@ -135,6 +135,11 @@ pub struct Caster3<T> {
     scale: T,
     /// `(cos α_i, sin α_i)` of the mounting angles.
     mount_cs: [(T, T); 3],
+    /// `F̄ − C`, m: the centroid of the steering axes `F_i = C + D (cos α_i, sin α_i)`, robot
+    /// frame.
+    mount_mean: [T; 2],
+    /// `F_i − F̄`, m: the steering axes relative to their centroid, robot frame.
+    mount_centred: [[T; 2]; 3],
 }
 
 /// The six motor rates of a three-caster base.
@@ -226,6 +231,12 @@ impl<T: Real> Caster3<T> {
         let big_d_over_d = finite_param(big_d / d, "mount_radius / eccentricity")?;
         let scale = finite_param(big_d + d, "mount_radius + eccentricity")?;
         let mount_cs = [cs(a[0]), cs(a[1]), cs(a[2])];
+        let mount_pos = mount_cs.map(|(c, s)| [big_d * c, big_d * s]);
+        let mount_mean = [
+            (mount_pos[0][0] + mount_pos[1][0] + mount_pos[2][0]) * T::of(1.0 / 3.0),
+            (mount_pos[0][1] + mount_pos[1][1] + mount_pos[2][1]) * T::of(1.0 / 3.0),
+        ];
+        let mount_centred = mount_pos.map(|f| [f[0] - mount_mean[0], f[1] - mount_mean[1]]);
         Ok(Self {
             params,
             inv_r,
@@ -234,6 +245,8 @@ impl<T: Real> Caster3<T> {
             big_d_over_d,
             scale,
             mount_cs,
+            mount_mean,
+            mount_centred,
         })
     }
 
@@ -259,10 +272,10 @@ impl<T: Real> Caster3<T> {
     /// The cosines and sines of `α_i + θ`, `β_i = α_i + θ + γ_i` and `γ_i` for the three wheels
     /// from four `sin_cos` evaluations (the heading and each steer angle) and the precomputed
     /// `(cos α_i, sin α_i)`, by the angle-addition formulas.
-    #[inline]
+    #[inline(always)]
     fn wheel_trig(&self, heading: T, steer: [T; 3]) -> [WheelTrig<T>; 3] {
         let (ct, st) = cs(heading);
-        core::array::from_fn(|i| {
+        let wheel = |i: usize| {
             let (cm, sm) = self.mount_cs[i];
             let (cg, sg) = cs(steer[i]);
             let (ca, sa) = (cm * ct - sm * st, sm * ct + cm * st);
@@ -274,7 +287,8 @@ impl<T: Real> Caster3<T> {
                 cg,
                 sg,
             }
-        })
+        };
+        [wheel(0), wheel(1), wheel(2)]
     }
 
     /// Row `i` of `J1` (× `1/r`-scaled): `[−cos β_i/r, −sin β_i/r, −(D/r) sin γ_i]`.
@@ -463,29 +477,88 @@ impl<T: Real> Caster3<T> {
         finite3(rates.steer, STEER_RATES)?;
         finite(heading, "heading")?;
         finite3(steer, STEER)?;
-        let p = &self.params;
-        let (big_d, d, r) = (p.mount_radius, p.eccentricity, p.wheel_radius);
-        let third = T::one() / T::of(3.0);
-        let mut pos = [[T::zero(); 2]; 3];
-        let mut vel = [[T::zero(); 2]; 3];
-        let (mut pbar, mut mbar) = ([T::zero(); 2], [T::zero(); 2]);
         let trig = self.wheel_trig(heading, steer);
+        let big_d = self.params.mount_radius;
+        let mount = trig.map(|w| [big_d * w.ca, big_d * w.sa]);
+        let mean = [
+            (mount[0][0] + mount[1][0] + mount[2][0]) * T::of(1.0 / 3.0),
+            (mount[0][1] + mount[1][1] + mount[2][1]) * T::of(1.0 / 3.0),
+        ];
+        let centred = mount.map(|f| [f[0] - mean[0], f[1] - mean[1]]);
+        let dir = trig.map(|w| [w.cb, w.sb]);
+        self.fit(centred, mean, dir, rates)
+    }
+
+    /// [`Caster3::body_twist`] at heading `θ = 0`, i.e. the least-squares twist in the **robot**
+    /// frame (m/s, m/s, rad/s, or m, m, rad for angle increments), for callers that have
+    /// already checked their inputs (the odometry step, which feeds encoder increments as
+    /// rates): `rates` in rad/s (or rad), `steer` = `γ_i` in rad, all finite (not checked here;
+    /// non-finite input gives non-finite output or an error). The steering-axis geometry is
+    /// precomputed, so the only trigonometry is one `sin_cos` per steer angle; the fit is the
+    /// same as `body_twist`'s (paper 003, eqs. (1), (2)), equal to it to rounding.
+    ///
+    /// # Errors
+    /// [`InputError::Singular`] as for [`Caster3::body_twist`].
+    #[inline]
+    pub(crate) fn body_twist_robot_unchecked(
+        &self,
+        rates: &CasterRates<T>,
+        steer: [T; 3],
+    ) -> Result<CasterForward<T>, InputError> {
+        let dir = core::array::from_fn(|i| {
+            let (cm, sm) = self.mount_cs[i];
+            let (cg, sg) = cs(steer[i]);
+            [cm * cg - sm * sg, sm * cg + cm * sg]
+        });
+        self.fit(self.mount_centred, self.mount_mean, dir, rates)
+    }
+
+    /// The least-squares rigid-velocity fit of [`Caster3::body_twist`] (see there), in the
+    /// frame the twist is wanted in, given the steering axes relative to their centroid,
+    /// `centred[i] = F_i − F̄` (m), the centroid `mean = F̄ − C` (m) and each wheel's direction
+    /// `dir[i] = (cos β_i, sin β_i)`.
+    ///
+    /// With `b̄` the mean direction, the wheel centres relative to their centroid are
+    /// `q_i = O_i − Ō = (F_i − F̄) + d (b_i − b̄)` and `Ō − C = F̄ + d b̄`; with `n_i = m_i − m̄`
+    /// the implied velocities relative to their mean, `θ̇ = Σ q_i × n_i / Σ |q_i|²`,
+    /// `v_C = m̄ − θ̇ k × (Ō − C)`, and the residual of wheel `i` is `n_i − θ̇ k × q_i`.
+    #[inline(always)]
+    fn fit(
+        &self,
+        centred: [[T; 2]; 3],
+        mean: [T; 2],
+        dir: [[T; 2]; 3],
+        rates: &CasterRates<T>,
+    ) -> Result<CasterForward<T>, InputError> {
+        let p = &self.params;
+        let (d, r) = (p.eccentricity, p.wheel_radius);
+        let third = T::of(1.0 / 3.0);
+        let bbar = [
+            (dir[0][0] + dir[1][0] + dir[2][0]) * third,
+            (dir[0][1] + dir[1][1] + dir[2][1]) * third,
+        ];
+        let mut q = [[T::zero(); 2]; 3];
+        let mut m = [[T::zero(); 2]; 3];
         for i in 0..3 {
-            let WheelTrig { ca, sa, cb, sb, .. } = trig[i];
-            pos[i] = [big_d * ca + d * cb, big_d * sa + d * sb];
+            let [cb, sb] = dir[i];
+            q[i] = [
+                centred[i][0] + d * (cb - bbar[0]),
+                centred[i][1] + d * (sb - bbar[1]),
+            ];
+            // The velocity of the point above O_i implied by wheel i's motors (the first two
+            // columns of M_i, paper 003, eq. (1)).
             let (u, w) = (r * rates.roll[i], d * rates.steer[i]);
-            vel[i] = [-u * cb + w * sb, -u * sb - w * cb];
-            for k in 0..2 {
-                pbar[k] += pos[i][k] * third;
-                mbar[k] += vel[i][k] * third;
-            }
+            m[i] = [w * sb - u * cb, -(u * sb + w * cb)];
         }
+        let mbar = [
+            (m[0][0] + m[1][0] + m[2][0]) * third,
+            (m[0][1] + m[1][1] + m[2][1]) * third,
+        ];
+        let n = m.map(|mi| [mi[0] - mbar[0], mi[1] - mbar[1]]);
         let (mut spread, mut moment) = (T::zero(), T::zero());
         for i in 0..3 {
-            let q = [pos[i][0] - pbar[0], pos[i][1] - pbar[1]];
-            let n = [vel[i][0] - mbar[0], vel[i][1] - mbar[1]];
-            spread += q[0] * q[0] + q[1] * q[1];
-            moment += q[0] * n[1] - q[1] * n[0];
+            spread += q[i][0] * q[i][0] + q[i][1] * q[i][1];
+            moment += q[i][0] * n[i][1] - q[i][1] * n[i][0];
         }
         if spread <= T::of(1.0e3) * T::EPSILON * self.scale * self.scale {
             return Err(InputError::Singular {
@@ -494,7 +567,8 @@ impl<T: Real> Caster3<T> {
             });
         }
         let omega = moment / spread;
-        // v_C = m̄ − θ̇ k × p̄, with k × (x, y) = (−y, x).
+        // v_C = m̄ − θ̇ k × (Ō − C), with k × (x, y) = (−y, x).
+        let pbar = [mean[0] + d * bbar[0], mean[1] + d * bbar[1]];
         let vx = mbar[0] + omega * pbar[1];
         let vy = mbar[1] - omega * pbar[0];
         let twist = Twist2::new(vx, vy, omega);
@@ -506,8 +580,8 @@ impl<T: Real> Caster3<T> {
         let mut wheel_slip = [T::zero(); 3];
         let mut total = T::zero();
         for i in 0..3 {
-            let ex = vel[i][0] - (vx - omega * pos[i][1]);
-            let ey = vel[i][1] - (vy + omega * pos[i][0]);
+            let ex = n[i][0] + omega * q[i][1];
+            let ey = n[i][1] - omega * q[i][0];
             let e2 = ex * ex + ey * ey;
             wheel_slip[i] = e2.sqrt();
             total += e2;

@@ -163,13 +163,20 @@ pub struct Odometry<T> {
 }
 
 /// `x` wrapped into `(−π, π]`.
-#[inline]
+#[inline(always)]
 pub(crate) fn wrap_angle<T: Real>(x: T) -> T {
-    // Already in range (every per-step increment): the general path below would return `x`
+    // Already in range (every per-step increment): the general path would return `x`
     // unchanged, so skip its `round` (a libm call in no_std builds).
     if x > -T::pi() && x <= T::pi() {
         return x;
     }
+    wrap_angle_out_of_range(x)
+}
+
+/// [`wrap_angle`] for `x` outside `(−π, π]` (or NaN).
+#[cold]
+#[inline(never)]
+fn wrap_angle_out_of_range<T: Real>(x: T) -> T {
     let two_pi = T::two_pi();
     let mut y = x - two_pi * (x / two_pi).round();
     if y <= -T::pi() {
@@ -263,43 +270,9 @@ impl<T: Real> Odometry<T> {
         reading: &EncoderReading<T>,
         heading: HeadingInput<T>,
     ) -> Result<OdometryStep<T>, OdometryError> {
-        const WHEEL: [&str; 3] = ["wheel_angles[0]", "wheel_angles[1]", "wheel_angles[2]"];
-        const STEER: [&str; 3] = ["steer_angles[0]", "steer_angles[1]", "steer_angles[2]"];
-        finite(reading.t, "t")?;
-        for i in 0..3 {
-            finite(reading.wheel_angles[i], WHEEL[i])?;
-            if matches!(self.robot, Robot::Caster(_)) {
-                finite(reading.steer_angles[i], STEER[i])?;
-            }
-        }
-        match heading {
-            HeadingInput::Wheels => {}
-            HeadingInput::GyroRate(g) => {
-                finite(g, "gyro_rate")?;
-            }
-            HeadingInput::Absolute(y) => {
-                finite(y, "yaw")?;
-            }
-        }
-
+        self.check_finite(reading, heading)?;
         let Some(prev) = self.last else {
-            self.last = Some(*reading);
-            match heading {
-                HeadingInput::GyroRate(g) => self.last_gyro = Some(g),
-                HeadingInput::Absolute(y) => self.last_yaw = Some(y),
-                HeadingInput::Wheels => {}
-            }
-            return Ok(OdometryStep {
-                t: reading.t,
-                dt: T::zero(),
-                pose: self.pose,
-                delta: Pose2::new(T::zero(), T::zero(), T::zero()),
-                twist: Twist2::new(T::zero(), T::zero(), T::zero()),
-                wheel_heading_change: T::zero(),
-                slip_residual: T::zero(),
-                wheel_slip: [T::zero(); 3],
-                shell_spin: None,
-            });
+            return Ok(self.first_sample(reading, heading));
         };
         let dt = reading.t - prev.t;
         if dt.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
@@ -308,6 +281,8 @@ impl<T: Real> Odometry<T> {
                 previous: prev.t.to_f64(),
             });
         }
+        // The rotation of the pose at the start of the step (every robot composes with it).
+        let (sin0, cos0) = self.pose.heading.sin_cos();
 
         let inc = self.increment(&prev, reading)?;
         let spin_turn = self.assumed_spin * dt;
@@ -337,18 +312,18 @@ impl<T: Real> Odometry<T> {
                     yaw0,
                     yaw0 + dtheta,
                 )?;
-                let (s, c) = yaw0.sin_cos();
+                let (s, c) = (sin0, cos0);
                 let delta = Pose2::new(c * d[0] + s * d[1], -s * d[0] + c * d[1], dtheta);
                 let pose = Pose2::new(self.pose.x + d[0], self.pose.y + d[1], yaw0 + dtheta);
                 (delta, pose)
             }
             _ => {
                 let delta = se2::twist_exp(body, T::one());
-                (delta, se2::compose(self.pose, delta))
+                (delta, se2::compose_rotated(self.pose, sin0, cos0, delta))
             }
         };
         let inv_dt = T::one() / dt;
-        let shell_spin = match (self.robot, measured) {
+        let shell_spin = match (&self.robot, measured) {
             (Robot::Caster(_), _) | (_, false) => None,
             _ => Some((inc.rel_z + dtheta) * inv_dt),
         };
@@ -372,6 +347,89 @@ impl<T: Real> Odometry<T> {
             HeadingInput::Wheels => {}
         }
         Ok(step)
+    }
+
+    /// The first sample: records the references, reports a zero step at the current pose.
+    #[cold]
+    fn first_sample(
+        &mut self,
+        reading: &EncoderReading<T>,
+        heading: HeadingInput<T>,
+    ) -> OdometryStep<T> {
+        self.last = Some(*reading);
+        match heading {
+            HeadingInput::GyroRate(g) => self.last_gyro = Some(g),
+            HeadingInput::Absolute(y) => self.last_yaw = Some(y),
+            HeadingInput::Wheels => {}
+        }
+        OdometryStep {
+            t: reading.t,
+            dt: T::zero(),
+            pose: self.pose,
+            delta: Pose2::new(T::zero(), T::zero(), T::zero()),
+            twist: Twist2::new(T::zero(), T::zero(), T::zero()),
+            wheel_heading_change: T::zero(),
+            slip_residual: T::zero(),
+            wheel_slip: [T::zero(); 3],
+            shell_spin: None,
+        }
+    }
+
+    /// [`OdometryError::NonFinite`] naming the first non-finite input (`t`, then wheel `i`
+    /// and, for the caster, steer `i` for `i = 0, 1, 2`, then the gyro rate or yaw).
+    #[inline(always)]
+    fn check_finite(
+        &self,
+        reading: &EncoderReading<T>,
+        heading: HeadingInput<T>,
+    ) -> Result<(), OdometryError> {
+        let caster = matches!(self.robot, Robot::Caster(_));
+        let h = match heading {
+            HeadingInput::Wheels => T::zero(),
+            HeadingInput::GyroRate(g) => g,
+            HeadingInput::Absolute(y) => y,
+        };
+        let [w0, w1, w2] = reading.wheel_angles;
+        let mut sum = reading.t + w0 + w1 + w2 + h;
+        if caster {
+            let [s0, s1, s2] = reading.steer_angles;
+            sum += s0 + s1 + s2;
+        }
+        // One test for the usual case: a sum is finite if every term is (it may also be
+        // infinite when finite terms overflow; the field-by-field pass below then finds nothing).
+        if sum.is_finite() {
+            return Ok(());
+        }
+        Self::first_non_finite(reading, heading, caster)
+    }
+
+    /// The field-by-field pass of [`Odometry::check_finite`].
+    #[cold]
+    #[inline(never)]
+    fn first_non_finite(
+        reading: &EncoderReading<T>,
+        heading: HeadingInput<T>,
+        caster: bool,
+    ) -> Result<(), OdometryError> {
+        const WHEEL: [&str; 3] = ["wheel_angles[0]", "wheel_angles[1]", "wheel_angles[2]"];
+        const STEER: [&str; 3] = ["steer_angles[0]", "steer_angles[1]", "steer_angles[2]"];
+        finite(reading.t, "t")?;
+        for i in 0..3 {
+            finite(reading.wheel_angles[i], WHEEL[i])?;
+            if caster {
+                finite(reading.steer_angles[i], STEER[i])?;
+            }
+        }
+        match heading {
+            HeadingInput::Wheels => {}
+            HeadingInput::GyroRate(g) => {
+                finite(g, "gyro_rate")?;
+            }
+            HeadingInput::Absolute(y) => {
+                finite(y, "yaw")?;
+            }
+        }
+        Ok(())
     }
 
     /// Robot-frame increment from the encoders alone (forward kinematics on increments).
@@ -413,15 +471,18 @@ impl<T: Real> Odometry<T> {
                     dg[i] = wrap_angle(now.steer_angles[i] - prev.steer_angles[i]);
                     mid[i] = prev.steer_angles[i] + dg[i] * T::of(0.5);
                 }
-                // Heading 0: the least-squares twist comes out in the robot frame.
-                let f = m.body_twist(
-                    &CasterRates {
-                        roll: dq,
-                        steer: dg,
-                    },
-                    T::zero(),
-                    mid,
-                )?;
+                let rates = CasterRates {
+                    roll: dq,
+                    steer: dg,
+                };
+                // Heading 0: the least-squares twist comes out in the robot frame. The angles
+                // were checked, so the increments are finite unless a difference overflowed;
+                // then the fit fails (a non-finite rate makes the yaw rate NaN) and the checked
+                // path names the rate.
+                let f = match m.body_twist_robot_unchecked(&rates, mid) {
+                    Ok(f) => f,
+                    Err(_) => m.body_twist(&rates, T::zero(), mid)?,
+                };
                 Ok(WheelIncrement {
                     u: f.twist.vx,
                     v: f.twist.vy,

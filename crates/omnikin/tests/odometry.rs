@@ -471,3 +471,75 @@ fn bad_input_is_rejected_and_leaves_the_state_alone() {
         "time 0.5 s does not increase (previous sample at 1 s)"
     );
 }
+
+#[test]
+fn errors_name_the_first_bad_field_and_overflowing_increments() {
+    use omnikin::InputError;
+    let m = Caster3::new(CasterParams::preset()).unwrap();
+    let big = f64::MAX;
+    let mut odo = Odometry::new(Robot::Caster(m), Pose2::new(0.0, 0.0, 0.0));
+    odo.update(
+        &EncoderReading::with_steer(1.0, [-big, 0.0, 0.0], [0.0, -big, 0.0]),
+        HeadingInput::Absolute(0.0),
+    )
+    .unwrap();
+    let before = odo;
+    let r = |t: f64, q: [f64; 3], s: [f64; 3]| EncoderReading::with_steer(t, q, s);
+    let yaw = HeadingInput::Absolute(0.1);
+    // Several bad fields: time first, then wheel i before steer i before wheel i + 1, then the
+    // heading input.
+    let cases = [
+        (r(f64::NAN, [f64::NAN; 3], [0.0, -big, 0.0]), yaw, "t"),
+        (
+            r(f64::INFINITY, [-big, 0.0, 0.0], [0.0, -big, 0.0]),
+            yaw,
+            "t",
+        ),
+        (
+            r(1.1, [-big, 0.0, f64::NAN], [f64::NAN, -big, 0.0]),
+            yaw,
+            "steer_angles[0]",
+        ),
+        (
+            r(1.1, [-big, f64::NEG_INFINITY, 0.0], [0.0, -big, 0.0]),
+            HeadingInput::Absolute(f64::NAN),
+            "wheel_angles[1]",
+        ),
+        (
+            r(1.1, [-big, 0.0, 0.0], [0.0, -big, f64::INFINITY]),
+            yaw,
+            "steer_angles[2]",
+        ),
+        (
+            r(1.1, [-big, 0.0, 0.0], [0.0, -big, 0.0]),
+            HeadingInput::Absolute(f64::INFINITY),
+            "yaw",
+        ),
+    ];
+    for (reading, heading, field) in cases {
+        assert_eq!(
+            odo.update(&reading, heading),
+            Err(OdometryError::NonFinite { field }),
+            "{reading:?} {heading:?}"
+        );
+    }
+    // Finite angles whose increments overflow: the forward kinematics name the rate.
+    assert_eq!(
+        odo.update(&r(1.1, [big, 0.0, 0.0], [0.0, -big, 0.0]), yaw),
+        Err(OdometryError::Kinematics(InputError::NonFinite {
+            field: "roll_rates[0]"
+        }))
+    );
+    assert_eq!(
+        odo.update(&r(1.1, [-big, 0.0, 0.0], [0.0, big, 0.0]), yaw),
+        Err(OdometryError::Kinematics(InputError::NonFinite {
+            field: "steer_rates[1]"
+        }))
+    );
+    assert_eq!(odo, before, "errors must not change the state");
+    // A good sample still goes through.
+    let s = odo
+        .update(&r(1.1, [-big, 0.0, 0.0], [0.0, -big, 0.0]), yaw)
+        .unwrap();
+    assert!((s.pose.heading - 0.1).abs() < 1e-15, "{s:?}");
+}
