@@ -850,10 +850,21 @@ fn move_peaks(robot: &RobotModel, mv: &Move, timing: &MoveTiming) -> MovePeaks {
         let t = dur * j as f64 / m as f64;
         let (s, v, acc) = timing.eval(t, mv.len);
         let k = cell(&mv.sig, s);
-        let f = ((s - mv.sig[k]) / (mv.sig[k + 1] - mv.sig[k])).clamp(0.0, 1.0);
+        let h = mv.sig[k + 1] - mv.sig[k];
+        let f = ((s - mv.sig[k]) / h).clamp(0.0, 1.0);
+        // Cubic Hermite for A (values and slopes A' at both ends; O(h⁴), so the peaks between
+        // nodes are not underestimated the way linear interpolation would), linear for A'.
+        let (f2, f3) = (f * f, f * f * f);
+        let (h00, h10, h01, h11) = (
+            2.0 * f3 - 3.0 * f2 + 1.0,
+            f3 - 2.0 * f2 + f,
+            -2.0 * f3 + 3.0 * f2,
+            f3 - f2,
+        );
         for ch in 0..robot.channels() {
-            let a = mv.a[k][ch] * (1.0 - f) + mv.a[k + 1][ch] * f;
-            let b = mv.b_out[k][ch] * (1.0 - f) + mv.b_in[k + 1][ch] * f;
+            let (b0, b1) = (mv.b_out[k][ch], mv.b_in[k + 1][ch]);
+            let a = mv.a[k][ch] * h00 + h * b0 * h10 + mv.a[k + 1][ch] * h01 + h * b1 * h11;
+            let b = b0 * (1.0 - f) + b1 * f;
             let w = (a * v).abs();
             let wd = (a * acc + b * v * v).abs();
             if let Some(lim) = robot.rate_limit(ch)
