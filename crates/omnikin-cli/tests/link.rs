@@ -5,128 +5,31 @@
 //! themselves (`--max-time`), the proxy by a deadline.
 
 use std::net::{SocketAddr, UdpSocket};
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
+use std::path::PathBuf;
+use std::process::{Command, Output, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use omnikin::description::RobotDescription;
+use common::{BIN, Robot, num, read_rows, square_plan};
 use omnikin::link::{Endpoint, FrameReader, MAX_FRAME, Message, Telemetry, WirePoint, heapless};
 use omnikin::runtime::{Frame, Mode};
-use omnikin_plan::RobotModel;
-use omnikin_plan::generators::Square;
-use omnikin_plan::planner::{OnLimit, plan};
 
-const BIN: &str = env!("CARGO_BIN_EXE_omnikin");
+mod common;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("omnikin-link-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn free_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-struct Robot {
-    child: Option<Child>,
-    addr: SocketAddr,
-}
-
-impl Robot {
-    fn start(extra: &[&str]) -> Self {
-        let addr: SocketAddr = format!("127.0.0.1:{}", free_port()).parse().unwrap();
-        let child = Command::new(BIN)
-            .args([
-                "robot",
-                "--sim",
-                "--robot",
-                "sphere-omni",
-                "--time-scale",
-                "8",
-            ])
-            .args(["--listen", &addr.to_string()])
-            .args(extra)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        std::thread::sleep(Duration::from_millis(150));
-        Robot {
-            child: Some(child),
-            addr,
-        }
-    }
-
-    fn summary(mut self) -> serde_json::Value {
-        let mut child = self.child.take().unwrap();
-        let end = Instant::now() + Duration::from_secs(20);
-        while child.try_wait().unwrap().is_none() {
-            assert!(Instant::now() < end, "robot did not stop by itself");
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        let out = child.wait_with_output().unwrap();
-        assert!(
-            out.status.success(),
-            "robot failed: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        serde_json::from_slice(&out.stdout).unwrap()
-    }
-}
-
-impl Drop for Robot {
-    fn drop(&mut self) {
-        if let Some(c) = self.child.as_mut() {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
+    common::tmp("link", name)
 }
 
 fn drive(addr: &str, args: &[&str]) -> Output {
-    drive_with(addr, "3", args)
+    common::drive(addr, "3", args)
 }
 
 fn drive_with(addr: &str, timeout: &str, args: &[&str]) -> Output {
-    let out = Command::new(BIN)
-        .args(["drive", "--connect", addr, "--heartbeat", "100"])
-        .args(["--timeout", timeout])
-        .args(args)
-        .output()
-        .unwrap();
-    eprintln!(
-        "drive {args:?}: {}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
+    common::drive(addr, timeout, args)
 }
 
-fn square_plan(dir: &Path) -> PathBuf {
-    let robot =
-        RobotModel::from_description(&RobotDescription::preset("sphere-omni").unwrap()).unwrap();
-    let sq = Square::paper(1.0);
-    let p = plan(
-        &sq.path().unwrap(),
-        &sq.heading(),
-        &robot,
-        &sq.options(100.0, OnLimit::Retime),
-    )
-    .unwrap();
-    let path = dir.join("square.csv");
-    p.plan.save_csv(&path).unwrap();
-    path
-}
-
-/// A small deterministic generator (xorshift64*), so every run injects the same faults.
 struct Rng(u64);
 impl Rng {
     fn next(&mut self) -> u64 {
@@ -258,24 +161,6 @@ fn proxy(
     (addr, h)
 }
 
-fn read_rows(path: &Path) -> Vec<std::collections::HashMap<String, String>> {
-    let mut r = csv::Reader::from_path(path).unwrap();
-    let h = r.headers().unwrap().clone();
-    r.records()
-        .map(|rec| {
-            let rec = rec.unwrap();
-            h.iter()
-                .zip(rec.iter())
-                .map(|(a, b)| (a.to_string(), b.to_string()))
-                .collect()
-        })
-        .collect()
-}
-
-fn num(r: &std::collections::HashMap<String, String>, k: &str) -> f64 {
-    r[k].parse().unwrap()
-}
-
 fn link_counts(s: &serde_json::Value) -> [u64; 7] {
     [
         "ok",
@@ -303,7 +188,7 @@ fn twenty_percent_packet_loss_plan_still_followed() {
         loss_back: 0.2,
         ..Default::default()
     };
-    let (addr, h) = proxy(robot.addr, model, cut, stop.clone());
+    let (addr, h) = proxy(robot.socket_addr(), model, cut, stop.clone());
     let tele = dir.join("t.csv");
     let out = drive(
         &addr,
@@ -357,7 +242,7 @@ fn corrupt_truncated_duplicated_and_replayed_frames_are_dropped_and_counted() {
         replay: 0.1,
         ..Default::default()
     };
-    let (addr, h) = proxy(robot.addr, model, cut, stop.clone());
+    let (addr, h) = proxy(robot.socket_addr(), model, cut, stop.clone());
     let out = drive(&addr, &["plan", plan_csv.to_str().unwrap()]);
     stop.store(true, Ordering::Relaxed);
     let st = h.join().unwrap();
@@ -400,7 +285,12 @@ fn link_cut_mid_motion_stops_within_watchdog_plus_braking() {
         Arc::new(AtomicBool::new(false)),
         Arc::new(AtomicBool::new(false)),
     );
-    let (addr, h) = proxy(robot.addr, FaultModel::default(), cut.clone(), stop.clone());
+    let (addr, h) = proxy(
+        robot.socket_addr(),
+        FaultModel::default(),
+        cut.clone(),
+        stop.clone(),
+    );
     let d = std::thread::spawn(move || {
         drive_with(&addr, "0.5", &["velocity", "--vx", "0.3", "--for", "1.5"])
     });
@@ -512,7 +402,7 @@ impl Client {
 #[test]
 fn malformed_and_replayed_commands_are_never_executed() {
     let robot = Robot::start(&["--max-time", "24"]);
-    let mut c = Client::new(robot.addr);
+    let mut c = Client::new(robot.socket_addr());
     c.send(&Message::Hello { protocol: 1 });
     let t = c.wait(100);
     assert_eq!((t.mode, t.rejected), (Mode::Idle, 0));

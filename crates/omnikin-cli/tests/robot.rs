@@ -2,145 +2,19 @@
 //! faster than real time) driven by `omnikin drive`. Every robot process stops by itself
 //! (`--max-time`) and is killed on drop; every test takes a few seconds.
 
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
-use std::time::{Duration, Instant};
+mod common;
 
-use omnikin::description::RobotDescription;
-use omnikin_plan::RobotModel;
-use omnikin_plan::generators::Square;
-use omnikin_plan::planner::{OnLimit, plan};
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
 
-const BIN: &str = env!("CARGO_BIN_EXE_omnikin");
+use common::{BIN, Robot, num, read_rows, square_plan};
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("omnikin-robot-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn free_port() -> u16 {
-    std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-/// A running `omnikin robot --sim`, killed on drop.
-struct Robot {
-    child: Option<Child>,
-    addr: String,
-}
-
-impl Robot {
-    fn start(extra: &[&str]) -> Self {
-        let addr = format!("127.0.0.1:{}", free_port());
-        let child = Command::new(BIN)
-            .args([
-                "robot",
-                "--sim",
-                "--robot",
-                "sphere-omni",
-                "--listen",
-                &addr,
-            ])
-            .args(["--time-scale", "8"])
-            .args(extra)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        std::thread::sleep(Duration::from_millis(150));
-        Robot {
-            child: Some(child),
-            addr,
-        }
-    }
-
-    /// Waits (bounded) for the robot to reach --max-time and returns its JSON summary.
-    fn summary(mut self) -> serde_json::Value {
-        let mut child = self.child.take().unwrap();
-        let end = Instant::now() + Duration::from_secs(20);
-        while child.try_wait().unwrap().is_none() {
-            assert!(Instant::now() < end, "robot did not stop by itself");
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        let out = child.wait_with_output().unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        serde_json::from_slice(&out.stdout).unwrap()
-    }
-}
-
-impl Drop for Robot {
-    fn drop(&mut self) {
-        if let Some(c) = self.child.as_mut() {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
+fn tmp(name: &str) -> std::path::PathBuf {
+    common::tmp("robot", name)
 }
 
 fn drive(addr: &str, args: &[&str]) -> Output {
-    let out = Command::new(BIN)
-        .args([
-            "drive",
-            "--connect",
-            addr,
-            "--heartbeat",
-            "100",
-            "--timeout",
-            "2",
-        ])
-        .args(args)
-        .output()
-        .unwrap();
-    eprintln!(
-        "drive {args:?}: {}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
-
-/// The 0.1 m/s square of paper 000 (0.4 m side), sampled at 100 Hz, as a plan CSV.
-fn square_plan(dir: &Path) -> PathBuf {
-    let robot =
-        RobotModel::from_description(&RobotDescription::preset("sphere-omni").unwrap()).unwrap();
-    let sq = Square::paper(1.0);
-    let p = plan(
-        &sq.path().unwrap(),
-        &sq.heading(),
-        &robot,
-        &sq.options(100.0, OnLimit::Retime),
-    )
-    .unwrap();
-    let path = dir.join("square.csv");
-    p.plan.save_csv(&path).unwrap();
-    path
-}
-
-/// CSV rows as maps.
-fn read_csv(path: &Path) -> Vec<std::collections::HashMap<String, String>> {
-    let mut r = csv::Reader::from_path(path).unwrap();
-    let h = r.headers().unwrap().clone();
-    r.records()
-        .map(|rec| {
-            let rec = rec.unwrap();
-            h.iter()
-                .zip(rec.iter())
-                .map(|(a, b)| (a.to_string(), b.to_string()))
-                .collect()
-        })
-        .collect()
-}
-
-fn num(r: &std::collections::HashMap<String, String>, k: &str) -> f64 {
-    r[k].parse().unwrap_or_else(|_| panic!("{k} = {:?}", r[k]))
+    common::drive(addr, "2", args)
 }
 
 /// (t, x, y) of a plan CSV, and its position at time t (linear between samples).
@@ -148,7 +22,7 @@ struct PlanXY(Vec<(f64, f64, f64)>);
 impl PlanXY {
     fn load(path: &Path) -> Self {
         PlanXY(
-            read_csv(path)
+            read_rows(path)
                 .iter()
                 .map(|r| (num(r, "t"), num(r, "x"), num(r, "y")))
                 .collect(),
@@ -209,12 +83,12 @@ fn square_plan_is_followed_over_the_link() {
 
     let plan = PlanXY::load(&plan_csv);
     // Telemetry (f32 on the wire) against the plan: disturbances off → near exact.
-    let (dev, n) = max_deviation(&read_csv(&tele), &plan, "x", "y");
+    let (dev, n) = max_deviation(&read_rows(&tele), &plan, "x", "y");
     println!("ideal plant: telemetry pose vs plan: max {dev:.2e} m over {n} frames");
     assert!(n > 200, "only {n} telemetry frames in trajectory mode");
     assert!(dev < 1e-4, "telemetry deviates {dev} m from the plan");
     // The simulator's true pose, every control cycle.
-    let (dev, n) = max_deviation(&read_csv(&log), &plan, "true_x", "true_y");
+    let (dev, n) = max_deviation(&read_rows(&log), &plan, "true_x", "true_y");
     println!("ideal plant: true pose vs plan: max {dev:.2e} m over {n} cycles");
     assert!(n >= 1600 && dev < 1e-4, "{dev} m over {n}");
     let tp = &summary["true_pose"];
@@ -241,7 +115,7 @@ fn hardware_disturbances_odometry_follows_truth_drifts() {
     );
     robot.summary();
     let plan = PlanXY::load(&plan_csv);
-    let rows = read_csv(&log);
+    let rows = read_rows(&log);
     let (est, _) = max_deviation(&rows, &plan, "x", "y");
     let (truth, _) = max_deviation(&rows, &plan, "true_x", "true_y");
     println!("hardware profile: estimate vs plan {est:.4} m, truth vs plan {truth:.4} m");
@@ -280,7 +154,7 @@ fn velocity_stop_estop_and_clear() {
     assert!(out.status.success());
     let s = String::from_utf8_lossy(&out.stdout);
     assert!(s.contains("mode idle"), "{s}");
-    let rows = read_csv(&tele);
+    let rows = read_rows(&tele);
     let fastest = rows.iter().map(|r| num(r, "cmd_vx")).fold(0.0, f64::max);
     assert!((fastest - 0.2).abs() < 1e-6, "{fastest}");
     let last = rows.last().unwrap();
