@@ -344,9 +344,8 @@ enum MoveTiming {
     Constant {
         v: f64,
     },
-    /// Node parameters `sig` (from 0 to the move's length), `x = σ̇²` and times at the nodes.
+    /// `x = σ̇²` and times at the move's grid nodes (`Move::sig`).
     Grid {
-        sig: Vec<f64>,
         x: Vec<f64>,
         t: Vec<f64>,
     },
@@ -361,15 +360,15 @@ impl MoveTiming {
         }
     }
 
-    /// `(σ, σ̇, σ̈)` at time `t` into the move.
-    fn eval(&self, t: f64, len: f64) -> (f64, f64, f64) {
+    /// `(σ, σ̇, σ̈)` at time `t` into the move whose grid nodes are `sig`.
+    fn eval(&self, t: f64, len: f64, sig: &[f64]) -> (f64, f64, f64) {
         match self {
             MoveTiming::Profile { p, lambda } => {
                 let (s, v, a) = p.eval(lambda * t);
                 (s, lambda * v, lambda * lambda * a)
             }
             MoveTiming::Constant { v } => ((v * t).clamp(0.0, len), *v, 0.0),
-            MoveTiming::Grid { sig, x, t: times } => {
+            MoveTiming::Grid { x, t: times } => {
                 let n = x.len() - 1;
                 let k = match times.binary_search_by(|a| a.total_cmp(&t)) {
                     Ok(k) => k.min(n.saturating_sub(1)),
@@ -516,6 +515,14 @@ impl Ctx<'_> {
         );
         bounds.push(len);
         let cells = |l: f64, h: f64| ((l / h).ceil() as usize).max(1);
+        let too_many_cells = |n: &[usize]| {
+            if n.iter().sum::<usize>() > MAX_CELLS {
+                return Err(PlanningError::Infeasible(format!(
+                    "a move of length {len:.3} needs more than {MAX_CELLS} grid cells"
+                )));
+            }
+            Ok(())
+        };
         let mut n: Vec<usize> = bounds
             .windows(2)
             .map(|w| cells(w[1] - w[0], step))
@@ -525,11 +532,7 @@ impl Ctx<'_> {
             let f = MIN_CELLS.div_ceil(total);
             n.iter_mut().for_each(|c| *c *= f);
         }
-        if n.iter().sum::<usize>() > MAX_CELLS {
-            return Err(PlanningError::Infeasible(format!(
-                "a move of length {len:.3} needs more than {MAX_CELLS} grid cells"
-            )));
-        }
+        too_many_cells(&n)?;
         // Each stretch starts from the end state (heading, steer angles) of the one before.
         let caster = self.robot.is_caster();
         let mut parts: Vec<Stretch> = Vec::with_capacity(n.len());
@@ -577,11 +580,7 @@ impl Ctx<'_> {
             if !dirty {
                 break;
             }
-            if n.iter().sum::<usize>() > MAX_CELLS {
-                return Err(PlanningError::Infeasible(format!(
-                    "a move of length {len:.3} needs more than {MAX_CELLS} grid cells"
-                )));
-            }
+            too_many_cells(&n)?;
         }
         let total: usize = n.iter().sum();
         let mut sig = Vec::with_capacity(total + 1);
@@ -848,7 +847,7 @@ fn move_peaks(robot: &RobotModel, mv: &Move, timing: &MoveTiming) -> MovePeaks {
     };
     for j in 0..=m {
         let t = dur * j as f64 / m as f64;
-        let (s, v, acc) = timing.eval(t, mv.len);
+        let (s, v, acc) = timing.eval(t, mv.len, &mv.sig);
         let k = cell(&mv.sig, s);
         let h = mv.sig[k + 1] - mv.sig[k];
         let f = ((s - mv.sig[k]) / h).clamp(0.0, 1.0);
@@ -1067,7 +1066,9 @@ fn time_optimal(
             motor(usize::from(w - 1), true)
         }
     };
-    // Backward: reach[k] = the largest x_k from which rest at the end is reachable.
+    // Backward: reach[k] = the largest x_k from which rest at the end is reachable. (The
+    // forward pass rebuilds each cell's constraints rather than storing them: ~300 bytes a
+    // cell, for up to MAX_CELLS cells, against a few dozen flops.)
     let mut reach = vec![0.0; n + 1];
     let mut reach_src = vec![user.0; n + 1];
     for k in (0..n).rev() {
@@ -1094,14 +1095,7 @@ fn time_optimal(
         }
         t[k + 1] = t[k] + 2.0 * (sig[k + 1] - sig[k]) / den;
     }
-    Ok((
-        MoveTiming::Grid {
-            sig: sig.clone(),
-            x,
-            t,
-        },
-        who,
-    ))
+    Ok((MoveTiming::Grid { x, t }, who))
 }
 
 /// Plans `path` with the heading law `heading` for `robot` (see the module docs for how).
@@ -1529,7 +1523,7 @@ fn sample(ctx: &Ctx, moves: &[Move], rate: f64) -> Result<Plan, PlanningError> {
             m += 1;
         }
         let mv = &moves[m];
-        let (sigma, v, _) = mv.timing.eval(t - mv.t0, mv.len);
+        let (sigma, v, _) = mv.timing.eval(t - mv.t0, mv.len, &mv.sig);
         let (c, gamma) = ctx.state(mv, sigma)?;
         let twist = Twist2::new(c.dq[0] * v, c.dq[1] * v, c.dq[2] * v);
         let r = ctx.robot.rates(c.pose.heading, twist, gamma)?;
