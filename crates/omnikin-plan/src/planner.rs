@@ -911,6 +911,14 @@ impl CellConstraints {
         }
     }
 
+    /// Forgets every constraint (the arrays are overwritten as constraints are added, so one
+    /// set is reused for all cells without zeroing or copying it).
+    fn clear(&mut self) {
+        self.n = 0;
+        self.x_max = f64::INFINITY;
+        self.x_who = 0;
+    }
+
     /// Adds `|c_y·y + c_x·x| ≤ bound`.
     fn add(&mut self, c_y: f64, c_x: f64, bound: f64, who: u8) {
         if c_y.abs() <= 1e-12 * c_x.abs() || c_y == 0.0 {
@@ -1046,10 +1054,10 @@ fn time_optimal(
     }
     // Constraints of cell k: requested path acceleration |y − x| ≤ 2h a_user, and each motor's
     // acceleration |A σ̈ + A' x| ≤ limit at both ends, σ̈ = (y − x)/(2h).
-    let cell = |k: usize| {
+    let fill = |c: &mut CellConstraints, k: usize| {
         let i2h = 1.0 / (2.0 * (sig[k + 1] - sig[k]));
         let (a0, b0, a1, b1) = (&mv.a[k], &mv.b_out[k], &mv.a[k + 1], &mv.b_in[k + 1]);
-        let mut c = CellConstraints::new();
+        c.clear();
         c.add(i2h, -i2h, a_user, 0);
         for ch in 0..chans {
             if let Some(l) = accel_limits[ch] {
@@ -1057,8 +1065,8 @@ fn time_optimal(
                 c.add(a1[ch] * i2h + b1[ch], -a1[ch] * i2h, l, 1 + ch as u8);
             }
         }
-        c
     };
+    let mut c = CellConstraints::new();
     let name = |w: u8| {
         if w == 0 {
             user.1
@@ -1072,7 +1080,8 @@ fn time_optimal(
     let mut reach = vec![0.0; n + 1];
     let mut reach_src = vec![user.0; n + 1];
     for k in (0..n).rev() {
-        let (x, who) = cell(k).largest_start(cap[k], reach[k + 1]);
+        fill(&mut c, k);
+        let (x, who) = c.largest_start(cap[k], reach[k + 1]);
         reach[k] = x;
         reach_src[k] = who.map_or(cap_src[k], name);
     }
@@ -1080,7 +1089,8 @@ fn time_optimal(
     let mut x = vec![0.0; n + 1];
     let mut who = Vec::with_capacity(n);
     for k in 0..n {
-        let (y, limiter) = cell(k).largest_end(x[k], reach[k + 1]);
+        fill(&mut c, k);
+        let (y, limiter) = c.largest_end(x[k], reach[k + 1]);
         x[k + 1] = y;
         who.push(limiter.map_or(reach_src[k + 1], name));
     }
