@@ -331,6 +331,9 @@ const MARGIN: f64 = 1.0 - 1e-4;
 #[derive(Clone, Copy, Debug)]
 struct Config {
     pose: Pose2<f64>,
+    /// `(cos ψ, sin ψ)` of the heading (from the tangent for the tangent law, so the grid needs
+    /// no trigonometry).
+    cs: [f64; 2],
     /// `q'(σ) = (dx/dσ, dy/dσ, dψ/dσ)`.
     dq: [f64; 3],
 }
@@ -415,12 +418,55 @@ struct Ctx<'a> {
     path: &'a Path,
     heading: &'a HeadingLaw,
     robot: &'a RobotModel,
+    /// `(cos, sin)` of the tangent law's offset, or of the constant heading.
+    heading_cs: [f64; 2],
+}
+
+/// An unwrapped heading `ψ` (rad) near the one sought, with `(cos ψ, sin ψ)` when known.
+#[derive(Clone, Copy, Debug)]
+struct Hint {
+    psi: f64,
+    cs: Option<[f64; 2]>,
+}
+
+impl Hint {
+    fn angle(psi: f64) -> Self {
+        Self { psi, cs: None }
+    }
+
+    fn of(c: &Config) -> Self {
+        Self {
+            psi: c.pose.heading,
+            cs: Some(c.cs),
+        }
+    }
+
+    /// The unwrapped angle of the unit vector `dir` within ±π of the hint: from the angle
+    /// between the two, `δ = 2 atan(t)`, `t = (h × d)/(1 + h·d)`, by its series when it is
+    /// below 0.1 rad (`|t| < 0.05`: the terms to `t¹¹` leave < 1e-18), as between neighbouring
+    /// grid nodes; by `atan2` otherwise.
+    fn unwrap(self, dir: [f64; 2]) -> f64 {
+        if let Some([c, s]) = self.cs {
+            let dot = c * dir[0] + s * dir[1];
+            if dot > 0.995 {
+                let t = (c * dir[1] - s * dir[0]) / (1.0 + dot);
+                let t2 = t * t;
+                let atan = t
+                    * (1.0
+                        - t2 * (1.0 / 3.0
+                            - t2 * (1.0 / 5.0
+                                - t2 * (1.0 / 7.0 - t2 * (1.0 / 9.0 - t2 * (1.0 / 11.0))))));
+                return self.psi + 2.0 * atan;
+            }
+        }
+        self.psi + wrap_pi(dir[1].atan2(dir[0]) - self.psi)
+    }
 }
 
 impl Ctx<'_> {
     /// Configuration at parameter `sigma` of a move; `hint` is an unwrapped heading within
     /// ±π of the answer (for the tangent law).
-    fn config(&self, kind: &Kind, len: f64, sigma: f64, hint: f64) -> Config {
+    fn config(&self, kind: &Kind, len: f64, sigma: f64, hint: Hint) -> Config {
         match *kind {
             Kind::Travel { s0, s1 } => {
                 // The end is evaluated exactly at `s1` on the incoming side (`s0 + len` can
@@ -432,30 +478,43 @@ impl Ctx<'_> {
                     (s, Side::After)
                 };
                 let p = self.path.at_side(s, side);
-                let (psi, dpsi) = match self.heading {
-                    HeadingLaw::Constant(c) => (*c, 0.0),
-                    HeadingLaw::Tangent { offset } => {
-                        let d = p.direction() + offset;
-                        (hint + wrap_pi(d - hint), p.curvature)
+                let (psi, cs, dpsi) = match self.heading {
+                    HeadingLaw::Constant(c) => (*c, self.heading_cs, 0.0),
+                    HeadingLaw::Tangent { .. } => {
+                        let [c, s] = self.heading_cs;
+                        let [tx, ty] = p.tangent;
+                        let d = [c * tx - s * ty, s * tx + c * ty];
+                        (hint.unwrap(d), d, p.curvature)
                     }
-                    HeadingLaw::Profile(prof) => prof.at(s, side),
+                    HeadingLaw::Profile(prof) => {
+                        let (psi, dpsi) = prof.at(s, side);
+                        let (s, c) = psi.sin_cos();
+                        (psi, [c, s], dpsi)
+                    }
                 };
                 Config {
                     pose: Pose2::new(p.point[0], p.point[1], psi),
+                    cs,
                     dq: [p.tangent[0], p.tangent[1], dpsi],
                 }
             }
-            Kind::Turn { x, y, psi0, dir } => Config {
-                pose: Pose2::new(x, y, psi0 + dir * sigma.clamp(0.0, len)),
-                dq: [0.0, 0.0, dir],
-            },
+            Kind::Turn { x, y, psi0, dir } => {
+                let psi = psi0 + dir * sigma.clamp(0.0, len);
+                let (s, c) = psi.sin_cos();
+                Config {
+                    pose: Pose2::new(x, y, psi),
+                    cs: [c, s],
+                    dq: [0.0, 0.0, dir],
+                }
+            }
         }
     }
 
     /// Motor rates per unit `σ̇` (the columns `A(σ)`), and `dγ/dσ` for the caster.
     fn rates_per_speed(&self, c: &Config, gamma: [f64; 3]) -> Result<[f64; 6], PlanningError> {
-        self.robot.channel_rates(
+        self.robot.channel_rates_cs(
             c.pose.heading,
+            c.cs,
             Twist2::new(c.dq[0], c.dq[1], c.dq[2]),
             gamma,
         )
@@ -469,7 +528,7 @@ impl Ctx<'_> {
         sigma: f64,
         gamma: [f64; 3],
         step: f64,
-        hint: f64,
+        hint: Hint,
     ) -> Result<[f64; 3], PlanningError> {
         if !self.robot.is_caster() || step == 0.0 {
             return Ok(gamma);
@@ -649,7 +708,7 @@ impl Ctx<'_> {
         let mut psi = Vec::with_capacity(sig.len());
         let mut a = Vec::with_capacity(sig.len());
         let mut gamma = Vec::with_capacity(sig.len());
-        let mut hint = psi_start;
+        let mut hint = Hint::angle(psi_start);
         let mut g = gamma0;
         for (k, &sigma) in sig.iter().enumerate() {
             if k > 0 {
@@ -657,8 +716,8 @@ impl Ctx<'_> {
                 g = self.steer_step(kind, len, sig[k - 1], g, h, hint)?;
             }
             let c = self.config(kind, len, sigma, hint);
-            hint = c.pose.heading;
-            psi.push(hint);
+            hint = Hint::of(&c);
+            psi.push(c.pose.heading);
             a.push(self.rates_per_speed(&c, g)?);
             gamma.push(g);
         }
@@ -668,7 +727,7 @@ impl Ctx<'_> {
     /// Steer angles at `sigma` within a move, and the configuration there.
     fn state(&self, mv: &Move, sigma: f64) -> Result<(Config, [f64; 3]), PlanningError> {
         let k = cell(&mv.sig, sigma);
-        let hint = mv.psi[k];
+        let hint = Hint::angle(mv.psi[k]);
         let c = self.config(&mv.kind, mv.len, sigma, hint);
         let g = self.steer_step(
             &mv.kind,
@@ -1154,10 +1213,18 @@ pub fn plan(
             rule: "steer angles must be finite (rad)",
         });
     }
+    let heading_cs = match heading {
+        HeadingLaw::Constant(a) | HeadingLaw::Tangent { offset: a } => {
+            let (s, c) = a.sin_cos();
+            [c, s]
+        }
+        HeadingLaw::Profile(_) => [1.0, 0.0],
+    };
     let ctx = Ctx {
         path,
         heading,
         robot,
+        heading_cs,
     };
     let mut moves = build_moves(&ctx, opts)?;
     if matches!(opts.timing, Timing::ConstantSpeed { .. }) && moves.len() != 1 {
@@ -1463,7 +1530,7 @@ fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, PlanningError
                 s0: 0.0,
                 s1: bounds[1],
             };
-            let c = ctx.config(&kind, bounds[1], 0.0, psi);
+            let c = ctx.config(&kind, bounds[1], 0.0, Hint::angle(psi));
             aligned_steer(ctx.robot, &c)
         }
     };
@@ -1691,6 +1758,22 @@ mod tests {
     }
 
     proptest! {
+        /// The heading increment between neighbouring grid nodes (series of `atan`) agrees with
+        /// `atan2` to rounding, near and far from the hint, wrapped or not.
+        #[test]
+        fn heading_unwrap_matches_atan2(
+            psi in -20.0_f64..20.0,
+            delta in prop_oneof![-0.12_f64..0.12, -3.1_f64..3.1],
+        ) {
+            let (s, c) = psi.sin_cos();
+            let hint = Hint { psi, cs: Some([c, s]) };
+            let (sd, cd) = (psi + delta).sin_cos();
+            let got = hint.unwrap([cd, sd]);
+            let want = Hint::angle(psi).unwrap([cd, sd]);
+            prop_assert!((got - want).abs() < 1e-13, "{} vs {}", got, want);
+            prop_assert!((got - (psi + delta)).abs() < 1e-12, "{} vs {}", got, psi + delta);
+        }
+
         #[test]
         fn reachability_step_matches_the_pairwise_lp(
             rows in proptest::collection::vec(
