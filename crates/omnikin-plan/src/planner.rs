@@ -603,12 +603,14 @@ impl Ctx<'_> {
         }
         // Refine the stretches whose interpolation error is too large, rebuilding only them (and,
         // for the caster, whose steer angles carry over, every stretch after the first rebuilt).
+        let chans = self.robot.channels();
+        // Each stretch's largest |A| and |A'|, recomputed only when it is rebuilt.
+        let mut scales: Vec<[[f64; 6]; 2]> = parts.iter().map(|p| p.scale(chans)).collect();
         for _ in 0..8 {
             let mut scale = [[0.0_f64; 6]; 2];
-            for p in &parts {
-                let ps = p.scale();
+            for ps in &scales {
                 for i in 0..2 {
-                    for ch in 0..6 {
+                    for ch in 0..chans {
                         scale[i][ch] = scale[i][ch].max(ps[i][ch]);
                     }
                 }
@@ -617,7 +619,7 @@ impl Ctx<'_> {
             for j in 0..parts.len() {
                 let c = n[j];
                 let h = (bounds[j + 1] - bounds[j]) / c as f64;
-                let err = parts[j].error(&scale);
+                let err = parts[j].error(&scale, chans);
                 let refine = err > GRID_TOL && h > GRID_MIN;
                 if refine {
                     // Linear interpolation error scales with h²; aim at half the tolerance.
@@ -633,6 +635,7 @@ impl Ctx<'_> {
                     };
                     parts[j] =
                         self.stretch(&kind, len, bounds[j], bounds[j + 1], n[j], psi0, g0)?;
+                    scales[j] = parts[j].scale(chans);
                     dirty = true;
                 }
             }
@@ -758,19 +761,20 @@ impl Stretch {
         )
     }
 
-    /// Largest `|A|` and `|A'|` (central differences) per channel on the stretch.
-    fn scale(&self) -> [[f64; 6]; 2] {
+    /// Largest `|A|` and `|A'|` (central differences) per channel on the stretch (the first
+    /// `chans` channels; the others stay 0).
+    fn scale(&self, chans: usize) -> [[f64; 6]; 2] {
         let a = &self.a;
         let mut out = [[0.0_f64; 6]; 2];
         for row in a {
-            for ch in 0..6 {
+            for ch in 0..chans {
                 out[0][ch] = out[0][ch].max(row[ch].abs());
             }
         }
         if a.len() >= 3 {
             let h = self.sig[1] - self.sig[0];
             for k in 1..a.len() - 1 {
-                for ch in 0..6 {
+                for ch in 0..chans {
                     let d = (a[k + 1][ch] - a[k - 1][ch]) / (2.0 * h);
                     out[1][ch] = out[1][ch].max(d.abs());
                 }
@@ -782,7 +786,7 @@ impl Stretch {
     /// Largest estimated error of linear interpolation between the nodes of `A`
     /// (`|Δ²A|/8 = h² A''/8`) and of its central differences `A'` (inside the stretch),
     /// relative to each channel's largest `|A|` and `|A'|` on the move (`scale`).
-    fn error(&self, scale: &[[f64; 6]; 2]) -> f64 {
+    fn error(&self, scale: &[[f64; 6]; 2], chans: usize) -> f64 {
         let a = &self.a;
         let m = a.len();
         if m < 3 {
@@ -795,13 +799,13 @@ impl Stretch {
         let inv_b: [f64; 6] = core::array::from_fn(|ch| inv(scale[1][ch], 16.0 * h));
         let mut err = 0.0_f64;
         for k in 1..m - 1 {
-            for ch in 0..6 {
+            for ch in 0..chans {
                 let d2 = a[k - 1][ch] - 2.0 * a[k][ch] + a[k + 1][ch];
                 err = err.max(d2.abs() * inv_a[ch]);
             }
         }
         for k in 2..m.saturating_sub(2) {
-            for ch in 0..6 {
+            for ch in 0..chans {
                 let d = a[k + 2][ch] - 2.0 * a[k + 1][ch] + 2.0 * a[k - 1][ch] - a[k - 2][ch];
                 err = err.max(d.abs() * inv_b[ch]);
             }
