@@ -29,7 +29,14 @@ impl<T: Real> Twist2<T> {
     /// Rotates the linear part by `angle` (rad, counter-clockwise); the yaw rate is unchanged.
     #[inline]
     pub fn rotated(self, angle: T) -> Self {
-        let (s, c) = angle.sin_cos();
+        self.rotated_sc(angle.sin_cos())
+    }
+
+    /// [`Twist2::rotated`] by the angle whose `(sin, cos)` is `sc` (one `sin_cos` shared by
+    /// several frame changes at the same heading; `(−sin ψ, cos ψ)` turns world → robot).
+    #[inline]
+    pub fn rotated_sc(self, sc: (T, T)) -> Self {
+        let (s, c) = sc;
         Self::new(
             c * self.vx - s * self.vy,
             s * self.vx + c * self.vy,

@@ -6,7 +6,9 @@ use crate::odometry::{EncoderReading, HeadingInput, Odometry};
 use crate::{Pose2, Real, Robot, Twist2};
 
 use super::hal::{EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOutputs};
-use super::limits::{RateLimits, Slew, SlewLimits, desaturate, motor_rates, saturation_scale};
+use super::limits::{
+    RateLimits, Slew, SlewLimits, desaturate_sc, motor_rates_sc, saturation_scale,
+};
 
 /// What the robot is doing. Wire-stable: the discriminants are sent as one byte.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -942,11 +944,12 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             self.mode = Mode::Stopping;
         }
 
-        // Target (world frame).
+        // Target (world frame). One `sin_cos` of the heading serves every frame change below.
+        let sc = pose.heading.sin_cos();
         let target = match self.mode {
             Mode::Idle | Mode::Stopping | Mode::EStop => zero_twist(),
             Mode::Velocity => match self.velocity.1 {
-                Frame::Robot => self.velocity.0.to_world(pose.heading),
+                Frame::Robot => self.velocity.0.rotated_sc(sc),
                 Frame::World => self.velocity.0,
             },
             Mode::Trajectory => {
@@ -984,8 +987,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 faults.insert(Faults::ESTOP);
             }
         } else {
-            let heading = pose.heading;
-            match self.shape(target, heading, dt, &mut faults) {
+            match self.shape(target, pose.heading, sc, dt, &mut faults) {
                 Ok((c, tw)) => {
                     command = c;
                     twist_cmd = tw;
@@ -1028,19 +1030,24 @@ impl<T: Real, const N: usize> Runtime<T, N> {
     }
 
     /// Desaturation → slew → inverse kinematics → wheel-acceleration limit → final rate clamp.
+    /// `sc` is `(sin, cos)` of `heading`: every frame change here shares it.
     fn shape(
         &mut self,
         target_world: Twist2<T>,
         heading: T,
+        sc: (T, T),
         dt: T,
         faults: &mut Faults,
     ) -> Result<(MotorCommand<T>, Twist2<T>), ()> {
         let cfg = &self.config;
         let steer = self.steer;
-        let d = desaturate(
+        let to_world = |v: Twist2<T>| v.rotated_sc(sc);
+        let to_robot = |v: Twist2<T>| v.rotated_sc((-sc.0, sc.1));
+        let d = desaturate_sc(
             &self.robot,
-            target_world.to_robot(heading),
+            to_robot(target_world),
             heading,
+            sc,
             steer,
             &cfg.rate_limits,
         )
@@ -1048,9 +1055,9 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         if d.scale < T::one() {
             faults.insert(Faults::LIMIT);
         }
-        let v_world = self.slew.step(d.twist.to_world(heading), dt, &cfg.slew);
-        let mut v = v_world.to_robot(heading);
-        let mut rates = motor_rates(&self.robot, v, heading, steer).map_err(|_| ())?;
+        let v_world = self.slew.step(to_world(d.twist), dt, &cfg.slew);
+        let mut v = to_robot(v_world);
+        let mut rates = motor_rates_sc(&self.robot, v, heading, sc, steer).map_err(|_| ())?;
         // Wheel (and steer) acceleration limit: scale the change of all rates by one factor.
         let mut s = T::one();
         let mut limit = |new: &[T; 3], old: &[T; 3], a: Option<T>| {
@@ -1079,7 +1086,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 lc.vy + s * (v.vy - lc.vy),
                 lc.yaw_rate + s * (v.yaw_rate - lc.yaw_rate),
             );
-            self.slew.set_velocity(v.to_world(heading));
+            self.slew.set_velocity(to_world(v));
         }
         let k = saturation_scale(&rates, &cfg.rate_limits);
         if k < T::one() {
@@ -1087,7 +1094,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             rates.wheel = rates.wheel.map(|r| r * k);
             rates.steer = rates.steer.map(|r| r * k);
             v = Twist2::new(v.vx * k, v.vy * k, v.yaw_rate * k);
-            self.slew.set_velocity(v.to_world(heading));
+            self.slew.set_velocity(to_world(v));
         }
         let finite = rates
             .wheel

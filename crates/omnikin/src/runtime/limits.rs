@@ -20,6 +20,18 @@ pub fn motor_rates<T: Real>(
     heading: T,
     steer: [T; 3],
 ) -> Result<MotorCommand<T>, InputError> {
+    motor_rates_sc(robot, twist, heading, heading.sin_cos(), steer)
+}
+
+/// [`motor_rates`] with the heading's `(sin ψ, cos ψ)` already known (`sc`, used only by the
+/// caster, whose kinematics take the world-frame twist).
+pub(crate) fn motor_rates_sc<T: Real>(
+    robot: &Robot<T>,
+    twist: Twist2<T>,
+    heading: T,
+    sc: (T, T),
+    steer: [T; 3],
+) -> Result<MotorCommand<T>, InputError> {
     Ok(match robot {
         Robot::Sphere(m) => MotorCommand {
             wheel: m.wheel_rates(twist, T::zero())?,
@@ -31,7 +43,7 @@ pub fn motor_rates<T: Real>(
         },
         Robot::Caster(m) => {
             let CasterRates { roll, steer: sd } =
-                m.motor_rates(twist.to_world(heading), heading, steer)?;
+                m.motor_rates(twist.rotated_sc(sc), heading, steer)?;
             MotorCommand {
                 wheel: roll,
                 steer: sd,
@@ -95,7 +107,19 @@ pub fn desaturate<T: Real>(
     steer: [T; 3],
     limits: &RateLimits<T>,
 ) -> Result<Desaturated<T>, InputError> {
-    let rates = motor_rates(robot, twist, heading, steer)?;
+    desaturate_sc(robot, twist, heading, heading.sin_cos(), steer, limits)
+}
+
+/// [`desaturate`] with the heading's `(sin ψ, cos ψ)` already known (see [`motor_rates_sc`]).
+pub(crate) fn desaturate_sc<T: Real>(
+    robot: &Robot<T>,
+    twist: Twist2<T>,
+    heading: T,
+    sc: (T, T),
+    steer: [T; 3],
+    limits: &RateLimits<T>,
+) -> Result<Desaturated<T>, InputError> {
+    let rates = motor_rates_sc(robot, twist, heading, sc, steer)?;
     let scale = saturation_scale(&rates, limits);
     if scale >= T::one() {
         return Ok(Desaturated {
