@@ -946,13 +946,17 @@ fn move_peaks(robot: &RobotModel, mv: &Move, timing: &MoveTiming) -> MovePeaks {
 
 /// Most constraints of a grid cell: the requested acceleration plus two per motor.
 const CELL_MAX: usize = 13;
+/// Up to this many cells the time-optimal pass keeps each cell's constraints from the
+/// backward pass for the forward one (≈ 12 MB at most) instead of rebuilding them.
+const STORED_CELLS: usize = 50_000;
 
 /// The constraints of one grid cell in the unknowns `x = x_k` (start) and `y = x_{k+1}`
-/// (end): for each `i`, `lo[i] + slope[i]·x ≤ y ≤ hi[i] + slope[i]·x`, plus `x ≤ x_max` from
-/// constraints that do not involve `y`. `who[i]` names the limit (0: the requested
-/// acceleration, `1 + ch`: motor channel `ch`'s acceleration limit).
+/// (end): for each `i`, `−hi[i] + slope[i]·x ≤ y ≤ hi[i] + slope[i]·x` (every constraint is
+/// a bound on a magnitude, so the band is symmetric), plus `x ≤ x_max` from constraints that
+/// do not involve `y`. `who[i]` names the limit (0: the requested acceleration, `1 + ch`:
+/// motor channel `ch`'s acceleration limit).
+#[derive(Clone)]
 struct CellConstraints {
-    lo: [f64; CELL_MAX],
     hi: [f64; CELL_MAX],
     slope: [f64; CELL_MAX],
     who: [u8; CELL_MAX],
@@ -964,7 +968,6 @@ struct CellConstraints {
 impl CellConstraints {
     fn new() -> Self {
         Self {
-            lo: [0.0; CELL_MAX],
             hi: [0.0; CELL_MAX],
             slope: [0.0; CELL_MAX],
             who: [0; CELL_MAX],
@@ -992,11 +995,10 @@ impl CellConstraints {
             }
             return;
         }
-        let r = (bound / c_y).abs();
+        let inv = 1.0 / c_y;
         let i = self.n;
-        self.lo[i] = -r;
-        self.hi[i] = r;
-        self.slope[i] = -c_x / c_y;
+        self.hi[i] = (bound * inv).abs();
+        self.slope[i] = -c_x * inv;
         self.who[i] = who;
         self.n += 1;
     }
@@ -1023,7 +1025,7 @@ impl CellConstraints {
                 if hi < u || (hi == u && b > bu) {
                     (u, bu, iu) = (hi, b, i);
                 }
-                let lo = self.lo[i] + b * x;
+                let lo = -self.hi[i] + b * x;
                 if lo > l || (lo == l && b < bl) {
                     (l, bl, il) = (lo, b, i);
                 }
@@ -1059,7 +1061,7 @@ impl CellConstraints {
                 y = hi;
                 who = Some(self.who[i]);
             }
-            floor = floor.max(self.lo[i] + bx);
+            floor = floor.max(-self.hi[i] + bx);
         }
         // x lies in the reachable set, so floor ≤ y up to rounding.
         (y.max(floor.min(y_max)).max(0.0), who)
@@ -1075,6 +1077,19 @@ fn time_optimal(
     v_user: f64,
     a_user: f64,
     user: (Limiter, Limiter),
+) -> Result<(MoveTiming, Vec<Limiter>), PlanningError> {
+    time_optimal_storing(robot, mv, v_user, a_user, user, STORED_CELLS)
+}
+
+/// [`time_optimal`], keeping the cells' constraints between the passes for moves of up to
+/// `stored_cells` cells.
+fn time_optimal_storing(
+    robot: &RobotModel,
+    mv: &Move,
+    v_user: f64,
+    a_user: f64,
+    user: (Limiter, Limiter),
+    stored_cells: usize,
 ) -> Result<(MoveTiming, Vec<Limiter>), PlanningError> {
     let n = mv.a.len() - 1;
     let sig = &mv.sig;
@@ -1137,9 +1152,11 @@ fn time_optimal(
             motor(usize::from(w - 1), true)
         }
     };
-    // Backward: reach[k] = the largest x_k from which rest at the end is reachable. (The
-    // forward pass rebuilds each cell's constraints rather than storing them: ~300 bytes a
-    // cell, for up to MAX_CELLS cells, against a few dozen flops.)
+    // Backward: reach[k] = the largest x_k from which rest at the end is reachable. The
+    // forward pass reuses the cells' constraints (≈ 230 bytes a cell) up to STORED_CELLS
+    // cells and rebuilds them beyond, so a long fine grid does not hold them all.
+    let store = n <= stored_cells;
+    let mut stored: Vec<CellConstraints> = Vec::with_capacity(if store { n } else { 0 });
     let mut reach = vec![0.0; n + 1];
     let mut reach_src = vec![user.0; n + 1];
     for k in (0..n).rev() {
@@ -1147,13 +1164,22 @@ fn time_optimal(
         let (x, who) = c.largest_start(cap[k], reach[k + 1]);
         reach[k] = x;
         reach_src[k] = who.map_or(cap_src[k], name);
+        if store {
+            stored.push(c.clone());
+        }
     }
     // Forward: from rest, the largest admissible end value that stays reachable.
     let mut x = vec![0.0; n + 1];
     let mut who = Vec::with_capacity(n);
     for k in 0..n {
-        fill(&mut c, k);
-        let (y, limiter) = c.largest_end(x[k], reach[k + 1]);
+        let cell = if store {
+            // Pushed in the backward order.
+            &stored[n - 1 - k]
+        } else {
+            fill(&mut c, k);
+            &c
+        };
+        let (y, limiter) = cell.largest_end(x[k], reach[k + 1]);
         x[k + 1] = y;
         who.push(limiter.map_or(reach_src[k + 1], name));
     }
@@ -1747,7 +1773,7 @@ mod tests {
         let mut lower: Vec<(f64, f64)> = vec![(0.0, 0.0)];
         let mut upper: Vec<(f64, f64)> = vec![(y_max, 0.0)];
         for i in 0..c.n {
-            lower.push((c.lo[i], c.slope[i]));
+            lower.push((-c.hi[i], c.slope[i]));
             upper.push((c.hi[i], c.slope[i]));
         }
         let mut best = x_cap.min(c.x_max);
@@ -1759,6 +1785,57 @@ mod tests {
             }
         }
         best.max(0.0)
+    }
+
+    #[test]
+    fn time_optimal_timing_is_the_same_with_stored_and_rebuilt_cells() {
+        let wps: Vec<[f64; 2]> = (0..8)
+            .map(|k| [0.5 * k as f64, 0.4 * (0.9 * k as f64).sin()])
+            .collect();
+        let path = Path::spline(&wps).expect("spline");
+        let heading = HeadingLaw::Tangent { offset: 0.3 };
+        for name in ["sphere-omni", "caster3"] {
+            let robot = RobotModel::from_description(
+                &omnikin::description::RobotDescription::preset(name).expect("preset"),
+            )
+            .expect("model");
+            let heading_cs = [0.3_f64.cos(), 0.3_f64.sin()];
+            let ctx = Ctx {
+                path: &path,
+                heading: &heading,
+                robot: &robot,
+                heading_cs,
+            };
+            let opts = PlanOptions {
+                timing: Timing::TimeOptimal {
+                    limits: MotionLimits {
+                        max_speed: 0.6,
+                        max_accel: 1.0,
+                        ..MotionLimits::default()
+                    },
+                },
+                on_limit: OnLimit::Retime,
+                rate: 100.0,
+                initial_steer: InitialSteer::Aligned,
+            };
+            let moves = build_moves(&ctx, &opts).expect("moves");
+            for mv in &moves {
+                let (v, a, user) = user_limits(&opts, &mv.kind);
+                let (kept, who_kept) =
+                    time_optimal_storing(&robot, mv, v, a, user, usize::MAX).expect("timing");
+                let (rebuilt, who_rebuilt) =
+                    time_optimal_storing(&robot, mv, v, a, user, 0).expect("timing");
+                let (MoveTiming::Grid { x: x1, t: t1 }, MoveTiming::Grid { x: x2, t: t2 }) =
+                    (kept, rebuilt)
+                else {
+                    panic!("grid timings expected")
+                };
+                assert!(x1.len() > 16);
+                assert_eq!(x1, x2, "{name}");
+                assert_eq!(t1, t2, "{name}");
+                assert_eq!(who_kept, who_rebuilt, "{name}");
+            }
+        }
     }
 
     proptest! {
@@ -1798,7 +1875,7 @@ mod tests {
             for i in 0..c.n {
                 let tol = 1e-7 * (1.0 + c.hi[i].abs() + (c.slope[i] * x).abs());
                 prop_assert!(y <= c.hi[i] + c.slope[i] * x + tol, "upper {i}");
-                prop_assert!(y >= c.lo[i] + c.slope[i] * x - tol, "lower {i}");
+                prop_assert!(y >= -c.hi[i] + c.slope[i] * x - tol, "lower {i}");
             }
         }
     }
