@@ -420,12 +420,10 @@ impl<T: Real> Caster3<T> {
         heading: T,
         steer: [T; 3],
     ) -> Result<CasterRates<T>, InputError> {
-        let q = twist_world.check_finite()?.to_array();
-        finite(heading, "heading")?;
-        finite3(steer, STEER)?;
+        let q = twist_world.to_array();
         let trig = self.wheel_trig(heading, steer);
         let mut out = zero_rates();
-        for (i, w) in trig.iter().enumerate() {
+        let wheel = |w: &WheelTrig<T>| {
             // Rows i of J1 and J2 (see `j1_row`, `j2_row`).
             let a = [
                 -w.cb * self.inv_r,
@@ -437,11 +435,27 @@ impl<T: Real> Caster3<T> {
                 -w.cb * self.inv_d,
                 -self.big_d_over_d * w.cg - T::one(),
             ];
-            out.roll[i] = a[0] * q[0] + a[1] * q[1] + a[2] * q[2];
-            out.steer[i] = b[0] * q[0] + b[1] * q[1] + b[2] * q[2];
+            (
+                a[0] * q[0] + a[1] * q[1] + a[2] * q[2],
+                b[0] * q[0] + b[1] * q[1] + b[2] * q[2],
+            )
+        };
+        (out.roll[0], out.steer[0]) = wheel(&trig[0]);
+        (out.roll[1], out.steer[1]) = wheel(&trig[1]);
+        (out.roll[2], out.steer[2]) = wheel(&trig[2]);
+        // A non-finite input makes every rate of its rows non-finite (`sin_cos` of a non-finite
+        // angle is NaN, and each rate has every twist component times a finite coefficient), so
+        // one test of the six rates covers the usual call; only a failure pays for naming the
+        // field, with the same precedence as checking the inputs first.
+        let sum =
+            out.roll[0] + out.roll[1] + out.roll[2] + out.steer[0] + out.steer[1] + out.steer[2];
+        if !sum.is_finite() {
+            twist_world.check_finite()?;
+            finite(heading, "heading")?;
+            finite3(steer, STEER)?;
+            crate::real::finite_out(out.roll, "roll rates")?;
+            crate::real::finite_out(out.steer, "steer rates")?;
         }
-        crate::real::finite_out(out.roll, "roll rates")?;
-        crate::real::finite_out(out.steer, "steer rates")?;
         Ok(out)
     }
 

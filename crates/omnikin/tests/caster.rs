@@ -570,6 +570,40 @@ proptest! {
         }
     }
 
+    /// `motor_rates` tests its inputs only when a rate comes out non-finite; its answer must be
+    /// the one of checking every input first (twist, heading, steer, in that order), then the
+    /// rates: the same field named for any mix of NaN, ±∞ and huge finite values.
+    #[test]
+    fn motor_rate_errors_are_those_of_checking_inputs_first(
+        vals in proptest::collection::vec(
+            prop_oneof![
+                4 => -10.0_f64..10.0,
+                1 => Just(f64::NAN),
+                1 => Just(f64::INFINITY),
+                1 => Just(f64::NEG_INFINITY),
+                1 => Just(1e308),
+                1 => Just(-1e308),
+            ],
+            7,
+        ),
+    ) {
+        let c = preset();
+        let twist = Twist2::new(vals[0], vals[1], vals[2]);
+        let (heading, steer) = (vals[3], [vals[4], vals[5], vals[6]]);
+        let got = c.motor_rates(twist, heading, steer);
+        let names = ["vx", "vy", "yaw_rate", "heading", "steer[0]", "steer[1]", "steer[2]"];
+        match vals.iter().position(|v| !v.is_finite()) {
+            Some(i) => prop_assert_eq!(got, Err(InputError::NonFinite { field: names[i] })),
+            None => match got {
+                Ok(r) => prop_assert!(r.roll.iter().chain(&r.steer).all(|v| v.is_finite())),
+                Err(e) => {
+                    prop_assert!(matches!(e, InputError::Overflow { .. }), "{:?}", e);
+                    prop_assert!(vals[..3].iter().any(|v| v.abs() >= 1e308));
+                }
+            },
+        }
+    }
+
     /// No call panics, whatever the input (NaN, ∞, huge values).
     #[test]
     fn never_panics(
