@@ -363,8 +363,9 @@ impl MoveTiming {
         }
     }
 
-    /// `(σ, σ̇, σ̈)` at time `t` into the move whose grid nodes are `sig`.
-    fn eval(&self, t: f64, len: f64, sig: &[f64]) -> (f64, f64, f64) {
+    /// `(σ, σ̇, σ̈)` at time `t` into the move whose grid nodes are `sig`; `from` is the grid
+    /// cell of the previous call (for times that mostly increase) and is updated.
+    fn eval(&self, t: f64, len: f64, sig: &[f64], from: &mut usize) -> (f64, f64, f64) {
         match self {
             MoveTiming::Profile { p, lambda } => {
                 let (s, v, a) = p.eval(lambda * t);
@@ -373,10 +374,12 @@ impl MoveTiming {
             MoveTiming::Constant { v } => ((v * t).clamp(0.0, len), *v, 0.0),
             MoveTiming::Grid { x, t: times } => {
                 let n = x.len() - 1;
-                let k = match times.binary_search_by(|a| a.total_cmp(&t)) {
-                    Ok(k) => k.min(n.saturating_sub(1)),
-                    Err(k) => k.saturating_sub(1).min(n.saturating_sub(1)),
+                let k = if t.is_nan() {
+                    n.saturating_sub(1)
+                } else {
+                    cell_from(times, t, *from)
                 };
+                *from = k;
                 let u = (x[k + 1] - x[k]) / (2.0 * (sig[k + 1] - sig[k]));
                 let v0 = x[k].max(0.0).sqrt();
                 let tau = (t - times[k]).clamp(0.0, times[k + 1] - times[k]);
@@ -401,6 +404,8 @@ struct Move {
     len: f64,
     sig: Vec<f64>,
     psi: Vec<f64>,
+    /// `(cos ψ, sin ψ)` at each node (the heading hint of the samples in its cell).
+    cs: Vec<[f64; 2]>,
     a: Vec<[f64; 6]>,
     /// `A'` at each node as seen from the cell that ends there (one-sided at a kink).
     b_in: Vec<[f64; 6]>,
@@ -647,12 +652,14 @@ impl Ctx<'_> {
         let total: usize = n.iter().sum();
         let mut sig = Vec::with_capacity(total + 1);
         let mut psi = Vec::with_capacity(total + 1);
+        let mut cs = Vec::with_capacity(total + 1);
         let mut a = Vec::with_capacity(total + 1);
         let mut gamma = Vec::with_capacity(total + 1);
         for (j, p) in parts.iter().enumerate() {
             let skip = usize::from(j > 0);
             sig.extend_from_slice(&p.sig[skip..]);
             psi.extend_from_slice(&p.psi[skip..]);
+            cs.extend_from_slice(&p.cs[skip..]);
             a.extend_from_slice(&p.a[skip..]);
             gamma.extend_from_slice(&p.gamma[skip..]);
         }
@@ -662,6 +669,7 @@ impl Ctx<'_> {
             len,
             sig,
             psi,
+            cs,
             a,
             b_in,
             b_out,
@@ -694,11 +702,17 @@ impl Ctx<'_> {
                 }
             })
             .collect();
-        let (psi, a, gamma) = self.grid(kind, len, psi0, g0, &sig)?;
-        Ok(Stretch { sig, psi, a, gamma })
+        let (psi, cs, a, gamma) = self.grid(kind, len, psi0, g0, &sig)?;
+        Ok(Stretch {
+            sig,
+            psi,
+            cs,
+            a,
+            gamma,
+        })
     }
 
-    /// Heading, `A` and steer angles at the nodes `sig` of a move.
+    /// Heading (and its cosine and sine), `A` and steer angles at the nodes `sig` of a move.
     #[allow(clippy::type_complexity)]
     fn grid(
         &self,
@@ -707,8 +721,9 @@ impl Ctx<'_> {
         psi_start: f64,
         gamma0: [f64; 3],
         sig: &[f64],
-    ) -> Result<(Vec<f64>, Vec<[f64; 6]>, Vec<[f64; 3]>), PlanningError> {
+    ) -> Result<(Vec<f64>, Vec<[f64; 2]>, Vec<[f64; 6]>, Vec<[f64; 3]>), PlanningError> {
         let mut psi = Vec::with_capacity(sig.len());
+        let mut cs = Vec::with_capacity(sig.len());
         let mut a = Vec::with_capacity(sig.len());
         let mut gamma = Vec::with_capacity(sig.len());
         let mut hint = Hint::angle(psi_start);
@@ -721,16 +736,27 @@ impl Ctx<'_> {
             let c = self.config(kind, len, sigma, hint);
             hint = Hint::of(&c);
             psi.push(c.pose.heading);
+            cs.push(c.cs);
             a.push(self.rates_per_speed(&c, g)?);
             gamma.push(g);
         }
-        Ok((psi, a, gamma))
+        Ok((psi, cs, a, gamma))
     }
 
-    /// Steer angles at `sigma` within a move, and the configuration there.
-    fn state(&self, mv: &Move, sigma: f64) -> Result<(Config, [f64; 3]), PlanningError> {
-        let k = cell(&mv.sig, sigma);
-        let hint = Hint::angle(mv.psi[k]);
+    /// Steer angles at `sigma` within a move, and the configuration there; `from` is the
+    /// grid cell of the previous call (see [`cell_from`]) and is updated.
+    fn state(
+        &self,
+        mv: &Move,
+        sigma: f64,
+        from: &mut usize,
+    ) -> Result<(Config, [f64; 3]), PlanningError> {
+        let k = cell_from(&mv.sig, sigma, *from);
+        *from = k;
+        let hint = Hint {
+            psi: mv.psi[k],
+            cs: Some(mv.cs[k]),
+        };
         let c = self.config(&mv.kind, mv.len, sigma, hint);
         let g = self.steer_step(
             &mv.kind,
@@ -748,6 +774,7 @@ impl Ctx<'_> {
 struct Stretch {
     sig: Vec<f64>,
     psi: Vec<f64>,
+    cs: Vec<[f64; 2]>,
     a: Vec<[f64; 6]>,
     gamma: Vec<[f64; 3]>,
 }
@@ -820,6 +847,23 @@ fn cell(sig: &[f64], sigma: f64) -> usize {
     sig.partition_point(|&x| x <= sigma)
         .saturating_sub(1)
         .min(n.saturating_sub(1))
+}
+
+/// [`cell`], for queries that mostly move forward a little: a few steps on from the previous
+/// answer `from`, bisection otherwise. Same result as [`cell`] for every input.
+fn cell_from(sig: &[f64], sigma: f64, from: usize) -> usize {
+    let last = sig.len().saturating_sub(2);
+    let mut k = from.min(last);
+    if sig.len() < 2 || sigma.is_nan() || sig[k] > sigma {
+        return cell(sig, sigma);
+    }
+    for _ in 0..8 {
+        if k >= last || sig[k + 1] > sigma {
+            return k;
+        }
+        k += 1;
+    }
+    k + cell(&sig[k..], sigma)
 }
 
 /// Derivative of a vector function tabulated at the nodes `sig`, made of stretches of `n[j]`
@@ -908,10 +952,12 @@ fn move_peaks(robot: &RobotModel, mv: &Move, timing: &MoveTiming) -> MovePeaks {
         rate: (0.0, 0, 0.0, 0.0),
         accel: (0.0, 0, 0.0, 0.0),
     };
+    let (mut from_t, mut from_s) = (0, 0);
     for j in 0..=m {
         let t = dur * j as f64 / m as f64;
-        let (s, v, acc) = timing.eval(t, mv.len, &mv.sig);
-        let k = cell(&mv.sig, s);
+        let (s, v, acc) = timing.eval(t, mv.len, &mv.sig, &mut from_t);
+        let k = cell_from(&mv.sig, s, from_s);
+        from_s = k;
         let h = mv.sig[k + 1] - mv.sig[k];
         let f = ((s - mv.sig[k]) / h).clamp(0.0, 1.0);
         // Cubic Hermite for A (values and slopes A' at both ends; O(h⁴), so the peaks between
@@ -1625,15 +1671,18 @@ fn sample(ctx: &Ctx, moves: &[Move], rate: f64) -> Result<Plan, PlanningError> {
     let caster = ctx.robot.is_caster();
     let mut samples = Vec::with_capacity(times.len());
     let mut m = 0;
+    // Grid cells of the previous sample (time and parameter), restarted with each move.
+    let (mut from_t, mut from_s) = (0, 0);
     for &t in &times {
         while m + 1 < moves.len() && t >= moves[m + 1].t0 {
             m += 1;
+            (from_t, from_s) = (0, 0);
         }
         let mv = &moves[m];
-        let (sigma, v, _) = mv.timing.eval(t - mv.t0, mv.len, &mv.sig);
-        let (c, gamma) = ctx.state(mv, sigma)?;
+        let (sigma, v, _) = mv.timing.eval(t - mv.t0, mv.len, &mv.sig, &mut from_t);
+        let (c, gamma) = ctx.state(mv, sigma, &mut from_s)?;
         let twist = Twist2::new(c.dq[0] * v, c.dq[1] * v, c.dq[2] * v);
-        let r = ctx.robot.rates(c.pose.heading, twist, gamma)?;
+        let r = ctx.robot.rates_cs(c.pose.heading, c.cs, twist, gamma)?;
         samples.push(Sample {
             t,
             pose: c.pose,
@@ -1839,6 +1888,23 @@ mod tests {
     }
 
     proptest! {
+        /// The forward-stepping cell search answers as the bisection does, wherever it starts.
+        #[test]
+        fn cell_from_matches_cell(
+            steps in proptest::collection::vec(1e-3_f64..1.0, 1..40),
+            x in prop_oneof![-1.0_f64..45.0, Just(f64::NAN), Just(f64::INFINITY)],
+            from in 0usize..50,
+        ) {
+            let mut sig = vec![0.0];
+            for h in steps {
+                sig.push(sig[sig.len() - 1] + h);
+            }
+            let node = sig[from % sig.len()];
+            for q in [x, node] {
+                prop_assert_eq!(cell_from(&sig, q, from), cell(&sig, q), "x {}", q);
+            }
+        }
+
         /// The heading increment between neighbouring grid nodes (series of `atan`) agrees with
         /// `atan2` to rounding, near and far from the hint, wrapped or not.
         #[test]

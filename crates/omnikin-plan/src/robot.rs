@@ -161,10 +161,30 @@ impl RobotModel {
         })
     }
 
-    /// [`RobotModel::channel_rates`] with the heading's `(cos ψ, sin ψ)` given (the planner's
-    /// grid has them from the path tangent): the sphere and the ballbot rotate the twist into
-    /// the robot frame with them instead of evaluating `sin_cos(ψ)` (paper 000, eq. 5.4); the
-    /// caster uses `heading` as before.
+    /// [`RobotModel::rates`] with the heading's `(cos ψ, sin ψ)` given (the planner has them
+    /// from the path tangent): the sphere and the ballbot rotate the twist into the robot frame
+    /// with them instead of evaluating `sin_cos(ψ)` (paper 000, eq. 5.4); the caster uses
+    /// `heading` as [`RobotModel::rates`] does.
+    pub(crate) fn rates_cs(
+        &self,
+        heading: f64,
+        cs: [f64; 2],
+        twist_world: Twist2<f64>,
+        steer: [f64; 3],
+    ) -> Result<MotorRates, PlanningError> {
+        let [c, s] = cs;
+        let body =
+            |t: Twist2<f64>| Twist2::new(c * t.vx + s * t.vy, -s * t.vx + c * t.vy, t.yaw_rate);
+        let wheel = match &self.model {
+            Robot::Sphere(m) => m.wheel_rates(body(twist_world), 0.0)?,
+            Robot::Ballbot(m) => m.wheel_rates(body(twist_world), 0.0)?,
+            Robot::Caster(_) => return self.rates(heading, twist_world, steer),
+        };
+        Ok(MotorRates { wheel, steer: None })
+    }
+
+    /// [`RobotModel::channel_rates`] with the heading's `(cos ψ, sin ψ)` given (see
+    /// [`RobotModel::rates_cs`]).
     pub(crate) fn channel_rates_cs(
         &self,
         heading: f64,
@@ -172,25 +192,7 @@ impl RobotModel {
         twist_world: Twist2<f64>,
         steer: [f64; 3],
     ) -> Result<[f64; 6], PlanningError> {
-        let [c, s] = cs;
-        let body =
-            |t: Twist2<f64>| Twist2::new(c * t.vx + s * t.vy, -s * t.vx + c * t.vy, t.yaw_rate);
-        let w = match &self.model {
-            Robot::Sphere(m) => m.wheel_rates(body(twist_world), 0.0)?,
-            Robot::Ballbot(m) => m.wheel_rates(body(twist_world), 0.0)?,
-            Robot::Caster(_) => return self.channel_rates(heading, twist_world, steer),
-        };
-        Ok([w[0], w[1], w[2], 0.0, 0.0, 0.0])
-    }
-
-    /// [`RobotModel::rates`] as a channel vector (steer entries 0 for robots without steering).
-    pub(crate) fn channel_rates(
-        &self,
-        heading: f64,
-        twist_world: Twist2<f64>,
-        steer: [f64; 3],
-    ) -> Result<[f64; 6], PlanningError> {
-        let r = self.rates(heading, twist_world, steer)?;
+        let r = self.rates_cs(heading, cs, twist_world, steer)?;
         let s = r.steer.unwrap_or([0.0; 3]);
         Ok([r.wheel[0], r.wheel[1], r.wheel[2], s[0], s[1], s[2]])
     }
@@ -201,7 +203,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn channel_rates_with_a_given_heading_cosine_match_the_trigonometric_ones() {
+    fn rates_with_a_given_heading_cosine_match_the_trigonometric_ones() {
         for name in ["sphere-omni", "ballbot", "caster3"] {
             let d = RobotDescription::preset(name).expect("preset");
             let robot = RobotModel::from_description(&d).expect("model");
@@ -210,18 +212,29 @@ mod tests {
                 let heading = 7.0 * (0.37 * x).sin() - 1.0;
                 let twist = Twist2::new((1.3 * x).cos(), (0.7 * x).sin() * 0.8, (2.1 * x).sin());
                 let steer = [(0.3 * x).sin(), 1.0 - (0.2 * x).cos(), -(0.5 * x).sin()];
-                let want = robot.channel_rates(heading, twist, steer).expect("rates");
+                let want = robot.rates(heading, twist, steer).expect("rates");
                 let (s, c) = heading.sin_cos();
                 let got = robot
+                    .rates_cs(heading, [c, s], twist, steer)
+                    .expect("rates");
+                let channels = robot
                     .channel_rates_cs(heading, [c, s], twist, steer)
                     .expect("rates");
-                for ch in 0..6 {
-                    assert!(
-                        (got[ch] - want[ch]).abs() <= 1e-12 * (1.0 + want[ch].abs()),
-                        "{name} heading {heading} channel {ch}: {} vs {}",
-                        got[ch],
-                        want[ch]
-                    );
+                let want_steer = want.steer.unwrap_or([0.0; 3]);
+                assert_eq!(got.steer.is_some(), want.steer.is_some(), "{name}");
+                let got_steer = got.steer.unwrap_or([0.0; 3]);
+                for j in 0..3 {
+                    for (g, w) in [
+                        (got.wheel[j], want.wheel[j]),
+                        (channels[j], want.wheel[j]),
+                        (got_steer[j], want_steer[j]),
+                        (channels[3 + j], want_steer[j]),
+                    ] {
+                        assert!(
+                            (g - w).abs() <= 1e-12 * (1.0 + w.abs()),
+                            "{name} heading {heading} motor {j}: {g} vs {w}"
+                        );
+                    }
                 }
             }
             let bad = Twist2::new(f64::NAN, 0.0, 0.0);
