@@ -20,7 +20,15 @@ pub fn motor_rates<T: Real>(
     heading: T,
     steer: [T; 3],
 ) -> Result<MotorCommand<T>, InputError> {
-    motor_rates_sc(robot, twist, heading, heading.sin_cos(), steer)
+    motor_rates_sc(robot, twist, heading, heading_sc(robot, heading), steer)
+}
+
+/// `(sin, cos)` of the heading for the caster, the only robot whose kinematics need it here.
+fn heading_sc<T: Real>(robot: &Robot<T>, heading: T) -> (T, T) {
+    match robot {
+        Robot::Caster(_) => heading.sin_cos(),
+        _ => (T::zero(), T::one()),
+    }
 }
 
 /// [`motor_rates`] with the heading's `(sin ψ, cos ψ)` already known (`sc`, used only by the
@@ -107,7 +115,14 @@ pub fn desaturate<T: Real>(
     steer: [T; 3],
     limits: &RateLimits<T>,
 ) -> Result<Desaturated<T>, InputError> {
-    desaturate_sc(robot, twist, heading, heading.sin_cos(), steer, limits)
+    desaturate_sc(
+        robot,
+        twist,
+        heading,
+        heading_sc(robot, heading),
+        steer,
+        limits,
+    )
 }
 
 /// [`desaturate`] with the heading's `(sin ψ, cos ψ)` already known (see [`motor_rates_sc`]).
