@@ -85,8 +85,11 @@ if [ "$instructions" = 1 ]; then
   {
     echo "| omnikin | instructions/call | WPILib | instructions/call | WPILib / omnikin |"
     echo "|---|---|---|---|---|"
-    for pair in caster_inverse:swerve3_inverse caster_odometry:swerve3_odometry \
+    for pair in caster_inverse:swerve3_inverse caster_forward:swerve3_forward \
+                caster_odometry:swerve3_odometry \
                 sphere_inverse:swerve3_inverse ballbot_inverse:swerve3_inverse \
+                sphere_forward:swerve3_forward ballbot_forward:swerve3_forward \
+                sphere_odometry:swerve3_odometry ballbot_odometry:swerve3_odometry \
                 plan20_11hz_time_optimal:plan20_wpilib plan20_1khz_time_optimal:plan20_wpilib; do
       a=${pair%%:*}; b=${pair#*:}
       case "$a" in plan20_1khz*) n1=1; n2=2 ;; plan20*) n1=1; n2=3 ;; *) n1=1000; n2=11000 ;; esac
@@ -135,9 +138,14 @@ print("| omnikin | median | WPILib | median | WPILib / omnikin |")
 print("|---|---|---|---|---|")
 pairs = [
     ("caster_inverse", "swerve3_inverse"),
+    ("caster_forward", "swerve3_forward"),
     ("caster_odometry", "swerve3_odometry"),
     ("sphere_inverse", "swerve3_inverse"),
     ("ballbot_inverse", "swerve3_inverse"),
+    ("sphere_forward", "swerve3_forward"),
+    ("ballbot_forward", "swerve3_forward"),
+    ("sphere_odometry", "swerve3_odometry"),
+    ("ballbot_odometry", "swerve3_odometry"),
     ("plan20_11hz_time_optimal", "plan20_wpilib"),
     ("plan20_1khz_time_optimal", "plan20_wpilib"),
     ("plan20_1khz_trapezoid", "plan20_wpilib"),

@@ -23,6 +23,7 @@
 #include <frc/kinematics/SwerveDriveKinematics.h>
 #include <frc/kinematics/SwerveDriveOdometry.h>
 #include <frc/kinematics/SwerveModulePosition.h>
+#include <frc/kinematics/SwerveModuleState.h>
 #include <frc/trajectory/TrajectoryConfig.h>
 #include <frc/trajectory/TrajectoryGenerator.h>
 
@@ -161,6 +162,24 @@ int main(int argc, char** argv) {
       keep(st);
     }, ns))
       std::printf("swerve3_inverse\t%.3f\t-\n", ns);
+  }
+
+  // Swerve-3 forward: three (speed, angle) module states -> chassis speeds (least squares
+  // through the precomputed pseudo-inverse). The module angles come in as radians, as from
+  // encoders, so the Rotation2d constructions (cos/sin) are part of the call, as the Rust
+  // side's steer-angle sin_cos are.
+  {
+    auto kin = swerve3();
+    if (run("swerve3_forward", [&](long i) {
+      int k = (int)(i & (K - 1));
+      wpi::array<frc::SwerveModuleState, 3> st{wpi::empty_array};
+      for (int j = 0; j < 3; ++j)
+        st[j] = {units::meters_per_second_t{opaque(in.dist_step[k][j] * 1e3)},
+                 frc::Rotation2d{units::radian_t{opaque(in.steer[k][j])}}};
+      auto cs = kin.ToChassisSpeeds(st);
+      keep(cs);
+    }, ns))
+      std::printf("swerve3_forward\t%.3f\t-\n", ns);
   }
 
   // Swerve-3 odometry: SwerveDriveOdometry<3>::Update with gyro angle and module positions.

@@ -1837,6 +1837,29 @@ mod tests {
     }
 
     #[test]
+    fn heading_increment_series_is_accurate_to_rounding() {
+        // Near the series' largest argument (|δ| just below 0.1 rad, |t| ≈ 0.05, where its last
+        // term t¹¹/11 is ≈ 4e-16 of δ) and for small headings, so rounding is ≈ 1e-16: the
+        // answer must be within 4e-16 of ψ + δ.
+        for &psi in &[0.0, 0.3, -0.7, 1.0] {
+            for &delta in &[0.0999, -0.0999, 0.08, -0.05, 0.01, 1e-9] {
+                let (s, c) = f64::sin_cos(psi);
+                let (sd, cd) = f64::sin_cos(psi + delta);
+                let got = Hint {
+                    psi,
+                    cs: Some([c, s]),
+                }
+                .unwrap([cd, sd]);
+                assert!(
+                    (got - (psi + delta)).abs() <= 4e-16,
+                    "ψ {psi} δ {delta}: {got} vs {}",
+                    psi + delta
+                );
+            }
+        }
+    }
+
+    #[test]
     fn time_optimal_timing_is_the_same_with_stored_and_rebuilt_cells() {
         let wps: Vec<[f64; 2]> = (0..8)
             .map(|k| [0.5 * k as f64, 0.4 * (0.9 * k as f64).sin()])
@@ -1889,6 +1912,7 @@ mod tests {
 
     proptest! {
         /// The forward-stepping cell search answers as the bisection does, wherever it starts.
+        /// (`from` stays below the node count so that exact ties ahead of it are queried.)
         #[test]
         fn cell_from_matches_cell(
             steps in proptest::collection::vec(1e-3_f64..1.0, 1..40),
@@ -1899,8 +1923,9 @@ mod tests {
             for h in steps {
                 sig.push(sig[sig.len() - 1] + h);
             }
-            let node = sig[from % sig.len()];
-            for q in [x, node] {
+            // Arbitrary points, and every node ahead of the start (exact ties included).
+            let nodes = (0..12).map(|j| sig[(from + j) % sig.len()]);
+            for q in std::iter::once(x).chain(nodes) {
                 prop_assert_eq!(cell_from(&sig, q, from), cell(&sig, q), "x {}", q);
             }
         }

@@ -274,7 +274,13 @@ impl<T: Real> Caster3<T> {
     /// `(cos α_i, sin α_i)`, by the angle-addition formulas.
     #[inline(always)]
     fn wheel_trig(&self, heading: T, steer: [T; 3]) -> [WheelTrig<T>; 3] {
-        let (ct, st) = cs(heading);
+        self.wheel_trig_sc(heading.sin_cos(), steer)
+    }
+
+    /// [`Caster3::wheel_trig`] with `(sin θ, cos θ)` of the heading given.
+    #[inline(always)]
+    fn wheel_trig_sc(&self, heading_sc: (T, T), steer: [T; 3]) -> [WheelTrig<T>; 3] {
+        let (st, ct) = heading_sc;
         let wheel = |i: usize| {
             let (cm, sm) = self.mount_cs[i];
             let (cg, sg) = cs(steer[i]);
@@ -420,8 +426,22 @@ impl<T: Real> Caster3<T> {
         heading: T,
         steer: [T; 3],
     ) -> Result<CasterRates<T>, InputError> {
+        self.motor_rates_sc(twist_world, heading, heading.sin_cos(), steer)
+    }
+
+    /// [`Caster3::motor_rates`] with `heading_sc = (sin θ, cos θ)` of the heading already known
+    /// (the runtime shares one `sin_cos` per cycle between its frame changes and this call);
+    /// `heading` itself only names the field in an error.
+    #[inline]
+    pub(crate) fn motor_rates_sc(
+        &self,
+        twist_world: Twist2<T>,
+        heading: T,
+        heading_sc: (T, T),
+        steer: [T; 3],
+    ) -> Result<CasterRates<T>, InputError> {
         let q = twist_world.to_array();
-        let trig = self.wheel_trig(heading, steer);
+        let trig = self.wheel_trig_sc(heading_sc, steer);
         let mut out = zero_rates();
         let wheel = |w: &WheelTrig<T>| {
             // Rows i of J1 and J2 (see `j1_row`, `j2_row`).

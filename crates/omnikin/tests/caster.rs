@@ -268,6 +268,34 @@ fn geometry_errors_name_the_field() {
 }
 
 #[test]
+fn motor_rates_report_overflow_only_for_a_rate_that_overflows() {
+    // The usual path tests the sum of the six rates; a sum that overflows while every rate is
+    // finite must still be an answer, and one non-finite rate must be named as before.
+    let c = preset();
+    let p = CasterParams::<f64>::preset();
+    // Every wheel pointing along x (β_i = 0): three roll rates of −0.7e308 rad/s, their sum −∞.
+    let steer = p.mount_angles.map(|a| -a);
+    let vx = 0.7e308 * p.wheel_radius;
+    let r = c
+        .motor_rates(Twist2::new(vx, 0.0, 0.0), 0.0, steer)
+        .expect("every rate is finite");
+    assert!(
+        r.roll.iter().all(|v| v.is_finite() && *v < -0.6e308),
+        "{r:?}"
+    );
+    assert!(r.steer.iter().all(|v| v.is_finite()), "{r:?}");
+    // Every wheel across x (β_i = π/2): the roll rates stay finite, the steer rates v_x/d do not.
+    let steer = p.mount_angles.map(|a| PI / 2.0 - a);
+    assert!(1e308 / p.eccentricity > f64::MAX);
+    assert_eq!(
+        c.motor_rates(Twist2::new(1e308, 0.0, 0.0), 0.0, steer),
+        Err(InputError::Overflow {
+            quantity: "steer rates"
+        })
+    );
+}
+
+#[test]
 fn input_errors_name_the_field() {
     let c = preset();
     let nan = f64::NAN;

@@ -10,7 +10,7 @@
 
 use std::hint::black_box;
 
-use omnikin::caster::{Caster3, CasterParams};
+use omnikin::caster::{Caster3, CasterParams, CasterRates};
 use omnikin::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::{Pose2, Robot};
 use omnikin_bench::{Inputs, K, measure, plan20, robot, waypoints20};
@@ -110,6 +110,73 @@ fn main() {
             }),
             Robot::Caster(_) => unreachable!(),
         };
+        if let Some(ns) = ns {
+            println!("{label}\t{ns:.3}\t-");
+        }
+    }
+
+    // Forward kinematics, vs SwerveDriveKinematics::ToChassisSpeeds: the caster's six motor
+    // rates (+ heading, steer angles) -> least-squares world twist; the sphere's and ballbot's
+    // three wheel rates -> robot twist.
+    {
+        let ns = rn.run("caster_forward", 1.0, |i| {
+            let k = i as usize & (K - 1);
+            let t = inp.twist[k];
+            let rates = black_box(CasterRates {
+                roll: [t.vx, t.vy, t.yaw_rate],
+                steer: [t.vy, t.yaw_rate, t.vx],
+            });
+            let r = caster.body_twist(&rates, black_box(inp.heading[k]), black_box(inp.steer[k]));
+            black_box(r.unwrap());
+        });
+        if let Some(ns) = ns {
+            println!("caster_forward\t{ns:.3}\t-");
+        }
+    }
+    for name in ["sphere", "ballbot"] {
+        let rob = robot(name).unwrap();
+        let label = format!("{name}_forward");
+        let wheels = |k: usize| black_box([inp.twist[k].vx, inp.twist[k].vy, 0.3]);
+        let ns = match rob {
+            Robot::Sphere(s) => rn.run(&label, 1.0, |i| {
+                let k = i as usize & (K - 1);
+                black_box(s.body_twist(wheels(k), black_box(0.0)).unwrap());
+            }),
+            Robot::Ballbot(b) => rn.run(&label, 1.0, |i| {
+                let k = i as usize & (K - 1);
+                black_box(b.body_twist(wheels(k), black_box(0.0)).unwrap());
+            }),
+            Robot::Caster(_) => unreachable!(),
+        };
+        if let Some(ns) = ns {
+            println!("{label}\t{ns:.3}\t-");
+        }
+    }
+
+    // Sphere and ballbot odometry step: three wheel angles + absolute yaw (the wheel travel of
+    // the shared table, as for the caster).
+    for name in ["sphere", "ballbot"] {
+        let rob = robot(name).unwrap();
+        let label = format!("{name}_odometry");
+        let mut odo = Odometry::new(rob, Pose2::new(0.0, 0.0, 0.0));
+        let (mut t, mut yaw, mut wheel) = (0.0f64, 0.0f64, [0.0f64; 3]);
+        let mut failures = 0u64;
+        let ns = rn.run(&label, 1.0, |i| {
+            let k = i as usize & (K - 1);
+            for j in 0..3 {
+                wheel[j] += inp.dist_step[k][j] * 20.0;
+            }
+            t += 1e-3;
+            yaw += 1e-3 * inp.twist[k].yaw_rate;
+            let reading = EncoderReading::new(black_box(t), black_box(wheel));
+            match odo.update(&reading, HeadingInput::Absolute(black_box(yaw))) {
+                Ok(step) => {
+                    black_box(step.pose);
+                }
+                Err(_) => failures += 1,
+            }
+        });
+        assert_eq!(failures, 0, "{label}: odometry steps failed");
         if let Some(ns) = ns {
             println!("{label}\t{ns:.3}\t-");
         }

@@ -32,7 +32,7 @@ fn heading_sc<T: Real>(robot: &Robot<T>, heading: T) -> (T, T) {
 }
 
 /// [`motor_rates`] with the heading's `(sin ψ, cos ψ)` already known (`sc`, used only by the
-/// caster, whose kinematics take the world-frame twist).
+/// caster: for the world-frame twist its kinematics take, and for its wheel directions).
 pub(crate) fn motor_rates_sc<T: Real>(
     robot: &Robot<T>,
     twist: Twist2<T>,
@@ -51,7 +51,7 @@ pub(crate) fn motor_rates_sc<T: Real>(
         },
         Robot::Caster(m) => {
             let CasterRates { roll, steer: sd } =
-                m.motor_rates(twist.rotated_sc(sc), heading, steer)?;
+                m.motor_rates_sc(twist.rotated_sc(sc), heading, sc, steer)?;
             MotorCommand {
                 wheel: roll,
                 steer: sd,
