@@ -164,7 +164,9 @@ impl RobotModel {
     /// [`RobotModel::rates`] with the heading's `(cos ψ, sin ψ)` given (the planner has them
     /// from the path tangent): the sphere and the ballbot rotate the twist into the robot frame
     /// with them instead of evaluating `sin_cos(ψ)` (paper 000, eq. 5.4); the caster uses
-    /// `heading` as [`RobotModel::rates`] does.
+    /// `heading` as [`RobotModel::rates`] does. For the sphere and ballbot a non-finite input
+    /// is reported through the robot-frame twist it produces (the first non-finite component),
+    /// not by the world-frame field or `"heading"`: the planner validates its inputs before.
     pub(crate) fn rates_cs(
         &self,
         heading: f64,
