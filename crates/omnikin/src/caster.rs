@@ -62,12 +62,9 @@ fn cs<T: Real>(a: T) -> (T, T) {
     (c, s)
 }
 
-/// Cosines and sines of one wheel's angles (see [`Caster3::wheel_trig`]).
+/// Cosines and sines of one wheel's angles (see [`Caster3::wheel_trig_sc`]).
 #[derive(Clone, Copy)]
 struct WheelTrig<T> {
-    /// `cos(α_i + θ)`, `sin(α_i + θ)`: direction of `C→F_i` in the world.
-    ca: T,
-    sa: T,
     /// `cos β_i`, `sin β_i`, `β_i = α_i + θ + γ_i`: the wheel's world direction.
     cb: T,
     sb: T,
@@ -269,15 +266,9 @@ impl<T: Real> Caster3<T> {
         ]
     }
 
-    /// The cosines and sines of `α_i + θ`, `β_i = α_i + θ + γ_i` and `γ_i` for the three wheels
-    /// from four `sin_cos` evaluations (the heading and each steer angle) and the precomputed
+    /// The cosines and sines of `β_i = α_i + θ + γ_i` and `γ_i` for the three wheels, from
+    /// `(sin θ, cos θ)` of the heading, one `sin_cos` per steer angle and the precomputed
     /// `(cos α_i, sin α_i)`, by the angle-addition formulas.
-    #[inline(always)]
-    fn wheel_trig(&self, heading: T, steer: [T; 3]) -> [WheelTrig<T>; 3] {
-        self.wheel_trig_sc(heading.sin_cos(), steer)
-    }
-
-    /// [`Caster3::wheel_trig`] with `(sin θ, cos θ)` of the heading given.
     #[inline(always)]
     fn wheel_trig_sc(&self, heading_sc: (T, T), steer: [T; 3]) -> [WheelTrig<T>; 3] {
         let (st, ct) = heading_sc;
@@ -286,8 +277,6 @@ impl<T: Real> Caster3<T> {
             let (cg, sg) = cs(steer[i]);
             let (ca, sa) = (cm * ct - sm * st, sm * ct + cm * st);
             WheelTrig {
-                ca,
-                sa,
                 cb: ca * cg - sa * sg,
                 sb: sa * cg + ca * sg,
                 cg,
@@ -507,20 +496,54 @@ impl<T: Real> Caster3<T> {
         heading: T,
         steer: [T; 3],
     ) -> Result<CasterForward<T>, InputError> {
-        finite3(rates.roll, ROLL_RATES)?;
-        finite3(rates.steer, STEER_RATES)?;
-        finite(heading, "heading")?;
-        finite3(steer, STEER)?;
-        let trig = self.wheel_trig(heading, steer);
-        let big_d = self.params.mount_radius;
-        let mount = trig.map(|w| [big_d * w.ca, big_d * w.sa]);
-        let mean = [
-            (mount[0][0] + mount[1][0] + mount[2][0]) * T::of(1.0 / 3.0),
-            (mount[0][1] + mount[1][1] + mount[2][1]) * T::of(1.0 / 3.0),
-        ];
-        let centred = mount.map(|f| [f[0] - mean[0], f[1] - mean[1]]);
-        let dir = trig.map(|w| [w.cb, w.sb]);
-        self.fit(centred, mean, dir, rates)
+        // The fit is done in the robot frame on the precomputed steering-axis geometry and the
+        // twist turned into the world frame after (the residuals' magnitudes do not depend on
+        // the frame). A non-finite input always ends in a non-finite twist, which the fit
+        // reports as an error, so the inputs are tested — in the documented order, before any
+        // error of the fit — only when the fit fails or the heading is not finite.
+        let fit = self.body_twist_robot_unchecked(rates, steer);
+        if fit.is_err() || !heading.is_finite() {
+            finite3(rates.roll, ROLL_RATES)?;
+            finite3(rates.steer, STEER_RATES)?;
+            finite(heading, "heading")?;
+            finite3(steer, STEER)?;
+        }
+        let f = fit?;
+        let twist = f.twist.to_world(heading);
+        if !twist.is_finite() {
+            return Err(InputError::Singular {
+                reason: "the least-squares twist overflows: motor rates too large for the scalar type",
+            });
+        }
+        Ok(CasterForward { twist, ..f })
+    }
+
+    /// Forward kinematics in the **robot** frame: the twist `(v_x, v_y, θ̇)` of the body centre
+    /// (m/s, m/s, rad/s, robot axes) that best explains all six motor rates (rad/s) at steer
+    /// angles `γ` (rad) — [`Caster3::body_twist`] without the turn into the world frame, so it
+    /// needs no heading (paper 003, eqs. (1), (2); the same least-squares fit, on the
+    /// steering-axis geometry precomputed at construction: one `sin_cos` per steer angle).
+    /// The counterpart of WPILib's `SwerveDriveKinematics::ToChassisSpeeds`, whose chassis
+    /// speeds are robot-relative too.
+    ///
+    /// # Errors
+    /// * [`InputError::NonFinite`] naming `"roll_rates[i]"`, `"steer_rates[i]"` or
+    ///   `"steer[i]"`, in that order of precedence;
+    /// * [`InputError::Singular`] as for [`Caster3::body_twist`].
+    pub fn robot_twist(
+        &self,
+        rates: &CasterRates<T>,
+        steer: [T; 3],
+    ) -> Result<CasterForward<T>, InputError> {
+        // A non-finite input always ends in a non-finite twist, which the fit reports as an
+        // error: the inputs are tested (in the documented order) only then.
+        let fit = self.body_twist_robot_unchecked(rates, steer);
+        if fit.is_err() {
+            finite3(rates.roll, ROLL_RATES)?;
+            finite3(rates.steer, STEER_RATES)?;
+            finite3(steer, STEER)?;
+        }
+        fit
     }
 
     /// [`Caster3::body_twist`] at heading `θ = 0`, i.e. the least-squares twist in the **robot**

@@ -632,6 +632,62 @@ proptest! {
         }
     }
 
+    /// `body_twist` tests its inputs only when the fit fails or the heading is not finite; its
+    /// answer must be the one of checking every input first (roll rates, steer rates, heading,
+    /// steer angles), then the fit.
+    #[test]
+    fn body_twist_errors_are_those_of_checking_inputs_first(
+        vals in proptest::collection::vec(
+            prop_oneof![
+                4 => -10.0_f64..10.0,
+                1 => Just(f64::NAN),
+                1 => Just(f64::INFINITY),
+                1 => Just(f64::NEG_INFINITY),
+                1 => Just(1e308),
+                1 => Just(-1e308),
+            ],
+            10,
+        ),
+    ) {
+        let c = preset();
+        let rates = CasterRates {
+            roll: [vals[0], vals[1], vals[2]],
+            steer: [vals[3], vals[4], vals[5]],
+        };
+        let got = c.body_twist(&rates, vals[6], [vals[7], vals[8], vals[9]]);
+        let names = [
+            "roll_rates[0]", "roll_rates[1]", "roll_rates[2]",
+            "steer_rates[0]", "steer_rates[1]", "steer_rates[2]",
+            "heading", "steer[0]", "steer[1]", "steer[2]",
+        ];
+        // The robot-frame fit: the same order without the heading, and the same answer turned
+        // into the world frame.
+        let robot = c.robot_twist(&rates, [vals[7], vals[8], vals[9]]);
+        let no_heading: Vec<usize> = (0..10).filter(|&i| i != 6).collect();
+        match no_heading.iter().find(|&&i| !vals[i].is_finite()) {
+            Some(&i) => prop_assert_eq!(robot, Err(InputError::NonFinite { field: names[i] })),
+            None => {
+                if let (Ok(w), Ok(r)) = (&got, &robot) {
+                    prop_assert_eq!(w.twist, r.twist.to_world(vals[6]));
+                    prop_assert_eq!(w.wheel_slip, r.wheel_slip);
+                }
+            }
+        }
+        match vals.iter().position(|v| !v.is_finite()) {
+            Some(i) => prop_assert_eq!(got, Err(InputError::NonFinite { field: names[i] })),
+            None => match got {
+                Ok(f) => {
+                    prop_assert!(f.twist.is_finite());
+                    prop_assert!(f.slip_residual.is_finite());
+                }
+                Err(e) => {
+                    prop_assert!(matches!(e, InputError::Singular { .. }), "{:?}", e);
+                    prop_assert!(vals[..6].iter().any(|v| v.abs() >= 1e308));
+                }
+            },
+        }
+    }
+
     /// No call panics, whatever the input (NaN, ∞, huge values).
     #[test]
     fn never_panics(

@@ -115,22 +115,38 @@ fn main() {
         }
     }
 
-    // Forward kinematics, vs SwerveDriveKinematics::ToChassisSpeeds: the caster's six motor
-    // rates (+ heading, steer angles) -> least-squares world twist; the sphere's and ballbot's
-    // three wheel rates -> robot twist.
+    // Forward kinematics, vs SwerveDriveKinematics::ToChassisSpeeds (robot-relative chassis
+    // speeds): the caster's six motor rates + steer angles -> least-squares robot-frame twist
+    // (`caster_forward`), and the same turned into the world frame with the heading
+    // (`caster_forward_world`, one more sin_cos); the sphere's and ballbot's three wheel rates
+    // -> robot twist.
     {
-        let ns = rn.run("caster_forward", 1.0, |i| {
-            let k = i as usize & (K - 1);
+        let rates = |k: usize| {
             let t = inp.twist[k];
-            let rates = black_box(CasterRates {
+            black_box(CasterRates {
                 roll: [t.vx, t.vy, t.yaw_rate],
                 steer: [t.vy, t.yaw_rate, t.vx],
-            });
-            let r = caster.body_twist(&rates, black_box(inp.heading[k]), black_box(inp.steer[k]));
+            })
+        };
+        let ns = rn.run("caster_forward", 1.0, |i| {
+            let k = i as usize & (K - 1);
+            let r = caster.robot_twist(&rates(k), black_box(inp.steer[k]));
             black_box(r.unwrap());
         });
         if let Some(ns) = ns {
             println!("caster_forward\t{ns:.3}\t-");
+        }
+        let ns = rn.run("caster_forward_world", 1.0, |i| {
+            let k = i as usize & (K - 1);
+            let r = caster.body_twist(
+                &rates(k),
+                black_box(inp.heading[k]),
+                black_box(inp.steer[k]),
+            );
+            black_box(r.unwrap());
+        });
+        if let Some(ns) = ns {
+            println!("caster_forward_world\t{ns:.3}\t-");
         }
     }
     for name in ["sphere", "ballbot"] {
