@@ -611,12 +611,13 @@ impl<T: Real> Caster3<T> {
             (m[0][0] + m[1][0] + m[2][0]) * third,
             (m[0][1] + m[1][1] + m[2][1]) * third,
         ];
-        let n = m.map(|mi| [mi[0] - mbar[0], mi[1] - mbar[1]]);
+        // Σ q_i = 0, so Σ q_i × n_i = Σ q_i × m_i: the moment does not wait for the mean m̄.
         let (mut spread, mut moment) = (T::zero(), T::zero());
         for i in 0..3 {
             spread += q[i][0] * q[i][0] + q[i][1] * q[i][1];
-            moment += q[i][0] * n[i][1] - q[i][1] * n[i][0];
+            moment += q[i][0] * m[i][1] - q[i][1] * m[i][0];
         }
+        let n = m.map(|mi| [mi[0] - mbar[0], mi[1] - mbar[1]]);
         if spread <= T::of(1.0e3) * T::EPSILON * self.scale * self.scale {
             return Err(InputError::Singular {
                 reason: "the three wheel centres O_i coincide (d = D with every steer angle \
