@@ -86,7 +86,7 @@ if [ "$instructions" = 1 ]; then
     echo "| omnikin | instructions/call | WPILib | instructions/call | WPILib / omnikin |"
     echo "|---|---|---|---|---|"
     for pair in caster_inverse:swerve3_inverse caster_forward:swerve3_forward \
-                caster_forward_world:swerve3_forward \
+                caster_forward_world:swerve3_forward_world \
                 caster_odometry:swerve3_odometry \
                 sphere_inverse:swerve3_inverse ballbot_inverse:swerve3_inverse \
                 sphere_forward:swerve3_forward ballbot_forward:swerve3_forward \
@@ -140,7 +140,7 @@ print("|---|---|---|---|---|")
 pairs = [
     ("caster_inverse", "swerve3_inverse"),
     ("caster_forward", "swerve3_forward"),
-    ("caster_forward_world", "swerve3_forward"),
+    ("caster_forward_world", "swerve3_forward_world"),
     ("caster_odometry", "swerve3_odometry"),
     ("sphere_inverse", "swerve3_inverse"),
     ("ballbot_inverse", "swerve3_inverse"),

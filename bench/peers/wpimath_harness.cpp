@@ -180,6 +180,19 @@ int main(int argc, char** argv) {
       keep(cs);
     }, ns))
       std::printf("swerve3_forward\t%.3f\t-\n", ns);
+    // The same turned into the field frame with the gyro angle (radians, as from a gyro):
+    // the counterpart of the caster's world-frame body_twist.
+    if (run("swerve3_forward_world", [&](long i) {
+      int k = (int)(i & (K - 1));
+      wpi::array<frc::SwerveModuleState, 3> st{wpi::empty_array};
+      for (int j = 0; j < 3; ++j)
+        st[j] = {units::meters_per_second_t{opaque(in.dist_step[k][j] * 1e3)},
+                 frc::Rotation2d{units::radian_t{opaque(in.steer[k][j])}}};
+      auto cs = frc::ChassisSpeeds::FromRobotRelativeSpeeds(
+          kin.ToChassisSpeeds(st), frc::Rotation2d{units::radian_t{opaque(in.heading[k])}});
+      keep(cs);
+    }, ns))
+      std::printf("swerve3_forward_world\t%.3f\t-\n", ns);
   }
 
   // Swerve-3 odometry: SwerveDriveOdometry<3>::Update with gyro angle and module positions.
