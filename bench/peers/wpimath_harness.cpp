@@ -170,12 +170,16 @@ int main(int argc, char** argv) {
   // side's steer-angle sin_cos are.
   {
     auto kin = swerve3();
-    if (run("swerve3_forward", [&](long i) {
-      int k = (int)(i & (K - 1));
+    auto states = [&](int k) {
       wpi::array<frc::SwerveModuleState, 3> st{wpi::empty_array};
       for (int j = 0; j < 3; ++j)
         st[j] = {units::meters_per_second_t{opaque(in.dist_step[k][j] * 1e3)},
                  frc::Rotation2d{units::radian_t{opaque(in.steer[k][j])}}};
+      return st;
+    };
+    if (run("swerve3_forward", [&](long i) {
+      int k = (int)(i & (K - 1));
+      auto st = states(k);
       auto cs = kin.ToChassisSpeeds(st);
       keep(cs);
     }, ns))
@@ -184,10 +188,7 @@ int main(int argc, char** argv) {
     // the counterpart of the caster's world-frame body_twist.
     if (run("swerve3_forward_world", [&](long i) {
       int k = (int)(i & (K - 1));
-      wpi::array<frc::SwerveModuleState, 3> st{wpi::empty_array};
-      for (int j = 0; j < 3; ++j)
-        st[j] = {units::meters_per_second_t{opaque(in.dist_step[k][j] * 1e3)},
-                 frc::Rotation2d{units::radian_t{opaque(in.steer[k][j])}}};
+      auto st = states(k);
       auto cs = frc::ChassisSpeeds::FromRobotRelativeSpeeds(
           kin.ToChassisSpeeds(st), frc::Rotation2d{units::radian_t{opaque(in.heading[k])}});
       keep(cs);

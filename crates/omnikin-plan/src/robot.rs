@@ -174,12 +174,11 @@ impl RobotModel {
         twist_world: Twist2<f64>,
         steer: [f64; 3],
     ) -> Result<MotorRates, PlanningError> {
-        let [c, s] = cs;
-        let body =
-            |t: Twist2<f64>| Twist2::new(c * t.vx + s * t.vy, -s * t.vx + c * t.vy, t.yaw_rate);
+        // World → robot frame: the rotation by −ψ, whose (sin, cos) is (−sin ψ, cos ψ).
+        let body = twist_world.rotated_sc((-cs[1], cs[0]));
         let wheel = match &self.model {
-            Robot::Sphere(m) => m.wheel_rates(body(twist_world), 0.0)?,
-            Robot::Ballbot(m) => m.wheel_rates(body(twist_world), 0.0)?,
+            Robot::Sphere(m) => m.wheel_rates(body, 0.0)?,
+            Robot::Ballbot(m) => m.wheel_rates(body, 0.0)?,
             Robot::Caster(_) => return self.rates(heading, twist_world, steer),
         };
         Ok(MotorRates { wheel, steer: None })

@@ -403,6 +403,18 @@ fn twist() -> impl Strategy<Value = Twist2<f64>> {
     (-1.0..1.0_f64, -1.0..1.0_f64, -3.0..3.0_f64).prop_map(|(x, y, w)| Twist2::new(x, y, w))
 }
 
+/// Mostly ordinary values, often NaN, ±∞ or ±1e308 (for the error-precedence tests).
+fn odd_value() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        4 => -10.0_f64..10.0,
+        1 => Just(f64::NAN),
+        1 => Just(f64::INFINITY),
+        1 => Just(f64::NEG_INFINITY),
+        1 => Just(1e308),
+        1 => Just(-1e308),
+    ]
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(512))]
 
@@ -603,17 +615,7 @@ proptest! {
     /// rates: the same field named for any mix of NaN, ±∞ and huge finite values.
     #[test]
     fn motor_rate_errors_are_those_of_checking_inputs_first(
-        vals in proptest::collection::vec(
-            prop_oneof![
-                4 => -10.0_f64..10.0,
-                1 => Just(f64::NAN),
-                1 => Just(f64::INFINITY),
-                1 => Just(f64::NEG_INFINITY),
-                1 => Just(1e308),
-                1 => Just(-1e308),
-            ],
-            7,
-        ),
+        vals in proptest::collection::vec(odd_value(), 7),
     ) {
         let c = preset();
         let twist = Twist2::new(vals[0], vals[1], vals[2]);
@@ -637,17 +639,7 @@ proptest! {
     /// steer angles), then the fit.
     #[test]
     fn body_twist_errors_are_those_of_checking_inputs_first(
-        vals in proptest::collection::vec(
-            prop_oneof![
-                4 => -10.0_f64..10.0,
-                1 => Just(f64::NAN),
-                1 => Just(f64::INFINITY),
-                1 => Just(f64::NEG_INFINITY),
-                1 => Just(1e308),
-                1 => Just(-1e308),
-            ],
-            10,
-        ),
+        vals in proptest::collection::vec(odd_value(), 10),
     ) {
         let c = preset();
         let rates = CasterRates {
