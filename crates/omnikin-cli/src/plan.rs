@@ -16,7 +16,7 @@ use omnikin_plan::planner::{
 };
 use omnikin_plan::profile::ProfileKind;
 use omnikin_plan::waypoints::Waypoints;
-use omnikin_plan::{Plan, Quantity, RobotModel};
+use omnikin_plan::{Plan, PlanningError, Quantity, RobotModel};
 
 use crate::args::{Triple, finite_f64};
 use crate::plot::{self, Arrow, PALETTE, Series};
@@ -238,6 +238,17 @@ fn positive(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A planning error, with "too fast" context only when a motor limit is what failed (a
+/// parameter out of range or a plan over a size limit says so by itself).
+fn too_fast(e: PlanningError, context: impl FnOnce() -> String) -> anyhow::Error {
+    match e {
+        PlanningError::LimitExceeded(_) | PlanningError::Infeasible(_) => {
+            anyhow::Error::new(e).context(context())
+        }
+        e => e.into(),
+    }
+}
+
 fn load_robot(robot: &str) -> Result<(RobotDescription, RobotModel)> {
     let d = RobotDescription::resolve(robot)?;
     let m = RobotModel::from_description(&d)?;
@@ -286,8 +297,11 @@ fn square(a: &SquareArgs) -> Result<()> {
         a.ramp_fraction * 100.0,
         sq.ramp_time()
     );
-    let planned = plan(&sq.path()?, &sq.heading(), &robot, &opts)
-        .with_context(|| format!("square at {} m/s is too fast for {}", a.speed, d.name))?;
+    let planned = plan(&sq.path()?, &sq.heading(), &robot, &opts).map_err(|e| {
+        too_fast(e, || {
+            format!("square at {} m/s is too fast for {}", a.speed, d.name)
+        })
+    })?;
     finish(&a.common, &d, &robot, &what, &planned)
 }
 
@@ -318,11 +332,13 @@ fn circle(a: &CircleArgs) -> Result<()> {
             None => "full speed from the start (paper's law)".into(),
         }
     );
-    let planned = plan(&c.path()?, &c.heading(), &robot, &opts).with_context(|| {
-        format!(
-            "circle with omega {} rad/s (radius {} m) is too fast for {}",
-            a.omega, a.radius, d.name
-        )
+    let planned = plan(&c.path()?, &c.heading(), &robot, &opts).map_err(|e| {
+        too_fast(e, || {
+            format!(
+                "circle with omega {} rad/s (radius {} m) is too fast for {}",
+                a.omega, a.radius, d.name
+            )
+        })
     })?;
     finish(&a.common, &d, &robot, &what, &planned)
 }
@@ -353,6 +369,12 @@ fn waypoints(a: &WaypointArgs) -> Result<()> {
             format!("constant {} rad", a.heading),
         ),
         HeadingArg::Constant => {
+            omnikin_plan::limits::check_magnitude(
+                "spin",
+                a.spin,
+                omnikin_plan::limits::MAX_SPIN,
+                "rad/m",
+            )?;
             let l = path.length();
             let prof = HeadingProfile::new(&[(0.0, a.heading), (l, a.heading + a.spin * l)])?;
             (
@@ -444,8 +466,11 @@ fn waypoints(a: &WaypointArgs) -> Result<()> {
             )
         }
     );
-    let planned = plan(&path, &heading, &robot, &opts)
-        .with_context(|| format!("{file}: the requested timing is too fast for {}", d.name))?;
+    let planned = plan(&path, &heading, &robot, &opts).map_err(|e| {
+        too_fast(e, || {
+            format!("{file}: the requested timing is too fast for {}", d.name)
+        })
+    })?;
     finish(&a.common, &d, &robot, &what, &planned)
 }
 

@@ -45,6 +45,17 @@ impl std::fmt::Display for Violation {
     }
 }
 
+/// A number for a message: plain when it reads well, `1e-9` / `1.5e300` style when tiny or
+/// huge (so a value of 1e300 does not print as 301 digits).
+pub(crate) fn num(v: f64) -> String {
+    let a = v.abs();
+    if a != 0.0 && a.is_finite() && !(1e-3..1e6).contains(&a) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 /// Everything that can go wrong while planning.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum PlanningError {
@@ -53,7 +64,7 @@ pub enum PlanningError {
     #[error("invalid path: {0}")]
     InvalidPath(String),
     /// A parameter is out of range.
-    #[error("{name} = {value}: {rule}")]
+    #[error("{name} = {}: {rule}", num(*value))]
     InvalidParameter {
         /// The parameter.
         name: &'static str,
@@ -61,6 +72,43 @@ pub enum PlanningError {
         value: f64,
         /// What is allowed.
         rule: &'static str,
+    },
+    /// A parameter is finite but outside its plausible range (see [`crate::limits`]).
+    #[error(
+        "{name} = {} {unit} is outside the plausible range [{}, {}] {unit} (omnikin_plan::limits)",
+        num(*value), num(*min), num(*max)
+    )]
+    OutOfRange {
+        /// The parameter (as the API and the command line name it).
+        name: &'static str,
+        /// Its value.
+        value: f64,
+        /// Smallest allowed value.
+        min: f64,
+        /// Largest allowed value.
+        max: f64,
+        /// Unit of the value and the range.
+        unit: &'static str,
+    },
+    /// The request would need more of something than a stated limit of [`crate::limits`]
+    /// allows (checked before allocating).
+    #[error(
+        "{what} needs {needed:.4e} {items}, more than the limit {limit} = {max} \
+         (omnikin_plan::limits); {hint}"
+    )]
+    TooLarge {
+        /// What would grow, and why (e.g. `the plan (duration 1e9 s × rate 100 Hz)`).
+        what: String,
+        /// What is counted (`samples`, `grid cells`, `waypoints`).
+        items: &'static str,
+        /// How many the inputs imply.
+        needed: f64,
+        /// The limit's name (a constant of [`crate::limits`]).
+        limit: &'static str,
+        /// The limit's value.
+        max: usize,
+        /// What to change to stay within it.
+        hint: &'static str,
     },
     /// A fixed timing (re-timing not allowed) needs more than a motor can give.
     #[error("{0}")]

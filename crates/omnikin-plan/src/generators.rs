@@ -8,6 +8,7 @@
 
 use crate::PlanningError;
 use crate::heading::HeadingLaw;
+use crate::limits::{ACCEL_RANGE, JERK_RANGE, LENGTH_RANGE, RAMP_RANGE, SPEED_RANGE, TURNS_RANGE, YAW_RATE_RANGE, check_range};
 use crate::path::{Corners, Path};
 use crate::planner::{InitialSteer, MotionLimits, OnLimit, PlanOptions, Timing};
 use crate::profile::ProfileKind;
@@ -50,24 +51,36 @@ impl Square {
     /// Checks the parameters.
     ///
     /// # Errors
-    /// [`PlanningError::InvalidParameter`] for a side or speed that is not a finite number > 0,
-    /// or a ramp fraction outside (0, 0.5].
+    /// [`PlanningError::OutOfRange`] for a side or speed outside its range in
+    /// [`crate::limits`]; [`PlanningError::InvalidParameter`] for a ramp fraction outside
+    /// (0, 0.5].
     pub fn validate(&self) -> Result<(), PlanningError> {
-        for (name, v) in [("side", self.side), ("speed", self.speed)] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(PlanningError::InvalidParameter {
-                    name,
-                    value: v,
-                    rule: "must be a finite number > 0",
-                });
-            }
-        }
+        check_range("side", self.side, LENGTH_RANGE, "m")?;
+        check_range("speed", self.speed, SPEED_RANGE, "m/s")?;
         if !(self.ramp_fraction > 0.0 && self.ramp_fraction <= 0.5) {
             return Err(PlanningError::InvalidParameter {
                 name: "ramp fraction",
                 value: self.ramp_fraction,
                 rule: "must be in (0, 0.5]: each ramp takes this fraction of side/speed",
             });
+        }
+        // The ramps' acceleration (and jerk) follow from the three: check them here, where
+        // the message can name what to change.
+        if let Timing::Profile { limits, .. } = self.timing() {
+            check_range(
+                "ramp acceleration speed²/(ramp fraction × side)",
+                limits.max_accel,
+                ACCEL_RANGE,
+                "m/s²",
+            )?;
+            if self.profile == ProfileKind::SCurve {
+                check_range(
+                    "ramp jerk 4·speed³/(ramp fraction × side)²",
+                    limits.max_jerk,
+                    JERK_RANGE,
+                    "m/s³",
+                )?;
+            }
         }
         Ok(())
     }
@@ -162,18 +175,12 @@ impl Circle {
     /// Checks the parameters.
     ///
     /// # Errors
-    /// [`PlanningError::InvalidParameter`] for a radius, turn count or ramp that is not a
-    /// finite number > 0, or `ω0` = 0 / not finite.
+    /// [`PlanningError::OutOfRange`] for a radius, turn count, `|ω0|`, speed `R|ω0|` or ramp
+    /// outside its range in [`crate::limits`] (a ramp also at most half the circle's time at
+    /// full speed); [`PlanningError::InvalidParameter`] for `ω0` = 0 / not finite.
     pub fn validate(&self) -> Result<(), PlanningError> {
-        for (name, v) in [("radius", self.radius), ("turns", self.turns)] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(PlanningError::InvalidParameter {
-                    name,
-                    value: v,
-                    rule: "must be a finite number > 0",
-                });
-            }
-        }
+        check_range("radius", self.radius, LENGTH_RANGE, "m")?;
+        check_range("turns", self.turns, TURNS_RANGE, "")?;
         if !(self.omega.is_finite() && self.omega != 0.0) {
             return Err(PlanningError::InvalidParameter {
                 name: "omega",
@@ -181,14 +188,28 @@ impl Circle {
                 rule: "must be finite and non-zero (rad/s; > 0 counter-clockwise)",
             });
         }
-        if let Some(r) = self.ramp
-            && !(r.is_finite() && r > 0.0)
-        {
-            return Err(PlanningError::InvalidParameter {
-                name: "ramp",
-                value: r,
-                rule: "must be a finite number > 0 (s)",
-            });
+        check_range("|omega|", self.omega.abs(), YAW_RATE_RANGE, "rad/s")?;
+        check_range("speed (radius × |omega|)", self.speed(), SPEED_RANGE, "m/s")?;
+        if let Some(r) = self.ramp {
+            check_range("ramp", r, RAMP_RANGE, "s")?;
+            // Each ramp must fit in half the circle's time at full speed: a longer one never
+            // reaches the requested omega (the plan would be a different, slower motion).
+            let half = 0.5 * self.turns * std::f64::consts::TAU / self.omega.abs();
+            if r > half {
+                return Err(PlanningError::OutOfRange {
+                    name: "ramp",
+                    value: r,
+                    min: RAMP_RANGE.0,
+                    max: half,
+                    unit: "s (at most half the circle's time at full speed, turns·π/|omega|)",
+                });
+            }
+            check_range(
+                "ramp acceleration radius × |omega| / ramp",
+                self.speed() / r,
+                ACCEL_RANGE,
+                "m/s²",
+            )?;
         }
         Ok(())
     }

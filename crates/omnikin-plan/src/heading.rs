@@ -10,6 +10,7 @@
 //! slows a stretch down to respect a motor limit, the heading stays tied to the position.
 
 use crate::PlanningError;
+use crate::limits::{MAX_HEADING, check_magnitude};
 
 /// The heading law of a plan (paper 000, §5): the yaw `ψ` of the robot frame in the world
 /// frame, rad, as a function of arc length along the path.
@@ -56,8 +57,9 @@ impl HeadingProfile {
     /// A profile through `points = [(s_k, ψ_k)]` (m, rad).
     ///
     /// # Errors
-    /// [`PlanningError::InvalidParameter`] when there is no point, a value is not finite or the
-    /// arc lengths do not increase strictly.
+    /// [`PlanningError::InvalidParameter`] when there is no point, an arc length is not finite
+    /// or the arc lengths do not increase strictly; [`PlanningError::OutOfRange`] for a heading
+    /// larger than [`crate::limits::MAX_HEADING`] in magnitude.
     pub fn new(points: &[(f64, f64)]) -> Result<Self, PlanningError> {
         if points.is_empty() {
             return Err(PlanningError::InvalidParameter {
@@ -74,13 +76,7 @@ impl HeadingProfile {
                     rule: "must be finite (m)",
                 });
             }
-            if !p.is_finite() {
-                return Err(PlanningError::InvalidParameter {
-                    name: "heading profile heading",
-                    value: p,
-                    rule: "must be finite (rad)",
-                });
-            }
+            check_magnitude("heading profile heading", p, MAX_HEADING, "rad")?;
         }
         for w in points.windows(2) {
             if w[1].0 <= w[0].0 {
@@ -158,22 +154,15 @@ impl HeadingLaw {
     /// Checks the law's numbers.
     ///
     /// # Errors
-    /// [`PlanningError::InvalidParameter`] for a non-finite constant or offset.
+    /// [`PlanningError::OutOfRange`] for a constant or offset that is not finite or larger
+    /// than [`crate::limits::MAX_HEADING`].
     pub fn validate(&self) -> Result<(), PlanningError> {
         match self {
-            HeadingLaw::Constant(v) if !v.is_finite() => Err(PlanningError::InvalidParameter {
-                name: "heading",
-                value: *v,
-                rule: "must be finite (rad)",
-            }),
-            HeadingLaw::Tangent { offset } if !offset.is_finite() => {
-                Err(PlanningError::InvalidParameter {
-                    name: "heading offset",
-                    value: *offset,
-                    rule: "must be finite (rad)",
-                })
+            HeadingLaw::Constant(v) => check_magnitude("heading", *v, MAX_HEADING, "rad"),
+            HeadingLaw::Tangent { offset } => {
+                check_magnitude("heading offset", *offset, MAX_HEADING, "rad")
             }
-            _ => Ok(()),
+            HeadingLaw::Profile(_) => Ok(()),
         }
     }
 

@@ -13,6 +13,7 @@
 //! | [`profile`] | rest-to-rest 1-D velocity profiles: trapezoid and S-curve |
 //! | [`planner`] | timing under motor limits (re-timing, time-optimal forward–backward pass) and sampling |
 //! | [`generators`] | paper 000's experiments: the square (eq. 6.1) and the circle (eq. 6.3) |
+//! | [`limits`] | the stated limits: most samples, grid cells and waypoints, and the plausible range of every physical parameter |
 //! | [`waypoints`] | waypoint files (CSV or TOML) with `file:line` errors |
 //! | [`Plan`] / [`Sample`] | the sampled plan and its CSV/JSON format (conventions.md: `t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3`, the caster adding `s1,s2,s3,sd1,sd2,sd3`) |
 //!
@@ -38,6 +39,7 @@ mod plan;
 
 pub mod generators;
 pub mod heading;
+pub mod limits;
 pub mod path;
 pub mod planner;
 pub mod profile;

@@ -455,13 +455,12 @@ impl Path {
                 Ok(Self::from_pieces(pieces, stop_before, waypoint_s))
             }
             Corners::Fillet { radius } => {
-                if !(radius.is_finite() && radius > 0.0) {
-                    return Err(PlanningError::InvalidParameter {
-                        name: "fillet radius",
-                        value: radius,
-                        rule: "must be a finite number > 0 (m)",
-                    });
-                }
+                crate::limits::check_range(
+                    "fillet radius",
+                    radius,
+                    crate::limits::LENGTH_RANGE,
+                    "m",
+                )?;
                 // Tangent length r·tan(|turn|/2) at each interior corner.
                 let mut tlen = vec![0.0; n];
                 for k in 1..n - 1 {

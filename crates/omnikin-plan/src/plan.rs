@@ -5,6 +5,8 @@ use std::path::Path;
 
 use omnikin::{Pose2, Twist2};
 
+use crate::limits::MAX_PLAN_ROWS;
+
 /// One sample of a plan: world pose and velocity, wheel rates, and for the caster base its
 /// steer angles and steer rates. SI units (m, rad, s).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -162,7 +164,8 @@ impl Plan {
     /// Reads a plan CSV: a header naming at least the columns of [`COLUMNS`] (any order, extra
     /// columns ignored; the caster's [`CASTER_COLUMNS`] all or none), then one sample per row.
     /// Every value must be a finite number and time must increase strictly; errors name the
-    /// file, the line and the column.
+    /// file, the line and the column. At most [`crate::limits::MAX_PLAN_ROWS`] rows; a leading
+    /// UTF-8 byte-order mark is skipped.
     pub fn read_csv<R: Read>(input: R, file: &str) -> Result<Self, PlanError> {
         let err = |line: Option<usize>, message: String| PlanError::Format {
             file: file.to_string(),
@@ -215,6 +218,16 @@ impl Plan {
                 err(Some(line), format!("{e}"))
             })?;
             let line = rec.position().map_or(k + 2, |p| p.line() as usize);
+            if samples.len() == MAX_PLAN_ROWS {
+                return Err(err(
+                    Some(line),
+                    format!(
+                        "more than {MAX_PLAN_ROWS} rows (the limit MAX_PLAN_ROWS of \
+                         omnikin_plan::limits); cut the plan into several files or plan it at \
+                         a lower rate"
+                    ),
+                ));
+            }
             let get = |i: usize, name: &str| -> Result<f64, PlanError> {
                 let s = rec
                     .get(i)

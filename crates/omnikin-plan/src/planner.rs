@@ -56,6 +56,9 @@ use omnikin::{Pose2, Robot, Twist2};
 use crate::PlanningError;
 use crate::error::Violation;
 use crate::heading::{HeadingLaw, Side, wrap_pi};
+use crate::limits::{
+    MAX_MOVE_GRID_CELLS, MAX_PLAN_GRID_CELLS, MAX_PLAN_SAMPLES, RATE_RANGE, SPEED_RANGE, check_range,
+};
 use crate::path::Path;
 use crate::plan::{Plan, Sample};
 use crate::profile::{Profile1D, ProfileKind};
@@ -92,24 +95,20 @@ impl Default for MotionLimits {
 }
 
 impl MotionLimits {
+    /// Checks every limit against its range in [`crate::limits`].
     fn validate(&self, jerk: bool) -> Result<(), PlanningError> {
-        let mut items = vec![
-            ("max speed", self.max_speed),
-            ("max acceleration", self.max_accel),
-            ("max yaw rate", self.max_yaw_rate),
-            ("max yaw acceleration", self.max_yaw_accel),
-        ];
+        use crate::limits::{ACCEL_RANGE, JERK_RANGE, SPEED_RANGE, YAW_ACCEL_RANGE, YAW_RATE_RANGE};
+        check_range("max speed", self.max_speed, SPEED_RANGE, "m/s")?;
+        check_range("max acceleration", self.max_accel, ACCEL_RANGE, "m/s²")?;
+        check_range("max yaw rate", self.max_yaw_rate, YAW_RATE_RANGE, "rad/s")?;
+        check_range(
+            "max yaw acceleration",
+            self.max_yaw_accel,
+            YAW_ACCEL_RANGE,
+            "rad/s²",
+        )?;
         if jerk {
-            items.push(("max jerk", self.max_jerk));
-        }
-        for (name, v) in items {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(PlanningError::InvalidParameter {
-                    name,
-                    value: v,
-                    rule: "must be a finite number > 0",
-                });
-            }
+            check_range("max jerk", self.max_jerk, JERK_RANGE, "m/s³")?;
         }
         Ok(())
     }
@@ -321,8 +320,6 @@ const GRID_MAX: f64 = 0.05;
 const GRID_TOL: f64 = 1e-2;
 /// Fewest grid cells per move.
 const MIN_CELLS: usize = 16;
-/// Most grid cells per move.
-const MAX_CELLS: usize = 400_000;
 /// The planner aims this fraction below each motor limit, so the final check on the samples
 /// (which is strict) passes despite the grid approximation.
 const MARGIN: f64 = 1.0 - 1e-4;
@@ -580,10 +577,17 @@ impl Ctx<'_> {
         bounds.push(len);
         let cells = |l: f64, h: f64| ((l / h).ceil() as usize).max(1);
         let too_many_cells = |n: &[usize]| {
-            if n.iter().sum::<usize>() > MAX_CELLS {
-                return Err(PlanningError::Infeasible(format!(
-                    "a move of length {len:.3} needs more than {MAX_CELLS} grid cells"
-                )));
+            let needed = n.iter().sum::<usize>();
+            if needed > MAX_MOVE_GRID_CELLS {
+                return Err(PlanningError::TooLarge {
+                    what: format!("a move of length {len:.4e} (m or rad)"),
+                    items: "grid cells",
+                    needed: needed as f64,
+                    limit: "MAX_MOVE_GRID_CELLS",
+                    max: MAX_MOVE_GRID_CELLS,
+                    hint: "shorten the path (--side, --radius, --turns, the waypoints) or cut it \
+                           into several plans",
+                });
             }
             Ok(())
         };
@@ -1260,25 +1264,11 @@ pub fn plan(
     opts: &PlanOptions,
 ) -> Result<Planned, PlanningError> {
     heading.validate()?;
-    if !(opts.rate.is_finite() && opts.rate > 0.0) {
-        return Err(PlanningError::InvalidParameter {
-            name: "rate",
-            value: opts.rate,
-            rule: "sampling rate must be a finite number > 0 (Hz)",
-        });
-    }
+    check_range("rate", opts.rate, RATE_RANGE, "Hz")?;
     match opts.timing {
         Timing::Profile { kind, limits } => limits.validate(kind == ProfileKind::SCurve)?,
         Timing::TimeOptimal { limits } => limits.validate(false)?,
-        Timing::ConstantSpeed { speed } => {
-            if !(speed.is_finite() && speed > 0.0) {
-                return Err(PlanningError::InvalidParameter {
-                    name: "speed",
-                    value: speed,
-                    rule: "must be a finite number > 0 (m/s)",
-                });
-            }
-        }
+        Timing::ConstantSpeed { speed } => check_range("speed", speed, SPEED_RANGE, "m/s")?,
     }
     if let InitialSteer::Given(g) = opts.initial_steer
         && g.iter().any(|v| !v.is_finite())
@@ -1649,6 +1639,17 @@ fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, PlanningError
         psi = *mv.psi.last().unwrap_or(&psi);
         gamma = *mv.gamma.last().unwrap_or(&gamma);
         moves.push(mv);
+        let cells: usize = moves.iter().map(|m| m.sig.len() - 1).sum();
+        if cells > MAX_PLAN_GRID_CELLS {
+            return Err(PlanningError::TooLarge {
+                what: format!("the path (length {len:.4e} m, {} moves so far)", moves.len()),
+                items: "grid cells",
+                needed: cells as f64,
+                limit: "MAX_PLAN_GRID_CELLS",
+                max: MAX_PLAN_GRID_CELLS,
+                hint: "shorten the path or cut it into several plans",
+            });
+        }
     }
     Ok(moves)
 }
@@ -1657,7 +1658,22 @@ fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, PlanningError
 fn sample(ctx: &Ctx, moves: &[Move], rate: f64) -> Result<Plan, PlanningError> {
     let last = moves.last().expect("a path has at least one move");
     let total = last.t0 + last.timing.duration(last.len);
-    let mut times = Vec::new();
+    // Samples at k / rate before the end, plus the end: checked before anything is allocated
+    // (NaN or infinite durations fail the comparison too).
+    let needed = (total * rate).floor() + 2.0;
+    if !(needed <= MAX_PLAN_SAMPLES as f64) {
+        return Err(PlanningError::TooLarge {
+            what: format!("the plan (duration {total:.4e} s × rate {rate} Hz)"),
+            items: "samples",
+            needed,
+            limit: "MAX_PLAN_SAMPLES",
+            max: MAX_PLAN_SAMPLES,
+            hint: "lower the sampling rate (--rate), or plan a faster or shorter motion \
+                   (--speed, --omega, --max-speed, --turns, --side; or higher [limits] in the \
+                   robot file)",
+        });
+    }
+    let mut times = Vec::with_capacity(needed as usize);
     let mut j = 0usize;
     loop {
         let t = j as f64 / rate;

@@ -3,7 +3,10 @@
 //!
 //! CSV: one waypoint per line, `x,y` or `x,y,heading` (m, m, rad; world frame), every line
 //! with the same number of columns. An optional header line names the columns exactly
-//! (`x,y` or `x,y,heading`); blank lines and lines starting with `#` are ignored.
+//! (`x,y` or `x,y,heading`); blank lines and lines starting with `#` are ignored. A leading
+//! UTF-8 byte-order mark is skipped (CSV and TOML). Coordinates are at most
+//! [`crate::limits::MAX_COORDINATE`] and headings [`crate::limits::MAX_HEADING`] in
+//! magnitude; a file has at most [`crate::limits::MAX_WAYPOINTS`] waypoints.
 //!
 //! TOML:
 //! ```toml
@@ -16,6 +19,41 @@
 use serde::Deserialize;
 
 use crate::PlanningError;
+use crate::limits::{MAX_COORDINATE, MAX_HEADING, MAX_WAYPOINTS};
+
+/// `text` without a leading UTF-8 byte-order mark (editors on Windows write one).
+pub(crate) fn strip_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
+}
+
+/// Checks a waypoint value against its range in [`crate::limits`]; `Err` is the message.
+fn check_value(name: &str, v: f64) -> Result<(), String> {
+    let (max, unit, limit) = if name == "heading" {
+        (MAX_HEADING, "rad", "MAX_HEADING")
+    } else {
+        (MAX_COORDINATE, "m", "MAX_COORDINATE")
+    };
+    if v.abs() <= max {
+        Ok(())
+    } else {
+        Err(format!(
+            "{name} = {} {unit} is outside the plausible range [-{max:e}, {max:e}] {unit} \
+             (omnikin_plan::limits::{limit})",
+            crate::error::num(v)
+        ))
+    }
+}
+
+fn too_many(file: &str, line: Option<usize>) -> PlanningError {
+    err(
+        file,
+        line,
+        format!(
+            "more than {MAX_WAYPOINTS} waypoints (the limit MAX_WAYPOINTS of \
+             omnikin_plan::limits); cut the path into several files"
+        ),
+    )
+}
 
 /// Waypoints read from a file, with the line each came from.
 #[derive(Clone, Debug, PartialEq)]
@@ -59,8 +97,10 @@ impl Waypoints {
     ///
     /// # Errors
     /// [`PlanningError::Waypoints`] for a bad header, a wrong number of columns, a value that
-    /// is not a finite number, fewer than two waypoints or a waypoint repeating the previous one.
+    /// is not a finite number or is outside its range ([`crate::limits::MAX_COORDINATE`],
+    /// [`crate::limits::MAX_HEADING`]), more than [`crate::limits::MAX_WAYPOINTS`] waypoints, fewer than two waypoints or a waypoint repeating the previous one.
     pub fn from_csv(text: &str, file: &str) -> Result<Self, PlanningError> {
+        let text = strip_bom(text);
         let mut points = Vec::new();
         let mut headings: Vec<f64> = Vec::new();
         let mut lines = Vec::new();
@@ -125,7 +165,12 @@ impl Waypoints {
                         format!("column {}: {field} is not finite", NAMES[c]),
                     ));
                 }
+                check_value(NAMES[c], x)
+                    .map_err(|m| err(file, Some(line), format!("column {m}")))?;
                 v[c] = x;
+            }
+            if points.len() == MAX_WAYPOINTS {
+                return Err(too_many(file, Some(line)));
             }
             points.push([v[0], v[1]]);
             if n == 3 {
@@ -144,6 +189,7 @@ impl Waypoints {
     /// wrong type), non-finite values, headings on some waypoints only, fewer than two
     /// waypoints or a repeated waypoint.
     pub fn from_toml(text: &str, file: &str) -> Result<Self, PlanningError> {
+        let text = strip_bom(text);
         #[derive(Deserialize)]
         #[serde(deny_unknown_fields)]
         struct Wp {
@@ -164,6 +210,10 @@ impl Waypoints {
                 e.message().trim().to_string(),
             )
         })?;
+        if doc.waypoint.len() > MAX_WAYPOINTS {
+            let line = line_of(doc.waypoint[MAX_WAYPOINTS].span().start);
+            return Err(too_many(file, Some(line)));
+        }
         let mut points = Vec::new();
         let mut headings = Vec::new();
         let mut lines = Vec::new();
@@ -186,6 +236,8 @@ impl Waypoints {
                         format!("waypoint {}: {name} = {v} is not finite", i + 1),
                     ));
                 }
+                check_value(name, v)
+                    .map_err(|m| err(file, Some(line), format!("waypoint {}: {m}", i + 1)))?;
             }
             if wp.heading.is_some() != with_heading {
                 return Err(err(

@@ -1,0 +1,106 @@
+//! Input limits of the planner: how large a plan may grow, and the plausible range of every
+//! physical parameter a request can carry.
+//!
+//! Every allocation that grows with the input is bounded by one of the `MAX_*` constants
+//! below, **checked before allocating** from what the inputs imply (e.g. samples = duration ×
+//! rate), and refused with [`PlanningError::TooLarge`], which names the limit, the value the
+//! inputs imply and what to change. Every physical parameter has a stated range (the `*_RANGE`
+//! constants, SI units); a value outside it is refused with [`PlanningError::OutOfRange`]
+//! naming the parameter, the value and the range. The ranges are wide — several orders of
+//! magnitude around anything a wheeled robot does — and exist so that absurd but finite values
+//! (`1e-9` m/s, `1e300` rad) are reported as what they are instead of producing a plan of
+//! billions of samples or a plan of one sample.
+//!
+//! To raise a limit, change the constant here and rebuild; the error messages say which one.
+
+use crate::PlanningError;
+
+/// Most samples in one plan (time stamps `k / rate` plus the end): `duration × rate + 2`.
+/// 10⁷ samples are 27.8 h at 100 Hz and about 1.4 GB in memory; the planner refuses a request
+/// that would need more before it samples anything.
+pub const MAX_PLAN_SAMPLES: usize = 10_000_000;
+
+/// Most rows a plan file may have when it is read back (the same bound as
+/// [`MAX_PLAN_SAMPLES`], checked row by row while reading).
+pub const MAX_PLAN_ROWS: usize = MAX_PLAN_SAMPLES;
+
+/// Most grid cells of one move of the planner's adaptive grid (≈ 200 bytes a cell).
+pub const MAX_MOVE_GRID_CELLS: usize = 400_000;
+
+/// Most grid cells of all moves of a plan together (≈ 200 bytes a cell: 800 MB).
+pub const MAX_PLAN_GRID_CELLS: usize = 4_000_000;
+
+/// Most waypoints in a waypoint file.
+pub const MAX_WAYPOINTS: usize = 100_000;
+
+/// Plan sampling rate, Hz.
+pub const RATE_RANGE: (f64, f64) = (0.1, 1e5);
+
+/// Speed along a path (cruise speed, `--speed`, `--max-speed`), m/s.
+pub const SPEED_RANGE: (f64, f64) = (1e-4, 100.0);
+
+/// Acceleration along a path, m/s².
+pub const ACCEL_RANGE: (f64, f64) = (1e-7, 1e4);
+
+/// Jerk along a path, m/s³.
+pub const JERK_RANGE: (f64, f64) = (1e-9, 1e6);
+
+/// Yaw rate of a turn in place, and the magnitude of a circle's `omega`, rad/s.
+pub const YAW_RATE_RANGE: (f64, f64) = (1e-4, 1e3);
+
+/// Yaw acceleration of a turn in place, rad/s².
+pub const YAW_ACCEL_RANGE: (f64, f64) = (1e-7, 1e5);
+
+/// A path's size: square side, circle radius, fillet radius, m.
+pub const LENGTH_RANGE: (f64, f64) = (1e-4, 1e4);
+
+/// Largest coordinate magnitude of a waypoint, m (world frame).
+pub const MAX_COORDINATE: f64 = 1e6;
+
+/// Largest heading magnitude (waypoint headings, constant headings, offsets; unwrapped), rad.
+pub const MAX_HEADING: f64 = 1e6;
+
+/// Largest spin while translating (heading change per metre of path), rad/m.
+pub const MAX_SPIN: f64 = 1e3;
+
+/// Number of turns of a circle.
+pub const TURNS_RANGE: (f64, f64) = (1e-3, 1e3);
+
+/// Ramp time of a circle that starts from rest, s.
+pub const RAMP_RANGE: (f64, f64) = (1e-4, 1e5);
+
+/// Checks `min ≤ value ≤ max` (and finiteness).
+///
+/// # Errors
+/// [`PlanningError::OutOfRange`] naming `name`, the value, the range and its `unit`.
+pub fn check_range(
+    name: &'static str,
+    value: f64,
+    (min, max): (f64, f64),
+    unit: &'static str,
+) -> Result<(), PlanningError> {
+    if value.is_finite() && value >= min && value <= max {
+        Ok(())
+    } else {
+        Err(PlanningError::OutOfRange {
+            name,
+            value,
+            min,
+            max,
+            unit,
+        })
+    }
+}
+
+/// Checks `|value| ≤ max` (and finiteness).
+///
+/// # Errors
+/// [`PlanningError::OutOfRange`] naming `name`, the value, the range `[−max, max]` and `unit`.
+pub fn check_magnitude(
+    name: &'static str,
+    value: f64,
+    max: f64,
+    unit: &'static str,
+) -> Result<(), PlanningError> {
+    check_range(name, value, (-max, max), unit)
+}
