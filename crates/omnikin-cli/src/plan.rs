@@ -507,7 +507,7 @@ fn write_plan<W: Write>(plan: &Plan, format: Format, mut out: W) -> Result<()> {
     match format {
         Format::Csv => plan.write_csv(&mut out)?,
         Format::Json => {
-            serde_json::to_writer(&mut out, &plan.to_json())?;
+            plan.write_json(&mut out)?;
             writeln!(out)?;
         }
     }

@@ -21,6 +21,16 @@ pub const PALETTE: [RGBColor; 6] = [
     RGBColor(140, 86, 75),
 ];
 
+/// Text for an SVG figure: the backend escapes `<`, `>`, `&` and quotes, but control
+/// characters are not allowed in XML at all (not even as character references), so each one
+/// becomes U+FFFD. Robot names are validated on load; this also covers file names and other
+/// text that reaches a title.
+pub fn svg_text(s: &str) -> String {
+    s.chars()
+        .map(|c| if c.is_control() { '\u{fffd}' } else { c })
+        .collect()
+}
+
 /// Font of titles, axis labels and legends.
 const FONT: &str = "sans-serif";
 
@@ -142,7 +152,7 @@ fn draw_lines<'a>(chart: &mut Chart<'a, 'a>, series: &[Series]) -> Result<()> {
         };
         if !s.label.is_empty() {
             let dashed = s.dashed;
-            anno.label(s.label.clone()).legend(move |(x, y)| {
+            anno.label(svg_text(&s.label)).legend(move |(x, y)| {
                 if dashed {
                     PathElement::new(vec![(x, y), (x + 7, y)], color.stroke_width(2)).into_dyn()
                 } else {
@@ -186,7 +196,7 @@ pub fn xy_panel(
         x1 += extra;
     }
     let mut chart = ChartBuilder::on(area)
-        .caption(title, (FONT, 20))
+        .caption(svg_text(title), (FONT, 20))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(55)
@@ -194,8 +204,8 @@ pub fn xy_panel(
         .map_err(draw_err)?;
     chart
         .configure_mesh()
-        .x_desc(x_label)
-        .y_desc(y_label)
+        .x_desc(svg_text(x_label))
+        .y_desc(svg_text(y_label))
         .label_style((FONT, 14))
         .axis_desc_style((FONT, 16))
         .light_line_style(WHITE.mix(0.0))
@@ -210,7 +220,7 @@ pub fn xy_panel(
             )))
             .map_err(draw_err)?;
         if !b.label.is_empty() {
-            anno.label(b.label.clone()).legend(move |(x, y)| {
+            anno.label(svg_text(&b.label)).legend(move |(x, y)| {
                 Rectangle::new([(x, y - 5), (x + 18, y + 5)], color.mix(0.25).filled())
             });
         }
@@ -273,7 +283,7 @@ pub fn time_panel(
     }
     let (y0, y1) = range(ys.into_iter(), 0.08, 1e-6);
     let mut chart = ChartBuilder::on(area)
-        .caption(title, (FONT, 18))
+        .caption(svg_text(title), (FONT, 18))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(60)
@@ -282,7 +292,7 @@ pub fn time_panel(
     chart
         .configure_mesh()
         .x_desc("time t [s]")
-        .y_desc(y_label)
+        .y_desc(svg_text(y_label))
         .label_style((FONT, 14))
         .axis_desc_style((FONT, 16))
         .light_line_style(WHITE.mix(0.0))
@@ -297,7 +307,7 @@ pub fn time_panel(
             )))
             .map_err(draw_err)?;
         if !b.label.is_empty() {
-            anno.label(b.label.clone()).legend(move |(x, y)| {
+            anno.label(svg_text(&b.label)).legend(move |(x, y)| {
                 Rectangle::new([(x, y - 5), (x + 18, y + 5)], color.mix(0.25).filled())
             });
         }

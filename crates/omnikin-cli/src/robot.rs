@@ -108,7 +108,7 @@ pub fn config(a: &RobotArgs, desc: &RobotDescription) -> Result<Config<f64>> {
     c.heading_from_gyro = a.gyro_heading;
     c.validate().map_err(|e| {
         let flag = match e.field {
-            "rate_hz" => "rate".to_string(),
+            "rate_hz" => format!("rate {}", a.rate),
             "max_wheel_rate" | "max_steer_rate" | "max_wheel_accel" | "max_steer_accel" => {
                 format!("{} limits.{}", a.robot, e.field)
             }

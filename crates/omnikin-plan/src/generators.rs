@@ -8,7 +8,10 @@
 
 use crate::PlanningError;
 use crate::heading::HeadingLaw;
-use crate::limits::{ACCEL_RANGE, JERK_RANGE, LENGTH_RANGE, RAMP_RANGE, SPEED_RANGE, TURNS_RANGE, YAW_RATE_RANGE, check_range};
+use crate::limits::{
+    ACCEL_RANGE, JERK_RANGE, LENGTH_RANGE, RAMP_RANGE, SPEED_RANGE, TURNS_RANGE, YAW_RATE_RANGE,
+    check_range,
+};
 use crate::path::{Corners, Path};
 use crate::planner::{InitialSteer, MotionLimits, OnLimit, PlanOptions, Timing};
 use crate::profile::ProfileKind;

@@ -141,6 +141,47 @@ impl Plan {
         serde_json::json!({ "columns": cols, "samples": rows })
     }
 
+    /// Writes the JSON of [`Plan::to_json`] to `out` row by row, without building the whole
+    /// document in memory first (a `serde_json::Value` costs ~30 bytes a number: a plan of
+    /// [`crate::limits::MAX_PLAN_SAMPLES`] would need gigabytes).
+    pub fn write_json<W: Write>(&self, out: W) -> std::io::Result<()> {
+        let mut w = std::io::BufWriter::new(out);
+        let mut cols: Vec<&str> = COLUMNS.to_vec();
+        if self.is_caster() {
+            cols.extend(CASTER_COLUMNS);
+        }
+        w.write_all(b"{\"columns\":")?;
+        serde_json::to_writer(&mut w, &cols)?;
+        w.write_all(b",\"samples\":[")?;
+        for (k, s) in self.samples.iter().enumerate() {
+            if k > 0 {
+                w.write_all(b",")?;
+            }
+            let mut r = [0.0; 16];
+            r[..7].copy_from_slice(&[
+                s.t,
+                s.pose.x,
+                s.pose.y,
+                s.pose.heading,
+                s.twist.vx,
+                s.twist.vy,
+                s.twist.yaw_rate,
+            ]);
+            r[7..10].copy_from_slice(&s.wheel_rates);
+            let n = match s.steer {
+                Some((g, gd)) => {
+                    r[10..13].copy_from_slice(&g);
+                    r[13..16].copy_from_slice(&gd);
+                    16
+                }
+                None => 10,
+            };
+            serde_json::to_writer(&mut w, &r[..n])?;
+        }
+        w.write_all(b"]}")?;
+        w.flush()
+    }
+
     /// Writes CSV to `path`.
     pub fn save_csv(&self, path: &Path) -> Result<(), PlanError> {
         let io = |source| PlanError::Io {
@@ -323,6 +364,33 @@ mod tests {
             let back = Plan::read_csv(&buf[..], "mem").unwrap();
             assert_eq!(back, plan);
         }
+    }
+
+    #[test]
+    fn streamed_json_is_the_json_document() {
+        for caster in [false, true] {
+            let plan = Plan {
+                samples: (0..4).map(|k| sample(k as f64 * 0.01, caster)).collect(),
+            };
+            let mut buf = Vec::new();
+            plan.write_json(&mut buf).unwrap();
+            let streamed: serde_json::Value = serde_json::from_slice(&buf).unwrap();
+            assert_eq!(streamed, plan.to_json());
+            assert_eq!(
+                String::from_utf8(buf).unwrap(),
+                serde_json::to_string(&plan.to_json()).unwrap()
+            );
+        }
+    }
+
+    #[test]
+    fn a_byte_order_mark_is_skipped() {
+        let plan = Plan {
+            samples: (0..3).map(|k| sample(k as f64 * 0.01, false)).collect(),
+        };
+        let mut buf = "\u{feff}".as_bytes().to_vec();
+        plan.write_csv(&mut buf).unwrap();
+        assert_eq!(Plan::read_csv(&buf[..], "bom.csv").unwrap(), plan);
     }
 
     #[test]

@@ -57,7 +57,8 @@ use crate::PlanningError;
 use crate::error::Violation;
 use crate::heading::{HeadingLaw, Side, wrap_pi};
 use crate::limits::{
-    MAX_MOVE_GRID_CELLS, MAX_PLAN_GRID_CELLS, MAX_PLAN_SAMPLES, RATE_RANGE, SPEED_RANGE, check_range,
+    MAX_MOVE_GRID_CELLS, MAX_PLAN_GRID_CELLS, MAX_PLAN_SAMPLES, RATE_RANGE, SPEED_RANGE,
+    check_range,
 };
 use crate::path::Path;
 use crate::plan::{Plan, Sample};
@@ -97,7 +98,9 @@ impl Default for MotionLimits {
 impl MotionLimits {
     /// Checks every limit against its range in [`crate::limits`].
     fn validate(&self, jerk: bool) -> Result<(), PlanningError> {
-        use crate::limits::{ACCEL_RANGE, JERK_RANGE, SPEED_RANGE, YAW_ACCEL_RANGE, YAW_RATE_RANGE};
+        use crate::limits::{
+            ACCEL_RANGE, JERK_RANGE, SPEED_RANGE, YAW_ACCEL_RANGE, YAW_RATE_RANGE,
+        };
         check_range("max speed", self.max_speed, SPEED_RANGE, "m/s")?;
         check_range("max acceleration", self.max_accel, ACCEL_RANGE, "m/s²")?;
         check_range("max yaw rate", self.max_yaw_rate, YAW_RATE_RANGE, "rad/s")?;
@@ -1642,7 +1645,10 @@ fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, PlanningError
         let cells: usize = moves.iter().map(|m| m.sig.len() - 1).sum();
         if cells > MAX_PLAN_GRID_CELLS {
             return Err(PlanningError::TooLarge {
-                what: format!("the path (length {len:.4e} m, {} moves so far)", moves.len()),
+                what: format!(
+                    "the path (length {len:.4e} m, {} moves so far)",
+                    moves.len()
+                ),
                 items: "grid cells",
                 needed: cells as f64,
                 limit: "MAX_PLAN_GRID_CELLS",

@@ -15,12 +15,15 @@
 //! * [`metrics`]: deviation from the planned path (m and % of path), end-point and heading
 //!   errors, mean trajectory with a Student-t 95 % band, fitted circle and radius ratio,
 //!   repeatability.
+//! * [`limits`]: the stated limits — most plant steps per trial, trial samples held at once,
+//!   rows of a track file — and the plausible range of every profile parameter.
 //! * [`reproduce`]: paper 000's whole experiment design re-run under three profiles, with a
 //!   table of our figures next to the paper's.
 //! * [`track`]: real tracked runs (`t,x,y[,heading]` CSV), aligned to a plan's start of motion
 //!   and resampled onto its time grid, so the same metrics apply to hardware experiments.
 #![warn(missing_docs)]
 
+pub mod limits;
 pub mod metrics;
 mod monte_carlo;
 mod motor;

@@ -8,6 +8,7 @@ use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
+use crate::limits::MAX_PLANT_STEPS;
 use crate::motor::Motor;
 use crate::profile::{Hold, Profile};
 
@@ -38,6 +39,26 @@ pub enum SimError {
     /// The plan and the robot do not fit together.
     #[error("{0}")]
     Mismatch(String),
+    /// The simulation would need more work or memory than a stated limit of
+    /// [`crate::limits`] allows (checked before it starts).
+    #[error(
+        "{what} needs {needed:.4e} {items}, more than the limit {limit} = {max:e} \
+         (omnikin_sim::limits); {hint}"
+    )]
+    TooLarge {
+        /// What would grow, and why.
+        what: String,
+        /// What is counted (`plant steps`, `trial samples`).
+        items: &'static str,
+        /// How many the inputs imply.
+        needed: f64,
+        /// The limit's name (a constant of [`crate::limits`]).
+        limit: &'static str,
+        /// The limit's value.
+        max: f64,
+        /// What to change to stay within it.
+        hint: &'static str,
+    },
     /// The kinematics rejected a state (non-finite values: the simulated motion diverged).
     #[error("at t = {t:.4} s: {source}")]
     Kinematics {
@@ -63,6 +84,11 @@ fn gauss(rng: &mut ChaCha8Rng) -> f64 {
 /// floor slip scales the resulting body velocity, and [`omnikin::se2::integrate`] advances the
 /// pose exactly over each plant step. Plant steps divide each plan interval evenly, so the
 /// state lands exactly on every sample time.
+///
+/// # Errors
+/// [`SimError::Mismatch`] for an empty plan or a plan of another robot kind;
+/// [`SimError::TooLarge`] when the plan needs more than [`crate::limits::MAX_PLANT_STEPS`]
+/// plant steps (checked before simulating); [`SimError::Kinematics`] if the motion diverges.
 pub fn simulate_trial(
     robot: &Robot<f64>,
     plan: &Plan,
@@ -82,6 +108,23 @@ pub fn simulate_trial(
         }));
     }
     let rate = profile.rate_hz();
+    // Every plant step is work: bound their number before starting (a plan whose last time
+    // is 1e300 s would otherwise loop for ever). NaN and infinities fail the comparison.
+    let steps: f64 = samples
+        .windows(2)
+        .map(|w| ((w[1].t - w[0].t) * rate).round().max(1.0))
+        .sum();
+    if !(steps <= MAX_PLANT_STEPS) {
+        let duration = samples[samples.len() - 1].t - first.t;
+        return Err(SimError::TooLarge {
+            what: format!("a trial (plan duration {duration:.4e} s × plant rate {rate} Hz)"),
+            items: "plant steps",
+            needed: steps,
+            limit: "MAX_PLANT_STEPS",
+            max: MAX_PLANT_STEPS,
+            hint: "shorten the plan (check its t column) or lower the profile's plant `rate`",
+        });
+    }
     let wm = profile.wheel_motor;
     let radius_scale: [f64; 3] =
         core::array::from_fn(|_| 1.0 + wm.radius_error_std.unwrap_or(0.0) * gauss(rng));

@@ -184,6 +184,11 @@ pub struct Profile {
     pub encoder: EncoderProfile,
 }
 
+/// `text` without a leading UTF-8 byte-order mark (editors on Windows write one).
+pub(crate) fn strip_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
+}
+
 /// A profile that failed to load: file, line or field, rule.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("{file}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
@@ -215,6 +220,7 @@ impl Profile {
 
     /// Parses and validates a profile from TOML text.
     pub fn from_toml_str(text: &str, file: &str) -> Result<Self, ProfileError> {
+        let text = strip_bom(text);
         let p: Profile = toml::from_str(text).map_err(|e| ProfileError {
             file: file.to_string(),
             line: e
@@ -230,82 +236,136 @@ impl Profile {
         Ok(p)
     }
 
-    /// Checks every value's range; the error names the key and the rule.
+    /// Checks every value's range (the `*_RANGE` constants of [`crate::limits`]); the error
+    /// names the key, the value and the range or rule.
     pub fn validate(&self) -> Result<(), String> {
-        fn positive(key: &str, v: Option<f64>) -> Result<(), String> {
-            match v {
-                Some(x) if !(x.is_finite() && x > 0.0) => {
-                    Err(format!("{key}: must be a finite number > 0 (got {x})"))
-                }
-                _ => Ok(()),
-            }
-        }
-        fn non_negative(key: &str, v: Option<f64>) -> Result<(), String> {
-            match v {
-                Some(x) if !(x.is_finite() && x >= 0.0) => {
-                    Err(format!("{key}: must be a finite number ≥ 0 (got {x})"))
-                }
-                _ => Ok(()),
-            }
-        }
-        positive("rate", self.rate)?;
-        if self.rate_hz() > 1.0e6 {
-            return Err(format!("rate: at most 1e6 Hz (got {})", self.rate_hz()));
-        }
+        use crate::limits::*;
+        let int = |v: Option<u32>| v.map(f64::from);
+        check("rate", self.rate, PLANT_RATE_RANGE, "Hz")?;
         for (name, m) in [
             ("wheel_motor", &self.wheel_motor),
             ("steer_motor", &self.steer_motor),
         ] {
-            if m.steps_per_rev == Some(0) || m.microsteps == Some(0) {
-                return Err(format!("{name}.steps_per_rev / microsteps: must be ≥ 1"));
-            }
+            let key = |k: &str| format!("{name}.{k}");
+            check(
+                &key("steps_per_rev"),
+                int(m.steps_per_rev),
+                STEPS_PER_REV_RANGE,
+                "",
+            )?;
+            check(&key("microsteps"), int(m.microsteps), MICROSTEPS_RANGE, "")?;
             if m.microsteps.is_some() && m.steps_per_rev.is_none() {
                 return Err(format!("{name}.microsteps: needs {name}.steps_per_rev"));
             }
-            positive(&format!("{name}.max_step_rate"), m.max_step_rate)?;
+            check(
+                &key("max_step_rate"),
+                m.max_step_rate,
+                STEP_RATE_RANGE,
+                "steps/s",
+            )?;
             if m.max_step_rate.is_some() && m.steps_per_rev.is_none() {
                 return Err(format!("{name}.max_step_rate: needs {name}.steps_per_rev"));
             }
-            positive(&format!("{name}.lag_time_constant"), m.lag_time_constant)?;
-            positive(&format!("{name}.max_accel"), m.max_accel)?;
-            non_negative(&format!("{name}.fluctuation_abs"), m.fluctuation_abs)?;
-            non_negative(&format!("{name}.fluctuation_rel"), m.fluctuation_rel)?;
-            positive(&format!("{name}.fluctuation_period"), m.fluctuation_period)?;
-            non_negative(&format!("{name}.radius_error_std"), m.radius_error_std)?;
+            check(
+                &key("lag_time_constant"),
+                m.lag_time_constant,
+                MOTOR_TIME_RANGE,
+                "s",
+            )?;
+            check(&key("max_accel"), m.max_accel, MOTOR_ACCEL_RANGE, "rad/s²")?;
+            check(
+                &key("fluctuation_abs"),
+                m.fluctuation_abs,
+                FLUCTUATION_ABS_RANGE,
+                "rad/s",
+            )?;
+            check(
+                &key("fluctuation_rel"),
+                m.fluctuation_rel,
+                FRACTION_RANGE,
+                "",
+            )?;
+            check(
+                &key("fluctuation_period"),
+                m.fluctuation_period,
+                MOTOR_TIME_RANGE,
+                "s",
+            )?;
+            check(
+                &key("radius_error_std"),
+                m.radius_error_std,
+                RADIUS_ERROR_RANGE,
+                "",
+            )?;
             if let Some(b) = m.rate_bias_rel
                 && !(b.is_finite() && b.abs() < 1.0)
             {
                 return Err(format!(
-                    "{name}.rate_bias_rel: must be finite with |bias| < 1 (got {b})"
+                    "{name}.rate_bias_rel: must be finite with |bias| < 1 (got {})",
+                    num(b)
                 ));
             }
         }
-        non_negative("shell_spin.std", self.shell_spin.std)?;
-        non_negative("shell_spin.slip_gain", self.shell_spin.slip_gain)?;
-        non_negative("shell_spin.slip_exponent", self.shell_spin.slip_exponent)?;
-        non_negative("roller.amplitude", self.roller.amplitude)?;
+        check(
+            "shell_spin.std",
+            self.shell_spin.std,
+            ANGULAR_RATE_NOISE_RANGE,
+            "rad/s",
+        )?;
+        check(
+            "shell_spin.slip_gain",
+            self.shell_spin.slip_gain,
+            SLIP_GAIN_RANGE,
+            "",
+        )?;
+        check(
+            "shell_spin.slip_exponent",
+            self.shell_spin.slip_exponent,
+            SLIP_EXPONENT_RANGE,
+            "",
+        )?;
+        check(
+            "roller.amplitude",
+            self.roller.amplitude,
+            FRACTION_RANGE,
+            "",
+        )?;
         if self.roller.amplitude.unwrap_or(0.0) >= 1.0 {
             return Err("roller.amplitude: must be < 1".into());
         }
-        if self.roller.rollers == Some(0) {
-            return Err("roller.rollers: must be ≥ 1".into());
-        }
-        non_negative("floor.rel_std", self.floor.rel_std)?;
-        positive("floor.corr_time", self.floor.corr_time)?;
-        non_negative("tracking.noise_std", self.tracking.noise_std)?;
-        non_negative("tracking.tilt_gain", self.tracking.tilt_gain)?;
-        if let Some(h) = self.tracking.height
-            && !h.is_finite()
-        {
-            return Err(format!("tracking.height: must be finite (got {h})"));
+        check(
+            "roller.rollers",
+            int(self.roller.rollers),
+            ROLLERS_RANGE,
+            "",
+        )?;
+        check("floor.rel_std", self.floor.rel_std, FRACTION_RANGE, "")?;
+        check(
+            "floor.corr_time",
+            self.floor.corr_time,
+            CORR_TIME_RANGE,
+            "s",
+        )?;
+        check(
+            "tracking.noise_std",
+            self.tracking.noise_std,
+            POSITION_NOISE_RANGE,
+            "m",
+        )?;
+        check(
+            "tracking.tilt_gain",
+            self.tracking.tilt_gain,
+            TILT_GAIN_RANGE,
+            "",
+        )?;
+        let offset = (-MAX_TRACKING_OFFSET, MAX_TRACKING_OFFSET);
+        check("tracking.height", self.tracking.height, offset, "m")?;
+        if let Some(o) = self.tracking.offset {
+            check("tracking.offset[0]", Some(o[0]), offset, "m")?;
+            check("tracking.offset[1]", Some(o[1]), offset, "m")?;
         }
         if self.encoder.counts_per_rev == Some(0) {
             return Err("encoder.counts_per_rev: must be ≥ 1".into());
-        }
-        if let Some(o) = self.tracking.offset
-            && !o.iter().all(|x| x.is_finite())
-        {
-            return Err("tracking.offset: must be finite".into());
         }
         Ok(())
     }
@@ -344,7 +404,8 @@ mod tests {
         let e = Profile::from_toml_str("[wheel_motor]\nmax_accel = -3\n", "p.toml").unwrap_err();
         assert_eq!(
             e.to_string(),
-            "p.toml: wheel_motor.max_accel: must be a finite number > 0 (got -3)"
+            "p.toml: wheel_motor.max_accel: -3 rad/s² is outside the plausible range \
+             [0.001, 1e7] rad/s² (omnikin_sim::limits)"
         );
         let e = Profile::from_toml_str("rate = 1000.0\n[floor]\nrel_sdt = 0.1\n", "p.toml")
             .unwrap_err();

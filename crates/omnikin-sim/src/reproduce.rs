@@ -76,10 +76,20 @@ pub const PAPER_LOW_SPEED_MAX_DEVIATION_PCT: f64 = 7.0;
 pub const PAPER_MAX_DEVIATION_FROM_MEAN_M: f64 = 0.110;
 
 /// Plans the eight series (square and circle at k = 1, 2, 4, 5) for `robot` at `rate` Hz.
+///
+/// # Errors
+/// [`omnikin_plan::PlanningError::OutOfRange`] for a rate outside
+/// [`crate::limits::REPRODUCE_RATE_RANGE`]; any planning error of a series.
 pub fn sphere_2019_series(
     robot: &RobotDescription,
     rate: f64,
 ) -> Result<Vec<Series>, omnikin_plan::PlanningError> {
+    omnikin_plan::limits::check_range(
+        "rate",
+        rate,
+        crate::limits::REPRODUCE_RATE_RANGE,
+        "Hz (reproduce)",
+    )?;
     let model = RobotModel::from_description(robot)?;
     let mut out = Vec::new();
     for k in [1.0, 2.0, 4.0, 5.0] {
@@ -211,6 +221,10 @@ pub struct Outcome {
 }
 
 /// Simulates `series` under every profile of [`profiles`] with `trials` trials each.
+///
+/// # Errors
+/// [`SimError::TooLarge`] when `trials` × the plan's samples exceed
+/// [`crate::limits::MAX_TRIAL_SAMPLES`] (checked before simulating); any trial's error.
 pub fn run_series(
     robot: &omnikin::Robot<f64>,
     series: &Series,
@@ -218,6 +232,21 @@ pub fn run_series(
     seed: u64,
     progress: &(dyn Fn() + Sync),
 ) -> Result<Vec<Outcome>, SimError> {
+    let needed = trials as f64 * series.plan.samples.len() as f64;
+    if needed > crate::limits::MAX_TRIAL_SAMPLES {
+        return Err(SimError::TooLarge {
+            what: format!(
+                "series {} ({trials} trials × {} samples)",
+                series.name,
+                series.plan.samples.len()
+            ),
+            items: "trial samples",
+            needed,
+            limit: "MAX_TRIAL_SAMPLES",
+            max: crate::limits::MAX_TRIAL_SAMPLES,
+            hint: "lower --trials or --rate",
+        });
+    }
     let mut out = Vec::new();
     for (name, profile) in profiles() {
         let t: Vec<Trial> = run_trials(robot, &series.plan, &profile, trials, seed, progress)?;

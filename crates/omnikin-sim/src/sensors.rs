@@ -151,13 +151,104 @@ impl SensorProfile {
     /// Reads a sensor profile from TOML text (every key of the types above; unknown keys are
     /// errors naming the line).
     pub fn from_toml_str(text: &str, file: &str) -> Result<Self, crate::profile::ProfileError> {
-        toml::from_str(text).map_err(|e| crate::profile::ProfileError {
+        let text = crate::profile::strip_bom(text);
+        let p: Self = toml::from_str(text).map_err(|e| crate::profile::ProfileError {
             file: file.to_string(),
             line: e
                 .span()
                 .map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count()),
             message: e.message().trim().to_string(),
-        })
+        })?;
+        p.validate()
+            .map_err(|message| crate::profile::ProfileError {
+                file: file.to_string(),
+                line: None,
+                message,
+            })?;
+        Ok(p)
+    }
+
+    /// Checks every value's range (the `*_RANGE` constants of [`crate::limits`]); the error
+    /// names the key, the value and the range.
+    pub fn validate(&self) -> Result<(), String> {
+        use crate::limits::*;
+        let rate = ANGULAR_RATE_NOISE_RANGE;
+        let signed = |(_, max): (f64, f64)| (-max, max);
+        if self.counts_per_rev == Some(0) {
+            return Err("counts_per_rev: must be ≥ 1".into());
+        }
+        if self.steer_counts_per_rev == Some(0) {
+            return Err("steer_counts_per_rev: must be ≥ 1".into());
+        }
+        if let Some(g) = self.gyro {
+            check("gyro.noise_std", Some(g.noise_std), rate, "rad/s")?;
+            check("gyro.bias", Some(g.bias), signed(rate), "rad/s")?;
+            check("gyro.bias_std", Some(g.bias_std), rate, "rad/s")?;
+        }
+        if let Some(y) = self.yaw {
+            check("yaw.noise_std", Some(y.noise_std), ANGLE_NOISE_RANGE, "rad")?;
+        }
+        if let Some(imu) = self.imu {
+            check(
+                "imu.gyro_noise_std",
+                Some(imu.gyro_noise_std),
+                rate,
+                "rad/s",
+            )?;
+            for (i, b) in imu.gyro_bias.iter().enumerate() {
+                check(
+                    &format!("imu.gyro_bias[{i}]"),
+                    Some(*b),
+                    signed(rate),
+                    "rad/s",
+                )?;
+            }
+            check(
+                "imu.accel_noise_std",
+                Some(imu.accel_noise_std),
+                ACCEL_NOISE_RANGE,
+                "m/s²",
+            )?;
+            let field = (-MAX_MAGNETIC_FIELD, MAX_MAGNETIC_FIELD);
+            check(
+                "imu.mag_noise_std",
+                Some(imu.mag_noise_std),
+                (0.0, MAX_MAGNETIC_FIELD),
+                "µT",
+            )?;
+            for (i, f) in imu.field.iter().enumerate() {
+                check(&format!("imu.field[{i}]"), Some(*f), field, "µT")?;
+            }
+        }
+        if let Some(c) = self.camera {
+            check("camera.period", Some(c.period), CAMERA_PERIOD_RANGE, "s")?;
+            check("camera.latency", Some(c.latency), CAMERA_LATENCY_RANGE, "s")?;
+            check(
+                "camera.noise_std",
+                Some(c.noise_std),
+                POSITION_NOISE_RANGE,
+                "m",
+            )?;
+            check(
+                "camera.heading_noise_std",
+                c.heading_noise_std,
+                ANGLE_NOISE_RANGE,
+                "rad",
+            )?;
+            check(
+                "camera.outlier_probability",
+                Some(c.outlier_probability),
+                FRACTION_RANGE,
+                "",
+            )?;
+            check(
+                "camera.outlier_distance",
+                Some(c.outlier_distance),
+                OUTLIER_DISTANCE_RANGE,
+                "m",
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -338,8 +429,26 @@ pub fn emit(
             if t[k] + 1e-9 < next {
                 continue;
             }
+            // The first frame time after this sample. Frames are usually sparser than samples
+            // (one addition, as always); when many periods fit in one interval, jump over all
+            // but the last two, so the work per sample is bounded whatever the period, and a
+            // period below the resolution of t (addition cannot advance `next`) ends the fixes.
+            let skip = ((t[k] + 1e-9 - next) / cam.period).floor();
+            if skip >= 2.0 {
+                next += (skip - 1.0) * cam.period;
+            }
+            let mut left = 4;
             while next <= t[k] + 1e-9 {
-                next += cam.period;
+                let after = next + cam.period;
+                if after <= next || left == 0 {
+                    next = t[k] + cam.period;
+                    if next <= t[k] + 1e-9 {
+                        next = f64::INFINITY;
+                    }
+                    break;
+                }
+                next = after;
+                left -= 1;
             }
             let p = trial.pose[k];
             let mut fix = CameraFix {

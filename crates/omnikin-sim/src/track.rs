@@ -62,7 +62,8 @@ impl Track {
     }
 
     /// Reads `t,x,y` with an optional `heading` column (any order, extra columns ignored).
-    /// Every value must be a finite number and time must increase strictly.
+    /// Every value must be a finite number and time must increase strictly. At most
+    /// [`crate::limits::MAX_TRACK_ROWS`] rows; a leading UTF-8 byte-order mark is skipped.
     pub fn read_csv<R: Read>(input: R, file: &str) -> Result<Self, TrackError> {
         let err = |line: Option<usize>, message: String| TrackError {
             file: file.to_string(),
@@ -99,6 +100,16 @@ impl Track {
                 err(Some(line), e.to_string())
             })?;
             let line = rec.position().map_or(k + 2, |p| p.line() as usize);
+            if track.t.len() == crate::limits::MAX_TRACK_ROWS {
+                return Err(err(
+                    Some(line),
+                    format!(
+                        "more than {} rows (the limit MAX_TRACK_ROWS of omnikin_sim::limits); \
+                         cut the run into several files or resample it",
+                        crate::limits::MAX_TRACK_ROWS
+                    ),
+                ));
+            }
             let get = |i: usize, name: &str| -> Result<f64, TrackError> {
                 let s = rec
                     .get(i)

@@ -20,8 +20,11 @@
 //!
 //! Loading validates everything and reports the first problem as a [`DescriptionError`] that
 //! names the file, the line (for syntax and schema errors) or the field, and the rule broken:
-//! unknown keys, missing fields, wrong types, non-positive lengths, a wheel larger than the
-//! shell, out-of-range angles, singular geometry.
+//! unknown keys, missing fields, wrong types, a list without exactly three values (one per
+//! wheel), non-positive lengths, a wheel larger than the shell, out-of-range angles, singular
+//! geometry, and values that are finite but implausible: lengths outside [`LENGTH_RANGE`],
+//! motor limits outside [`MOTOR_RATE_RANGE`] / [`MOTOR_ACCEL_RANGE`], a name longer than
+//! [`MAX_NAME_CHARS`] or with control characters. A leading UTF-8 byte-order mark is skipped.
 
 use std::format;
 use std::string::{String, ToString};
@@ -42,6 +45,32 @@ pub const PRESETS: [(&str, &str); 3] = [
     ("ballbot", include_str!("../../../robots/ballbot.toml")),
     ("caster3", include_str!("../../../robots/caster3.toml")),
 ];
+
+/// Plausible range of every length in a description (`shell_radius`, `wheel_radius`,
+/// `ball_radius`, `mount_radius`, `eccentricity`), m: 0.1 mm to 10 m.
+pub const LENGTH_RANGE: (f64, f64) = (1e-4, 10.0);
+
+/// Plausible range of a motor rate limit (`limits.max_wheel_rate`, `limits.max_steer_rate`),
+/// rad/s: 10⁻³ rad/s (a turn in under two hours) to 10⁵ rad/s (about 10⁶ rpm).
+pub const MOTOR_RATE_RANGE: (f64, f64) = (1e-3, 1e5);
+
+/// Plausible range of a motor acceleration limit (`limits.max_wheel_accel`,
+/// `limits.max_steer_accel`), rad/s².
+pub const MOTOR_ACCEL_RANGE: (f64, f64) = (1e-3, 1e7);
+
+/// Longest robot name (`name`), in characters. Names are printable: no control characters
+/// (they end up in terminal output and SVG figures).
+pub const MAX_NAME_CHARS: usize = 64;
+
+/// A number for a message: plain, or `1e300` style when tiny or huge.
+fn num(v: f64) -> String {
+    let a = v.abs();
+    if a != 0.0 && a.is_finite() && !(1e-3..1e6).contains(&a) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
 
 /// A robot description that failed to load: where, which field, which rule.
 ///
@@ -119,7 +148,8 @@ struct File<G> {
     limits: Limits,
 }
 
-/// One value for all three wheels, or one per wheel.
+/// One value for all three wheels, or one per wheel (a list, whose length is checked after
+/// parsing: a fixed-size array would silently drop a fourth value).
 #[derive(Deserialize)]
 #[serde(
     untagged,
@@ -127,26 +157,20 @@ struct File<G> {
 )]
 enum PerWheel {
     All(f64),
-    Each([f64; 3]),
+    Each(std::vec::Vec<f64>),
 }
 
-impl PerWheel {
-    fn each(&self) -> [f64; 3] {
-        match *self {
-            PerWheel::All(r) => [r; 3],
-            PerWheel::Each(r) => r,
-        }
-    }
-}
+/// A list in the file, with where it is (for the line of a wrong-length error).
+type List = toml::Spanned<std::vec::Vec<f64>>;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SphereGeometry {
     shell_radius: f64,
-    wheel_radius: PerWheel,
+    wheel_radius: toml::Spanned<PerWheel>,
     tilt_deg: f64,
     roller_angle_deg: f64,
-    azimuths_deg: [f64; 3],
+    azimuths_deg: List,
 }
 
 #[derive(Deserialize)]
@@ -155,7 +179,7 @@ struct BallbotGeometry {
     ball_radius: f64,
     wheel_radius: f64,
     zenith_deg: f64,
-    azimuths_deg: [f64; 3],
+    azimuths_deg: List,
 }
 
 #[derive(Deserialize)]
@@ -164,7 +188,7 @@ struct CasterGeometry {
     mount_radius: f64,
     eccentricity: f64,
     wheel_radius: f64,
-    mount_angles_deg: [f64; 3],
+    mount_angles_deg: List,
 }
 
 const KINDS: &str = "one of \"sphere-omni\", \"ballbot\", \"caster3\"";
@@ -211,6 +235,8 @@ impl RobotDescription {
 
     /// Parses and validates a description from TOML text; `source_name` names it in errors.
     pub fn from_toml_str(text: &str, source_name: &str) -> Result<Self, DescriptionError> {
+        // A leading UTF-8 byte-order mark (editors on Windows write one) is not content.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let err = |line, field: &str, rule: String| DescriptionError {
             source_name: source_name.to_string(),
             line,
@@ -223,6 +249,18 @@ impl RobotDescription {
                 .map(|s| 1 + text[..s.start.min(text.len())].matches('\n').count());
             err(line, "", e.message().trim().to_string())
         };
+        let line_of = |offset: usize| 1 + text[..offset.min(text.len())].matches('\n').count();
+        // Exactly three values, one per wheel: the error names the key and its line.
+        let three = |l: &List, field: &str| -> Result<[f64; 3], DescriptionError> {
+            match l.get_ref().as_slice() {
+                &[a, b, c] => Ok([a, b, c]),
+                v => Err(err(
+                    Some(line_of(l.span().start)),
+                    field,
+                    format!("expected 3 values (one per wheel), got {}", v.len()),
+                )),
+            }
+        };
         let header: Header = toml::from_str(text).map_err(de_err)?;
         let kind = header
             .kind
@@ -231,12 +269,29 @@ impl RobotDescription {
             "sphere-omni" => {
                 let f: File<SphereGeometry> = toml::from_str(text).map_err(de_err)?;
                 let g = &f.geometry;
+                let wheel_radius = match g.wheel_radius.get_ref() {
+                    PerWheel::All(r) => [*r; 3],
+                    PerWheel::Each(v) => match v.as_slice() {
+                        &[a, b, c] => [a, b, c],
+                        v => {
+                            return Err(err(
+                                Some(line_of(g.wheel_radius.span().start)),
+                                "geometry.wheel_radius",
+                                format!(
+                                    "expected a radius in m, or a list of three radii (one per \
+                                     wheel); got {} values",
+                                    v.len()
+                                ),
+                            ));
+                        }
+                    },
+                };
                 let p = SphereParams {
                     shell_radius: g.shell_radius,
-                    wheel_radius: g.wheel_radius.each(),
+                    wheel_radius,
                     tilt: g.tilt_deg.to_radians(),
                     roller_angle: g.roller_angle_deg.to_radians(),
-                    azimuths: g.azimuths_deg.map(f64::to_radians),
+                    azimuths: three(&g.azimuths_deg, "geometry.azimuths_deg")?.map(f64::to_radians),
                 };
                 SphereOmni::new(p).map_err(|e| geometry_error(e, source_name, "sphere-omni"))?;
                 (f.name, Geometry::Sphere(p), f.limits)
@@ -255,7 +310,7 @@ impl RobotDescription {
                     ball_radius: g.ball_radius,
                     wheel_radius: g.wheel_radius,
                     zenith: g.zenith_deg.to_radians(),
-                    azimuths: g.azimuths_deg.map(f64::to_radians),
+                    azimuths: three(&g.azimuths_deg, "geometry.azimuths_deg")?.map(f64::to_radians),
                 };
                 Ballbot::new(p).map_err(|e| geometry_error(e, source_name, "ballbot"))?;
                 (f.name, Geometry::Ballbot(p), f.limits)
@@ -267,7 +322,8 @@ impl RobotDescription {
                     mount_radius: g.mount_radius,
                     eccentricity: g.eccentricity,
                     wheel_radius: g.wheel_radius,
-                    mount_angles: g.mount_angles_deg.map(f64::to_radians),
+                    mount_angles: three(&g.mount_angles_deg, "geometry.mount_angles_deg")?
+                        .map(f64::to_radians),
                 };
                 Caster3::new(p).map_err(|e| geometry_error(e, source_name, "caster3"))?;
                 (f.name, Geometry::Caster(p), f.limits)
@@ -296,6 +352,76 @@ impl RobotDescription {
                     format!("must be a finite number > 0 (got {v})"),
                 ));
             }
+        }
+        let range = |field: &str, v: f64, (min, max): (f64, f64), unit: &str| {
+            if v.is_finite() && v >= min && v <= max {
+                Ok(())
+            } else {
+                Err(err(
+                    None,
+                    field,
+                    format!(
+                        "{} {unit} is outside the plausible range [{}, {}] {unit} \
+                         (omnikin::description)",
+                        num(v),
+                        num(min),
+                        num(max)
+                    ),
+                ))
+            }
+        };
+        for (field, value, r, unit) in [
+            (
+                "limits.max_wheel_rate",
+                limits.max_wheel_rate,
+                MOTOR_RATE_RANGE,
+                "rad/s",
+            ),
+            (
+                "limits.max_wheel_accel",
+                limits.max_wheel_accel,
+                MOTOR_ACCEL_RANGE,
+                "rad/s²",
+            ),
+            (
+                "limits.max_steer_rate",
+                limits.max_steer_rate,
+                MOTOR_RATE_RANGE,
+                "rad/s",
+            ),
+            (
+                "limits.max_steer_accel",
+                limits.max_steer_accel,
+                MOTOR_ACCEL_RANGE,
+                "rad/s²",
+            ),
+        ] {
+            if let Some(v) = value {
+                range(field, v, r, unit)?;
+            }
+        }
+        let lengths: &[(&str, f64)] = match &geometry {
+            Geometry::Sphere(p) => &[
+                ("geometry.shell_radius", p.shell_radius),
+                ("geometry.wheel_radius (wheel 1)", p.wheel_radius[0]),
+                ("geometry.wheel_radius (wheel 2)", p.wheel_radius[1]),
+                ("geometry.wheel_radius (wheel 3)", p.wheel_radius[2]),
+            ],
+            Geometry::Ballbot(p) => &[
+                ("geometry.ball_radius", p.ball_radius),
+                ("geometry.wheel_radius", p.wheel_radius),
+            ],
+            Geometry::Caster(p) => &[
+                ("geometry.mount_radius", p.mount_radius),
+                ("geometry.eccentricity", p.eccentricity),
+                ("geometry.wheel_radius", p.wheel_radius),
+            ],
+        };
+        for &(field, v) in lengths {
+            range(field, v, LENGTH_RANGE, "m")?;
+        }
+        if let Some(n) = &name {
+            check_name(n).map_err(|rule| err(None, "name", rule))?;
         }
         if !matches!(geometry, Geometry::Caster(_))
             && (limits.max_steer_rate.is_some() || limits.max_steer_accel.is_some())
@@ -359,6 +485,23 @@ impl RobotDescription {
             ),
         })
     }
+}
+
+/// Checks a robot name: 1 to [`MAX_NAME_CHARS`] characters, none of them a control character.
+fn check_name(name: &str) -> Result<(), String> {
+    let chars = name.chars().count();
+    if chars == 0 || chars > MAX_NAME_CHARS {
+        return Err(format!(
+            "must have 1 to {MAX_NAME_CHARS} characters (got {chars})"
+        ));
+    }
+    if let Some(c) = name.chars().find(|c| c.is_control()) {
+        return Err(format!(
+            "must be printable: contains the control character U+{:04X}",
+            u32::from(c)
+        ));
+    }
+    Ok(())
 }
 
 /// The 1-based wheel an error is about: from a `[i]` index or the error's wheel number.

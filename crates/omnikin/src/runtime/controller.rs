@@ -278,6 +278,12 @@ pub struct ConfigError {
     pub rule: &'static str,
 }
 
+/// Range of the control rate [`Config::rate_hz`] that [`Config::validate`] accepts, Hz: at
+/// least 1 Hz (a slower loop cannot keep a sub-second watchdog) and at most 10 kHz (the
+/// clock counts whole microseconds, so a cycle needs at least 100 µs to be represented well;
+/// faster than any omni drive's motor control needs).
+pub const RATE_HZ_RANGE: (f64, f64) = (1.0, 10_000.0);
+
 /// Control-loop settings. SI units; build with [`Config::new`] and adjust fields.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Config<T> {
@@ -378,6 +384,13 @@ impl<T: Real> Config<T> {
             }
         };
         pos(self.rate_hz, "rate_hz")?;
+        if !(self.rate_hz >= T::of(RATE_HZ_RANGE.0) && self.rate_hz <= T::of(RATE_HZ_RANGE.1)) {
+            return Err(ConfigError {
+                field: "rate_hz",
+                rule: "must be between 1 and 10000 Hz (RATE_HZ_RANGE): the clock counts whole \
+                       microseconds, and a loop below 1 Hz cannot keep a watchdog",
+            });
+        }
         let opt = |x: Option<T>, f| x.map_or(Ok(()), |v| pos(v, f));
         opt(self.rate_limits.wheel, "max_wheel_rate")?;
         opt(self.rate_limits.steer, "max_steer_rate")?;

@@ -84,6 +84,7 @@ pub mod limits;
 
 mod controller;
 
+pub use controller::RATE_HZ_RANGE;
 pub use controller::{
     Command, CommandError, Config, ConfigError, Faults, Frame, Mode, PlanPoint, PlanStatus,
     Runtime, Status,
