@@ -162,7 +162,7 @@ fn bad_inputs_name_file_and_rule() {
         .assert()
         .failure()
         .stderr(predicate::str::contains(
-            "wheel_motor.max_accel: must be a finite number > 0",
+            "wheel_motor.max_accel: -1 rad/s² is outside the plausible range",
         ));
     omnikin()
         .args([

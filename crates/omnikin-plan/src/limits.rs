@@ -27,8 +27,10 @@ pub const MAX_PLAN_ROWS: usize = MAX_PLAN_SAMPLES;
 /// Most grid cells of one move of the planner's adaptive grid (≈ 200 bytes a cell).
 pub const MAX_MOVE_GRID_CELLS: usize = 400_000;
 
-/// Most grid cells of all moves of a plan together (≈ 200 bytes a cell: 800 MB).
-pub const MAX_PLAN_GRID_CELLS: usize = 4_000_000;
+/// Most grid cells of all moves of a plan together (≈ 200 bytes a cell: 400 MB; 100 km of
+/// path on the coarsest 5 cm grid). Checked from the path's length before the grid is built,
+/// and again as refinement adds cells.
+pub const MAX_PLAN_GRID_CELLS: usize = 2_000_000;
 
 /// Most waypoints in a waypoint file.
 pub const MAX_WAYPOINTS: usize = 100_000;

@@ -1586,6 +1586,16 @@ fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, PlanningError
     bounds.extend(cuts.into_iter().filter(|&s| s > 1e-12 && s < len - 1e-12));
     bounds.push(len);
 
+    // The grid's size before refinement, from the lengths alone: refuse a path too long for
+    // the grid before building any of it (refinement is checked move by move below).
+    let step = grid_step(ctx.robot);
+    let coarse: f64 = bounds
+        .windows(2)
+        .map(|w| ((w[1] - w[0]) / step).ceil().max(MIN_CELLS as f64))
+        .sum();
+    if !(coarse <= MAX_PLAN_GRID_CELLS as f64) {
+        return Err(too_many_plan_cells(len, bounds.len() - 1, coarse));
+    }
     let first = path.at_side(0.0, Side::After);
     let mut psi = match ctx.heading {
         HeadingLaw::Constant(c) => *c,
@@ -1622,7 +1632,6 @@ fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, PlanningError
                     psi0: psi,
                     dir: delta.signum(),
                 };
-                let step = grid_step(ctx.robot);
                 let mv = ctx.build_move(kind, delta.abs(), psi, gamma, step, &[])?;
                 psi += delta;
                 gamma = *mv.gamma.last().unwrap_or(&gamma);
@@ -1630,7 +1639,6 @@ fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, PlanningError
             }
         }
         let kind = Kind::Travel { s0, s1 };
-        let step = grid_step(ctx.robot);
         let kinks: Vec<f64> = path
             .piece_starts()
             .iter()
@@ -1644,20 +1652,21 @@ fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, PlanningError
         moves.push(mv);
         let cells: usize = moves.iter().map(|m| m.sig.len() - 1).sum();
         if cells > MAX_PLAN_GRID_CELLS {
-            return Err(PlanningError::TooLarge {
-                what: format!(
-                    "the path (length {len:.4e} m, {} moves so far)",
-                    moves.len()
-                ),
-                items: "grid cells",
-                needed: cells as f64,
-                limit: "MAX_PLAN_GRID_CELLS",
-                max: MAX_PLAN_GRID_CELLS,
-                hint: "shorten the path or cut it into several plans",
-            });
+            return Err(too_many_plan_cells(len, moves.len(), cells as f64));
         }
     }
     Ok(moves)
+}
+
+fn too_many_plan_cells(len: f64, moves: usize, cells: f64) -> PlanningError {
+    PlanningError::TooLarge {
+        what: format!("the path (length {len:.4e} m, {moves} moves)"),
+        items: "grid cells",
+        needed: cells,
+        limit: "MAX_PLAN_GRID_CELLS",
+        max: MAX_PLAN_GRID_CELLS,
+        hint: "shorten the path or cut it into several plans",
+    }
 }
 
 /// Samples the timed moves at `rate` Hz (plus the exact end time).

@@ -199,3 +199,145 @@ fn unknown_kind_and_missing_file() {
     let e = error_of("kind = [");
     assert!(e.starts_with("robots/test.toml:1:"), "{e}");
 }
+
+/// Issue 12, observation 9: a fourth value in a per-wheel list was silently dropped (serde
+/// fills a three-element array and ignores the rest).
+#[test]
+fn a_fourth_value_in_a_per_wheel_list_is_an_error_naming_the_key() {
+    let e = error_of(&sphere_with(
+        "azimuths_deg = [0.0, 120.0, 240.0]",
+        "azimuths_deg = [0.0, 120.0, 240.0, 300.0]",
+    ));
+    assert!(
+        e.contains("geometry.azimuths_deg: expected 3 values (one per wheel), got 4"),
+        "{e}"
+    );
+    let line = PRESETS[0]
+        .1
+        .lines()
+        .position(|l| l.starts_with("azimuths_deg"))
+        .unwrap()
+        + 1;
+    assert!(e.starts_with(&format!("robots/test.toml:{line}:")), "{e}");
+    let e = error_of(&sphere_with(
+        "azimuths_deg = [0.0, 120.0, 240.0]",
+        "azimuths_deg = [0.0, 120.0]",
+    ));
+    assert!(e.contains("got 2"), "{e}");
+    let e = error_of(&sphere_with(
+        "wheel_radius = 0.07",
+        "wheel_radius = [0.07, 0.07, 0.07, 0.07]",
+    ));
+    assert!(
+        e.contains("geometry.wheel_radius") && e.contains("got 4 values"),
+        "{e}"
+    );
+    let (_, ballbot) = PRESETS[1];
+    let e = error_of(&ballbot.replacen(
+        "azimuths_deg = [0.0, 120.0, -120.0]",
+        "azimuths_deg = [0.0, 120.0, -120.0, 60.0]",
+        1,
+    ));
+    assert!(
+        e.contains("geometry.azimuths_deg") && e.contains("got 4"),
+        "{e}"
+    );
+    let (_, caster) = PRESETS[2];
+    let e = error_of(&caster.replacen(
+        "mount_angles_deg = [0.0, -120.0, 120.0]",
+        "mount_angles_deg = [0.0, -120.0, 120.0, 180.0]",
+        1,
+    ));
+    assert!(
+        e.contains("geometry.mount_angles_deg") && e.contains("got 4"),
+        "{e}"
+    );
+}
+
+/// Issue 12, observations 5 and 9: finite but absurd values (a rate limit of 1e-308 rad/s made
+/// every plan take ~1e308 s) are refused with the field, the value and the range.
+#[test]
+fn implausible_lengths_and_motor_limits_name_field_value_and_range() {
+    use omnikin::description::{LENGTH_RANGE, MOTOR_ACCEL_RANGE, MOTOR_RATE_RANGE};
+    let e = error_of(&sphere_with(
+        "max_wheel_rate = 12.0",
+        "max_wheel_rate = 1e-308",
+    ));
+    assert_eq!(
+        e,
+        "robots/test.toml: limits.max_wheel_rate: 1e-308 rad/s is outside the plausible \
+         range [0.001, 100000] rad/s (omnikin::description)"
+    );
+    assert_eq!(MOTOR_RATE_RANGE, (0.001, 100000.0));
+    let e = error_of(&sphere_with(
+        "max_wheel_accel = 400.0",
+        "max_wheel_accel = 1e300",
+    ));
+    assert!(
+        e.contains("limits.max_wheel_accel: 1e300 rad/s²")
+            && e.contains(&format!("{:e}", MOTOR_ACCEL_RANGE.1)),
+        "{e}"
+    );
+    // A 50 m shell is valid geometry, but not a plausible robot.
+    let e = error_of(&sphere_with("shell_radius = 0.15", "shell_radius = 50.0"));
+    assert!(
+        e.contains("geometry.shell_radius: 50 m is outside the plausible range [1e-4, 10] m"),
+        "{e}"
+    );
+    let (_, caster) = PRESETS[2];
+    let e = error_of(&caster.replacen("eccentricity = 0.04", "eccentricity = 1e-9", 1));
+    assert!(e.contains("geometry.eccentricity: 1e-9 m"), "{e}");
+    assert!(LENGTH_RANGE.0 <= 0.04 && 0.2 <= LENGTH_RANGE.1);
+    // The presets sit well inside every range.
+    for (name, _) in PRESETS {
+        assert!(RobotDescription::preset(name).is_some(), "{name}");
+    }
+}
+
+/// Issue 12, observation 9: control characters in a robot name reached terminals and SVG
+/// figures (where they make the XML invalid).
+#[test]
+fn robot_names_are_printable_and_bounded() {
+    use omnikin::description::MAX_NAME_CHARS;
+    let e = error_of(&sphere_with(
+        "name = \"sphere-omni\"",
+        "name = \"evil\\u001b[2Jname\"",
+    ));
+    assert!(
+        e.contains("name: must be printable: contains the control character U+001B"),
+        "{e}"
+    );
+    let e = error_of(&sphere_with(
+        "name = \"sphere-omni\"",
+        "name = \"a\\u0007\"",
+    ));
+    assert!(e.contains("U+0007"), "{e}");
+    let long = "n".repeat(MAX_NAME_CHARS + 1);
+    let e = error_of(&sphere_with(
+        "name = \"sphere-omni\"",
+        &format!("name = \"{long}\""),
+    ));
+    assert!(
+        e.contains(&format!("1 to {MAX_NAME_CHARS} characters")),
+        "{e}"
+    );
+    let e = error_of(&sphere_with("name = \"sphere-omni\"", "name = \"\""));
+    assert!(e.contains("got 0"), "{e}");
+    // Printable non-ASCII and XML-special characters are fine (figures escape them).
+    let ok = RobotDescription::from_toml_str(
+        &sphere_with("name = \"sphere-omni\"", "name = \"Kugel <β> & co\""),
+        "t",
+    )
+    .unwrap();
+    assert_eq!(ok.name, "Kugel <β> & co");
+}
+
+/// Issue 12, observation 9: a UTF-8 byte-order mark (Windows editors) is not content.
+#[test]
+fn a_byte_order_mark_is_skipped() {
+    for (name, text) in PRESETS {
+        let with_bom = format!("\u{feff}{text}");
+        let d = RobotDescription::from_toml_str(&with_bom, "bom.toml").unwrap();
+        assert_eq!(d.geometry, RobotDescription::preset(name).unwrap().geometry);
+    }
+}
