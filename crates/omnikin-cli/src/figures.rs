@@ -47,7 +47,9 @@ pub fn trajectory_figure(
 ) -> Result<()> {
     let root = SVGBackend::new(path, (1400, 700)).into_drawing_area();
     root.fill(&WHITE).map_err(draw_err)?;
-    let root = root.titled(title, ("sans-serif", 22)).map_err(draw_err)?;
+    let root = root
+        .titled(&crate::plot::svg_text(title), ("sans-serif", 22))
+        .map_err(draw_err)?;
     let (left, right) = root.split_horizontally(700);
     let blue = PALETTE[0];
     let several = runs.len() >= 2;

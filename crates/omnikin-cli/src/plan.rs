@@ -643,7 +643,7 @@ pub fn plan_figure(svg: &FsPath, title: &str, plan: &Plan, robot: &RobotModel) -
     use plotters::prelude::*;
     root.fill(&WHITE).map_err(plot::draw_err)?;
     let root = root
-        .titled(title, ("sans-serif", 22))
+        .titled(&crate::plot::svg_text(title), ("sans-serif", 22))
         .map_err(plot::draw_err)?;
     let (left, right) = root.split_horizontally(600);
     let (top, bottom) = right.split_vertically(305);

@@ -303,11 +303,22 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
 }
 
 pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
-    if !(a.motion_threshold.is_finite() && a.motion_threshold > 0.0) {
+    if !(a.motion_threshold > 0.0 && a.motion_threshold <= 10.0) {
         bail!(
-            "--motion-threshold must be a finite number > 0 (got {})",
+            "--motion-threshold must be > 0 and at most 10 m (got {})",
             a.motion_threshold
         );
+    }
+    if let Some(o) = a.tracking_offset {
+        let max = omnikin_sim::limits::MAX_TRACKING_OFFSET;
+        if o.iter().any(|v| v.abs() > max) {
+            bail!(
+                "--tracking-offset {},{}: each component must be within ±{max} m of the \
+                 robot centre (omnikin_sim::limits::MAX_TRACKING_OFFSET)",
+                omnikin_sim::limits::num(o[0]),
+                omnikin_sim::limits::num(o[1])
+            );
+        }
     }
     let plan = tracked_reference(
         &Plan::load_csv(&a.plan)?,

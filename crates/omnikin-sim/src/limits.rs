@@ -121,8 +121,9 @@ pub(crate) fn check(
     }
 }
 
-/// A number for a message: plain, or `1e300` style when tiny or huge.
-pub(crate) fn num(v: f64) -> String {
+/// A number for a message: plain, or `1e300` style when tiny or huge (so 1e308 does not print
+/// as 309 digits).
+pub fn num(v: f64) -> String {
     let a = v.abs();
     if a != 0.0 && a.is_finite() && !(1e-3..1e6).contains(&a) {
         format!("{v:e}")

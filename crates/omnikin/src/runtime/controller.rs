@@ -358,7 +358,9 @@ impl<T: Real> Config<T> {
         }
     }
 
-    /// Checks every value is finite and in range.
+    /// Checks every value is finite and in range: the control rate within [`RATE_HZ_RANGE`],
+    /// motor limits within 10⁻³–10⁵ rad/s and 10⁻³–10⁷ rad/s², body limits within plausible
+    /// magnitudes (≤ 100 m/s, ≤ 10³ m/s², watchdog 1 ms to 1000 s; each rule names its range).
     ///
     /// # Errors
     /// [`ConfigError`] naming the first bad field.
@@ -403,6 +405,73 @@ impl<T: Real> Config<T> {
         pos(self.max_speed, "max_speed")?;
         pos(self.max_yaw_rate, "max_yaw_rate")?;
         pos(self.watchdog, "watchdog")?;
+        // Plausible magnitudes (finite but absurd values are errors, not motion that never
+        // ends or never starts).
+        let within = |x: T, lo: f64, hi: f64, field: &'static str, rule: &'static str| {
+            if x >= T::of(lo) && x <= T::of(hi) {
+                Ok(())
+            } else {
+                Err(ConfigError { field, rule })
+            }
+        };
+        let opt_within = |x: Option<T>, lo, hi, field, rule| {
+            x.map_or(Ok(()), |v| within(v, lo, hi, field, rule))
+        };
+        const RATE: &str = "must be between 1e-3 and 1e5 rad/s";
+        const ACCEL: &str = "must be between 1e-3 and 1e7 rad/s²";
+        opt_within(self.rate_limits.wheel, 1e-3, 1e5, "max_wheel_rate", RATE)?;
+        opt_within(self.rate_limits.steer, 1e-3, 1e5, "max_steer_rate", RATE)?;
+        opt_within(self.wheel_accel, 1e-3, 1e7, "max_wheel_accel", ACCEL)?;
+        opt_within(self.steer_accel, 1e-3, 1e7, "max_steer_accel", ACCEL)?;
+        within(
+            self.slew.accel,
+            1e-6,
+            1e3,
+            "max_accel",
+            "must be between 1e-6 and 1e3 m/s²",
+        )?;
+        within(
+            self.slew.yaw_accel,
+            1e-6,
+            1e4,
+            "max_yaw_accel",
+            "must be between 1e-6 and 1e4 rad/s²",
+        )?;
+        opt_within(
+            self.slew.jerk,
+            1e-6,
+            1e6,
+            "max_jerk",
+            "must be between 1e-6 and 1e6 m/s³",
+        )?;
+        opt_within(
+            self.slew.yaw_jerk,
+            1e-6,
+            1e7,
+            "max_yaw_jerk",
+            "must be between 1e-6 and 1e7 rad/s³",
+        )?;
+        within(
+            self.max_speed,
+            1e-6,
+            100.0,
+            "max_speed",
+            "must be between 1e-6 and 100 m/s",
+        )?;
+        within(
+            self.max_yaw_rate,
+            1e-6,
+            1e3,
+            "max_yaw_rate",
+            "must be between 1e-6 and 1e3 rad/s",
+        )?;
+        within(
+            self.watchdog,
+            1e-3,
+            1e3,
+            "watchdog",
+            "must be between 1e-3 and 1e3 s",
+        )?;
         nonneg(self.k_position, "k_position")?;
         nonneg(self.k_heading, "k_heading")?;
         nonneg(self.max_correction, "max_correction")?;
