@@ -6,7 +6,7 @@
 //! timeout, so a regression fails the test instead of taking the machine down or hanging.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use std::time::Duration;
 
 const BIN: &str = env!("CARGO_BIN_EXE_omnikin");

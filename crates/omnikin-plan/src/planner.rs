@@ -1593,7 +1593,7 @@ fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, PlanningError
         .windows(2)
         .map(|w| ((w[1] - w[0]) / step).ceil().max(MIN_CELLS as f64))
         .sum();
-    if !(coarse <= MAX_PLAN_GRID_CELLS as f64) {
+    if coarse.is_nan() || coarse > MAX_PLAN_GRID_CELLS as f64 {
         return Err(too_many_plan_cells(len, bounds.len() - 1, coarse));
     }
     let first = path.at_side(0.0, Side::After);
@@ -1676,7 +1676,7 @@ fn sample(ctx: &Ctx, moves: &[Move], rate: f64) -> Result<Plan, PlanningError> {
     // Samples at k / rate before the end, plus the end: checked before anything is allocated
     // (NaN or infinite durations fail the comparison too).
     let needed = (total * rate).floor() + 2.0;
-    if !(needed <= MAX_PLAN_SAMPLES as f64) {
+    if needed.is_nan() || needed > MAX_PLAN_SAMPLES as f64 {
         return Err(PlanningError::TooLarge {
             what: format!("the plan (duration {total:.4e} s × rate {rate} Hz)"),
             items: "samples",

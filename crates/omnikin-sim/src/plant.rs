@@ -114,7 +114,7 @@ pub fn simulate_trial(
         .windows(2)
         .map(|w| ((w[1].t - w[0].t) * rate).round().max(1.0))
         .sum();
-    if !(steps <= MAX_PLANT_STEPS) {
+    if steps.is_nan() || steps > MAX_PLANT_STEPS {
         let duration = samples[samples.len() - 1].t - first.t;
         return Err(SimError::TooLarge {
             what: format!("a trial (plan duration {duration:.4e} s × plant rate {rate} Hz)"),
