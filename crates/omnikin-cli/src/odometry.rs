@@ -100,6 +100,13 @@ impl Table {
         let mut rows = Vec::new();
         for (i, line) in lines {
             let n = i + 1;
+            if rows.len() == omnikin_sim::limits::MAX_TRACK_ROWS {
+                bail!(
+                    "{file}:{n}: more than {} rows (the limit MAX_TRACK_ROWS of \
+                     omnikin_sim::limits); cut the log into several files",
+                    omnikin_sim::limits::MAX_TRACK_ROWS
+                );
+            }
             let cells: Vec<&str> = line.split(',').map(str::trim).collect();
             if cells.len() != header.len() {
                 bail!(
