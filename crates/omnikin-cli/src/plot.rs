@@ -134,6 +134,42 @@ pub fn range(values: impl Iterator<Item = f64>, pad: f64, min_span: f64) -> (f64
     (mid - half, mid + half)
 }
 
+/// Most points drawn per polyline or band outline. A figure is ~1300 px wide, so more points
+/// only grow the SVG: a plan of 10⁷ samples drew four 10⁷-point lines (a 500 MB file and
+/// ~1.5 GB of memory). Longer lines are thinned to this many by [`decimate`].
+pub const MAX_FIGURE_POINTS: usize = 20_000;
+
+/// `points` thinned to at most about [`MAX_FIGURE_POINTS`]: the first and last point, and in
+/// each of `MAX_FIGURE_POINTS / 2` consecutive buckets the points with the smallest and the
+/// largest y, in their original order (so peaks and the envelope survive). Shorter lines are
+/// returned as they are.
+pub fn decimate(points: &[(f64, f64)]) -> std::borrow::Cow<'_, [(f64, f64)]> {
+    let n = points.len();
+    if n <= MAX_FIGURE_POINTS {
+        return std::borrow::Cow::Borrowed(points);
+    }
+    let per = n.div_ceil(MAX_FIGURE_POINTS / 2);
+    let mut out = Vec::with_capacity(MAX_FIGURE_POINTS + 2);
+    out.push(points[0]);
+    for chunk in points[1..n - 1].chunks(per) {
+        let (mut lo, mut hi) = (0, 0);
+        for (i, p) in chunk.iter().enumerate() {
+            if p.1 < chunk[lo].1 {
+                lo = i;
+            }
+            if p.1 > chunk[hi].1 {
+                hi = i;
+            }
+        }
+        out.push(chunk[lo.min(hi)]);
+        if lo != hi {
+            out.push(chunk[lo.max(hi)]);
+        }
+    }
+    out.push(points[n - 1]);
+    std::borrow::Cow::Owned(out)
+}
+
 /// The chart type of the panels.
 type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
@@ -143,11 +179,16 @@ fn draw_lines<'a>(chart: &mut Chart<'a, 'a>, series: &[Series]) -> Result<()> {
         let color = s.color;
         let anno = if s.dashed {
             chart
-                .draw_series(DashedLineSeries::new(s.points.iter().copied(), 8, 5, style))
+                .draw_series(DashedLineSeries::new(
+                    decimate(&s.points).iter().copied(),
+                    8,
+                    5,
+                    style,
+                ))
                 .map_err(draw_err)?
         } else {
             chart
-                .draw_series(LineSeries::new(s.points.iter().copied(), style))
+                .draw_series(LineSeries::new(decimate(&s.points).iter().copied(), style))
                 .map_err(draw_err)?
         };
         if !s.label.is_empty() {
@@ -215,7 +256,7 @@ pub fn xy_panel(
         let color = b.color;
         let anno = chart
             .draw_series(std::iter::once(Polygon::new(
-                b.polygon.clone(),
+                decimate(&b.polygon).into_owned(),
                 color.mix(0.25).filled(),
             )))
             .map_err(draw_err)?;
@@ -302,7 +343,7 @@ pub fn time_panel(
         let color = b.color;
         let anno = chart
             .draw_series(std::iter::once(Polygon::new(
-                b.polygon.clone(),
+                decimate(&b.polygon).into_owned(),
                 color.mix(0.25).filled(),
             )))
             .map_err(draw_err)?;

@@ -98,7 +98,7 @@ fn plans_that_would_not_fit_in_memory_are_refused() {
         ],
         &[
             "needs 1.6800e7 samples",
-            "MAX_PLAN_SAMPLES = 10000000",
+            "MAX_PLAN_SAMPLES = 2000000",
             "lower the sampling rate (--rate)",
         ],
     );
@@ -428,4 +428,44 @@ fn robot_names_and_figure_text_cannot_break_the_svg() {
             .any(|c| c.is_control() && !matches!(c, '\n' | '\r' | '\t')),
         "a control character reached the SVG"
     );
+}
+
+#[test]
+fn figures_of_long_plans_are_thinned_not_gigabytes() {
+    // A 10⁷-sample plan drew four 10⁷-point polylines: a 500 MB SVG and ~1.5 GB of memory on
+    // top of the plan. Here 168 001 samples; every polyline is thinned to the figure limit,
+    // keeping each bucket's extremes, so the peak wheel rate is still drawn.
+    let d = tmp("figure");
+    let svg = d.join("long.svg");
+    let out = run(&[
+        "plan",
+        "square",
+        "--robot",
+        "sphere-omni",
+        "--rate",
+        "10000",
+        "--plot",
+        svg.to_str().unwrap(),
+        "--out",
+        d.join("long.csv").to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&svg).unwrap();
+    let mut lines = 0;
+    for poly in text.split("<polyline").skip(1) {
+        let pts = poly
+            .split("points=\"")
+            .nth(1)
+            .and_then(|p| p.split('"').next())
+            .unwrap_or("");
+        let n = pts.split_whitespace().count();
+        assert!(n <= 20_002, "a polyline with {n} points");
+        lines += 1;
+    }
+    assert!(lines >= 4, "{lines} polylines");
+    assert!(text.len() < 8_000_000, "{} bytes", text.len());
 }

@@ -16,9 +16,11 @@
 use crate::PlanningError;
 
 /// Most samples in one plan (time stamps `k / rate` plus the end): `duration × rate + 2`.
-/// 10⁷ samples are 27.8 h at 100 Hz and about 1.4 GB in memory; the planner refuses a request
-/// that would need more before it samples anything.
-pub const MAX_PLAN_SAMPLES: usize = 10_000_000;
+/// 2·10⁶ samples are 5.5 h at 100 Hz and about 280 MB in memory (136 bytes a sample), so a
+/// plan of this size can still be written with a figure (≈ 0.5 GB) and simulated one trial
+/// per core (≈ 260 MB a trial) within 3 GB. The planner refuses a request that would need
+/// more before it samples anything.
+pub const MAX_PLAN_SAMPLES: usize = 2_000_000;
 
 /// Most rows a plan file may have when it is read back (the same bound as
 /// [`MAX_PLAN_SAMPLES`], checked row by row while reading).

@@ -108,7 +108,7 @@ fn plans_over_the_sample_limit_are_refused_before_sampling() {
     assert!((needed / (duration * 1e5) - 1.0).abs() < 1e-3, "{needed}");
     let msg = e.to_string();
     assert!(
-        msg.contains("--rate") && msg.contains("MAX_PLAN_SAMPLES = 10000000"),
+        msg.contains("--rate") && msg.contains("MAX_PLAN_SAMPLES = 2000000"),
         "{msg}"
     );
 }
