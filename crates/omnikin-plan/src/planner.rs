@@ -1253,7 +1253,13 @@ fn time_optimal_storing(
 /// Plans `path` with the heading law `heading` for `robot` (see the module docs for how).
 ///
 /// # Errors
-/// * [`PlanningError::InvalidParameter`] for a bad rate, limit or heading value;
+/// * [`PlanningError::InvalidParameter`] for a non-finite steer angle;
+/// * [`PlanningError::OutOfRange`] for a rate, motion limit, heading or steer angle outside
+///   its range in [`crate::limits`];
+/// * [`PlanningError::TooLarge`] when the path needs more grid cells than
+///   [`crate::limits::MAX_MOVE_GRID_CELLS`] / [`crate::limits::MAX_PLAN_GRID_CELLS`] or the
+///   timed plan more samples than [`crate::limits::MAX_PLAN_SAMPLES`] (checked before
+///   allocating them);
 /// * [`PlanningError::LimitExceeded`] when `opts.on_limit` is [`OnLimit::Reject`] and the
 ///   requested timing needs more than a motor limit allows (the worst excess: motor, value,
 ///   time, limit, percent);
@@ -1281,6 +1287,11 @@ pub fn plan(
             value: g.into_iter().find(|v| !v.is_finite()).unwrap_or(f64::NAN),
             rule: "steer angles must be finite (rad)",
         });
+    }
+    if let InitialSteer::Given(g) = opts.initial_steer {
+        for v in g {
+            crate::limits::check_magnitude("initial steer", v, crate::limits::MAX_HEADING, "rad")?;
+        }
     }
     let heading_cs = match heading {
         HeadingLaw::Constant(a) | HeadingLaw::Tangent { offset: a } => {
