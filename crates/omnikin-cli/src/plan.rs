@@ -460,19 +460,19 @@ fn finish(
     let plan = &planned.plan;
     match &c.out {
         Some(path) => {
-            let f = std::fs::File::create(path)
-                .with_context(|| format!("cannot create {}", path.display()))?;
-            write_plan(plan, c.format, std::io::BufWriter::new(f))
-                .with_context(|| format!("cannot write {}", path.display()))?;
+            let mut f = crate::output::OutFile::create("--out", path)?;
+            write_plan(plan, c.format, &mut f)
+                .with_context(|| format!("--out {}: cannot write", path.display()))?;
+            f.commit()?;
         }
         None => {
-            let stdout = std::io::stdout();
-            write_plan(plan, c.format, stdout.lock()).context("cannot write the plan to stdout")?;
+            write_plan(plan, c.format, crate::output::Stdout)
+                .context("cannot write the plan to stdout")?;
         }
     }
     if let Some(svg) = &c.plot {
         let title = format!("{} — {}", d.name, what.split(':').next().unwrap_or(what));
-        plan_figure(svg, &title, plan, robot)?;
+        plan_figure("--plot", svg, &title, plan, robot)?;
     }
     summary(c, d, robot, what, planned);
     Ok(())
@@ -493,9 +493,9 @@ fn write_plan<W: Write>(plan: &Plan, format: Format, mut out: W) -> Result<()> {
 fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, planned: &Planned) {
     let r = &planned.report;
     let n = planned.plan.samples.len();
-    eprintln!("plan: {what}");
-    eprintln!("robot: {} ({}, {})", d.name, d.kind(), d.source_name);
-    eprintln!(
+    crate::errln!("plan: {what}");
+    crate::errln!("robot: {} ({}, {})", d.name, d.kind(), d.source_name);
+    crate::errln!(
         "{n} samples at {} Hz -> {} ({})",
         c.rate,
         c.out
@@ -511,7 +511,7 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
         .iter()
         .filter(|m| matches!(m.kind, MoveKind::Turn { .. }))
         .count();
-    eprintln!(
+    crate::errln!(
         "duration {:.3} s, path length {:.3} m, {} move(s){}",
         r.duration,
         r.path_length,
@@ -538,14 +538,14 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
             None => "no limit in the robot file".into(),
         };
         if p.value < 1e-9 {
-            eprintln!(
+            crate::errln!(
                 "{name} {:>9.3} {:<7} (constant), {limit}",
                 0.0,
                 p.quantity.unit()
             );
             continue;
         }
-        eprintln!(
+        crate::errln!(
             "{name} {:>9.3} {:<7} ({} {} at t = {:.2} s), {limit}",
             p.value,
             p.quantity.unit(),
@@ -563,7 +563,7 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
         .iter()
         .map(|(l, s)| format!("{l} {:.0} %", 100.0 * s))
         .collect();
-    eprintln!(
+    crate::errln!(
         "timing limited by: {}{}",
         shares.join(", "),
         if motor_active {
@@ -574,7 +574,7 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
     );
     for rt in &r.retimed {
         let m = &r.moves[rt.move_index];
-        eprintln!(
+        crate::errln!(
             "re-timed: move {} ({}) slowed to {:.1} % of the requested speed by {}",
             rt.move_index + 1,
             match m.kind {
@@ -589,15 +589,17 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
         && let Some(s) = planned.plan.samples.first()
     {
         let w = s.wheel_rates;
-        eprintln!(
+        crate::errln!(
             "note: the plan starts at full speed (paper 000's law): at t = 0 the wheels must already turn at {:.3}, {:.3}, {:.3} rad/s; use --ramp to start from rest",
-            w[0], w[1], w[2]
+            w[0],
+            w[1],
+            w[2]
         );
     }
     if robot.is_caster()
         && let Some((g, _)) = planned.plan.samples.first().and_then(|s| s.steer)
     {
-        eprintln!(
+        crate::errln!(
             "initial steer angles: {:.4}, {:.4}, {:.4} rad{}",
             g[0],
             g[1],
@@ -613,115 +615,121 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
 
 /// Draws the plan: the path with direction arrows (left), wheel rates over time (top right),
 /// steer rates (caster) or speed and yaw rate (bottom right).
-pub fn plan_figure(svg: &FsPath, title: &str, plan: &Plan, robot: &RobotModel) -> Result<()> {
-    let root = plotters::prelude::SVGBackend::new(svg, (1300, 640)).into_drawing_area();
-    use plotters::prelude::*;
-    root.fill(&WHITE).map_err(plot::draw_err)?;
-    let root = root
-        .titled(title, ("sans-serif", 22))
-        .map_err(plot::draw_err)?;
-    let (left, right) = root.split_horizontally(600);
-    let (top, bottom) = right.split_vertically(305);
-    let s = &plan.samples;
-    let xy: Vec<(f64, f64)> = s.iter().map(|p| (p.pose.x, p.pose.y)).collect();
-    // Arrows at ~12 evenly spaced points along the path (by arc length), pointing along the
-    // velocity there.
-    let total = plan.path_length();
-    let mut arrows = Vec::new();
-    let mut next = total / 24.0;
-    let mut acc = 0.0;
-    for w in s.windows(2) {
-        acc += (w[1].pose.x - w[0].pose.x).hypot(w[1].pose.y - w[0].pose.y);
-        if acc >= next && total > 0.0 {
-            let v = (w[1].twist.vx, w[1].twist.vy);
-            if v.0.hypot(v.1) > 1e-9 {
-                arrows.push(Arrow {
-                    at: (w[1].pose.x, w[1].pose.y),
-                    dir: v,
-                    color: PALETTE[3],
-                });
+pub fn plan_figure(
+    flag: &str,
+    svg: &FsPath,
+    title: &str,
+    plan: &Plan,
+    robot: &RobotModel,
+) -> Result<()> {
+    crate::plot::svg_file(flag, svg, (1300, 640), |root| {
+        use plotters::prelude::*;
+        root.fill(&WHITE).map_err(plot::draw_err)?;
+        let root = root
+            .titled(title, ("sans-serif", 22))
+            .map_err(plot::draw_err)?;
+        let (left, right) = root.split_horizontally(600);
+        let (top, bottom) = right.split_vertically(305);
+        let s = &plan.samples;
+        let xy: Vec<(f64, f64)> = s.iter().map(|p| (p.pose.x, p.pose.y)).collect();
+        // Arrows at ~12 evenly spaced points along the path (by arc length), pointing along the
+        // velocity there.
+        let total = plan.path_length();
+        let mut arrows = Vec::new();
+        let mut next = total / 24.0;
+        let mut acc = 0.0;
+        for w in s.windows(2) {
+            acc += (w[1].pose.x - w[0].pose.x).hypot(w[1].pose.y - w[0].pose.y);
+            if acc >= next && total > 0.0 {
+                let v = (w[1].twist.vx, w[1].twist.vy);
+                if v.0.hypot(v.1) > 1e-9 {
+                    arrows.push(Arrow {
+                        at: (w[1].pose.x, w[1].pose.y),
+                        dir: v,
+                        color: PALETTE[3],
+                    });
+                }
+                next += total / 12.0;
             }
-            next += total / 12.0;
         }
-    }
-    plot::xy_panel(
-        &left,
-        "path (world frame), arrows = direction of motion",
-        "x [m]",
-        "y [m]",
-        &[Series::solid("planned path r_C", xy, PALETTE[0])],
-        &[],
-        &arrows,
-    )?;
-    let t: Vec<f64> = s.iter().map(|p| p.t).collect();
-    let wheels: Vec<Series> = (0..3)
-        .map(|i| {
-            Series::solid(
-                format!("w{}", i + 1),
-                t.iter()
-                    .zip(s)
-                    .map(|(&t, p)| (t, p.wheel_rates[i]))
-                    .collect(),
-                PALETTE[i],
-            )
-        })
-        .collect();
-    let caster = robot.is_caster();
-    plot::time_panel(
-        &top,
-        if caster { "roll rates" } else { "wheel rates" },
-        "rate [rad/s]",
-        &wheels,
-        &[],
-        robot.limits.max_wheel_rate.map(|l| (l, "±max_wheel_rate")),
-    )?;
-    if caster {
-        let steer: Vec<Series> = (0..3)
+        plot::xy_panel(
+            &left,
+            "path (world frame), arrows = direction of motion",
+            "x [m]",
+            "y [m]",
+            &[Series::solid("planned path r_C", xy, PALETTE[0])],
+            &[],
+            &arrows,
+        )?;
+        let t: Vec<f64> = s.iter().map(|p| p.t).collect();
+        let wheels: Vec<Series> = (0..3)
             .map(|i| {
                 Series::solid(
-                    format!("sd{}", i + 1),
+                    format!("w{}", i + 1),
                     t.iter()
                         .zip(s)
-                        .map(|(&t, p)| (t, p.steer.map_or(0.0, |(_, r)| r[i])))
+                        .map(|(&t, p)| (t, p.wheel_rates[i]))
                         .collect(),
-                    PALETTE[i + 3],
+                    PALETTE[i],
                 )
             })
             .collect();
+        let caster = robot.is_caster();
         plot::time_panel(
-            &bottom,
-            "steer rates",
-            "steer rate [rad/s]",
-            &steer,
+            &top,
+            if caster { "roll rates" } else { "wheel rates" },
+            "rate [rad/s]",
+            &wheels,
             &[],
-            robot.limits.max_steer_rate.map(|l| (l, "±max_steer_rate")),
+            robot.limits.max_wheel_rate.map(|l| (l, "±max_wheel_rate")),
         )?;
-    } else {
-        let speed = Series::solid(
-            "speed |v| [m/s]",
-            t.iter()
-                .zip(s)
-                .map(|(&t, p)| (t, p.twist.vx.hypot(p.twist.vy)))
-                .collect(),
-            PALETTE[4],
-        );
-        let yaw = Series::solid(
-            "yaw rate [rad/s]",
-            t.iter()
-                .zip(s)
-                .map(|(&t, p)| (t, p.twist.yaw_rate))
-                .collect(),
-            PALETTE[5],
-        );
-        plot::time_panel(
-            &bottom,
-            "speed and yaw rate",
-            "[m/s], [rad/s]",
-            &[speed, yaw],
-            &[],
-            None,
-        )?;
-    }
-    root.present().map_err(plot::draw_err)?;
-    Ok(())
+        if caster {
+            let steer: Vec<Series> = (0..3)
+                .map(|i| {
+                    Series::solid(
+                        format!("sd{}", i + 1),
+                        t.iter()
+                            .zip(s)
+                            .map(|(&t, p)| (t, p.steer.map_or(0.0, |(_, r)| r[i])))
+                            .collect(),
+                        PALETTE[i + 3],
+                    )
+                })
+                .collect();
+            plot::time_panel(
+                &bottom,
+                "steer rates",
+                "steer rate [rad/s]",
+                &steer,
+                &[],
+                robot.limits.max_steer_rate.map(|l| (l, "±max_steer_rate")),
+            )?;
+        } else {
+            let speed = Series::solid(
+                "speed |v| [m/s]",
+                t.iter()
+                    .zip(s)
+                    .map(|(&t, p)| (t, p.twist.vx.hypot(p.twist.vy)))
+                    .collect(),
+                PALETTE[4],
+            );
+            let yaw = Series::solid(
+                "yaw rate [rad/s]",
+                t.iter()
+                    .zip(s)
+                    .map(|(&t, p)| (t, p.twist.yaw_rate))
+                    .collect(),
+                PALETTE[5],
+            );
+            plot::time_panel(
+                &bottom,
+                "speed and yaw rate",
+                "[m/s], [rad/s]",
+                &[speed, yaw],
+                &[],
+                None,
+            )?;
+        }
+        Ok(())
+    })
 }

@@ -323,3 +323,23 @@ pub fn time_panel(
         .map_err(draw_err)?;
     Ok(())
 }
+
+/// Draws an SVG figure of `size` pixels in memory with `draw`, then writes it as the output
+/// `path` (named by `flag` in messages) under the output rules (temporary file, rename; see
+/// [`crate::output`]). A figure that cannot be drawn leaves no file behind.
+pub fn svg_file(
+    flag: &str,
+    path: &std::path::Path,
+    size: (u32, u32),
+    draw: impl FnOnce(&Area) -> Result<()>,
+) -> Result<()> {
+    let mut text = String::new();
+    {
+        let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
+        draw(&root)?;
+        root.present().map_err(draw_err)?;
+    }
+    crate::output::write_file(flag, path, |w| {
+        std::io::Write::write_all(w, text.as_bytes())
+    })
+}
