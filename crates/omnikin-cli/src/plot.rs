@@ -3,7 +3,7 @@
 //! (filled polygons, e.g. a confidence band) and direction arrows; and a time-series panel.
 //! Axes carry labels with units, every series a legend entry.
 
-use anyhow::{Result, anyhow};
+use anyhow::{Context, Result, anyhow};
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
@@ -107,21 +107,48 @@ pub struct Arrow {
     pub color: RGBColor,
 }
 
+/// The largest |value| a figure draws. Beyond it an axis cannot be stepped through at f64
+/// resolution (plotters' tick loop would not advance, or the span overflows to infinity), so
+/// such data is an error naming the panel, not a hang or a panic.
+pub const MAX_AXIS: f64 = 1e12;
+
 /// `(lo, hi)` covering all finite `values`, padded by `pad` of the span on each side and at
-/// least `min_span` wide.
-pub fn range(values: impl Iterator<Item = f64>, pad: f64, min_span: f64) -> (f64, f64) {
+/// least `min_span` wide (and at least 1e-9 of the largest |value|, so the ticks can advance).
+/// Non-finite values are left out (and not drawn); no finite value gives `(-1, 1)`. Values
+/// beyond ±[`MAX_AXIS`] are an error naming `what` (the panel and axis).
+pub fn range(
+    values: impl Iterator<Item = f64>,
+    pad: f64,
+    min_span: f64,
+    what: &str,
+) -> Result<(f64, f64)> {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for v in values.filter(|v| v.is_finite()) {
         lo = lo.min(v);
         hi = hi.max(v);
     }
     if !lo.is_finite() {
-        return (-1.0, 1.0);
+        return Ok((-1.0, 1.0));
     }
-    let span = (hi - lo).max(min_span);
+    let big = lo.abs().max(hi.abs());
+    if big > MAX_AXIS {
+        return Err(anyhow!(
+            "cannot draw the figure: {what} reaches {big:e}, beyond the ±{MAX_AXIS:e} a figure can show (check the inputs for an absurd value or a wrong unit)"
+        ));
+    }
+    let span = (hi - lo).max(min_span).max(big * 1e-9);
     let mid = 0.5 * (lo + hi);
     let half = 0.5 * span * (1.0 + 2.0 * pad);
-    (mid - half, mid + half)
+    Ok((mid - half, mid + half))
+}
+
+/// The finite points of `points` (a NaN or infinite point is not drawn).
+fn finite_points(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    points
+        .iter()
+        .copied()
+        .filter(|p| p.0.is_finite() && p.1.is_finite())
+        .collect()
 }
 
 /// The chart type of the panels.
@@ -133,11 +160,11 @@ fn draw_lines<'a>(chart: &mut Chart<'a, 'a>, series: &[Series]) -> Result<()> {
         let color = s.color;
         let anno = if s.dashed {
             chart
-                .draw_series(DashedLineSeries::new(s.points.iter().copied(), 8, 5, style))
+                .draw_series(DashedLineSeries::new(finite_points(&s.points), 8, 5, style))
                 .map_err(draw_err)?
         } else {
             chart
-                .draw_series(LineSeries::new(s.points.iter().copied(), style))
+                .draw_series(LineSeries::new(finite_points(&s.points), style))
                 .map_err(draw_err)?
         };
         if !s.label.is_empty() {
@@ -168,10 +195,10 @@ pub fn xy_panel(
 ) -> Result<()> {
     let xs = series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
     let xb = bands.iter().flat_map(|b| b.polygon.iter().map(|p| p.0));
-    let (mut x0, mut x1) = range(xs.chain(xb), 0.08, 1e-3);
+    let (mut x0, mut x1) = range(xs.chain(xb), 0.08, 1e-3, &format!("panel \"{title}\", x"))?;
     let ys = series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
     let yb = bands.iter().flat_map(|b| b.polygon.iter().map(|p| p.1));
-    let (mut y0, mut y1) = range(ys.chain(yb), 0.08, 1e-3);
+    let (mut y0, mut y1) = range(ys.chain(yb), 0.08, 1e-3, &format!("panel \"{title}\", y"))?;
     // Plot area in pixels (the area minus label space), then widen one range to equal scales.
     let (w, h) = area.dim_in_pixel();
     let (pw, ph) = ((w as f64 - 95.0).max(10.0), (h as f64 - 95.0).max(10.0));
@@ -205,7 +232,7 @@ pub fn xy_panel(
         let color = b.color;
         let anno = chart
             .draw_series(std::iter::once(Polygon::new(
-                b.polygon.clone(),
+                finite_points(&b.polygon),
                 color.mix(0.25).filled(),
             )))
             .map_err(draw_err)?;
@@ -262,7 +289,7 @@ pub fn time_panel(
     limits: Option<(f64, &str)>,
 ) -> Result<()> {
     let ts = series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
-    let (t0, t1) = range(ts, 0.0, 1e-6);
+    let (t0, t1) = range(ts, 0.0, 1e-6, &format!("panel \"{title}\", time"))?;
     let mut ys: Vec<f64> = series
         .iter()
         .flat_map(|s| s.points.iter().map(|p| p.1))
@@ -271,7 +298,12 @@ pub fn time_panel(
     if let Some((l, _)) = limits {
         ys.extend([l, -l]);
     }
-    let (y0, y1) = range(ys.into_iter(), 0.08, 1e-6);
+    let (y0, y1) = range(
+        ys.into_iter(),
+        0.08,
+        1e-6,
+        &format!("panel \"{title}\", {y_label}"),
+    )?;
     let mut chart = ChartBuilder::on(area)
         .caption(title, (FONT, 18))
         .margin(12)
@@ -292,7 +324,7 @@ pub fn time_panel(
         let color = b.color;
         let anno = chart
             .draw_series(std::iter::once(Polygon::new(
-                b.polygon.clone(),
+                finite_points(&b.polygon),
                 color.mix(0.25).filled(),
             )))
             .map_err(draw_err)?;
@@ -336,7 +368,7 @@ pub fn svg_file(
     let mut text = String::new();
     {
         let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
-        draw(&root)?;
+        draw(&root).with_context(|| format!("{flag} {}", path.display()))?;
         root.present().map_err(draw_err)?;
     }
     crate::output::write_file(flag, path, |w| {
