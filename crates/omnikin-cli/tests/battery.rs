@@ -1431,3 +1431,175 @@ fn battery_pending_other_branches() {
     let failures = battery(&cases, Some(pending_fixtures));
     report(&failures, cases.len());
 }
+
+/// `--force` replaces an existing output (and only then); no temporary file is left behind;
+/// in an existing directory only the command's own files are replaced.
+#[test]
+fn force_replaces_outputs_and_nothing_else() {
+    let dir = fixtures("force");
+    let run_ok = |args: &[String]| {
+        let r = run(&dir, args, Stdout::File);
+        assert_eq!(r.code, Some(0), "omnikin {}: {}", args.join(" "), r.stderr);
+    };
+    let existing = dir.join("in/existing.csv");
+    let before = std::fs::read(&existing).unwrap();
+    let r = run(&dir, &square(&["--out", "in/existing.csv"]), Stdout::File);
+    assert_ne!(r.code, Some(0));
+    assert_eq!(
+        std::fs::read(&existing).unwrap(),
+        before,
+        "refused: unchanged"
+    );
+    run_ok(&square(&["--out", "in/existing.csv", "--force"]));
+    let after = std::fs::read_to_string(&existing).unwrap();
+    assert!(
+        after.starts_with("t,x,y,heading"),
+        "replaced by the plan: {after:.40}"
+    );
+    // Through a symlink, the link stays and its target is the output.
+    std::os::unix::fs::symlink("existing.csv", dir.join("in/link.csv")).unwrap();
+    run_ok(&square(&[
+        "--out",
+        "in/link.csv",
+        "--force",
+        "--side",
+        "0.2",
+    ]));
+    assert!(
+        std::fs::symlink_metadata(dir.join("in/link.csv"))
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    assert_ne!(std::fs::read_to_string(&existing).unwrap(), after);
+    // An existing, non-empty directory with --force: the command's files, nothing else.
+    let args = |force: bool| {
+        let mut a: Vec<String> = [
+            "evaluate",
+            "--plan",
+            "in/plan.csv",
+            "in/track.csv",
+            "--out",
+            "full",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        if force {
+            a.push("--force".into());
+        }
+        a
+    };
+    let r = run(&dir, &args(false), Stdout::File);
+    assert_ne!(r.code, Some(0), "{}", r.stderr);
+    assert!(
+        !dir.join("full/metrics.json").exists(),
+        "refused before writing"
+    );
+    run_ok(&args(true));
+    assert!(dir.join("full/metrics.json").exists());
+    assert_eq!(
+        std::fs::read_to_string(dir.join("full/keep.txt")).unwrap(),
+        "not ours\n"
+    );
+    run_ok(&args(true)); // again: replaces its own files
+    // /dev/null stays a device.
+    run_ok(&square(&["--out", "/dev/null"]));
+    use std::os::unix::fs::FileTypeExt;
+    assert!(
+        std::fs::metadata("/dev/null")
+            .unwrap()
+            .file_type()
+            .is_char_device()
+    );
+    for d in ["in", "full", "out"] {
+        for e in std::fs::read_dir(dir.join(d)).unwrap() {
+            let n = e.unwrap().file_name().to_string_lossy().to_string();
+            assert!(!n.ends_with(".tmp"), "temporary file left: {d}/{n}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Ctrl-C (SIGINT) and SIGTERM during `robot --log`: the loop stops, the log is flushed and
+/// moved into place with every row so far, the summary is printed, and the exit status is
+/// 128 + the signal.
+#[test]
+fn robot_log_survives_sigint_and_sigterm() {
+    for (sig, status) in [("INT", 130), ("TERM", 143)] {
+        let dir = fixtures(&format!("signal-{sig}"));
+        let log = dir.join("out/robot.csv");
+        let mut child = Command::new(BIN)
+            .args([
+                "robot",
+                "--sim",
+                "--robot",
+                "sphere-omni",
+                "--listen",
+                "127.0.0.1:0",
+            ])
+            .arg("--log")
+            .arg(&log)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Wait until the robot has logged some cycles (its temporary log grows), then signal.
+        let start = Instant::now();
+        loop {
+            let grown = std::fs::read_dir(dir.join("out")).unwrap().any(|e| {
+                let e = e.unwrap();
+                e.file_name().to_string_lossy().ends_with(".tmp") && e.metadata().unwrap().len() > 0
+            });
+            if grown && start.elapsed() > Duration::from_millis(700) {
+                break;
+            }
+            assert!(start.elapsed() < WALL, "the robot never started logging");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        assert!(
+            !log.exists(),
+            "the log appears under its name only when complete"
+        );
+        let killed = Command::new("kill")
+            .arg(format!("-{sig}"))
+            .arg(child.id().to_string())
+            .status()
+            .unwrap();
+        assert!(killed.success());
+        let start = Instant::now();
+        let code = loop {
+            if let Some(s) = child.try_wait().unwrap() {
+                break s.code();
+            }
+            if start.elapsed() > WALL {
+                let _ = child.kill();
+                panic!("SIG{sig}: the robot did not stop");
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        };
+        let out = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(code, Some(status), "SIG{sig}: {stderr}");
+        assert!(stderr.contains(&format!("stopped by SIG{sig}")), "{stderr}");
+        let text = std::fs::read_to_string(&log).expect("the log is in place");
+        let rows: Vec<&str> = text.lines().collect();
+        assert!(rows[0].starts_with("t,x,y,heading"), "{}", rows[0]);
+        assert!(rows.len() > 10, "SIG{sig}: only {} rows kept", rows.len());
+        let last_t: f64 = rows[rows.len() - 1]
+            .split(',')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        let summary: serde_json::Value =
+            serde_json::from_slice(&out.stdout).expect("the summary is printed");
+        let end = summary["time_s"].as_f64().unwrap();
+        // The last row is the last cycle run: nothing buffered was lost.
+        assert!(
+            (end - last_t - 0.01).abs() < 1e-6,
+            "log ends at {last_t}, robot at {end}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
