@@ -257,8 +257,12 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
     for (flag, p) in &files {
         output::check_file(flag, p)?;
     }
+    // Output directories are checked by `output::create_dir` once the inputs are read (so a
+    // bad input is reported first) and before any simulation runs.
     for (flag, p) in &dirs {
-        output::check_dir(flag, p)?;
+        if output::is_file_like(p) {
+            output::check_dir(flag, p)?;
+        }
     }
     output::check_distinct(&files)
 }

@@ -171,6 +171,11 @@ pub fn check_dir(flag: &str, dir: &Path) -> Result<()> {
     }
 }
 
+/// `true` if `path` exists and is not a directory (an output directory named like a file).
+pub fn is_file_like(path: &Path) -> bool {
+    path.exists() && !path.is_dir()
+}
+
 /// Checks that no two outputs of one command are the same file (e.g. `--out X --plot X`).
 pub fn check_distinct(outputs: &[(&str, &Path)]) -> Result<()> {
     let key = |p: &Path| -> PathBuf {
