@@ -310,12 +310,20 @@ fn main() -> ExitCode {
     match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(_) if output::stdout_broken() => ExitCode::from(EXIT_BROKEN_PIPE),
-        Err(e) => {
-            errln!("error: {e:#}");
-            match e.downcast_ref::<output::Interrupted>() {
-                Some(i) => ExitCode::from(i.exit_status()),
-                None => ExitCode::FAILURE,
+        Err(e) => match output::interrupted() {
+            // A signal can also surface as another error (a wait cut short with EINTR).
+            Some(sig) => {
+                if e.downcast_ref::<output::Interrupted>().is_some() {
+                    errln!("error: {e:#}");
+                } else {
+                    errln!("error: {sig} ({e:#})");
+                }
+                ExitCode::from(sig.exit_status())
             }
-        }
+            None => {
+                errln!("error: {e:#}");
+                ExitCode::FAILURE
+            }
+        },
     }
 }

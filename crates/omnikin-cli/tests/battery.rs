@@ -1602,3 +1602,58 @@ fn robot_log_survives_sigint_and_sigterm() {
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
+
+/// Ctrl-C while `drive telemetry --out` waits for a robot: the telemetry log (header and any
+/// rows) is moved into place and the exit status is 130.
+#[test]
+fn drive_log_survives_sigint() {
+    let dir = fixtures("drive-signal");
+    let log = dir.join("out/telemetry.csv");
+    let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap(); // a robot that never answers
+    let addr = port.local_addr().unwrap().to_string();
+    let mut child = Command::new(BIN)
+        .args([
+            "drive",
+            "--connect",
+            &addr,
+            "--timeout",
+            "600",
+            "telemetry",
+            "--for",
+            "600",
+        ])
+        .arg("--out")
+        .arg(&log)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Its hello reaches the socket: the process is in its wait loop.
+    port.set_read_timeout(Some(WALL)).unwrap();
+    let mut buf = [0u8; 512];
+    port.recv_from(&mut buf).expect("drive sends hello");
+    assert!(!log.exists());
+    assert!(
+        Command::new("kill")
+            .args(["-INT", &child.id().to_string()])
+            .status()
+            .unwrap()
+            .success()
+    );
+    let start = Instant::now();
+    let code = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s.code();
+        }
+        if start.elapsed() > WALL {
+            let _ = child.kill();
+            panic!("drive did not stop on SIGINT");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    let stderr = String::from_utf8_lossy(&child.wait_with_output().unwrap().stderr).to_string();
+    assert_eq!(code, Some(130), "{stderr}");
+    let text = std::fs::read_to_string(&log).expect("the log is in place");
+    assert!(text.starts_with("t,x,y,heading"), "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
