@@ -1261,8 +1261,11 @@ fn pending_other_branches() -> Vec<Case> {
     ));
     v.push(owned(
         "5: plan --rate 1e12",
-        square(&["--rate", "1e12"]),
-        err(&[]),
+        ["plan", "square", "--robot", "sphere-omni", "--rate", "1e12"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect(),
+        err(&["--rate"]),
     ));
     v.push(case(
         "5: circle --omega 1e-9",
