@@ -47,109 +47,118 @@ pub fn trajectory_figure(
     mean: &MeanTrajectory,
 ) -> Result<()> {
     crate::plot::svg_file(flag, path, (1400, 700), |root| {
-        root.fill(&WHITE).map_err(draw_err)?;
-        let root = root.titled(title, ("sans-serif", 22)).map_err(draw_err)?;
-        let (left, right) = root.split_horizontally(700);
-        let blue = PALETTE[0];
-        let several = runs.len() >= 2;
-        let plan_xy: Vec<(f64, f64)> = plan.samples.iter().map(|s| (s.pose.x, s.pose.y)).collect();
+        draw_trajectories(root, title, plan, runs, mean)
+    })
+}
 
-        let mut series: Vec<Series> = runs
-            .iter()
-            .enumerate()
-            .map(|(i, r)| {
-                let label = match (i, several) {
-                    (0, true) => "individual runs",
-                    (0, false) => "run",
-                    _ => "",
-                };
-                Series {
-                    width: 1,
-                    ..Series::solid(label, r.xy.iter().map(|p| (p[0], p[1])).collect(), RUN_GREY)
-                }
-            })
-            .collect();
-        series.push(Series::dashed(
-            "planned (theoretical)",
-            plan_xy.clone(),
-            BLACK,
+fn draw_trajectories(
+    root: &crate::plot::Area,
+    title: &str,
+    plan: &Plan,
+    runs: &[Run],
+    mean: &MeanTrajectory,
+) -> Result<()> {
+    root.fill(&WHITE).map_err(draw_err)?;
+    let root = root.titled(title, ("sans-serif", 22)).map_err(draw_err)?;
+    let (left, right) = root.split_horizontally(700);
+    let blue = PALETTE[0];
+    let several = runs.len() >= 2;
+    let plan_xy: Vec<(f64, f64)> = plan.samples.iter().map(|s| (s.pose.x, s.pose.y)).collect();
+
+    let mut series: Vec<Series> = runs
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let label = match (i, several) {
+                (0, true) => "individual runs",
+                (0, false) => "run",
+                _ => "",
+            };
+            Series {
+                width: 1,
+                ..Series::solid(label, r.xy.iter().map(|p| (p[0], p[1])).collect(), RUN_GREY)
+            }
+        })
+        .collect();
+    series.push(Series::dashed(
+        "planned (theoretical)",
+        plan_xy.clone(),
+        BLACK,
+    ));
+    let mut bands = Vec::new();
+    if several {
+        series.push(Series::solid(
+            "mean of runs",
+            mean.mean.iter().map(|p| (p[0], p[1])).collect(),
+            blue,
         ));
+        let (upper, lower) = band_polygon(&mean.mean, &mean.half_width);
+        bands.push(Band::between("95 % band of the mean", &upper, &lower, blue));
+    }
+    let arrows: Vec<Arrow> = match (
+        plan_xy.first(),
+        plan_xy
+            .iter()
+            .find(|p| (p.0 - plan_xy[0].0).hypot(p.1 - plan_xy[0].1) > 1e-6),
+    ) {
+        (Some(a), Some(b)) => vec![Arrow {
+            at: *a,
+            dir: (b.0 - a.0, b.1 - a.1),
+            color: BLACK,
+        }],
+        _ => Vec::new(),
+    };
+    xy_panel(
+        &left,
+        "path (world frame; arrow: start)",
+        "x [m]",
+        "y [m]",
+        &series,
+        &bands,
+        &arrows,
+    )?;
+
+    let panels = right.split_evenly((2, 1));
+    for (c, (panel, name)) in panels.iter().zip(["x", "y"]).enumerate() {
+        let t = plan.samples.iter().map(|s| s.t);
+        let planned: Vec<(f64, f64)> = plan
+            .samples
+            .iter()
+            .map(|s| (s.t, if c == 0 { s.pose.x } else { s.pose.y }))
+            .collect();
+        let mut series = vec![Series::dashed("planned", planned, BLACK)];
         let mut bands = Vec::new();
         if several {
-            series.push(Series::solid(
-                "mean of runs",
-                mean.mean.iter().map(|p| (p[0], p[1])).collect(),
-                blue,
-            ));
-            let (upper, lower) = band_polygon(&mean.mean, &mean.half_width);
-            bands.push(Band::between("95 % band of the mean", &upper, &lower, blue));
+            let m: Vec<(f64, f64)> = t.clone().zip(&mean.mean).map(|(t, p)| (t, p[c])).collect();
+            let up: Vec<(f64, f64)> = t
+                .clone()
+                .enumerate()
+                .map(|(k, t)| (t, mean.mean[k][c] + mean.half_width[k][c]))
+                .collect();
+            let lo: Vec<(f64, f64)> = t
+                .enumerate()
+                .map(|(k, t)| (t, mean.mean[k][c] - mean.half_width[k][c]))
+                .collect();
+            bands.push(Band::between("95 % band", &up, &lo, blue));
+            series.push(Series::solid("mean", m, blue));
+        } else if let Some(r) = runs.first() {
+            series.push(Series {
+                width: 1,
+                ..Series::solid(
+                    "run",
+                    t.zip(&r.xy).map(|(t, p)| (t, p[c])).collect(),
+                    RUN_GREY,
+                )
+            });
         }
-        let arrows: Vec<Arrow> = match (
-            plan_xy.first(),
-            plan_xy
-                .iter()
-                .find(|p| (p.0 - plan_xy[0].0).hypot(p.1 - plan_xy[0].1) > 1e-6),
-        ) {
-            (Some(a), Some(b)) => vec![Arrow {
-                at: *a,
-                dir: (b.0 - a.0, b.1 - a.1),
-                color: BLACK,
-            }],
-            _ => Vec::new(),
-        };
-        xy_panel(
-            &left,
-            "path (world frame; arrow: start)",
-            "x [m]",
-            "y [m]",
+        time_panel(
+            panel,
+            &format!("{name}(t)"),
+            &format!("{name} [m]"),
             &series,
             &bands,
-            &arrows,
+            None,
         )?;
-
-        let panels = right.split_evenly((2, 1));
-        for (c, (panel, name)) in panels.iter().zip(["x", "y"]).enumerate() {
-            let t = plan.samples.iter().map(|s| s.t);
-            let planned: Vec<(f64, f64)> = plan
-                .samples
-                .iter()
-                .map(|s| (s.t, if c == 0 { s.pose.x } else { s.pose.y }))
-                .collect();
-            let mut series = vec![Series::dashed("planned", planned, BLACK)];
-            let mut bands = Vec::new();
-            if several {
-                let m: Vec<(f64, f64)> =
-                    t.clone().zip(&mean.mean).map(|(t, p)| (t, p[c])).collect();
-                let up: Vec<(f64, f64)> = t
-                    .clone()
-                    .enumerate()
-                    .map(|(k, t)| (t, mean.mean[k][c] + mean.half_width[k][c]))
-                    .collect();
-                let lo: Vec<(f64, f64)> = t
-                    .enumerate()
-                    .map(|(k, t)| (t, mean.mean[k][c] - mean.half_width[k][c]))
-                    .collect();
-                bands.push(Band::between("95 % band", &up, &lo, blue));
-                series.push(Series::solid("mean", m, blue));
-            } else if let Some(r) = runs.first() {
-                series.push(Series {
-                    width: 1,
-                    ..Series::solid(
-                        "run",
-                        t.zip(&r.xy).map(|(t, p)| (t, p[c])).collect(),
-                        RUN_GREY,
-                    )
-                });
-            }
-            time_panel(
-                panel,
-                &format!("{name}(t)"),
-                &format!("{name} [m]"),
-                &series,
-                &bands,
-                None,
-            )?;
-        }
-        Ok(())
-    })
+    }
+    Ok(())
 }

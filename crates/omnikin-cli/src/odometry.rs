@@ -388,54 +388,56 @@ fn read_fixes(path: &Path, args: &OdometryArgs) -> Result<Fixes> {
 }
 
 fn figure(flag: &str, svg: &Path, out: &Output, fixes: &[(f64, f64)], fused: bool) -> Result<()> {
+    crate::plot::svg_file(flag, svg, (1300, 640), |root| draw(root, out, fixes, fused))
+}
+
+fn draw(root: &crate::plot::Area, out: &Output, fixes: &[(f64, f64)], fused: bool) -> Result<()> {
     use crate::plot::{PALETTE, Series, draw_err, time_panel, xy_panel};
     use plotters::prelude::*;
-    crate::plot::svg_file(flag, svg, (1300, 640), |root| {
-        root.fill(&WHITE).map_err(draw_err)?;
-        let (left, right) = root.split_horizontally(700);
-        let xy = |p: &[Pose2<f64>]| p.iter().map(|p| (p.x, p.y)).collect::<Vec<_>>();
-        let th = |p: &[Pose2<f64>]| {
-            out.t
-                .iter()
-                .zip(p)
-                .map(|(&t, p)| (t, p.heading))
-                .collect::<Vec<_>>()
-        };
-        let mut paths = vec![Series::solid(
-            "wheel odometry",
-            xy(&out.odometry),
-            PALETTE[0],
-        )];
-        let mut headings = vec![Series::solid(
-            "wheel odometry",
-            th(&out.odometry),
-            PALETTE[0],
-        )];
-        if fused {
-            paths.push(Series::solid(
-                "fused with fixes",
-                xy(&out.estimate),
-                PALETTE[1],
-            ));
-            headings.push(Series::solid(
-                "fused with fixes",
-                th(&out.estimate),
-                PALETTE[1],
-            ));
-            if !fixes.is_empty() {
-                paths.push(Series::dashed("camera fixes", fixes.to_vec(), PALETTE[3]));
-            }
+    root.fill(&WHITE).map_err(draw_err)?;
+    let (left, right) = root.split_horizontally(700);
+    let xy = |p: &[Pose2<f64>]| p.iter().map(|p| (p.x, p.y)).collect::<Vec<_>>();
+    let th = |p: &[Pose2<f64>]| {
+        out.t
+            .iter()
+            .zip(p)
+            .map(|(&t, p)| (t, p.heading))
+            .collect::<Vec<_>>()
+    };
+    let mut paths = vec![Series::solid(
+        "wheel odometry",
+        xy(&out.odometry),
+        PALETTE[0],
+    )];
+    let mut headings = vec![Series::solid(
+        "wheel odometry",
+        th(&out.odometry),
+        PALETTE[0],
+    )];
+    if fused {
+        paths.push(Series::solid(
+            "fused with fixes",
+            xy(&out.estimate),
+            PALETTE[1],
+        ));
+        headings.push(Series::solid(
+            "fused with fixes",
+            th(&out.estimate),
+            PALETTE[1],
+        ));
+        if !fixes.is_empty() {
+            paths.push(Series::dashed("camera fixes", fixes.to_vec(), PALETTE[3]));
         }
-        xy_panel(
-            &left,
-            "estimated path (world frame)",
-            "x [m]",
-            "y [m]",
-            &paths,
-            &[],
-            &[],
-        )?;
-        time_panel(&right, "heading", "heading [rad]", &headings, &[], None)?;
-        Ok(())
-    })
+    }
+    xy_panel(
+        &left,
+        "estimated path (world frame)",
+        "x [m]",
+        "y [m]",
+        &paths,
+        &[],
+        &[],
+    )?;
+    time_panel(&right, "heading", "heading [rad]", &headings, &[], None)?;
+    Ok(())
 }
