@@ -191,7 +191,7 @@ impl Session {
         if let Some(p) = out {
             // The log is kept on every exit path, Ctrl-C included (see crate::output).
             let mut w = crate::output::OutFile::log("--out", p)?;
-            writeln!(w, "{TELEMETRY_HEADER}")?;
+            writeln!(w, "{TELEMETRY_HEADER}").context("--out: cannot write")?;
             self.log = Some(w);
             crate::output::catch_signals()?;
         }
@@ -215,7 +215,7 @@ impl Session {
                         self.latest = Some(t);
                     }
                     if let Some(w) = self.log.as_mut() {
-                        writeln!(w, "{}", telemetry_row(&t))?;
+                        writeln!(w, "{}", telemetry_row(&t)).context("--out: cannot write")?;
                     }
                     self.frames += 1;
                     fresh = true;

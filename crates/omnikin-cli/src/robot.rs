@@ -149,7 +149,7 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     let mut log = match &a.log {
         Some(p) => {
             let mut w = crate::output::OutFile::log("--log", p)?;
-            writeln!(w, "{LOG_HEADER}")?;
+            writeln!(w, "{LOG_HEADER}").context("--log: cannot write")?;
             Some(w)
         }
         None => None,
@@ -235,7 +235,8 @@ pub fn run(a: &RobotArgs) -> Result<()> {
                 s.rejected,
                 c.ok,
                 c.dropped(),
-            )?;
+            )
+            .context("--log: cannot write")?;
         }
         plant.advance(period)?;
         k += 1;

@@ -1061,6 +1061,352 @@ fn own_cases() -> Vec<Case> {
             v.push(owned(format!("odd file: {what} {file}"), a, expect));
         }
     }
+    // Directories where an output file is expected, and link addresses that are files.
+    for (what, args) in [
+        (
+            "odometry --out",
+            &[
+                "odometry",
+                "in/log.csv",
+                "--robot",
+                "sphere-omni",
+                "--out",
+                "in/dir",
+            ][..],
+        ),
+        (
+            "robot --log",
+            &[
+                "robot",
+                "--sim",
+                "--robot",
+                "sphere-omni",
+                "--listen",
+                "127.0.0.1:0",
+                "--max-time",
+                "0.1",
+                "--log",
+                "out",
+            ][..],
+        ),
+        (
+            "drive telemetry --out",
+            &[
+                "drive",
+                "--connect",
+                "127.0.0.1:9",
+                "telemetry",
+                "--out",
+                "out",
+                "--for",
+                "0",
+            ][..],
+        ),
+        (
+            "plan --plot",
+            &["plan", "square", "--robot", "sphere-omni", "--plot", "out"][..],
+        ),
+    ] {
+        v.push(owned(
+            format!("directory as output: {what}"),
+            args.iter().map(|s| s.to_string()).collect(),
+            err(&["is a directory"]),
+        ));
+    }
+    for addr in [
+        "serial:in/P.csv",
+        "serial:in/dir",
+        "serial:",
+        "serial:/dev/null@0",
+        "[::1",
+        "127.0.0.1:99999",
+        "",
+    ] {
+        v.push(case(
+            format!("odd address: drive --connect {addr:?}"),
+            &["drive", "--connect", addr, "--timeout", "0.2", "hello"],
+            err(&[]),
+        ));
+        v.push(case(
+            format!("odd address: robot --listen {addr:?}"),
+            &[
+                "robot",
+                "--sim",
+                "--robot",
+                "sphere-omni",
+                "--listen",
+                addr,
+                "--max-time",
+                "0.1",
+            ],
+            err(&[]),
+        ));
+    }
+    // A full disk: every output to /dev/full is an error naming the flag.
+    for (what, args, flag) in [
+        (
+            "plan --out",
+            &[
+                "plan",
+                "square",
+                "--robot",
+                "sphere-omni",
+                "--out",
+                "/dev/full",
+            ][..],
+            "--out",
+        ),
+        (
+            "plan --plot",
+            &[
+                "plan",
+                "square",
+                "--robot",
+                "sphere-omni",
+                "--out",
+                "out/a.csv",
+                "--plot",
+                "/dev/full",
+            ][..],
+            "--plot",
+        ),
+        (
+            "odometry --out",
+            &[
+                "odometry",
+                "in/log.csv",
+                "--robot",
+                "sphere-omni",
+                "--out",
+                "/dev/full",
+            ][..],
+            "--out",
+        ),
+        (
+            "robot --log",
+            &[
+                "robot",
+                "--sim",
+                "--robot",
+                "sphere-omni",
+                "--listen",
+                "127.0.0.1:0",
+                "--max-time",
+                "0.5",
+                "--time-scale",
+                "10",
+                "--log",
+                "/dev/full",
+            ][..],
+            "--log",
+        ),
+        (
+            "drive telemetry --out",
+            &[
+                "drive",
+                "--connect",
+                "127.0.0.1:9",
+                "telemetry",
+                "--out",
+                "/dev/full",
+                "--for",
+                "0",
+                "--timeout",
+                "0.2",
+            ][..],
+            "--out",
+        ),
+    ] {
+        v.push(owned(
+            format!("full disk: {what} /dev/full"),
+            args.iter().map(|s| s.to_string()).collect(),
+            err(&[flag]),
+        ));
+    }
+    // More numbers: counts, seeds, poses, thresholds.
+    for (what, args) in [
+        (
+            "odometry --counts-per-rev 0",
+            &[
+                "odometry",
+                "in/log.csv",
+                "--robot",
+                "sphere-omni",
+                "--counts-per-rev",
+                "0",
+                "--out",
+                "out/p.csv",
+            ][..],
+        ),
+        (
+            "odometry --counts-per-rev 1e9",
+            &[
+                "odometry",
+                "in/log.csv",
+                "--robot",
+                "sphere-omni",
+                "--counts-per-rev",
+                "1e9",
+                "--out",
+                "out/p.csv",
+            ][..],
+        ),
+        (
+            "odometry --initial-pose 1e308",
+            &[
+                "odometry",
+                "in/log.csv",
+                "--robot",
+                "sphere-omni",
+                "--initial-pose",
+                "1e308,-1e308,1e308",
+                "--out",
+                "out/p.csv",
+            ][..],
+        ),
+        (
+            "odometry --initial-pose 1e308 --plot",
+            &[
+                "odometry",
+                "in/log.csv",
+                "--robot",
+                "sphere-omni",
+                "--initial-pose",
+                "1e308,0,0",
+                "--out",
+                "out/p.csv",
+                "--plot",
+                "out/p.svg",
+            ][..],
+        ),
+        (
+            "simulate --trials 0",
+            &[
+                "simulate",
+                "in/plan.csv",
+                "--robot",
+                "sphere-omni",
+                "--trials",
+                "0",
+                "--out",
+                "out",
+            ][..],
+        ),
+        (
+            "simulate --trials 1e9",
+            &[
+                "simulate",
+                "in/plan.csv",
+                "--robot",
+                "sphere-omni",
+                "--trials",
+                "1000000000",
+                "--out",
+                "out",
+            ][..],
+        ),
+        (
+            "simulate --seed -1",
+            &[
+                "simulate",
+                "in/plan.csv",
+                "--robot",
+                "sphere-omni",
+                "--trials",
+                "1",
+                "--seed",
+                "-1",
+                "--out",
+                "out",
+            ][..],
+        ),
+        (
+            "reproduce --trials 0",
+            &["reproduce", "sphere-2019", "--trials", "0", "--out", "out"][..],
+        ),
+        (
+            "reproduce --rate NaN",
+            &[
+                "reproduce",
+                "sphere-2019",
+                "--trials",
+                "1",
+                "--rate",
+                "NaN",
+                "--out",
+                "out",
+            ][..],
+        ),
+        (
+            "evaluate --motion-threshold 1e308",
+            &[
+                "evaluate",
+                "--plan",
+                "in/plan.csv",
+                "in/track.csv",
+                "--motion-threshold",
+                "1e308",
+                "--out",
+                "out",
+            ][..],
+        ),
+        (
+            "plan --initial-steer on a sphere",
+            &[
+                "plan",
+                "square",
+                "--robot",
+                "sphere-omni",
+                "--initial-steer",
+                "1,2,3",
+            ][..],
+        ),
+        (
+            "plan caster3 --initial-steer 1e308",
+            &[
+                "plan",
+                "square",
+                "--robot",
+                "caster3",
+                "--initial-steer",
+                "1e308,0,0",
+                "--rate",
+                "20",
+            ][..],
+        ),
+        (
+            "drive velocity --vx 1e308",
+            &[
+                "drive",
+                "--connect",
+                "127.0.0.1:9",
+                "--timeout",
+                "0.2",
+                "velocity",
+                "--vx",
+                "1e308",
+                "--for",
+                "0.1",
+            ][..],
+        ),
+        (
+            "drive teleop --speed NaN",
+            &[
+                "drive",
+                "--connect",
+                "127.0.0.1:9",
+                "teleop",
+                "--speed",
+                "NaN",
+            ][..],
+        ),
+    ] {
+        v.push(owned(
+            format!("number: {what}"),
+            args.iter().map(|s| s.to_string()).collect(),
+            Expect::Any,
+        ));
+    }
     v.push(case(
         "missing column: odometry without q3",
         &[
