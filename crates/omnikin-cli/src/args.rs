@@ -23,7 +23,10 @@ pub fn in_range(s: &str, min: f64, max: f64, unit: &str) -> Result<f64, String> 
     if (min..=max).contains(&v) {
         Ok(v)
     } else {
-        Err(format!("must be between {min} and {max} {unit}, got {}", s.trim()))
+        Err(format!(
+            "must be between {min} and {max} {unit}, got {}",
+            s.trim()
+        ))
     }
 }
 

@@ -371,6 +371,18 @@ pub fn svg_file(
         draw(&root).with_context(|| format!("{flag} {}", path.display()))?;
         root.present().map_err(draw_err)?;
     }
+    // Text in a figure comes from files (a robot's name): a control character would make the
+    // SVG invalid XML (plotters escapes only <, > and &), so it is shown as U+FFFD.
+    let text: String = text
+        .chars()
+        .map(|c| {
+            if c.is_control() && !matches!(c, '\t' | '\n' | '\r') {
+                '\u{FFFD}'
+            } else {
+                c
+            }
+        })
+        .collect();
     crate::output::write_file(flag, path, |w| {
         std::io::Write::write_all(w, text.as_bytes())
     })

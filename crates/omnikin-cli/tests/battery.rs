@@ -2006,3 +2006,46 @@ fn drive_log_survives_sigint() {
     assert!(text.starts_with("t,x,y,heading"), "{text}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Observation 9, the figure's side: a robot name with control characters and markup gives a
+/// well-formed SVG (no control character, markup escaped).
+#[test]
+fn figure_text_from_files_is_valid_svg() {
+    let dir = fixtures("svg-text");
+    let robot = std::fs::read_to_string(dir.join("in/robot.toml")).unwrap();
+    let evil = robot.replace(
+        "name = \"sphere-omni\"",
+        "name = \"evil <b>&amp; \\u0007 \\u001b[31m x\"",
+    );
+    assert_ne!(robot, evil);
+    std::fs::write(dir.join("in/evil.toml"), evil).unwrap();
+    let args: Vec<String> = [
+        "plan",
+        "square",
+        "--robot",
+        "in/evil.toml",
+        "--rate",
+        "20",
+        "--out",
+        "out/p.csv",
+        "--plot",
+        "out/p.svg",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    let r = run(&dir, &args, Stdout::File);
+    if r.code == Some(0) {
+        let svg = std::fs::read_to_string(dir.join("out/p.svg")).unwrap();
+        let bad: Vec<char> = svg
+            .chars()
+            .filter(|c| c.is_control() && !matches!(c, '\t' | '\n' | '\r'))
+            .collect();
+        assert!(bad.is_empty(), "control characters in the SVG: {bad:?}");
+        assert!(svg.contains("evil &lt;b&gt;"), "markup escaped");
+    } else {
+        // Rejecting such a name at the edge (input-limits) is fine too.
+        assert!(r.stderr.contains("error"), "{}", r.stderr);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
