@@ -1881,6 +1881,20 @@ fn pending_other_branches() -> Vec<Case> {
     ));
     // Observation 9: quietly wrong.
     v.push(case(
+        "9: --ramp 1e300 (a 1-sample plan) is an error",
+        &[
+            "plan",
+            "circle",
+            "--robot",
+            "sphere-omni",
+            "--omega",
+            "0.5",
+            "--ramp",
+            "1e300",
+        ],
+        err(&["--ramp"]),
+    ));
+    v.push(case(
         "9: a 4th azimuth is an error",
         &["check", "in/four_azimuths.toml"],
         err(&["azimuths"]),
