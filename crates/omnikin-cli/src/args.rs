@@ -16,6 +16,71 @@ pub fn finite_f64(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A finite number within `[min, max]` (`unit` in the message): the edge check of every
+/// duration, rate and count-like float flag whose value becomes a wait or a schedule.
+pub fn in_range(s: &str, min: f64, max: f64, unit: &str) -> Result<f64, String> {
+    let v = finite_f64(s)?;
+    if (min..=max).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!(
+            "must be between {min} and {max} {unit}, got {}",
+            s.trim()
+        ))
+    }
+}
+
+/// `drive --timeout`: 0.01 to 3600 s.
+pub fn timeout_s(s: &str) -> Result<f64, String> {
+    in_range(s, 0.01, 3600.0, "s")
+}
+
+/// `drive --heartbeat`, `robot --telemetry-rate`: 0.1 to 1000 Hz.
+pub fn message_rate_hz(s: &str) -> Result<f64, String> {
+    in_range(s, 0.1, 1000.0, "Hz")
+}
+
+/// `drive velocity --for`, `drive telemetry --for`: 0 to 604800 s (one week).
+pub fn run_for_s(s: &str) -> Result<f64, String> {
+    in_range(s, 0.0, 604_800.0, "s")
+}
+
+/// `robot --rate`: the control rate, 1 to 10000 Hz.
+pub fn control_rate_hz(s: &str) -> Result<f64, String> {
+    in_range(s, 1.0, 10_000.0, "Hz")
+}
+
+/// `robot --time-scale`: 0.01 to 1000 times real time.
+pub fn time_scale(s: &str) -> Result<f64, String> {
+    in_range(s, 0.01, 1000.0, "times real time")
+}
+
+/// The largest `--threads` (more only costs memory: each worker reserves its stack).
+pub const MAX_THREADS: usize = 256;
+
+/// `--threads`: 1 to [`MAX_THREADS`] worker threads.
+pub fn threads(s: &str) -> Result<usize, String> {
+    let n: usize = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("expected a whole number of threads, got \"{s}\""))?;
+    if (1..=MAX_THREADS).contains(&n) {
+        Ok(n)
+    } else {
+        Err(format!(
+            "must be between 1 and {MAX_THREADS} (the limit on worker threads), got {n}"
+        ))
+    }
+}
+
+/// Seconds as a [`Duration`](std::time::Duration), or an error naming `what` (never the
+/// panic of `Duration::from_secs_f64` on a negative, huge or NaN value).
+pub fn duration(what: &str, secs: f64) -> anyhow::Result<std::time::Duration> {
+    std::time::Duration::try_from_secs_f64(secs).map_err(|_| {
+        anyhow::anyhow!("{what}: {secs} s is not a representable duration (0 to 1.8e19 s)")
+    })
+}
+
 /// Three finite numbers given as `A,B,C` (one per wheel).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Triple(pub [f64; 3]);
@@ -54,5 +119,27 @@ mod tests {
         assert!("1,NaN,3".parse::<Triple>().unwrap_err().contains("finite"));
         assert!(finite_f64("inf").is_err());
         assert_eq!(finite_f64("-0.1").unwrap(), -0.1);
+    }
+
+    #[test]
+    fn ranges_and_durations() {
+        assert_eq!(timeout_s("3").unwrap(), 3.0);
+        for bad in ["1e300", "0", "-1", "NaN", "inf", "0.001"] {
+            let e = timeout_s(bad).unwrap_err();
+            assert!(
+                e.contains("0.01 and 3600") || e.contains("finite"),
+                "{bad}: {e}"
+            );
+        }
+        assert!(message_rate_hz("1e-300").is_err());
+        assert!(control_rate_hz("1e9").is_err());
+        assert!(time_scale("1e-300").is_err());
+        assert!(threads("100000").unwrap_err().contains("256"));
+        assert!(threads("0").is_err());
+        assert_eq!(threads("4").unwrap(), 4);
+        assert!(duration("--x", 1e300).is_err());
+        assert!(duration("--x", -1.0).is_err());
+        assert!(duration("--x", f64::NAN).is_err());
+        assert_eq!(duration("--x", 0.5).unwrap().as_millis(), 500);
     }
 }

@@ -31,10 +31,10 @@ pub struct DriveArgs {
     pub key: Option<PathBuf>,
     /// Heartbeat / command repeat rate, Hz (wall clock). Must comfortably beat the robot's
     /// watchdog.
-    #[arg(long, default_value_t = 20.0, global = true, allow_hyphen_values = true, value_parser = finite_f64)]
+    #[arg(long, default_value_t = 20.0, global = true, allow_hyphen_values = true, value_parser = crate::args::message_rate_hz)]
     pub heartbeat: f64,
     /// Give up waiting for the robot after this many seconds without an answer.
-    #[arg(long, default_value_t = 3.0, global = true, allow_hyphen_values = true, value_parser = finite_f64)]
+    #[arg(long, default_value_t = 3.0, global = true, allow_hyphen_values = true, value_parser = crate::args::timeout_s)]
     pub timeout: f64,
     /// What to do.
     #[command(subcommand)]
@@ -61,7 +61,7 @@ pub enum DriveAction {
         #[arg(long)]
         world: bool,
         /// How long to keep commanding, s (wall clock); then a controlled stop.
-        #[arg(long = "for", value_name = "SECONDS", allow_hyphen_values = true, value_parser = finite_f64)]
+        #[arg(long = "for", value_name = "SECONDS", allow_hyphen_values = true, value_parser = crate::args::run_for_s)]
         duration: f64,
         /// Record telemetry to this CSV file.
         #[arg(long, value_name = "FILE")]
@@ -90,7 +90,7 @@ pub enum DriveAction {
         #[arg(long, value_name = "FILE")]
         out: PathBuf,
         /// How long, s (wall clock).
-        #[arg(long = "for", value_name = "SECONDS", default_value_t = 5.0, allow_hyphen_values = true, value_parser = finite_f64)]
+        #[arg(long = "for", value_name = "SECONDS", default_value_t = 5.0, allow_hyphen_values = true, value_parser = crate::args::run_for_s)]
         duration: f64,
     },
     /// Interactive keyboard driving (needs a terminal): w/s forward/back, a/d left/right,
@@ -156,7 +156,7 @@ struct Session {
     link: Link,
     latest: Option<Telemetry>,
     info: Option<RobotInfo>,
-    log: Option<std::io::BufWriter<std::fs::File>>,
+    log: Option<crate::output::OutFile>,
     frames: u64,
     heartbeat: Duration,
     timeout: Duration,
@@ -182,19 +182,18 @@ impl Session {
             info: None,
             log: None,
             frames: 0,
-            heartbeat: Duration::from_secs_f64(1.0 / a.heartbeat),
-            timeout: Duration::from_secs_f64(a.timeout),
+            heartbeat: crate::args::duration("--heartbeat", 1.0 / a.heartbeat)?,
+            timeout: crate::args::duration("--timeout", a.timeout)?,
         })
     }
 
     fn record(&mut self, out: Option<&Path>) -> Result<()> {
         if let Some(p) = out {
-            let mut w = std::io::BufWriter::new(
-                std::fs::File::create(p)
-                    .with_context(|| format!("--out {}: cannot create", p.display()))?,
-            );
-            writeln!(w, "{TELEMETRY_HEADER}")?;
+            // The log is kept on every exit path, Ctrl-C included (see crate::output).
+            let mut w = crate::output::OutFile::log("--out", p)?;
+            writeln!(w, "{TELEMETRY_HEADER}").context("--out: cannot write")?;
             self.log = Some(w);
+            crate::output::catch_signals()?;
         }
         Ok(())
     }
@@ -206,6 +205,9 @@ impl Session {
     /// Receives for `dur`; returns `true` if a new telemetry frame arrived.
     fn pump(&mut self, dur: Duration) -> Result<bool> {
         let mut fresh = false;
+        if let Some(sig) = crate::output::interrupted() {
+            return Err(sig.into());
+        }
         for r in self.link.poll(dur)? {
             match r.result {
                 Ok((_, Message::Telemetry(t))) => {
@@ -213,7 +215,7 @@ impl Session {
                         self.latest = Some(t);
                     }
                     if let Some(w) = self.log.as_mut() {
-                        writeln!(w, "{}", telemetry_row(&t))?;
+                        writeln!(w, "{}", telemetry_row(&t)).context("--out: cannot write")?;
                     }
                     self.frames += 1;
                     fresh = true;
@@ -271,15 +273,15 @@ impl Session {
     }
 
     fn finish(&mut self) -> Result<()> {
-        if let Some(w) = self.log.as_mut() {
-            w.flush()?;
+        match self.log.take() {
+            Some(w) => w.commit(),
+            None => Ok(()),
         }
-        Ok(())
     }
 
-    fn print_status(&self) {
+    fn print_status(&self) -> Result<()> {
         if let Some(t) = &self.latest {
-            println!(
+            crate::outln!(
                 "robot t {:.3} s: mode {}, pose ({:.4} m, {:.4} m, {:.4} rad), faults {}, history {}",
                 t.time_us as f64 * 1e-6,
                 t.mode,
@@ -288,9 +290,9 @@ impl Session {
                 t.pose[2],
                 t.faults,
                 t.fault_history
-            );
+            )?;
             let l = &t.link;
-            println!(
+            crate::outln!(
                 "robot link: {} frames ok, dropped {} (framing {}, crc {}, version {}, auth {}, replay {}, malformed {}); commands rejected {}",
                 l.ok,
                 l.dropped(),
@@ -301,8 +303,9 @@ impl Session {
                 l.replay,
                 l.malformed,
                 t.rejected
-            );
+            )?;
         }
+        Ok(())
     }
 }
 
@@ -312,7 +315,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
     match &a.action {
         DriveAction::Hello => {
             let i = s.hello()?;
-            println!(
+            crate::outln!(
                 "robot: protocol {}, model {:?}, plan capacity {} points, control {} Hz, watchdog {} s, {}",
                 i.protocol,
                 i.kind,
@@ -324,7 +327,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
                 } else {
                     "no key"
                 }
-            );
+            )?;
         }
         DriveAction::Velocity {
             vx,
@@ -342,7 +345,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
                 vy: *vy as f32,
                 yaw_rate: *yaw_rate as f32,
             };
-            let end = Instant::now() + Duration::from_secs_f64(duration.max(0.0));
+            let end = Instant::now() + crate::args::duration("--for", *duration)?;
             while Instant::now() < end {
                 s.send(&m)?;
                 s.pump(s.heartbeat)?;
@@ -350,7 +353,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
             if let Some(t) = s.latest
                 && t.mode != Mode::Velocity
             {
-                s.print_status();
+                s.print_status()?;
                 bail!(
                     "the robot did not take the command (mode {}, rejected {})",
                     t.mode,
@@ -358,7 +361,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
                 );
             }
             stop(&mut s)?;
-            s.print_status();
+            s.print_status()?;
         }
         DriveAction::Plan {
             plan,
@@ -371,32 +374,32 @@ pub fn run(a: &DriveArgs) -> Result<()> {
         DriveAction::Stop => {
             s.hello()?;
             stop(&mut s)?;
-            s.print_status();
+            s.print_status()?;
         }
         DriveAction::Estop => {
             s.until(&Message::EStop, "estop", |s| {
                 s.latest.is_some_and(|t| t.mode == Mode::EStop)
             })?;
-            s.print_status();
+            s.print_status()?;
         }
         DriveAction::Clear => {
             s.until(&Message::Clear, "clear", |s| {
                 s.latest
                     .is_some_and(|t| t.mode != Mode::EStop && t.fault_history.is_empty())
             })?;
-            s.print_status();
+            s.print_status()?;
         }
         DriveAction::Telemetry { out, duration } => {
             s.record(Some(out))?;
             s.hello()?;
-            let end = Instant::now() + Duration::from_secs_f64(duration.max(0.0));
+            let end = Instant::now() + crate::args::duration("--for", *duration)?;
             while Instant::now() < end {
                 // Hello keeps this operator the robot's telemetry peer without commanding.
                 s.send(&Message::Heartbeat)?;
                 s.pump(s.heartbeat)?;
             }
-            println!("{} telemetry frames written to {}", s.frames, out.display());
-            s.print_status();
+            crate::outln!("{} telemetry frames written to {}", s.frames, out.display())?;
+            s.print_status()?;
         }
         DriveAction::Teleop { speed, turn } => {
             let period = s.heartbeat;
@@ -496,11 +499,11 @@ fn follow_plan(s: &mut Session, path: &Path, set_pose: bool) -> Result<()> {
         })?;
         sent += 1;
     }
-    println!(
+    crate::outln!(
         "uploaded plan {id}: {n} points ({} samples in the file) in {sent} chunks, {:.2} s",
         plan.samples.len(),
         t0.elapsed().as_secs_f64()
-    );
+    )?;
     s.until(&Message::PlanStart { id }, "plan start", |s| {
         s.latest
             .is_some_and(|t| t.mode == Mode::Trajectory || (t.plan.done && t.plan.id == id))
@@ -526,7 +529,7 @@ fn follow_plan(s: &mut Session, path: &Path, set_pose: bool) -> Result<()> {
                 break;
             }
             if !t.plan.done {
-                s.print_status();
+                s.print_status()?;
                 bail!(
                     "the robot left the plan (mode {}, faults {})",
                     t.mode,
@@ -543,10 +546,16 @@ fn follow_plan(s: &mut Session, path: &Path, set_pose: bool) -> Result<()> {
     }
     let t = s.latest.context("no telemetry")?;
     let end = pts[pts.len() - 1].pose;
-    println!(
+    crate::outln!(
         "plan done: max |pose - reference| {:.4} m while following; end pose ({:.4}, {:.4}, {:.4}), plan end ({:.4}, {:.4}, {:.4})",
-        max_dev, t.pose[0], t.pose[1], t.pose[2], end[0], end[1], end[2]
-    );
-    s.print_status();
+        max_dev,
+        t.pose[0],
+        t.pose[1],
+        t.pose[2],
+        end[0],
+        end[1],
+        end[2]
+    )?;
+    s.print_status()?;
     Ok(())
 }

@@ -39,13 +39,25 @@ fn band_polygon(mean: &[[f64; 2]], half: &[[f64; 2]]) -> (Border, Border) {
 /// Draws the trajectory figure: the XY path (runs faint, plan dashed, mean solid, band shaded,
 /// an arrow at the start) and x(t), y(t) with their bands.
 pub fn trajectory_figure(
+    flag: &str,
     path: &Path,
     title: &str,
     plan: &Plan,
     runs: &[Run],
     mean: &MeanTrajectory,
 ) -> Result<()> {
-    let root = SVGBackend::new(path, (1400, 700)).into_drawing_area();
+    crate::plot::svg_file(flag, path, (1400, 700), |root| {
+        draw_trajectories(root, title, plan, runs, mean)
+    })
+}
+
+fn draw_trajectories(
+    root: &crate::plot::Area,
+    title: &str,
+    plan: &Plan,
+    runs: &[Run],
+    mean: &MeanTrajectory,
+) -> Result<()> {
     root.fill(&WHITE).map_err(draw_err)?;
     let root = root
         .titled(&crate::plot::svg_text(title), ("sans-serif", 22))
@@ -150,6 +162,5 @@ pub fn trajectory_figure(
             None,
         )?;
     }
-    root.present().map_err(draw_err)?;
     Ok(())
 }

@@ -23,7 +23,7 @@ fn warn_limits(what: &str, rates: [f64; 3], limit: Option<f64>, key: &str) {
     if let Some(max) = limit {
         for (i, r) in rates.iter().enumerate() {
             if r.abs() > max {
-                eprintln!(
+                crate::errln!(
                     "warning: {what} {} = {r:.6} rad/s exceeds limits.{key} = {max} rad/s (by {:.1} %)",
                     i + 1,
                     (r.abs() / max - 1.0) * 100.0
@@ -85,7 +85,7 @@ pub fn inverse(a: &InverseArgs) -> Result<()> {
         if let Some(s) = steer_rates {
             o["steer_rates"] = json!(s);
         }
-        println!("{o}");
+        crate::outln!("{o}")?;
         return Ok(());
     }
     let frame = if a.world {
@@ -93,31 +93,36 @@ pub fn inverse(a: &InverseArgs) -> Result<()> {
     } else {
         "robot frame".into()
     };
-    println!("robot: {} ({}, {})", d.name, kind, d.source_name);
-    println!(
+    crate::outln!("robot: {} ({}, {})", d.name, kind, d.source_name)?;
+    crate::outln!(
         "body motion: vx {} m/s, vy {} m/s ({frame}), yaw rate {} rad/s",
-        a.vx, a.vy, a.yaw_rate
-    );
+        a.vx,
+        a.vy,
+        a.yaw_rate
+    )?;
     match kind {
-        "sphere-omni" => println!("shell spin: {spin} rad/s"),
-        "ballbot" => println!("ball spin: {spin} rad/s"),
-        _ => println!(
+        "sphere-omni" => crate::outln!("shell spin: {spin} rad/s")?,
+        "ballbot" => crate::outln!("ball spin: {spin} rad/s")?,
+        _ => crate::outln!(
             "steer angles: {:?} rad",
             a.steer.map(|t| t.0).unwrap_or([0.0; 3])
-        ),
+        )?,
     }
-    println!(
+    crate::outln!(
         "{:<22}{:>12} {:>12} {:>12}",
-        "", "wheel 1", "wheel 2", "wheel 3"
-    );
+        "",
+        "wheel 1",
+        "wheel 2",
+        "wheel 3"
+    )?;
     let label = if steer_rates.is_some() {
         "roll rates [rad/s]"
     } else {
         "wheel rates [rad/s]"
     };
-    println!("{}", fmt3(label, wheel_rates));
+    crate::outln!("{}", fmt3(label, wheel_rates))?;
     if let Some(s) = steer_rates {
-        println!("{}", fmt3("steer rates [rad/s]", s));
+        crate::outln!("{}", fmt3("steer rates [rad/s]", s))?;
     }
     Ok(())
 }
@@ -155,28 +160,31 @@ pub fn forward(a: &ForwardArgs) -> Result<()> {
         if let Some(f) = slip {
             o["slip_residual"] = json!(f.slip_residual);
         }
-        println!("{o}");
+        crate::outln!("{o}")?;
         return Ok(());
     }
     let frame = match a.heading {
         Some(h) => format!("world frame, heading {h} rad"),
         None => "robot frame".into(),
     };
-    println!("robot: {} ({}, {})", d.name, kind, d.source_name);
-    println!("twist ({frame}):");
-    println!("  vx       {:>12.6} m/s", twist.vx);
-    println!("  vy       {:>12.6} m/s", twist.vy);
-    println!("  yaw rate {:>12.6} rad/s", twist.yaw_rate);
+    crate::outln!("robot: {} ({}, {})", d.name, kind, d.source_name)?;
+    crate::outln!("twist ({frame}):")?;
+    crate::outln!("  vx       {:>12.6} m/s", twist.vx)?;
+    crate::outln!("  vy       {:>12.6} m/s", twist.vy)?;
+    crate::outln!("  yaw rate {:>12.6} rad/s", twist.yaw_rate)?;
     if let Some(f) = slip {
-        println!(
+        crate::outln!(
             "slip residual {:.6} m/s (per wheel: {:.6} {:.6} {:.6}); 0 means the six rates are consistent",
-            f.slip_residual, f.wheel_slip[0], f.wheel_slip[1], f.wheel_slip[2]
-        );
+            f.slip_residual,
+            f.wheel_slip[0],
+            f.wheel_slip[1],
+            f.wheel_slip[2]
+        )?;
     } else {
-        println!(
+        crate::outln!(
             "(assumed {} spin {spin} rad/s)",
             if kind == "ballbot" { "ball" } else { "shell" }
-        );
+        )?;
     }
     Ok(())
 }
@@ -196,21 +204,21 @@ pub fn torques(a: &TorquesArgs) -> Result<()> {
         _ => bail!("give exactly one of --model TX,TY,TZ or --wheels T1,T2,T3"),
     };
     if a.json {
-        println!("{}", json!({ key: out }));
+        crate::outln!("{}", json!({ key: out }))?;
     } else {
-        println!(
+        crate::outln!(
             "robot: {} ({}, {}), yaw {} rad",
             d.name,
             d.kind(),
             d.source_name,
             a.yaw
-        );
+        )?;
         if key == "wheel_torques" {
-            println!("{:<22}{:>12} {:>12} {:>12}", "", "T1", "T2", "T3");
-            println!("{}", fmt3("wheel torques [N·m]", out));
+            crate::outln!("{:<22}{:>12} {:>12} {:>12}", "", "T1", "T2", "T3")?;
+            crate::outln!("{}", fmt3("wheel torques [N·m]", out))?;
         } else {
-            println!("{:<22}{:>12} {:>12} {:>12}", "", "Tx", "Ty", "Tz");
-            println!("{}", fmt3("model torques [N·m]", out));
+            crate::outln!("{:<22}{:>12} {:>12} {:>12}", "", "Tx", "Ty", "Tz")?;
+            crate::outln!("{}", fmt3("model torques [N·m]", out))?;
         }
     }
     Ok(())
@@ -238,18 +246,21 @@ fn vec3(v: &[f64; 3]) -> String {
     format!("({:>9.5}, {:>9.5}, {:>9.5})", v[0], v[1], v[2])
 }
 
-fn print_limits(l: &Limits) {
-    let show = |name: &str, v: Option<f64>, unit: &str| match v {
-        Some(x) => println!("  {name:<16} {x} {unit}"),
-        None => println!("  {name:<16} (none)"),
+fn print_limits(l: &Limits) -> Result<()> {
+    let show = |name: &str, v: Option<f64>, unit: &str| -> Result<()> {
+        match v {
+            Some(x) => crate::outln!("  {name:<16} {x} {unit}"),
+            None => crate::outln!("  {name:<16} (none)"),
+        }
     };
-    println!("limits:");
-    show("max_wheel_rate", l.max_wheel_rate, "rad/s");
-    show("max_wheel_accel", l.max_wheel_accel, "rad/s²");
+    crate::outln!("limits:")?;
+    show("max_wheel_rate", l.max_wheel_rate, "rad/s")?;
+    show("max_wheel_accel", l.max_wheel_accel, "rad/s²")?;
     if l.max_steer_rate.is_some() || l.max_steer_accel.is_some() {
-        show("max_steer_rate", l.max_steer_rate, "rad/s");
-        show("max_steer_accel", l.max_steer_accel, "rad/s²");
+        show("max_steer_rate", l.max_steer_rate, "rad/s")?;
+        show("max_steer_accel", l.max_steer_accel, "rad/s²")?;
     }
+    Ok(())
 }
 
 pub fn check(a: &CheckArgs) -> Result<()> {
@@ -427,12 +438,12 @@ pub fn check(a: &CheckArgs) -> Result<()> {
         "max_steer_rate": d.limits.max_steer_rate, "max_steer_accel": d.limits.max_steer_accel,
     });
     if a.json {
-        println!("{j}");
+        crate::outln!("{j}")?;
     } else {
         for line in text {
-            println!("{line}");
+            crate::outln!("{line}")?;
         }
-        print_limits(&d.limits);
+        print_limits(&d.limits)?;
     }
     Ok(())
 }

@@ -14,6 +14,7 @@ mod figures;
 mod kinematics;
 mod link_io;
 mod odometry;
+mod output;
 mod plan;
 mod plot;
 mod robot;
@@ -32,6 +33,10 @@ use args::{Triple, finite_f64};
 #[derive(Parser, Debug)]
 #[command(name = "omnikin", version, about, long_about)]
 struct Cli {
+    /// Replace existing output files (and files in an existing, non-empty output directory).
+    /// Inputs are never overwritten, with or without --force.
+    #[arg(long, global = true)]
+    force: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -168,9 +173,103 @@ pub struct CheckArgs {
     pub json: bool,
 }
 
-fn main() -> ExitCode {
-    let cli = Cli::parse();
-    let result = match cli.command {
+/// `ROBOT` or `--disturbances` may name a preset or a file: only a file is an input.
+fn named_file(s: &str) -> Option<&std::path::Path> {
+    let p = std::path::Path::new(s);
+    p.is_file().then_some(p)
+}
+
+/// Every file the command reads, registered for the output rules (an input is never
+/// overwritten), and every output, checked against those rules before any work is done.
+fn io_rules(c: &Command) -> anyhow::Result<()> {
+    use std::path::Path;
+    let mut inputs: Vec<(&str, &Path)> = Vec::new();
+    let mut files: Vec<(&str, &Path)> = Vec::new();
+    let mut dirs: Vec<(&str, &Path)> = Vec::new();
+    fn robot(r: &str) -> Option<(&'static str, &std::path::Path)> {
+        named_file(r).map(|p| ("ROBOT", p))
+    }
+    match c {
+        Command::Inverse(a) => inputs.extend(robot(&a.robot)),
+        Command::Forward(a) => inputs.extend(robot(&a.robot)),
+        Command::Torques(a) => inputs.extend(robot(&a.robot)),
+        Command::Check(a) => inputs.extend(robot(&a.robot)),
+        Command::Plan(a) => {
+            let (common, file) = match &a.kind {
+                plan::PlanKind::Square(s) => (&s.common, None),
+                plan::PlanKind::Circle(c) => (&c.common, None),
+                plan::PlanKind::Waypoints(w) => (&w.common, Some(w.file.as_path())),
+            };
+            inputs.extend(robot(&common.robot));
+            inputs.extend(file.map(|f| ("FILE", f)));
+            files.extend(common.out.as_deref().map(|p| ("--out", p)));
+            files.extend(common.plot.as_deref().map(|p| ("--plot", p)));
+        }
+        Command::Simulate(a) => {
+            inputs.extend(robot(&a.robot));
+            inputs.push(("PLAN", &a.plan));
+            inputs.extend(a.disturbances.as_deref().map(|p| ("--disturbances", p)));
+            inputs.extend(a.sensors.as_deref().map(|p| ("--sensors", p)));
+            dirs.push(("--out", &a.out));
+        }
+        Command::Evaluate(a) => {
+            inputs.push(("--plan", &a.plan));
+            inputs.extend(a.tracks.iter().map(|t| ("TRACK", t.as_path())));
+            dirs.push(("--out", &a.out));
+        }
+        Command::Reproduce(a) => dirs.push(("--out", &a.out)),
+        Command::Odometry(a) => {
+            inputs.extend(robot(&a.robot));
+            inputs.push(("LOG", &a.log));
+            inputs.extend(a.fixes.as_deref().map(|p| ("--fixes", p)));
+            files.push(("--out", &a.out));
+            files.extend(a.plot.as_deref().map(|p| ("--plot", p)));
+        }
+        Command::Robot(a) => {
+            inputs.extend(robot(&a.robot));
+            inputs.extend(
+                a.disturbances
+                    .as_deref()
+                    .and_then(named_file)
+                    .map(|p| ("--disturbances", p)),
+            );
+            inputs.extend(a.key.as_deref().map(|p| ("--key", p)));
+            files.extend(a.log.as_deref().map(|p| ("--log", p)));
+        }
+        Command::Drive(a) => {
+            inputs.extend(a.key.as_deref().map(|p| ("--key", p)));
+            match &a.action {
+                drive::DriveAction::Velocity { out, .. } => {
+                    files.extend(out.as_deref().map(|p| ("--out", p)));
+                }
+                drive::DriveAction::Plan { plan, out, .. } => {
+                    inputs.push(("PLAN", plan));
+                    files.extend(out.as_deref().map(|p| ("--out", p)));
+                }
+                drive::DriveAction::Telemetry { out, .. } => files.push(("--out", out)),
+                _ => {}
+            }
+        }
+    }
+    for (flag, p) in inputs {
+        output::input(flag, p);
+    }
+    for (flag, p) in &files {
+        output::check_file(flag, p)?;
+    }
+    // Output directories are checked by `output::create_dir` once the inputs are read (so a
+    // bad input is reported first) and before any simulation runs.
+    for (flag, p) in &dirs {
+        if output::is_file_like(p) {
+            output::check_dir(flag, p)?;
+        }
+    }
+    output::check_distinct(&files)
+}
+
+fn run(command: Command) -> anyhow::Result<()> {
+    io_rules(&command)?;
+    match command {
         Command::Inverse(a) => kinematics::inverse(&a),
         Command::Forward(a) => kinematics::forward(&a),
         Command::Torques(a) => kinematics::torques(&a),
@@ -182,12 +281,49 @@ fn main() -> ExitCode {
         Command::Odometry(a) => odometry::run(&a),
         Command::Robot(a) => robot::run(&a),
         Command::Drive(a) => drive::run(&a),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
+    }?;
+    output::flush_stdout()
+}
+
+/// Exit status when stdout is a closed pipe: 128 + SIGPIPE, as if killed by it.
+const EXIT_BROKEN_PIPE: u8 = 141;
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
         Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
+            // Help and version go to stdout, usage errors to stderr; neither may panic.
+            let code = match e.print() {
+                Err(w) if !e.use_stderr() && w.kind() == std::io::ErrorKind::BrokenPipe => {
+                    EXIT_BROKEN_PIPE
+                }
+                Err(w) if !e.use_stderr() => {
+                    errln!("error: cannot write to stdout: {w}");
+                    1
+                }
+                _ => e.exit_code().clamp(0, 255) as u8,
+            };
+            return ExitCode::from(code);
         }
+    };
+    output::set_force(cli.force);
+    match run(cli.command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(_) if output::stdout_broken() => ExitCode::from(EXIT_BROKEN_PIPE),
+        Err(e) => match output::interrupted() {
+            // A signal can also surface as another error (a wait cut short with EINTR).
+            Some(sig) => {
+                if e.downcast_ref::<output::Interrupted>().is_some() {
+                    errln!("error: {e:#}");
+                } else {
+                    errln!("error: {sig} ({e:#})");
+                }
+                ExitCode::from(sig.exit_status())
+            }
+            None => {
+                errln!("error: {e:#}");
+                ExitCode::FAILURE
+            }
+        },
     }
 }

@@ -275,7 +275,7 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
                     Ok(FixOutcome::Accepted { .. }) => accepted += 1,
                     Ok(FixOutcome::Rejected { mahalanobis2, gate }) => {
                         rejected += 1;
-                        eprintln!(
+                        crate::errln!(
                             "warning: {fix_file}:{fline}: fix at t = {} s rejected as an outlier (d² = {mahalanobis2:.1} > {gate:.1})",
                             fix.t
                         );
@@ -298,12 +298,13 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     for (t, p) in out.t.iter().zip(&out.estimate) {
         let _ = writeln!(csv, "{t},{},{},{}", p.x, p.y, p.heading);
     }
-    std::fs::write(&args.out, csv)
-        .with_context(|| format!("{}: cannot write", args.out.display()))?;
+    crate::output::write_file("--out", &args.out, |w| {
+        std::io::Write::write_all(w, csv.as_bytes())
+    })?;
 
     let end = out.estimate.last().copied().unwrap_or(start);
     let duration = out.t.last().copied().unwrap_or(t0) - t0;
-    eprintln!(
+    crate::errln!(
         "robot: {} ({}); heading from {}",
         description.name,
         description.kind(),
@@ -313,7 +314,7 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
             Source::Yaw(_) => "the yaw column",
         }
     );
-    eprintln!(
+    crate::errln!(
         "{} samples over {duration:.3} s; odometry path {path:.4} m; end pose x {:.4} m, y {:.4} m, heading {:.4} rad",
         out.t.len(),
         end.x,
@@ -321,13 +322,14 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         end.heading
     );
     if caster {
-        eprintln!(
+        crate::errln!(
             "largest slip residual {:.4} m/s at t = {} s",
-            max_slip.0, max_slip.1
+            max_slip.0,
+            max_slip.1
         );
     }
     if spin_sum.1 > 0 {
-        eprintln!(
+        crate::errln!(
             "mean {} spin about the vertical (from wheels + IMU heading): {:.4} rad/s",
             if matches!(robot, Robot::Sphere(_)) {
                 "shell"
@@ -339,20 +341,20 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     }
     if let Some((_, f)) = &fixes {
         let p = out.odometry.last().copied().unwrap_or(start);
-        eprintln!(
+        crate::errln!(
             "fixes: {accepted} fused, {rejected} rejected as outliers, {too_old} older than the history, {} after the log; fused end differs from pure odometry by {:.4} m",
             f.len() - next_fix,
             (p.x - end.x).hypot(p.y - end.y)
         );
     }
-    eprintln!("wrote {}", args.out.display());
+    crate::errln!("wrote {}", args.out.display());
     if let Some(svg) = &args.plot {
         let fix_points: Vec<(f64, f64)> = fixes
             .as_ref()
             .map(|(_, f)| f.iter().map(|(_, _, x)| (x.x, x.y)).collect())
             .unwrap_or_default();
-        figure(svg, &out, &fix_points, fixes.is_some())?;
-        eprintln!("wrote {}", svg.display());
+        figure("--plot", svg, &out, &fix_points, fixes.is_some())?;
+        crate::errln!("wrote {}", svg.display());
     }
     Ok(())
 }
@@ -392,10 +394,13 @@ fn read_fixes(path: &Path, args: &OdometryArgs) -> Result<Fixes> {
     Ok((table.file, fixes))
 }
 
-fn figure(svg: &Path, out: &Output, fixes: &[(f64, f64)], fused: bool) -> Result<()> {
+fn figure(flag: &str, svg: &Path, out: &Output, fixes: &[(f64, f64)], fused: bool) -> Result<()> {
+    crate::plot::svg_file(flag, svg, (1300, 640), |root| draw(root, out, fixes, fused))
+}
+
+fn draw(root: &crate::plot::Area, out: &Output, fixes: &[(f64, f64)], fused: bool) -> Result<()> {
     use crate::plot::{PALETTE, Series, draw_err, time_panel, xy_panel};
     use plotters::prelude::*;
-    let root = SVGBackend::new(svg, (1300, 640)).into_drawing_area();
     root.fill(&WHITE).map_err(draw_err)?;
     let (left, right) = root.split_horizontally(700);
     let xy = |p: &[Pose2<f64>]| p.iter().map(|p| (p.x, p.y)).collect::<Vec<_>>();
@@ -441,6 +446,5 @@ fn figure(svg: &Path, out: &Output, fixes: &[(f64, f64)], fused: bool) -> Result
         &[],
     )?;
     time_panel(&right, "heading", "heading [rad]", &headings, &[], None)?;
-    root.present().map_err(draw_err)?;
     Ok(())
 }

@@ -485,19 +485,19 @@ fn finish(
     let plan = &planned.plan;
     match &c.out {
         Some(path) => {
-            let f = std::fs::File::create(path)
-                .with_context(|| format!("cannot create {}", path.display()))?;
-            write_plan(plan, c.format, std::io::BufWriter::new(f))
-                .with_context(|| format!("cannot write {}", path.display()))?;
+            let mut f = crate::output::OutFile::create("--out", path)?;
+            write_plan(plan, c.format, &mut f)
+                .with_context(|| format!("--out {}: cannot write", path.display()))?;
+            f.commit()?;
         }
         None => {
-            let stdout = std::io::stdout();
-            write_plan(plan, c.format, stdout.lock()).context("cannot write the plan to stdout")?;
+            write_plan(plan, c.format, crate::output::Stdout)
+                .context("cannot write the plan to stdout")?;
         }
     }
     if let Some(svg) = &c.plot {
         let title = format!("{} — {}", d.name, what.split(':').next().unwrap_or(what));
-        plan_figure(svg, &title, plan, robot)?;
+        plan_figure("--plot", svg, &title, plan, robot)?;
     }
     summary(c, d, robot, what, planned);
     Ok(())
@@ -518,9 +518,9 @@ fn write_plan<W: Write>(plan: &Plan, format: Format, mut out: W) -> Result<()> {
 fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, planned: &Planned) {
     let r = &planned.report;
     let n = planned.plan.samples.len();
-    eprintln!("plan: {what}");
-    eprintln!("robot: {} ({}, {})", d.name, d.kind(), d.source_name);
-    eprintln!(
+    crate::errln!("plan: {what}");
+    crate::errln!("robot: {} ({}, {})", d.name, d.kind(), d.source_name);
+    crate::errln!(
         "{n} samples at {} Hz -> {} ({})",
         c.rate,
         c.out
@@ -536,7 +536,7 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
         .iter()
         .filter(|m| matches!(m.kind, MoveKind::Turn { .. }))
         .count();
-    eprintln!(
+    crate::errln!(
         "duration {:.3} s, path length {:.3} m, {} move(s){}",
         r.duration,
         r.path_length,
@@ -563,14 +563,14 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
             None => "no limit in the robot file".into(),
         };
         if p.value < 1e-9 {
-            eprintln!(
+            crate::errln!(
                 "{name} {:>9.3} {:<7} (constant), {limit}",
                 0.0,
                 p.quantity.unit()
             );
             continue;
         }
-        eprintln!(
+        crate::errln!(
             "{name} {:>9.3} {:<7} ({} {} at t = {:.2} s), {limit}",
             p.value,
             p.quantity.unit(),
@@ -588,7 +588,7 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
         .iter()
         .map(|(l, s)| format!("{l} {:.0} %", 100.0 * s))
         .collect();
-    eprintln!(
+    crate::errln!(
         "timing limited by: {}{}",
         shares.join(", "),
         if motor_active {
@@ -599,7 +599,7 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
     );
     for rt in &r.retimed {
         let m = &r.moves[rt.move_index];
-        eprintln!(
+        crate::errln!(
             "re-timed: move {} ({}) slowed to {:.1} % of the requested speed by {}",
             rt.move_index + 1,
             match m.kind {
@@ -614,15 +614,17 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
         && let Some(s) = planned.plan.samples.first()
     {
         let w = s.wheel_rates;
-        eprintln!(
+        crate::errln!(
             "note: the plan starts at full speed (paper 000's law): at t = 0 the wheels must already turn at {:.3}, {:.3}, {:.3} rad/s; use --ramp to start from rest",
-            w[0], w[1], w[2]
+            w[0],
+            w[1],
+            w[2]
         );
     }
     if robot.is_caster()
         && let Some((g, _)) = planned.plan.samples.first().and_then(|s| s.steer)
     {
-        eprintln!(
+        crate::errln!(
             "initial steer angles: {:.4}, {:.4}, {:.4} rad{}",
             g[0],
             g[1],
@@ -638,8 +640,19 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
 
 /// Draws the plan: the path with direction arrows (left), wheel rates over time (top right),
 /// steer rates (caster) or speed and yaw rate (bottom right).
-pub fn plan_figure(svg: &FsPath, title: &str, plan: &Plan, robot: &RobotModel) -> Result<()> {
-    let root = plotters::prelude::SVGBackend::new(svg, (1300, 640)).into_drawing_area();
+pub fn plan_figure(
+    flag: &str,
+    svg: &FsPath,
+    title: &str,
+    plan: &Plan,
+    robot: &RobotModel,
+) -> Result<()> {
+    plot::svg_file(flag, svg, (1300, 640), |root| {
+        draw_plan(root, title, plan, robot)
+    })
+}
+
+fn draw_plan(root: &plot::Area, title: &str, plan: &Plan, robot: &RobotModel) -> Result<()> {
     use plotters::prelude::*;
     root.fill(&WHITE).map_err(plot::draw_err)?;
     let root = root
@@ -747,6 +760,5 @@ pub fn plan_figure(svg: &FsPath, title: &str, plan: &Plan, robot: &RobotModel) -
             None,
         )?;
     }
-    root.present().map_err(plot::draw_err)?;
     Ok(())
 }

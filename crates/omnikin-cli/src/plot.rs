@@ -3,7 +3,7 @@
 //! (filled polygons, e.g. a confidence band) and direction arrows; and a time-series panel.
 //! Axes carry labels with units, every series a legend entry.
 
-use anyhow::{Result, anyhow};
+use anyhow::{Context, Result, anyhow};
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
@@ -117,21 +117,48 @@ pub struct Arrow {
     pub color: RGBColor,
 }
 
+/// The largest |value| a figure draws. Beyond it an axis cannot be stepped through at f64
+/// resolution (plotters' tick loop would not advance, or the span overflows to infinity), so
+/// such data is an error naming the panel, not a hang or a panic.
+pub const MAX_AXIS: f64 = 1e12;
+
 /// `(lo, hi)` covering all finite `values`, padded by `pad` of the span on each side and at
-/// least `min_span` wide.
-pub fn range(values: impl Iterator<Item = f64>, pad: f64, min_span: f64) -> (f64, f64) {
+/// least `min_span` wide (and at least 1e-9 of the largest |value|, so the ticks can advance).
+/// Non-finite values are left out (and not drawn); no finite value gives `(-1, 1)`. Values
+/// beyond ±[`MAX_AXIS`] are an error naming `what` (the panel and axis).
+pub fn range(
+    values: impl Iterator<Item = f64>,
+    pad: f64,
+    min_span: f64,
+    what: &str,
+) -> Result<(f64, f64)> {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for v in values.filter(|v| v.is_finite()) {
         lo = lo.min(v);
         hi = hi.max(v);
     }
     if !lo.is_finite() {
-        return (-1.0, 1.0);
+        return Ok((-1.0, 1.0));
     }
-    let span = (hi - lo).max(min_span);
+    let big = lo.abs().max(hi.abs());
+    if big > MAX_AXIS {
+        return Err(anyhow!(
+            "cannot draw the figure: {what} reaches {big:e}, beyond the ±{MAX_AXIS:e} a figure can show (check the inputs for an absurd value or a wrong unit)"
+        ));
+    }
+    let span = (hi - lo).max(min_span).max(big * 1e-9);
     let mid = 0.5 * (lo + hi);
     let half = 0.5 * span * (1.0 + 2.0 * pad);
-    (mid - half, mid + half)
+    Ok((mid - half, mid + half))
+}
+
+/// The finite points of `points` (a NaN or infinite point is not drawn).
+fn finite_points(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    points
+        .iter()
+        .copied()
+        .filter(|p| p.0.is_finite() && p.1.is_finite())
+        .collect()
 }
 
 /// Most points drawn per polyline or band outline. A figure is ~1300 px wide, so more points
@@ -180,7 +207,7 @@ fn draw_lines<'a>(chart: &mut Chart<'a, 'a>, series: &[Series]) -> Result<()> {
         let anno = if s.dashed {
             chart
                 .draw_series(DashedLineSeries::new(
-                    decimate(&s.points).iter().copied(),
+                    finite_points(&decimate(&s.points)),
                     8,
                     5,
                     style,
@@ -188,7 +215,7 @@ fn draw_lines<'a>(chart: &mut Chart<'a, 'a>, series: &[Series]) -> Result<()> {
                 .map_err(draw_err)?
         } else {
             chart
-                .draw_series(LineSeries::new(decimate(&s.points).iter().copied(), style))
+                .draw_series(LineSeries::new(finite_points(&decimate(&s.points)), style))
                 .map_err(draw_err)?
         };
         if !s.label.is_empty() {
@@ -219,10 +246,10 @@ pub fn xy_panel(
 ) -> Result<()> {
     let xs = series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
     let xb = bands.iter().flat_map(|b| b.polygon.iter().map(|p| p.0));
-    let (mut x0, mut x1) = range(xs.chain(xb), 0.08, 1e-3);
+    let (mut x0, mut x1) = range(xs.chain(xb), 0.08, 1e-3, &format!("panel \"{title}\", x"))?;
     let ys = series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
     let yb = bands.iter().flat_map(|b| b.polygon.iter().map(|p| p.1));
-    let (mut y0, mut y1) = range(ys.chain(yb), 0.08, 1e-3);
+    let (mut y0, mut y1) = range(ys.chain(yb), 0.08, 1e-3, &format!("panel \"{title}\", y"))?;
     // Plot area in pixels (the area minus label space), then widen one range to equal scales.
     let (w, h) = area.dim_in_pixel();
     let (pw, ph) = ((w as f64 - 95.0).max(10.0), (h as f64 - 95.0).max(10.0));
@@ -256,7 +283,7 @@ pub fn xy_panel(
         let color = b.color;
         let anno = chart
             .draw_series(std::iter::once(Polygon::new(
-                decimate(&b.polygon).into_owned(),
+                finite_points(&decimate(&b.polygon)),
                 color.mix(0.25).filled(),
             )))
             .map_err(draw_err)?;
@@ -313,7 +340,7 @@ pub fn time_panel(
     limits: Option<(f64, &str)>,
 ) -> Result<()> {
     let ts = series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
-    let (t0, t1) = range(ts, 0.0, 1e-6);
+    let (t0, t1) = range(ts, 0.0, 1e-6, &format!("panel \"{title}\", time"))?;
     let mut ys: Vec<f64> = series
         .iter()
         .flat_map(|s| s.points.iter().map(|p| p.1))
@@ -322,7 +349,12 @@ pub fn time_panel(
     if let Some((l, _)) = limits {
         ys.extend([l, -l]);
     }
-    let (y0, y1) = range(ys.into_iter(), 0.08, 1e-6);
+    let (y0, y1) = range(
+        ys.into_iter(),
+        0.08,
+        1e-6,
+        &format!("panel \"{title}\", {y_label}"),
+    )?;
     let mut chart = ChartBuilder::on(area)
         .caption(svg_text(title), (FONT, 18))
         .margin(12)
@@ -343,7 +375,7 @@ pub fn time_panel(
         let color = b.color;
         let anno = chart
             .draw_series(std::iter::once(Polygon::new(
-                decimate(&b.polygon).into_owned(),
+                finite_points(&decimate(&b.polygon)),
                 color.mix(0.25).filled(),
             )))
             .map_err(draw_err)?;
@@ -373,4 +405,36 @@ pub fn time_panel(
         .draw()
         .map_err(draw_err)?;
     Ok(())
+}
+
+/// Draws an SVG figure of `size` pixels in memory with `draw`, then writes it as the output
+/// `path` (named by `flag` in messages) under the output rules (temporary file, rename; see
+/// [`crate::output`]). A figure that cannot be drawn leaves no file behind.
+pub fn svg_file(
+    flag: &str,
+    path: &std::path::Path,
+    size: (u32, u32),
+    draw: impl FnOnce(&Area) -> Result<()>,
+) -> Result<()> {
+    let mut text = String::new();
+    {
+        let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
+        draw(&root).with_context(|| format!("{flag} {}", path.display()))?;
+        root.present().map_err(draw_err)?;
+    }
+    // Text in a figure comes from files (a robot's name): a control character would make the
+    // SVG invalid XML (plotters escapes only <, > and &), so it is shown as U+FFFD.
+    let text: String = text
+        .chars()
+        .map(|c| {
+            if c.is_control() && !matches!(c, '\t' | '\n' | '\r') {
+                '\u{FFFD}'
+            } else {
+                c
+            }
+        })
+        .collect();
+    crate::output::write_file(flag, path, |w| {
+        std::io::Write::write_all(w, text.as_bytes())
+    })
 }

@@ -41,10 +41,10 @@ pub struct RobotArgs {
     #[arg(long, value_name = "FILE")]
     pub key: Option<PathBuf>,
     /// Control rate, Hz.
-    #[arg(long, default_value_t = 100.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    #[arg(long, default_value_t = 100.0, allow_hyphen_values = true, value_parser = crate::args::control_rate_hz)]
     pub rate: f64,
     /// Telemetry rate, Hz (robot time).
-    #[arg(long, default_value_t = 20.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    #[arg(long, default_value_t = 20.0, allow_hyphen_values = true, value_parser = crate::args::message_rate_hz)]
     pub telemetry_rate: f64,
     /// Watchdog: no valid command or heartbeat for this long (s, robot time) → controlled stop.
     #[arg(long, default_value_t = 0.5, allow_hyphen_values = true, value_parser = finite_f64)]
@@ -68,7 +68,7 @@ pub struct RobotArgs {
     #[arg(long)]
     pub gyro_heading: bool,
     /// Run the simulation this many times faster than real time (tests use 4-10).
-    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = crate::args::time_scale)]
     pub time_scale: f64,
     /// Stop after this much robot time (s) and print a JSON summary on stdout.
     #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
@@ -152,18 +152,18 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     let mut rt: Box<Runtime<f64, SIM_PLAN_CAPACITY>> =
         Box::new(Runtime::new(robot, cfg, Pose2::default()).map_err(|e| anyhow::anyhow!("{e}"))?);
     let mut plant = SilPlant::new(robot, prof, a.seed, Pose2::default());
+    // The log is kept on every exit path: errors drop it (renamed into place with what it
+    // has), SIGINT/SIGTERM end the loop below (see crate::output).
     let mut log = match &a.log {
         Some(p) => {
-            let mut w = std::io::BufWriter::new(
-                std::fs::File::create(p)
-                    .with_context(|| format!("--log {}: cannot create", p.display()))?,
-            );
-            writeln!(w, "{LOG_HEADER}")?;
+            let mut w = crate::output::OutFile::log("--log", p)?;
+            writeln!(w, "{LOG_HEADER}").context("--log: cannot write")?;
             Some(w)
         }
         None => None,
     };
-    eprintln!(
+    crate::output::catch_signals()?;
+    crate::errln!(
         "robot: {} ({}) simulated, {} Hz control, listening on {} ({}), disturbances {}",
         desc.name,
         desc.kind(),
@@ -183,6 +183,7 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     let auth = key.is_some();
     let mut k: u64 = 0;
     let mut status;
+    let mut stopped_by = None;
     loop {
         let now = plant.time_us();
         // Commands that arrived since the last cycle (the newest valid one wins).
@@ -242,7 +243,8 @@ pub fn run(a: &RobotArgs) -> Result<()> {
                 s.rejected,
                 c.ok,
                 c.dropped(),
-            )?;
+            )
+            .context("--log: cannot write")?;
         }
         plant.advance(period)?;
         k += 1;
@@ -251,14 +253,21 @@ pub fn run(a: &RobotArgs) -> Result<()> {
         {
             break;
         }
-        let due = start + Duration::from_secs_f64(k as f64 * period / a.time_scale);
+        if let Some(sig) = crate::output::interrupted() {
+            stopped_by = Some(sig);
+            break;
+        }
+        let due = crate::args::duration("--rate/--time-scale", k as f64 * period / a.time_scale)
+            .ok()
+            .and_then(|d| start.checked_add(d))
+            .context("--rate/--time-scale: the cycle schedule overflows")?;
         let now_wall = Instant::now();
         if due > now_wall {
             std::thread::sleep(due - now_wall);
         }
     }
-    if let Some(mut w) = log {
-        w.flush()?;
+    if let Some(w) = log {
+        w.commit()?;
     }
     let c = link.endpoint.counters();
     let tp = plant.true_pose();
@@ -272,6 +281,9 @@ pub fn run(a: &RobotArgs) -> Result<()> {
         "plan": {"id": status.plan.id, "received": status.plan.received, "len": status.plan.len, "done": status.plan.done},
         "link": {"ok": c.ok, "framing": c.framing, "crc": c.crc, "version": c.version, "auth": c.auth, "replay": c.replay, "malformed": c.malformed, "dropped": c.dropped()},
     });
-    println!("{summary}");
-    Ok(())
+    crate::outln!("{summary}")?;
+    match stopped_by {
+        Some(sig) => Err(sig.into()),
+        None => Ok(()),
+    }
 }

@@ -31,8 +31,8 @@ pub struct SimulateArgs {
     /// Random seed: the same seed gives the same numbers on any number of threads.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// Worker threads, 1 to 256 (default: all cores).
+    #[arg(long, value_parser = crate::args::threads)]
     pub threads: Option<usize>,
     /// Output directory (created): metrics.json, trials.csv, mean.csv, figure.svg.
     #[arg(long)]
@@ -71,7 +71,7 @@ fn emit_sensors(
         let mut rng = omnikin_sim::trial_rng(seed ^ 0x5E45_0125_5E45_0125, i);
         let s = emit(robot, trial, &profile, &mut rng);
         let d = dir.join("sensors").join(format!("trial-{i:03}"));
-        create_dir(&d)?;
+        crate::output::create_subdir("--out", &d)?;
         write_file(&d.join("encoders.csv"), |w| {
             write_encoder_log(&s.encoder, w)
         })?;
@@ -124,21 +124,18 @@ fn parse_pair(s: &str) -> Result<[f64; 2], String> {
     Ok([x, y])
 }
 
+/// Creates the output directory of `--out` (new, or empty unless --force; see
+/// [`crate::output`]).
 fn create_dir(dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("cannot create output directory {}", dir.display()))
+    crate::output::create_dir("--out", dir)
 }
 
+/// Writes one file of the output directory (temporary file, then rename).
 fn write_file(
     path: &Path,
-    write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
+    write: impl FnOnce(&mut crate::output::OutFile) -> std::io::Result<()>,
 ) -> Result<()> {
-    let f =
-        std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
-    let mut w = std::io::BufWriter::new(f);
-    write(&mut w)
-        .and_then(|_| w.flush())
-        .with_context(|| format!("cannot write {}", path.display()))
+    crate::output::write_file("--out", path, write)
 }
 
 /// Writes `mean.csv`: the mean trajectory, its 95 % half-widths, and the plan.
@@ -217,7 +214,7 @@ pub fn progress_bar(len: u64, what: &str) -> indicatif::ProgressBar {
 
 /// Prints the headline metrics for a person.
 pub fn print_summary(m: &Metrics) {
-    eprintln!(
+    crate::errln!(
         "{} run(s), path {:.3} m in {:.2} s: max deviation {:.4} m ({:.2} % of path), RMS {:.4} m, end-point error {:.4} m, max deviation from the mean {:.4} m",
         m.runs,
         m.path_length_m,
@@ -229,9 +226,13 @@ pub fn print_summary(m: &Metrics) {
         m.max_deviation_from_mean_m
     );
     if let (Some(p), Some(f), Some(r)) = (m.planned_circle, m.fitted_circle, m.radius_ratio) {
-        eprintln!(
+        crate::errln!(
             "circle: planned radius {:.4} m, fitted {:.4} m (centre {:.4}, {:.4}), ratio {:.3}",
-            p.radius, f.radius, f.center[0], f.center[1], r
+            p.radius,
+            f.radius,
+            f.center[0],
+            f.center[1],
+            r
         );
     }
 }
@@ -245,7 +246,7 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
         None => Profile::default(),
     };
     if let Some(why) = omnikin_sim::plan_mismatch(&robot, &plan) {
-        eprintln!("warning: {}: {why}", a.plan.display());
+        crate::errln!("warning: {}: {why}", a.plan.display());
     }
     create_dir(&a.out)?;
     let pool = rayon::ThreadPoolBuilder::new()
@@ -281,6 +282,7 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     write_trials(&a.out.join("trials.csv"), &trials)?;
     write_mean(&a.out.join("mean.csv"), &plan, &mean)?;
     crate::figures::trajectory_figure(
+        "--out",
         &a.out.join("figure.svg"),
         &format!("{} — {} trials of {}", d.name, a.trials, a.plan.display()),
         &plan,
@@ -289,13 +291,13 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     )?;
     if a.emit_sensors {
         emit_sensors(&a.out, &robot, &trials, a.sensors.as_deref(), a.seed)?;
-        eprintln!(
+        crate::errln!(
             "sensor logs: {}/sensors/trial-NNN/{{encoders.csv, fixes.csv, imu.csv, truth.csv}}",
             a.out.display().to_string().trim_end_matches('/')
         );
     }
     print_summary(&metrics);
-    eprintln!(
+    crate::errln!(
         "wrote {}/{{metrics.json, trials.csv, mean.csv, figure.svg}}",
         a.out.display().to_string().trim_end_matches('/')
     );
@@ -360,6 +362,7 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
     })?;
     write_mean(&a.out.join("mean.csv"), &plan, &mean)?;
     crate::figures::trajectory_figure(
+        "--out",
         &a.out.join("figure.svg"),
         &format!("{} tracked run(s) vs {}", runs.len(), a.plan.display()),
         &plan,
@@ -367,7 +370,7 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
         &mean,
     )?;
     print_summary(&metrics);
-    eprintln!(
+    crate::errln!(
         "wrote {}/{{metrics.json, runs.csv, mean.csv, figure.svg}}",
         a.out.display().to_string().trim_end_matches('/')
     );
@@ -400,8 +403,8 @@ pub struct ReproduceArgs {
     /// Plan sampling rate, Hz (the plant integrates at 1 kHz).
     #[arg(long, default_value_t = 100.0)]
     pub rate: f64,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// Worker threads, 1 to 256 (default: all cores).
+    #[arg(long, value_parser = crate::args::threads)]
     pub threads: Option<usize>,
 }
 
@@ -440,6 +443,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
                 o.runs.len()
             );
             crate::figures::trajectory_figure(
+                "--out",
                 &a.out.join(format!("{}-{}.svg", s.name, o.profile)),
                 &title,
                 &s.plan,
@@ -473,8 +477,8 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
             serde_json::to_string_pretty(&meta).unwrap_or_default()
         )
     })?;
-    println!("{md}");
-    eprintln!(
+    crate::outln!("{md}")?;
+    crate::errln!(
         "wrote {dir}/table.md, {dir}/table.csv, {dir}/metrics.json and {n} figures in {:.1} s",
         start.elapsed().as_secs_f64(),
         dir = a.out.display(),
