@@ -7,8 +7,8 @@
 
 use libfuzzer_sys::fuzz_target;
 use omnikin::link::{
-    FrameReader, Key, MAX_FRAME, OperatorLink, PROTOCOL_VERSION, RobotEvent, RobotInfo,
-    RobotKind, RobotLink, decode_message, encode_message, parse_frame, v1,
+    FrameReader, Key, MAX_FRAME, OperatorLink, PROTOCOL_VERSION, RobotEvent, RobotInfo, RobotKind,
+    RobotLink, decode_message, encode_message, parse_frame, v1,
 };
 use omnikin::runtime::hal::{Entropy, EntropyError};
 
@@ -69,7 +69,8 @@ fuzz_target!(|data: &[u8]| {
         for (seq, msg) in decoded {
             let mut buf = [0u8; MAX_FRAME];
             let mac = k.as_ref().map(Key::mac);
-            let n = encode_message(1, seq, &msg, mac, &mut buf).expect("a decoded message re-encodes");
+            let n =
+                encode_message(1, seq, &msg, mac, &mut buf).expect("a decoded message re-encodes");
             let first = buf;
             let p = parse_frame(&mut buf[..n - 1]).expect("and parses again");
             assert!(p.verify(mac).is_ok());

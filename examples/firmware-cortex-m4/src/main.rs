@@ -22,8 +22,8 @@ use omnikin::link::{
     RobotInfo, RobotLink, WirePoint, heapless, robot_info, serve,
 };
 use omnikin::runtime::hal::{
-    EncoderAngles, Encoders, Entropy, EntropyError, MotorCommand, MotorOutputs, NoImu,
-    StepOutputs, Steppers,
+    EncoderAngles, Encoders, Entropy, EntropyError, MotorCommand, MotorOutputs, NoImu, StepOutputs,
+    Steppers,
 };
 use omnikin::runtime::{Config, Frame, Mode, PlanPoint, Runtime};
 use omnikin::sphere::{SphereOmni, SphereParams};
@@ -148,12 +148,8 @@ struct Wire {
 impl Wire {
     /// Feeds `self.buf[..n]` to the robot; returns the length of a HelloAck it answered.
     fn deliver(&mut self, n: usize, rt: &mut Runtime<f32, PLAN_CAPACITY>, now: u64) -> usize {
-        let (robot, info, rng, reply) = (
-            &mut self.robot,
-            &self.info,
-            &mut self.rng,
-            &mut self.reply,
-        );
+        let (robot, info, rng, reply) =
+            (&mut self.robot, &self.info, &mut self.rng, &mut self.reply);
         let mut answer = 0;
         self.reader.feed(&self.buf[..n], |f| match f {
             Some(f) => match robot.receive(f, info, rng, reply) {
