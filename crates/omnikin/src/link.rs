@@ -1039,14 +1039,19 @@ impl RobotLink {
                 }
                 // A retransmitted Hello gets the same answer (the same pending session);
                 // another Hello takes a free slot, or replaces the oldest pending one.
-                let same = self
-                    .pending
-                    .iter()
-                    .position(|p| p.as_ref().is_some_and(|p| p.client_nonce == hello.client_nonce));
+                let same = self.pending.iter().position(|p| {
+                    p.as_ref()
+                        .is_some_and(|p| p.client_nonce == hello.client_nonce)
+                });
                 let (slot, robot_nonce) = match same {
                     Some(i) => {
                         self.repeat = true;
-                        (i, self.pending[i].as_ref().map_or([0; NONCE_LEN], |p| p.robot_nonce))
+                        (
+                            i,
+                            self.pending[i]
+                                .as_ref()
+                                .map_or([0; NONCE_LEN], |p| p.robot_nonce),
+                        )
                     }
                     None => {
                         let mut rn = [0u8; NONCE_LEN];

@@ -693,7 +693,11 @@ fn a_retransmitted_hello_gets_the_same_session() {
     assert_eq!(op_rx(&mut op, &a2), Err(DropReason::Replay(0)));
     assert!(bot.rx(&op_tx(&mut op, &Message::Heartbeat)).0.is_ok());
     let c = bot.link.counters();
-    assert_eq!((c.ok, c.replay), (2, 1), "the repeat is answered but counted as a replay");
+    assert_eq!(
+        (c.ok, c.replay),
+        (2, 1),
+        "the repeat is answered but counted as a replay"
+    );
     // Once the session is open, the same Hello is not answered at all.
     let (r, reply) = bot.rx(&h1);
     assert_eq!((r, reply.len()), (Err(DropReason::Replay(0)), 0));
