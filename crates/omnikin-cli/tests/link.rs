@@ -1042,3 +1042,23 @@ fn cobs_decode(b: &[u8]) -> Vec<u8> {
     }
     out
 }
+
+#[test]
+fn telemetry_stops_when_the_operator_goes_silent() {
+    // Watchdog 0.5 s: telemetry stops after max(2 s, 4 x 0.5 s) = 2 s robot time, 0.25 s wall.
+    let robot = Robot::start(&["--max-time", "24"]);
+    let mut c = Client::new(robot.socket_addr());
+    c.connect();
+    let t = c.wait(200);
+    assert_eq!(t.mode, Mode::Idle);
+    std::thread::sleep(Duration::from_millis(700));
+    c.drain();
+    let quiet = c.received;
+    std::thread::sleep(Duration::from_millis(500));
+    c.drain();
+    assert_eq!(c.received, quiet, "no stream to a silent operator");
+    // The next frame of the session resumes it.
+    let t2 = c.wait(200);
+    assert!(t2.time_us > t.time_us);
+    assert!(c.received.0 > quiet.0);
+}
