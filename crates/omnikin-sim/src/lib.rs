@@ -22,6 +22,7 @@
 #![warn(missing_docs)]
 
 pub mod metrics;
+mod path_index;
 mod monte_carlo;
 mod motor;
 mod plant;
@@ -31,6 +32,9 @@ pub mod sensors;
 pub mod sil;
 pub mod track;
 
-pub use monte_carlo::{run_trials, trial_rng};
+pub use monte_carlo::{
+    FIGURE_RUNS, MonteCarlo, MonteCarloError, RETAIN_LIMIT_BYTES, run_trials,
+    second_pass_resimulates, simulate_and_evaluate, trial_rng,
+};
 pub use plant::{SimError, Trial, plan_mismatch, simulate_trial};
 pub use profile::Profile;
