@@ -22,9 +22,9 @@
 #![warn(missing_docs)]
 
 pub mod metrics;
-mod path_index;
 mod monte_carlo;
 mod motor;
+mod path_index;
 mod plant;
 pub mod profile;
 pub mod reproduce;

@@ -290,7 +290,9 @@ fn solve3(m: [[f64; 3]; 3], v: [f64; 3]) -> Option<[f64; 3]> {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum MetricsError {
     /// A run does not have one position per plan sample.
-    #[error("run {run} has {len} positions but the plan has {samples} samples (runs must be resampled onto the plan's time grid)")]
+    #[error(
+        "run {run} has {len} positions but the plan has {samples} samples (runs must be resampled onto the plan's time grid)"
+    )]
     Length {
         /// 0-based run index.
         run: usize,
@@ -320,7 +322,10 @@ impl Metrics {
             ("max_deviation_m", self.max_deviation_m),
             ("max_deviation_pct_of_path", self.max_deviation_pct_of_path),
             ("rms_deviation_m", self.rms_deviation_m),
-            ("max_plan_distance_from_run_m", self.max_plan_distance_from_run_m),
+            (
+                "max_plan_distance_from_run_m",
+                self.max_plan_distance_from_run_m,
+            ),
             ("max_tracking_error_m", self.max_tracking_error_m),
             ("end_point_error_m", self.end_point_error_m),
             ("max_end_point_error_m", self.max_end_point_error_m),
@@ -375,12 +380,12 @@ impl Metrics {
                 metric,
                 value,
                 why: if value.is_nan() {
-                    "not a number: a difference of two overflowed values (coordinates, \
-                     offsets or times so large, |x| beyond about 1e154, that their squares \
-                     overflow)"
+                    "an undefined result (such as ∞ − ∞) of values that overflowed: \
+                     coordinates, offsets or times so large (|x| beyond about 1e154) that \
+                     their squares overflow"
                 } else {
-                    "infinite: a distance or a sum overflowed (coordinates, offsets or times \
-                     so large, |x| beyond about 1e154, that their squares overflow)"
+                    "a distance or a sum overflowed: coordinates, offsets or times so large \
+                     (|x| beyond about 1e154) that their squares overflow"
                 },
             }),
         }
@@ -748,9 +753,9 @@ mod tests {
         // s = 1, n = 3: 4.303 / √3.
         assert!((m.half_width[0][0] - 4.302653 / 3f64.sqrt()).abs() < 1e-5);
     }
-        /// The evaluation before the path index and the streaming passes: every sample against
-        /// every segment. The oracle of the property tests.
-        fn evaluate_quadratic(plan: &Plan, runs: &[Run]) -> (Metrics, MeanTrajectory) {
+    /// The evaluation before the path index and the streaming passes: every sample against
+    /// every segment. The oracle of the property tests.
+    fn evaluate_quadratic(plan: &Plan, runs: &[Run]) -> (Metrics, MeanTrajectory) {
         let path: Vec<[f64; 2]> = plan.samples.iter().map(|s| [s.pose.x, s.pose.y]).collect();
         let length = plan.path_length();
         let mean = mean_trajectory(runs, 0.95);
@@ -811,46 +816,48 @@ mod tests {
             .iter()
             .map(|h| h[0].hypot(h[1]))
             .fold(0.0, f64::max);
-        let planned_circle =
-            fit_circle(&path).filter(|c| c.rms_residual < 0.01 * c.radius && length > 3.0 * c.radius);
+        let planned_circle = fit_circle(&path)
+            .filter(|c| c.rms_residual < 0.01 * c.radius && length > 3.0 * c.radius);
         let fitted_circle = planned_circle.and_then(|_| fit_circle(&mean.mean));
         let radius_ratio = match (planned_circle, fitted_circle) {
             (Some(p), Some(f)) => Some(f.radius / p.radius),
             _ => None,
         };
-        (Metrics {
-            runs: runs.len(),
-            path_length_m: length,
-            duration_s: plan.duration(),
-            max_deviation_m: max_dev,
-            max_deviation_pct_of_path: if length > 0.0 {
-                100.0 * max_dev / length
-            } else {
-                0.0
+        (
+            Metrics {
+                runs: runs.len(),
+                path_length_m: length,
+                duration_s: plan.duration(),
+                max_deviation_m: max_dev,
+                max_deviation_pct_of_path: if length > 0.0 {
+                    100.0 * max_dev / length
+                } else {
+                    0.0
+                },
+                rms_deviation_m: if count > 0 {
+                    (sum_sq / count as f64).sqrt()
+                } else {
+                    0.0
+                },
+                max_plan_distance_from_run_m: runs
+                    .iter()
+                    .flat_map(|r| path.iter().map(|q| distance_to_path(*q, &r.xy)))
+                    .fold(0.0, f64::max),
+                max_tracking_error_m: max_track,
+                end_point_error_m: end_sum / n,
+                max_end_point_error_m: end_max,
+                max_heading_error_rad: max_head,
+                mean_max_deviation_m: mean_max_dev,
+                max_deviation_from_mean_m: max_from_mean,
+                end_point_spread_m: spread,
+                ci95_max_half_width_m: ci,
+                planned_circle,
+                fitted_circle,
+                radius_ratio,
             },
-            rms_deviation_m: if count > 0 {
-                (sum_sq / count as f64).sqrt()
-            } else {
-                0.0
-            },
-            max_plan_distance_from_run_m: runs
-                .iter()
-                .flat_map(|r| path.iter().map(|q| distance_to_path(*q, &r.xy)))
-                .fold(0.0, f64::max),
-            max_tracking_error_m: max_track,
-            end_point_error_m: end_sum / n,
-            max_end_point_error_m: end_max,
-            max_heading_error_rad: max_head,
-            mean_max_deviation_m: mean_max_dev,
-            max_deviation_from_mean_m: max_from_mean,
-            end_point_spread_m: spread,
-            ci95_max_half_width_m: ci,
-            planned_circle,
-            fitted_circle,
-            radius_ratio,
-        }, mean)
+            mean,
+        )
     }
-
 
     use omnikin::{Pose2, Twist2};
     use omnikin_plan::Sample;
@@ -887,7 +894,7 @@ mod tests {
                     .into_iter()
                     .map(|(dx, dy, kind)| {
                         match kind {
-                            0 => {}                                  // repeated point
+                            0 => {}                                    // repeated point
                             1 => p = [p[0] + 50.0 * dx * scale, p[1]], // spike
                             _ => p = [p[0] + dx * scale, p[1] + dy * scale],
                         }
@@ -895,16 +902,15 @@ mod tests {
                     })
                     .collect()
             });
-        let circle = (3usize..600, 1usize..4, 0.01f64..100.0, -10.0f64..10.0).prop_map(
-            |(n, laps, r, c)| {
+        let circle =
+            (3usize..600, 1usize..4, 0.01f64..100.0, -10.0f64..10.0).prop_map(|(n, laps, r, c)| {
                 (0..n * laps)
                     .map(|k| {
                         let a = core::f64::consts::TAU * k as f64 / n as f64;
                         [c + r * a.cos(), c + r * a.sin()]
                     })
                     .collect()
-            },
-        );
+            });
         prop_oneof![walk, circle]
     }
 
@@ -989,7 +995,10 @@ mod tests {
         // On the path all the time (the paper's deviation is 0) ...
         assert_eq!(m.max_deviation_m, 0.0);
         // ... but the plan's end is 1 m from anything the run did.
-        assert!((m.max_plan_distance_from_run_m - 1.0).abs() < 1e-12, "{m:?}");
+        assert!(
+            (m.max_plan_distance_from_run_m - 1.0).abs() < 1e-12,
+            "{m:?}"
+        );
         assert!((m.end_point_error_m - 1.0).abs() < 1e-12);
         // A run that follows the plan covers it.
         let follow = Run {
@@ -1012,25 +1021,41 @@ mod tests {
         match m.check_finite() {
             Err(MetricsError::NonFinite { metric, value, why }) => {
                 assert!(!value.is_finite());
-                assert!(m.values().iter().any(|(k, v)| *k == metric && v.to_bits() == value.to_bits()));
+                assert!(
+                    m.values()
+                        .iter()
+                        .any(|(k, v)| *k == metric && v.to_bits() == value.to_bits())
+                );
                 assert!(why.contains("overflow"), "{why}");
             }
             other => panic!("{other:?} for {m:?}"),
         }
-        let fine = evaluate(&plan_of(&[[0.0, 0.0], [1.0, 0.0]]), &[Run { xy: vec![[0.0, 0.1], [1.0, 0.1]], heading: None }])
-            .unwrap()
-            .metrics;
+        let fine = evaluate(
+            &plan_of(&[[0.0, 0.0], [1.0, 0.0]]),
+            &[Run {
+                xy: vec![[0.0, 0.1], [1.0, 0.1]],
+                heading: None,
+            }],
+        )
+        .unwrap()
+        .metrics;
         assert_eq!(fine.check_finite(), Ok(()));
     }
 
     #[test]
     fn runs_off_the_plan_grid_are_refused() {
         let plan = plan_of(&[[0.0, 0.0], [1.0, 0.0]]);
-        let short = Run { xy: vec![[0.0, 0.0]], heading: None };
+        let short = Run {
+            xy: vec![[0.0, 0.0]],
+            heading: None,
+        };
         assert_eq!(
             evaluate(&plan, &[short]),
-            Err(MetricsError::Length { run: 0, len: 1, samples: 2 })
+            Err(MetricsError::Length {
+                run: 0,
+                len: 1,
+                samples: 2
+            })
         );
     }
-
 }

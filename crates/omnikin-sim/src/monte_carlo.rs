@@ -51,10 +51,14 @@ pub const RETAIN_LIMIT_BYTES: usize = 256 << 20;
 /// Whether [`simulate_and_evaluate`] of `trials` trials of a plan with `samples` samples
 /// simulates every trial twice (its tracked positions exceed [`RETAIN_LIMIT_BYTES`]).
 pub fn second_pass_resimulates(trials: usize, samples: usize) -> bool {
+    resimulates(trials, samples, RETAIN_LIMIT_BYTES)
+}
+
+fn resimulates(trials: usize, samples: usize, limit: usize) -> bool {
     trials
         .checked_mul(samples)
         .and_then(|n| n.checked_mul(16))
-        .is_none_or(|bytes| bytes > RETAIN_LIMIT_BYTES)
+        .is_none_or(|bytes| bytes > limit)
 }
 
 /// A Monte-Carlo run reduced to what its outputs need.
@@ -136,9 +140,28 @@ pub fn simulate_and_evaluate<E>(
     trials: usize,
     seed: u64,
     progress: &(dyn Fn() + Sync),
-    mut visit: impl FnMut(usize, &Trial) -> Result<(), E>,
+    visit: impl FnMut(usize, &Trial) -> Result<(), E>,
 ) -> Result<MonteCarlo, MonteCarloError<E>> {
-    let resimulate = second_pass_resimulates(trials, plan.samples.len());
+    let limit = RETAIN_LIMIT_BYTES;
+    stream(
+        robot, plan, reference, profile, trials, seed, progress, visit, limit,
+    )
+}
+
+/// [`simulate_and_evaluate`] with the bound on kept positions as a parameter.
+#[allow(clippy::too_many_arguments)]
+fn stream<E>(
+    robot: &Robot<f64>,
+    plan: &Plan,
+    reference: &Plan,
+    profile: &Profile,
+    trials: usize,
+    seed: u64,
+    progress: &(dyn Fn() + Sync),
+    mut visit: impl FnMut(usize, &Trial) -> Result<(), E>,
+    retain_limit: usize,
+) -> Result<MonteCarlo, MonteCarloError<E>> {
+    let resimulate = resimulates(trials, plan.samples.len(), retain_limit);
     let mut first = Evaluator::new(reference);
     let mut figure_runs = Vec::new();
     let mut kept: Vec<Vec<[f64; 2]>> = Vec::new();
@@ -175,4 +198,116 @@ pub fn simulate_and_evaluate<E>(
         figure_runs,
         resimulated: resimulate,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metrics::{evaluate, tracked_reference};
+    use omnikin::description::RobotDescription;
+    use omnikin_plan::RobotModel;
+    use omnikin_plan::generators::Circle;
+
+    /// Streaming equals evaluating every kept trial, bit for bit, whether the second pass
+    /// keeps the positions or simulates again, on 1 and 3 threads, and across batches (more
+    /// trials than one batch).
+    #[test]
+    fn streaming_equals_keeping_every_trial_on_any_thread_count() {
+        let d = RobotDescription::preset("sphere-omni").unwrap();
+        let robot = d.build::<f64>().unwrap();
+        let model = RobotModel::from_description(&d).unwrap();
+        let c = Circle::paper(2.0);
+        let plan =
+            omnikin_plan::planner::plan(&c.path().unwrap(), &c.heading(), &model, &c.options(20.0))
+                .unwrap()
+                .plan;
+        let mut profile = crate::reproduce::hardware_profile();
+        profile.rate = Some(200.0);
+        profile.tracking.offset = Some([0.01, 0.0]);
+        let reference = tracked_reference(&plan, [0.01, 0.0]);
+        let trials = 40;
+        let pool = |n: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .unwrap()
+        };
+        let all =
+            pool(2).install(|| run_trials(&robot, &plan, &profile, trials, 9, &|| {}).unwrap());
+        let runs: Vec<Run> = all
+            .iter()
+            .map(|t| Run {
+                xy: t.tracked.clone(),
+                heading: Some(t.pose.iter().map(|p| p.heading).collect()),
+            })
+            .collect();
+        let want = evaluate(&reference, &runs).unwrap();
+        for (threads, limit) in [(1, usize::MAX), (3, usize::MAX), (1, 0), (3, 0)] {
+            let visited = std::sync::Mutex::new(Vec::new());
+            let mc = pool(threads)
+                .install(|| {
+                    stream(
+                        &robot,
+                        &plan,
+                        &reference,
+                        &profile,
+                        trials,
+                        9,
+                        &|| {},
+                        |i, t: &Trial| {
+                            visited.lock().unwrap().push((i, t.tracked[1]));
+                            Ok::<(), ()>(())
+                        },
+                        limit,
+                    )
+                })
+                .unwrap();
+            assert_eq!(mc.resimulated, limit == 0);
+            assert_eq!(mc.evaluation, want, "threads {threads}, limit {limit}");
+            let bits = |m: &crate::metrics::Metrics| {
+                m.values()
+                    .into_iter()
+                    .map(|(_, v)| v.to_bits())
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(bits(&mc.evaluation.metrics), bits(&want.metrics));
+            // Every trial visited once, in order, as simulated.
+            let visited = visited.into_inner().unwrap();
+            assert_eq!(visited.len(), trials);
+            for (k, (i, p)) in visited.iter().enumerate() {
+                assert_eq!((*i, *p), (k, all[k].tracked[1]));
+            }
+            assert_eq!(mc.figure_runs.len(), FIGURE_RUNS.min(trials));
+            assert_eq!(mc.figure_runs[3].xy, all[3].tracked);
+        }
+    }
+
+    #[test]
+    fn a_failing_visit_stops_the_run_with_its_error() {
+        let d = RobotDescription::preset("sphere-omni").unwrap();
+        let robot = d.build::<f64>().unwrap();
+        let model = RobotModel::from_description(&d).unwrap();
+        let c = Circle::paper(2.0);
+        let plan =
+            omnikin_plan::planner::plan(&c.path().unwrap(), &c.heading(), &model, &c.options(20.0))
+                .unwrap()
+                .plan;
+        let profile = Profile::default();
+        let mut seen = 0;
+        let r = simulate_and_evaluate(&robot, &plan, &plan, &profile, 30, 1, &|| {}, |i, _| {
+            seen += 1;
+            if i == 20 { Err("disk full") } else { Ok(()) }
+        });
+        assert!(matches!(r, Err(MonteCarloError::Visit("disk full"))));
+        assert_eq!(seen, 21);
+    }
+
+    #[test]
+    fn resimulation_starts_above_the_stated_limit() {
+        assert!(!second_pass_resimulates(1000, 1682));
+        assert!(second_pass_resimulates(100_000, 1682));
+        assert!(second_pass_resimulates(usize::MAX, 2));
+        let per = RETAIN_LIMIT_BYTES / 16;
+        assert!(!second_pass_resimulates(1, per) && second_pass_resimulates(1, per + 1));
+    }
 }

@@ -1,12 +1,13 @@
 //! Exact nearest-segment distances to a polyline for many query points: a bounding-box tree
-//! over the path's segments in path order.
+//! over the path's segments, split in space (a k-d tree of segments).
 //!
 //! [`crate::metrics::distance_to_path`] scans every segment, O(n) per point; evaluating n
-//! points that way is O(n²) (100 000 rows took minutes). [`PathIndex`] is built once in O(n)
-//! and answers a query by branch and bound: it visits a node only when its box could hold a
-//! segment nearer than the best one found so far. Consecutive samples of a run are near
-//! consecutive parts of the path, so a query is seeded with the previous answer's segment
-//! ([`PathIndex::nearest`]) and typically touches O(log n) nodes.
+//! points that way is O(n²) (100 000 rows took minutes). [`PathIndex`] is built once in
+//! O(n log n): each node's segments are split in two halves at the median of their midpoints
+//! along the longer side of the node's box. A query is a branch and bound: it visits a node
+//! only when its box could hold a segment nearer than the best one found so far. Consecutive
+//! samples of a run are near consecutive parts of the path, so a query is seeded with the
+//! previous answer's segment ([`PathIndex::nearest`]) and typically touches O(log n) nodes.
 //!
 //! **Exact**: the leaves compute each segment's distance with the same expression as
 //! [`crate::metrics::distance_to_path`], and a box is skipped only when even its distance minus
@@ -15,7 +16,7 @@
 //! (property-tested against the exhaustive scan). Non-finite inputs disable pruning, so they
 //! give the exhaustive scan's answer too.
 //!
-//! **Cost**: O(n) memory and build. A query is O(log n) when few parts of the path are nearly
+//! **Cost**: O(n) memory, O(n log n) build. A query is O(log n) when few parts of the path are nearly
 //! as near as the nearest one; a point about equally far from a long stretch of the path (the
 //! centre of a circular plan) must look at that whole stretch, as any exact method must.
 
@@ -31,7 +32,7 @@ struct Node {
     /// Box of the node's vertices, m.
     lo: [f64; 2],
     hi: [f64; 2],
-    /// Segment range `start..end` (segment `i` joins vertices `i` and `i + 1`).
+    /// Range `start..end` of `PathIndex::order`: the node's segments.
     start: usize,
     end: usize,
     /// Children (indices into `nodes`), `None` for a leaf.
@@ -42,6 +43,8 @@ struct Node {
 #[derive(Clone, Debug)]
 pub struct PathIndex {
     path: Vec<[f64; 2]>,
+    /// Segment indices (segment `i` joins vertices `i` and `i + 1`), grouped by node.
+    order: Vec<usize>,
     nodes: Vec<Node>,
     /// Largest |coordinate| of the path, m: scales the rounding margin of the pruning test.
     scale: f64,
@@ -69,10 +72,11 @@ fn box_d2(p: [f64; 2], lo: [f64; 2], hi: [f64; 2]) -> f64 {
 }
 
 impl PathIndex {
-    /// Indexes the polyline through `path` (m, any frame). O(n) time and memory.
+    /// Indexes the polyline through `path` (m, any frame). O(n log n) time, O(n) memory.
     pub fn new(path: &[[f64; 2]]) -> Self {
         let mut index = Self {
             path: path.to_vec(),
+            order: (0..path.len().saturating_sub(1)).collect(),
             nodes: Vec::with_capacity(2 * path.len() / LEAF + 2),
             scale: path
                 .iter()
@@ -95,39 +99,39 @@ impl PathIndex {
         self.path.is_empty()
     }
 
-    /// Builds the node of segments `start..end` (non-empty) and returns its index.
+    /// Builds the node of the segments `order[start..end]` (non-empty) and returns its index.
     fn build(&mut self, start: usize, end: usize) -> usize {
         let id = self.nodes.len();
-        self.nodes.push(Node {
-            lo: [0.0; 2],
-            hi: [0.0; 2],
-            start,
-            end,
-            children: None,
-        });
-        let (lo, hi, children) = if end - start <= LEAF {
-            let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-            for v in &self.path[start..=end] {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for &i in &self.order[start..end] {
+            for v in [self.path[i], self.path[i + 1]] {
                 for c in 0..2 {
                     lo[c] = lo[c].min(v[c]);
                     hi[c] = hi[c].max(v[c]);
                 }
             }
-            (lo, hi, None)
-        } else {
+        }
+        self.nodes.push(Node {
+            lo,
+            hi,
+            start,
+            end,
+            children: None,
+        });
+        if end - start > LEAF {
+            // Split at the median of the segments' midpoints along the box's longer side, so
+            // that the boxes are tight in space (laps of the same circuit fall apart).
+            let axis = usize::from(hi[1] - lo[1] > hi[0] - lo[0]);
             let mid = start + (end - start) / 2;
+            let path = &self.path;
+            self.order[start..end].select_nth_unstable_by(mid - start, |&a, &b| {
+                let ka = path[a][axis] + path[a + 1][axis];
+                let kb = path[b][axis] + path[b + 1][axis];
+                ka.total_cmp(&kb)
+            });
             let (l, r) = (self.build(start, mid), self.build(mid, end));
-            let (a, b) = (self.nodes[l], self.nodes[r]);
-            (
-                [a.lo[0].min(b.lo[0]), a.lo[1].min(b.lo[1])],
-                [a.hi[0].max(b.hi[0]), a.hi[1].max(b.hi[1])],
-                Some((l, r)),
-            )
-        };
-        let n = &mut self.nodes[id];
-        n.lo = lo;
-        n.hi = hi;
-        n.children = children;
+            self.nodes[id].children = Some((l, r));
+        }
         id
     }
 
@@ -179,7 +183,7 @@ impl PathIndex {
             let children = node.children.filter(|_| top + 2 <= STACK);
             match children {
                 None => {
-                    for i in node.start..node.end {
+                    for &i in &self.order[node.start..node.end] {
                         let d = segment_d2(p, path[i], path[i + 1]);
                         if d < best {
                             best = d;
