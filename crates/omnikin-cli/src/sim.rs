@@ -287,10 +287,17 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
         .map_err(|e| match e {
             MonteCarloError::Visit(e) => e,
             e => anyhow::Error::new(e),
-        })?;
-    trials_csv
-        .flush()
-        .with_context(|| format!("cannot write {}", trials_path.display()))?;
+        })
+        .and_then(|mc| {
+            trials_csv
+                .flush()
+                .with_context(|| format!("cannot write {}", trials_path.display()))?;
+            Ok(mc)
+        });
+    // A run that stopped part-way leaves no truncated trials.csv behind.
+    let mc = mc.inspect_err(|_| {
+        let _ = std::fs::remove_file(&trials_path);
+    })?;
     pb.finish_and_clear();
     let (metrics, mean) = (mc.evaluation.metrics, mc.evaluation.mean);
     finite(&metrics)?;
