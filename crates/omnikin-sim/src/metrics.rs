@@ -429,6 +429,48 @@ pub struct Evaluator {
     max_unreached: f64,
 }
 
+/// The nearest-segment distances of one run, from [`Evaluator::distances`].
+#[derive(Clone, Debug)]
+pub struct RunDistances {
+    to_plan: Vec<f64>,
+    plan_from_run: f64,
+}
+
+/// Samples per parallel chunk of nearest-segment queries (each chunk seeds its first query
+/// afresh, then with the previous answer).
+const QUERY_CHUNK: usize = 4096;
+
+/// Distance from each of `points` to the path of `index` with its nearest segment, in
+/// order; parallel over chunks of points, the same values as one query after another.
+fn nearest_all(index: &PathIndex, points: &[[f64; 2]]) -> Vec<(f64, usize)> {
+    use rayon::prelude::*;
+    let chunk = |c: &[[f64; 2]]| {
+        let mut hint = 0;
+        c.iter()
+            .map(|p| {
+                let r = index.nearest(*p, hint);
+                hint = r.1;
+                r
+            })
+            .collect::<Vec<_>>()
+    };
+    if points.len() <= QUERY_CHUNK {
+        return chunk(points);
+    }
+    points
+        .par_chunks(QUERY_CHUNK)
+        .map(chunk)
+        .collect::<Vec<_>>()
+        .concat()
+}
+
+/// Largest distance of `points` from the path of `index` (0 for none).
+fn max_distance(index: &PathIndex, points: &[[f64; 2]]) -> f64 {
+    nearest_all(index, points)
+        .into_iter()
+        .fold(0.0, |m, (d, _)| m.max(d))
+}
+
 /// The second pass of an [`Evaluator`]: the mean is known; the spread around it is summed.
 #[derive(Clone, Debug)]
 pub struct SecondPass {
@@ -469,6 +511,32 @@ impl Evaluator {
 
     /// Adds the next run (first pass).
     pub fn add(&mut self, run: &Run) -> Result<(), MetricsError> {
+        let d = self.distances(&run.xy);
+        self.add_with(run, d)
+    }
+
+    /// The nearest-segment distances of a run's positions `xy`: the part of
+    /// [`Evaluator::add`] that depends on the run alone, so it can run in parallel for several
+    /// runs (and runs in parallel over chunks of samples itself). Pass the result to
+    /// [`Evaluator::add_with`] with the same run.
+    pub fn distances(&self, xy: &[[f64; 2]]) -> RunDistances {
+        RunDistances {
+            to_plan: nearest_all(&self.index, xy)
+                .into_iter()
+                .map(|(d, _)| d)
+                .collect(),
+            // The reverse: how far the plan gets from the run's path (stopping short,
+            // skipping); 0 for a run without positions.
+            plan_from_run: if xy.is_empty() {
+                0.0
+            } else {
+                max_distance(&PathIndex::new(xy), &self.path)
+            },
+        }
+    }
+
+    /// Adds the next run (first pass) with its [`Evaluator::distances`].
+    pub fn add_with(&mut self, run: &Run, distances: RunDistances) -> Result<(), MetricsError> {
         let samples = self.path.len();
         let run_index = self.runs;
         let bad = |len: usize| MetricsError::Length {
@@ -476,7 +544,7 @@ impl Evaluator {
             len,
             samples,
         };
-        if run.xy.len() != samples {
+        if run.xy.len() != samples || distances.to_plan.len() != samples {
             return Err(bad(run.xy.len()));
         }
         if let Some(h) = &run.heading
@@ -485,10 +553,7 @@ impl Evaluator {
             return Err(bad(h.len()));
         }
         self.runs += 1;
-        let mut hint = 0;
-        for (k, p) in run.xy.iter().enumerate() {
-            let (d, seg) = self.index.nearest(*p, hint);
-            hint = seg;
+        for (k, (p, &d)) in run.xy.iter().zip(&distances.to_plan).enumerate() {
             self.max_dev = self.max_dev.max(d);
             self.sum_sq += d * d;
             self.count += 1;
@@ -497,16 +562,7 @@ impl Evaluator {
             self.sum[k][0] += p[0];
             self.sum[k][1] += p[1];
         }
-        // The reverse: how far the plan gets from the run's path (stopping short, skipping).
-        if !run.xy.is_empty() {
-            let run_index = PathIndex::new(&run.xy);
-            let mut hint = 0;
-            for q in &self.path {
-                let (d, seg) = run_index.nearest(*q, hint);
-                hint = seg;
-                self.max_unreached = self.max_unreached.max(d);
-            }
-        }
+        self.max_unreached = self.max_unreached.max(distances.plan_from_run);
         match (&run.heading, self.heading_sum.as_mut()) {
             (Some(h), Some(sum)) => {
                 let e = h
@@ -628,13 +684,7 @@ impl SecondPass {
             .sum::<f64>()
             / n)
             .sqrt();
-        let mut hint = 0;
-        let mut mean_max_dev = 0.0f64;
-        for p in &self.mean {
-            let (d, seg) = f.index.nearest(*p, hint);
-            hint = seg;
-            mean_max_dev = mean_max_dev.max(d);
-        }
+        let mean_max_dev = max_distance(&f.index, &self.mean);
         let ci = half_width
             .iter()
             .map(|h| h[0].hypot(h[1]))
@@ -1040,6 +1090,28 @@ mod tests {
         .unwrap()
         .metrics;
         assert_eq!(fine.check_finite(), Ok(()));
+    }
+
+    #[test]
+    fn parallel_chunks_of_queries_equal_the_exhaustive_scan() {
+        // More points than one chunk, so several chunks run, each with its own hints.
+        let path: Vec<[f64; 2]> = (0..700)
+            .map(|k| {
+                let a = k as f64 * 0.05;
+                [a.cos() * (1.0 + 0.01 * a), a.sin()]
+            })
+            .collect();
+        let points: Vec<[f64; 2]> = (0..3 * QUERY_CHUNK + 17)
+            .map(|k| {
+                let a = k as f64 * 0.0029;
+                [1.1 * a.cos(), 0.9 * a.sin() + 0.001 * (k % 7) as f64]
+            })
+            .collect();
+        let got = nearest_all(&PathIndex::new(&path), &points);
+        assert_eq!(got.len(), points.len());
+        for (p, (d, _)) in points.iter().zip(got) {
+            assert_eq!(d.to_bits(), distance_to_path(*p, &path).to_bits());
+        }
     }
 
     #[test]

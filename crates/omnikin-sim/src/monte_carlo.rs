@@ -91,30 +91,38 @@ fn batch_size() -> usize {
     (8 * rayon::current_num_threads()).clamp(16, 256)
 }
 
-/// Simulates batches of trials `range` in parallel and hands them to `each` in trial order.
-fn for_each_trial<E>(
+/// Simulates batches of trials `range` in parallel, computes `prepare(state, trial)` in the
+/// same workers, and hands both to `each(state, …)` in trial order.
+#[allow(clippy::too_many_arguments)]
+fn for_each_trial<S: Sync, P: Send, E>(
     robot: &Robot<f64>,
     plan: &Plan,
     profile: &Profile,
     seed: u64,
     range: core::ops::Range<usize>,
     progress: &(dyn Fn() + Sync),
-    mut each: impl FnMut(usize, Trial) -> Result<(), MonteCarloError<E>>,
+    state: &mut S,
+    prepare: impl Fn(&S, &Trial) -> P + Sync,
+    mut each: impl FnMut(&mut S, usize, Trial, P) -> Result<(), MonteCarloError<E>>,
 ) -> Result<(), MonteCarloError<E>> {
     let batch = batch_size();
     let mut start = range.start;
     while start < range.end {
         let end = (start + batch).min(range.end);
-        let trials: Vec<Trial> = (start..end)
+        let shared: &S = state;
+        let trials: Vec<(Trial, P)> = (start..end)
             .into_par_iter()
             .map(|i| {
-                let r = simulate_trial(robot, plan, profile, &mut trial_rng(seed, i));
+                let r = simulate_trial(robot, plan, profile, &mut trial_rng(seed, i)).map(|t| {
+                    let p = prepare(shared, &t);
+                    (t, p)
+                });
                 progress();
                 r
             })
             .collect::<Result<_, _>>()?;
-        for (i, t) in (start..end).zip(trials) {
-            each(i, t)?;
+        for (i, (t, p)) in (start..end).zip(trials) {
+            each(state, i, t, p)?;
         }
         start = end;
     }
@@ -165,29 +173,48 @@ fn stream<E>(
     let mut first = Evaluator::new(reference);
     let mut figure_runs = Vec::new();
     let mut kept: Vec<Vec<[f64; 2]>> = Vec::new();
-    for_each_trial(robot, plan, profile, seed, 0..trials, progress, |i, t| {
-        visit(i, &t).map_err(MonteCarloError::Visit)?;
-        let run = Run {
-            xy: t.tracked,
-            heading: Some(t.pose.iter().map(|p| p.heading).collect()),
-        };
-        first.add(&run)?;
-        if figure_runs.len() < FIGURE_RUNS {
-            figure_runs.push(Run {
-                xy: run.xy.clone(),
-                heading: None,
-            });
-        }
-        if !resimulate {
-            kept.push(run.xy);
-        }
-        Ok(())
-    })?;
+    // The nearest-segment queries run in the workers; the sums in trial order.
+    for_each_trial(
+        robot,
+        plan,
+        profile,
+        seed,
+        0..trials,
+        progress,
+        &mut first,
+        |e, t| e.distances(&t.tracked),
+        |e, i, t, d| {
+            visit(i, &t).map_err(MonteCarloError::Visit)?;
+            let run = Run {
+                xy: t.tracked,
+                heading: Some(t.pose.iter().map(|p| p.heading).collect()),
+            };
+            e.add_with(&run, d)?;
+            if figure_runs.len() < FIGURE_RUNS {
+                figure_runs.push(Run {
+                    xy: run.xy.clone(),
+                    heading: None,
+                });
+            }
+            if !resimulate {
+                kept.push(run.xy);
+            }
+            Ok(())
+        },
+    )?;
     let mut second = first.second_pass();
     if resimulate {
-        for_each_trial(robot, plan, profile, seed, 0..trials, progress, |_, t| {
-            second.add(&t.tracked).map_err(MonteCarloError::Metrics)
-        })?;
+        for_each_trial(
+            robot,
+            plan,
+            profile,
+            seed,
+            0..trials,
+            progress,
+            &mut second,
+            |_, _| (),
+            |s, _, t, ()| s.add(&t.tracked).map_err(MonteCarloError::Metrics),
+        )?;
     } else {
         for xy in &kept {
             second.add(xy)?;
