@@ -14,7 +14,7 @@ const RUN_GREY: RGBColor = RGBColor(185, 185, 185);
 
 /// Most points drawn per line or band border: a panel is 700 px wide, so more add nothing
 /// visible and only grow the SVG (10^6 samples would write ~100 MB).
-const MAX_DRAWN: usize = 3000;
+const MAX_DRAWN: usize = 10_000;
 
 /// `points` thinned to at most [`MAX_DRAWN`], in order, keeping the shape: the points are cut
 /// into consecutive chunks, and each chunk keeps its first and last point and its extremes in x
