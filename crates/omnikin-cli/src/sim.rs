@@ -7,11 +7,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use omnikin::description::RobotDescription;
 use omnikin_plan::Plan;
-use omnikin_sim::metrics::{
-    MeanTrajectory, Metrics, Run, evaluate, mean_trajectory, tracked_reference,
-};
+use omnikin_sim::metrics::{MeanTrajectory, Metrics, evaluate, tracked_reference};
 use omnikin_sim::track::{Alignment, Track};
-use omnikin_sim::{Profile, Trial, run_trials};
+use omnikin_sim::{MonteCarloError, Profile, Trial};
 use serde_json::json;
 
 /// `omnikin simulate`.
@@ -47,41 +45,43 @@ pub struct SimulateArgs {
     pub sensors: Option<PathBuf>,
 }
 
-/// Writes the sensor logs of every trial under `dir/sensors/`.
-fn emit_sensors(
-    dir: &Path,
-    robot: &omnikin::Robot<f64>,
-    trials: &[Trial],
-    sensors: Option<&Path>,
-    seed: u64,
-) -> Result<()> {
-    use omnikin_sim::sensors::{
-        SensorProfile, emit, write_encoder_log, write_fixes, write_imu, write_truth,
-    };
-    let profile = match sensors {
+/// The sensor profile of `--emit-sensors`.
+fn sensor_profile(sensors: Option<&Path>) -> Result<omnikin_sim::sensors::SensorProfile> {
+    use omnikin_sim::sensors::SensorProfile;
+    Ok(match sensors {
         Some(p) => {
             let text = std::fs::read_to_string(p)
                 .with_context(|| format!("cannot read sensor profile {}", p.display()))?;
             SensorProfile::from_toml_str(&text, &p.display().to_string())?
         }
         None => SensorProfile::typical(),
-    };
-    for (i, trial) in trials.iter().enumerate() {
-        // A stream of its own, so sensor noise does not change the plant's numbers.
-        let mut rng = omnikin_sim::trial_rng(seed ^ 0x5E45_0125_5E45_0125, i);
-        let s = emit(robot, trial, &profile, &mut rng);
-        let d = dir.join("sensors").join(format!("trial-{i:03}"));
-        crate::output::create_subdir("--out", &d)?;
-        write_file(&d.join("encoders.csv"), |w| {
-            write_encoder_log(&s.encoder, w)
-        })?;
-        write_file(&d.join("truth.csv"), |w| write_truth(trial, w))?;
-        if !s.fixes.is_empty() {
-            write_file(&d.join("fixes.csv"), |w| write_fixes(&s.fixes, w))?;
-        }
-        if !s.imu.is_empty() {
-            write_file(&d.join("imu.csv"), |w| write_imu(&s.imu, w))?;
-        }
+    })
+}
+
+/// Writes the sensor logs of trial `i` under `dir/sensors/trial-NNN/`.
+fn emit_sensors(
+    dir: &Path,
+    robot: &omnikin::Robot<f64>,
+    i: usize,
+    trial: &Trial,
+    profile: &omnikin_sim::sensors::SensorProfile,
+    seed: u64,
+) -> Result<()> {
+    use omnikin_sim::sensors::{emit, write_encoder_log, write_fixes, write_imu, write_truth};
+    // A stream of its own, so sensor noise does not change the plant's numbers.
+    let mut rng = omnikin_sim::trial_rng(seed ^ 0x5E45_0125_5E45_0125, i);
+    let s = emit(robot, trial, profile, &mut rng);
+    let d = dir.join("sensors").join(format!("trial-{i:03}"));
+    crate::output::create_subdir("--out", &d)?;
+    write_file(&d.join("encoders.csv"), |w| {
+        write_encoder_log(&s.encoder, w)
+    })?;
+    write_file(&d.join("truth.csv"), |w| write_truth(trial, w))?;
+    if !s.fixes.is_empty() {
+        write_file(&d.join("fixes.csv"), |w| write_fixes(&s.fixes, w))?;
+    }
+    if !s.imu.is_empty() {
+        write_file(&d.join("imu.csv"), |w| write_imu(&s.imu, w))?;
     }
     Ok(())
 }
@@ -154,44 +154,36 @@ pub fn write_mean(path: &Path, plan: &Plan, mean: &MeanTrajectory) -> Result<()>
     })
 }
 
-fn write_trials(path: &Path, trials: &[Trial]) -> Result<()> {
-    write_file(path, |w| {
+/// Header of `trials.csv`.
+const TRIALS_HEADER: &str = "trial,t,x,y,heading,tracked_x,tracked_y,slip_residual,q1,q2,q3";
+
+/// Writes trial `i`'s rows of `trials.csv`.
+fn write_trial(w: &mut impl Write, i: usize, tr: &Trial) -> std::io::Result<()> {
+    for k in 0..tr.t.len() {
+        let (p, q) = (tr.pose[k], tr.tracked[k]);
         writeln!(
             w,
-            "trial,t,x,y,heading,tracked_x,tracked_y,slip_residual,q1,q2,q3"
+            "{i},{},{},{},{},{},{},{},{},{},{}",
+            tr.t[k],
+            p.x,
+            p.y,
+            p.heading,
+            q[0],
+            q[1],
+            tr.slip_residual[k],
+            tr.encoder_angles[k][0],
+            tr.encoder_angles[k][1],
+            tr.encoder_angles[k][2]
         )?;
-        for (i, tr) in trials.iter().enumerate() {
-            for k in 0..tr.t.len() {
-                let (p, q) = (tr.pose[k], tr.tracked[k]);
-                writeln!(
-                    w,
-                    "{i},{},{},{},{},{},{},{},{},{},{}",
-                    tr.t[k],
-                    p.x,
-                    p.y,
-                    p.heading,
-                    q[0],
-                    q[1],
-                    tr.slip_residual[k],
-                    tr.encoder_angles[k][0],
-                    tr.encoder_angles[k][1],
-                    tr.encoder_angles[k][2]
-                )?;
-            }
-        }
-        Ok(())
-    })
+    }
+    Ok(())
 }
 
-/// The runs the metrics are computed on: what the tracker saw, with the true headings.
-pub fn runs_of(trials: &[Trial]) -> Vec<Run> {
-    trials
-        .iter()
-        .map(|t| Run {
-            xy: t.tracked.clone(),
-            heading: Some(t.pose.iter().map(|p| p.heading).collect()),
-        })
-        .collect()
+/// The metrics as they are written: every one a finite number, or an error naming the first
+/// that is not (JSON would write NaN as `null`, read as "no value").
+fn finite(m: &Metrics) -> Result<()> {
+    m.check_finite()
+        .context("the metrics cannot be computed for these inputs")
 }
 
 /// A progress bar on stderr when it is a terminal; silent otherwise.
@@ -215,13 +207,14 @@ pub fn progress_bar(len: u64, what: &str) -> indicatif::ProgressBar {
 /// Prints the headline metrics for a person.
 pub fn print_summary(m: &Metrics) {
     crate::errln!(
-        "{} run(s), path {:.3} m in {:.2} s: max deviation {:.4} m ({:.2} % of path), RMS {:.4} m, end-point error {:.4} m, max deviation from the mean {:.4} m",
+        "{} run(s), path {:.3} m in {:.2} s: max deviation {:.4} m ({:.2} % of path), RMS {:.4} m, plan farthest from a run {:.4} m, end-point error {:.4} m, max deviation from the mean {:.4} m",
         m.runs,
         m.path_length_m,
         m.duration_s,
         m.max_deviation_m,
         m.max_deviation_pct_of_path,
         m.rms_deviation_m,
+        m.max_plan_distance_from_run_m,
         m.end_point_error_m,
         m.max_deviation_from_mean_m
     );
@@ -248,23 +241,61 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     if let Some(why) = omnikin_sim::plan_mismatch(&robot, &plan) {
         crate::errln!("warning: {}: {why}", a.plan.display());
     }
+    let sensors = if a.emit_sensors {
+        Some(sensor_profile(a.sensors.as_deref())?)
+    } else {
+        None
+    };
     create_dir(&a.out)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads.unwrap_or(0))
         .build()
         .context("cannot start worker threads")?;
-    let pb = progress_bar(a.trials, "simulating");
-    let trials = pool.install(|| {
-        run_trials(&robot, &plan, &profile, a.trials as usize, a.seed, &|| {
-            pb.inc(1)
-        })
-    })?;
-    pb.finish_and_clear();
-    let runs = runs_of(&trials);
+    let trials = a.trials as usize;
+    let passes = 1 + omnikin_sim::second_pass_resimulates(trials, plan.samples.len()) as u64;
+    let pb = progress_bar(passes * a.trials, "simulating");
     // Metrics compare what the tracker saw with the planned path of the tracked point.
-    let plan = tracked_reference(&plan, profile.tracking.offset.unwrap_or([0.0; 2]));
-    let metrics = evaluate(&plan, &runs);
-    let mean = mean_trajectory(&runs, 0.95);
+    let reference = tracked_reference(&plan, profile.tracking.offset.unwrap_or([0.0; 2]));
+    // The trials stream through trials.csv (and the sensor logs) into the metrics, in trial
+    // order: memory does not grow with --trials.
+    let trials_path = a.out.join("trials.csv");
+    // Under the output rules: a temporary file, renamed into place only when every trial ran
+    // (a run that stops part-way leaves no truncated trials.csv behind).
+    let mut trials_csv = crate::output::OutFile::create("--out", &trials_path)?;
+    writeln!(trials_csv, "{TRIALS_HEADER}")
+        .with_context(|| format!("cannot write {}", trials_path.display()))?;
+    let mc = pool
+        .install(|| {
+            omnikin_sim::simulate_and_evaluate(
+                &robot,
+                &plan,
+                &reference,
+                &profile,
+                trials,
+                a.seed,
+                &|| pb.inc(1),
+                |i, trial| -> Result<()> {
+                    write_trial(&mut trials_csv, i, trial)
+                        .with_context(|| format!("cannot write {}", trials_path.display()))?;
+                    if let Some(sp) = &sensors {
+                        emit_sensors(&a.out, &robot, i, trial, sp, a.seed)?;
+                    }
+                    Ok(())
+                },
+            )
+        })
+        .map_err(|e| match e {
+            MonteCarloError::Visit(e) => e,
+            e => anyhow::Error::new(e),
+        })
+        .and_then(|mc| {
+            trials_csv.commit()?;
+            Ok(mc)
+        })?;
+    pb.finish_and_clear();
+    let (metrics, mean) = (mc.evaluation.metrics, mc.evaluation.mean);
+    finite(&metrics)?;
+    let plan = reference;
     let meta = json!({
         "robot": d.name, "kind": d.kind(), "plan": a.plan.display().to_string(),
         "disturbances": a.disturbances.as_ref().map(|p| p.display().to_string()),
@@ -279,18 +310,26 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
             serde_json::to_string_pretty(&j).unwrap_or_default()
         )
     })?;
-    write_trials(&a.out.join("trials.csv"), &trials)?;
     write_mean(&a.out.join("mean.csv"), &plan, &mean)?;
+    let shown = if mc.figure_runs.len() < trials {
+        format!(" (first {} drawn)", mc.figure_runs.len())
+    } else {
+        String::new()
+    };
     crate::figures::trajectory_figure(
         "--out",
         &a.out.join("figure.svg"),
-        &format!("{} — {} trials of {}", d.name, a.trials, a.plan.display()),
+        &format!(
+            "{} — {} trials of {}{shown}",
+            d.name,
+            a.trials,
+            a.plan.display()
+        ),
         &plan,
-        &runs,
+        &mc.figure_runs,
         &mean,
     )?;
     if a.emit_sensors {
-        emit_sensors(&a.out, &robot, &trials, a.sensors.as_deref(), a.seed)?;
         crate::errln!(
             "sensor logs: {}/sensors/trial-NNN/{{encoders.csv, fixes.csv, imu.csv, truth.csv}}",
             a.out.display().to_string().trim_end_matches('/')
@@ -332,11 +371,15 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
     };
     let mut runs = Vec::new();
     for f in &a.tracks {
-        runs.push(Track::load(f)?.resample(&plan, align));
+        let track = Track::load(f)?;
+        if let Some(why) = track.did_not_move(&plan, align) {
+            bail!("{}: {why}", f.display());
+        }
+        runs.push(track.resample(&plan, align));
     }
+    let omnikin_sim::metrics::Evaluation { metrics, mean } = evaluate(&plan, &runs)?;
+    finite(&metrics)?;
     create_dir(&a.out)?;
-    let metrics = evaluate(&plan, &runs);
-    let mean = mean_trajectory(&runs, 0.95);
     let mut j = serde_json::to_value(&metrics)?;
     j["evaluation"] = json!({
         "plan": a.plan.display().to_string(),
@@ -434,13 +477,18 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
             if o.profile == "ideal" {
                 continue;
             }
-            let mean = mean_trajectory(&o.runs, 0.95);
+            finite(&o.metrics).with_context(|| format!("{} ({})", s.name, o.profile))?;
+            let shown = if o.runs.len() < o.metrics.runs {
+                format!(" (first {} drawn)", o.runs.len())
+            } else {
+                String::new()
+            };
             let title = format!(
-                "paper 000, {} at {:.1} m/s — {} profile, {} runs",
+                "paper 000, {} at {:.1} m/s — {} profile, {} runs{shown}",
                 s.experiment_name(),
                 s.speed,
                 o.profile,
-                o.runs.len()
+                o.metrics.runs
             );
             crate::figures::trajectory_figure(
                 "--out",
@@ -448,7 +496,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
                 &title,
                 &s.plan,
                 &o.runs,
-                &mean,
+                &o.mean,
             )?;
         }
         all.insert(

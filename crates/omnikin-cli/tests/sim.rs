@@ -469,3 +469,133 @@ fn simulate_emit_sensors_then_odometry_recovers_the_truth() {
         "fusion must beat wheels-only: {fused_error} vs {drift}"
     );
 }
+
+/// Observation 9: a track that never leaves its start while the plan moves sat on the plan's
+/// start point, on the path, and scored 0 deviation with exit 0. It is refused, naming the
+/// file and why.
+#[test]
+fn evaluate_refuses_a_run_that_never_moves() {
+    let d = tmp("still");
+    let plan = circle_plan(&d);
+    let mut text = String::from("t,x,y\n");
+    for k in 0..=300 {
+        // Tracker jitter of 1 mm around one point: below the 5 mm start-of-motion threshold.
+        text.push_str(&format!(
+            "{},{},0.5\n",
+            k as f64 * 0.02,
+            1.0 + 0.001 * (k % 2) as f64
+        ));
+    }
+    let track = d.join("still.csv");
+    std::fs::write(&track, &text).unwrap();
+    let out = d.join("out");
+    omnikin()
+        .args([
+            "evaluate",
+            "--plan",
+            plan.to_str().unwrap(),
+            track.to_str().unwrap(),
+        ])
+        .args(["--out", out.to_str().unwrap()])
+        .assert()
+        .failure()
+        .stderr(
+            predicate::str::contains("still.csv").and(predicate::str::contains("did not move")),
+        );
+    assert!(!out.join("metrics.json").exists());
+}
+
+/// Observation 9: metrics that overflow were written as `null` with exit 0. Now the command
+/// fails and names the metric (or, if the inputs are refused first, the file).
+#[test]
+fn evaluate_fails_on_non_finite_metrics() {
+    let d = tmp("nonfinite");
+    let plan = d.join("big-plan.csv");
+    std::fs::write(
+        &plan,
+        "t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3\n0,0,0,0,0,0,0,0,0,0\n1,1e200,0,0,0,0,0,0,0,0\n2,-1e200,1e200,0,0,0,0,0,0,0\n",
+    )
+    .unwrap();
+    let track = d.join("big-track.csv");
+    std::fs::write(&track, "t,x,y\n0,0,0\n1,1e200,1e200\n2,-1e200,-1e200\n").unwrap();
+    let out = d.join("out");
+    let a = omnikin()
+        .args([
+            "evaluate",
+            "--plan",
+            plan.to_str().unwrap(),
+            track.to_str().unwrap(),
+        ])
+        .args(["--out", out.to_str().unwrap()])
+        .assert()
+        .failure();
+    let err = String::from_utf8_lossy(&a.get_output().stderr).to_string();
+    assert!(
+        err.contains("metric max_deviation_m is inf") || err.contains("big-"),
+        "{err}"
+    );
+    if let Ok(j) = std::fs::read_to_string(out.join("metrics.json")) {
+        assert!(!j.contains("null"), "{j}");
+    }
+}
+
+/// Observation 7: the metrics were O(n²) (100 000 rows took minutes). 200 000 rows would take
+/// ~10 min that way; the test only checks the result, the CI time limit the speed.
+#[test]
+fn evaluate_of_a_long_run_matches_the_plan() {
+    let d = tmp("long");
+    let n = 200_000;
+    let mut plan = String::from("t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3\n");
+    let mut track = String::from("t,x,y\n");
+    for k in 0..n {
+        let t = k as f64 * 0.01;
+        let a = t / 30.0;
+        let (x, y) = (2.0 * a.sin() + 0.001 * t, a.sin() * a.cos());
+        plan.push_str(&format!("{t},{x},{y},0,0,0,0,0,0,0\n"));
+        // 3 mm above the path: the deviation both ways is at most 3 mm.
+        track.push_str(&format!("{t},{x},{}\n", y + 0.003));
+    }
+    let (p, tr) = (d.join("plan.csv"), d.join("track.csv"));
+    std::fs::write(&p, plan).unwrap();
+    std::fs::write(&tr, track).unwrap();
+    let out = d.join("out");
+    omnikin()
+        .args([
+            "evaluate",
+            "--plan",
+            p.to_str().unwrap(),
+            tr.to_str().unwrap(),
+        ])
+        .args(["--out", out.to_str().unwrap(), "--no-align-position"])
+        .assert()
+        .success();
+    let m = metrics(&out);
+    let dev = m["max_deviation_m"].as_f64().unwrap();
+    assert!(dev > 0.0 && dev <= 0.003 + 1e-9, "{m}");
+    assert!(
+        m["max_plan_distance_from_run_m"].as_f64().unwrap() <= 0.003 + 1e-9,
+        "{m}"
+    );
+    // The figure is drawn from a bounded number of points, not 200 000 per line.
+    let svg = std::fs::metadata(out.join("figure.svg")).unwrap().len();
+    assert!(svg < 3_000_000, "figure.svg is {svg} bytes");
+}
+
+/// Observation 5: simulate keeps only the figure's runs; a figure of more trials says so.
+#[test]
+fn simulate_draws_a_bounded_number_of_runs() {
+    let d = tmp("many");
+    let plan = circle_plan(&d);
+    let out = d.join("out");
+    omnikin()
+        .args(["simulate", plan.to_str().unwrap(), "--robot", "sphere-omni"])
+        .args(["--trials", "60", "--out", out.to_str().unwrap()])
+        .assert()
+        .success();
+    assert_eq!(metrics(&out)["runs"], 60);
+    let svg = std::fs::read_to_string(out.join("figure.svg")).unwrap();
+    assert!(svg.contains("60 trials") && svg.contains("(first 50 drawn)"));
+    let trials = std::fs::read_to_string(out.join("trials.csv")).unwrap();
+    assert_eq!(trials.lines().count(), 1 + 60 * 315);
+    assert!(trials.lines().last().unwrap().starts_with("59,"));
+}

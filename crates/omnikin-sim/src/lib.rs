@@ -15,8 +15,7 @@
 //! * [`metrics`]: deviation from the planned path (m and % of path), end-point and heading
 //!   errors, mean trajectory with a Student-t 95 % band, fitted circle and radius ratio,
 //!   repeatability.
-//! * [`limits`]: the stated limits — most plant steps per trial, trial samples held at once,
-//!   rows of a track file — and the plausible range of every profile parameter.
+//! * [`limits`]: the stated limits — most plant steps per trial, rows of a track file — and the plausible range of every profile parameter.
 //! * [`reproduce`]: paper 000's whole experiment design re-run under three profiles, with a
 //!   table of our figures next to the paper's.
 //! * [`track`]: real tracked runs (`t,x,y[,heading]` CSV), aligned to a plan's start of motion
@@ -27,6 +26,7 @@ pub mod limits;
 pub mod metrics;
 mod monte_carlo;
 mod motor;
+mod path_index;
 mod plant;
 pub mod profile;
 pub mod reproduce;
@@ -34,6 +34,9 @@ pub mod sensors;
 pub mod sil;
 pub mod track;
 
-pub use monte_carlo::{run_trials, trial_rng};
+pub use monte_carlo::{
+    FIGURE_RUNS, MonteCarlo, MonteCarloError, RETAIN_LIMIT_BYTES, run_trials,
+    second_pass_resimulates, simulate_and_evaluate, trial_rng,
+};
 pub use plant::{SimError, Trial, plan_mismatch, simulate_trial};
 pub use profile::Profile;

@@ -1,9 +1,10 @@
 //! Input limits of the simulator: how much work and memory a simulation may take, and the
 //! plausible range of every parameter of a disturbance or sensor profile.
 //!
-//! Work and memory that grow with the input are bounded by the `MAX_*` constants below,
+//! Work and memory that grow with the input (trials are streamed into the metrics, so memory
+//! does not grow with the trial count: see [`crate::simulate_and_evaluate`]) are bounded by the `MAX_*` constants below,
 //! checked before the work starts from what the inputs imply (plant steps = Σ interval × plant
-//! rate; trial samples = trials × plan samples), and refused with [`crate::SimError::TooLarge`]
+//! rate), and refused with [`crate::SimError::TooLarge`]
 //! naming the limit, the value and what to change. Profile values outside their `*_RANGE`
 //! (SI units) are refused with the key, the value and the range. To raise a limit, change the
 //! constant here and rebuild.
@@ -13,10 +14,6 @@
 /// minutes of computing per trial); a plan whose times run to 1e300 s is refused instead of
 /// looping for ever.
 pub const MAX_PLANT_STEPS: f64 = 1e8;
-
-/// Most trial samples (`trials × plan samples`) one series of [`crate::reproduce`] holds in
-/// memory at once (≈ 200 bytes each with the runs kept for the figures: 2 GB).
-pub const MAX_TRIAL_SAMPLES: f64 = 1e7;
 
 /// Sampling rate of the plans `reproduce` makes, Hz (the paper's experiment at 100 Hz).
 pub const REPRODUCE_RATE_RANGE: (f64, f64) = (1.0, 1e4);

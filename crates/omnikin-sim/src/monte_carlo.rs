@@ -1,4 +1,5 @@
-//! Seeded, parallel Monte Carlo over trials.
+//! Seeded, parallel Monte Carlo over trials: [`run_trials`] keeps every trial,
+//! [`simulate_and_evaluate`] streams them into the metrics in bounded memory.
 
 use omnikin::Robot;
 use omnikin_plan::Plan;
@@ -6,6 +7,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
+use crate::metrics::{Evaluation, Evaluator, MetricsError, Run};
 use crate::plant::{SimError, Trial, simulate_trial};
 use crate::profile::Profile;
 
@@ -35,4 +37,304 @@ pub fn run_trials(
             r
         })
         .collect()
+}
+
+/// Runs the trials are kept for figures ([`MonteCarlo::figure_runs`]): the first ones by
+/// index. A figure of more grey runs shows nothing more and grows with the trial count.
+pub const FIGURE_RUNS: usize = 50;
+
+/// Bound on the tracked positions [`simulate_and_evaluate`] keeps between its two passes, bytes
+/// (16 per sample and trial). Above it, the second pass simulates the trials again (same
+/// numbers, twice the time) instead of keeping them.
+pub const RETAIN_LIMIT_BYTES: usize = 256 << 20;
+
+/// Whether [`simulate_and_evaluate`] of `trials` trials of a plan with `samples` samples
+/// simulates every trial twice (its tracked positions exceed [`RETAIN_LIMIT_BYTES`]).
+pub fn second_pass_resimulates(trials: usize, samples: usize) -> bool {
+    resimulates(trials, samples, RETAIN_LIMIT_BYTES)
+}
+
+fn resimulates(trials: usize, samples: usize, limit: usize) -> bool {
+    trials
+        .checked_mul(samples)
+        .and_then(|n| n.checked_mul(16))
+        .is_none_or(|bytes| bytes > limit)
+}
+
+/// A Monte-Carlo run reduced to what its outputs need.
+#[derive(Clone, Debug)]
+pub struct MonteCarlo {
+    /// The metrics and the mean trajectory with its 95 % band.
+    pub evaluation: Evaluation,
+    /// The first [`FIGURE_RUNS`] runs (tracked positions; headings omitted), for figures.
+    pub figure_runs: Vec<Run>,
+    /// Whether the second pass simulated the trials again ([`second_pass_resimulates`]).
+    pub resimulated: bool,
+}
+
+/// Why [`simulate_and_evaluate`] stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum MonteCarloError<E> {
+    /// A trial could not be simulated.
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    /// The metrics could not be computed.
+    #[error(transparent)]
+    Metrics(#[from] MetricsError),
+    /// The caller's `visit` failed (e.g. writing a trial to a file).
+    #[error("{0}")]
+    Visit(E),
+}
+
+/// Trials per parallel batch: enough to keep every worker busy, few enough to bound memory.
+fn batch_size() -> usize {
+    (8 * rayon::current_num_threads()).clamp(16, 256)
+}
+
+/// Simulates batches of trials `range` in parallel, computes `prepare(state, trial)` in the
+/// same workers, and hands both to `each(state, …)` in trial order.
+#[allow(clippy::too_many_arguments)]
+fn for_each_trial<S: Sync, P: Send, E>(
+    robot: &Robot<f64>,
+    plan: &Plan,
+    profile: &Profile,
+    seed: u64,
+    range: core::ops::Range<usize>,
+    progress: &(dyn Fn() + Sync),
+    state: &mut S,
+    prepare: impl Fn(&S, &Trial) -> P + Sync,
+    mut each: impl FnMut(&mut S, usize, Trial, P) -> Result<(), MonteCarloError<E>>,
+) -> Result<(), MonteCarloError<E>> {
+    let batch = batch_size();
+    let mut start = range.start;
+    while start < range.end {
+        let end = (start + batch).min(range.end);
+        let shared: &S = state;
+        let trials: Vec<(Trial, P)> = (start..end)
+            .into_par_iter()
+            .map(|i| {
+                let r = simulate_trial(robot, plan, profile, &mut trial_rng(seed, i)).map(|t| {
+                    let p = prepare(shared, &t);
+                    (t, p)
+                });
+                progress();
+                r
+            })
+            .collect::<Result<_, _>>()?;
+        for (i, (t, p)) in (start..end).zip(trials) {
+            each(state, i, t, p)?;
+        }
+        start = end;
+    }
+    Ok(())
+}
+
+/// Runs `trials` trials of `plan` (seeded like [`run_trials`]) and evaluates what the tracker
+/// saw, with the true headings, against `reference` (the planned path of the tracked point,
+/// [`crate::metrics::tracked_reference`]), **without keeping the trials**: they are simulated
+/// in parallel batches and reduced in trial order, so the result is bit-identical for any
+/// number of threads and equal to [`crate::metrics::evaluate`] of all the runs.
+///
+/// `visit` sees every trial once, in trial order (e.g. to write it to a file). Memory: one
+/// batch of trials, O(samples) for the metrics, the [`FIGURE_RUNS`] figure runs, and the
+/// tracked positions for the second pass up to [`RETAIN_LIMIT_BYTES`] — above that the second
+/// pass simulates the trials again (`progress` then counts each trial twice).
+#[allow(clippy::too_many_arguments)]
+pub fn simulate_and_evaluate<E>(
+    robot: &Robot<f64>,
+    plan: &Plan,
+    reference: &Plan,
+    profile: &Profile,
+    trials: usize,
+    seed: u64,
+    progress: &(dyn Fn() + Sync),
+    visit: impl FnMut(usize, &Trial) -> Result<(), E>,
+) -> Result<MonteCarlo, MonteCarloError<E>> {
+    let limit = RETAIN_LIMIT_BYTES;
+    stream(
+        robot, plan, reference, profile, trials, seed, progress, visit, limit,
+    )
+}
+
+/// [`simulate_and_evaluate`] with the bound on kept positions as a parameter.
+#[allow(clippy::too_many_arguments)]
+fn stream<E>(
+    robot: &Robot<f64>,
+    plan: &Plan,
+    reference: &Plan,
+    profile: &Profile,
+    trials: usize,
+    seed: u64,
+    progress: &(dyn Fn() + Sync),
+    mut visit: impl FnMut(usize, &Trial) -> Result<(), E>,
+    retain_limit: usize,
+) -> Result<MonteCarlo, MonteCarloError<E>> {
+    let resimulate = resimulates(trials, plan.samples.len(), retain_limit);
+    let mut first = Evaluator::new(reference);
+    let mut figure_runs = Vec::new();
+    let mut kept: Vec<Vec<[f64; 2]>> = Vec::new();
+    // The nearest-segment queries run in the workers; the sums in trial order.
+    for_each_trial(
+        robot,
+        plan,
+        profile,
+        seed,
+        0..trials,
+        progress,
+        &mut first,
+        |e, t| e.distances(&t.tracked),
+        |e, i, t, d| {
+            visit(i, &t).map_err(MonteCarloError::Visit)?;
+            let run = Run {
+                xy: t.tracked,
+                heading: Some(t.pose.iter().map(|p| p.heading).collect()),
+            };
+            e.add_with(&run, d)?;
+            if figure_runs.len() < FIGURE_RUNS {
+                figure_runs.push(Run {
+                    xy: run.xy.clone(),
+                    heading: None,
+                });
+            }
+            if !resimulate {
+                kept.push(run.xy);
+            }
+            Ok(())
+        },
+    )?;
+    let mut second = first.second_pass();
+    if resimulate {
+        for_each_trial(
+            robot,
+            plan,
+            profile,
+            seed,
+            0..trials,
+            progress,
+            &mut second,
+            |_, _| (),
+            |s, _, t, ()| s.add(&t.tracked).map_err(MonteCarloError::Metrics),
+        )?;
+    } else {
+        for xy in &kept {
+            second.add(xy)?;
+        }
+    }
+    Ok(MonteCarlo {
+        evaluation: second.finish()?,
+        figure_runs,
+        resimulated: resimulate,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metrics::{evaluate, tracked_reference};
+    use omnikin::description::RobotDescription;
+    use omnikin_plan::RobotModel;
+    use omnikin_plan::generators::Circle;
+
+    /// Streaming equals evaluating every kept trial, bit for bit, whether the second pass
+    /// keeps the positions or simulates again, on 1 and 3 threads, and across batches (more
+    /// trials than one batch).
+    #[test]
+    fn streaming_equals_keeping_every_trial_on_any_thread_count() {
+        let d = RobotDescription::preset("sphere-omni").unwrap();
+        let robot = d.build::<f64>().unwrap();
+        let model = RobotModel::from_description(&d).unwrap();
+        let c = Circle::paper(2.0);
+        let plan =
+            omnikin_plan::planner::plan(&c.path().unwrap(), &c.heading(), &model, &c.options(20.0))
+                .unwrap()
+                .plan;
+        let mut profile = crate::reproduce::hardware_profile();
+        profile.rate = Some(200.0);
+        profile.tracking.offset = Some([0.01, 0.0]);
+        let reference = tracked_reference(&plan, [0.01, 0.0]);
+        let trials = 40;
+        let pool = |n: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .unwrap()
+        };
+        let all =
+            pool(2).install(|| run_trials(&robot, &plan, &profile, trials, 9, &|| {}).unwrap());
+        let runs: Vec<Run> = all
+            .iter()
+            .map(|t| Run {
+                xy: t.tracked.clone(),
+                heading: Some(t.pose.iter().map(|p| p.heading).collect()),
+            })
+            .collect();
+        let want = evaluate(&reference, &runs).unwrap();
+        for (threads, limit) in [(1, usize::MAX), (3, usize::MAX), (1, 0), (3, 0)] {
+            let visited = std::sync::Mutex::new(Vec::new());
+            let mc = pool(threads)
+                .install(|| {
+                    stream(
+                        &robot,
+                        &plan,
+                        &reference,
+                        &profile,
+                        trials,
+                        9,
+                        &|| {},
+                        |i, t: &Trial| {
+                            visited.lock().unwrap().push((i, t.tracked[1]));
+                            Ok::<(), ()>(())
+                        },
+                        limit,
+                    )
+                })
+                .unwrap();
+            assert_eq!(mc.resimulated, limit == 0);
+            assert_eq!(mc.evaluation, want, "threads {threads}, limit {limit}");
+            let bits = |m: &crate::metrics::Metrics| {
+                m.values()
+                    .into_iter()
+                    .map(|(_, v)| v.to_bits())
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(bits(&mc.evaluation.metrics), bits(&want.metrics));
+            // Every trial visited once, in order, as simulated.
+            let visited = visited.into_inner().unwrap();
+            assert_eq!(visited.len(), trials);
+            for (k, (i, p)) in visited.iter().enumerate() {
+                assert_eq!((*i, *p), (k, all[k].tracked[1]));
+            }
+            assert_eq!(mc.figure_runs.len(), FIGURE_RUNS.min(trials));
+            assert_eq!(mc.figure_runs[3].xy, all[3].tracked);
+        }
+    }
+
+    #[test]
+    fn a_failing_visit_stops_the_run_with_its_error() {
+        let d = RobotDescription::preset("sphere-omni").unwrap();
+        let robot = d.build::<f64>().unwrap();
+        let model = RobotModel::from_description(&d).unwrap();
+        let c = Circle::paper(2.0);
+        let plan =
+            omnikin_plan::planner::plan(&c.path().unwrap(), &c.heading(), &model, &c.options(20.0))
+                .unwrap()
+                .plan;
+        let profile = Profile::default();
+        let mut seen = 0;
+        let r = simulate_and_evaluate(&robot, &plan, &plan, &profile, 30, 1, &|| {}, |i, _| {
+            seen += 1;
+            if i == 20 { Err("disk full") } else { Ok(()) }
+        });
+        assert!(matches!(r, Err(MonteCarloError::Visit("disk full"))));
+        assert_eq!(seen, 21);
+    }
+
+    #[test]
+    fn resimulation_starts_above_the_stated_limit() {
+        assert!(!second_pass_resimulates(1000, 1682));
+        assert!(second_pass_resimulates(100_000, 1682));
+        assert!(second_pass_resimulates(usize::MAX, 2));
+        let per = RETAIN_LIMIT_BYTES / 16;
+        assert!(!second_pass_resimulates(1, per) && second_pass_resimulates(1, per + 1));
+    }
 }

@@ -25,11 +25,11 @@ use omnikin_plan::planner::{OnLimit, plan};
 use omnikin_plan::{Plan, RobotModel};
 use serde::Serialize;
 
-use crate::metrics::{Metrics, Run, evaluate};
+use crate::metrics::{MeanTrajectory, Metrics, Run};
 use crate::profile::{
     FloorProfile, MotorProfile, Profile, RollerProfile, SpinProfile, TrackingProfile,
 };
-use crate::{SimError, Trial, run_trials};
+use crate::{MonteCarloError, SimError, simulate_and_evaluate};
 
 /// The two experiments of paper 000, §6.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -216,15 +216,17 @@ pub struct Outcome {
     pub profile: &'static str,
     /// The metrics over the trials.
     pub metrics: Metrics,
-    /// The runs (tracked positions with true headings), for figures.
+    /// The mean trajectory over all trials with its 95 % band.
+    pub mean: MeanTrajectory,
+    /// The first [`crate::FIGURE_RUNS`] runs (tracked positions), for figures.
     pub runs: Vec<Run>,
 }
 
-/// Simulates `series` under every profile of [`profiles`] with `trials` trials each.
+/// Simulates `series` under every profile of [`profiles`] with `trials` trials each, streaming
+/// the trials into the metrics ([`simulate_and_evaluate`]: memory does not grow with `trials`).
 ///
 /// # Errors
-/// [`SimError::TooLarge`] when `trials` × the plan's samples exceed
-/// [`crate::limits::MAX_TRIAL_SAMPLES`] (checked before simulating); any trial's error.
+/// Any trial's error.
 pub fn run_series(
     robot: &omnikin::Robot<f64>,
     series: &Series,
@@ -232,39 +234,33 @@ pub fn run_series(
     seed: u64,
     progress: &(dyn Fn() + Sync),
 ) -> Result<Vec<Outcome>, SimError> {
-    let needed = trials as f64 * series.plan.samples.len() as f64;
-    if needed > crate::limits::MAX_TRIAL_SAMPLES {
-        return Err(SimError::TooLarge {
-            what: format!(
-                "series {} ({trials} trials × {} samples)",
-                series.name,
-                series.plan.samples.len()
-            ),
-            items: "trial samples",
-            needed,
-            limit: "MAX_TRIAL_SAMPLES",
-            max: crate::limits::MAX_TRIAL_SAMPLES,
-            hint: "lower --trials or --rate",
-        });
-    }
     let mut out = Vec::new();
     for (name, profile) in profiles() {
-        let t: Vec<Trial> = run_trials(robot, &series.plan, &profile, trials, seed, progress)?;
-        let runs: Vec<Run> = t
-            .iter()
-            .map(|t| Run {
-                xy: t.tracked.clone(),
-                heading: Some(t.pose.iter().map(|p| p.heading).collect()),
-            })
-            .collect();
         let reference = crate::metrics::tracked_reference(
             &series.plan,
             profile.tracking.offset.unwrap_or([0.0; 2]),
         );
+        let mc = simulate_and_evaluate(
+            robot,
+            &series.plan,
+            &reference,
+            &profile,
+            trials,
+            seed,
+            progress,
+            |_, _| Ok::<(), core::convert::Infallible>(()),
+        )
+        .map_err(|e| match e {
+            MonteCarloError::Sim(e) => e,
+            // The runs are simulated on the plan's own grid, so the metrics always apply.
+            MonteCarloError::Metrics(e) => SimError::Mismatch(e.to_string()),
+            MonteCarloError::Visit(never) => match never {},
+        })?;
         out.push(Outcome {
             profile: name,
-            metrics: evaluate(&reference, &runs),
-            runs,
+            metrics: mc.evaluation.metrics,
+            mean: mc.evaluation.mean,
+            runs: mc.figure_runs,
         });
     }
     Ok(out)

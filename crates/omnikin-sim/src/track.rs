@@ -163,6 +163,37 @@ impl Track {
             .saturating_sub(1)
     }
 
+    /// Largest distance of a tracked position from the first one, m.
+    pub fn max_displacement(&self) -> f64 {
+        let p0 = self.xy[0];
+        self.xy
+            .iter()
+            .map(|p| (p[0] - p0[0]).hypot(p[1] - p0[1]))
+            .fold(0.0, f64::max)
+    }
+
+    /// Why this track cannot be evaluated against `plan`, if it cannot: it never gets farther
+    /// than `align.motion_threshold_m` from its first position while the plan does. Such a
+    /// run has no start of motion to align on, and it would sit on the plan's start point — on
+    /// the path, so its deviation from the path would be 0: a robot that did not move would
+    /// score a perfect run. (A plan that does not move either, e.g. a turn on the spot, is
+    /// fine.)
+    pub fn did_not_move(&self, plan: &Plan, align: Alignment) -> Option<String> {
+        let moved = self.max_displacement();
+        let plan_moves = plan.samples.first().map_or(0.0, |s0| {
+            plan.samples
+                .iter()
+                .map(|s| (s.pose.x - s0.pose.x).hypot(s.pose.y - s0.pose.y))
+                .fold(0.0, f64::max)
+        });
+        (moved <= align.motion_threshold_m && plan_moves > align.motion_threshold_m).then(|| {
+            format!(
+                "the run did not move: it never got farther than {moved:.4} m from its first                  position (the start of motion is a displacement above {} m), while the plan                  moves up to {plan_moves:.4} m from its start; check that this is the right                  file, or lower --motion-threshold",
+                align.motion_threshold_m
+            )
+        })
+    }
+
     /// Puts the track on the plan's time grid: the track's start of motion is matched to the
     /// plan's, positions (and headings) are linearly interpolated at every plan sample time
     /// (held at the ends), and with `align_position` the track is translated so that both start
@@ -251,6 +282,32 @@ mod tests {
                 s.pose
             );
         }
+    }
+
+    #[test]
+    fn a_track_that_never_moves_is_refused_while_the_plan_moves() {
+        let plan = line_plan();
+        let still: String = std::iter::once("t,x,y\n".to_string())
+            .chain((0..=30).map(|k| format!("{},{},0\n", k as f64 * 0.1, 0.001 * (k % 3) as f64)))
+            .collect();
+        let track = Track::read_csv(still.as_bytes(), "still.csv").unwrap();
+        let why = track.did_not_move(&plan, Alignment::default()).unwrap();
+        assert!(
+            why.contains("did not move") && why.contains("0.2000 m"),
+            "{why}"
+        );
+        // A lower threshold sees the 2 mm as motion.
+        let low = Alignment {
+            motion_threshold_m: 0.001,
+            ..Alignment::default()
+        };
+        assert_eq!(track.did_not_move(&plan, low), None);
+        // A plan that does not move either is fine.
+        let mut spot = plan.clone();
+        for s in &mut spot.samples {
+            s.pose.x = 0.0;
+        }
+        assert_eq!(track.did_not_move(&spot, Alignment::default()), None);
     }
 
     #[test]

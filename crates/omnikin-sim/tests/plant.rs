@@ -380,7 +380,7 @@ fn metrics_of_ideal_runs_are_zero_and_of_a_scaled_circle_give_the_ratio() {
             heading: Some(plan.samples.iter().map(|s| s.pose.heading).collect()),
         })
         .collect();
-    let m = evaluate(&plan, &ideal);
+    let m = evaluate(&plan, &ideal).unwrap().metrics;
     assert!(
         m.max_deviation_m < 1e-12
             && m.end_point_error_m < 1e-12
@@ -398,7 +398,7 @@ fn metrics_of_ideal_runs_are_zero_and_of_a_scaled_circle_give_the_ratio() {
             heading: None,
         })
         .collect();
-    let m = evaluate(&plan, &big);
+    let m = evaluate(&plan, &big).unwrap().metrics;
     assert!((m.radius_ratio.unwrap() - 1.4).abs() < 1e-6, "{m:?}");
     assert!(
         (m.max_deviation_m - 0.16).abs() < 1e-3,
@@ -464,11 +464,13 @@ fn tracking_offset_rotates_with_heading_and_matches_its_reference() {
         xy: t.tracked.clone(),
         heading: None,
     }];
-    let against_centre = evaluate(&plan, &run);
+    let against_centre = evaluate(&plan, &run).unwrap().metrics;
     let against_marker = evaluate(
         &omnikin_sim::metrics::tracked_reference(&plan, [0.1, 0.0]),
         &run,
-    );
+    )
+    .unwrap()
+    .metrics;
     assert!(against_centre.max_deviation_m > 0.05);
     assert!(
         against_marker.max_deviation_m < 1e-9
