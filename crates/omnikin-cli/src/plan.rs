@@ -273,6 +273,18 @@ pub fn run(a: &PlanArgs) -> Result<()> {
         PlanKind::Circle(c) => circle(c),
         PlanKind::Waypoints(w) => waypoints(w),
     }
+    .map_err(name_the_flag)
+}
+
+/// A parameter out of its plausible range is named by the library as the API names it
+/// (`rate`, `max speed`); on the command line the message starts with the flag that set it
+/// (`--rate`, `--max-speed`).
+fn name_the_flag(e: anyhow::Error) -> anyhow::Error {
+    let flag = match e.downcast_ref::<PlanningError>() {
+        Some(PlanningError::OutOfRange { name, .. }) => format!("--{}", name.replace(' ', "-")),
+        _ => return e,
+    };
+    e.context(flag)
 }
 
 fn square(a: &SquareArgs) -> Result<()> {
