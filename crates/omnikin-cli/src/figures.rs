@@ -12,50 +12,6 @@ use crate::plot::{Arrow, Band, PALETTE, Series, draw_err, time_panel, xy_panel};
 
 const RUN_GREY: RGBColor = RGBColor(185, 185, 185);
 
-/// Most points drawn per line or band border: a panel is 700 px wide, so more add nothing
-/// visible and only grow the SVG (10^6 samples would write ~100 MB).
-const MAX_DRAWN: usize = 10_000;
-
-/// `points` thinned to at most [`MAX_DRAWN`], in order, keeping the shape: the points are cut
-/// into consecutive chunks, and each chunk keeps its first and last point and its extremes in x
-/// and in y (so spikes and the outline stay where they are). O(n).
-fn decimate(points: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
-    let n = points.len();
-    if n <= MAX_DRAWN {
-        return points;
-    }
-    let chunk = n.div_ceil(MAX_DRAWN / 6);
-    let mut out = Vec::with_capacity(MAX_DRAWN);
-    for (c, part) in points.chunks(chunk).enumerate() {
-        let arg = |key: fn(&(f64, f64)) -> f64, better: fn(f64, f64) -> bool| {
-            let mut best = 0;
-            for (i, p) in part.iter().enumerate() {
-                if better(key(p), key(&part[best])) {
-                    best = i;
-                }
-            }
-            best
-        };
-        let mut keep = [
-            0,
-            part.len() - 1,
-            arg(|p| p.0, |a, b| a < b),
-            arg(|p| p.0, |a, b| a > b),
-            arg(|p| p.1, |a, b| a < b),
-            arg(|p| p.1, |a, b| a > b),
-        ];
-        keep.sort_unstable();
-        let mut last = usize::MAX;
-        for i in keep {
-            if i != last {
-                out.push(points[c * chunk + i]);
-                last = i;
-            }
-        }
-    }
-    out
-}
-
 /// The band around a 2-D mean path: at each sample the per-axis half-widths `(hx, hy)` are
 /// projected on the path normal (`|n_x| hx + |n_y| hy`), giving the left and right borders.
 /// One border of a band: points in data units.
@@ -122,28 +78,23 @@ fn draw_trajectories(
             };
             Series {
                 width: 1,
-                ..Series::solid(
-                    label,
-                    decimate(r.xy.iter().map(|p| (p[0], p[1])).collect()),
-                    RUN_GREY,
-                )
+                ..Series::solid(label, r.xy.iter().map(|p| (p[0], p[1])).collect(), RUN_GREY)
             }
         })
         .collect();
     series.push(Series::dashed(
         "planned (theoretical)",
-        decimate(plan_xy.clone()),
+        plan_xy.clone(),
         BLACK,
     ));
     let mut bands = Vec::new();
     if several {
         series.push(Series::solid(
             "mean of runs",
-            decimate(mean.mean.iter().map(|p| (p[0], p[1])).collect()),
+            mean.mean.iter().map(|p| (p[0], p[1])).collect(),
             blue,
         ));
         let (upper, lower) = band_polygon(&mean.mean, &mean.half_width);
-        let (upper, lower) = (decimate(upper), decimate(lower));
         bands.push(Band::between("95 % band of the mean", &upper, &lower, blue));
     }
     let arrows: Vec<Arrow> = match (
@@ -177,7 +128,7 @@ fn draw_trajectories(
             .iter()
             .map(|s| (s.t, if c == 0 { s.pose.x } else { s.pose.y }))
             .collect();
-        let mut series = vec![Series::dashed("planned", decimate(planned), BLACK)];
+        let mut series = vec![Series::dashed("planned", planned, BLACK)];
         let mut bands = Vec::new();
         if several {
             let m: Vec<(f64, f64)> = t.clone().zip(&mean.mean).map(|(t, p)| (t, p[c])).collect();
@@ -190,19 +141,14 @@ fn draw_trajectories(
                 .enumerate()
                 .map(|(k, t)| (t, mean.mean[k][c] - mean.half_width[k][c]))
                 .collect();
-            bands.push(Band::between(
-                "95 % band",
-                &decimate(up),
-                &decimate(lo),
-                blue,
-            ));
-            series.push(Series::solid("mean", decimate(m), blue));
+            bands.push(Band::between("95 % band", &(up), &(lo), blue));
+            series.push(Series::solid("mean", m, blue));
         } else if let Some(r) = runs.first() {
             series.push(Series {
                 width: 1,
                 ..Series::solid(
                     "run",
-                    decimate(t.zip(&r.xy).map(|(t, p)| (t, p[c])).collect()),
+                    t.zip(&r.xy).map(|(t, p)| (t, p[c])).collect(),
                     RUN_GREY,
                 )
             });
@@ -217,31 +163,4 @@ fn draw_trajectories(
         )?;
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn decimation_bounds_the_points_and_keeps_ends_and_extremes() {
-        let n = 1_000_003;
-        let mut pts: Vec<(f64, f64)> = (0..n)
-            .map(|k| {
-                let t = k as f64 * 1e-3;
-                (t, (t * 0.7).sin())
-            })
-            .collect();
-        pts[123_457] = (123.457, 5.0); // a one-sample spike
-        pts[654_321] = (654.321, -7.0);
-        let d = decimate(pts.clone());
-        assert!(d.len() <= MAX_DRAWN, "{}", d.len());
-        assert_eq!(d.first(), pts.first());
-        assert_eq!(d.last(), pts.last());
-        assert!(d.contains(&(123.457, 5.0)) && d.contains(&(654.321, -7.0)));
-        // In order: time never goes back.
-        assert!(d.windows(2).all(|w| w[0].0 < w[1].0));
-        let short = pts[..MAX_DRAWN].to_vec();
-        assert_eq!(decimate(short.clone()), short);
-    }
 }

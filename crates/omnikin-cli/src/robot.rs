@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use omnikin::description::RobotDescription;
 use omnikin::link::{DropReason, MAX_FRAME, Message, RobotEvent, RobotLink, robot_info, serve};
-use omnikin::runtime::{Config, RATE_HZ_RANGE, Runtime};
+use omnikin::runtime::{Config, Runtime};
 use omnikin::{Pose2, Robot};
 use omnikin_sim::profile::Profile;
 use omnikin_sim::reproduce::{hardware_profile, spin_slip_profile};
@@ -137,20 +137,6 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     if !a.sim {
         bail!(
             "--sim is required: on a real robot the runtime runs in firmware (examples/firmware-cortex-m4)"
-        );
-    }
-    if !(1e-3..=1e3).contains(&a.time_scale) {
-        bail!(
-            "--time-scale must be between 1e-3 and 1e3 (got {})",
-            a.time_scale
-        );
-    }
-    if !(a.telemetry_rate > 0.0 && a.telemetry_rate <= RATE_HZ_RANGE.1) {
-        bail!(
-            "--telemetry-rate must be > 0 and at most {} Hz (got {}; at most one frame is sent \
-             per control cycle)",
-            RATE_HZ_RANGE.1,
-            a.telemetry_rate
         );
     }
     let desc = RobotDescription::resolve(&a.robot)?;
