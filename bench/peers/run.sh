@@ -9,7 +9,9 @@
 # 2. compiles bench/peers/wpimath_harness.cpp with g++ -O2 -std=c++20 against it;
 # 3. builds the Rust harness (crate bench/rust-harness, `omnikin-peer-harness`) in release
 #    mode with --locked;
-# 4. runs the two alternately for N rounds (default 7; odd rounds C++ first, even rounds Rust
+# 4. checks that both sides agree to 1e-9 on the mecanum and swerve4 inverse, forward and
+#    odometry calls for the same inputs (`--values` of each harness, bench/peers/agree.py);
+# 5. runs the two alternately for N rounds (default 7; odd rounds C++ first, even rounds Rust
 #    first), recording the load average around each round, and prints the median over rounds
 #    of each benchmark's per-round median (ns per call) and the ratio WPILib / omnikin for
 #    each pair (> 1: omnikin is faster).
@@ -37,7 +39,7 @@ while [ $# -gt 0 ]; do
     --std-math) features=(--features std-math); shift ;;
     --keep) keep=1; shift ;;
     --instructions) instructions=1; shift ;;
-    -h|--help) sed -n '2,28p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
     *) echo "unknown argument: $1" >&2; exit 2 ;;
   esac
 done
@@ -69,6 +71,12 @@ cargo build --release --locked --quiet -p omnikin-bench "${features[@]}" --bin o
 target_dir=$(cargo metadata --format-version 1 --no-deps | "$python" -c 'import json,sys; print(json.load(sys.stdin)["target_directory"])')
 cp "$target_dir/release/omnikin-peer-harness" "$tmp/omnikin-peer-harness"
 
+echo "== agreement: mecanum and swerve4 inverse/forward/odometry, omnikin vs WPILib (bench/peers/agree.py)" >&2
+"$tmp/wpimath_harness" --values > "$tmp/values.cpp"
+"$tmp/omnikin-peer-harness" --values > "$tmp/values.rust"
+"$python" bench/peers/agree.py "$tmp/values.cpp" "$tmp/values.rust" > "$tmp/agreement" \
+  || { cat "$tmp/agreement" >&2; exit 1; }
+
 if [ "$instructions" = 1 ]; then
   command -v valgrind >/dev/null || { echo "--instructions needs valgrind" >&2; exit 1; }
   echo "== instructions per call (callgrind)" >&2
@@ -91,6 +99,10 @@ if [ "$instructions" = 1 ]; then
                 sphere_inverse:swerve3_inverse ballbot_inverse:swerve3_inverse \
                 sphere_forward:swerve3_forward ballbot_forward:swerve3_forward \
                 sphere_odometry:swerve3_odometry ballbot_odometry:swerve3_odometry \
+                mecanum_inverse:wpi_mecanum_inverse mecanum_forward:wpi_mecanum_forward \
+                mecanum_odometry:wpi_mecanum_odometry \
+                swerve4_inverse:wpi_swerve4_inverse swerve4_forward:wpi_swerve4_forward \
+                swerve4_odometry:wpi_swerve4_odometry \
                 plan20_11hz_time_optimal:plan20_wpilib plan20_1khz_time_optimal:plan20_wpilib; do
       a=${pair%%:*}; b=${pair#*:}
       case "$a" in plan20_1khz*) n1=1; n2=2 ;; plan20*) n1=1; n2=3 ;; *) n1=1000; n2=11000 ;; esac
@@ -148,6 +160,12 @@ pairs = [
     ("ballbot_forward", "swerve3_forward"),
     ("sphere_odometry", "swerve3_odometry"),
     ("ballbot_odometry", "swerve3_odometry"),
+    ("mecanum_inverse", "wpi_mecanum_inverse"),
+    ("mecanum_forward", "wpi_mecanum_forward"),
+    ("mecanum_odometry", "wpi_mecanum_odometry"),
+    ("swerve4_inverse", "wpi_swerve4_inverse"),
+    ("swerve4_forward", "wpi_swerve4_forward"),
+    ("swerve4_odometry", "wpi_swerve4_odometry"),
     ("plan20_11hz_time_optimal", "plan20_wpilib"),
     ("plan20_1khz_time_optimal", "plan20_wpilib"),
     ("plan20_1khz_trapezoid", "plan20_wpilib"),
@@ -156,6 +174,8 @@ for a, b in pairs:
     if a in med and b in med:
         print(f"| {a} | {fmt(med[a])} | {b} | {fmt(med[b])} | {med[b] / med[a]:.2f} |")
 print()
+print("agreement with WPILib (same inputs, bench/peers/agree.py):")
+print(open(f"{tmp}/agreement").read())
 if os.path.exists(f"{tmp}/instructions"):
     print("instructions per call (callgrind; load-independent):")
     print()

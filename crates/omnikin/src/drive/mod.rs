@@ -183,15 +183,47 @@ pub(crate) fn first_non_finite<T: Real>(x: &[T], names: &[&'static str; 17]) -> 
     }
 }
 
-/// `true` when every entry is finite: one multiply-add per entry and one comparison (`x·0` is
-/// `0` for finite `x` and NaN for ±∞ or NaN), no branch per entry.
+/// `true` when every entry is finite. Fast path: one add per entry and one test, since a
+/// finite sum implies finite entries (a NaN or ±∞ entry makes the sum NaN or ±∞); only when the
+/// sum is not finite (a non-finite entry, or finite entries overflowing) are the entries
+/// tested one by one.
 #[inline(always)]
 pub(crate) fn all_finite<T: Real>(x: &[T]) -> bool {
     let mut acc = T::zero();
     for &v in x {
-        acc += v * T::zero();
+        acc += v;
     }
-    acc == T::zero()
+    acc - acc == T::zero() || each_finite(x)
+}
+
+#[cold]
+#[inline(never)]
+fn each_finite<T: Real>(x: &[T]) -> bool {
+    x.iter().all(|v| v.is_finite())
+}
+
+/// The error of a call whose output from the twist `t` was not finite: the first non-finite
+/// component of `t`, or else an overflow of `quantity`. Off the hot path.
+#[cold]
+pub(crate) fn twist_error<T: Real>(t: Twist2<T>, quantity: &'static str) -> InputError {
+    match t.check_finite() {
+        Err(e) => e,
+        Ok(_) => InputError::Overflow { quantity },
+    }
+}
+
+/// As [`twist_error`] for an array input named by `names`.
+#[cold]
+pub(crate) fn array_error<T: Real>(
+    x: &[T],
+    names: &[&'static str; 17],
+    quantity: &'static str,
+) -> InputError {
+    if all_finite(x) {
+        InputError::Overflow { quantity }
+    } else {
+        first_non_finite(x, names)
+    }
 }
 
 /// `Ok(())` if the twist is finite, else the first non-finite component.

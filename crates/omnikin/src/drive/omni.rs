@@ -53,8 +53,8 @@
 use nalgebra::Matrix3;
 
 use super::{
-    Drive, Fit, WHEEL_ANGLES, WHEEL_RATES, all_finite, check_twist, first_non_finite,
-    indexed_names, name_of,
+    Drive, Fit, WHEEL_ANGLES, WHEEL_RATES, all_finite, array_error, first_non_finite,
+    indexed_names, name_of, twist_error,
 };
 use crate::{GeometryError, InputError, MAX_CONDITION, Real, Twist2};
 
@@ -176,10 +176,11 @@ pub struct Omni<T, const N: usize> {
     rows: [[T; 3]; N],
     /// `k_i = r_i cos ρ_i`, m/rad.
     k: [T; N],
-    /// Inverse rows `A_i / k_i`: rad/s per unit twist.
-    inv: [[T; 3]; N],
-    /// Forward columns: `twist = Σ_i fwd[i] ω_i`, the `3 × N` matrix `(AᵀA)⁻¹ Aᵀ K`.
-    fwd: [[T; 3]; N],
+    /// Inverse matrix `A_i / k_i` (rad/s per unit twist), column-major so a call is three
+    /// vectorisable `axpy`s: `ω = inv[0] vx + inv[1] vy + inv[2] yaw_rate`.
+    inv: [[T; N]; 3],
+    /// Forward matrix `(AᵀA)⁻¹ Aᵀ K`, row-major (`3 × N`): `vx = fwd[0] · ω`, ….
+    fwd: [[T; N]; 3],
     /// Condition number of the scaled `A`.
     condition: f64,
 }
@@ -203,8 +204,8 @@ impl<T: Real, const N: usize> Omni<T, N> {
             wheels,
             rows: [[T::zero(); 3]; N],
             k: [T::zero(); N],
-            inv: [[T::zero(); 3]; N],
-            fwd: [[T::zero(); 3]; N],
+            inv: [[T::zero(); N]; 3],
+            fwd: [[T::zero(); N]; 3],
             condition: f64::INFINITY,
         };
         if N < 3 {
@@ -253,7 +254,9 @@ impl<T: Real, const N: usize> Omni<T, N> {
             out.rows[i] = [cx, cy, px * cy - py * cx];
             out.k[i] = w.radius * cr;
             let inv_k = T::one() / out.k[i];
-            out.inv[i] = [cx * inv_k, cy * inv_k, out.rows[i][2] * inv_k];
+            out.inv[0][i] = cx * inv_k;
+            out.inv[1][i] = cy * inv_k;
+            out.inv[2][i] = out.rows[i][2] * inv_k;
             sum_p2 += px * px + py * py;
         }
         // Unit-free rank test: yaw column divided by the layout's RMS radius ℓ.
@@ -315,7 +318,9 @@ impl<T: Real, const N: usize> Omni<T, N> {
             let r = out.rows[i];
             let a = nalgebra::Vector3::new(r[0], r[1], r[2] * inv_ell);
             let col = g_inv * a * out.k[i];
-            out.fwd[i] = [col[0], col[1], col[2] * inv_ell];
+            out.fwd[0][i] = col[0];
+            out.fwd[1][i] = col[1];
+            out.fwd[2][i] = col[2] * inv_ell;
         }
         Ok(out)
     }
@@ -346,18 +351,17 @@ impl<T: Real, const N: usize> Omni<T, N> {
     /// (`wheel_rates`) if a rate is not finite.
     #[inline]
     pub fn wheel_rates(&self, twist: Twist2<T>) -> Result<[T; N], InputError> {
-        check_twist(twist)?;
         let mut w = [T::zero(); N];
+        let [a, b, c] = &self.inv;
         for i in 0..N {
-            let j = &self.inv[i];
-            w[i] = j[0] * twist.vx + j[1] * twist.vy + j[2] * twist.yaw_rate;
+            w[i] = a[i] * twist.vx + b[i] * twist.vy + c[i] * twist.yaw_rate;
         }
+        // A non-finite input makes every rate non-finite (`0·∞` is NaN), so one check of the
+        // output covers the input too; the error is classified off the hot path.
         if all_finite(&w) {
             Ok(w)
         } else {
-            Err(InputError::Overflow {
-                quantity: "wheel_rates",
-            })
+            Err(twist_error(twist, "wheel_rates"))
         }
     }
 
@@ -369,25 +373,29 @@ impl<T: Real, const N: usize> Omni<T, N> {
     /// (`body_twist`).
     #[inline]
     pub fn body_twist(&self, rates: &[T; N]) -> Result<Twist2<T>, InputError> {
-        if !all_finite(rates) {
-            return Err(first_non_finite(rates, &WHEEL_RATES));
-        }
-        self.apply_forward(rates, "body_twist")
+        self.apply_forward(rates, &WHEEL_RATES, "body_twist")
     }
 
+    /// `fwd · x`; a non-finite `x_i` makes all three outputs non-finite, so the output check
+    /// covers the input, and the error names the input entry (`names`) or the overflow.
     #[inline(always)]
-    fn apply_forward(&self, x: &[T; N], quantity: &'static str) -> Result<Twist2<T>, InputError> {
+    fn apply_forward(
+        &self,
+        x: &[T; N],
+        names: &[&'static str; 17],
+        quantity: &'static str,
+    ) -> Result<Twist2<T>, InputError> {
         let (mut vx, mut vy, mut wz) = (T::zero(), T::zero(), T::zero());
+        let [a, b, c] = &self.fwd;
         for i in 0..N {
-            let f = &self.fwd[i];
-            vx += f[0] * x[i];
-            vy += f[1] * x[i];
-            wz += f[2] * x[i];
+            vx += a[i] * x[i];
+            vy += b[i] * x[i];
+            wz += c[i] * x[i];
         }
         if all_finite(&[vx, vy, wz]) {
             Ok(Twist2::new(vx, vy, wz))
         } else {
-            Err(InputError::Overflow { quantity })
+            Err(array_error(x, names, quantity))
         }
     }
 
@@ -429,11 +437,9 @@ impl<T: Real, const N: usize> Omni<T, N> {
         if !all_finite(start) {
             return Err(first_non_finite(start, &WHEEL_ANGLES));
         }
-        if !all_finite(end) {
-            return Err(first_non_finite(end, &WHEEL_ANGLES));
-        }
         let d: [T; N] = core::array::from_fn(|i| end[i] - start[i]);
-        self.apply_forward(&d, "displacement")
+        self.apply_forward(&d, &WHEEL_ANGLES, "displacement")
+            .map_err(|_| array_error(end, &WHEEL_ANGLES, "displacement"))
     }
 }
 

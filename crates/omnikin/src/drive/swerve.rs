@@ -15,9 +15,10 @@
 //! * **inverse** ([`Swerve::module_states`]): `ω_i = |v_i| / r_i ≥ 0`,
 //!   `(cos γ_i, sin γ_i) = v_i / |v_i|` — WPILib's `SwerveDriveKinematics::ToSwerveModuleStates`
 //!   divided by `r_i`, without optimisation. A module whose speed is below
-//!   [`MIN_STEER_SPEED`] keeps its current direction (the direction of a zero vector is
-//!   undefined). WPILib keeps all previous angles when the whole twist is zero, and turns a
-//!   lone module at the centre of rotation to 0; here each such module keeps its own.
+//!   [`MIN_STEER_SPEED`] (1e-6 m/s, WPILib's threshold) keeps its current direction (the
+//!   direction of a zero vector is undefined), as WPILib keeps its stored module headings.
+//!   Unlike WPILib, the model holds no hidden state: the caller passes the current
+//!   directions.
 //! * **forward** ([`Swerve::body_twist`]): the `2N` velocity components
 //!   `r_i ω_i (cos γ_i, sin γ_i)` over-determine the three unknowns; the least-squares twist is
 //!   `t = (BᵀB)⁻¹ Bᵀ u` with `B_i = [[1, 0, −p_iy], [0, 1, p_ix]]` — WPILib's `ToChassisSpeeds`
@@ -39,7 +40,7 @@ use nalgebra::Matrix3;
 
 use super::{
     Drive, Fit, Rot2, WHEEL_ANGLES, WHEEL_RATES, all_finite, check_twist, first_non_finite,
-    indexed_names, name_of,
+    indexed_names, name_of, twist_error,
 };
 use crate::{GeometryError, InputError, MAX_CONDITION, Real, Twist2};
 
@@ -48,7 +49,7 @@ const RADIUS: [&str; 17] = indexed_names!("modules", ".wheel_radius");
 const STEER: [&str; 17] = indexed_names!("steer");
 
 /// Module speed (m/s) below which the inverse keeps the module's current steering direction.
-pub const MIN_STEER_SPEED: f64 = 1.0e-9;
+pub const MIN_STEER_SPEED: f64 = 1.0e-6;
 
 /// One centred swerve module (robot frame, SI units).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -128,6 +129,9 @@ pub struct SwerveFit<T, const N: usize> {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Swerve<T, const N: usize> {
     modules: [SwerveModule<T>; N],
+    /// `p_ix`, `p_iy`, m (split so the per-module loops vectorise).
+    px: [T; N],
+    py: [T; N],
     /// `1/r_i`, 1/m.
     inv_r: [T; N],
     /// Forward columns for module `i`: `twist = Σ_i fu[i]·(ω_i cos γ_i) + fw[i]·(ω_i sin γ_i)`
@@ -160,6 +164,8 @@ impl<T: Real, const N: usize> Swerve<T, N> {
         }
         let mut out = Self {
             modules,
+            px: modules.map(|m| m.position[0]),
+            py: modules.map(|m| m.position[1]),
             inv_r: [T::zero(); N],
             fu: [[T::zero(); 3]; N],
             fw: [[T::zero(); 3]; N],
@@ -261,33 +267,32 @@ impl<T: Real, const N: usize> Swerve<T, N> {
         twist: Twist2<T>,
         current: &[Rot2<T>; N],
     ) -> Result<SwerveState<T, N>, InputError> {
-        check_twist(twist)?;
+        let (mut u, mut w, mut s) = ([T::zero(); N], [T::zero(); N], [T::zero(); N]);
         let mut st = SwerveState {
             wheel_rates: [T::zero(); N],
             steer: *current,
         };
+        for i in 0..N {
+            u[i] = twist.vx - twist.yaw_rate * self.py[i];
+            w[i] = twist.vy + twist.yaw_rate * self.px[i];
+            s[i] = (u[i] * u[i] + w[i] * w[i]).sqrt();
+            st.wheel_rates[i] = s[i] * self.inv_r[i];
+        }
+        // A non-finite twist makes every rate non-finite: one output check covers the input.
+        if !all_finite(&st.wheel_rates) {
+            return Err(twist_error(twist, "wheel_rates"));
+        }
         let min = T::of(MIN_STEER_SPEED);
         for i in 0..N {
-            let [px, py] = self.modules[i].position;
-            let u = twist.vx - twist.yaw_rate * py;
-            let w = twist.vy + twist.yaw_rate * px;
-            let s = (u * u + w * w).sqrt();
-            if s > min {
-                let inv = T::one() / s;
+            if s[i] > min {
+                let inv = T::one() / s[i];
                 st.steer[i] = Rot2 {
-                    cos: u * inv,
-                    sin: w * inv,
+                    cos: u[i] * inv,
+                    sin: w[i] * inv,
                 };
             }
-            st.wheel_rates[i] = s * self.inv_r[i];
         }
-        if all_finite(&st.wheel_rates) {
-            Ok(st)
-        } else {
-            Err(InputError::Overflow {
-                quantity: "wheel_rates",
-            })
-        }
+        Ok(st)
     }
 
     /// Steering optimisation (WPILib `SwerveModuleState::Optimize`): every module of `state`
@@ -350,29 +355,37 @@ impl<T: Real, const N: usize> Swerve<T, N> {
         }
     }
 
-    #[inline(always)]
-    fn check_steer(steer: &[Rot2<T>; N]) -> Result<(), InputError> {
-        let mut acc = T::zero();
-        for r in steer {
-            acc += r.cos * T::zero() + r.sin * T::zero();
+    /// The error of a forward call whose output was not finite: the first non-finite wheel
+    /// entry (`names`), else the first non-finite steering direction, else an overflow.
+    #[cold]
+    fn forward_error(
+        rates: &[T; N],
+        steer: &[Rot2<T>; N],
+        names: &[&'static str; 17],
+        quantity: &'static str,
+    ) -> InputError {
+        if !all_finite(rates) {
+            return first_non_finite(rates, names);
         }
-        if acc == T::zero() {
-            return Ok(());
-        }
-        let i = steer
+        match steer
             .iter()
             .position(|r| !(r.cos.is_finite() && r.sin.is_finite()))
-            .unwrap_or(0);
-        Err(InputError::NonFinite {
-            field: name_of(&STEER, i),
-        })
+        {
+            Some(i) => InputError::NonFinite {
+                field: name_of(&STEER, i),
+            },
+            None => InputError::Overflow { quantity },
+        }
     }
 
+    /// `Σ` of the pseudo-inverse columns times the module velocities; any non-finite input
+    /// makes the output non-finite, so the output check covers the inputs.
     #[inline(always)]
     fn apply_forward(
         &self,
         rates: &[T; N],
         steer: &[Rot2<T>; N],
+        names: &[&'static str; 17],
         quantity: &'static str,
     ) -> Result<Twist2<T>, InputError> {
         let (mut vx, mut vy, mut wz) = (T::zero(), T::zero(), T::zero());
@@ -387,7 +400,7 @@ impl<T: Real, const N: usize> Swerve<T, N> {
         if all_finite(&[vx, vy, wz]) {
             Ok(Twist2::new(vx, vy, wz))
         } else {
-            Err(InputError::Overflow { quantity })
+            Err(Self::forward_error(rates, steer, names, quantity))
         }
     }
 
@@ -399,11 +412,7 @@ impl<T: Real, const N: usize> Swerve<T, N> {
     /// [`InputError::Overflow`] (`body_twist`).
     #[inline]
     pub fn body_twist(&self, state: &SwerveState<T, N>) -> Result<Twist2<T>, InputError> {
-        if !all_finite(&state.wheel_rates) {
-            return Err(first_non_finite(&state.wheel_rates, &WHEEL_RATES));
-        }
-        Self::check_steer(&state.steer)?;
-        self.apply_forward(&state.wheel_rates, &state.steer, "body_twist")
+        self.apply_forward(&state.wheel_rates, &state.steer, &WHEEL_RATES, "body_twist")
     }
 
     /// [`Swerve::body_twist`] with the per-module slip (m/s).
@@ -452,12 +461,11 @@ impl<T: Real, const N: usize> Swerve<T, N> {
         if !all_finite(&start.wheel_angles) {
             return Err(first_non_finite(&start.wheel_angles, &WHEEL_ANGLES));
         }
-        if !all_finite(&end.wheel_angles) {
-            return Err(first_non_finite(&end.wheel_angles, &WHEEL_ANGLES));
-        }
-        Self::check_steer(&end.steer)?;
         let d: [T; N] = core::array::from_fn(|i| end.wheel_angles[i] - start.wheel_angles[i]);
-        self.apply_forward(&d, &end.steer, "displacement")
+        self.apply_forward(&d, &end.steer, &WHEEL_ANGLES, "displacement")
+            .map_err(|_| {
+                Self::forward_error(&end.wheel_angles, &end.steer, &WHEEL_ANGLES, "displacement")
+            })
     }
 }
 
