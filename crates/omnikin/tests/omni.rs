@@ -589,3 +589,64 @@ fn omni_calls_allocate_nothing() {
     assert!(acc.is_finite());
     assert_eq!(ALLOCS.with(|c| c.get()) - before, 0);
 }
+
+// ---------------------------------------------------------------------------------------------
+// The preset files (robots/*.toml, the schema proposed in `drive`'s docs) describe the same
+// robots as `presets`.
+
+/// The wheels of an `omni` robot file: `[[geometry.wheels]]` with `position`,
+/// `drive_angle_deg`, `roller_angle_deg`, `radius`.
+#[cfg(feature = "std")]
+fn wheels_of_file<const N: usize>(text: &str) -> [OmniWheel<f64>; N] {
+    let v: toml::Value = toml::from_str(text).unwrap();
+    assert_eq!(v["kind"].as_str(), Some("omni"));
+    let wheels = v["geometry"]["wheels"].as_array().unwrap();
+    assert_eq!(wheels.len(), N);
+    core::array::from_fn(|i| {
+        let w = &wheels[i];
+        let p = w["position"].as_array().unwrap();
+        OmniWheel::at_angle(
+            [p[0].as_float().unwrap(), p[1].as_float().unwrap()],
+            w["drive_angle_deg"].as_float().unwrap().to_radians(),
+            w["roller_angle_deg"].as_float().unwrap().to_radians(),
+            w["radius"].as_float().unwrap(),
+        )
+    })
+}
+
+#[cfg(feature = "std")]
+#[test]
+fn preset_files_match_the_presets() {
+    let files: [(&str, &str); 3] = [
+        ("kiwi", include_str!("../../../robots/kiwi.toml")),
+        ("x-drive", include_str!("../../../robots/x-drive.toml")),
+        ("mecanum", include_str!("../../../robots/mecanum.toml")),
+    ];
+    let twists = [
+        Twist2::new(0.3, 0.1, 0.5),
+        Twist2::new(-0.2, 0.4, -1.0),
+        Twist2::new(0.0, 0.0, 1.0),
+    ];
+    for (name, text) in files {
+        let v: toml::Value = toml::from_str(text).unwrap();
+        assert_eq!(v["name"].as_str(), Some(name));
+        if name == "kiwi" {
+            let a = Omni::new(wheels_of_file::<3>(text)).unwrap();
+            for t in twists {
+                let (x, y) = (a.wheel_rates(t).unwrap(), kiwi().wheel_rates(t).unwrap());
+                assert!(x.iter().zip(y).all(|(&p, q)| close(p, q, 1e-12)), "{name}");
+            }
+        } else {
+            let a = Omni::new(wheels_of_file::<4>(text)).unwrap();
+            let b = if name == "mecanum" {
+                mecanum()
+            } else {
+                Omni::new(presets::x_drive()).unwrap()
+            };
+            for t in twists {
+                let (x, y) = (a.wheel_rates(t).unwrap(), b.wheel_rates(t).unwrap());
+                assert!(x.iter().zip(y).all(|(&p, q)| close(p, q, 1e-12)), "{name}");
+            }
+        }
+    }
+}

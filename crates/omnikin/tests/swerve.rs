@@ -513,3 +513,22 @@ fn swerve_calls_allocate_nothing() {
     assert!(acc.is_finite());
     assert_eq!(ALLOCS.with(|c| c.get()) - before, 0);
 }
+
+/// robots/swerve4.toml (the schema proposed in `drive`'s docs) describes `swerve4()`.
+#[cfg(feature = "std")]
+#[test]
+fn preset_file_matches_the_preset() {
+    let v: toml::Value = toml::from_str(include_str!("../../../robots/swerve4.toml")).unwrap();
+    assert_eq!(v["kind"].as_str(), Some("swerve"));
+    assert_eq!(v["geometry"]["optimize_steering"].as_bool(), Some(false));
+    let modules = v["geometry"]["modules"].as_array().unwrap();
+    assert_eq!(modules.len(), 4);
+    for (m, want) in modules.iter().zip(swerve4::<f64>()) {
+        let p = m["position"].as_array().unwrap();
+        assert_eq!(
+            [p[0].as_float().unwrap(), p[1].as_float().unwrap()],
+            want.position
+        );
+        assert_eq!(m["wheel_radius"].as_float().unwrap(), want.wheel_radius);
+    }
+}

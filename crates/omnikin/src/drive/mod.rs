@@ -168,6 +168,12 @@ pub(crate) fn name_of(table: &[&'static str; 17], i: usize) -> &'static str {
     table[if i < 16 { i } else { 16 }]
 }
 
+/// `√x` for `f64` in `no_std` (through `libm`, as every other function of the crate).
+#[inline]
+pub(crate) fn sqrt64(x: f64) -> f64 {
+    nalgebra::ComplexField::sqrt(x)
+}
+
 /// Input names shared by the kinds.
 pub(crate) const WHEEL_RATES: [&str; 17] = indexed_names!("wheel_rates");
 /// Input names of cumulative wheel angles (odometry).
@@ -188,6 +194,8 @@ pub(crate) fn first_non_finite<T: Real>(x: &[T], names: &[&'static str; 17]) -> 
 /// sum is not finite (a non-finite entry, or finite entries overflowing) are the entries
 /// tested one by one.
 #[inline(always)]
+// `acc − acc` is 0 for finite `acc` and NaN for ±∞ or NaN: one subtraction and one compare.
+#[allow(clippy::eq_op)]
 pub(crate) fn all_finite<T: Real>(x: &[T]) -> bool {
     let mut acc = T::zero();
     for &v in x {

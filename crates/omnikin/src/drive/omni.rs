@@ -54,7 +54,7 @@ use nalgebra::Matrix3;
 
 use super::{
     Drive, Fit, WHEEL_ANGLES, WHEEL_RATES, all_finite, array_error, first_non_finite,
-    indexed_names, name_of, twist_error,
+    indexed_names, name_of, sqrt64, twist_error,
 };
 use crate::{GeometryError, InputError, MAX_CONDITION, Real, Twist2};
 
@@ -230,7 +230,7 @@ impl<T: Real, const N: usize> Omni<T, N> {
             crate::real::finite_param(w.roller_angle, name_of(&ROLLER, i))?;
             crate::real::positive(w.radius, name_of(&RADIUS, i))?;
             let norm = (w.drive[0] * w.drive[0] + w.drive[1] * w.drive[1]).sqrt();
-            if !(norm.to_f64() >= MIN_DRIVE_NORM) {
+            if norm.to_f64().is_nan() || norm.to_f64() < MIN_DRIVE_NORM {
                 return Err(GeometryError::DeadWheel {
                     wheel: i + 1,
                     quantity: "|drive|",
@@ -273,15 +273,15 @@ impl<T: Real, const N: usize> Omni<T, N> {
             lin[(1, 1)] += r[1] * r[1];
         }
         lin[(1, 0)] = lin[(0, 1)];
-        let lin_cond = cond2(&lin).sqrt();
-        if !(lin_cond <= MAX_CONDITION) {
+        let lin_cond = sqrt64(cond2(&lin));
+        if lin_cond.is_nan() || lin_cond > MAX_CONDITION {
             return Err(GeometryError::IllConditioned {
                 what: parallel,
                 condition: lin_cond,
                 max: MAX_CONDITION,
             });
         }
-        if !(ell > T::zero()) {
+        if !ell.is_finite() || ell <= T::zero() {
             return Err(GeometryError::IllConditioned {
                 what: concurrent,
                 condition: f64::INFINITY,
@@ -298,9 +298,9 @@ impl<T: Real, const N: usize> Omni<T, N> {
                 }
             }
         }
-        let cond = crate::condition_number(&g).sqrt();
+        let cond = sqrt64(crate::condition_number(&g));
         out.condition = cond;
-        if !(cond <= MAX_CONDITION) {
+        if cond.is_nan() || cond > MAX_CONDITION {
             return Err(GeometryError::IllConditioned {
                 what: concurrent,
                 condition: cond,
@@ -447,7 +447,7 @@ impl<T: Real, const N: usize> Omni<T, N> {
 fn cond2<T: Real>(m: &nalgebra::Matrix2<T>) -> f64 {
     let (a, b, d) = (m[(0, 0)].to_f64(), m[(0, 1)].to_f64(), m[(1, 1)].to_f64());
     let mean = 0.5 * (a + d);
-    let dev = (0.25 * (a - d) * (a - d) + b * b).sqrt();
+    let dev = sqrt64(0.25 * (a - d) * (a - d) + b * b);
     let (hi, lo) = (mean + dev, mean - dev);
     if lo <= hi * 1e-300 || lo <= 0.0 {
         f64::INFINITY

@@ -40,7 +40,7 @@ use nalgebra::Matrix3;
 
 use super::{
     Drive, Fit, Rot2, WHEEL_ANGLES, WHEEL_RATES, all_finite, check_twist, first_non_finite,
-    indexed_names, name_of, twist_error,
+    indexed_names, name_of, sqrt64, twist_error,
 };
 use crate::{GeometryError, InputError, MAX_CONDITION, Real, Twist2};
 
@@ -184,7 +184,7 @@ impl<T: Real, const N: usize> Swerve<T, N> {
             sum_p2 += m.position[0] * m.position[0] + m.position[1] * m.position[1];
         }
         let ell = (sum_p2 / T::of(N as f64)).sqrt();
-        if !(ell > T::zero()) {
+        if !ell.is_finite() || ell <= T::zero() {
             return Err(GeometryError::IllConditioned {
                 what: at_one_point,
                 condition: f64::INFINITY,
@@ -204,9 +204,9 @@ impl<T: Real, const N: usize> Swerve<T, N> {
         }
         g[(2, 0)] = g[(0, 2)];
         g[(2, 1)] = g[(1, 2)];
-        let cond = crate::condition_number(&g).sqrt();
+        let cond = sqrt64(crate::condition_number(&g));
         out.condition = cond;
-        if !(cond <= MAX_CONDITION) {
+        if cond.is_nan() || cond > MAX_CONDITION {
             return Err(GeometryError::IllConditioned {
                 what: at_one_point,
                 condition: cond,
