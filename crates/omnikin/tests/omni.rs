@@ -10,7 +10,7 @@ use std::cell::Cell;
 use core::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 use omnikin::drive::omni::{Omni, OmniWheel, presets};
-use omnikin::drive::{Drive, Odometry};
+use omnikin::drive::{Drive, Odometry, Wrench2};
 use omnikin::{GeometryError, InputError, Pose2, Twist2};
 use proptest::prelude::*;
 
@@ -193,6 +193,21 @@ fn kiwi_and_x_drive_situations() {
 }
 
 #[test]
+fn mecanum_torques_push_as_expected() {
+    // 1 N·m on every wheel, r = 0.05: 20 N each along +x, 80 N forward, no side force, no
+    // moment (the rollers cancel the sideways parts pairwise).
+    let m = mecanum();
+    let w = m.body_wrench(&[1.0; 4]).unwrap();
+    assert!(
+        close(w.fx, 80.0, 1e-12) && w.fy.abs() < 1e-12 && w.mz.abs() < 1e-12,
+        "{w:?}"
+    );
+    // And back: a pure forward force takes equal torques.
+    let t = m.wheel_torques(Wrench2::new(80.0, 0.0, 0.0)).unwrap();
+    assert!(t.iter().all(|&x| close(x, 1.0, 1e-12)), "{t:?}");
+}
+
+#[test]
 fn drive_trait_world_frame_goes_through_the_heading() {
     let m = mecanum();
     let t_robot = Twist2::new(0.3, -0.1, 0.4);
@@ -344,6 +359,16 @@ fn bad_inputs_are_named() {
     // sums the rates; its slow path checks them one by one).
     let w = m.wheel_rates(Twist2::new(4e306, 0.0, 0.0)).unwrap();
     assert!(w.iter().all(|&x| close(x, 8e307, 1e-12)), "{w:?}");
+    assert_eq!(
+        m.wheel_torques(Wrench2::new(0.0, f64::NAN, 0.0)),
+        Err(InputError::NonFinite { field: "fy" })
+    );
+    assert_eq!(
+        m.body_wrench(&[0.0, 0.0, f64::INFINITY, 0.0]),
+        Err(InputError::NonFinite {
+            field: "wheel_torques[2]"
+        })
+    );
     assert!(matches!(
         m.desaturate([1.0; 4], 0.0),
         Err(InputError::Singular { .. })
@@ -511,6 +536,28 @@ proptest! {
             let e = (p.heading - want.heading).sin().abs() + (1.0 - (p.heading - want.heading).cos());
             prop_assert!(e < 1e-9, "{p:?} vs {want:?}");
         }
+    }
+
+    /// The torque map is the dual of the velocity map (virtual work `τ·ω = W·t`), the
+    /// minimum-norm torques give the wrench back, and they are orthogonal to every torque
+    /// vector that exerts no wrench (so no other torques for that wrench are smaller).
+    #[test]
+    fn torques_are_dual_and_minimum_norm(o in layout::<4>(), t in twist(),
+                                         tau in proptest::array::uniform4(-2.0..2.0_f64)) {
+        let w = o.wheel_rates(t).unwrap();
+        let wr = o.body_wrench(&tau).unwrap();
+        let p_wheels: f64 = tau.iter().zip(w).map(|(a, b)| a * b).sum();
+        let p_body = wr.fx * t.vx + wr.fy * t.vy + wr.mz * t.yaw_rate;
+        prop_assert!(close(p_wheels, p_body, 1e-9), "{p_wheels} vs {p_body}");
+        let tmin = o.wheel_torques(wr).unwrap();
+        let back = o.body_wrench(&tmin).unwrap();
+        prop_assert!(close(back.fx, wr.fx, 1e-9) && close(back.fy, wr.fy, 1e-9)
+                     && close(back.mz, wr.mz, 1e-9), "{back:?} vs {wr:?}");
+        let null: Vec<f64> = tau.iter().zip(tmin).map(|(a, b)| a - b).collect();
+        let dot: f64 = null.iter().zip(tmin).map(|(a, b)| a * b).sum();
+        let scale = 1.0 + tau.iter().map(|x| x * x).sum::<f64>();
+        prop_assert!(dot.abs() < 1e-9 * scale, "{dot}");
+        prop_assert!(tmin.iter().map(|x| x * x).sum::<f64>() <= scale - 1.0 + 1e-9);
     }
 
     /// Single precision agrees with double to f32 accuracy (relative to the rates' size).

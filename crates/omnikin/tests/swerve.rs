@@ -10,7 +10,7 @@ use std::cell::Cell;
 use core::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 use omnikin::drive::swerve::{Swerve, SwerveModule, SwervePositions, SwerveState, swerve4};
-use omnikin::drive::{Drive, Odometry, Rot2};
+use omnikin::drive::{Drive, Odometry, Rot2, Wrench2};
 use omnikin::{GeometryError, InputError, Pose2, Twist2};
 use proptest::prelude::*;
 
@@ -152,6 +152,49 @@ fn straight_strafe_spin_corner_and_stop() {
         steer: prev,
     };
     assert_eq!(s.inverse(Twist2::default(), &cur).unwrap().steer, prev);
+}
+
+#[test]
+fn torques_straight_spin_and_singular_steering() {
+    let s = preset();
+    // All modules forward, 1 N·m each at r = 0.05: 80 N forward.
+    let fwd = [Rot2::identity(); 4];
+    let w = s.body_wrench(&[1.0; 4], &fwd).unwrap();
+    assert!(close(w.fx, 80.0, 1e-12) && w.fy.abs() < 1e-12 && w.mz.abs() < 1e-12);
+    // All parallel: no side force possible.
+    assert!(matches!(
+        s.wheel_torques(Wrench2::new(0.0, 10.0, 0.0), &fwd),
+        Err(InputError::Singular { .. })
+    ));
+    // Spin steering (tangent), a pure moment: equal torques, M = 4 · τ/r · 0.3√2.
+    let spin = s
+        .module_states(Twist2::new(0.0, 0.0, 1.0), &REST)
+        .unwrap()
+        .steer;
+    let m = s.body_wrench(&[1.0; 4], &spin).unwrap();
+    let mz = 4.0 * 20.0 * 0.3 * 2f64.sqrt();
+    assert!(close(m.mz, mz, 1e-12) && m.fx.abs() < 1e-12 && m.fy.abs() < 1e-12);
+    let t = s.wheel_torques(Wrench2::new(0.0, 0.0, mz), &spin).unwrap();
+    assert!(t.iter().all(|&x| close(x, 1.0, 1e-12)), "{t:?}");
+    // Every module aimed at one point (all wheel lines through the centre: radial steering):
+    // no moment is possible.
+    let radial: [Rot2<f64>; 4] = core::array::from_fn(|i| {
+        let p = s.modules()[i].position;
+        Rot2::from_vector(p[0], p[1]).unwrap()
+    });
+    assert!(matches!(
+        s.wheel_torques(Wrench2::new(0.0, 0.0, 1.0), &radial),
+        Err(InputError::Singular { .. })
+    ));
+    // A generic steering works both ways.
+    let st = s
+        .module_states(Twist2::new(0.3, 0.1, 0.5), &REST)
+        .unwrap()
+        .steer;
+    let want = Wrench2::new(3.0, -2.0, 0.7);
+    let t = s.wheel_torques(want, &st).unwrap();
+    let back = s.body_wrench(&t, &st).unwrap();
+    assert!(close(back.fx, 3.0, 1e-9) && close(back.fy, -2.0, 1e-9) && close(back.mz, 0.7, 1e-9));
 }
 
 #[test]
@@ -430,6 +473,29 @@ proptest! {
             prop_assert!((p.x - want.x).abs() < 1e-9 && (p.y - want.y).abs() < 1e-9,
                          "{p:?} vs {want:?}");
             prop_assert!(angle_diff(p.heading, want.heading).abs() < 1e-9);
+        }
+    }
+
+    /// Torques: virtual work `τ·ω = W·t` at the steering of the motion, minimum-norm torques
+    /// give the wrench back and are orthogonal to the wrench-free torques.
+    #[test]
+    fn torques_are_dual_and_minimum_norm(s in layout::<4>(), t in twist(),
+                                         tau in proptest::array::uniform4(-2.0..2.0_f64)) {
+        let st = s.module_states(t, &REST).unwrap();
+        let wr = s.body_wrench(&tau, &st.steer).unwrap();
+        let p_wheels: f64 = tau.iter().zip(st.wheel_rates).map(|(a, b)| a * b).sum();
+        let p_body = wr.fx * t.vx + wr.fy * t.vy + wr.mz * t.yaw_rate;
+        prop_assert!(close(p_wheels, p_body, 1e-9), "{p_wheels} vs {p_body}");
+        match s.wheel_torques(wr, &st.steer) {
+            Ok(tmin) => {
+                let back = s.body_wrench(&tmin, &st.steer).unwrap();
+                prop_assert!(close(back.fx, wr.fx, 1e-7) && close(back.fy, wr.fy, 1e-7)
+                             && close(back.mz, wr.mz, 1e-7), "{back:?} vs {wr:?}");
+                let dot: f64 = tau.iter().zip(tmin).map(|(a, b)| (a - b) * b).sum();
+                let scale = 1.0 + tau.iter().map(|x| x * x).sum::<f64>();
+                prop_assert!(dot.abs() < 1e-7 * scale, "{dot}");
+            }
+            Err(e) => prop_assert!(matches!(e, InputError::Singular { .. }), "{e:?}"),
         }
     }
 

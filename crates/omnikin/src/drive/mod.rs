@@ -84,6 +84,18 @@
 //! heading change replaces `Δθ` and the pose's heading follows the gyro (WPILib's
 //! `Odometry::Update`).
 //!
+//! ## Torques (the dual map)
+//!
+//! Where a kind has one, its torque map is the transpose of its velocity map, by virtual work
+//! (`Σ τ_i ω_i = W · t` for every motion): wheel torques `τ` (N·m) → body wrench
+//! [`Wrench2`] `W = Jᵀ τ` (robot frame), and back with the **minimum-norm** torques
+//! `τ = J (JᵀJ)⁻¹ W` (the torques that produce `W` with the least `Σ τ_i²`; with more wheels
+//! than three, the rest of the torque space only squeezes the rollers against each other).
+//! [`omni::Omni::body_wrench`] / [`omni::Omni::wheel_torques`] precompute both matrices;
+//! [`swerve::Swerve::body_wrench`] / [`swerve::Swerve::wheel_torques`] depend on the
+//! steering and solve a 3×3 system per call. A `Drive::torques` method returning "not
+//! defined" by default is the proposed way to give every kind the CLI's `torques` verb.
+//!
 //! ## Errors
 //!
 //! Construction validates the whole geometry and returns [`crate::GeometryError`]: the
@@ -176,6 +188,8 @@ pub(crate) fn sqrt64(x: f64) -> f64 {
 
 /// Input names shared by the kinds.
 pub(crate) const WHEEL_RATES: [&str; 17] = indexed_names!("wheel_rates");
+/// Input names of wheel torques.
+pub(crate) const WHEEL_TORQUES: [&str; 17] = indexed_names!("wheel_torques");
 /// Input names of cumulative wheel angles (odometry).
 pub(crate) const WHEEL_ANGLES: [&str; 17] = indexed_names!("wheel_angles");
 
@@ -314,6 +328,36 @@ impl<T: Real> Rot2<T> {
         self.cos * other.cos + self.sin * other.sin
     }
 }
+
+/// A planar force and moment on the body, robot frame: `fx`, `fy` in N, `mz` in N·m about +z
+/// through the robot origin. The dual of [`Twist2`]: the power of a wrench on a twist is
+/// `fx·vx + fy·vy + mz·yaw_rate` (W).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Wrench2<T> {
+    /// Force along robot x, N.
+    pub fx: T,
+    /// Force along robot y, N.
+    pub fy: T,
+    /// Moment about +z, N·m.
+    pub mz: T,
+}
+
+impl<T: Real> Wrench2<T> {
+    /// A wrench from its components (N, N, N·m).
+    #[inline]
+    pub const fn new(fx: T, fy: T, mz: T) -> Self {
+        Self { fx, fy, mz }
+    }
+
+    /// The components as an array `[fx, fy, mz]`.
+    #[inline]
+    pub fn to_array(self) -> [T; 3] {
+        [self.fx, self.fy, self.mz]
+    }
+}
+
+/// Names of the wrench components, for [`InputError::NonFinite`].
+pub(crate) const WRENCH: [&str; 3] = ["fx", "fy", "mz"];
 
 /// The forward kinematics with its least-squares residual.
 #[derive(Clone, Copy, Debug, PartialEq)]

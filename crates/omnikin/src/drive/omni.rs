@@ -53,8 +53,8 @@
 use nalgebra::Matrix3;
 
 use super::{
-    Drive, Fit, WHEEL_ANGLES, WHEEL_RATES, all_finite, array_error, first_non_finite,
-    indexed_names, name_of, sqrt64, twist_error,
+    Drive, Fit, WHEEL_ANGLES, WHEEL_RATES, WHEEL_TORQUES, WRENCH, Wrench2, all_finite, array_error,
+    first_non_finite, indexed_names, name_of, sqrt64, twist_error,
 };
 use crate::{GeometryError, InputError, MAX_CONDITION, Real, Twist2};
 
@@ -181,6 +181,9 @@ pub struct Omni<T, const N: usize> {
     inv: [[T; N]; 3],
     /// Forward matrix `(AᵀA)⁻¹ Aᵀ K`, row-major (`3 × N`): `vx = fwd[0] · ω`, ….
     fwd: [[T; N]; 3],
+    /// Minimum-norm torque matrix `J (JᵀJ)⁻¹` (`N × 3`, column-major, `J = K⁻¹A`):
+    /// `τ = tq[0] fx + tq[1] fy + tq[2] mz`.
+    tq: [[T; N]; 3],
     /// Condition number of the scaled `A`.
     condition: f64,
 }
@@ -206,6 +209,7 @@ impl<T: Real, const N: usize> Omni<T, N> {
             k: [T::zero(); N],
             inv: [[T::zero(); N]; 3],
             fwd: [[T::zero(); N]; 3],
+            tq: [[T::zero(); N]; 3],
             condition: f64::INFINITY,
         };
         if N < 3 {
@@ -321,6 +325,31 @@ impl<T: Real, const N: usize> Omni<T, N> {
             out.fwd[0][i] = col[0];
             out.fwd[1][i] = col[1];
             out.fwd[2][i] = col[2] * inv_ell;
+        }
+        // Torques: J̃ = J·diag(1, 1, 1/ℓ), G̃ = J̃ᵀJ̃ (same rank as Ã: K is diagonal, > 0);
+        // τ = J̃ G̃⁻¹ (fx, fy, mz/ℓ).
+        let mut gj = Matrix3::<T>::zeros();
+        for i in 0..N {
+            let j = [out.inv[0][i], out.inv[1][i], out.inv[2][i] * inv_ell];
+            for a in 0..3 {
+                for b in 0..3 {
+                    gj[(a, b)] += j[a] * j[b];
+                }
+            }
+        }
+        let Some(gj_inv) = gj.try_inverse() else {
+            return Err(GeometryError::IllConditioned {
+                what: "omni torque map JᵀJ (wheel radii too different)",
+                condition: f64::INFINITY,
+                max: MAX_CONDITION,
+            });
+        };
+        for i in 0..N {
+            let j = nalgebra::Vector3::new(out.inv[0][i], out.inv[1][i], out.inv[2][i] * inv_ell);
+            let c = gj_inv * j;
+            out.tq[0][i] = c[0];
+            out.tq[1][i] = c[1];
+            out.tq[2][i] = c[2] * inv_ell;
         }
         Ok(out)
     }
@@ -440,6 +469,50 @@ impl<T: Real, const N: usize> Omni<T, N> {
         let d: [T; N] = core::array::from_fn(|i| end[i] - start[i]);
         self.apply_forward(&d, &WHEEL_ANGLES, "displacement")
             .map_err(|_| array_error(end, &WHEEL_ANGLES, "displacement"))
+    }
+}
+
+impl<T: Real, const N: usize> Omni<T, N> {
+    /// The body wrench (robot frame; N, N, N·m) that the wheel torques `torques` (N·m, about
+    /// each wheel's axis, positive driving along `d_i`) exert: `W = Jᵀ τ`, the dual of
+    /// [`Omni::wheel_rates`] (`Σ τ_i ω_i = W · t`).
+    ///
+    /// # Errors
+    /// [`InputError::NonFinite`] naming `wheel_torques[i]`; [`InputError::Overflow`].
+    pub fn body_wrench(&self, torques: &[T; N]) -> Result<Wrench2<T>, InputError> {
+        let (mut fx, mut fy, mut mz) = (T::zero(), T::zero(), T::zero());
+        let [a, b, c] = &self.inv;
+        for i in 0..N {
+            fx += a[i] * torques[i];
+            fy += b[i] * torques[i];
+            mz += c[i] * torques[i];
+        }
+        if all_finite(&[fx, fy, mz]) {
+            Ok(Wrench2::new(fx, fy, mz))
+        } else {
+            Err(array_error(torques, &WHEEL_TORQUES, "body_wrench"))
+        }
+    }
+
+    /// The minimum-norm wheel torques (N·m) that exert the body wrench `wrench` (robot frame):
+    /// `τ = J (JᵀJ)⁻¹ W`; [`Omni::body_wrench`] of the result is `wrench`.
+    ///
+    /// # Errors
+    /// [`InputError::NonFinite`] naming `fx`, `fy` or `mz`; [`InputError::Overflow`].
+    pub fn wheel_torques(&self, wrench: Wrench2<T>) -> Result<[T; N], InputError> {
+        let mut t = [T::zero(); N];
+        let [a, b, c] = &self.tq;
+        for i in 0..N {
+            t[i] = a[i] * wrench.fx + b[i] * wrench.fy + c[i] * wrench.mz;
+        }
+        if all_finite(&t) {
+            Ok(t)
+        } else {
+            crate::real::finite3(wrench.to_array(), WRENCH)?;
+            Err(InputError::Overflow {
+                quantity: "wheel_torques",
+            })
+        }
     }
 }
 

@@ -39,8 +39,8 @@
 use nalgebra::Matrix3;
 
 use super::{
-    Drive, Fit, Rot2, WHEEL_ANGLES, WHEEL_RATES, all_finite, check_twist, first_non_finite,
-    indexed_names, name_of, sqrt64, twist_error,
+    Drive, Fit, Rot2, WHEEL_ANGLES, WHEEL_RATES, WHEEL_TORQUES, WRENCH, Wrench2, all_finite,
+    check_twist, first_non_finite, indexed_names, name_of, sqrt64, twist_error,
 };
 use crate::{GeometryError, InputError, MAX_CONDITION, Real, Twist2};
 
@@ -140,6 +140,8 @@ pub struct Swerve<T, const N: usize> {
     fw: [[T; 3]; N],
     optimize: bool,
     condition: f64,
+    /// `ℓ`, m: RMS distance of the modules from the robot origin (the yaw scale).
+    scale: T,
 }
 
 impl<T: Real, const N: usize> Swerve<T, N> {
@@ -171,6 +173,7 @@ impl<T: Real, const N: usize> Swerve<T, N> {
             fw: [[T::zero(); 3]; N],
             optimize: false,
             condition: f64::INFINITY,
+            scale: T::one(),
         };
         let mut sum_p2 = T::zero();
         for (i, m) in modules.iter().enumerate() {
@@ -191,6 +194,7 @@ impl<T: Real, const N: usize> Swerve<T, N> {
                 max: MAX_CONDITION,
             });
         }
+        out.scale = ell;
         let inv_ell = T::one() / ell;
         // BᵀB with the yaw column scaled by 1/ℓ: [[N, 0, −Σy'], [0, N, Σx'], [., ., Σ|p'|²]].
         let mut g = Matrix3::<T>::zeros();
@@ -466,6 +470,115 @@ impl<T: Real, const N: usize> Swerve<T, N> {
             .map_err(|_| {
                 Self::forward_error(&end.wheel_angles, &end.steer, &WHEEL_ANGLES, "displacement")
             })
+    }
+}
+
+impl<T: Real, const N: usize> Swerve<T, N> {
+    /// `b_i = (cos γ_i, sin γ_i, p_i × (cos γ_i, sin γ_i)) / r_i`: the wrench per unit wheel
+    /// torque of module `i`.
+    #[inline(always)]
+    fn wrench_column(&self, i: usize, steer: Rot2<T>) -> [T; 3] {
+        let k = self.inv_r[i];
+        [
+            steer.cos * k,
+            steer.sin * k,
+            (self.px[i] * steer.sin - self.py[i] * steer.cos) * k,
+        ]
+    }
+
+    /// The body wrench (robot frame; N, N, N·m) that the wheel torques `torques` (N·m,
+    /// positive rolling along the steering direction) exert with the steering `steer`:
+    /// `W = Σ τ_i b_i`, the dual of the velocity map.
+    ///
+    /// # Errors
+    /// [`InputError::NonFinite`] naming `wheel_torques[i]` or `steer[i]`;
+    /// [`InputError::Overflow`].
+    pub fn body_wrench(
+        &self,
+        torques: &[T; N],
+        steer: &[Rot2<T>; N],
+    ) -> Result<Wrench2<T>, InputError> {
+        let mut w = [T::zero(); 3];
+        for i in 0..N {
+            let b = self.wrench_column(i, steer[i]);
+            for j in 0..3 {
+                w[j] += b[j] * torques[i];
+            }
+        }
+        if all_finite(&w) {
+            Ok(Wrench2::new(w[0], w[1], w[2]))
+        } else {
+            Err(Self::forward_error(
+                torques,
+                steer,
+                &WHEEL_TORQUES,
+                "body_wrench",
+            ))
+        }
+    }
+
+    /// The minimum-norm wheel torques (N·m) that exert `wrench` (robot frame) with the
+    /// steering `steer`: `τ = Bᵀ (B Bᵀ)⁻¹ W` with `B = [b_1 … b_N]`, a 3×3 solve per call.
+    ///
+    /// # Errors
+    /// [`InputError::NonFinite`] naming `fx`, `fy`, `mz` or `steer[i]`;
+    /// [`InputError::Singular`] when the steering cannot produce every wrench (all wheels
+    /// parallel, or all wheel lines through one point); [`InputError::Overflow`].
+    pub fn wheel_torques(
+        &self,
+        wrench: Wrench2<T>,
+        steer: &[Rot2<T>; N],
+    ) -> Result<[T; N], InputError> {
+        crate::real::finite3(wrench.to_array(), WRENCH)?;
+        Self::check_steer_finite(steer)?;
+        // Yaw row scaled by 1/ℓ so the singularity test is unit-free.
+        let inv_ell = T::one() / self.scale;
+        let mut m = Matrix3::<T>::zeros();
+        for i in 0..N {
+            let b = self.wrench_column(i, steer[i]);
+            let b = [b[0], b[1], b[2] * inv_ell];
+            for j in 0..3 {
+                for l in 0..3 {
+                    m[(j, l)] += b[j] * b[l];
+                }
+            }
+        }
+        let tr = (m[(0, 0)] + m[(1, 1)] + m[(2, 2)]) / T::of(3.0);
+        let singular = InputError::Singular {
+            reason: "the steering cannot exert every wrench (wheels parallel, or their lines \
+                     meet in one point)",
+        };
+        let det = m.determinant();
+        if !det.is_finite() || det <= T::of(1e-9) * tr * tr * tr {
+            return Err(singular);
+        }
+        let m_inv = m.try_inverse().ok_or(singular)?;
+        let y = m_inv * nalgebra::Vector3::new(wrench.fx, wrench.fy, wrench.mz * inv_ell);
+        let mut t = [T::zero(); N];
+        for i in 0..N {
+            let b = self.wrench_column(i, steer[i]);
+            t[i] = b[0] * y[0] + b[1] * y[1] + b[2] * inv_ell * y[2];
+        }
+        if all_finite(&t) {
+            Ok(t)
+        } else {
+            Err(InputError::Overflow {
+                quantity: "wheel_torques",
+            })
+        }
+    }
+
+    /// `Err` naming the first non-finite steering direction.
+    fn check_steer_finite(steer: &[Rot2<T>; N]) -> Result<(), InputError> {
+        match steer
+            .iter()
+            .position(|r| !(r.cos.is_finite() && r.sin.is_finite()))
+        {
+            Some(i) => Err(InputError::NonFinite {
+                field: name_of(&STEER, i),
+            }),
+            None => Ok(()),
+        }
     }
 }
 
