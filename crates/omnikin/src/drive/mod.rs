@@ -50,6 +50,7 @@
 //! | [`Drive::displacement`] | two encoder readings | `twist·Δt` of the step (m, m, rad) | robot frame at the start of the step |
 //! | [`Drive::inverse_world`], [`Drive::forward_world`] | as above + **explicit heading** ψ (rad) | | world frame |
 //! | [`Odometry::update`] | encoder reading, optional absolute gyro yaw (rad) | pose | world frame |
+//! | `body_wrench` / `wheel_torques` (per kind, see *Torques*) | wheel torques (N·m) / [`Wrench2`] | the other | robot frame |
 //!
 //! The world frame is reached **only** through an explicit heading:
 //! `v_world = Q(ψ) v_robot` ([`Twist2::to_world`], [`Twist2::to_robot`]). A model written in
@@ -128,27 +129,46 @@
 //! ```toml
 //! kind = "omni"                    # N >= 3 omni or mecanum wheels, in file order
 //! name = "mecanum"
+//!
 //! [[geometry.wheels]]              # one table per wheel
 //! position = [0.25, 0.2]           # p_i, robot frame [m]
 //! drive_angle_deg = 0.0            # d_i = (cos, sin) of this, from robot +x, CCW
-//! roller_angle_deg = -45.0         # rho_i: 0 omni, +-45 mecanum
+//! roller_angle_deg = -45.0         # rho_i, from d_i to the roller axis: 0 omni, +-45 mecanum
 //! radius = 0.05                    # [m]
-//! [limits]
-//! max_wheel_rate = 60.0            # [rad/s]
+//! # ... one [[geometry.wheels]] per wheel
 //!
-//! kind = "swerve"                  # N >= 2 centred steerable modules
-//! [[geometry.modules]]
-//! position = [0.3, 0.3]            # steering axis = contact point, robot frame [m]
-//! wheel_radius = 0.05              # [m]
-//! [geometry]
-//! optimize_steering = false        # flip-and-reverse (WPILib Optimize); default false
-//! [limits]                         # max_wheel_rate, max_wheel_accel, max_steer_rate, ...
+//! [limits]                         # as for the other kinds, every key optional
+//! max_wheel_rate = 60.0            # [rad/s]
+//! max_wheel_accel = 300.0          # [rad/s^2]
 //! ```
+//!
+//! ```toml
+//! kind = "swerve"                  # N >= 2 centred steerable modules, in file order
+//! name = "swerve4"
+//!
+//! [geometry]
+//! optimize_steering = false        # flip and reverse (WPILib Optimize); default false
+//!
+//! [[geometry.modules]]
+//! position = [0.3, 0.3]            # steering axis = wheel contact, robot frame [m]
+//! wheel_radius = 0.05              # [m]
+//! # ... one [[geometry.modules]] per module
+//!
+//! [limits]                         # max_wheel_rate, max_wheel_accel, max_steer_rate,
+//! max_steer_rate = 12.0            # max_steer_accel (rad/s, rad/s^2)
+//! ```
+//!
+//! The number of wheels is a const generic in the core; the loader in `description.rs`
+//! picks the model by count (3, 4, 6, … — one `Robot` variant per supported count, or a
+//! macro over a fixed list) and rejects other counts with a message naming the supported
+//! ones. A wheel count that does not match a `--wheel-rates` list is the CLI's "expected N
+//! values" error.
 //!
 //! Field names of [`crate::GeometryError`] (`wheels[i].position`, `wheels[i].drive`,
 //! `wheels[i].roller_angle`, `wheels[i].radius`, `modules[i].position`,
-//! `modules[i].wheel_radius`) map one-to-one onto these keys (0-based `i`, the TOML array
-//! index).
+//! `modules[i].wheel_radius`) map onto these keys with the `geometry.` prefix (0-based `i`,
+//! the TOML array index; `drive` is `drive_angle_deg`, `roller_angle` is
+//! `roller_angle_deg`), as `description.rs` already maps `mount_angles[0]`.
 
 pub mod omni;
 pub mod swerve;
