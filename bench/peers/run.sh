@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Side-by-side comparison with WPILib's wpimath (C++), reproducible by anyone:
 #
-#   bench/peers/run.sh [--rounds N] [--min] [--std-math] [--instructions] [--keep]
+#   bench/peers/run.sh [--rounds N] [--min] [--std-math] [--instructions] [--agree-only] [--keep]
 #
 # 1. creates a throw-away Python virtual environment in a temporary directory and installs
 #    robotpy-native-wpimath (WPILib's C++ headers and shared libraries; it pulls in
@@ -22,6 +22,8 @@
 #             of the pure-Rust libm a no_std build uses
 # --instructions  also count instructions per call of each side with callgrind (load-independent;
 #             needs valgrind): the difference between two run lengths, so set-up cancels
+# --agree-only  stop after the agreement check (step 4): no timing, no callgrind (about two
+#             minutes, most of it the pip install and the C++ compile)
 # --keep      keep the temporary directory (venv, binaries, raw outputs) and print its path
 #
 # Environment: WPIMATH_VERSION (default 2026.2.2), CXX (default g++), PYTHON (default python3).
@@ -31,6 +33,7 @@ cd "$(dirname "$0")/../.."
 rounds=7
 keep=0
 instructions=0
+agree_only=0
 features=()
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -39,7 +42,8 @@ while [ $# -gt 0 ]; do
     --std-math) features=(--features std-math); shift ;;
     --keep) keep=1; shift ;;
     --instructions) instructions=1; shift ;;
-    -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
+    --agree-only) agree_only=1; shift ;;
+    -h|--help) sed -n '2,32p' "$0"; exit 0 ;;
     *) echo "unknown argument: $1" >&2; exit 2 ;;
   esac
 done
@@ -76,6 +80,7 @@ echo "== agreement: mecanum and swerve4 inverse/forward/odometry, omnikin vs WPI
 "$tmp/omnikin-peer-harness" --values > "$tmp/values.rust"
 "$python" bench/peers/agree.py "$tmp/values.cpp" "$tmp/values.rust" > "$tmp/agreement" \
   || { cat "$tmp/agreement" >&2; exit 1; }
+if [ "$agree_only" = 1 ]; then cat "$tmp/agreement"; exit 0; fi
 
 if [ "$instructions" = 1 ]; then
   command -v valgrind >/dev/null || { echo "--instructions needs valgrind" >&2; exit 1; }
