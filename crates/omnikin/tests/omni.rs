@@ -175,6 +175,17 @@ fn kiwi_and_x_drive_situations() {
         w[0].abs() < 1e-12 && close(w[1], -s, 1e-12) && close(w[2], s, 1e-12),
         "{w:?}"
     );
+    // Turn about wheel 2 (θ = 120°): its contact stands still, so it does not turn, while the
+    // forward kinematics still recovers the motion from the other two.
+    let p = [0.15 * (2.0 * PI / 3.0).cos(), 0.15 * (2.0 * PI / 3.0).sin()];
+    let om = -0.9;
+    let t = Twist2::new(om * p[1], -om * p[0], om);
+    let w = k.wheel_rates(t).unwrap();
+    assert!(
+        w[1].abs() < 1e-12 && w[0].abs() > 0.1 && w[2].abs() > 0.1,
+        "{w:?}"
+    );
+    assert_twist(k.body_twist(&w).unwrap(), t, 1e-12);
     // X-drive straight ahead: the front wheels (45°, 315°) turn opposite ways, as do the rear.
     let x = Omni::<f64, 4>::new(presets::x_drive()).unwrap();
     let w = x.wheel_rates(Twist2::new(0.2, 0.0, 0.0)).unwrap();
