@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Side-by-side comparison with WPILib's wpimath (C++), reproducible by anyone:
 #
-#   bench/peers/run.sh [--rounds N] [--min] [--std-math] [--instructions] [--keep]
+#   bench/peers/run.sh [--rounds N] [--min] [--std-math] [--instructions] [--agree-only] [--keep]
 #
 # 1. creates a throw-away Python virtual environment in a temporary directory and installs
 #    robotpy-native-wpimath (WPILib's C++ headers and shared libraries; it pulls in
@@ -9,7 +9,9 @@
 # 2. compiles bench/peers/wpimath_harness.cpp with g++ -O2 -std=c++20 against it;
 # 3. builds the Rust harness (crate bench/rust-harness, `omnikin-peer-harness`) in release
 #    mode with --locked;
-# 4. runs the two alternately for N rounds (default 7; odd rounds C++ first, even rounds Rust
+# 4. checks that both sides agree to 1e-9 on the mecanum and swerve4 inverse, forward and
+#    odometry calls for the same inputs (`--values` of each harness, bench/peers/agree.py);
+# 5. runs the two alternately for N rounds (default 7; odd rounds C++ first, even rounds Rust
 #    first), recording the load average around each round, and prints the median over rounds
 #    of each benchmark's per-round median (ns per call) and the ratio WPILib / omnikin for
 #    each pair (> 1: omnikin is faster).
@@ -20,6 +22,8 @@
 #             of the pure-Rust libm a no_std build uses
 # --instructions  also count instructions per call of each side with callgrind (load-independent;
 #             needs valgrind): the difference between two run lengths, so set-up cancels
+# --agree-only  stop after the agreement check (step 4): no timing, no callgrind (about two
+#             minutes, most of it the pip install and the C++ compile)
 # --keep      keep the temporary directory (venv, binaries, raw outputs) and print its path
 #
 # Environment: WPIMATH_VERSION (default 2026.2.2), CXX (default g++), PYTHON (default python3).
@@ -29,6 +33,7 @@ cd "$(dirname "$0")/../.."
 rounds=7
 keep=0
 instructions=0
+agree_only=0
 features=()
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -37,7 +42,8 @@ while [ $# -gt 0 ]; do
     --std-math) features=(--features std-math); shift ;;
     --keep) keep=1; shift ;;
     --instructions) instructions=1; shift ;;
-    -h|--help) sed -n '2,28p' "$0"; exit 0 ;;
+    --agree-only) agree_only=1; shift ;;
+    -h|--help) sed -n '2,32p' "$0"; exit 0 ;;
     *) echo "unknown argument: $1" >&2; exit 2 ;;
   esac
 done
@@ -69,6 +75,13 @@ cargo build --release --locked --quiet -p omnikin-bench "${features[@]}" --bin o
 target_dir=$(cargo metadata --format-version 1 --no-deps | "$python" -c 'import json,sys; print(json.load(sys.stdin)["target_directory"])')
 cp "$target_dir/release/omnikin-peer-harness" "$tmp/omnikin-peer-harness"
 
+echo "== agreement: mecanum and swerve4 inverse/forward/odometry, omnikin vs WPILib (bench/peers/agree.py)" >&2
+"$tmp/wpimath_harness" --values > "$tmp/values.cpp"
+"$tmp/omnikin-peer-harness" --values > "$tmp/values.rust"
+"$python" bench/peers/agree.py "$tmp/values.cpp" "$tmp/values.rust" > "$tmp/agreement" \
+  || { cat "$tmp/agreement" >&2; exit 1; }
+if [ "$agree_only" = 1 ]; then cat "$tmp/agreement"; exit 0; fi
+
 if [ "$instructions" = 1 ]; then
   command -v valgrind >/dev/null || { echo "--instructions needs valgrind" >&2; exit 1; }
   echo "== instructions per call (callgrind)" >&2
@@ -91,6 +104,10 @@ if [ "$instructions" = 1 ]; then
                 sphere_inverse:swerve3_inverse ballbot_inverse:swerve3_inverse \
                 sphere_forward:swerve3_forward ballbot_forward:swerve3_forward \
                 sphere_odometry:swerve3_odometry ballbot_odometry:swerve3_odometry \
+                mecanum_inverse:wpi_mecanum_inverse mecanum_forward:wpi_mecanum_forward \
+                mecanum_odometry:wpi_mecanum_odometry \
+                swerve4_inverse:wpi_swerve4_inverse swerve4_forward:wpi_swerve4_forward \
+                swerve4_odometry:wpi_swerve4_odometry \
                 plan20_11hz_time_optimal:plan20_wpilib plan20_1khz_time_optimal:plan20_wpilib; do
       a=${pair%%:*}; b=${pair#*:}
       case "$a" in plan20_1khz*) n1=1; n2=2 ;; plan20*) n1=1; n2=3 ;; *) n1=1000; n2=11000 ;; esac
@@ -148,6 +165,12 @@ pairs = [
     ("ballbot_forward", "swerve3_forward"),
     ("sphere_odometry", "swerve3_odometry"),
     ("ballbot_odometry", "swerve3_odometry"),
+    ("mecanum_inverse", "wpi_mecanum_inverse"),
+    ("mecanum_forward", "wpi_mecanum_forward"),
+    ("mecanum_odometry", "wpi_mecanum_odometry"),
+    ("swerve4_inverse", "wpi_swerve4_inverse"),
+    ("swerve4_forward", "wpi_swerve4_forward"),
+    ("swerve4_odometry", "wpi_swerve4_odometry"),
     ("plan20_11hz_time_optimal", "plan20_wpilib"),
     ("plan20_1khz_time_optimal", "plan20_wpilib"),
     ("plan20_1khz_trapezoid", "plan20_wpilib"),
@@ -156,6 +179,8 @@ for a, b in pairs:
     if a in med and b in med:
         print(f"| {a} | {fmt(med[a])} | {b} | {fmt(med[b])} | {med[b] / med[a]:.2f} |")
 print()
+print("agreement with WPILib (same inputs, bench/peers/agree.py):")
+print(open(f"{tmp}/agreement").read())
 if os.path.exists(f"{tmp}/instructions"):
     print("instructions per call (callgrind; load-independent):")
     print()

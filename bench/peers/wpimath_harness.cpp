@@ -20,6 +20,10 @@
 #include <frc/geometry/Rotation2d.h>
 #include <frc/geometry/Translation2d.h>
 #include <frc/kinematics/ChassisSpeeds.h>
+#include <frc/kinematics/MecanumDriveKinematics.h>
+#include <frc/kinematics/MecanumDriveOdometry.h>
+#include <frc/kinematics/MecanumDriveWheelPositions.h>
+#include <frc/kinematics/MecanumDriveWheelSpeeds.h>
 #include <frc/kinematics/SwerveDriveKinematics.h>
 #include <frc/kinematics/SwerveDriveOdometry.h>
 #include <frc/kinematics/SwerveModulePosition.h>
@@ -47,6 +51,9 @@ constexpr double kPi = 3.14159265358979323846;
 
 struct Inputs {
   double vx[K], vy[K], w[K], heading[K], steer[K][3], dist_step[K][3];
+  // Four-wheel tables (mecanum, swerve4): steer angles (rad), per-step wheel travel (m),
+  // wheel speeds (m/s). Same formulas as bench/rust-harness/src/bin/peer_harness.rs.
+  double steer4[K][4], dist4[K][4], speed4[K][4];
 };
 
 Inputs make_inputs() {
@@ -59,6 +66,11 @@ Inputs make_inputs() {
     for (int j = 0; j < 3; ++j) {
       in.steer[k][j] = 0.8 * std::sin(0.13 * k + j);
       in.dist_step[k][j] = 1e-3 * (0.5 + 0.3 * std::sin(0.11 * k + j));
+    }
+    for (int j = 0; j < 4; ++j) {
+      in.steer4[k][j] = 0.8 * std::sin(0.13 * k + j);
+      in.dist4[k][j] = 1e-3 * (0.5 + 0.3 * std::sin(0.11 * k + j));
+      in.speed4[k][j] = 0.5 * std::sin(0.19 * k + 0.7 * j);
     }
   }
   return in;
@@ -125,6 +137,103 @@ frc::SwerveDriveKinematics<3> swerve3() {
   return frc::SwerveDriveKinematics<3>{at(0.0), at(-2.0 * kPi / 3.0), at(2.0 * kPi / 3.0)};
 }
 
+constexpr double kR4 = 0.05;  // wheel radius of the mecanum and swerve4 presets, m
+
+// robots/mecanum.toml: FL, FR, RL, RR.
+frc::MecanumDriveKinematics mecanum() {
+  return frc::MecanumDriveKinematics{
+      frc::Translation2d{0.25_m, 0.2_m}, frc::Translation2d{0.25_m, -0.2_m},
+      frc::Translation2d{-0.25_m, 0.2_m}, frc::Translation2d{-0.25_m, -0.2_m}};
+}
+
+// robots/swerve4.toml: FL, FR, RL, RR at (+-0.3, +-0.3).
+frc::SwerveDriveKinematics<4> swerve4() {
+  return frc::SwerveDriveKinematics<4>{
+      frc::Translation2d{0.3_m, 0.3_m}, frc::Translation2d{0.3_m, -0.3_m},
+      frc::Translation2d{-0.3_m, 0.3_m}, frc::Translation2d{-0.3_m, -0.3_m}};
+}
+
+frc::ChassisSpeeds chassis(const Inputs& in, int k) {
+  return {units::meters_per_second_t{in.vx[k]}, units::meters_per_second_t{in.vy[k]},
+          units::radians_per_second_t{in.w[k]}};
+}
+
+// --values: the results of the mecanum and swerve4 calls for the same inputs as the Rust
+// side's --values, one line per call (`name<TAB>k<TAB>v...`, %.17g), in omnikin's units
+// (wheel rates in rad/s = WPILib's m/s / r; directions as cos, sin). bench/peers/agree.py
+// compares the two to 1e-9.
+void print_values(const Inputs& in) {
+  auto row = [](const char* name, int k, std::initializer_list<double> v) {
+    std::printf("%s\t%d", name, k);
+    for (double x : v) std::printf("\t%.17g", x);
+    std::printf("\n");
+  };
+  {
+    auto kin = mecanum();
+    for (int k = 0; k < K; ++k) {
+      auto w = kin.ToWheelSpeeds(chassis(in, k));
+      row("mecanum_inverse", k, {w.frontLeft.value() / kR4, w.frontRight.value() / kR4,
+                                  w.rearLeft.value() / kR4, w.rearRight.value() / kR4});
+    }
+    for (int k = 0; k < K; ++k) {
+      frc::MecanumDriveWheelSpeeds w{units::meters_per_second_t{in.speed4[k][0]},
+                                     units::meters_per_second_t{in.speed4[k][1]},
+                                     units::meters_per_second_t{in.speed4[k][2]},
+                                     units::meters_per_second_t{in.speed4[k][3]}};
+      auto cs = kin.ToChassisSpeeds(w);
+      row("mecanum_forward", k, {cs.vx.value(), cs.vy.value(), cs.omega.value()});
+    }
+    frc::MecanumDriveOdometry odo{kin, frc::Rotation2d{0_rad}, frc::MecanumDriveWheelPositions{}};
+    double d[4] = {0, 0, 0, 0}, yaw = 0.0;
+    for (int k = 0; k < 4 * K; ++k) {
+      int kk = k & (K - 1);
+      for (int j = 0; j < 4; ++j) d[j] += 20.0 * in.dist4[kk][j] * (j % 2 ? 1.0 : -0.5);
+      yaw += 1e-3 * in.w[kk] * 20.0;
+      auto p = odo.Update(frc::Rotation2d{units::radian_t{yaw}},
+                          {units::meter_t{d[0]}, units::meter_t{d[1]}, units::meter_t{d[2]},
+                           units::meter_t{d[3]}});
+      row("mecanum_odometry", k, {p.X().value(), p.Y().value(), p.Rotation().Cos(),
+                                   p.Rotation().Sin()});
+    }
+  }
+  {
+    auto kin = swerve4();
+    for (int k = 0; k < K; ++k) {
+      // Every 16th call a standing robot: the modules keep their previous headings.
+      frc::ChassisSpeeds cs = k % 16 == 15 ? frc::ChassisSpeeds{} : chassis(in, k);
+      auto st = kin.ToSwerveModuleStates(cs);
+      row("swerve4_inverse", k,
+          {st[0].speed.value() / kR4, st[1].speed.value() / kR4, st[2].speed.value() / kR4,
+           st[3].speed.value() / kR4, st[0].angle.Cos(), st[1].angle.Cos(), st[2].angle.Cos(),
+           st[3].angle.Cos(), st[0].angle.Sin(), st[1].angle.Sin(), st[2].angle.Sin(),
+           st[3].angle.Sin()});
+    }
+    for (int k = 0; k < K; ++k) {
+      wpi::array<frc::SwerveModuleState, 4> st{wpi::empty_array};
+      for (int j = 0; j < 4; ++j)
+        st[j] = {units::meters_per_second_t{in.speed4[k][j]},
+                 frc::Rotation2d{units::radian_t{in.steer4[k][j]}}};
+      auto cs = kin.ToChassisSpeeds(st);
+      row("swerve4_forward", k, {cs.vx.value(), cs.vy.value(), cs.omega.value()});
+    }
+    wpi::array<frc::SwerveModulePosition, 4> pos{wpi::empty_array};
+    for (int j = 0; j < 4; ++j) pos[j] = {0_m, frc::Rotation2d{units::radian_t{in.steer4[0][j]}}};
+    frc::SwerveDriveOdometry<4> odo{kin, frc::Rotation2d{0_rad}, pos, frc::Pose2d{}};
+    double d[4] = {0, 0, 0, 0}, yaw = 0.0;
+    for (int k = 0; k < 4 * K; ++k) {
+      int kk = k & (K - 1);
+      for (int j = 0; j < 4; ++j) d[j] += 20.0 * in.dist4[kk][j];
+      yaw += 1e-3 * in.w[kk] * 20.0;
+      wpi::array<frc::SwerveModulePosition, 4> p{wpi::empty_array};
+      for (int j = 0; j < 4; ++j)
+        p[j] = {units::meter_t{d[j]}, frc::Rotation2d{units::radian_t{in.steer4[kk][j]}}};
+      auto pose = odo.Update(frc::Rotation2d{units::radian_t{yaw}}, p);
+      row("swerve4_odometry", k, {pose.X().value(), pose.Y().value(), pose.Rotation().Cos(),
+                                   pose.Rotation().Sin()});
+    }
+  }
+}
+
 // The 20 waypoints of crates/omnikin-plan/benches/plan.rs.
 std::vector<frc::Translation2d> waypoints() {
   std::vector<frc::Translation2d> w;
@@ -149,6 +258,11 @@ int main(int argc, char** argv) {
   }
   double ns = 0.0;
   const Inputs in = make_inputs();
+  for (int a = 1; a < argc; ++a)
+    if (!std::strcmp(argv[a], "--values")) {
+      print_values(in);
+      return 0;
+    }
 
   // Swerve-3 inverse: chassis speeds -> three module states (speed, angle).
   {
@@ -218,6 +332,86 @@ int main(int argc, char** argv) {
       keep(pose);
     }, ns))
       std::printf("swerve3_odometry\t%.3f\t-\n", ns);
+  }
+
+  // Mecanum (robots/mecanum.toml): ToWheelSpeeds, ToChassisSpeeds, MecanumDriveOdometry.
+  {
+    auto kin = mecanum();
+    if (run("wpi_mecanum_inverse", [&](long i) {
+      int k = (int)(i & (K - 1));
+      frc::ChassisSpeeds cs{units::meters_per_second_t{opaque(in.vx[k])},
+                            units::meters_per_second_t{opaque(in.vy[k])},
+                            units::radians_per_second_t{opaque(in.w[k])}};
+      auto w = kin.ToWheelSpeeds(cs);
+      keep(w);
+    }, ns))
+      std::printf("wpi_mecanum_inverse\t%.3f\t-\n", ns);
+    if (run("wpi_mecanum_forward", [&](long i) {
+      int k = (int)(i & (K - 1));
+      frc::MecanumDriveWheelSpeeds w{units::meters_per_second_t{opaque(in.speed4[k][0])},
+                                     units::meters_per_second_t{opaque(in.speed4[k][1])},
+                                     units::meters_per_second_t{opaque(in.speed4[k][2])},
+                                     units::meters_per_second_t{opaque(in.speed4[k][3])}};
+      auto cs = kin.ToChassisSpeeds(w);
+      keep(cs);
+    }, ns))
+      std::printf("wpi_mecanum_forward\t%.3f\t-\n", ns);
+    frc::MecanumDriveOdometry odo{kin, frc::Rotation2d{0_rad}, frc::MecanumDriveWheelPositions{}};
+    double d[4] = {0, 0, 0, 0};
+    double yaw = 0.0;
+    if (run("wpi_mecanum_odometry", [&](long i) {
+      int k = (int)(i & (K - 1));
+      for (int j = 0; j < 4; ++j) d[j] += in.dist4[k][j];
+      yaw += 1e-3 * in.w[k];
+      frc::MecanumDriveWheelPositions p{units::meter_t{opaque(d[0])}, units::meter_t{opaque(d[1])},
+                                        units::meter_t{opaque(d[2])}, units::meter_t{opaque(d[3])}};
+      const auto& pose = odo.Update(frc::Rotation2d{units::radian_t{opaque(yaw)}}, p);
+      keep(pose);
+    }, ns))
+      std::printf("wpi_mecanum_odometry\t%.3f\t-\n", ns);
+  }
+
+  // Swerve4 (robots/swerve4.toml): ToSwerveModuleStates, ToChassisSpeeds (module angles in
+  // radians, so the Rotation2d constructions are part of the call, as the Rust side's
+  // sin_cos), SwerveDriveOdometry<4>.
+  {
+    auto kin = swerve4();
+    if (run("wpi_swerve4_inverse", [&](long i) {
+      int k = (int)(i & (K - 1));
+      frc::ChassisSpeeds cs{units::meters_per_second_t{opaque(in.vx[k])},
+                            units::meters_per_second_t{opaque(in.vy[k])},
+                            units::radians_per_second_t{opaque(in.w[k])}};
+      auto st = kin.ToSwerveModuleStates(cs);
+      keep(st);
+    }, ns))
+      std::printf("wpi_swerve4_inverse\t%.3f\t-\n", ns);
+    if (run("wpi_swerve4_forward", [&](long i) {
+      int k = (int)(i & (K - 1));
+      wpi::array<frc::SwerveModuleState, 4> st{wpi::empty_array};
+      for (int j = 0; j < 4; ++j)
+        st[j] = {units::meters_per_second_t{opaque(in.speed4[k][j])},
+                 frc::Rotation2d{units::radian_t{opaque(in.steer4[k][j])}}};
+      auto cs = kin.ToChassisSpeeds(st);
+      keep(cs);
+    }, ns))
+      std::printf("wpi_swerve4_forward\t%.3f\t-\n", ns);
+    wpi::array<frc::SwerveModulePosition, 4> pos{wpi::empty_array};
+    for (int j = 0; j < 4; ++j) pos[j] = {0_m, frc::Rotation2d{units::radian_t{in.steer4[0][j]}}};
+    frc::SwerveDriveOdometry<4> odo{kin, frc::Rotation2d{0_rad}, pos, frc::Pose2d{}};
+    double d[4] = {0, 0, 0, 0};
+    double yaw = 0.0;
+    if (run("wpi_swerve4_odometry", [&](long i) {
+      int k = (int)(i & (K - 1));
+      for (int j = 0; j < 4; ++j) d[j] += in.dist4[k][j];
+      yaw += 1e-3 * in.w[k];
+      wpi::array<frc::SwerveModulePosition, 4> p{wpi::empty_array};
+      for (int j = 0; j < 4; ++j)
+        p[j] = {units::meter_t{opaque(d[j])},
+                frc::Rotation2d{units::radian_t{opaque(in.steer4[k][j])}}};
+      const auto& pose = odo.Update(frc::Rotation2d{units::radian_t{opaque(yaw)}}, p);
+      keep(pose);
+    }, ns))
+      std::printf("wpi_swerve4_odometry\t%.3f\t-\n", ns);
   }
 
   // 20-waypoint trajectory with max velocity and acceleration (the Rust bench's limits).

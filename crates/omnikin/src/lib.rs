@@ -62,6 +62,7 @@ mod types;
 pub mod ahrs;
 pub mod ballbot;
 pub mod caster;
+pub mod drive;
 pub mod estimator;
 pub mod link;
 pub mod odometry;

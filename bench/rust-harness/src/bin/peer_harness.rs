@@ -6,11 +6,17 @@
 //!
 //! `omnikin-peer-harness [--batch-ms 20] [--batches 15]`, or
 //! `omnikin-peer-harness --count NAME N`: exactly `N` untimed calls of benchmark `NAME`, nothing
-//! else (for callgrind: `bench/peers/run.sh --instructions`).
+//! else (for callgrind: `bench/peers/run.sh --instructions`), or
+//! `omnikin-peer-harness --values`: the results of the mecanum and swerve4 calls for the inputs
+//! the C++ side's `--values` uses, which `bench/peers/agree.py` compares to 1e-9.
 
 use std::hint::black_box;
 
+use omnikin::Twist2;
 use omnikin::caster::{Caster3, CasterParams, CasterRates};
+use omnikin::drive::omni::{Omni, presets};
+use omnikin::drive::swerve::{Swerve, SwervePositions, SwerveState, swerve4};
+use omnikin::drive::{Odometry as DriveOdometry, Rot2};
 use omnikin::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::{Pose2, Robot};
 use omnikin_bench::{Inputs, K, measure, plan20, robot, waypoints20};
@@ -51,6 +57,123 @@ impl Runner {
     }
 }
 
+/// Wheel radius of the mecanum and swerve4 presets, m.
+const R4: f64 = 0.05;
+
+/// The four-wheel tables of the C++ harness (same formulas): steer angles (rad), per-step
+/// wheel travel (m), wheel speeds (m/s).
+struct Inputs4 {
+    steer: [[f64; 4]; K],
+    dist: [[f64; 4]; K],
+    speed: [[f64; 4]; K],
+}
+
+impl Inputs4 {
+    fn new() -> Self {
+        let f = |k: usize| k as f64;
+        Self {
+            steer: core::array::from_fn(|k| {
+                core::array::from_fn(|j| 0.8 * (0.13 * f(k) + j as f64).sin())
+            }),
+            dist: core::array::from_fn(|k| {
+                core::array::from_fn(|j| 1e-3 * (0.5 + 0.3 * (0.11 * f(k) + j as f64).sin()))
+            }),
+            speed: core::array::from_fn(|k| {
+                core::array::from_fn(|j| 0.5 * (0.19 * f(k) + 0.7 * j as f64).sin())
+            }),
+        }
+    }
+}
+
+fn row(name: &str, k: usize, v: &[f64]) {
+    let mut line = format!("{name}\t{k}");
+    for x in v {
+        line.push_str(&format!("\t{x:.17e}"));
+    }
+    println!("{line}");
+}
+
+/// `--values`: see the crate doc.
+fn print_values(inp: &Inputs, in4: &Inputs4) {
+    let mec = Omni::new(presets::mecanum::<f64>()).unwrap();
+    for k in 0..K {
+        row(
+            "mecanum_inverse",
+            k,
+            &mec.wheel_rates(inp.twist[k]).unwrap(),
+        );
+    }
+    for k in 0..K {
+        let t = mec.body_twist(&in4.speed[k].map(|v| v / R4)).unwrap();
+        row("mecanum_forward", k, &t.to_array());
+    }
+    let mut odo = DriveOdometry::new(mec, Pose2::default(), [0.0; 4]);
+    let (mut q, mut yaw) = ([0.0f64; 4], 0.0f64);
+    odo.update(&q, Some(yaw)).unwrap();
+    for k in 0..4 * K {
+        let kk = k & (K - 1);
+        for j in 0..4 {
+            q[j] += 20.0 * in4.dist[kk][j] * if j % 2 == 1 { 1.0 } else { -0.5 } / R4;
+        }
+        yaw += 1e-3 * inp.twist[kk].yaw_rate * 20.0;
+        let p = odo.update(&q, Some(yaw)).unwrap();
+        row(
+            "mecanum_odometry",
+            k,
+            &[p.x, p.y, p.heading.cos(), p.heading.sin()],
+        );
+    }
+
+    let sw = Swerve::new(swerve4::<f64>()).unwrap();
+    // WPILib's kinematics object remembers its module headings; here the caller passes them.
+    let mut prev = [Rot2::identity(); 4];
+    for k in 0..K {
+        let t = if k % 16 == 15 {
+            Twist2::default()
+        } else {
+            inp.twist[k]
+        };
+        let st = sw.module_states(t, &prev).unwrap();
+        prev = st.steer;
+        let mut v = st.wheel_rates.to_vec();
+        v.extend(st.steer.iter().map(|r| r.cos));
+        v.extend(st.steer.iter().map(|r| r.sin));
+        row("swerve4_inverse", k, &v);
+    }
+    for k in 0..K {
+        let st = SwerveState::from_angles(in4.speed[k].map(|v| v / R4), in4.steer[k]);
+        row(
+            "swerve4_forward",
+            k,
+            &sw.body_twist(&st).unwrap().to_array(),
+        );
+    }
+    let start = SwervePositions {
+        wheel_angles: [0.0; 4],
+        steer: in4.steer[0].map(Rot2::from_angle),
+    };
+    let mut odo = DriveOdometry::new(sw, Pose2::default(), start);
+    let (mut q, mut yaw) = ([0.0f64; 4], 0.0f64);
+    odo.update(&start, Some(yaw)).unwrap();
+    for k in 0..4 * K {
+        let kk = k & (K - 1);
+        for j in 0..4 {
+            q[j] += 20.0 * in4.dist[kk][j] / R4;
+        }
+        yaw += 1e-3 * inp.twist[kk].yaw_rate * 20.0;
+        let pos = SwervePositions {
+            wheel_angles: q,
+            steer: in4.steer[kk].map(Rot2::from_angle),
+        };
+        let p = odo.update(&pos, Some(yaw)).unwrap();
+        row(
+            "swerve4_odometry",
+            k,
+            &[p.x, p.y, p.heading.cos(), p.heading.sin()],
+        );
+    }
+}
+
 fn main() {
     let mut rn = Runner {
         batch_ms: 20.0,
@@ -73,6 +196,11 @@ fn main() {
         }
     }
     let inp = Inputs::new();
+    let in4 = Inputs4::new();
+    if args.iter().any(|a| a == "--values") {
+        print_values(&inp, &in4);
+        return;
+    }
     let caster = Caster3::<f64>::new(CasterParams::preset()).unwrap();
 
     // Caster inverse: world twist + heading + steer angles -> six motor rates.
@@ -226,6 +354,111 @@ fn main() {
         assert_eq!(failures, 0, "odometry steps failed");
         if let Some(ns) = ns {
             println!("caster_odometry\t{ns:.3}\t-");
+        }
+    }
+
+    // Mecanum (robots/mecanum.toml) vs MecanumDriveKinematics / MecanumDriveOdometry: robot
+    // twist -> four wheel rates; four wheel rates -> least-squares robot twist; odometry step
+    // from four cumulative wheel angles + absolute gyro yaw.
+    {
+        let mec = Omni::new(presets::mecanum::<f64>()).unwrap();
+        let ns = rn.run("mecanum_inverse", 1.0, |i| {
+            let k = i as usize & (K - 1);
+            black_box(mec.wheel_rates(black_box(inp.twist[k])).unwrap());
+        });
+        if let Some(ns) = ns {
+            println!("mecanum_inverse\t{ns:.3}\t-");
+        }
+        // Wheel rates in rad/s: the table's m/s over r, converted before timing (units, not
+        // work: WPILib's input is in m/s).
+        let rates: [[f64; 4]; K] = core::array::from_fn(|k| in4.speed[k].map(|v| v / R4));
+        let ns = rn.run("mecanum_forward", 1.0, |i| {
+            let k = i as usize & (K - 1);
+            black_box(mec.body_twist(black_box(&rates[k])).unwrap());
+        });
+        if let Some(ns) = ns {
+            println!("mecanum_forward\t{ns:.3}\t-");
+        }
+        let step: [[f64; 4]; K] = core::array::from_fn(|k| in4.dist[k].map(|v| v / R4));
+        let mut odo = DriveOdometry::new(mec, Pose2::default(), [0.0; 4]);
+        let (mut q, mut yaw) = ([0.0f64; 4], 0.0f64);
+        let mut failures = 0u64;
+        let ns = rn.run("mecanum_odometry", 1.0, |i| {
+            let k = i as usize & (K - 1);
+            for j in 0..4 {
+                q[j] += step[k][j];
+            }
+            yaw += 1e-3 * inp.twist[k].yaw_rate;
+            match odo.update(black_box(&q), Some(black_box(yaw))) {
+                Ok(p) => {
+                    black_box(p);
+                }
+                Err(_) => failures += 1,
+            }
+        });
+        assert_eq!(failures, 0, "mecanum odometry steps failed");
+        if let Some(ns) = ns {
+            println!("mecanum_odometry\t{ns:.3}\t-");
+        }
+    }
+
+    // Swerve4 (robots/swerve4.toml) vs SwerveDriveKinematics<4> / SwerveDriveOdometry<4>: the
+    // steer angles come in as radians (Rot2::from_angle = one sin_cos each, as WPILib's
+    // Rotation2d constructions); the inverse returns (cos, sin) directions as WPILib's
+    // Rotation2d does.
+    {
+        let sw = Swerve::new(swerve4::<f64>()).unwrap();
+        let prev = [Rot2::identity(); 4];
+        let ns = rn.run("swerve4_inverse", 1.0, |i| {
+            let k = i as usize & (K - 1);
+            black_box(
+                sw.module_states(black_box(inp.twist[k]), black_box(&prev))
+                    .unwrap(),
+            );
+        });
+        if let Some(ns) = ns {
+            println!("swerve4_inverse\t{ns:.3}\t-");
+        }
+        let rates: [[f64; 4]; K] = core::array::from_fn(|k| in4.speed[k].map(|v| v / R4));
+        let ns = rn.run("swerve4_forward", 1.0, |i| {
+            let k = i as usize & (K - 1);
+            let st = SwerveState {
+                wheel_rates: black_box(rates[k]),
+                steer: black_box(in4.steer[k]).map(Rot2::from_angle),
+            };
+            black_box(sw.body_twist(&st).unwrap());
+        });
+        if let Some(ns) = ns {
+            println!("swerve4_forward\t{ns:.3}\t-");
+        }
+        let step: [[f64; 4]; K] = core::array::from_fn(|k| in4.dist[k].map(|v| v / R4));
+        let start = SwervePositions {
+            wheel_angles: [0.0; 4],
+            steer: in4.steer[0].map(Rot2::from_angle),
+        };
+        let mut odo = DriveOdometry::new(sw, Pose2::default(), start);
+        let (mut q, mut yaw) = ([0.0f64; 4], 0.0f64);
+        let mut failures = 0u64;
+        let ns = rn.run("swerve4_odometry", 1.0, |i| {
+            let k = i as usize & (K - 1);
+            for j in 0..4 {
+                q[j] += step[k][j];
+            }
+            yaw += 1e-3 * inp.twist[k].yaw_rate;
+            let pos = SwervePositions {
+                wheel_angles: black_box(q),
+                steer: black_box(in4.steer[k]).map(Rot2::from_angle),
+            };
+            match odo.update(&pos, Some(black_box(yaw))) {
+                Ok(p) => {
+                    black_box(p);
+                }
+                Err(_) => failures += 1,
+            }
+        });
+        assert_eq!(failures, 0, "swerve4 odometry steps failed");
+        if let Some(ns) = ns {
+            println!("swerve4_odometry\t{ns:.3}\t-");
         }
     }
 
