@@ -29,6 +29,7 @@ pub mod profile;
 pub mod reproduce;
 pub mod sensors;
 pub mod sil;
+pub mod table;
 pub mod track;
 
 pub use monte_carlo::{run_trials, trial_rng};
