@@ -35,6 +35,13 @@ unavailable() {
 }
 
 build() {
+  if ! command -v c++ >/dev/null 2>&1 && command -v apt-get >/dev/null 2>&1; then
+    echo "installing a C++ compiler for libFuzzer (Debian package g++)"
+    local sudo=""
+    [[ "$(id -u)" -ne 0 ]] && command -v sudo >/dev/null && sudo="sudo -n"
+    ($sudo apt-get update -qq && DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq g++) \
+      >/dev/null 2>&1 || true
+  fi
   command -v c++ >/dev/null 2>&1 || unavailable "no C++ compiler (c++) to build libFuzzer"
   cargo fetch --locked --quiet || unavailable "cannot fetch the fuzz crate's dependencies"
   local t0=$SECONDS
