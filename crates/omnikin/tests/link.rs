@@ -1,12 +1,22 @@
-//! The link codec: encode∘decode is the identity (property test), arbitrary bytes never panic
-//! the decoder, and every corrupt, truncated, unauthenticated, replayed or foreign-version
-//! frame is dropped and counted in exactly one counter.
+//! The link, in process: the codec (encode∘decode is the identity, arbitrary bytes never
+//! panic, every bad frame lands in exactly one counter) and the v2 session protocol against
+//! the attacks of issue 12 — replay of a recorded keyed session after a robot restart, a forged
+//! `seq = 2^64 - 1`, a third party's heartbeats, takeover without a handshake, a replayed
+//! e-stop confirmation, v1 peers — and a legitimate session through loss, reordering and
+//! duplication.
 
 use omnikin::link::{
-    CHUNK_POINTS, DropReason, Endpoint, FrameReader, Key, LinkCounters, MAX_FRAME, Message,
-    PROTOCOL_VERSION, RobotInfo, RobotKind, Telemetry, WirePoint, encode_frame, parse_frame,
+    CHUNK_POINTS, DropReason, EncodeError, EndReason, FrameReader, HANDSHAKE_BODY, Hello, Key,
+    Kind, LinkCounters, MAX_FRAME, Message, OperatorEvent, OperatorLink, PROTOCOL_VERSION,
+    RobotEvent, RobotInfo, RobotKind, RobotLink, Telemetry, WirePoint, encode_hello,
+    encode_message, parse_frame, serve, v1,
 };
-use omnikin::runtime::{Faults, Frame, Mode, PlanStatus};
+use omnikin::runtime::hal::{
+    EncoderAngles, Encoders, Entropy, EntropyError, MotorCommand, MotorOutputs, NoImu,
+};
+use omnikin::runtime::{Config, Faults, Frame, Mode, PlanStatus, Runtime};
+use omnikin::sphere::{SphereOmni, SphereParams};
+use omnikin::{Pose2, Robot};
 use proptest::prelude::*;
 
 fn f() -> impl Strategy<Value = f32> {
@@ -51,9 +61,9 @@ fn telemetry() -> impl Strategy<Value = Telemetry> {
             any::<u32>(),
             any::<u64>(),
         ),
-        any::<[u32; 7]>(),
+        (any::<[u32; 9]>(), any::<u64>(), any::<u64>()),
     )
-        .prop_map(|(a, b, c, l)| Telemetry {
+        .prop_map(|(a, b, c, (l, ack_seq, estop_seq))| Telemetry {
             time_us: a.0,
             mode: a.1,
             faults: Faults(a.2),
@@ -86,32 +96,16 @@ fn telemetry() -> impl Strategy<Value = Telemetry> {
                 auth: l[4],
                 replay: l[5],
                 malformed: l[6],
+                session: l[7],
+                entropy: l[8],
             },
+            ack_seq,
+            estop_seq,
         })
 }
 
 fn message() -> impl Strategy<Value = Message> {
     prop_oneof![
-        any::<u8>().prop_map(|protocol| Message::Hello { protocol }),
-        (
-            any::<u16>(),
-            f(),
-            f(),
-            any::<bool>(),
-            prop_oneof![
-                Just(RobotKind::Sphere),
-                Just(RobotKind::Ballbot),
-                Just(RobotKind::Caster)
-            ]
-        )
-            .prop_map(|(cap, r, w, a, kind)| Message::HelloAck(RobotInfo {
-                protocol: PROTOCOL_VERSION,
-                kind,
-                plan_capacity: cap,
-                rate_hz: r,
-                watchdog: w,
-                authenticated: a,
-            })),
         Just(Message::Heartbeat),
         (any::<bool>(), f(), f(), f()).prop_map(|(w, vx, vy, yaw_rate)| Message::SetVelocity {
             frame: if w { Frame::World } else { Frame::Robot },
@@ -136,76 +130,203 @@ fn message() -> impl Strategy<Value = Message> {
         Just(Message::Clear),
         (f(), f(), f()).prop_map(|(x, y, heading)| Message::SetPose { x, y, heading }),
         telemetry().prop_map(Message::Telemetry),
+        Just(Message::SessionEnd(EndReason::TakenOver)),
     ]
+}
+
+/// Test entropy: xorshift64* (a robot uses its TRNG, a PC its OS).
+struct TestRng(u64);
+impl Entropy for TestRng {
+    fn fill(&mut self, buf: &mut [u8]) -> Result<(), EntropyError> {
+        for b in buf {
+            self.0 ^= self.0 >> 12;
+            self.0 ^= self.0 << 25;
+            self.0 ^= self.0 >> 27;
+            *b = (self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 56) as u8;
+        }
+        Ok(())
+    }
+}
+
+/// An entropy source that has failed.
+struct NoEntropy;
+impl Entropy for NoEntropy {
+    fn fill(&mut self, _: &mut [u8]) -> Result<(), EntropyError> {
+        Err(EntropyError)
+    }
 }
 
 fn key() -> Key {
     Key::new(b"shared secret, 32 bytes long ...").unwrap()
 }
 
+fn info(authenticated: bool) -> RobotInfo {
+    RobotInfo {
+        protocol: PROTOCOL_VERSION,
+        kind: RobotKind::Sphere,
+        plan_capacity: 4096,
+        rate_hz: 100.0,
+        watchdog: 0.5,
+        authenticated,
+    }
+}
+
+/// The robot's end with its entropy; frames as on the wire (delimiter included).
+struct Bot {
+    link: RobotLink,
+    rng: TestRng,
+    info: RobotInfo,
+}
+
+impl Bot {
+    fn new(key: Option<Key>, seed: u64) -> Self {
+        let info = info(key.is_some());
+        Bot {
+            link: RobotLink::new(key),
+            rng: TestRng(seed),
+            info,
+        }
+    }
+    /// Receives one wire frame; returns the event and the reply bytes.
+    fn rx(&mut self, wire: &[u8]) -> (Result<RobotEvent, DropReason>, Vec<u8>) {
+        let mut f = wire[..wire.len() - 1].to_vec();
+        let mut reply = [0u8; MAX_FRAME];
+        let r = self
+            .link
+            .receive(&mut f, &self.info, &mut self.rng, &mut reply);
+        let n = match &r {
+            Ok(RobotEvent::Hello(n)) => *n,
+            Ok(RobotEvent::Message {
+                replaced: Some(n), ..
+            }) => *n,
+            _ => 0,
+        };
+        (r, reply[..n].to_vec())
+    }
+    fn tx(&mut self, m: &Message) -> Result<Vec<u8>, EncodeError> {
+        let mut b = [0u8; MAX_FRAME];
+        let n = self.link.encode(m, &mut b)?;
+        Ok(b[..n].to_vec())
+    }
+}
+
+fn op_rx(op: &mut OperatorLink, wire: &[u8]) -> Result<OperatorEvent, DropReason> {
+    let mut f = wire[..wire.len() - 1].to_vec();
+    op.receive(&mut f)
+}
+
+fn op_tx(op: &mut OperatorLink, m: &Message) -> Vec<u8> {
+    let mut b = [0u8; MAX_FRAME];
+    let n = op.encode(m, &mut b).unwrap();
+    b[..n].to_vec()
+}
+
+fn op_hello(op: &mut OperatorLink, rng: &mut TestRng) -> Vec<u8> {
+    let mut b = [0u8; MAX_FRAME];
+    let n = op.hello(rng, &mut b).unwrap();
+    b[..n].to_vec()
+}
+
+/// Handshake and key confirmation (a heartbeat); returns every operator → robot frame sent.
+fn connect(op: &mut OperatorLink, bot: &mut Bot, rng: &mut TestRng) -> Vec<Vec<u8>> {
+    let hello = op_hello(op, rng);
+    let (r, ack) = bot.rx(&hello);
+    assert!(matches!(r, Ok(RobotEvent::Hello(_))), "{r:?}");
+    assert!(ack.len() <= hello.len(), "anti-amplification");
+    assert!(matches!(op_rx(op, &ack), Ok(OperatorEvent::Established(_))));
+    let hb = op_tx(op, &Message::Heartbeat);
+    let (r, _) = bot.rx(&hb);
+    assert!(
+        matches!(
+            r,
+            Ok(RobotEvent::Message {
+                new_session: true,
+                ..
+            })
+        ),
+        "{r:?}"
+    );
+    assert_eq!(bot.link.session_id(), op.session_id());
+    vec![hello, hb]
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(512))]
 
     #[test]
-    fn encode_then_decode_is_the_identity(msg in message(), seq in 1u64.., keyed in any::<bool>()) {
+    fn encode_then_decode_is_the_identity(msg in message(), session in 1u64.., seq in 1u64.., keyed in any::<bool>()) {
         let k = key();
-        let key = keyed.then_some(&k);
+        let mac = keyed.then(|| k.mac());
         let mut buf = [0u8; MAX_FRAME];
-        let n = encode_frame(&msg, seq, key, &mut buf).unwrap();
+        let n = encode_message(session, seq, &msg, mac, &mut buf).unwrap();
         prop_assert!(n <= MAX_FRAME);
         prop_assert_eq!(buf[n - 1], 0);
         prop_assert!(buf[..n - 1].iter().all(|&b| b != 0), "COBS leaves no zero inside");
-        let (s, back) = parse_frame(&mut buf[..n - 1], key).unwrap();
-        prop_assert_eq!(s, seq);
-        prop_assert_eq!(back, msg);
+        let p = parse_frame(&mut buf[..n - 1]).unwrap();
+        prop_assert_eq!((p.header.kind, p.header.session, p.header.seq, p.header.tagged), (Kind::Session, session, seq, keyed));
+        prop_assert_eq!(p.verify(mac), Ok(()));
+        prop_assert_eq!(omnikin::link::decode_message(p.body).unwrap(), msg);
     }
 
     #[test]
     fn random_bytes_never_panic_and_are_counted(bytes in prop::collection::vec(any::<u8>(), 0..800)) {
         for key in [None, Some(key())] {
-            let mut end = Endpoint::new(key, 1);
+            let mut bot = Bot::new(key.clone(), 7);
+            let mut op = OperatorLink::new(key.clone());
             let mut reader = FrameReader::<MAX_FRAME>::new();
             let mut frames = 0u32;
-            reader.feed(&bytes, &mut end, |_| frames += 1);
-            let tail = reader.end_of_datagram(&mut end);
-            let c = *end.counters();
-            prop_assert_eq!(c.ok + c.dropped(), frames + tail as u32);
+            reader.feed(&bytes, |f| {
+                frames += 1;
+                match f {
+                    Some(f) => {
+                        let mut copy = f.to_vec();
+                        let mut reply = [0u8; MAX_FRAME];
+                        let _ = bot.link.receive(f, &bot.info, &mut bot.rng, &mut reply);
+                        let _ = op.receive(&mut copy);
+                    }
+                    None => {
+                        bot.link.count_framing_drop();
+                        op.count_framing_drop();
+                    }
+                }
+            });
+            if reader.end_of_datagram() {
+                frames += 1;
+                bot.link.count_framing_drop();
+                op.count_framing_drop();
+            }
+            for c in [*bot.link.counters(), *op.counters()] {
+                prop_assert_eq!(c.ok + c.dropped(), frames);
+            }
             let mut copy = bytes.clone();
-            let _ = parse_frame(&mut copy, key.as_ref());
+            let _ = parse_frame(&mut copy);
+            let mut copy = bytes.clone();
+            let _ = v1::parse(&mut copy, key.as_ref());
         }
     }
 
     #[test]
     fn any_single_byte_change_is_dropped(msg in message(), pos in any::<prop::sample::Index>(), x in 1u8..) {
-        let mut buf = [0u8; MAX_FRAME];
-        let n = encode_frame(&msg, 5, None, &mut buf).unwrap();
-        let i = pos.index(n - 1);
-        buf[i] ^= x;
-        let mut end = Endpoint::new(None, 1);
-        let mut reader = FrameReader::<MAX_FRAME>::new();
-        let mut accepted = vec![];
-        reader.feed(&buf[..n], &mut end, |r| if let Ok(m) = r { accepted.push(m) });
-        prop_assert!(accepted.is_empty(), "corrupt frame accepted: {:?}", accepted);
-        prop_assert!(end.counters().dropped() >= 1);
+        // Unkeyed: the CRC and the session id alone must catch it.
+        let mut rng = TestRng(3);
+        let mut bot = Bot::new(None, 5);
+        let mut op = OperatorLink::new(None);
+        connect(&mut op, &mut bot, &mut rng);
+        let mut f = op_tx(&mut op, &msg);
+        let i = pos.index(f.len() - 1);
+        f[i] ^= x;
+        if f[i] == 0 {
+            // A new delimiter would make two frames; keep it one corrupt frame.
+            f[i] = 0x80;
+        }
+        let (r, _) = bot.rx(&f);
+        prop_assert!(r.is_err(), "corrupt frame accepted: {:?}", r);
+        prop_assert_eq!(bot.link.counters().dropped(), 1);
     }
 }
 
-fn frame(msg: &Message, seq: u64, key: Option<&Key>) -> Vec<u8> {
-    let mut buf = [0u8; MAX_FRAME];
-    let n = encode_frame(msg, seq, key, &mut buf).unwrap();
-    buf[..n].to_vec()
-}
-
-fn feed(end: &mut Endpoint, bytes: &[u8]) -> Vec<Result<(u64, Message), DropReason>> {
-    let mut reader = FrameReader::<MAX_FRAME>::new();
-    let mut out = vec![];
-    reader.feed(bytes, end, |r| out.push(r));
-    reader.end_of_datagram(end);
-    out
-}
-
 #[test]
-fn largest_messages_fit_one_frame() {
+fn largest_messages_fit_one_frame_and_no_answer_outgrows_its_hello() {
     let p = WirePoint {
         t: f32::MAX,
         pose: [f32::MIN; 3],
@@ -217,92 +338,534 @@ fn largest_messages_fit_one_frame() {
         points: heapless::Vec::from_slice(&[p; CHUNK_POINTS]).unwrap(),
     };
     let k = key();
-    let n = frame(&chunk, u64::MAX, Some(&k)).len();
+    let mut buf = [0u8; MAX_FRAME];
+    let n = encode_message(u64::MAX, u64::MAX, &chunk, Some(k.mac()), &mut buf).unwrap();
     println!("largest chunk frame: {n} bytes (MAX_FRAME {MAX_FRAME})");
     assert!(n <= MAX_FRAME);
-}
-
-#[test]
-fn duplicates_and_replays_are_dropped_and_counted() {
-    let mut end = Endpoint::new(None, 1);
-    let a = frame(&Message::Heartbeat, 100, None);
-    let b = frame(&Message::Stop, 101, None);
-    let c = frame(&Message::Clear, 99, None); // late but inside the window: fresh
-    let old = frame(&Message::EStop, 10, None); // 91 behind: outside the 64-frame window
-    let mut stream = vec![];
-    for f in [&a, &b, &a, &c, &b, &c, &old] {
-        stream.extend_from_slice(f);
+    // The largest HelloAck body is the Hello's padded length.
+    let mut widest = info(true);
+    widest.plan_capacity = u16::MAX;
+    let ack = omnikin::link::HelloAck {
+        info: widest,
+        client_nonce: [0xff; 16],
+        robot_nonce: [0xff; 16],
+    };
+    let mut b = [0u8; 128];
+    assert_eq!(
+        postcard::to_slice(&ack, &mut b).unwrap().len(),
+        HANDSHAKE_BODY
+    );
+    for keyed in [false, true] {
+        let key = keyed.then(key);
+        let mut bot = Bot::new(key.clone(), 11);
+        bot.info = widest;
+        let mut op = OperatorLink::new(key);
+        let hello = op_hello(&mut op, &mut TestRng(1));
+        let (r, ack) = bot.rx(&hello);
+        assert!(matches!(r, Ok(RobotEvent::Hello(_))));
+        println!(
+            "keyed {keyed}: Hello {} bytes, HelloAck {} bytes",
+            hello.len(),
+            ack.len()
+        );
+        assert!(ack.len() <= hello.len());
     }
-    let r = feed(&mut end, &stream);
-    let ok: Vec<u64> = r
-        .iter()
-        .filter_map(|x| x.as_ref().ok().map(|m| m.0))
-        .collect();
-    assert_eq!(ok, vec![100, 101, 99]);
-    assert_eq!(end.counters().replay, 4);
-    assert_eq!(end.counters().ok, 3);
 }
 
 #[test]
-fn wrong_or_missing_key_is_dropped_as_unauthenticated() {
+fn an_unpadded_hello_is_not_answered() {
+    let mut bot = Bot::new(None, 1);
+    let h = Hello {
+        protocol: PROTOCOL_VERSION,
+        client_nonce: [7; 16],
+    };
+    let mut buf = [0u8; MAX_FRAME];
+    let n = omnikin::link::encode_frame_with(
+        Kind::Hello,
+        0,
+        0,
+        None,
+        |b| Ok(postcard::to_slice(&h, b).unwrap().len()),
+        &mut buf,
+    )
+    .unwrap();
+    let (r, reply) = bot.rx(&buf[..n]);
+    assert_eq!(r, Err(DropReason::Malformed));
+    assert!(reply.is_empty());
+    // Padded, it is.
+    let n = encode_hello(&h, None, &mut buf).unwrap();
+    assert!(matches!(bot.rx(&buf[..n]).0, Ok(RobotEvent::Hello(_))));
+    assert_eq!(bot.link.counters().malformed, 1);
+}
+
+#[test]
+fn duplicates_and_replays_in_a_session_are_dropped_and_counted() {
+    let mut rng = TestRng(9);
+    let mut bot = Bot::new(None, 2);
+    let mut op = OperatorLink::new(None);
+    connect(&mut op, &mut bot, &mut rng); // seq 1
+    let f: Vec<Vec<u8>> = (0..70).map(|_| op_tx(&mut op, &Message::Stop)).collect(); // seq 2..=71
+    let mut ok = vec![];
+    // 71 first, then 70 (late, in the window), 71 again, 2 (69 behind: outside the window),
+    // 8 (63 behind: inside), 8 again.
+    for i in [69, 68, 69, 0, 6, 6] {
+        if let (Ok(RobotEvent::Message { seq, .. }), _) = bot.rx(&f[i]) {
+            ok.push(seq);
+        }
+    }
+    assert_eq!(ok, vec![71, 70, 8]);
+    let c = bot.link.counters();
+    assert_eq!((c.ok, c.replay, c.dropped()), (5, 3, 3), "{c:?}");
+}
+
+#[test]
+fn wrong_or_missing_key_and_forged_headers_are_unauthenticated() {
     let k = key();
     let other = Key::new(b"another key of the same length!!").unwrap();
-    let mut end = Endpoint::new(Some(k), 1);
-    let mut stream = frame(&Message::EStop, 1, Some(&other));
-    stream.extend(frame(&Message::EStop, 2, None));
-    stream.extend(frame(&Message::EStop, 3, Some(&k)));
-    let r = feed(&mut end, &stream);
-    assert_eq!(r[0], Err(DropReason::Auth));
-    assert_eq!(r[1], Err(DropReason::Auth));
-    assert_eq!(r[2], Ok((3, Message::EStop)));
-    assert_eq!(end.counters().auth, 2);
-    // A replayed authentic frame is caught by the window, not executed twice.
-    let again = frame(&Message::EStop, 3, Some(&k));
-    assert_eq!(feed(&mut end, &again)[0], Err(DropReason::Replay(3)));
-    // Forged sequence number on a captured frame: the tag covers the header.
-    let mut forged = frame(&Message::EStop, 4, Some(&k));
-    let n = forged.len() - 1;
-    let mut raw = vec![0u8; n];
-    let m = cobs::decode(&forged[..n], &mut raw).unwrap();
-    raw.truncate(m);
-    raw[2] = 200; // seq byte
-    let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISCSI).checksum(&raw[..m - 4]);
-    raw[m - 4..].copy_from_slice(&crc.to_le_bytes());
-    forged = cobs::encode_vec(&raw);
-    forged.push(0);
-    assert_eq!(feed(&mut end, &forged)[0], Err(DropReason::Auth));
-}
-
-#[test]
-fn other_version_truncated_and_oversized_frames_are_counted() {
-    let mut end = Endpoint::new(None, 1);
-    // Version 2, valid CRC.
-    let f = frame(&Message::Heartbeat, 1, None);
+    let mut rng = TestRng(4);
+    let mut bot = Bot::new(Some(k.clone()), 3);
+    for key in [Some(other), None] {
+        let mut op = OperatorLink::new(key);
+        let hello = op_hello(&mut op, &mut rng);
+        let (r, reply) = bot.rx(&hello);
+        assert_eq!(r, Err(DropReason::Auth));
+        assert!(reply.is_empty(), "no answer to an unauthenticated Hello");
+    }
+    assert_eq!(bot.link.pending_id(), None);
+    // The right key works; a captured frame with a changed seq (CRC fixed up) does not.
+    let mut op = OperatorLink::new(Some(k));
+    connect(&mut op, &mut bot, &mut rng);
+    let f = op_tx(&mut op, &Message::EStop);
     let mut raw = vec![0u8; f.len()];
     let m = cobs::decode(&f[..f.len() - 1], &mut raw).unwrap();
     raw.truncate(m);
-    raw[0] = 2;
+    raw[10] = 200; // seq byte
     let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISCSI).checksum(&raw[..m - 4]);
     raw[m - 4..].copy_from_slice(&crc.to_le_bytes());
-    let mut v2 = cobs::encode_vec(&raw);
-    v2.push(0);
-    assert_eq!(feed(&mut end, &v2)[0], Err(DropReason::Version(2)));
-    // Truncated: half a frame at the end of a datagram.
-    let f = frame(&Message::Stop, 2, None);
-    assert!(feed(&mut end, &f[..f.len() / 2]).is_empty());
-    // Truncated inside a stream: the cut frame runs into the next one's bytes → CRC/framing.
-    let mut s = f[..f.len() / 2].to_vec();
-    s.extend(frame(&Message::Clear, 3, None));
-    let r = feed(&mut end, &s);
-    assert_eq!(r.len(), 1);
-    assert!(r[0].is_err());
-    // Oversized garbage without delimiter, then a good frame: resynchronised.
-    let mut s = vec![0x11u8; 3 * MAX_FRAME];
-    s.push(0);
-    s.extend(frame(&Message::Clear, 4, None));
-    let r = feed(&mut end, &s);
-    assert_eq!(r.last().unwrap(), &Ok((4, Message::Clear)));
-    let c = end.counters();
-    assert_eq!((c.version, c.ok), (1, 1));
-    assert_eq!(c.framing + c.crc + c.malformed, 3, "{c:?}");
+    let mut forged = cobs::encode_vec(&raw);
+    forged.push(0);
+    assert_eq!(bot.rx(&forged).0, Err(DropReason::Auth));
+    // The genuine frame still passes once; a replay of it does not.
+    assert!(bot.rx(&f).0.is_ok());
+    assert_eq!(bot.rx(&f).0, Err(DropReason::Replay(2)));
+    assert_eq!(bot.link.counters().auth, 3);
+}
+
+/// A simulated robot: runtime and board whose motors turn as commanded.
+struct Plant {
+    rt: Runtime<f32, 64>,
+    wheel: [f32; 3],
+    rates: [f32; 3],
+    now: u64,
+}
+struct Enc([f32; 3]);
+impl Encoders<f32> for Enc {
+    type Error = ();
+    fn read(&mut self) -> Result<EncoderAngles<f32>, ()> {
+        Ok(EncoderAngles {
+            wheel: self.0,
+            steer: [0.0; 3],
+        })
+    }
+}
+struct Out<'a>(&'a mut [f32; 3]);
+impl MotorOutputs<f32> for Out<'_> {
+    type Error = ();
+    fn set_rates(&mut self, c: &MotorCommand<f32>) -> Result<(), ()> {
+        *self.0 = c.wheel;
+        Ok(())
+    }
+}
+impl Plant {
+    fn new() -> Self {
+        let robot = Robot::Sphere(SphereOmni::<f32>::new(SphereParams::preset()).unwrap());
+        Plant {
+            rt: Runtime::new(robot, Config::new(100.0), Pose2::default()).unwrap(),
+            wheel: [0.0; 3],
+            rates: [0.0; 3],
+            now: 0,
+        }
+    }
+    fn cycle(&mut self) -> omnikin::runtime::Status<f32> {
+        let st = self.rt.cycle(
+            self.now,
+            &mut Enc(self.wheel),
+            &mut NoImu,
+            &mut Out(&mut self.rates),
+        );
+        for i in 0..3 {
+            self.wheel[i] += self.rates[i] * 0.01;
+        }
+        self.now += 10_000;
+        st
+    }
+    /// One frame into the robot: serve its message; returns the event.
+    fn frame(&mut self, bot: &mut Bot, wire: &[u8]) -> Result<RobotEvent, DropReason> {
+        let (r, _) = bot.rx(wire);
+        if let Ok(RobotEvent::Message { seq, msg, .. }) = &r {
+            serve(&mut self.rt, &mut bot.link, *seq, msg, self.now);
+        }
+        r
+    }
+}
+
+#[test]
+fn observation_1_a_recorded_keyed_session_replayed_after_a_restart_is_rejected() {
+    let k = key();
+    let mut rng = TestRng(21);
+    // The legitimate session, recorded.
+    let mut plant = Plant::new();
+    let mut bot = Bot::new(Some(k.clone()), 100);
+    let mut op = OperatorLink::new(Some(k.clone()));
+    let mut recording = connect(&mut op, &mut bot, &mut rng);
+    let v = Message::SetVelocity {
+        frame: Frame::Robot,
+        vx: 0.3,
+        vy: 0.0,
+        yaw_rate: 0.0,
+    };
+    for _ in 0..50 {
+        let f = op_tx(&mut op, &v);
+        assert!(plant.frame(&mut bot, &f).is_ok());
+        recording.push(f);
+        plant.cycle();
+    }
+    assert!(
+        plant.rt.pose().x > 0.01,
+        "the legitimate session moved the robot"
+    );
+    // The robot restarts (same key, fresh state and nonces), the recording is replayed.
+    let mut plant = Plant::new();
+    let mut bot = Bot::new(Some(k), 200);
+    let mut answers = 0;
+    for f in &recording {
+        match plant.frame(&mut bot, f) {
+            Ok(RobotEvent::Hello(_)) => answers += 1,
+            Ok(e) => panic!("replayed frame accepted: {e:?}"),
+            Err(e) => assert!(matches!(e, DropReason::Session(_)), "{e:?}"),
+        }
+        plant.cycle();
+    }
+    let c = *bot.link.counters();
+    println!("replay after restart: {c:?}");
+    // The Hello is authentic (it was recorded) and gets one answer no larger than itself; every
+    // session frame belongs to a session this robot never had.
+    assert_eq!(answers, 1);
+    assert_eq!(c.session as usize, recording.len() - 1);
+    assert_eq!(c.ok, 1);
+    assert_eq!(
+        bot.link.session_id(),
+        None,
+        "the replayer never completes a session"
+    );
+    assert_eq!(
+        bot.tx(&Message::Heartbeat),
+        Err(EncodeError::NoSession),
+        "no telemetry without a session"
+    );
+    assert_eq!(plant.rt.pose(), Pose2::default());
+    assert_eq!(plant.rt.mode(), Mode::Idle);
+}
+
+#[test]
+fn observation_2_forged_max_seq_does_not_lock_out_the_operator() {
+    let mut rng = TestRng(5);
+    let mut bot = Bot::new(None, 6);
+    let mut op = OperatorLink::new(None);
+    connect(&mut op, &mut bot, &mut rng);
+    // An off-path attacker does not know the session id (64 bits from the robot's nonce).
+    let mut buf = [0u8; MAX_FRAME];
+    for guess in [0u64, 1, 0xdead_beef, u64::MAX] {
+        let n = encode_message(guess, u64::MAX, &Message::Stop, None, &mut buf).unwrap();
+        assert_eq!(bot.rx(&buf[..n]).0, Err(DropReason::Session(guess)));
+    }
+    for _ in 0..10 {
+        let f = op_tx(&mut op, &Message::Heartbeat);
+        assert!(bot.rx(&f).0.is_ok(), "the operator is not locked out");
+    }
+    assert_eq!(bot.link.counters().session, 4);
+}
+
+#[test]
+fn observation_2_a_third_party_neither_gets_telemetry_nor_disturbs_the_operator() {
+    let mut rng = TestRng(8);
+    let mut bot = Bot::new(None, 9);
+    let mut op = OperatorLink::new(None);
+    connect(&mut op, &mut bot, &mut rng);
+    let id = bot.link.session_id();
+    // Its heartbeats (with any session id it can make up) are dropped…
+    let mut third = OperatorLink::new(None);
+    assert_eq!(
+        third.encode(&Message::Heartbeat, &mut [0u8; MAX_FRAME]),
+        Err(EncodeError::NoSession)
+    );
+    let mut buf = [0u8; MAX_FRAME];
+    let n = encode_message(12345, 1, &Message::Heartbeat, None, &mut buf).unwrap();
+    assert_eq!(bot.rx(&buf[..n]).0, Err(DropReason::Session(12345)));
+    // …its Hello only opens a pending session; the operator's stays active.
+    let h = op_hello(&mut third, &mut rng);
+    assert!(matches!(bot.rx(&h).0, Ok(RobotEvent::Hello(_))));
+    assert_eq!(bot.link.session_id(), id);
+    assert!(bot.rx(&op_tx(&mut op, &Message::Heartbeat)).0.is_ok());
+    // Telemetry is in the operator's session: the operator takes it, the third party cannot.
+    let t = bot.tx(&Message::SessionEnd(EndReason::TakenOver)).unwrap();
+    assert!(op_rx(&mut op, &t).is_ok());
+    assert!(matches!(op_rx(&mut third, &t), Err(DropReason::Session(_))));
+}
+
+#[test]
+fn takeover_only_through_a_valid_handshake() {
+    let k = key();
+    let mut rng = TestRng(13);
+    let mut bot = Bot::new(Some(k.clone()), 14);
+    let mut a = OperatorLink::new(Some(k.clone()));
+    let rec = connect(&mut a, &mut bot, &mut rng);
+    let first = bot.link.session_id().unwrap();
+    // A replay of A's own handshake: a pending session nobody can confirm.
+    for f in &rec {
+        let _ = bot.rx(f);
+    }
+    assert_eq!(bot.link.session_id(), Some(first));
+    assert!(bot.link.pending_id().is_some_and(|p| p != first));
+    assert!(bot.rx(&op_tx(&mut a, &Message::Heartbeat)).0.is_ok());
+    // A session frame claiming the pending id without K_s is unauthenticated.
+    let mut buf = [0u8; MAX_FRAME];
+    let pending = bot.link.pending_id().unwrap();
+    let n = encode_message(pending, 1, &Message::EStop, Some(k.mac()), &mut buf).unwrap();
+    assert_eq!(bot.rx(&buf[..n]).0, Err(DropReason::Auth));
+    assert_eq!(bot.link.session_id(), Some(first));
+    // B completes a handshake: B takes over, A is told.
+    let mut b = OperatorLink::new(Some(k));
+    let hello = op_hello(&mut b, &mut rng);
+    let (_, ack) = bot.rx(&hello);
+    assert!(matches!(
+        op_rx(&mut b, &ack),
+        Ok(OperatorEvent::Established(_))
+    ));
+    assert_eq!(
+        bot.link.session_id(),
+        Some(first),
+        "not before key confirmation"
+    );
+    let (r, notice) = bot.rx(&op_tx(&mut b, &Message::Heartbeat));
+    assert!(matches!(
+        r,
+        Ok(RobotEvent::Message {
+            new_session: true,
+            replaced: Some(_),
+            ..
+        })
+    ));
+    assert_eq!(bot.link.session_id(), b.session_id());
+    assert!(matches!(
+        op_rx(&mut a, &notice),
+        Ok(OperatorEvent::Message {
+            msg: Message::SessionEnd(EndReason::TakenOver),
+            ..
+        })
+    ));
+    assert_eq!(a.ended(), Some(EndReason::TakenOver));
+    assert!(matches!(
+        bot.rx(&op_tx(&mut a, &Message::Heartbeat)).0,
+        Err(DropReason::Session(_))
+    ));
+}
+
+#[test]
+fn a_retransmitted_hello_gets_the_same_session() {
+    let mut rng = TestRng(31);
+    let mut bot = Bot::new(Some(key()), 32);
+    let mut op = OperatorLink::new(Some(key()));
+    let h1 = op_hello(&mut op, &mut rng);
+    let h2 = op_hello(&mut op, &mut rng);
+    assert_eq!(h1, h2, "a retransmission reuses the nonce");
+    let (_, a1) = bot.rx(&h1);
+    let (_, a2) = bot.rx(&h2);
+    assert_eq!(a1, a2, "and gets the same answer");
+    assert!(op_rx(&mut op, &a1).is_ok());
+    assert_eq!(op_rx(&mut op, &a2), Err(DropReason::Replay(0)));
+    assert!(bot.rx(&op_tx(&mut op, &Message::Heartbeat)).0.is_ok());
+    // The answer to someone else's Hello is not this operator's.
+    let mut other = OperatorLink::new(Some(key()));
+    let _ = op_hello(&mut other, &mut rng);
+    assert!(matches!(
+        op_rx(&mut other, &a1),
+        Err(DropReason::Session(_))
+    ));
+}
+
+#[test]
+fn observation_3_a_replayed_estop_confirmation_is_not_taken_for_a_new_one() {
+    let k = key();
+    let mut rng = TestRng(41);
+    let mut plant = Plant::new();
+    let mut bot = Bot::new(Some(k.clone()), 42);
+    let mut a = OperatorLink::new(Some(k.clone()));
+    connect(&mut a, &mut bot, &mut rng);
+    let estop = op_tx(&mut a, &Message::EStop);
+    let sa = 2;
+    assert!(plant.frame(&mut bot, &estop).is_ok());
+    let st = plant.cycle();
+    let old = bot
+        .tx(&Message::Telemetry(bot.link.telemetry(&st)))
+        .unwrap();
+    match op_rx(&mut a, &old) {
+        Ok(OperatorEvent::Message {
+            msg: Message::Telemetry(t),
+            ..
+        }) => assert_eq!((t.mode, t.estop_seq), (Mode::EStop, sa)),
+        r => panic!("{r:?}"),
+    }
+    assert!(
+        plant
+            .frame(&mut bot, &op_tx(&mut a, &Message::Clear))
+            .is_ok()
+    );
+    let st = plant.cycle();
+    assert_eq!(bot.link.telemetry(&st).estop_seq, 0);
+    // A new operator session; the old confirmation is replayed at it.
+    let mut b = OperatorLink::new(Some(k));
+    connect(&mut b, &mut bot, &mut rng);
+    assert!(matches!(op_rx(&mut b, &old), Err(DropReason::Session(_))));
+    let sb = b.next_seq().unwrap();
+    assert!(
+        plant
+            .frame(&mut bot, &op_tx(&mut b, &Message::EStop))
+            .is_ok()
+    );
+    let st = plant.cycle();
+    let fresh = bot
+        .tx(&Message::Telemetry(bot.link.telemetry(&st)))
+        .unwrap();
+    match op_rx(&mut b, &fresh) {
+        Ok(OperatorEvent::Message {
+            msg: Message::Telemetry(t),
+            ..
+        }) => assert_eq!((t.mode, t.estop_seq), (Mode::EStop, sb)),
+        r => panic!("{r:?}"),
+    }
+    // Within the session, a repeat of a telemetry frame is a replay.
+    assert_eq!(op_rx(&mut b, &fresh), Err(DropReason::Replay(1)));
+}
+
+#[test]
+fn v1_peers_and_v2_peers_name_the_mismatch() {
+    // A v1 Hello built by hand from the v1 format: version 1, flags 0, seq, variant 0, protocol 1.
+    let mut raw = vec![1u8, 0];
+    raw.extend(77u64.to_le_bytes());
+    raw.extend([0, 1]);
+    let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISCSI).checksum(&raw);
+    raw.extend(crc.to_le_bytes());
+    let mut hand = cobs::encode_vec(&raw);
+    hand.push(0);
+    let mut buf = [0u8; MAX_FRAME];
+    let n = v1::encode_hello(77, None, &mut buf).unwrap();
+    assert_eq!(&buf[..n], &hand[..], "v1 framing unchanged");
+    for key in [None, Some(key())] {
+        let mut bot = Bot::new(key.clone(), 1);
+        let mut hello = [0u8; MAX_FRAME];
+        let n = v1::encode_hello(5, key.as_ref(), &mut hello).unwrap();
+        assert_eq!(bot.rx(&hello[..n]).0, Err(DropReason::Version(1)));
+        assert_eq!(bot.link.counters().version, 1);
+        // The robot's answer is what a v1 operator decodes as "protocol 2".
+        let m = bot.link.version_reply(&bot.info, &mut buf).unwrap();
+        let (_, f) = v1::parse(&mut buf[..m - 1].to_vec(), key.as_ref()).unwrap();
+        assert!(matches!(f, v1::Frame::HelloAck(i) if i.protocol == 2));
+        if key.is_some() {
+            let other = Key::new(b"another key of the same length!!").unwrap();
+            assert_eq!(v1::parse(&mut buf[..m - 1].to_vec(), Some(&other)), None);
+        }
+        // A v1 robot's answer reaches a v2 operator as a version drop, readable as v1.
+        let mut op = OperatorLink::new(key.clone());
+        let n = v1::encode_hello_ack(
+            &RobotInfo {
+                protocol: 1,
+                ..info(false)
+            },
+            1,
+            key.as_ref(),
+            &mut buf,
+        )
+        .unwrap();
+        assert_eq!(op_rx(&mut op, &buf[..n]), Err(DropReason::Version(1)));
+        let (_, f) = v1::parse(&mut buf[..n - 1].to_vec(), key.as_ref()).unwrap();
+        assert!(matches!(f, v1::Frame::HelloAck(i) if i.protocol == 1));
+    }
+}
+
+#[test]
+fn wrong_direction_and_entropy_failures_are_counted() {
+    let mut rng = TestRng(51);
+    let mut bot = Bot::new(None, 52);
+    let mut op = OperatorLink::new(None);
+    let hello = op_hello(&mut op, &mut rng);
+    assert_eq!(op_rx(&mut op, &hello), Err(DropReason::Malformed));
+    let (_, ack) = bot.rx(&hello);
+    assert_eq!(bot.rx(&ack).0, Err(DropReason::Malformed));
+    let mut broken = RobotLink::new(None);
+    let mut f = hello[..hello.len() - 1].to_vec();
+    let r = broken.receive(&mut f, &info(false), &mut NoEntropy, &mut [0u8; MAX_FRAME]);
+    assert_eq!(r, Err(DropReason::Entropy));
+    assert_eq!(broken.counters().entropy, 1);
+    let mut fresh = OperatorLink::new(None);
+    assert_eq!(
+        fresh.hello(&mut NoEntropy, &mut [0u8; MAX_FRAME]),
+        Err(EncodeError::Entropy)
+    );
+}
+
+#[test]
+fn a_session_survives_loss_reordering_and_duplication() {
+    let mut rng = TestRng(61);
+    let mut bot = Bot::new(Some(key()), 62);
+    let mut op = OperatorLink::new(Some(key()));
+    connect(&mut op, &mut bot, &mut rng);
+    let mut chan = TestRng(63);
+    let mut roll = || {
+        let mut b = [0u8; 1];
+        chan.fill(&mut b).unwrap();
+        b[0]
+    };
+    let mut queue: Vec<Vec<u8>> = vec![];
+    let (mut lost, mut dup, mut sent) = (0u32, 0u32, 0u32);
+    for k in 0..2000 {
+        let f = op_tx(
+            &mut op,
+            &Message::SetPose {
+                x: k as f32,
+                y: 0.0,
+                heading: 0.0,
+            },
+        );
+        sent += 1;
+        let r = roll();
+        if r < 51 {
+            lost += 1; // 20 %
+            continue;
+        }
+        if r < 77 {
+            dup += 1; // 10 %
+            queue.push(f.clone());
+        }
+        queue.push(f);
+        // Reorder: swap with one of the last 8 queued.
+        let j = queue.len() - 1 - (roll() as usize % 8).min(queue.len() - 1);
+        let last = queue.len() - 1;
+        queue.swap(j, last);
+    }
+    let mut seen = std::collections::HashSet::new();
+    for f in &queue {
+        if let (Ok(RobotEvent::Message { seq, .. }), _) = bot.rx(f) {
+            assert!(seen.insert(seq), "seq {seq} executed twice");
+        }
+    }
+    let c = *bot.link.counters();
+    println!("{sent} sent, {lost} lost, {dup} duplicated: {c:?}");
+    assert_eq!(
+        seen.len() as u32,
+        sent - lost,
+        "every delivered frame executed once"
+    );
+    assert_eq!(c.replay, dup);
+    assert_eq!(c.dropped(), dup);
 }

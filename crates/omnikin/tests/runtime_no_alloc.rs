@@ -6,9 +6,12 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use omnikin::link::{
-    CHUNK_POINTS, Endpoint, FrameReader, Key, MAX_FRAME, Message, Telemetry, WirePoint, serve,
+    CHUNK_POINTS, FrameReader, Key, MAX_FRAME, Message, OperatorLink, RobotEvent, RobotInfo,
+    RobotLink, WirePoint, robot_info, serve,
 };
-use omnikin::runtime::hal::{EncoderAngles, Encoders, MotorCommand, MotorOutputs, NoImu};
+use omnikin::runtime::hal::{
+    EncoderAngles, Encoders, Entropy, EntropyError, MotorCommand, MotorOutputs, NoImu,
+};
 use omnikin::runtime::{Command, Config, Frame, Mode, PlanPoint, Runtime};
 use omnikin::sphere::{SphereOmni, SphereParams};
 use omnikin::{Pose2, Robot, Twist2};
@@ -64,22 +67,60 @@ impl MotorOutputs<f32> for Out<'_> {
     }
 }
 
+/// A counter standing in for the TRNG (the test is about allocation, not secrecy).
+struct Counter(u8);
+impl Entropy for Counter {
+    fn fill(&mut self, buf: &mut [u8]) -> Result<(), EntropyError> {
+        for b in buf {
+            self.0 = self.0.wrapping_add(37);
+            *b = self.0;
+        }
+        Ok(())
+    }
+}
+
 struct Wire {
-    op: Endpoint,
-    robot: Endpoint,
+    op: OperatorLink,
+    robot: RobotLink,
+    info: RobotInfo,
+    rng: Counter,
     reader: FrameReader<MAX_FRAME>,
     frame: [u8; MAX_FRAME],
+    reply: [u8; MAX_FRAME],
 }
 
 impl Wire {
+    /// Bytes through the robot's receive path: reader → decode → session → serve.
+    fn deliver(&mut self, len: usize, rt: &mut Runtime<f32, 128>, now: u64) -> usize {
+        let (robot, info, rng, reply) =
+            (&mut self.robot, &self.info, &mut self.rng, &mut self.reply);
+        let mut answer = 0;
+        self.reader.feed(&self.frame[..len], |f| match f {
+            Some(f) => match robot.receive(f, info, rng, reply) {
+                Ok(RobotEvent::Message { seq, msg, .. }) => {
+                    serve(rt, robot, seq, &msg, now);
+                }
+                Ok(RobotEvent::Hello(n)) => answer = n,
+                Err(_) => {}
+            },
+            None => robot.count_framing_drop(),
+        });
+        answer
+    }
+    /// The handshake, both ways.
+    fn connect(&mut self, rt: &mut Runtime<f32, 128>, now: u64) {
+        let len = self.op.hello(&mut self.rng, &mut self.frame).unwrap();
+        let n = self.deliver(len, rt, now);
+        assert!(n > 0);
+        let mut ack = self.reply;
+        let _ = self.op.receive(&mut ack[..n - 1]).unwrap();
+        self.send(&Message::Heartbeat, rt, now);
+        assert!(self.robot.session_id().is_some());
+    }
     /// A command through the full link path: encode → bytes → reader → decode → serve.
     fn send(&mut self, msg: &Message, rt: &mut Runtime<f32, 128>, now: u64) {
         let len = self.op.encode(msg, &mut self.frame).unwrap();
-        self.reader.feed(&self.frame[..len], &mut self.robot, |r| {
-            if let Ok((_, m)) = r {
-                serve(rt, &m, true, now);
-            }
-        });
+        self.deliver(len, rt, now);
     }
 }
 
@@ -108,10 +149,13 @@ fn control_cycles_and_link_allocate_nothing() {
     };
     let key = Key::new(b"0123456789abcdef").unwrap();
     let mut w = Wire {
-        op: Endpoint::new(Some(key), 1_000),
-        robot: Endpoint::new(Some(key), 1),
+        op: OperatorLink::new(Some(key.clone())),
+        robot: RobotLink::new(Some(key)),
+        info: robot_info(&rt, true),
+        rng: Counter(1),
         reader: FrameReader::new(),
         frame: [0u8; MAX_FRAME],
+        reply: [0u8; MAX_FRAME],
     };
     let points: [PlanPoint<f32>; 40] = core::array::from_fn(|k| PlanPoint {
         t: k as f32 * 0.05,
@@ -133,7 +177,7 @@ fn control_cycles_and_link_allocate_nothing() {
             cycles += 1;
             st
         };
-        w.send(&Message::Hello { protocol: 1 }, &mut rt, now);
+        w.connect(&mut rt, now);
         w.send(
             &Message::SetVelocity {
                 frame: Frame::Robot,
@@ -168,7 +212,7 @@ fn control_cycles_and_link_allocate_nothing() {
         );
         let len = w.op.encode(&Message::Heartbeat, &mut w.frame).unwrap();
         w.frame[3] ^= 0x55;
-        w.reader.feed(&w.frame[..len], &mut w.robot, |_| {});
+        w.deliver(len, &mut rt, now);
         // Plan upload in chunks, then trajectory mode.
         w.send(&Message::Stop, &mut rt, now);
         for _ in 0..100 {
@@ -197,7 +241,7 @@ fn control_cycles_and_link_allocate_nothing() {
             w.send(&Message::Heartbeat, &mut rt, now);
             let st = cycle(&mut rt, &mut board, &mut now);
             // Telemetry encoding too.
-            let tm = Telemetry::new(&st, w.robot.counters());
+            let tm = w.robot.telemetry(&st);
             let _ = w
                 .robot
                 .encode(&Message::Telemetry(tm), &mut w.frame)

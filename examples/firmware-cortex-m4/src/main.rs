@@ -3,9 +3,11 @@
 //!
 //! Each robot runs against a minimal in-firmware plant (motors turn as commanded; the sphere's
 //! steppers through [`Steppers`] with 3200 microsteps per revolution, so its encoders read
-//! whole steps). An in-firmware "operator" encodes authenticated frames exactly as the PC
-//! would, and the bytes go through the robot's [`FrameReader`] — the code path a UART or radio
-//! interrupt would feed. Per robot: upload a 4 s plan in chunks, follow it, then drive at
+//! whole steps). An in-firmware "operator" runs the v2 handshake and encodes authenticated
+//! session frames exactly as the PC would, and the bytes go through the robot's
+//! [`FrameReader`] and [`RobotLink`] — the code path a UART or radio interrupt would feed.
+//! QEMU's `mps2-an386` has no TRNG: the nonces come from [`TestOnlyEntropy`], a labelled
+//! stand-in that a real board replaces with its hardware RNG. Per robot: upload a 4 s plan in chunks, follow it, then drive at
 //! 0.2 m/s and cut the link. The results go out over semihosting; the exit code says whether
 //! every check passed.
 #![no_std]
@@ -16,10 +18,12 @@ use cortex_m_semihosting::{debug, hprintln};
 use omnikin::ballbot::{Ballbot, BallbotParams};
 use omnikin::caster::{Caster3, CasterParams};
 use omnikin::link::{
-    CHUNK_POINTS, Endpoint, FrameReader, Key, MAX_FRAME, Message, WirePoint, heapless, serve,
+    CHUNK_POINTS, FrameReader, Key, MAX_FRAME, Message, OperatorEvent, OperatorLink, RobotEvent,
+    RobotInfo, RobotLink, WirePoint, heapless, robot_info, serve,
 };
 use omnikin::runtime::hal::{
-    EncoderAngles, Encoders, MotorCommand, MotorOutputs, NoImu, StepOutputs, Steppers,
+    EncoderAngles, Encoders, Entropy, EntropyError, MotorCommand, MotorOutputs, NoImu, StepOutputs,
+    Steppers,
 };
 use omnikin::runtime::{Config, Frame, Mode, PlanPoint, Runtime};
 use omnikin::sphere::{SphereOmni, SphereParams};
@@ -113,24 +117,78 @@ impl Encoders<f32> for Reading {
     }
 }
 
+/// **TEST ONLY — NOT RANDOM.** QEMU's `mps2-an386` has no TRNG, so this example's nonces
+/// come from a xorshift generator with a fixed seed. A real firmware implements [`Entropy`]
+/// on its hardware RNG (e.g. the STM32 `RNG` peripheral); predictable nonces would let a
+/// recorded session be replayed.
+struct TestOnlyEntropy(u32);
+impl Entropy for TestOnlyEntropy {
+    fn fill(&mut self, buf: &mut [u8]) -> Result<(), EntropyError> {
+        for b in buf {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 17;
+            self.0 ^= self.0 << 5;
+            *b = (self.0 >> 24) as u8;
+        }
+        Ok(())
+    }
+}
+
 /// The operator's frames, delivered byte by byte through the robot's frame reader.
 struct Wire {
-    operator: Endpoint,
-    robot: Endpoint,
+    operator: OperatorLink,
+    robot: RobotLink,
+    info: RobotInfo,
+    rng: TestOnlyEntropy,
     reader: FrameReader<MAX_FRAME>,
     buf: [u8; MAX_FRAME],
+    reply: [u8; MAX_FRAME],
 }
 
 impl Wire {
+    /// Feeds `self.buf[..n]` to the robot; returns the length of a HelloAck it answered.
+    fn deliver(&mut self, n: usize, rt: &mut Runtime<f32, PLAN_CAPACITY>, now: u64) -> usize {
+        let (robot, info, rng, reply) =
+            (&mut self.robot, &self.info, &mut self.rng, &mut self.reply);
+        let mut answer = 0;
+        self.reader.feed(&self.buf[..n], |f| match f {
+            Some(f) => match robot.receive(f, info, rng, reply) {
+                Ok(RobotEvent::Message { seq, msg, .. }) => {
+                    serve(rt, robot, seq, &msg, now);
+                }
+                Ok(RobotEvent::Hello(n)) => answer = n,
+                Err(_) => {}
+            },
+            None => robot.count_framing_drop(),
+        });
+        answer
+    }
+
+    /// The v2 handshake: Hello, HelloAck, then the first session frame confirms the key.
+    fn connect(&mut self, rt: &mut Runtime<f32, PLAN_CAPACITY>, now: u64) -> bool {
+        let Ok(n) = self.operator.hello(&mut self.rng, &mut self.buf) else {
+            return false;
+        };
+        let a = self.deliver(n, rt, now);
+        if a == 0 {
+            return false;
+        }
+        let mut ack = self.reply;
+        if !matches!(
+            self.operator.receive(&mut ack[..a - 1]),
+            Ok(OperatorEvent::Established(_))
+        ) {
+            return false;
+        }
+        self.send(&Message::Heartbeat, rt, now);
+        self.robot.session_id().is_some()
+    }
+
     fn send(&mut self, msg: &Message, rt: &mut Runtime<f32, PLAN_CAPACITY>, now: u64) {
         let Ok(n) = self.operator.encode(msg, &mut self.buf) else {
             return;
         };
-        self.reader.feed(&self.buf[..n], &mut self.robot, |r| {
-            if let Ok((_, m)) = r {
-                serve(rt, &m, true, now);
-            }
-        });
+        self.deliver(n, rt, now);
     }
 }
 
@@ -173,11 +231,15 @@ struct Outcome {
 fn run(robot: Robot<f32>, config: Config<f32>, steps_per_rad: Option<f32>) -> Option<Outcome> {
     let mut rt = Runtime::<f32, PLAN_CAPACITY>::new(robot, config, Pose2::default()).ok()?;
     let key = Key::new(b"omnikin firmware example key!!").ok()?;
+    let info = robot_info(&rt, true);
     let mut wire = Wire {
-        operator: Endpoint::new(Some(key), 1),
-        robot: Endpoint::new(Some(key), 1),
+        operator: OperatorLink::new(Some(key.clone())),
+        robot: RobotLink::new(Some(key)),
+        info,
+        rng: TestOnlyEntropy(0x2545_f491),
         reader: FrameReader::new(),
         buf: [0; MAX_FRAME],
+        reply: [0; MAX_FRAME],
     };
     let mut plant = Plant::new(steps_per_rad);
     let mut now = 0u64;
@@ -198,7 +260,9 @@ fn run(robot: Robot<f32>, config: Config<f32>, steps_per_rad: Option<f32>) -> Op
 
     // Upload and follow the plan.
     let pts = plan();
-    wire.send(&Message::Hello { protocol: 1 }, &mut rt, now);
+    if !wire.connect(&mut rt, now) {
+        return None;
+    }
     wire.send(
         &Message::PlanBegin {
             id: 1,

@@ -8,7 +8,10 @@
 //! * `ROBOT-inverse`, `ROBOT-forward`, `ROBOT-odometry`: one kinematics call or odometry step
 //!   on the shared input table;
 //! * `plan20-RATE` (`plan20-11`, `plan20-1000`): building and planning the 20-waypoint spline of the peer
-//!   comparison (time-optimal, sphere-omni limits) sampled at RATE Hz.
+//!   comparison (time-optimal, sphere-omni limits) sampled at RATE Hz;
+//! * `link-open`, `link-keyed`: one command frame (a `SetVelocity`) encoded by the operator's
+//!   endpoint and decoded by the robot's, then one telemetry frame the other way, without and
+//!   with a key — the per-frame cost of the link codec (its throughput on one core).
 
 use std::hint::black_box;
 
@@ -43,6 +46,15 @@ fn main() {
             let path = omnikin_plan::path::Path::spline(black_box(&wps)).unwrap();
             black_box(omnikin_plan::planner::plan(&path, &heading, &model, &opts).unwrap());
         }
+        return;
+    }
+    if let Some(mode) = what.strip_prefix("link-") {
+        let keyed = match mode {
+            "open" => false,
+            "keyed" => true,
+            _ => usage(),
+        };
+        link_frames(keyed, n);
         return;
     }
     let (name, kernel) = what.split_once('-').unwrap_or((what.as_str(), "cycle"));
@@ -136,4 +148,64 @@ fn main() {
         }
         _ => usage(),
     }
+}
+
+/// `n` command frames operator → robot and `n` telemetry frames robot → operator, in one
+/// established session (the handshake is set-up, outside the per-frame cost).
+fn link_frames(keyed: bool, n: u64) {
+    use omnikin::link::{
+        Key, MAX_FRAME, Message, OperatorEvent, OperatorLink, PROTOCOL_VERSION, RobotEvent,
+        RobotInfo, RobotKind, RobotLink,
+    };
+    use omnikin::runtime::Frame;
+    use omnikin::runtime::hal::{Entropy, EntropyError};
+    struct Fixed(u8);
+    impl Entropy for Fixed {
+        fn fill(&mut self, buf: &mut [u8]) -> Result<(), EntropyError> {
+            buf.fill(self.0);
+            self.0 = self.0.wrapping_add(1);
+            Ok(())
+        }
+    }
+    let key = keyed.then(|| Key::new(b"benchmark key, 32 bytes long ...").unwrap());
+    let mut op = OperatorLink::new(key.clone());
+    let mut rob = RobotLink::new(key);
+    let mut lp = Loop::new(robot("sphere").unwrap());
+    let inp = Inputs::new();
+    let status = lp.step(&inp);
+    let info = RobotInfo {
+        protocol: PROTOCOL_VERSION,
+        kind: RobotKind::Sphere,
+        plan_capacity: 16,
+        rate_hz: 1000.0,
+        watchdog: 0.5,
+        authenticated: keyed,
+    };
+    let (mut rng, mut buf, mut reply) = (Fixed(1), [0u8; MAX_FRAME], [0u8; MAX_FRAME]);
+    let m = op.hello(&mut rng, &mut buf).unwrap();
+    let Ok(RobotEvent::Hello(a)) = rob.receive(&mut buf[..m - 1], &info, &mut rng, &mut reply)
+    else {
+        panic!("hello")
+    };
+    assert!(matches!(
+        op.receive(&mut reply[..a - 1]),
+        Ok(OperatorEvent::Established(_))
+    ));
+    let tele = Message::Telemetry(rob.telemetry(&status));
+    let mut ok = 0u64;
+    for i in 0..n {
+        let cmd = Message::SetVelocity {
+            frame: Frame::Robot,
+            vx: black_box(i as f32 * 1e-6),
+            vy: 0.1,
+            yaw_rate: 0.2,
+        };
+        let m = op.encode(black_box(&cmd), &mut buf).unwrap();
+        ok += rob
+            .receive(black_box(&mut buf[..m - 1]), &info, &mut rng, &mut reply)
+            .is_ok() as u64;
+        let m = rob.encode(black_box(&tele), &mut buf).unwrap();
+        ok += op.receive(black_box(&mut buf[..m - 1])).is_ok() as u64;
+    }
+    assert_eq!(ok, 2 * n, "every frame must decode");
 }

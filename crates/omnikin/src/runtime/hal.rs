@@ -15,7 +15,9 @@
 //! * [`Imu`]: an SPI/I²C gyro and accelerometer, converted to rad/s and m/s²;
 //! * [`MotorOutputs`]: PWM/velocity set-points of the motor drivers, **or** [`StepOutputs`] for
 //!   stepper drivers (step/dir pins driven by timers), wrapped in [`Steppers`] which converts
-//!   rad/s to step frequencies.
+//!   rad/s to step frequencies;
+//! * [`Entropy`]: unpredictable bytes for the link's handshake nonces ([`crate::link`]): the
+//!   MCU's TRNG (e.g. the STM32 `RNG` peripheral), or the OS on a PC.
 //!
 //! Every method returns a `Result` with the board's own error type; the runtime never panics
 //! on a hardware error, it raises [`super::Faults::HARDWARE`] and brings the robot to rest.
@@ -159,5 +161,29 @@ impl<T: Real, S: StepOutputs> MotorOutputs<T> for Steppers<S> {
     fn set_rates(&mut self, command: &MotorCommand<T>) -> Result<(), Self::Error> {
         let hz = self.frequencies(command);
         self.outputs.set_step_frequencies(hz)
+    }
+}
+
+/// The entropy source failed (a TRNG seed or clock error, an OS error).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("the entropy source failed")]
+pub struct EntropyError;
+
+/// Unpredictable random bytes, for the nonces of the link handshake ([`crate::link`]).
+///
+/// The link's security rests on these bytes being unpredictable to anyone else: use a
+/// hardware TRNG (or a CSPRNG seeded from one), never a counter, a clock or a fixed seed —
+/// a predictable robot nonce lets an attacker without the key replay a recorded session.
+pub trait Entropy {
+    /// Fills `buf` with random bytes.
+    ///
+    /// # Errors
+    /// [`EntropyError`] when the source cannot deliver (the handshake is then refused).
+    fn fill(&mut self, buf: &mut [u8]) -> Result<(), EntropyError>;
+}
+
+impl<E: Entropy + ?Sized> Entropy for &mut E {
+    fn fill(&mut self, buf: &mut [u8]) -> Result<(), EntropyError> {
+        (**self).fill(buf)
     }
 }
