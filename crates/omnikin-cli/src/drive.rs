@@ -12,13 +12,14 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use omnikin::link::{
-    CHUNK_POINTS, Endpoint, Message, PROTOCOL_VERSION, RobotInfo, Telemetry, WirePoint,
+    CHUNK_POINTS, DropReason, EndReason, Key, MAX_FRAME, Message, OperatorEvent, OperatorLink,
+    PROTOCOL_VERSION, RobotInfo, Telemetry, WirePoint, v1,
 };
 use omnikin::runtime::{Frame, Mode};
 use omnikin_plan::Plan;
 
 use crate::args::finite_f64;
-use crate::link_io::{Link, Transport, epoch_seq, load_key, parse_address};
+use crate::link_io::{Link, OsEntropy, Transport, epoch_seq, load_key, parse_address};
 
 /// `omnikin drive`.
 #[derive(clap::Args, Debug)]
@@ -106,12 +107,12 @@ pub enum DriveAction {
 }
 
 /// Telemetry CSV header: pose columns first (the pose CSV of the conventions), then the rest.
-pub const TELEMETRY_HEADER: &str = "t,x,y,heading,vx,vy,yaw_rate,cmd_vx,cmd_vy,cmd_yaw_rate,w1,w2,w3,q1,q2,q3,gyro_z,mode,faults,fault_history,plan_id,plan_received,plan_len,plan_time,ref_x,ref_y,ref_heading,rejected,last_command_t,rx_ok,rx_framing,rx_crc,rx_version,rx_auth,rx_replay,rx_malformed";
+pub const TELEMETRY_HEADER: &str = "t,x,y,heading,vx,vy,yaw_rate,cmd_vx,cmd_vy,cmd_yaw_rate,w1,w2,w3,q1,q2,q3,gyro_z,mode,faults,fault_history,plan_id,plan_received,plan_len,plan_time,ref_x,ref_y,ref_heading,rejected,last_command_t,rx_ok,rx_framing,rx_crc,rx_version,rx_auth,rx_replay,rx_malformed,rx_session,rx_entropy";
 
 fn telemetry_row(t: &Telemetry) -> String {
     let l = &t.link;
     format!(
-        "{:.6},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.6},{},{},{},{},{},{},{}",
+        "{:.6},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.6},{},{},{},{},{},{},{},{},{}",
         t.time_us as f64 * 1e-6,
         t.pose[0],
         t.pose[1],
@@ -148,14 +149,22 @@ fn telemetry_row(t: &Telemetry) -> String {
         l.auth,
         l.replay,
         l.malformed,
+        l.session,
+        l.entropy,
     )
 }
 
-/// An operator session: the link, the newest telemetry, an optional CSV log.
+/// An operator session: the link, the newest telemetry of this session, an optional CSV log.
 struct Session {
     link: Link,
+    op: OperatorLink,
+    key: Option<Key>,
+    addr: String,
     latest: Option<Telemetry>,
-    info: Option<RobotInfo>,
+    /// When the newest telemetry frame of this session arrived.
+    last_telemetry: Option<Instant>,
+    /// What a v1 HelloAck said (the answer to the v1 probe): (protocol, robot has a key).
+    v1_answer: Option<(u8, bool)>,
     log: Option<std::io::BufWriter<std::fs::File>>,
     frames: u64,
     heartbeat: Duration,
@@ -172,14 +181,15 @@ impl Session {
         }
         let key = a.key.as_deref().map(load_key).transpose()?;
         let addr = parse_address(&a.connect, "--connect")?;
-        let link = Link::new(
-            Transport::open(&addr, false)?,
-            Endpoint::new(key, epoch_seq()),
-        );
+        let link = Link::new(Transport::open(&addr, false)?);
         Ok(Self {
             link,
+            op: OperatorLink::new(key.clone()),
+            key,
+            addr: a.connect.clone(),
             latest: None,
-            info: None,
+            last_telemetry: None,
+            v1_answer: None,
             log: None,
             frames: 0,
             heartbeat: Duration::from_secs_f64(1.0 / a.heartbeat),
@@ -199,30 +209,69 @@ impl Session {
         Ok(())
     }
 
+    /// Sends `m` in this operator's session.
     fn send(&mut self, m: &Message) -> Result<()> {
-        self.link.send(m)
+        let mut buf = [0u8; MAX_FRAME];
+        let n = self.op.encode(m, &mut buf)?;
+        self.link.transport.send(&buf[..n])
     }
 
-    /// Receives for `dur`; returns `true` if a new telemetry frame arrived.
+    /// Receives for `dur`; returns `true` if a new telemetry frame of this session arrived.
     fn pump(&mut self, dur: Duration) -> Result<bool> {
         let mut fresh = false;
-        for r in self.link.poll(dur)? {
-            match r.result {
-                Ok((_, Message::Telemetry(t))) => {
+        for f in self.link.poll(dur)? {
+            let Some(mut bytes) = f.bytes else {
+                self.op.count_framing_drop();
+                continue;
+            };
+            let copy = bytes.clone();
+            match self.op.receive(&mut bytes) {
+                Ok(OperatorEvent::Message {
+                    msg: Message::Telemetry(t),
+                    ..
+                }) => {
                     if self.latest.is_none_or(|l| t.time_us >= l.time_us) {
                         self.latest = Some(t);
                     }
                     if let Some(w) = self.log.as_mut() {
                         writeln!(w, "{}", telemetry_row(&t))?;
                     }
+                    self.last_telemetry = Some(Instant::now());
                     self.frames += 1;
                     fresh = true;
                 }
-                Ok((_, Message::HelloAck(info))) => self.info = Some(info),
+                Err(DropReason::Version(1)) => {
+                    // Read without the key: only to name the mismatch, never acted upon.
+                    let mut c = copy;
+                    if let Some((_, v1::Frame::HelloAck(i))) = v1::parse(&mut c, None) {
+                        self.v1_answer = Some((i.protocol, i.authenticated));
+                    }
+                }
                 _ => {}
             }
         }
         Ok(fresh)
+    }
+
+    /// Fails when the session is over: taken over by another operator, or no telemetry of
+    /// this session for the timeout.
+    fn alive(&self) -> Result<()> {
+        if let Some(EndReason::TakenOver) = self.op.ended() {
+            bail!(
+                "session taken over: another operator completed a handshake with the robot at {} (one operator session at a time)",
+                self.addr
+            );
+        }
+        if let Some(t) = self.last_telemetry
+            && t.elapsed() > self.timeout
+        {
+            bail!(
+                "lost the session with the robot at {}: no telemetry of this session for {:.1} s (link down, or the robot restarted)",
+                self.addr,
+                self.timeout.as_secs_f64()
+            );
+        }
+        Ok(())
     }
 
     /// Sends `m` every heartbeat period until `done` holds for the newest telemetry, or the
@@ -242,32 +291,82 @@ impl Session {
                 if done(self) {
                     return Ok(());
                 }
+                self.alive()?;
             }
             if start.elapsed() > self.timeout {
                 bail!(
-                    "no answer from the robot to {what} within {:.1} s (check --connect, --key and that `omnikin robot` runs)",
-                    self.timeout.as_secs_f64()
+                    "the robot at {} did not confirm {what} within {:.1} s ({} telemetry frames of this session received)",
+                    self.addr,
+                    self.timeout.as_secs_f64(),
+                    self.frames
                 );
             }
         }
     }
 
+    /// The handshake: Hello (retransmitted with the same nonce) until the robot's HelloAck,
+    /// then a heartbeat confirms the session key. After half the timeout without an answer a
+    /// v1 Hello probes for a v1 robot; its answer (or a v2 robot's answer to it) names the
+    /// cause when the handshake fails.
     fn hello(&mut self) -> Result<RobotInfo> {
-        self.until(
-            &Message::Hello {
-                protocol: PROTOCOL_VERSION,
-            },
-            "hello",
-            |s| s.info.is_some(),
-        )?;
-        let info = self.info.context("no hello answer")?;
-        if info.protocol != PROTOCOL_VERSION {
-            bail!(
-                "robot speaks protocol version {}, this drive speaks {PROTOCOL_VERSION}",
-                info.protocol
-            );
+        let start = Instant::now();
+        let mut buf = [0u8; MAX_FRAME];
+        loop {
+            let n = self.op.hello(&mut OsEntropy, &mut buf)?;
+            self.link.transport.send(&buf[..n])?;
+            if start.elapsed() > self.timeout / 2 {
+                let n = v1::encode_hello(epoch_seq(), self.key.as_ref(), &mut buf)?;
+                self.link.transport.send(&buf[..n])?;
+            }
+            let step_end = Instant::now() + self.heartbeat;
+            while Instant::now() < step_end {
+                self.pump(step_end.saturating_duration_since(Instant::now()))?;
+                if let Some(info) = self.op.info() {
+                    self.send(&Message::Heartbeat)?;
+                    self.last_telemetry = Some(Instant::now());
+                    return Ok(info);
+                }
+                if let Some((1, _)) = self.v1_answer {
+                    bail!(
+                        "version mismatch: the robot at {} speaks protocol v1, this omnikin speaks v{PROTOCOL_VERSION}; run the same omnikin version on both ends",
+                        self.addr
+                    );
+                }
+            }
+            if start.elapsed() > self.timeout {
+                return Err(self.no_session_error());
+            }
         }
-        Ok(info)
+    }
+
+    /// Why the handshake did not complete, as precisely as the evidence allows.
+    fn no_session_error(&self) -> anyhow::Error {
+        let t = self.timeout.as_secs_f64();
+        let c = self.op.counters();
+        match (self.v1_answer, self.key.is_some()) {
+            // A v2 robot answered the v1 probe but not the v2 Hello: it rejected the Hello.
+            (Some((_, true)), true) => anyhow::anyhow!(
+                "authentication failed: the robot at {} (protocol v{PROTOCOL_VERSION}) rejects this operator's Hello — --key is not the robot's key",
+                self.addr
+            ),
+            (Some((_, true)), false) => anyhow::anyhow!(
+                "authentication failed: the robot at {} requires a key; pass --key FILE (the robot's key file)",
+                self.addr
+            ),
+            (Some((_, false)), true) => anyhow::anyhow!(
+                "authentication failed: the robot at {} has no key but this operator sends --key; drop --key (or start the robot with the same --key)",
+                self.addr
+            ),
+            _ if c.auth > 0 => anyhow::anyhow!(
+                "authentication failed: {} answers from {} carried no valid tag for this --key",
+                c.auth,
+                self.addr
+            ),
+            _ => anyhow::anyhow!(
+                "no answer from the robot at {} within {t:.1} s: nothing came back (is `omnikin robot` running there, is --connect right?)",
+                self.addr
+            ),
+        }
     }
 
     fn finish(&mut self) -> Result<()> {
@@ -291,7 +390,7 @@ impl Session {
             );
             let l = &t.link;
             println!(
-                "robot link: {} frames ok, dropped {} (framing {}, crc {}, version {}, auth {}, replay {}, malformed {}); commands rejected {}",
+                "robot link: {} frames ok, dropped {} (framing {}, crc {}, version {}, auth {}, replay {}, malformed {}, session {}, entropy {}); commands rejected {}",
                 l.ok,
                 l.dropped(),
                 l.framing,
@@ -300,9 +399,16 @@ impl Session {
                 l.auth,
                 l.replay,
                 l.malformed,
+                l.session,
+                l.entropy,
                 t.rejected
             );
         }
+    }
+
+    /// The sequence number the next command will carry.
+    fn next_seq(&self) -> u64 {
+        self.op.next_seq().unwrap_or(u64::MAX)
     }
 }
 
@@ -312,6 +418,8 @@ pub fn run(a: &DriveArgs) -> Result<()> {
     match &a.action {
         DriveAction::Hello => {
             let i = s.hello()?;
+            // Wait for the first telemetry: the robot took the session.
+            s.until(&Message::Heartbeat, "the session", |s| s.latest.is_some())?;
             println!(
                 "robot: protocol {}, model {:?}, plan capacity {} points, control {} Hz, watchdog {} s, {}",
                 i.protocol,
@@ -346,6 +454,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
             while Instant::now() < end {
                 s.send(&m)?;
                 s.pump(s.heartbeat)?;
+                s.alive()?;
             }
             if let Some(t) = s.latest
                 && t.mode != Mode::Velocity
@@ -374,15 +483,22 @@ pub fn run(a: &DriveArgs) -> Result<()> {
             s.print_status();
         }
         DriveAction::Estop => {
-            s.until(&Message::EStop, "estop", |s| {
-                s.latest.is_some_and(|t| t.mode == Mode::EStop)
+            s.hello()?;
+            // Confirmed only by telemetry of this session naming one of this run's EStops.
+            let first = s.next_seq();
+            s.until(&Message::EStop, "the e-stop", |s| {
+                s.latest
+                    .is_some_and(|t| t.mode == Mode::EStop && t.estop_seq >= first)
             })?;
             s.print_status();
         }
         DriveAction::Clear => {
+            s.hello()?;
+            let first = s.next_seq();
             s.until(&Message::Clear, "clear", |s| {
-                s.latest
-                    .is_some_and(|t| t.mode != Mode::EStop && t.fault_history.is_empty())
+                s.latest.is_some_and(|t| {
+                    t.ack_seq >= first && t.mode != Mode::EStop && t.fault_history.is_empty()
+                })
             })?;
             s.print_status();
         }
@@ -391,14 +507,24 @@ pub fn run(a: &DriveArgs) -> Result<()> {
             s.hello()?;
             let end = Instant::now() + Duration::from_secs_f64(duration.max(0.0));
             while Instant::now() < end {
-                // Hello keeps this operator the robot's telemetry peer without commanding.
+                // Heartbeats keep the session (and the watchdog) alive without commanding.
                 s.send(&Message::Heartbeat)?;
                 s.pump(s.heartbeat)?;
+                s.alive()?;
             }
             println!("{} telemetry frames written to {}", s.frames, out.display());
+            if s.frames == 0 {
+                bail!(
+                    "no telemetry of this session arrived in {duration} s: nothing was recorded"
+                );
+            }
             s.print_status();
         }
         DriveAction::Teleop { speed, turn } => {
+            if !std::io::IsTerminal::is_terminal(&std::io::stdin()) {
+                bail!("teleop needs an interactive terminal (stdin is not a TTY)");
+            }
+            s.hello()?;
             let period = s.heartbeat;
             crate::teleop::run(&mut s, *speed, *turn, period)?;
         }
@@ -408,18 +534,20 @@ pub fn run(a: &DriveArgs) -> Result<()> {
 
 impl crate::teleop::Operator for Session {
     fn send(&mut self, m: &Message) -> Result<()> {
-        self.link.send(m)
+        Session::send(self, m)
     }
     fn poll(&mut self, d: Duration) -> Result<Option<Telemetry>> {
         self.pump(d)?;
+        self.alive()?;
         Ok(self.latest)
     }
 }
 
 fn stop(s: &mut Session) -> Result<()> {
-    s.until(&Message::Stop, "stop", |s| {
+    let first = s.next_seq();
+    s.until(&Message::Stop, "the stop", |s| {
         s.latest
-            .is_some_and(|t| matches!(t.mode, Mode::Idle | Mode::EStop))
+            .is_some_and(|t| t.ack_seq >= first && matches!(t.mode, Mode::Idle | Mode::EStop))
     })
 }
 
@@ -534,6 +662,7 @@ fn follow_plan(s: &mut Session, path: &Path, set_pose: bool) -> Result<()> {
                 );
             }
         }
+        s.alive()?;
         if last_seen.elapsed() > s.timeout {
             bail!(
                 "telemetry stopped for {:.1} s while following the plan",

@@ -7,7 +7,8 @@ use std::path::Path;
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-use omnikin::link::{DropReason, Endpoint, FrameReader, Key, MAX_FRAME, Message};
+use omnikin::link::{FrameReader, Key, MAX_FRAME};
+use omnikin::runtime::hal::{Entropy, EntropyError};
 
 /// Where a link goes: `HOST:PORT` or `udp:HOST:PORT` (UDP), `serial:PATH[@BAUD]` (serial port,
 /// default 115200 baud).
@@ -117,11 +118,20 @@ impl Transport {
 
     /// Sends one encoded frame (to the peer for UDP; nothing if no peer is known yet).
     pub fn send(&mut self, frame: &[u8]) -> Result<()> {
+        let to = match self {
+            Transport::Udp { peer, .. } => *peer,
+            Transport::Serial(_) => None,
+        };
+        self.send_to(frame, to)
+    }
+
+    /// Sends one encoded frame to `to` (UDP; nothing when `None`) or down the serial line.
+    pub fn send_to(&mut self, frame: &[u8], to: Option<SocketAddr>) -> Result<()> {
         match self {
-            Transport::Udp { socket, peer } => {
-                if let Some(p) = peer {
+            Transport::Udp { socket, .. } => {
+                if let Some(p) = to {
                     // A full socket buffer or an unreachable peer is a lost frame, as on radio.
-                    let _ = socket.send_to(frame, *p);
+                    let _ = socket.send_to(frame, p);
                 }
                 Ok(())
             }
@@ -202,68 +212,63 @@ impl Transport {
         }
         Ok(out)
     }
-
-    /// Sets the UDP peer (the robot answers whoever sent the last valid frame).
-    pub fn set_peer(&mut self, from: Option<SocketAddr>) {
-        if let (Transport::Udp { peer, .. }, Some(f)) = (self, from) {
-            *peer = Some(f);
-        }
-    }
 }
 
-/// Codec state on top of a transport.
+/// Frame splitting on top of a transport (decoding is each end's: `RobotLink`/`OperatorLink`).
 pub struct Link {
     /// The transport.
     pub transport: Transport,
-    /// Sequence numbers, key, replay window, counters.
-    pub endpoint: Endpoint,
     reader: FrameReader<MAX_FRAME>,
 }
 
-/// A decoded frame, or why it was dropped, with its sender.
-pub struct Received {
+/// One frame's bytes (without the delimiter), with its sender.
+pub struct RawFrame {
     /// Sender (UDP).
     pub from: Option<SocketAddr>,
-    /// The message, or the drop reason (already counted in the endpoint).
-    pub result: std::result::Result<(u64, Message), DropReason>,
+    /// The bytes, or `None` for a frame dropped by the reader (too long, or cut off at the end
+    /// of a datagram): count it as a framing drop.
+    pub bytes: Option<Vec<u8>>,
 }
 
 impl Link {
     /// A link over `transport`.
-    pub fn new(transport: Transport, endpoint: Endpoint) -> Self {
+    pub fn new(transport: Transport) -> Self {
         Self {
             transport,
-            endpoint,
             reader: FrameReader::new(),
         }
     }
 
-    /// Encodes and sends one message.
-    pub fn send(&mut self, msg: &Message) -> Result<()> {
-        let mut buf = [0u8; MAX_FRAME];
-        let n = self.endpoint.encode(msg, &mut buf)?;
-        self.transport.send(&buf[..n])
-    }
-
-    /// Receives for up to `timeout` and decodes every complete frame.
-    pub fn poll(&mut self, timeout: Duration) -> Result<Vec<Received>> {
+    /// Receives for up to `timeout` and splits every complete frame.
+    pub fn poll(&mut self, timeout: Duration) -> Result<Vec<RawFrame>> {
         let mut out = vec![];
         for chunk in self.transport.recv(timeout)? {
             let from = chunk.from;
-            self.reader
-                .feed(&chunk.bytes, &mut self.endpoint, |result| {
-                    out.push(Received { from, result })
-                });
-            if chunk.datagram {
-                self.reader.end_of_datagram(&mut self.endpoint);
+            self.reader.feed(&chunk.bytes, |f| {
+                out.push(RawFrame {
+                    from,
+                    bytes: f.map(|f| f.to_vec()),
+                })
+            });
+            if chunk.datagram && self.reader.end_of_datagram() {
+                out.push(RawFrame { from, bytes: None });
             }
         }
         Ok(out)
     }
 }
 
-/// Microseconds since the Unix epoch: the first sequence number of a host sender, so a
-/// restarted operator is always above the robot's replay window.
+/// The operating system's random bytes (`getrandom`): the host's handshake nonces.
+pub struct OsEntropy;
+
+impl Entropy for OsEntropy {
+    fn fill(&mut self, buf: &mut [u8]) -> std::result::Result<(), EntropyError> {
+        getrandom::fill(buf).map_err(|_| EntropyError)
+    }
+}
+
+/// Microseconds since the Unix epoch (plan ids; the sequence number of the v1 probe, which a
+/// v1 robot's replay window needs above anything it saw before).
 pub fn epoch_seq() -> u64 {
     std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)

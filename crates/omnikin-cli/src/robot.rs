@@ -1,13 +1,15 @@
 //! `omnikin robot --sim`: the robot runtime plus the simulated plant in real time (software in
 //! the loop), serving the operator link over UDP or a serial port.
 
+use std::collections::HashMap;
 use std::io::Write;
+use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use omnikin::description::RobotDescription;
-use omnikin::link::{Endpoint, Message, Served, Telemetry, serve};
+use omnikin::link::{DropReason, MAX_FRAME, Message, RobotEvent, RobotLink, robot_info, serve};
 use omnikin::runtime::{Config, Runtime};
 use omnikin::{Pose2, Robot};
 use omnikin_sim::profile::Profile;
@@ -15,7 +17,7 @@ use omnikin_sim::reproduce::{hardware_profile, spin_slip_profile};
 use omnikin_sim::sil::SilPlant;
 
 use crate::args::finite_f64;
-use crate::link_io::{Link, Transport, load_key, parse_address};
+use crate::link_io::{Link, OsEntropy, Transport, load_key, parse_address};
 
 /// Plan buffer capacity of the simulated robot, points (a firmware picks its own).
 pub const SIM_PLAN_CAPACITY: usize = 4096;
@@ -37,9 +39,14 @@ pub struct RobotArgs {
     /// Plant disturbances: ideal (default), hardware, spin-slip, or a profile TOML file.
     #[arg(long, value_name = "PROFILE")]
     pub disturbances: Option<String>,
-    /// Shared key file (16-64 bytes): commands must carry a valid HMAC tag, telemetry is tagged.
+    /// Shared key file (16-64 bytes): only an operator with the same key can open a session;
+    /// every frame of it carries an HMAC tag under the session key.
     #[arg(long, value_name = "FILE")]
     pub key: Option<PathBuf>,
+    /// Without --key, listen on a UDP address that is not loopback anyway (anyone on that
+    /// network can then drive the robot).
+    #[arg(long)]
+    pub insecure: bool,
     /// Control rate, Hz.
     #[arg(long, default_value_t = 100.0, allow_hyphen_values = true, value_parser = finite_f64)]
     pub rate: f64,
@@ -140,9 +147,21 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     let prof = profile(a.disturbances.as_deref())?;
     let key = a.key.as_deref().map(load_key).transpose()?;
     let addr = parse_address(&a.listen, "--listen")?;
-    let mut link = Link::new(Transport::open(&addr, true)?, Endpoint::new(key, 1));
+    if key.is_none()
+        && !a.insecure
+        && matches!(addr, crate::link_io::Address::Udp(u) if !u.ip().is_loopback())
+    {
+        bail!(
+            "--listen {}: without --key the link is unauthenticated, so the robot listens only on a loopback address (127.0.0.1:PORT) or a serial port; give --key FILE (the same file as the operator's), or --insecure to let anyone who reaches this address drive the robot",
+            a.listen
+        );
+    }
+    let mut link = Link::new(Transport::open(&addr, true)?);
+    let auth = key.is_some();
+    let mut robot_link = RobotLink::new(key);
     let mut rt: Box<Runtime<f64, SIM_PLAN_CAPACITY>> =
         Box::new(Runtime::new(robot, cfg, Pose2::default()).map_err(|e| anyhow::anyhow!("{e}"))?);
+    let info = robot_info(&*rt, auth);
     let mut plant = SilPlant::new(robot, prof, a.seed, Pose2::default());
     let mut log = match &a.log {
         Some(p) => {
@@ -156,39 +175,75 @@ pub fn run(a: &RobotArgs) -> Result<()> {
         None => None,
     };
     eprintln!(
-        "robot: {} ({}) simulated, {} Hz control, listening on {} ({}), disturbances {}",
+        "robot: {} ({}) simulated, {} Hz control, listening on {} (protocol v{}, {}), disturbances {}",
         desc.name,
         desc.kind(),
         a.rate,
         a.listen,
-        if key.is_some() {
-            "authenticated"
-        } else {
-            "no key"
-        },
+        omnikin::link::PROTOCOL_VERSION,
+        if auth { "authenticated" } else { "no key" },
         a.disturbances.as_deref().unwrap_or("ideal"),
     );
+    if !auth {
+        eprintln!(
+            "robot: WARNING: the link is UNAUTHENTICATED (no --key): anyone who can send to {} can open a session and drive this robot",
+            a.listen
+        );
+    }
 
     let period = 1.0 / a.rate;
     let tele_every = ((a.rate / a.telemetry_rate).round() as u64).max(1);
     let start = Instant::now();
-    let auth = key.is_some();
     let mut k: u64 = 0;
     let mut status;
+    // Where telemetry goes: the address that confirmed the active session.
+    let mut active: Option<SocketAddr> = None;
+    let mut amp = AmplificationBudget::default();
+    let mut sessions = 0u32;
+    let mut takeovers = 0u32;
+    let mut reply = [0u8; MAX_FRAME];
     loop {
         let now = plant.time_us();
-        // Commands that arrived since the last cycle (the newest valid one wins).
+        // Frames that arrived since the last cycle (the newest valid command wins).
         let mut ack = false;
-        for r in link.poll(Duration::ZERO)? {
-            let Ok((_, msg)) = r.result else { continue };
-            match serve(&mut rt, &msg, auth, now) {
-                Served::Hello(info) => {
-                    link.transport.set_peer(r.from);
-                    link.send(&Message::HelloAck(info))?;
-                    ack = true;
+        for f in link.poll(Duration::ZERO)? {
+            let Some(mut bytes) = f.bytes else {
+                robot_link.count_framing_drop();
+                continue;
+            };
+            amp.received(f.from, bytes.len() + 1);
+            match robot_link.receive(&mut bytes, &info, &mut OsEntropy, &mut reply) {
+                Ok(RobotEvent::Hello(n)) => {
+                    // Never larger than the Hello it answers (the core checks it).
+                    amp.sent(f.from, n);
+                    link.transport.send_to(&reply[..n], f.from)?;
                 }
-                Served::Accepted | Served::Rejected(_) => {
-                    link.transport.set_peer(r.from);
+                Ok(RobotEvent::Message {
+                    seq,
+                    msg,
+                    new_session,
+                    replaced,
+                }) => {
+                    if new_session {
+                        if let Some(n) = replaced {
+                            // The previous operator's address was validated by its session.
+                            link.transport.send_to(&reply[..n], active)?;
+                            takeovers += 1;
+                        }
+                        sessions += 1;
+                        active = f.from;
+                        eprintln!(
+                            "robot: session {:016x} opened{}{}",
+                            robot_link.session_id().unwrap_or(0),
+                            f.from.map(|a| format!(" by {a}")).unwrap_or_default(),
+                            if replaced.is_some() {
+                                " (took over from the previous operator)"
+                            } else {
+                                ""
+                            }
+                        );
+                    }
+                    serve(&mut rt, &mut robot_link, seq, &msg, now);
                     ack |= matches!(
                         msg,
                         Message::PlanBegin { .. }
@@ -196,18 +251,29 @@ pub fn run(a: &RobotArgs) -> Result<()> {
                             | Message::PlanStart { .. }
                     );
                 }
-                Served::Ignored => {}
+                // A v1 peer: one v1 answer it can print ("protocol 2"), within its budget.
+                Err(DropReason::Version(1)) => {
+                    if let Ok(n) = robot_link.version_reply(&info, &mut reply)
+                        && amp.allow_reply(f.from, n)
+                    {
+                        link.transport.send_to(&reply[..n], f.from)?;
+                    }
+                }
+                Err(_) => {}
             }
         }
         status = plant.run_cycle(&mut rt);
-        if ack || k.is_multiple_of(tele_every) {
-            let t = Telemetry::new(&status, link.endpoint.counters());
-            link.send(&Message::Telemetry(t))?;
+        if robot_link.session_id().is_some() && (ack || k.is_multiple_of(tele_every)) {
+            let t = robot_link.telemetry(&status);
+            let mut buf = [0u8; MAX_FRAME];
+            if let Ok(n) = robot_link.encode(&Message::Telemetry(t), &mut buf) {
+                link.transport.send_to(&buf[..n], active)?;
+            }
         }
         if let Some(w) = log.as_mut() {
             let s = &status;
             let tp = plant.true_pose();
-            let c = link.endpoint.counters();
+            let c = robot_link.counters();
             writeln!(
                 w,
                 "{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{}",
@@ -252,7 +318,7 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     if let Some(mut w) = log {
         w.flush()?;
     }
-    let c = link.endpoint.counters();
+    let c = robot_link.counters();
     let tp = plant.true_pose();
     let summary = serde_json::json!({
         "time_s": plant.time_us() as f64 * 1e-6,
@@ -262,8 +328,61 @@ pub fn run(a: &RobotArgs) -> Result<()> {
         "fault_history": status.fault_history.to_string(),
         "rejected": status.rejected,
         "plan": {"id": status.plan.id, "received": status.plan.received, "len": status.plan.len, "done": status.plan.done},
-        "link": {"ok": c.ok, "framing": c.framing, "crc": c.crc, "version": c.version, "auth": c.auth, "replay": c.replay, "malformed": c.malformed, "dropped": c.dropped()},
+        "link": {"ok": c.ok, "framing": c.framing, "crc": c.crc, "version": c.version, "auth": c.auth, "replay": c.replay, "malformed": c.malformed, "session": c.session, "entropy": c.entropy, "dropped": c.dropped(), "sessions": sessions, "takeovers": takeovers},
     });
     println!("{summary}");
     Ok(())
+}
+
+/// Anti-amplification for the answers the robot sends before an address has proved itself
+/// (QUIC's rule, RFC 9000 §8, with a factor of 1 instead of 3): per sender, the bytes sent
+/// never exceed the bytes received, and version-mismatch answers go out at most every
+/// [`AmplificationBudget::MIN_GAP`]. At most [`AmplificationBudget::MAX_ADDRESSES`] senders are
+/// tracked; a new one beyond that forgets the oldest (whose budget is then zero again).
+#[derive(Default)]
+struct AmplificationBudget {
+    /// Per sender: bytes received, bytes sent, order of first contact.
+    peers: HashMap<Option<SocketAddr>, (u64, u64, u64)>,
+    next: u64,
+    last_reply: Option<Instant>,
+}
+
+impl AmplificationBudget {
+    const MAX_ADDRESSES: usize = 1024;
+    const MIN_GAP: Duration = Duration::from_millis(100);
+
+    fn received(&mut self, from: Option<SocketAddr>, n: usize) {
+        if !self.peers.contains_key(&from) && self.peers.len() >= Self::MAX_ADDRESSES {
+            let oldest = self.peers.iter().min_by_key(|(_, v)| v.2).map(|(k, _)| *k);
+            if let Some(o) = oldest {
+                self.peers.remove(&o);
+            }
+        }
+        self.next += 1;
+        let next = self.next;
+        let e = self.peers.entry(from).or_insert((0, 0, next));
+        e.0 += n as u64;
+    }
+
+    fn sent(&mut self, to: Option<SocketAddr>, n: usize) {
+        if let Some(e) = self.peers.get_mut(&to) {
+            e.1 += n as u64;
+        }
+    }
+
+    /// Whether an `n`-byte answer to `to` fits its budget and the rate limit (and books it).
+    fn allow_reply(&mut self, to: Option<SocketAddr>, n: usize) -> bool {
+        let now = Instant::now();
+        if self.last_reply.is_some_and(|t| now.duration_since(t) < Self::MIN_GAP) {
+            return false;
+        }
+        match self.peers.get_mut(&to) {
+            Some(e) if e.1 + n as u64 <= e.0 => {
+                e.1 += n as u64;
+                self.last_reply = Some(now);
+                true
+            }
+            _ => false,
+        }
+    }
 }

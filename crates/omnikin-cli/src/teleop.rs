@@ -35,9 +35,6 @@ pub fn run(op: &mut dyn Operator, speed: f64, turn: f64, period: Duration) -> Re
     if !std::io::stdin().is_terminal() {
         bail!("teleop needs an interactive terminal (stdin is not a TTY)");
     }
-    op.send(&Message::Hello {
-        protocol: omnikin::link::PROTOCOL_VERSION,
-    })?;
     terminal::enable_raw_mode()?;
     let _raw = Raw;
     let mut out = std::io::stdout();

@@ -13,7 +13,11 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use common::{BIN, Robot, num, read_rows, square_plan};
-use omnikin::link::{Endpoint, FrameReader, MAX_FRAME, Message, Telemetry, WirePoint, heapless};
+use omnikin::link::{
+    FrameReader, Kind, MAX_FRAME, Message, OperatorEvent, OperatorLink, Telemetry, WirePoint,
+    encode_message, heapless, parse_frame,
+};
+use omnikin::runtime::hal::{Entropy, EntropyError};
 use omnikin::runtime::{Frame, Mode};
 
 mod common;
@@ -58,8 +62,12 @@ struct FaultModel {
     loss_back: f64,
 }
 
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Debug, Default)]
 struct ProxyStats {
+    /// Operator → robot datagrams as forwarded, with their time since the first.
+    recorded: Vec<(Duration, Vec<u8>)>,
+    /// Robot → operator datagrams.
+    recorded_back: Vec<Vec<u8>>,
     forwarded: u64,
     lost: u64,
     corrupted: u64,
@@ -87,6 +95,7 @@ fn proxy(
         let mut st = ProxyStats::default();
         let mut operator: Option<SocketAddr> = None;
         let mut history: Vec<Vec<u8>> = vec![];
+        let mut first: Option<Instant> = None;
         let mut buf = [0u8; 4096];
         let deadline = Instant::now() + Duration::from_secs(30);
         while !stop.load(Ordering::Relaxed) && Instant::now() < deadline {
@@ -128,6 +137,8 @@ fn proxy(
                 }
                 back.send_to(&d, robot).unwrap();
                 st.forwarded += 1;
+                let t0 = *first.get_or_insert_with(Instant::now);
+                st.recorded.push((t0.elapsed(), d.clone()));
                 p += model.duplicate;
                 if r < p {
                     back.send_to(&d, robot).unwrap();
@@ -148,6 +159,7 @@ fn proxy(
                     st.lost_back += 1;
                     continue;
                 }
+                st.recorded_back.push(buf[..n].to_vec());
                 if let Some(o) = operator {
                     let _ = front.send_to(&buf[..n], o);
                 }
@@ -161,7 +173,7 @@ fn proxy(
     (addr, h)
 }
 
-fn link_counts(s: &serde_json::Value) -> [u64; 7] {
+fn link_counts(s: &serde_json::Value) -> [u64; 8] {
     [
         "ok",
         "framing",
@@ -170,6 +182,7 @@ fn link_counts(s: &serde_json::Value) -> [u64; 7] {
         "auth",
         "replay",
         "malformed",
+        "session",
     ]
     .map(|k| s["link"][k].as_u64().unwrap())
 }
@@ -201,7 +214,7 @@ fn twenty_percent_packet_loss_plan_still_followed() {
     );
     stop.store(true, Ordering::Relaxed);
     let st = h.join().unwrap();
-    println!("proxy: {st:?}");
+    println!("proxy: {:?}", (st.forwarded, st.lost, st.lost_back));
     assert!(out.status.success());
     let lost = st.lost as f64 / (st.lost + st.forwarded) as f64;
     assert!((0.15..0.25).contains(&lost), "loss rate {lost}");
@@ -246,18 +259,24 @@ fn corrupt_truncated_duplicated_and_replayed_frames_are_dropped_and_counted() {
     let out = drive(&addr, &["plan", plan_csv.to_str().unwrap()]);
     stop.store(true, Ordering::Relaxed);
     let st = h.join().unwrap();
-    println!("proxy: {st:?}");
+    let st2 = (st.forwarded, st.corrupted, st.truncated, st.duplicated, st.replayed);
+    println!("proxy: forwarded, corrupted, truncated, duplicated, replayed {st2:?}");
     assert!(out.status.success());
     let s = robot.summary();
     println!("robot: {s}");
-    let [ok, framing, crc, version, auth, replay, malformed] = link_counts(&s);
+    let [ok, framing, crc, version, auth, replay, malformed, session] = link_counts(&s);
     assert!(st.corrupted > 20 && st.truncated > 20 && st.duplicated > 20 && st.replayed > 20);
     // Every injected fault is one counted drop, in the right counters; nothing else dropped.
-    assert_eq!(replay, st.duplicated + st.replayed);
-    assert_eq!(framing + crc + malformed, st.corrupted + st.truncated);
+    // A corrupted byte can also land in the session id (then it is a session drop).
+    assert_eq!(framing + crc + malformed + session, st.corrupted + st.truncated);
     assert!(framing >= st.truncated);
     assert_eq!(version + auth, 0);
-    assert_eq!(ok, st.forwarded);
+    // Duplicates and replays are replays; a retransmitted Hello (answered again while the
+    // session is pending) is one too, so `ok` may be short of `forwarded` by those.
+    assert!(replay >= st.duplicated + st.replayed);
+    assert_eq!(ok + replay, st.forwarded + st.duplicated + st.replayed);
+    assert!(ok + 5 >= st.forwarded, "{ok} of {} forwarded", st.forwarded);
+    assert_eq!(s["link"]["sessions"], 1);
     // Nothing was executed twice or out of place: no rejected command, the plan completed.
     assert_eq!(s["rejected"], 0);
     assert_eq!(s["plan"]["done"], true);
@@ -301,6 +320,8 @@ fn link_cut_mid_motion_stops_within_watchdog_plus_braking() {
         !out.status.success(),
         "the stop cannot get through a cut link"
     );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("lost the session"), "{err}");
     stop.store(true, Ordering::Relaxed);
     h.join().unwrap();
     let s = robot.summary();
@@ -344,13 +365,38 @@ fn link_cut_mid_motion_stops_within_watchdog_plus_braking() {
     }
 }
 
-/// A hand-made operator: sends frames built with the library, reads telemetry.
+/// The OS entropy of a test operator (getrandom through std's hasher is not enough: use the
+/// same crate the CLI uses, via a tiny xorshift seeded from the clock — a test client only).
+struct ClockRng(u64);
+impl Entropy for ClockRng {
+    fn fill(&mut self, buf: &mut [u8]) -> Result<(), EntropyError> {
+        for b in buf {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            *b = (self.0 >> 40) as u8;
+        }
+        Ok(())
+    }
+}
+fn clock_rng() -> ClockRng {
+    let t = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_nanos() as u64;
+    ClockRng(t | 1)
+}
+
+/// A hand-made operator: the v2 handshake and session frames built with the library.
 struct Client {
     sock: UdpSocket,
     robot: SocketAddr,
-    end: Endpoint,
+    op: OperatorLink,
     reader: FrameReader<MAX_FRAME>,
     latest: Option<Telemetry>,
+    /// Datagrams and bytes received.
+    received: (u64, u64),
+    sent: (u64, u64),
 }
 
 impl Client {
@@ -360,39 +406,66 @@ impl Client {
         Client {
             sock,
             robot,
-            end: Endpoint::new(None, 1_000),
+            op: OperatorLink::new(None),
             reader: FrameReader::new(),
             latest: None,
+            received: (0, 0),
+            sent: (0, 0),
         }
+    }
+    /// Handshake (retransmitting the Hello) and key confirmation.
+    fn connect(&mut self) {
+        let mut rng = clock_rng();
+        let end = Instant::now() + Duration::from_secs(3);
+        while self.op.info().is_none() {
+            assert!(Instant::now() < end, "no HelloAck");
+            let mut buf = [0u8; MAX_FRAME];
+            let n = self.op.hello(&mut rng, &mut buf).unwrap();
+            self.raw(&buf[..n]);
+            std::thread::sleep(Duration::from_millis(5));
+            self.drain();
+        }
+        self.send(&Message::Heartbeat);
     }
     fn frame(&mut self, m: &Message) -> Vec<u8> {
         let mut buf = [0u8; MAX_FRAME];
-        let n = self.end.encode(m, &mut buf).unwrap();
+        let n = self.op.encode(m, &mut buf).unwrap();
         buf[..n].to_vec()
     }
     fn raw(&mut self, bytes: &[u8]) {
         self.sock.send_to(bytes, self.robot).unwrap();
+        self.sent.0 += 1;
+        self.sent.1 += bytes.len() as u64;
     }
     fn send(&mut self, m: &Message) {
         let f = self.frame(m);
         self.raw(&f);
     }
+    fn drain(&mut self) {
+        let mut buf = [0u8; 2048];
+        while let Ok((n, _)) = self.sock.recv_from(&mut buf) {
+            self.received.0 += 1;
+            self.received.1 += n as u64;
+            let (op, latest) = (&mut self.op, &mut self.latest);
+            self.reader.feed(&buf[..n], |f| {
+                if let Some(f) = f
+                    && let Ok(OperatorEvent::Message {
+                        msg: Message::Telemetry(t),
+                        ..
+                    }) = op.receive(f)
+                {
+                    *latest = Some(t);
+                }
+            });
+            self.reader.end_of_datagram();
+        }
+    }
     /// Heartbeats and telemetry for `ms` wall milliseconds.
     fn wait(&mut self, ms: u64) -> Telemetry {
         let end = Instant::now() + Duration::from_millis(ms);
-        let mut buf = [0u8; 2048];
         while Instant::now() < end {
             self.send(&Message::Heartbeat);
-            while let Ok((n, _)) = self.sock.recv_from(&mut buf) {
-                let mut got = vec![];
-                self.reader.feed(&buf[..n], &mut self.end, |r| got.push(r));
-                self.reader.end_of_datagram(&mut self.end);
-                for r in got {
-                    if let Ok((_, Message::Telemetry(t))) = r {
-                        self.latest = Some(t);
-                    }
-                }
-            }
+            self.drain();
             std::thread::sleep(Duration::from_millis(5));
         }
         self.latest.expect("telemetry")
@@ -403,9 +476,11 @@ impl Client {
 fn malformed_and_replayed_commands_are_never_executed() {
     let robot = Robot::start(&["--max-time", "24"]);
     let mut c = Client::new(robot.socket_addr());
-    c.send(&Message::Hello { protocol: 1 });
+    c.connect();
     let t = c.wait(100);
     assert_eq!((t.mode, t.rejected), (Mode::Idle, 0));
+    // (A Hello retransmitted during the handshake counts as a replay: measure from here.)
+    let base = t.link;
     let vel = |vx: f32, yaw_rate: f32| Message::SetVelocity {
         frame: Frame::Robot,
         vx,
@@ -450,12 +525,12 @@ fn malformed_and_replayed_commands_are_never_executed() {
     c.raw(&estop);
     let t = c.wait(150);
     assert_eq!(t.mode, Mode::Idle, "a replayed e-stop must not execute");
-    assert_eq!(t.link.replay, 2);
+    assert_eq!(t.link.replay - base.replay, 2);
     // Garbage and a frame of a foreign protocol version: counted, no effect.
     c.raw(&[0x13; 50]);
     c.raw(&[1, 2, 3, 0]);
     let t = c.wait(100);
-    assert_eq!(t.link.dropped(), 4, "{:?}", t.link);
+    assert_eq!(t.link.dropped() - base.dropped(), 4, "{:?}", t.link);
     // And a valid command still works.
     c.send(&vel(0.2, 0.0));
     let t = c.wait(200);
@@ -536,4 +611,363 @@ fn serial_transport_over_a_pty_pair() {
     assert_eq!(s["link"]["dropped"], 0);
     let p = &s["true_pose"];
     assert!(p[0].as_f64().unwrap() > 0.1 && p[1].as_f64().unwrap() > 0.1);
+}
+
+/// Sends `frames` from a fresh socket at their recorded pace; returns (datagrams, bytes) sent
+/// and (datagrams, bytes) received back on that socket, listening `tail` longer.
+fn replay_from_stranger(
+    robot: SocketAddr,
+    frames: &[(Duration, Vec<u8>)],
+    tail: Duration,
+) -> ((u64, u64), (u64, u64)) {
+    let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
+    sock.set_nonblocking(true).unwrap();
+    let (mut sent, mut got) = ((0u64, 0u64), (0u64, 0u64));
+    let mut buf = [0u8; 2048];
+    let start = Instant::now();
+    let mut drain = |got: &mut (u64, u64)| {
+        while let Ok((n, _)) = sock.recv_from(&mut buf) {
+            got.0 += 1;
+            got.1 += n as u64;
+        }
+    };
+    for (t, f) in frames {
+        while start.elapsed() < *t {
+            std::thread::sleep(Duration::from_micros(500));
+        }
+        sock.send_to(f, robot).unwrap();
+        sent.0 += 1;
+        sent.1 += f.len() as u64;
+        drain(&mut got);
+    }
+    let end = Instant::now() + tail;
+    while Instant::now() < end {
+        drain(&mut got);
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    (sent, got)
+}
+
+#[test]
+fn observation_1_a_recorded_keyed_session_replayed_after_a_restart_is_rejected() {
+    let dir = tmp("replay");
+    let key = dir.join("robot.key");
+    std::fs::write(&key, "0123456789abcdef0123456789abcdef\n").unwrap();
+    let k = key.to_str().unwrap();
+    // The legitimate keyed session, recorded by a transparent proxy.
+    let robot = Robot::start(&["--max-time", "12", "--key", k]);
+    let (cut, stop) = (
+        Arc::new(AtomicBool::new(false)),
+        Arc::new(AtomicBool::new(false)),
+    );
+    let (addr, h) = proxy(robot.socket_addr(), FaultModel::default(), cut, stop.clone());
+    let out = drive(&addr, &["--key", k, "velocity", "--vx", "0.3", "--for", "0.5"]);
+    assert!(out.status.success());
+    stop.store(true, Ordering::Relaxed);
+    let st = h.join().unwrap();
+    let s = robot.summary();
+    assert!(s["true_pose"][0].as_f64().unwrap() > 0.05, "the recorded session moved");
+    // The robot restarts with the same key; the recording is replayed at its pace.
+    let robot = Robot::start(&["--max-time", "12", "--key", k]);
+    let (sent, got) = replay_from_stranger(
+        robot.socket_addr(),
+        &st.recorded,
+        Duration::from_millis(300),
+    );
+    let s = robot.summary();
+    println!("replayed {sent:?} (datagrams, bytes), got back {got:?}; robot {s}");
+    assert_eq!(s["true_pose"][0], 0.0, "the restarted robot did not move");
+    assert_eq!(s["true_pose"][1], 0.0);
+    assert_eq!(s["link"]["sessions"], 0, "no session opened");
+    let [ok, _, _, _, _, replay, _, session] = link_counts(&s);
+    // The recorded Hello (and its retransmissions) is authentic: it is answered, no larger
+    // than itself; every session frame belongs to a session this robot never had.
+    assert!(ok >= 1 && ok + replay <= 3, "{s}");
+    assert_eq!(ok + replay + session, sent.0, "every replayed frame counted");
+    assert!(session >= 40, "{s}");
+    assert!(got.0 <= ok + replay && got.1 <= sent.1, "no telemetry to the replayer");
+}
+
+#[test]
+fn observation_2_forged_max_seq_and_a_third_partys_heartbeats_change_nothing() {
+    let robot = Robot::start(&["--max-time", "24"]);
+    let addr = robot.addr.clone();
+    let stop = Arc::new(AtomicBool::new(false));
+    // The attacker: forged seq = 2^64 - 1 frames with guessed session ids, heartbeats, and
+    // Hellos it never completes (so it never has a session), 20 per second each.
+    let s2 = stop.clone();
+    let target = robot.socket_addr();
+    let attacker = std::thread::spawn(move || {
+        let mut c = Client::new(target);
+        let mut rng = clock_rng();
+        let mut k = 0u64;
+        let mut buf = [0u8; MAX_FRAME];
+        while !s2.load(Ordering::Relaxed) {
+            let mut guess = [0u8; 8];
+            rng.fill(&mut guess).unwrap();
+            let id = u64::from_le_bytes(guess);
+            let n = encode_message(id, u64::MAX, &Message::Stop, None, &mut buf).unwrap();
+            c.raw(&buf[..n]);
+            let n = encode_message(id ^ 1, k + 1, &Message::Heartbeat, None, &mut buf).unwrap();
+            c.raw(&buf[..n]);
+            // A fresh Hello each time, never confirmed.
+            let mut fresh = OperatorLink::new(None);
+            let n = fresh.hello(&mut rng, &mut buf).unwrap();
+            c.raw(&buf[..n]);
+            k += 1;
+            std::thread::sleep(Duration::from_millis(50));
+            c.drain();
+        }
+        std::thread::sleep(Duration::from_millis(200));
+        c.drain();
+        (k, c.sent, c.received, c.latest.is_some())
+    });
+    std::thread::sleep(Duration::from_millis(200));
+    let dir = tmp("third");
+    let tele = dir.join("t.csv");
+    let out = drive(
+        &addr,
+        &["telemetry", "--out", tele.to_str().unwrap(), "--for", "1"],
+    );
+    let out2 = drive(&addr, &["velocity", "--vx", "0.2", "--for", "0.5"]);
+    stop.store(true, Ordering::Relaxed);
+    let (rounds, sent, received, got_telemetry) = attacker.join().unwrap();
+    let s = robot.summary();
+    println!("attacker: {rounds} rounds, sent {sent:?}, received {received:?}; robot {s}");
+    // The operator: its telemetry, its commands, no lock-out.
+    assert!(out.status.success() && out2.status.success());
+    assert!(read_rows(&tele).len() >= 10);
+    assert!(s["true_pose"][0].as_f64().unwrap() > 0.05, "the operator drove");
+    assert_eq!(s["link"]["sessions"], 2, "only the operator's two runs opened sessions");
+    // The attacker: no telemetry; at most its Hellos answered, never more bytes than it sent.
+    assert!(!got_telemetry);
+    assert!(received.0 <= rounds && received.1 <= sent.1, "{received:?} vs {sent:?}");
+    let session = s["link"]["session"].as_u64().unwrap();
+    assert!(session >= 2 * rounds - 2, "forged frames counted: {session} for {rounds} rounds");
+}
+
+#[test]
+fn a_spoofed_hello_gets_one_answer_no_larger_than_itself_and_no_stream() {
+    let robot = Robot::start(&["--max-time", "16"]);
+    let target = robot.socket_addr();
+    // A "spoofed" source: it sends Hellos and v1 frames and never answers anything.
+    let mut c = Client::new(target);
+    let mut rng = clock_rng();
+    let mut buf = [0u8; MAX_FRAME];
+    for _ in 0..5 {
+        let mut fresh = OperatorLink::new(None);
+        let n = fresh.hello(&mut rng, &mut buf).unwrap();
+        c.raw(&buf[..n]);
+        let n = omnikin::link::v1::encode_hello(1, None, &mut buf).unwrap();
+        c.raw(&buf[..n]);
+        std::thread::sleep(Duration::from_millis(150));
+    }
+    c.drain();
+    let after_sending = c.received;
+    // Silence from the victim: the robot sends nothing more (no telemetry stream).
+    std::thread::sleep(Duration::from_millis(800));
+    c.drain();
+    println!("sent {:?}, received {:?}", c.sent, c.received);
+    assert_eq!(c.received, after_sending, "nothing after the victim went quiet");
+    assert!(c.received.1 <= c.sent.1, "never more bytes than received");
+    assert!(c.received.0 <= c.sent.0);
+    assert!(c.received.0 >= 5, "the Hellos were answered");
+    let s = robot.summary();
+    assert_eq!(s["link"]["sessions"], 0);
+    assert_eq!(s["link"]["version"], 5);
+}
+
+#[test]
+fn observation_3_a_replayed_estop_confirmation_is_not_accepted() {
+    let robot = Robot::start(&["--max-time", "40"]);
+    // First e-stop, through a proxy that records the robot's answers.
+    let (cut, stop) = (
+        Arc::new(AtomicBool::new(false)),
+        Arc::new(AtomicBool::new(false)),
+    );
+    let (addr, h) = proxy(robot.socket_addr(), FaultModel::default(), cut, stop.clone());
+    let out = drive(&addr, &["estop"]);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("mode estop"));
+    stop.store(true, Ordering::Relaxed);
+    let old: Vec<Vec<u8>> = h.join().unwrap().recorded_back;
+    assert!(drive(&robot.addr, &["clear"]).status.success());
+    // Second e-stop through a proxy that passes the handshake but swaps every telemetry
+    // frame for a recorded one of the first session (all of them "mode estop").
+    let front = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let back = UdpSocket::bind("127.0.0.1:0").unwrap();
+    front.set_nonblocking(true).unwrap();
+    back.set_nonblocking(true).unwrap();
+    let front_addr = front.local_addr().unwrap().to_string();
+    let target = robot.socket_addr();
+    let done = Arc::new(AtomicBool::new(false));
+    let d2 = done.clone();
+    let h = std::thread::spawn(move || {
+        let (mut op, mut swapped, mut k) = (None, 0u32, 0usize);
+        let mut buf = [0u8; 2048];
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while !d2.load(Ordering::Relaxed) && Instant::now() < deadline {
+            while let Ok((n, from)) = front.recv_from(&mut buf) {
+                op = Some(from);
+                back.send_to(&buf[..n], target).unwrap();
+            }
+            while let Ok((n, _)) = back.recv_from(&mut buf) {
+                let mut copy = buf[..n - 1].to_vec();
+                let kind = parse_frame(&mut copy).map(|p| p.header.kind);
+                let Some(o) = op else { continue };
+                if kind == Ok(Kind::Session) {
+                    let _ = front.send_to(&old[k % old.len()], o);
+                    k += 1;
+                    swapped += 1;
+                } else {
+                    let _ = front.send_to(&buf[..n], o);
+                }
+            }
+            std::thread::sleep(Duration::from_micros(300));
+        }
+        swapped
+    });
+    let out = drive_with(&front_addr, "1", &["estop"]);
+    done.store(true, Ordering::Relaxed);
+    let swapped = h.join().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    println!("{swapped} telemetry frames swapped for recorded ones");
+    assert!(swapped > 5);
+    assert!(!out.status.success(), "an old confirmation must not confirm a new e-stop");
+    assert!(
+        !String::from_utf8_lossy(&out.stdout).contains("mode estop"),
+        "no status printed from a replayed frame"
+    );
+    // The recorded frames are of another session: dropped, so this session hears nothing.
+    assert!(
+        err.contains("lost the session") || err.contains("did not confirm the e-stop"),
+        "{err}"
+    );
+    // Without the swap the same e-stop is confirmed.
+    assert!(drive(&robot.addr, &["estop"]).status.success());
+}
+
+#[test]
+fn a_second_operator_takes_over_only_by_handshake_and_the_first_is_told() {
+    let robot = Robot::start(&["--max-time", "40", "--watchdog", "2"]);
+    let a = robot.addr.clone();
+    let first =
+        std::thread::spawn(move || drive_with(&a, "2", &["velocity", "--vx", "0.1", "--for", "3"]));
+    std::thread::sleep(Duration::from_millis(700));
+    let second = drive(&robot.addr, &["velocity", "--yaw-rate", "0.2", "--for", "0.3"]);
+    let first = first.join().unwrap();
+    assert!(second.status.success());
+    assert!(!first.status.success(), "the first operator lost its session");
+    let err = String::from_utf8_lossy(&first.stderr);
+    assert!(err.contains("session taken over"), "{err}");
+    let s = robot.summary();
+    assert_eq!(s["link"]["takeovers"], 1);
+}
+
+#[test]
+fn version_mismatch_is_named_both_ways() {
+    // A v2 drive against a v1 robot (a socket answering v1 Hellos as v1 did).
+    let v1_robot = UdpSocket::bind("127.0.0.1:0").unwrap();
+    v1_robot
+        .set_read_timeout(Some(Duration::from_millis(50)))
+        .unwrap();
+    let addr = v1_robot.local_addr().unwrap().to_string();
+    let done = Arc::new(AtomicBool::new(false));
+    let d2 = done.clone();
+    let h = std::thread::spawn(move || {
+        let mut buf = [0u8; 2048];
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while !d2.load(Ordering::Relaxed) && Instant::now() < deadline {
+            if let Ok((n, from)) = v1_robot.recv_from(&mut buf) {
+                let mut f = buf[..n - 1].to_vec();
+                if let Some((_, omnikin::link::v1::Frame::Hello { .. })) =
+                    omnikin::link::v1::parse(&mut f, None)
+                {
+                    let info = omnikin::link::RobotInfo {
+                        protocol: 1,
+                        kind: omnikin::link::RobotKind::Sphere,
+                        plan_capacity: 4096,
+                        rate_hz: 100.0,
+                        watchdog: 0.5,
+                        authenticated: false,
+                    };
+                    let mut out = [0u8; MAX_FRAME];
+                    let m = omnikin::link::v1::encode_hello_ack(&info, 1, None, &mut out).unwrap();
+                    v1_robot.send_to(&out[..m], from).unwrap();
+                }
+            }
+        }
+    });
+    let out = drive(&addr, &["hello"]);
+    done.store(true, Ordering::Relaxed);
+    h.join().unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("version mismatch") && err.contains("speaks protocol v1"), "{err}");
+    // A v1 operator against this robot: a hand-made v1 Hello gets a v1 HelloAck that says
+    // protocol 2 (what a v1 drive prints as "robot speaks protocol version 2").
+    let robot = Robot::start(&["--max-time", "8"]);
+    let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
+    sock.set_read_timeout(Some(Duration::from_millis(500))).unwrap();
+    let mut raw = vec![1u8, 0];
+    raw.extend(1_000u64.to_le_bytes());
+    raw.extend([0, 1]); // Message::Hello (variant 0) { protocol: 1 }
+    let crc = crc32c(&raw);
+    raw.extend(crc.to_le_bytes());
+    let mut hello = cobs_encode(&raw);
+    hello.push(0);
+    // Two Hellos: the answer (larger than one v1 Hello) fits the budget of the bytes received.
+    sock.send_to(&hello, robot.socket_addr()).unwrap();
+    sock.send_to(&hello, robot.socket_addr()).unwrap();
+    let mut buf = [0u8; 512];
+    let (n, _) = sock.recv_from(&mut buf).expect("a version-mismatch answer");
+    assert!(n <= 2 * hello.len());
+    let dec = cobs_decode(&buf[..n - 1]);
+    assert_eq!(dec[0], 1, "a v1 frame");
+    assert_eq!(crc32c(&dec[..dec.len() - 4]).to_le_bytes(), dec[dec.len() - 4..]);
+    // v1 body: variant 1 (HelloAck), then RobotInfo.protocol.
+    assert_eq!((dec[10], dec[11]), (1, 2), "HelloAck with protocol 2: {dec:?}");
+    let s = robot.summary();
+    assert_eq!(s["link"]["version"], 2);
+}
+
+fn crc32c(b: &[u8]) -> u32 {
+    // CRC-32C (Castagnoli), bitwise: independent of the library under test.
+    let mut c = !0u32;
+    for &x in b {
+        c ^= x as u32;
+        for _ in 0..8 {
+            c = if c & 1 != 0 { (c >> 1) ^ 0x82F6_3B78 } else { c >> 1 };
+        }
+    }
+    !c
+}
+
+fn cobs_encode(b: &[u8]) -> Vec<u8> {
+    let mut out = vec![0u8];
+    let mut code_at = 0;
+    for &x in b {
+        if x == 0 {
+            out[code_at] = (out.len() - code_at) as u8;
+            code_at = out.len();
+            out.push(0);
+        } else {
+            out.push(x);
+        }
+    }
+    out[code_at] = (out.len() - code_at) as u8;
+    out
+}
+
+fn cobs_decode(b: &[u8]) -> Vec<u8> {
+    let mut out = vec![];
+    let mut i = 0;
+    while i < b.len() {
+        let code = b[i] as usize;
+        out.extend(&b[i + 1..i + code]);
+        i += code;
+        if code < 255 && i < b.len() {
+            out.push(0);
+        }
+    }
+    out
 }

@@ -135,7 +135,7 @@ fn velocity_stop_estop_and_clear() {
     let out = drive(&a, &["hello"]);
     assert!(
         String::from_utf8_lossy(&out.stdout)
-            .contains("protocol 1, model Sphere, plan capacity 4096")
+            .contains("protocol 2, model Sphere, plan capacity 4096")
     );
     let out = drive(
         &a,
@@ -184,13 +184,18 @@ fn wrong_key_is_dropped_and_nothing_moves() {
     let k2 = dir.join("other.key");
     std::fs::write(&k1, "0123456789abcdef0123456789abcdef\n").unwrap();
     std::fs::write(&k2, "fedcba9876543210fedcba9876543210\n").unwrap();
-    let robot = Robot::start(&["--max-time", "12", "--key", k1.to_str().unwrap()]);
+    // 6 s of wall time: each rejected drive waits its 2 s timeout.
+    let robot = Robot::start(&["--max-time", "48", "--key", k1.to_str().unwrap()]);
     let a = robot.addr.clone();
     // Right key: works.
     let out = drive(&a, &["--key", k1.to_str().unwrap(), "hello"]);
     assert!(String::from_utf8_lossy(&out.stdout).contains("authenticated"));
-    // Wrong key and no key: every command is dropped; the robot never moves.
-    for key in [Some(&k2), None] {
+    // Wrong key and no key: the Hello is dropped, no session opens, the robot never moves, and
+    // drive names the cause (the robot answers its v1 probe, so it is there and speaks v2).
+    for (key, cause) in [
+        (Some(&k2), "--key is not the robot's key"),
+        (None, "requires a key"),
+    ] {
         let mut args = vec![];
         if let Some(k) = key {
             args.extend(["--key", k.to_str().unwrap()]);
@@ -198,17 +203,24 @@ fn wrong_key_is_dropped_and_nothing_moves() {
         args.extend(["velocity", "--vx", "0.3", "--for", "0.3"]);
         let out = drive(&a, &args);
         assert!(!out.status.success());
-        assert!(String::from_utf8_lossy(&out.stderr).contains("no answer from the robot"));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("authentication failed") && err.contains(cause),
+            "{err}"
+        );
     }
     let s = robot.summary();
     println!("{s}");
     let auth = s["link"]["auth"].as_u64().unwrap();
+    let version = s["link"]["version"].as_u64().unwrap();
     assert!(auth >= 20, "auth drops {auth}");
+    assert!(version >= 2, "the v1 probes: {version}");
     assert_eq!(
         s["link"]["dropped"].as_u64().unwrap(),
-        auth,
-        "every drop is an auth drop"
+        auth + version,
+        "every drop is an auth drop or a v1 probe"
     );
+    assert_eq!(s["link"]["sessions"], 1, "only the right key opened a session");
     assert_eq!(s["true_pose"][0], 0.0);
     assert_eq!(s["mode"], "idle");
 }

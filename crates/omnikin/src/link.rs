@@ -916,13 +916,26 @@ pub enum RobotEvent {
     },
 }
 
-/// The robot's end of the link: the active session, at most one pending, the counters.
+/// Handshakes a robot keeps pending at once: a legitimate handshake completes unless this many
+/// other Hellos (a flood of spoofed or replayed ones) arrive within its round trip.
+pub const PENDING_SLOTS: usize = 4;
+
+/// The robot's end of the link: the active session, up to [`PENDING_SLOTS`] pending ones, the
+/// counters.
 #[derive(Clone, Debug)]
 pub struct RobotLink {
     key: Option<Key>,
     active: Option<Session>,
-    pending: Option<Pending>,
+    /// The client nonce of the Hello that opened the active session.
+    active_nonce: [u8; NONCE_LEN],
+    pending: [Option<Pending>; PENDING_SLOTS],
+    /// Hellos answered, and the count at which each slot was filled (the oldest is replaced).
+    hellos: u64,
+    pending_since: [u64; PENDING_SLOTS],
     counters: LinkCounters,
+    /// Set by `receive_inner`: the frame was a repeat of the pending Hello (answered again,
+    /// counted as a replay).
+    repeat: bool,
     ack_seq: u64,
     estop_seq: u64,
     v1_seq: u64,
@@ -934,8 +947,12 @@ impl RobotLink {
         Self {
             key,
             active: None,
-            pending: None,
+            active_nonce: [0; NONCE_LEN],
+            pending: [const { None }; PENDING_SLOTS],
+            hellos: 0,
+            pending_since: [0; PENDING_SLOTS],
             counters: LinkCounters::default(),
+            repeat: false,
             ack_seq: 0,
             estop_seq: 0,
             v1_seq: 1,
@@ -957,9 +974,12 @@ impl RobotLink {
         self.active.as_ref().map(|s| s.id)
     }
 
-    /// The pending (handshaken, not yet confirmed) session's id, if any.
+    /// The newest pending (handshaken, not yet confirmed) session's id, if any.
     pub fn pending_id(&self) -> Option<u64> {
-        self.pending.as_ref().map(|p| p.session.id)
+        (0..PENDING_SLOTS)
+            .filter(|&i| self.pending[i].is_some())
+            .max_by_key(|&i| self.pending_since[i])
+            .and_then(|i| self.pending[i].as_ref().map(|p| p.session.id))
     }
 
     /// Counts a frame dropped before decoding (cut off at the end of a datagram, or longer
@@ -971,7 +991,10 @@ impl RobotLink {
     /// Decodes one frame (the bytes between two delimiters, without them; decoded in place)
     /// and runs the session logic; `info` goes into a HelloAck, `rng` makes its nonce, `reply`
     /// (at least [`MAX_FRAME`] bytes) receives the frame to send back, if any (see
-    /// [`RobotEvent`]). Counts the frame in exactly one counter.
+    /// [`RobotEvent`]). Counts the frame in exactly one counter: a repeat of the pending
+    /// Hello (a retransmission, a duplicate) is answered again — the same answer, so the
+    /// handshake survives a lost HelloAck — but counted in [`LinkCounters::replay`]; a repeat
+    /// of the Hello that opened the active session is not answered.
     ///
     /// # Errors
     /// [`DropReason`]: the frame was dropped and must not be acted upon.
@@ -982,8 +1005,13 @@ impl RobotLink {
         rng: &mut impl Entropy,
         reply: &mut [u8],
     ) -> Result<RobotEvent, DropReason> {
+        self.repeat = false;
         let r = self.receive_inner(frame, info, rng, reply);
-        self.counters.count(&r);
+        if self.repeat {
+            self.counters.replay = self.counters.replay.saturating_add(1);
+        } else {
+            self.counters.count(&r);
+        }
         r
     }
 
@@ -1006,14 +1034,28 @@ impl RobotLink {
                 if hello.protocol != PROTOCOL_VERSION {
                     return Err(DropReason::Version(hello.protocol));
                 }
+                if self.active.is_some() && hello.client_nonce == self.active_nonce {
+                    return Err(DropReason::Replay(0));
+                }
                 // A retransmitted Hello gets the same answer (the same pending session);
-                // another Hello replaces the pending one.
-                let robot_nonce = match &self.pending {
-                    Some(pd) if pd.client_nonce == hello.client_nonce => pd.robot_nonce,
-                    _ => {
+                // another Hello takes a free slot, or replaces the oldest pending one.
+                let same = self
+                    .pending
+                    .iter()
+                    .position(|p| p.as_ref().is_some_and(|p| p.client_nonce == hello.client_nonce));
+                let (slot, robot_nonce) = match same {
+                    Some(i) => {
+                        self.repeat = true;
+                        (i, self.pending[i].as_ref().map_or([0; NONCE_LEN], |p| p.robot_nonce))
+                    }
+                    None => {
                         let mut rn = [0u8; NONCE_LEN];
                         rng.fill(&mut rn).map_err(|_| DropReason::Entropy)?;
-                        rn
+                        let free = self.pending.iter().position(Option::is_none);
+                        let oldest = (0..PENDING_SLOTS)
+                            .min_by_key(|&i| self.pending_since[i])
+                            .unwrap_or(0);
+                        (free.unwrap_or(oldest), rn)
                     }
                 };
                 let session = Session::derive(self.key.as_ref(), &hello.client_nonce, &robot_nonce);
@@ -1036,7 +1078,11 @@ impl RobotLink {
                 if n - 1 > received {
                     return Err(DropReason::Malformed);
                 }
-                self.pending = Some(Pending {
+                if same.is_none() {
+                    self.hellos += 1;
+                    self.pending_since[slot] = self.hellos;
+                }
+                self.pending[slot] = Some(Pending {
                     session,
                     client_nonce: hello.client_nonce,
                     robot_nonce,
@@ -1056,12 +1102,23 @@ impl RobotLink {
                         replaced: None,
                     });
                 }
-                let Some(pd) = self.pending.as_mut().filter(|pd| pd.session.id == id) else {
+                let Some(slot) = self
+                    .pending
+                    .iter()
+                    .position(|pd| pd.as_ref().is_some_and(|pd| pd.session.id == id))
+                else {
                     return Err(DropReason::Session(id));
                 };
                 // Key confirmation: the new operator proved it holds K_s.
-                let (seq, msg) = pd.session.open(&p)?;
-                let new = self.pending.take().map(|pd| pd.session);
+                let (seq, msg) = match self.pending[slot].as_mut() {
+                    Some(pd) => pd.session.open(&p)?,
+                    None => return Err(DropReason::Session(id)),
+                };
+                // The other pending handshakes stay (they may still confirm and take over).
+                let new = self.pending[slot].take().map(|pd| {
+                    self.active_nonce = pd.client_nonce;
+                    pd.session
+                });
                 let replaced = match self.active.take() {
                     Some(mut old) => old
                         .encode(&Message::SessionEnd(EndReason::TakenOver), reply)

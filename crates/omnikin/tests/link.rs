@@ -621,10 +621,17 @@ fn takeover_only_through_a_valid_handshake() {
     let mut a = OperatorLink::new(Some(k.clone()));
     let rec = connect(&mut a, &mut bot, &mut rng);
     let first = bot.link.session_id().unwrap();
-    // A replay of A's own handshake: a pending session nobody can confirm.
+    // A replay of A's own handshake is a replay: not answered, no pending session.
     for f in &rec {
-        let _ = bot.rx(f);
+        let (r, reply) = bot.rx(f);
+        assert!(matches!(r, Err(DropReason::Replay(_))), "{r:?}");
+        assert!(reply.is_empty());
     }
+    assert_eq!(bot.link.pending_id(), None);
+    // A Hello recorded from someone else opens a pending session nobody can confirm.
+    let mut z = OperatorLink::new(Some(k.clone()));
+    let zh = op_hello(&mut z, &mut rng);
+    assert!(matches!(bot.rx(&zh).0, Ok(RobotEvent::Hello(_))));
     assert_eq!(bot.link.session_id(), Some(first));
     assert!(bot.link.pending_id().is_some_and(|p| p != first));
     assert!(bot.rx(&op_tx(&mut a, &Message::Heartbeat)).0.is_ok());
@@ -685,6 +692,11 @@ fn a_retransmitted_hello_gets_the_same_session() {
     assert!(op_rx(&mut op, &a1).is_ok());
     assert_eq!(op_rx(&mut op, &a2), Err(DropReason::Replay(0)));
     assert!(bot.rx(&op_tx(&mut op, &Message::Heartbeat)).0.is_ok());
+    let c = bot.link.counters();
+    assert_eq!((c.ok, c.replay), (2, 1), "the repeat is answered but counted as a replay");
+    // Once the session is open, the same Hello is not answered at all.
+    let (r, reply) = bot.rx(&h1);
+    assert_eq!((r, reply.len()), (Err(DropReason::Replay(0)), 0));
     // The answer to someone else's Hello is not this operator's.
     let mut other = OperatorLink::new(Some(key()));
     let _ = op_hello(&mut other, &mut rng);
@@ -868,4 +880,28 @@ fn a_session_survives_loss_reordering_and_duplication() {
     );
     assert_eq!(c.replay, dup);
     assert_eq!(c.dropped(), dup);
+}
+
+#[test]
+fn a_flood_of_hellos_within_the_round_trip_is_bounded_by_the_pending_slots() {
+    use omnikin::link::PENDING_SLOTS;
+    for flood in [PENDING_SLOTS - 1, PENDING_SLOTS] {
+        let mut rng = TestRng(71);
+        let mut bot = Bot::new(None, 72);
+        let mut op = OperatorLink::new(None);
+        let hello = op_hello(&mut op, &mut rng);
+        let (_, ack) = bot.rx(&hello);
+        // Other Hellos arrive before the operator's key confirmation.
+        for _ in 0..flood {
+            let h = op_hello(&mut OperatorLink::new(None), &mut rng);
+            assert!(matches!(bot.rx(&h).0, Ok(RobotEvent::Hello(_))));
+        }
+        assert!(op_rx(&mut op, &ack).is_ok());
+        let r = bot.rx(&op_tx(&mut op, &Message::Heartbeat)).0;
+        if flood < PENDING_SLOTS {
+            assert!(r.is_ok(), "{flood} other Hellos: {r:?}");
+        } else {
+            assert!(matches!(r, Err(DropReason::Session(_))), "{r:?}");
+        }
+    }
 }
