@@ -43,7 +43,16 @@ build() {
       >/dev/null 2>&1 || true
   fi
   command -v c++ >/dev/null 2>&1 || unavailable "no C++ compiler (c++) to build libFuzzer"
-  cargo fetch --locked --quiet || unavailable "cannot fetch the fuzz crate's dependencies"
+  local out
+  if ! out=$(cargo fetch --locked 2>&1); then
+    echo "$out" >&2
+    # A stale lock file is this repository's fault, not the machine's.
+    if grep -q "cannot update the lock file" <<<"$out"; then
+      echo "fuzz/Cargo.lock is out of date: run cargo once without --locked in fuzz/" >&2
+      exit 1
+    fi
+    unavailable "cannot fetch the fuzz crate's dependencies"
+  fi
   local t0=$SECONDS
   RUSTFLAGS="$FLAGS" cargo build --locked --release --target "$TRIPLE" --bins --quiet \
     --config 'profile.release.debug="line-tables-only"'

@@ -3,12 +3,13 @@
 //! so that fuzzing starts past the checks a random input never passes.
 
 use omnikin::link::{
-    Endpoint, Key, LinkCounters, MAX_FRAME, Message, PROTOCOL_VERSION, RobotInfo, RobotKind,
-    Telemetry, WirePoint,
+    EndReason, Hello, HelloAck, KIND_TAGGED, Key, LinkCounters, MAX_FRAME, MacKey, Message,
+    NONCE_LEN, PROTOCOL_VERSION, RobotInfo, RobotKind, Telemetry, WirePoint, encode_hello,
+    encode_message,
 };
 use omnikin::runtime::{Faults, Frame, Mode, PlanStatus};
 
-use crate::link::{FUZZ_KEY, cycles, record};
+use crate::link::{FUZZ_KEY, cycles, derive, hello_record, record};
 
 /// One seed: target, file name, content.
 pub type Seed = (&'static str, String, Vec<u8>);
@@ -34,7 +35,7 @@ fn point(t: f32) -> WirePoint {
 fn telemetry() -> Telemetry {
     Telemetry {
         time_us: 1_234_567,
-        mode: Mode::Velocity,
+        mode: Mode::EStop,
         faults: Faults(0),
         fault_history: Faults(4),
         pose: [0.5, -0.25, 1.5],
@@ -61,15 +62,17 @@ fn telemetry() -> Telemetry {
             ok: 40,
             framing: 1,
             crc: 2,
-            version: 0,
             auth: 3,
             replay: 1,
-            malformed: 0,
+            session: 2,
+            ..LinkCounters::default()
         },
+        ack_seq: 41,
+        estop_seq: 39,
     }
 }
 
-/// One message of every type of the protocol.
+/// One message of every type of a session.
 pub fn messages() -> Vec<(&'static str, Message)> {
     let mut chunk = heapless::Vec::new();
     for k in 0..3 {
@@ -80,23 +83,6 @@ pub fn messages() -> Vec<(&'static str, Message)> {
         let _ = full.push(point(0.1 * k as f32));
     }
     vec![
-        (
-            "hello",
-            Message::Hello {
-                protocol: PROTOCOL_VERSION,
-            },
-        ),
-        (
-            "hello-ack",
-            Message::HelloAck(RobotInfo {
-                protocol: PROTOCOL_VERSION,
-                kind: RobotKind::Caster,
-                plan_capacity: 64,
-                rate_hz: 100.0,
-                watchdog: 0.5,
-                authenticated: true,
-            }),
-        ),
         ("heartbeat", Message::Heartbeat),
         (
             "velocity-robot",
@@ -146,6 +132,7 @@ pub fn messages() -> Vec<(&'static str, Message)> {
             },
         ),
         ("telemetry", Message::Telemetry(telemetry())),
+        ("session-end", Message::SessionEnd(EndReason::TakenOver)),
     ]
 }
 
@@ -177,18 +164,16 @@ fn plan_upload(id: u16, len: u16, first_seq: u64) -> Vec<u8> {
     out
 }
 
-/// Structured inputs of the `link_session` target (see [`crate::link`]).
+/// Structured inputs of the `link_session` target (see [`crate::link`]): a handshake, then
+/// session frames of every message type, driving, plan upload, e-stop, replays, a second
+/// operator taking over, and each corruption the format can express.
 pub fn link_session() -> Vec<Seed> {
     let mut out = Vec::new();
-    let hello = record(
-        &Message::Hello {
-            protocol: PROTOCOL_VERSION,
-        },
-        1,
-    );
+    let hello = hello_record(0x11);
+    let hb = |seq| record(&Message::Heartbeat, seq);
     for setup in [0u8, 1, 2, 3, 4, 5, 8, 9, 11] {
         for (name, m) in messages() {
-            let s = session(setup, &[&hello, &record(&m, 2), &cycles(3)]);
+            let s = session(setup, &[&hello, &hb(1), &record(&m, 2), &cycles(3)]);
             out.push(("link_session", format!("seed-{setup}-{name}"), s));
         }
         let velocity = record(
@@ -201,11 +186,11 @@ pub fn link_session() -> Vec<Seed> {
             2,
         );
         // Drive, keep alive, then let the watchdog stop the robot.
-        let hb = |seq| record(&Message::Heartbeat, seq);
         let s = session(
             setup,
             &[
                 &hello,
+                &hb(1),
                 &velocity,
                 &cycles(10),
                 &hb(3),
@@ -223,7 +208,7 @@ pub fn link_session() -> Vec<Seed> {
             setup,
             &[
                 &hello,
-                &plan_upload(7, 11, 2),
+                &plan_upload(7, 11, 1),
                 &cycles(16),
                 &plan_upload(8, 3, 20),
                 &cycles(8),
@@ -250,59 +235,150 @@ pub fn link_session() -> Vec<Seed> {
             ],
         );
         out.push(("link_session", format!("seed-{setup}-replay"), s));
+        // A second operator takes over; the first one's frames are then refused; the first
+        // one's Hello, repeated, opens a new session; five Hellos overflow the pending slots.
+        let mut old = vec![1u8 | 64, 1];
+        old.extend_from_slice(&9u64.to_le_bytes());
+        old.extend_from_slice(&[1, 0, 0]);
+        let s = session(
+            setup,
+            &[
+                &hello,
+                &hb(1),
+                &record(&Message::EStop, 2),
+                &cycles(2),
+                &hello_record(0x22),
+                &hello_record(0x22),
+                &hb(1),
+                &cycles(2),
+                &old,
+                &hello_record(0x11),
+                &hello_record(0x33),
+                &hello_record(0x44),
+                &hello_record(0x55),
+                &hello_record(0x66),
+                &hb(1),
+                &cycles(1),
+            ],
+        );
+        out.push(("link_session", format!("seed-{setup}-takeover"), s));
     }
-    // Each corruption the spec can express, on a heartbeat: CRC, tag, AUTH flag, version,
-    // flags byte, and junk before and between frames.
-    let hb = record(&Message::Heartbeat, 9);
-    let mutate = |bit: u8, extra: &[u8]| {
-        let mut r = vec![hb[0] | bit];
-        r.extend_from_slice(&hb[1..9]);
-        r.extend_from_slice(extra);
-        r.extend_from_slice(&hb[9..]);
+    // Each corruption, on a Hello and on a heartbeat: CRC, tag, tag presence, PSK instead of
+    // K_s, an unpadded Hello, another protocol, failing entropy, junk; and an arbitrary frame.
+    let hbr = hb(1);
+    let flip = |r: &[u8], bits: u8| {
+        let mut r = r.to_vec();
+        r[0] |= bits;
         r
     };
+    let mut unpadded = flip(&hello, 128);
+    unpadded.extend_from_slice(&[PROTOCOL_VERSION, 0]);
+    let mut v3 = flip(&hello, 128);
+    v3.extend_from_slice(&[3, 46]);
+    let mut any = vec![2u8, PROTOCOL_VERSION, 3 | KIND_TAGGED];
+    any.extend_from_slice(&5u64.to_le_bytes());
+    any.extend_from_slice(&1u64.to_le_bytes());
+    any.extend_from_slice(&[1, 1, 0, 0]);
     for setup in [0u8, 1, 2, 3] {
-        let cases: [(&str, Vec<u8>); 6] = [
-            ("crc", mutate(8, &[])),
-            ("tag", mutate(16, &[])),
-            ("auth-flag", mutate(32, &[])),
-            ("version", mutate(64, &[2])),
-            ("flags", mutate(128, &[0xff])),
+        let cases: [(&str, Vec<u8>); 12] = [
+            ("hello-crc", flip(&hello, 8)),
+            ("hello-tag", flip(&hello, 16)),
+            ("hello-tag-presence", flip(&hello, 32)),
+            ("hello-entropy", flip(&hello, 64)),
+            ("hello-unpadded", unpadded.clone()),
+            ("hello-v3", v3.clone()),
+            ("crc", [&hello[..], &flip(&hbr, 8)].concat()),
+            ("tag", [&hello[..], &flip(&hbr, 16)].concat()),
+            ("tag-presence", [&hello[..], &flip(&hbr, 32)].concat()),
+            ("psk-tag", [&hello[..], &flip(&hbr, 128)].concat()),
+            ("any", [&hello[..], &any].concat()),
             (
                 "junk",
-                [&[3u8, 4, 1, 2, 3, 0][..], &[7, 2, 9, 9][..], &hb[..]].concat(),
+                [
+                    &hello[..],
+                    &[4u8, 4, 1, 2, 3, 0][..],
+                    &[12, 2, 9, 9][..],
+                    &hbr[..],
+                ]
+                .concat(),
             ),
         ];
         for (name, r) in cases {
             out.push((
                 "link_session",
                 format!("seed-{setup}-bad-{name}"),
-                session(setup, &[&hello, &r]),
+                session(setup, &[&r]),
             ));
         }
     }
     out
 }
 
-/// Wire frames (as a receiver reads them) of every message type, keyed and not, single and
-/// back to back, for the raw `frame_decoder` target.
+/// The robot nonce of the raw target's robot (its entropy source fills with 0x5a).
+const RAW_ROBOT_NONCE: [u8; NONCE_LEN] = [0x5a; NONCE_LEN];
+
+/// Wire frames as a robot reads them, keyed and not, for the raw `frame_decoder` target: a
+/// Hello, then session frames of every message type in the session that Hello opens with the
+/// target's fixed robot nonce (so they are accepted), singly and as one stream; a HelloAck.
 pub fn frame_decoder() -> Vec<Seed> {
     let key = Key::new(FUZZ_KEY).expect("key");
     let mut out = Vec::new();
     for (k, kname) in [(None, "plain"), (Some(key), "keyed")] {
-        let mut end = Endpoint::new(k, 1);
-        let mut stream = Vec::new();
-        for (name, m) in messages() {
-            let mut buf = [0u8; MAX_FRAME];
-            let n = end.encode(&m, &mut buf).expect("seed message encodes");
-            out.push((
-                "frame_decoder",
-                format!("seed-{kname}-{name}"),
-                buf[..n].to_vec(),
-            ));
+        let nonce = [0x11; NONCE_LEN];
+        let mut buf = [0u8; MAX_FRAME];
+        let hello = Hello {
+            protocol: PROTOCOL_VERSION,
+            client_nonce: nonce,
+        };
+        let n = encode_hello(&hello, k.as_ref(), &mut buf).expect("a Hello encodes");
+        let hello = buf[..n].to_vec();
+        out.push((
+            "frame_decoder",
+            format!("seed-{kname}-hello"),
+            hello.clone(),
+        ));
+        let psk: &[u8] = if k.is_some() { FUZZ_KEY } else { &[] };
+        let (id, ks) = derive(psk, &nonce, &RAW_ROBOT_NONCE);
+        let mac = k.as_ref().map(|_| MacKey::new(&ks));
+        let mut stream = hello.clone();
+        for (seq, (name, m)) in (1u64..).zip(messages()) {
+            let n = encode_message(id, seq, &m, mac.as_ref(), &mut buf).expect("encodes");
+            let frame = [&hello[..], &buf[..n]].concat();
+            out.push(("frame_decoder", format!("seed-{kname}-{name}"), frame));
             stream.extend_from_slice(&buf[..n]);
         }
         out.push(("frame_decoder", format!("seed-{kname}-stream"), stream));
+        // The answer an operator reads (the raw target feeds its operator end too).
+        let ack = HelloAck {
+            info: RobotInfo {
+                protocol: PROTOCOL_VERSION,
+                kind: RobotKind::Caster,
+                plan_capacity: 64,
+                rate_hz: 100.0,
+                watchdog: 0.5,
+                authenticated: k.is_some(),
+            },
+            client_nonce: nonce,
+            robot_nonce: RAW_ROBOT_NONCE,
+        };
+        let n = omnikin::link::encode_frame_with(
+            omnikin::link::Kind::HelloAck,
+            id,
+            0,
+            k.as_ref().map(Key::mac),
+            |b| {
+                postcard::to_slice(&ack, b)
+                    .map(|s| s.len())
+                    .map_err(|_| omnikin::link::EncodeError::TooLarge)
+            },
+            &mut buf,
+        )
+        .expect("a HelloAck encodes");
+        out.push((
+            "frame_decoder",
+            format!("seed-{kname}-hello-ack"),
+            buf[..n].to_vec(),
+        ));
     }
     out
 }

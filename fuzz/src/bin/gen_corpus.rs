@@ -8,13 +8,23 @@
 use std::path::PathBuf;
 
 use libfuzzer_sys as _;
-use omnikin::link::{Key, parse_frame};
+use omnikin::link::{Key, MAX_FRAME, RobotLink, parse_frame};
+use omnikin::runtime::hal::{Entropy, EntropyError};
 use omnikin_fuzz::alloc::Counting;
 use omnikin_fuzz::link::{FUZZ_KEY, run_session};
 use omnikin_fuzz::{seeds, text};
 
 #[global_allocator]
 static ALLOC: Counting = Counting;
+
+/// The raw target's entropy source.
+struct Fixed;
+impl Entropy for Fixed {
+    fn fill(&mut self, buf: &mut [u8]) -> Result<(), EntropyError> {
+        buf.fill(0x5a);
+        Ok(())
+    }
+}
 
 fn ok<T, E: std::fmt::Display>(r: Result<T, E>) -> Result<(), String> {
     r.map(|_| ()).map_err(|e| e.to_string())
@@ -25,10 +35,19 @@ fn valid(target: &str, name: &str, data: &[u8]) -> Result<(), String> {
     let s = || String::from_utf8_lossy(data).into_owned();
     match target {
         "frame_decoder" => {
-            let key = Key::new(FUZZ_KEY).expect("key");
-            let key = name.contains("keyed").then_some(&key);
+            // Every frame parses; the robot (entropy 0x5a, as in the target) takes all of
+            // them but a HelloAck, which is for the operator.
+            let keyed = name.contains("keyed");
+            let key = keyed.then(|| Key::new(FUZZ_KEY).expect("key"));
+            let mut robot = RobotLink::new(key);
+            let info = omnikin_fuzz::link::raw_info();
+            let mut reply = [0u8; MAX_FRAME];
             for frame in data.split(|&b| b == 0).filter(|f| !f.is_empty()) {
-                ok(parse_frame(&mut frame.to_vec(), key))?;
+                ok(parse_frame(&mut frame.to_vec()))?;
+                let r = robot.receive(&mut frame.to_vec(), &info, &mut Fixed, &mut reply);
+                if !name.contains("hello-ack") {
+                    ok(r)?;
+                }
             }
             Ok(())
         }
