@@ -7,6 +7,7 @@
 #   bench/instructions.sh                 # control cycles + kinematics calls, libm (no_std) math
 #   bench/instructions.sh --std-math      # the same with the platform libm (glibc) sin/cos
 #   bench/instructions.sh caster caster-inverse   # only these targets
+#   bench/instructions.sh link-open link-keyed    # link codec: one command + one telemetry frame
 #
 # Needs valgrind. Builds the driver (crate bench/rust-harness) in release mode with --locked.
 set -euo pipefail

@@ -514,9 +514,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
             }
             println!("{} telemetry frames written to {}", s.frames, out.display());
             if s.frames == 0 {
-                bail!(
-                    "no telemetry of this session arrived in {duration} s: nothing was recorded"
-                );
+                bail!("no telemetry of this session arrived in {duration} s: nothing was recorded");
             }
             s.print_status();
         }

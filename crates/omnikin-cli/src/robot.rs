@@ -237,7 +237,7 @@ pub fn run(a: &RobotArgs) -> Result<()> {
                             robot_link.session_id().unwrap_or(0),
                             f.from.map(|a| format!(" by {a}")).unwrap_or_default(),
                             if replaced.is_some() {
-                                " (took over from the previous operator)"
+                                " (replacing the previous session, whose operator is told)"
                             } else {
                                 ""
                             }
@@ -373,7 +373,10 @@ impl AmplificationBudget {
     /// Whether an `n`-byte answer to `to` fits its budget and the rate limit (and books it).
     fn allow_reply(&mut self, to: Option<SocketAddr>, n: usize) -> bool {
         let now = Instant::now();
-        if self.last_reply.is_some_and(|t| now.duration_since(t) < Self::MIN_GAP) {
+        if self
+            .last_reply
+            .is_some_and(|t| now.duration_since(t) < Self::MIN_GAP)
+        {
             return false;
         }
         match self.peers.get_mut(&to) {

@@ -259,7 +259,13 @@ fn corrupt_truncated_duplicated_and_replayed_frames_are_dropped_and_counted() {
     let out = drive(&addr, &["plan", plan_csv.to_str().unwrap()]);
     stop.store(true, Ordering::Relaxed);
     let st = h.join().unwrap();
-    let st2 = (st.forwarded, st.corrupted, st.truncated, st.duplicated, st.replayed);
+    let st2 = (
+        st.forwarded,
+        st.corrupted,
+        st.truncated,
+        st.duplicated,
+        st.replayed,
+    );
     println!("proxy: forwarded, corrupted, truncated, duplicated, replayed {st2:?}");
     assert!(out.status.success());
     let s = robot.summary();
@@ -268,7 +274,10 @@ fn corrupt_truncated_duplicated_and_replayed_frames_are_dropped_and_counted() {
     assert!(st.corrupted > 20 && st.truncated > 20 && st.duplicated > 20 && st.replayed > 20);
     // Every injected fault is one counted drop, in the right counters; nothing else dropped.
     // A corrupted byte can also land in the session id (then it is a session drop).
-    assert_eq!(framing + crc + malformed + session, st.corrupted + st.truncated);
+    assert_eq!(
+        framing + crc + malformed + session,
+        st.corrupted + st.truncated
+    );
     assert!(framing >= st.truncated);
     assert_eq!(version + auth, 0);
     // Duplicates and replays are replays; a retransmitted Hello (answered again while the
@@ -660,13 +669,24 @@ fn observation_1_a_recorded_keyed_session_replayed_after_a_restart_is_rejected()
         Arc::new(AtomicBool::new(false)),
         Arc::new(AtomicBool::new(false)),
     );
-    let (addr, h) = proxy(robot.socket_addr(), FaultModel::default(), cut, stop.clone());
-    let out = drive(&addr, &["--key", k, "velocity", "--vx", "0.3", "--for", "0.5"]);
+    let (addr, h) = proxy(
+        robot.socket_addr(),
+        FaultModel::default(),
+        cut,
+        stop.clone(),
+    );
+    let out = drive(
+        &addr,
+        &["--key", k, "velocity", "--vx", "0.3", "--for", "0.5"],
+    );
     assert!(out.status.success());
     stop.store(true, Ordering::Relaxed);
     let st = h.join().unwrap();
     let s = robot.summary();
-    assert!(s["true_pose"][0].as_f64().unwrap() > 0.05, "the recorded session moved");
+    assert!(
+        s["true_pose"][0].as_f64().unwrap() > 0.05,
+        "the recorded session moved"
+    );
     // The robot restarts with the same key; the recording is replayed at its pace.
     let robot = Robot::start(&["--max-time", "12", "--key", k]);
     let (sent, got) = replay_from_stranger(
@@ -683,9 +703,16 @@ fn observation_1_a_recorded_keyed_session_replayed_after_a_restart_is_rejected()
     // The recorded Hello (and its retransmissions) is authentic: it is answered, no larger
     // than itself; every session frame belongs to a session this robot never had.
     assert!(ok >= 1 && ok + replay <= 3, "{s}");
-    assert_eq!(ok + replay + session, sent.0, "every replayed frame counted");
+    assert_eq!(
+        ok + replay + session,
+        sent.0,
+        "every replayed frame counted"
+    );
     assert!(session >= 40, "{s}");
-    assert!(got.0 <= ok + replay && got.1 <= sent.1, "no telemetry to the replayer");
+    assert!(
+        got.0 <= ok + replay && got.1 <= sent.1,
+        "no telemetry to the replayer"
+    );
 }
 
 #[test]
@@ -737,13 +764,25 @@ fn observation_2_forged_max_seq_and_a_third_partys_heartbeats_change_nothing() {
     // The operator: its telemetry, its commands, no lock-out.
     assert!(out.status.success() && out2.status.success());
     assert!(read_rows(&tele).len() >= 10);
-    assert!(s["true_pose"][0].as_f64().unwrap() > 0.05, "the operator drove");
-    assert_eq!(s["link"]["sessions"], 2, "only the operator's two runs opened sessions");
+    assert!(
+        s["true_pose"][0].as_f64().unwrap() > 0.05,
+        "the operator drove"
+    );
+    assert_eq!(
+        s["link"]["sessions"], 2,
+        "only the operator's two runs opened sessions"
+    );
     // The attacker: no telemetry; at most its Hellos answered, never more bytes than it sent.
     assert!(!got_telemetry);
-    assert!(received.0 <= rounds && received.1 <= sent.1, "{received:?} vs {sent:?}");
+    assert!(
+        received.0 <= rounds && received.1 <= sent.1,
+        "{received:?} vs {sent:?}"
+    );
     let session = s["link"]["session"].as_u64().unwrap();
-    assert!(session >= 2 * rounds - 2, "forged frames counted: {session} for {rounds} rounds");
+    assert!(
+        session >= 2 * rounds - 2,
+        "forged frames counted: {session} for {rounds} rounds"
+    );
 }
 
 #[test]
@@ -768,7 +807,10 @@ fn a_spoofed_hello_gets_one_answer_no_larger_than_itself_and_no_stream() {
     std::thread::sleep(Duration::from_millis(800));
     c.drain();
     println!("sent {:?}, received {:?}", c.sent, c.received);
-    assert_eq!(c.received, after_sending, "nothing after the victim went quiet");
+    assert_eq!(
+        c.received, after_sending,
+        "nothing after the victim went quiet"
+    );
     assert!(c.received.1 <= c.sent.1, "never more bytes than received");
     assert!(c.received.0 <= c.sent.0);
     assert!(c.received.0 >= 5, "the Hellos were answered");
@@ -785,7 +827,12 @@ fn observation_3_a_replayed_estop_confirmation_is_not_accepted() {
         Arc::new(AtomicBool::new(false)),
         Arc::new(AtomicBool::new(false)),
     );
-    let (addr, h) = proxy(robot.socket_addr(), FaultModel::default(), cut, stop.clone());
+    let (addr, h) = proxy(
+        robot.socket_addr(),
+        FaultModel::default(),
+        cut,
+        stop.clone(),
+    );
     let out = drive(&addr, &["estop"]);
     assert!(String::from_utf8_lossy(&out.stdout).contains("mode estop"));
     stop.store(true, Ordering::Relaxed);
@@ -832,7 +879,10 @@ fn observation_3_a_replayed_estop_confirmation_is_not_accepted() {
     let err = String::from_utf8_lossy(&out.stderr);
     println!("{swapped} telemetry frames swapped for recorded ones");
     assert!(swapped > 5);
-    assert!(!out.status.success(), "an old confirmation must not confirm a new e-stop");
+    assert!(
+        !out.status.success(),
+        "an old confirmation must not confirm a new e-stop"
+    );
     assert!(
         !String::from_utf8_lossy(&out.stdout).contains("mode estop"),
         "no status printed from a replayed frame"
@@ -853,10 +903,16 @@ fn a_second_operator_takes_over_only_by_handshake_and_the_first_is_told() {
     let first =
         std::thread::spawn(move || drive_with(&a, "2", &["velocity", "--vx", "0.1", "--for", "3"]));
     std::thread::sleep(Duration::from_millis(700));
-    let second = drive(&robot.addr, &["velocity", "--yaw-rate", "0.2", "--for", "0.3"]);
+    let second = drive(
+        &robot.addr,
+        &["velocity", "--yaw-rate", "0.2", "--for", "0.3"],
+    );
     let first = first.join().unwrap();
     assert!(second.status.success());
-    assert!(!first.status.success(), "the first operator lost its session");
+    assert!(
+        !first.status.success(),
+        "the first operator lost its session"
+    );
     let err = String::from_utf8_lossy(&first.stderr);
     assert!(err.contains("session taken over"), "{err}");
     let s = robot.summary();
@@ -902,12 +958,16 @@ fn version_mismatch_is_named_both_ways() {
     h.join().unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("version mismatch") && err.contains("speaks protocol v1"), "{err}");
+    assert!(
+        err.contains("version mismatch") && err.contains("speaks protocol v1"),
+        "{err}"
+    );
     // A v1 operator against this robot: a hand-made v1 Hello gets a v1 HelloAck that says
     // protocol 2 (what a v1 drive prints as "robot speaks protocol version 2").
     let robot = Robot::start(&["--max-time", "8"]);
     let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
-    sock.set_read_timeout(Some(Duration::from_millis(500))).unwrap();
+    sock.set_read_timeout(Some(Duration::from_millis(500)))
+        .unwrap();
     let mut raw = vec![1u8, 0];
     raw.extend(1_000u64.to_le_bytes());
     raw.extend([0, 1]); // Message::Hello (variant 0) { protocol: 1 }
@@ -923,9 +983,16 @@ fn version_mismatch_is_named_both_ways() {
     assert!(n <= 2 * hello.len());
     let dec = cobs_decode(&buf[..n - 1]);
     assert_eq!(dec[0], 1, "a v1 frame");
-    assert_eq!(crc32c(&dec[..dec.len() - 4]).to_le_bytes(), dec[dec.len() - 4..]);
+    assert_eq!(
+        crc32c(&dec[..dec.len() - 4]).to_le_bytes(),
+        dec[dec.len() - 4..]
+    );
     // v1 body: variant 1 (HelloAck), then RobotInfo.protocol.
-    assert_eq!((dec[10], dec[11]), (1, 2), "HelloAck with protocol 2: {dec:?}");
+    assert_eq!(
+        (dec[10], dec[11]),
+        (1, 2),
+        "HelloAck with protocol 2: {dec:?}"
+    );
     let s = robot.summary();
     assert_eq!(s["link"]["version"], 2);
 }
@@ -936,7 +1003,11 @@ fn crc32c(b: &[u8]) -> u32 {
     for &x in b {
         c ^= x as u32;
         for _ in 0..8 {
-            c = if c & 1 != 0 { (c >> 1) ^ 0x82F6_3B78 } else { c >> 1 };
+            c = if c & 1 != 0 {
+                (c >> 1) ^ 0x82F6_3B78
+            } else {
+                c >> 1
+            };
         }
     }
     !c

@@ -220,7 +220,10 @@ fn wrong_key_is_dropped_and_nothing_moves() {
         auth + version,
         "every drop is an auth drop or a v1 probe"
     );
-    assert_eq!(s["link"]["sessions"], 1, "only the right key opened a session");
+    assert_eq!(
+        s["link"]["sessions"], 1,
+        "only the right key opened a session"
+    );
     assert_eq!(s["true_pose"][0], 0.0);
     assert_eq!(s["mode"], "idle");
 }
@@ -262,6 +265,39 @@ fn bad_arguments_name_the_field() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    // Unauthenticated off loopback: refused unless --insecure, which warns at start-up.
+    let out = Command::new(BIN)
+        .args([
+            "robot",
+            "--sim",
+            "--robot",
+            "sphere-omni",
+            "--listen",
+            "0.0.0.0:0",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("without --key") && err.contains("--insecure"),
+        "{err}"
+    );
+    let out = Command::new(BIN)
+        .args([
+            "robot",
+            "--sim",
+            "--robot",
+            "sphere-omni",
+            "--listen",
+            "0.0.0.0:0",
+        ])
+        .args(["--insecure", "--max-time", "0.05", "--time-scale", "8"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("the link is UNAUTHENTICATED"), "{err}");
     let dir = tmp("badkey");
     let k = dir.join("short.key");
     std::fs::write(&k, "short").unwrap();

@@ -19,7 +19,7 @@
 //! | [`odometry`] | all three: encoder angles → pose (exact SE(2) steps), heading from wheels, gyro or yaw; caster slip residual, sphere shell spin | 000, 001, 003 | — | [`odometry::Odometry::update`] |
 //! | [`ahrs`] | attitude and gyro bias from gyro + accelerometer + magnetometer (Mahony 2008) | 000 | — | [`ahrs::Mahony::update`] |
 //! | [`runtime`] | all three: fixed-rate control loop over hardware traits — limits, desaturation, velocity/trajectory/stop/e-stop modes, watchdog, faults | 000 Fig. 1, 001 | [`runtime::Runtime::cycle`] | odometry |
-//! | [`link`] | all three: operator link — postcard + COBS + CRC-32 frames, versioned, sequenced, optional HMAC-SHA256 tags and replay window | 000 Fig. 1 | — | — |
+//! | [`link`] | all three: operator link — postcard + COBS + CRC-32C frames, versioned; sessions from a PSK handshake with fresh nonces, per-session HMAC-SHA256 key, sequence numbers and replay window | 000 Fig. 1 | — | — |
 //! | [`estimator`] | Kalman filter over (x, y, heading): odometry prediction, delayed camera fixes (WPILib-style replay), χ² gate | 000 | — | [`estimator::PoseEstimator::add_fix`] |
 //!
 //! ```

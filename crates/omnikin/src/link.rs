@@ -85,7 +85,7 @@ pub const MAX_BODY: usize = 320;
 /// Largest raw (un-stuffed) frame: header, body, tag, CRC.
 pub const MAX_RAW: usize = HEADER_LEN + MAX_BODY + TAG_LEN + 4;
 /// Largest frame on the wire, bytes, including the `0x00` delimiter.
-pub const MAX_FRAME: usize = cobs::max_encoding_length(MAX_RAW) + 1;
+pub const MAX_FRAME: usize = cobs_max_len(MAX_RAW) + 1;
 /// Bit 7 of the kind byte: the frame carries a tag.
 pub const KIND_TAGGED: u8 = 0x80;
 /// Body bytes of a Hello (zero-padded) — the largest [`HelloAck`] body, so a robot's answer
@@ -680,7 +680,7 @@ pub fn parse_frame(frame: &mut [u8]) -> Result<Parsed<'_>, DropReason> {
     if frame.is_empty() || frame.len() > MAX_FRAME {
         return Err(DropReason::Framing);
     }
-    let n = cobs::decode_in_place(frame).map_err(|_| DropReason::Framing)?;
+    let n = cobs_decode_in_place(frame).ok_or(DropReason::Framing)?;
     let raw = frame.get(..n).ok_or(DropReason::Framing)?;
     // The shortest frame of any version: v1's 10-byte header, a 1-byte body and the CRC.
     if n < 15 {
@@ -763,12 +763,80 @@ fn stuff(raw: &mut [u8; MAX_RAW], n: usize, out: &mut [u8]) -> Result<usize, Enc
     let crc = CRC.checksum(&raw[..n]);
     raw[n..n + 4].copy_from_slice(&crc.to_le_bytes());
     let n = n + 4;
-    if out.len() < cobs::max_encoding_length(n) + 1 {
+    if out.len() < cobs_max_len(n) + 1 {
         return Err(EncodeError::TooLarge);
     }
-    let m = cobs::try_encode(&raw[..n], out).map_err(|_| EncodeError::TooLarge)?;
+    let m = cobs_encode(&raw[..n], out).ok_or(EncodeError::TooLarge)?;
     out[m] = 0;
     Ok(m + 1)
+}
+
+/// COBS-decodes `buf` in place (one frame, without its delimiter); returns the decoded length,
+/// or `None` for a zero byte or a block running past the end. A byte loop without the `cobs`
+/// crate's per-byte state machine (the link's hottest code: see `bench/instructions.sh
+/// link-open`); property-tested against the `cobs` crate in both directions.
+pub fn cobs_decode_in_place(buf: &mut [u8]) -> Option<usize> {
+    let n = buf.len();
+    let (mut r, mut w) = (0usize, 0usize);
+    while r < n {
+        let code = buf[r] as usize;
+        if code == 0 {
+            return None;
+        }
+        let end = r + code;
+        if end > n {
+            return None;
+        }
+        r += 1;
+        while r < end {
+            let b = buf[r];
+            if b == 0 {
+                return None;
+            }
+            buf[w] = b;
+            w += 1;
+            r += 1;
+        }
+        if code != 0xFF && r < n {
+            buf[w] = 0;
+            w += 1;
+        }
+    }
+    Some(w)
+}
+
+/// COBS-encodes `src` into `out` (no delimiter); returns the encoded length, or `None` when
+/// `out` is shorter than [`cobs_max_len`]`(src.len())`.
+pub fn cobs_encode(src: &[u8], out: &mut [u8]) -> Option<usize> {
+    if out.len() < cobs_max_len(src.len()) {
+        return None;
+    }
+    let (mut code_at, mut w, mut code) = (0usize, 1usize, 1u8);
+    for &b in src {
+        if b == 0 {
+            out[code_at] = code;
+            code_at = w;
+            w += 1;
+            code = 1;
+        } else {
+            out[w] = b;
+            w += 1;
+            code += 1;
+            if code == 0xFF {
+                out[code_at] = code;
+                code_at = w;
+                w += 1;
+                code = 1;
+            }
+        }
+    }
+    out[code_at] = code;
+    Some(w)
+}
+
+/// The longest COBS encoding of `n` bytes: one code byte per started 254-byte block, plus one.
+pub const fn cobs_max_len(n: usize) -> usize {
+    n + n / 254 + 1
 }
 
 fn postcard_body<S: Serialize>(v: &S) -> impl FnOnce(&mut [u8]) -> Result<usize, EncodeError> {
@@ -846,7 +914,12 @@ struct Session {
 }
 
 impl Session {
-    fn derive(psk: Option<&Key>, client: &[u8; NONCE_LEN], robot: &[u8; NONCE_LEN]) -> Self {
+    /// The session id and key `K_s` of a handshake.
+    fn derive(
+        psk: Option<&Key>,
+        client: &[u8; NONCE_LEN],
+        robot: &[u8; NONCE_LEN],
+    ) -> (u64, [u8; 32]) {
         let empty;
         let base = match psk {
             Some(k) => &k.mac,
@@ -860,9 +933,14 @@ impl Session {
         let idb = prk.full(&[b"omnikin-v2 id"]);
         let mut id = [0u8; 8];
         id.copy_from_slice(&idb[..8]);
+        (u64::from_le_bytes(id).max(1), ks)
+    }
+
+    /// A fresh session (keyed MAC state built here, once).
+    fn new(id: u64, ks: &[u8; 32], keyed: bool) -> Self {
         Session {
-            id: u64::from_le_bytes(id).max(1),
-            mac: psk.map(|_| MacKey::new(&ks)),
+            id,
+            mac: keyed.then(|| MacKey::new(ks)),
             tx_seq: 1,
             window: ReplayWindow::default(),
         }
@@ -886,9 +964,12 @@ impl Session {
     }
 }
 
+/// A handshake waiting for its key confirmation: id and `K_s` only (the keyed MAC state is
+/// built when a frame claims the id), so the pending slots stay small.
 #[derive(Clone, Debug)]
 struct Pending {
-    session: Session,
+    id: u64,
+    ks: [u8; 32],
     client_nonce: [u8; NONCE_LEN],
     robot_nonce: [u8; NONCE_LEN],
 }
@@ -979,7 +1060,7 @@ impl RobotLink {
         (0..PENDING_SLOTS)
             .filter(|&i| self.pending[i].is_some())
             .max_by_key(|&i| self.pending_since[i])
-            .and_then(|i| self.pending[i].as_ref().map(|p| p.session.id))
+            .and_then(|i| self.pending[i].as_ref().map(|p| p.id))
     }
 
     /// Counts a frame dropped before decoding (cut off at the end of a datagram, or longer
@@ -1039,14 +1120,19 @@ impl RobotLink {
                 }
                 // A retransmitted Hello gets the same answer (the same pending session);
                 // another Hello takes a free slot, or replaces the oldest pending one.
-                let same = self
-                    .pending
-                    .iter()
-                    .position(|p| p.as_ref().is_some_and(|p| p.client_nonce == hello.client_nonce));
+                let same = self.pending.iter().position(|p| {
+                    p.as_ref()
+                        .is_some_and(|p| p.client_nonce == hello.client_nonce)
+                });
                 let (slot, robot_nonce) = match same {
                     Some(i) => {
                         self.repeat = true;
-                        (i, self.pending[i].as_ref().map_or([0; NONCE_LEN], |p| p.robot_nonce))
+                        (
+                            i,
+                            self.pending[i]
+                                .as_ref()
+                                .map_or([0; NONCE_LEN], |p| p.robot_nonce),
+                        )
                     }
                     None => {
                         let mut rn = [0u8; NONCE_LEN];
@@ -1058,13 +1144,13 @@ impl RobotLink {
                         (free.unwrap_or(oldest), rn)
                     }
                 };
-                let session = Session::derive(self.key.as_ref(), &hello.client_nonce, &robot_nonce);
+                let (id, ks) =
+                    Session::derive(self.key.as_ref(), &hello.client_nonce, &robot_nonce);
                 let ack = HelloAck {
                     info: *info,
                     client_nonce: hello.client_nonce,
                     robot_nonce,
                 };
-                let id = session.id;
                 let n = encode_frame_with(
                     Kind::HelloAck,
                     id,
@@ -1083,7 +1169,8 @@ impl RobotLink {
                     self.pending_since[slot] = self.hellos;
                 }
                 self.pending[slot] = Some(Pending {
-                    session,
+                    id,
+                    ks,
                     client_nonce: hello.client_nonce,
                     robot_nonce,
                 });
@@ -1105,20 +1192,21 @@ impl RobotLink {
                 let Some(slot) = self
                     .pending
                     .iter()
-                    .position(|pd| pd.as_ref().is_some_and(|pd| pd.session.id == id))
+                    .position(|pd| pd.as_ref().is_some_and(|pd| pd.id == id))
                 else {
                     return Err(DropReason::Session(id));
                 };
                 // Key confirmation: the new operator proved it holds K_s.
-                let (seq, msg) = match self.pending[slot].as_mut() {
-                    Some(pd) => pd.session.open(&p)?,
-                    None => return Err(DropReason::Session(id)),
+                let Some(pd) = self.pending[slot].as_ref() else {
+                    return Err(DropReason::Session(id));
                 };
+                let mut session = Session::new(id, &pd.ks, self.key.is_some());
+                let (seq, msg) = session.open(&p)?;
                 // The other pending handshakes stay (they may still confirm and take over).
-                let new = self.pending[slot].take().map(|pd| {
+                if let Some(pd) = self.pending[slot].take() {
                     self.active_nonce = pd.client_nonce;
-                    pd.session
-                });
+                }
+                let new = Some(session);
                 let replaced = match self.active.take() {
                     Some(mut old) => old
                         .encode(&Message::SessionEnd(EndReason::TakenOver), reply)
@@ -1339,12 +1427,12 @@ impl OperatorLink {
                 };
                 match &self.state {
                     OpState::Handshaking(n) if *n == ack.client_nonce => {
-                        let session = Session::derive(self.key.as_ref(), n, &ack.robot_nonce);
-                        if session.id != p.header.session {
+                        let (id, ks) = Session::derive(self.key.as_ref(), n, &ack.robot_nonce);
+                        if id != p.header.session {
                             return Err(DropReason::Session(p.header.session));
                         }
                         self.state = OpState::Established {
-                            session,
+                            session: Session::new(id, &ks, self.key.is_some()),
                             client_nonce: *n,
                             info: ack.info,
                         };
@@ -1555,7 +1643,7 @@ pub mod v1 {
     /// Decodes a v1 Hello or HelloAck (the bytes between delimiters, decoded in place; the
     /// tag checked when `key` is given, as v1 did). `None` for anything else, never a panic.
     pub fn parse(frame: &mut [u8], key: Option<&Key>) -> Option<(u64, Frame)> {
-        let n = cobs::decode_in_place(frame).ok()?;
+        let n = super::cobs_decode_in_place(frame)?;
         let raw = frame.get(..n)?;
         if n < HEADER + 1 + 4 {
             return None;

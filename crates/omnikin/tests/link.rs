@@ -693,7 +693,11 @@ fn a_retransmitted_hello_gets_the_same_session() {
     assert_eq!(op_rx(&mut op, &a2), Err(DropReason::Replay(0)));
     assert!(bot.rx(&op_tx(&mut op, &Message::Heartbeat)).0.is_ok());
     let c = bot.link.counters();
-    assert_eq!((c.ok, c.replay), (2, 1), "the repeat is answered but counted as a replay");
+    assert_eq!(
+        (c.ok, c.replay),
+        (2, 1),
+        "the repeat is answered but counted as a replay"
+    );
     // Once the session is open, the same Hello is not answered at all.
     let (r, reply) = bot.rx(&h1);
     assert_eq!((r, reply.len()), (Err(DropReason::Replay(0)), 0));
@@ -902,6 +906,45 @@ fn a_flood_of_hellos_within_the_round_trip_is_bounded_by_the_pending_slots() {
             assert!(r.is_ok(), "{flood} other Hellos: {r:?}");
         } else {
             assert!(matches!(r, Err(DropReason::Session(_))), "{r:?}");
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    /// The link's COBS codec against the `cobs` crate (which v1 peers use), both ways.
+    #[test]
+    fn cobs_matches_the_cobs_crate(data in prop::collection::vec(
+        prop_oneof![3 => any::<u8>(), 1 => Just(0u8)], 0..700)) {
+        use omnikin::link::{cobs_decode_in_place, cobs_encode, cobs_max_len};
+        let mut ours = vec![0u8; cobs_max_len(data.len())];
+        let n = cobs_encode(&data, &mut ours).unwrap();
+        prop_assert!(ours[..n].iter().all(|&b| b != 0));
+        prop_assert_eq!(&cobs::decode_vec(&ours[..n]).unwrap(), &data);
+        let theirs = cobs::encode_vec(&data);
+        let mut t = theirs.clone();
+        let m = cobs_decode_in_place(&mut t).unwrap();
+        prop_assert_eq!(&t[..m], &data[..]);
+        let mut o = ours[..n].to_vec();
+        let m = cobs_decode_in_place(&mut o).unwrap();
+        prop_assert_eq!(&o[..m], &data[..]);
+        prop_assert!(cobs_encode(&data, &mut vec![0u8; cobs_max_len(data.len()) - 1]).is_none());
+    }
+
+    /// Arbitrary bytes: never a panic; where the `cobs` crate accepts a zero-free input, the
+    /// same bytes come out.
+    #[test]
+    fn cobs_decoder_on_arbitrary_bytes(data in prop::collection::vec(any::<u8>(), 0..600)) {
+        use omnikin::link::cobs_decode_in_place;
+        let mut a = data.clone();
+        let ours = cobs_decode_in_place(&mut a);
+        let mut b = data.clone();
+        if let (Some(n), Ok(m)) = (ours, cobs::decode_in_place(&mut b)) {
+            prop_assert_eq!(&a[..n], &b[..m]);
+        }
+        if !data.contains(&0) && ours.is_none() {
+            prop_assert!(cobs::decode_vec(&data).is_err(), "we reject what cobs accepts");
         }
     }
 }
