@@ -48,15 +48,16 @@ fn assert_names_file(msg: &str) {
     );
 }
 
-/// `true` if `message` starts with a TOML key path and a colon (`wheel_motor.max_accel: …`).
+/// `true` if `message` starts with TOML key paths and a colon (`wheel_motor.max_accel: …`,
+/// `wheel_motor.steps_per_rev / microsteps: …`).
 fn names_key(message: &str) -> bool {
-    let Some((key, _)) = message.split_once(": ") else {
+    let Some((keys, _)) = message.split_once(": ") else {
         return false;
     };
-    !key.is_empty()
-        && key
-            .split('.')
+    keys.split(" / ").all(|key| {
+        key.split('.')
             .all(|p| !p.is_empty() && p.bytes().all(|b| b.is_ascii_lowercase() || b == b'_'))
+    })
 }
 
 /// Robot description TOML: [`RobotDescription::from_toml_str`], then what the CLI and the
