@@ -22,6 +22,10 @@ use crate::link_io::{Link, OsEntropy, Transport, load_key, parse_address};
 /// Plan buffer capacity of the simulated robot, points (a firmware picks its own).
 pub const SIM_PLAN_CAPACITY: usize = 4096;
 
+/// Robot time (s) without a frame of the active session after which telemetry stops (or four
+/// watchdog periods, if longer); the next frame of the session resumes it.
+pub const TELEMETRY_IDLE_S: f64 = 2.0;
+
 /// `omnikin robot`.
 #[derive(clap::Args, Debug)]
 pub struct RobotArgs {
@@ -202,6 +206,9 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     let mut sessions = 0u32;
     let mut takeovers = 0u32;
     let mut reply = [0u8; MAX_FRAME];
+    // Robot time of the active session's newest frame: telemetry stops after
+    // `TELEMETRY_IDLE_S` of silence (nobody is listening, or the address changed hands).
+    let mut last_heard_us = 0u64;
     loop {
         let now = plant.time_us();
         // Frames that arrived since the last cycle (the newest valid command wins).
@@ -243,6 +250,7 @@ pub fn run(a: &RobotArgs) -> Result<()> {
                             }
                         );
                     }
+                    last_heard_us = now;
                     serve(&mut rt, &mut robot_link, seq, &msg, now);
                     ack |= matches!(
                         msg,
@@ -263,7 +271,11 @@ pub fn run(a: &RobotArgs) -> Result<()> {
             }
         }
         status = plant.run_cycle(&mut rt);
-        if robot_link.session_id().is_some() && (ack || k.is_multiple_of(tele_every)) {
+        let heard = plant.time_us().saturating_sub(last_heard_us) as f64 * 1e-6;
+        if robot_link.session_id().is_some()
+            && heard <= TELEMETRY_IDLE_S.max(4.0 * a.watchdog)
+            && (ack || k.is_multiple_of(tele_every))
+        {
             let t = robot_link.telemetry(&status);
             let mut buf = [0u8; MAX_FRAME];
             if let Ok(n) = robot_link.encode(&Message::Telemetry(t), &mut buf) {

@@ -190,7 +190,8 @@ pub struct LinkCounters {
     pub version: u32,
     /// Dropped: missing or wrong authentication tag.
     pub auth: u32,
-    /// Dropped: repeated or too-old sequence number (duplicate or replay).
+    /// Dropped: repeated or too-old sequence number (duplicate or replay), a repeat of the
+    /// Hello that opened the active session, or a repeated answer to this operator's Hello.
     pub replay: u32,
     /// Dropped: body is not a valid message (postcard error, trailing bytes, unknown kind,
     /// unpadded Hello, a frame meant for the other end).
@@ -1014,9 +1015,6 @@ pub struct RobotLink {
     hellos: u64,
     pending_since: [u64; PENDING_SLOTS],
     counters: LinkCounters,
-    /// Set by `receive_inner`: the frame was a repeat of the pending Hello (answered again,
-    /// counted as a replay).
-    repeat: bool,
     ack_seq: u64,
     estop_seq: u64,
     v1_seq: u64,
@@ -1033,7 +1031,6 @@ impl RobotLink {
             hellos: 0,
             pending_since: [0; PENDING_SLOTS],
             counters: LinkCounters::default(),
-            repeat: false,
             ack_seq: 0,
             estop_seq: 0,
             v1_seq: 1,
@@ -1072,10 +1069,10 @@ impl RobotLink {
     /// Decodes one frame (the bytes between two delimiters, without them; decoded in place)
     /// and runs the session logic; `info` goes into a HelloAck, `rng` makes its nonce, `reply`
     /// (at least [`MAX_FRAME`] bytes) receives the frame to send back, if any (see
-    /// [`RobotEvent`]). Counts the frame in exactly one counter: a repeat of the pending
-    /// Hello (a retransmission, a duplicate) is answered again — the same answer, so the
-    /// handshake survives a lost HelloAck — but counted in [`LinkCounters::replay`]; a repeat
-    /// of the Hello that opened the active session is not answered.
+    /// [`RobotEvent`]). Counts the frame in exactly one counter. A repeat of a pending Hello
+    /// (a retransmission after a lost HelloAck, a duplicate) is answered again with the same
+    /// answer and counts as `ok` (it is not dropped); a repeat of the Hello that opened the
+    /// active session is dropped as a replay, unanswered.
     ///
     /// # Errors
     /// [`DropReason`]: the frame was dropped and must not be acted upon.
@@ -1086,13 +1083,8 @@ impl RobotLink {
         rng: &mut impl Entropy,
         reply: &mut [u8],
     ) -> Result<RobotEvent, DropReason> {
-        self.repeat = false;
         let r = self.receive_inner(frame, info, rng, reply);
-        if self.repeat {
-            self.counters.replay = self.counters.replay.saturating_add(1);
-        } else {
-            self.counters.count(&r);
-        }
+        self.counters.count(&r);
         r
     }
 
@@ -1125,15 +1117,12 @@ impl RobotLink {
                         .is_some_and(|p| p.client_nonce == hello.client_nonce)
                 });
                 let (slot, robot_nonce) = match same {
-                    Some(i) => {
-                        self.repeat = true;
-                        (
-                            i,
-                            self.pending[i]
-                                .as_ref()
-                                .map_or([0; NONCE_LEN], |p| p.robot_nonce),
-                        )
-                    }
+                    Some(i) => (
+                        i,
+                        self.pending[i]
+                            .as_ref()
+                            .map_or([0; NONCE_LEN], |p| p.robot_nonce),
+                    ),
                     None => {
                         let mut rn = [0u8; NONCE_LEN];
                         rng.fill(&mut rn).map_err(|_| DropReason::Entropy)?;
