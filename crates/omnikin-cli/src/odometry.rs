@@ -18,6 +18,8 @@ use omnikin::estimator::{EstimatorError, Fix, FixOutcome, PoseEstimator, Process
 use omnikin::nalgebra::{Matrix3, Vector3};
 use omnikin::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::{Pose2, Robot};
+// The log and fixes parser lives in the library so that it can be fuzzed (fuzz/).
+use omnikin_sim::table::NumericTable as Table;
 
 use crate::args::{Triple, finite_f64};
 
@@ -73,103 +75,6 @@ fn positive_f64(s: &str) -> std::result::Result<f64, String> {
     }
 }
 
-/// A numeric CSV table: header names and rows (with their 1-based line numbers).
-struct Table {
-    file: String,
-    header: Vec<String>,
-    rows: Vec<(usize, Vec<f64>)>,
-}
-
-impl Table {
-    /// Reads `path`; every value must be a finite number; blank lines are skipped.
-    fn read(path: &Path) -> Result<Self> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).with_context(|| format!("{file}: cannot read"))?;
-        let mut lines = text
-            .lines()
-            .enumerate()
-            .filter(|(_, l)| !l.trim().is_empty());
-        let Some((_, head)) = lines.next() else {
-            bail!("{file}:1: empty file, expected a header row");
-        };
-        let header: Vec<String> = head
-            .trim_start_matches('\u{feff}')
-            .split(',')
-            .map(|h| h.trim().to_string())
-            .collect();
-        let mut rows = Vec::new();
-        for (i, line) in lines {
-            let n = i + 1;
-            if rows.len() == omnikin_sim::limits::MAX_TRACK_ROWS {
-                bail!(
-                    "{file}:{n}: more than {} rows (the limit MAX_TRACK_ROWS of \
-                     omnikin_sim::limits); cut the log into several files",
-                    omnikin_sim::limits::MAX_TRACK_ROWS
-                );
-            }
-            let cells: Vec<&str> = line.split(',').map(str::trim).collect();
-            if cells.len() != header.len() {
-                bail!(
-                    "{file}:{n}: {} values, but the header has {} columns",
-                    cells.len(),
-                    header.len()
-                );
-            }
-            let mut v = Vec::with_capacity(cells.len());
-            for (c, name) in cells.iter().zip(&header) {
-                let x: f64 = c.parse().map_err(|_| {
-                    anyhow::anyhow!("{file}:{n}: column {name}: \"{c}\" is not a number")
-                })?;
-                if !x.is_finite() {
-                    bail!("{file}:{n}: column {name}: {c} is not finite");
-                }
-                v.push(x);
-            }
-            rows.push((n, v));
-        }
-        // Time must increase strictly.
-        let t = table_index(&header, "t")
-            .ok_or_else(|| anyhow::anyhow!("{file}:1: missing column t"))?;
-        for w in rows.windows(2) {
-            if w[1].1[t] <= w[0].1[t] {
-                bail!(
-                    "{file}:{}: column t: time {} does not increase (previous {} on line {})",
-                    w[1].0,
-                    w[1].1[t],
-                    w[0].1[t],
-                    w[0].0
-                );
-            }
-        }
-        Ok(Self { file, header, rows })
-    }
-
-    fn col(&self, name: &str) -> Option<usize> {
-        table_index(&self.header, name)
-    }
-
-    /// Indices of required columns, or an error naming all missing ones.
-    fn require(&self, names: &[&str], why: &str) -> Result<Vec<usize>> {
-        let missing: Vec<&str> = names
-            .iter()
-            .copied()
-            .filter(|n| self.col(n).is_none())
-            .collect();
-        if !missing.is_empty() {
-            bail!(
-                "{}:1: missing column(s) {} ({why})",
-                self.file,
-                missing.join(", ")
-            );
-        }
-        Ok(names.iter().filter_map(|n| self.col(n)).collect())
-    }
-}
-
-fn table_index(header: &[String], name: &str) -> Option<usize> {
-    header.iter().position(|h| h == name)
-}
-
 /// What the run produced, for the summary and the plot.
 struct Output {
     t: Vec<f64>,
@@ -182,7 +87,7 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     let description = RobotDescription::resolve(&args.robot)?;
     let robot = description.build::<f64>()?;
     let caster = matches!(robot, Robot::Caster(_));
-    let log = Table::read(&args.log)?;
+    let log = Table::load(&args.log)?;
     let q = log.require(&["t", "q1", "q2", "q3"], "an encoder log needs t,q1,q2,q3")?;
     let s = if caster {
         log.require(
@@ -363,7 +268,7 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
 type Fixes = (String, Vec<(usize, f64, Fix<f64>)>);
 
 fn read_fixes(path: &Path, args: &OdometryArgs) -> Result<Fixes> {
-    let table = Table::read(path)?;
+    let table = Table::load(path)?;
     let c = table.require(&["t", "x", "y"], "fixes need t,x,y")?;
     let heading = table.col("heading");
     let arrival = table.col("arrival");

@@ -32,6 +32,7 @@ pub mod profile;
 pub mod reproduce;
 pub mod sensors;
 pub mod sil;
+pub mod table;
 pub mod track;
 
 pub use monte_carlo::{

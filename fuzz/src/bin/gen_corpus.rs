@@ -1,0 +1,133 @@
+//! Writes the seed corpora, `corpus/<target>/seed-*` (or under the directory given as the
+//! first argument), and checks that every seed is valid for its decoder and passes its
+//! target's checks. Run by `fuzz/run.sh` before fuzzing; deterministic.
+//!
+//! Built with the fuzz targets (coverage-instrumented), hence linked with libFuzzer, whose
+//! `main` this binary's own replaces.
+
+use std::path::PathBuf;
+
+use libfuzzer_sys as _;
+use omnikin::link::{Key, MAX_FRAME, RobotLink, parse_frame};
+use omnikin::runtime::hal::{Entropy, EntropyError};
+use omnikin_fuzz::alloc::Counting;
+use omnikin_fuzz::link::{FUZZ_KEY, run_session};
+use omnikin_fuzz::{seeds, text};
+
+#[global_allocator]
+static ALLOC: Counting = Counting;
+
+/// The raw target's entropy source.
+struct Fixed;
+impl Entropy for Fixed {
+    fn fill(&mut self, buf: &mut [u8]) -> Result<(), EntropyError> {
+        buf.fill(0x5a);
+        Ok(())
+    }
+}
+
+fn ok<T, E: std::fmt::Display>(r: Result<T, E>) -> Result<(), String> {
+    r.map(|_| ()).map_err(|e| e.to_string())
+}
+
+/// Whether `seed` is a valid input of its decoder (not only "does not crash").
+fn valid(target: &str, name: &str, data: &[u8]) -> Result<(), String> {
+    let s = || String::from_utf8_lossy(data).into_owned();
+    match target {
+        "frame_decoder" => {
+            // Every frame parses; the robot (entropy 0x5a, as in the target) takes all of
+            // them but a HelloAck, which is for the operator.
+            let keyed = name.contains("keyed");
+            let key = keyed.then(|| Key::new(FUZZ_KEY).expect("key"));
+            let mut robot = RobotLink::new(key);
+            let info = omnikin_fuzz::link::raw_info();
+            let mut reply = [0u8; MAX_FRAME];
+            for frame in data.split(|&b| b == 0).filter(|f| !f.is_empty()) {
+                ok(parse_frame(&mut frame.to_vec()))?;
+                let r = robot.receive(&mut frame.to_vec(), &info, &mut Fixed, &mut reply);
+                if !name.contains("hello-ack") {
+                    ok(r)?;
+                }
+            }
+            Ok(())
+        }
+        "link_session" => {
+            let accepted = run_session(data);
+            if !name.contains("-bad-") && accepted < 2 {
+                return Err(format!("only {accepted} frames accepted"));
+            }
+            Ok(())
+        }
+        "robot_toml" => ok(omnikin::description::RobotDescription::from_toml_str(
+            &s(),
+            "seed",
+        )),
+        "profile_toml" => {
+            let t = s();
+            if !name.contains("sensors") {
+                ok(omnikin_sim::Profile::from_toml_str(&t, "seed"))?;
+            }
+            if !name.contains("disturbance") {
+                ok(omnikin_sim::sensors::SensorProfile::from_toml_str(
+                    &t, "seed",
+                ))?;
+            }
+            Ok(())
+        }
+        "waypoints" => {
+            let t = s();
+            let r = if name.contains("toml") {
+                omnikin_plan::waypoints::Waypoints::from_toml(&t, "seed")
+            } else {
+                omnikin_plan::waypoints::Waypoints::from_csv(&t, "seed")
+            };
+            ok(r)
+        }
+        "csv_tables" => {
+            if name.contains("plan") {
+                ok(omnikin_plan::Plan::read_csv(data, "seed"))?;
+            }
+            if name.contains("plan") || name.contains("track") {
+                ok(omnikin_sim::track::Track::read_csv(data, "seed"))?;
+            } else {
+                ok(omnikin_sim::table::NumericTable::parse(&s(), "seed"))?;
+            }
+            Ok(())
+        }
+        other => Err(format!("no such target {other}")),
+    }
+}
+
+fn main() {
+    let root = std::env::args_os()
+        .nth(1)
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("corpus"));
+    let mut bad = 0;
+    let mut counts = std::collections::BTreeMap::new();
+    for (target, name, data) in seeds::all() {
+        if let Err(why) = valid(target, &name, &data) {
+            eprintln!("invalid seed {target}/{name}: {why}");
+            bad += 1;
+        }
+        // The target's own checks (a panic here is a finding on a valid input).
+        match target {
+            "robot_toml" => text::robot_toml(&data),
+            "profile_toml" => text::profile_toml(&data),
+            "waypoints" => text::waypoints(&data),
+            "csv_tables" => text::csv_tables(&data),
+            _ => {}
+        }
+        let dir = root.join(target);
+        std::fs::create_dir_all(&dir).expect("create the corpus directory");
+        std::fs::write(dir.join(&name), &data).expect("write a seed");
+        *counts.entry(target).or_insert(0) += 1;
+    }
+    for (t, n) in &counts {
+        println!("{n:4} seeds  {}", root.join(t).display());
+    }
+    if bad > 0 {
+        eprintln!("{bad} invalid seed(s)");
+        std::process::exit(1);
+    }
+}

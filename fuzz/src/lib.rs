@@ -1,0 +1,8 @@
+//! Fuzz harnesses for every omnikin decoder, shared by the targets in `fuzz_targets/` and the
+//! seed generator `gen_corpus`: the counting allocator ([`alloc`]), the link fix-up harness
+//! ([`link`]), the file parsers ([`text`]) and the seed corpora ([`seeds`]).
+
+pub mod alloc;
+pub mod link;
+pub mod seeds;
+pub mod text;

@@ -1,0 +1,595 @@
+//! Seed corpora: valid inputs for every target, from the repository's own files (robot
+//! descriptions), the planner (plan CSV) and the link codec (frames of every message type),
+//! so that fuzzing starts past the checks a random input never passes.
+
+use omnikin::link::{
+    EndReason, Hello, HelloAck, KIND_TAGGED, Key, LinkCounters, MAX_FRAME, MacKey, Message,
+    NONCE_LEN, PROTOCOL_VERSION, RobotInfo, RobotKind, Telemetry, WirePoint, encode_hello,
+    encode_message,
+};
+use omnikin::runtime::{Faults, Frame, Mode, PlanStatus};
+
+use crate::link::{FUZZ_KEY, cycles, derive, hello_record, record};
+
+/// One seed: target, file name, content.
+pub type Seed = (&'static str, String, Vec<u8>);
+
+/// Every target name, in the order CI runs them.
+pub const TARGETS: [&str; 6] = [
+    "frame_decoder",
+    "link_session",
+    "robot_toml",
+    "profile_toml",
+    "waypoints",
+    "csv_tables",
+];
+
+fn point(t: f32) -> WirePoint {
+    WirePoint {
+        t,
+        pose: [0.1 * t, -0.05 * t, 0.2 * t],
+        twist: [0.1, -0.05, 0.2],
+    }
+}
+
+fn telemetry() -> Telemetry {
+    Telemetry {
+        time_us: 1_234_567,
+        mode: Mode::EStop,
+        faults: Faults(0),
+        fault_history: Faults(4),
+        pose: [0.5, -0.25, 1.5],
+        twist: [0.2, 0.0, 0.1],
+        command: [0.2, 0.0, 0.1],
+        wheel_rates: [3.0, -1.5, -1.5],
+        steer_rates: [0.0; 3],
+        wheel_angles: [10.0, -5.0, -5.0],
+        steer_angles: [0.0; 3],
+        gyro: [0.0, 0.0, 0.1],
+        accel: [0.0, 0.0, 9.81],
+        plan: PlanStatus {
+            id: 2,
+            received: 8,
+            len: 8,
+            done: false,
+        },
+        plan_time: 0.75,
+        reference: [0.5, -0.25, 1.5],
+        slip_residual: 0.001,
+        rejected: 1,
+        last_command_us: 1_230_000,
+        link: LinkCounters {
+            ok: 40,
+            framing: 1,
+            crc: 2,
+            auth: 3,
+            replay: 1,
+            session: 2,
+            ..LinkCounters::default()
+        },
+        ack_seq: 41,
+        estop_seq: 39,
+    }
+}
+
+/// One message of every type of a session.
+pub fn messages() -> Vec<(&'static str, Message)> {
+    let mut chunk = heapless::Vec::new();
+    for k in 0..3 {
+        let _ = chunk.push(point(0.1 * k as f32));
+    }
+    let mut full = heapless::Vec::new();
+    for k in 0..omnikin::link::CHUNK_POINTS {
+        let _ = full.push(point(0.1 * k as f32));
+    }
+    vec![
+        ("heartbeat", Message::Heartbeat),
+        (
+            "velocity-robot",
+            Message::SetVelocity {
+                frame: Frame::Robot,
+                vx: 0.2,
+                vy: -0.1,
+                yaw_rate: 0.5,
+            },
+        ),
+        (
+            "velocity-world",
+            Message::SetVelocity {
+                frame: Frame::World,
+                vx: -0.3,
+                vy: 0.3,
+                yaw_rate: -1.0,
+            },
+        ),
+        ("plan-begin", Message::PlanBegin { id: 1, len: 3 }),
+        (
+            "plan-chunk",
+            Message::PlanChunk {
+                id: 1,
+                offset: 0,
+                points: chunk,
+            },
+        ),
+        (
+            "plan-chunk-full",
+            Message::PlanChunk {
+                id: 1,
+                offset: 0,
+                points: full,
+            },
+        ),
+        ("plan-start", Message::PlanStart { id: 1 }),
+        ("stop", Message::Stop),
+        ("estop", Message::EStop),
+        ("clear", Message::Clear),
+        (
+            "set-pose",
+            Message::SetPose {
+                x: 1.0,
+                y: -2.0,
+                heading: 0.5,
+            },
+        ),
+        ("telemetry", Message::Telemetry(telemetry())),
+        ("session-end", Message::SessionEnd(EndReason::TakenOver)),
+    ]
+}
+
+fn session(setup: u8, parts: &[&[u8]]) -> Vec<u8> {
+    let mut v = vec![setup];
+    for p in parts {
+        v.extend_from_slice(p);
+    }
+    v
+}
+
+/// A plan of `len` points uploaded in chunks, then started.
+fn plan_upload(id: u16, len: u16, first_seq: u64) -> Vec<u8> {
+    let mut out = Vec::new();
+    let mut seq = first_seq;
+    out.extend(record(&Message::PlanBegin { id, len }, seq));
+    let mut offset = 0;
+    while offset < len {
+        seq += 1;
+        let mut points = heapless::Vec::new();
+        for k in offset..len.min(offset + omnikin::link::CHUNK_POINTS as u16) {
+            let _ = points.push(point(0.1 * f32::from(k)));
+        }
+        let n = points.len() as u16;
+        out.extend(record(&Message::PlanChunk { id, offset, points }, seq));
+        offset += n;
+    }
+    out.extend(record(&Message::PlanStart { id }, seq + 1));
+    out
+}
+
+/// Structured inputs of the `link_session` target (see [`crate::link`]): a handshake, then
+/// session frames of every message type, driving, plan upload, e-stop, replays, a second
+/// operator taking over, and each corruption the format can express.
+pub fn link_session() -> Vec<Seed> {
+    let mut out = Vec::new();
+    let hello = hello_record(0x11);
+    let hb = |seq| record(&Message::Heartbeat, seq);
+    for setup in [0u8, 1, 2, 3, 4, 5, 8, 9, 11] {
+        for (name, m) in messages() {
+            let s = session(setup, &[&hello, &hb(1), &record(&m, 2), &cycles(3)]);
+            out.push(("link_session", format!("seed-{setup}-{name}"), s));
+        }
+        let velocity = record(
+            &Message::SetVelocity {
+                frame: Frame::Robot,
+                vx: 0.5,
+                vy: 0.2,
+                yaw_rate: 1.0,
+            },
+            2,
+        );
+        // Drive, keep alive, then let the watchdog stop the robot.
+        let s = session(
+            setup,
+            &[
+                &hello,
+                &hb(1),
+                &velocity,
+                &cycles(10),
+                &hb(3),
+                &cycles(10),
+                &hb(4),
+                &cycles(16),
+                &cycles(16),
+                &cycles(16),
+                &cycles(16),
+            ],
+        );
+        out.push(("link_session", format!("seed-{setup}-drive"), s));
+        // Plan upload and run; a second plan replaces it; e-stop and clear.
+        let s = session(
+            setup,
+            &[
+                &hello,
+                &plan_upload(7, 11, 1),
+                &cycles(16),
+                &plan_upload(8, 3, 20),
+                &cycles(8),
+                &record(&Message::EStop, 30),
+                &cycles(2),
+                &record(&Message::Clear, 31),
+                &cycles(2),
+            ],
+        );
+        out.push(("link_session", format!("seed-{setup}-plan"), s));
+        // Duplicates, an old frame, a jump ahead, and what the window then refuses.
+        let s = session(
+            setup,
+            &[
+                &hello,
+                &hb(5),
+                &hb(5),
+                &hb(3),
+                &hb(100),
+                &hb(5),
+                &hb(99),
+                &hb(u64::MAX),
+                &hb(1),
+            ],
+        );
+        out.push(("link_session", format!("seed-{setup}-replay"), s));
+        // A second operator takes over; the first one's frames are then refused; the first
+        // one's Hello, repeated, opens a new session; five Hellos overflow the pending slots.
+        let mut old = vec![1u8 | 64, 1];
+        old.extend_from_slice(&9u64.to_le_bytes());
+        old.extend_from_slice(&[1, 0, 0]);
+        let s = session(
+            setup,
+            &[
+                &hello,
+                &hb(1),
+                &record(&Message::EStop, 2),
+                &cycles(2),
+                &hello_record(0x22),
+                &hello_record(0x22),
+                &hb(1),
+                &cycles(2),
+                &old,
+                &hello_record(0x11),
+                &hello_record(0x33),
+                &hello_record(0x44),
+                &hello_record(0x55),
+                &hello_record(0x66),
+                &hb(1),
+                &cycles(1),
+            ],
+        );
+        out.push(("link_session", format!("seed-{setup}-takeover"), s));
+    }
+    // Each corruption, on a Hello and on a heartbeat: CRC, tag, tag presence, PSK instead of
+    // K_s, an unpadded Hello, another protocol, failing entropy, junk; and an arbitrary frame.
+    let hbr = hb(1);
+    let flip = |r: &[u8], bits: u8| {
+        let mut r = r.to_vec();
+        r[0] |= bits;
+        r
+    };
+    let mut unpadded = flip(&hello, 128);
+    unpadded.extend_from_slice(&[PROTOCOL_VERSION, 0]);
+    let mut v3 = flip(&hello, 128);
+    v3.extend_from_slice(&[3, 46]);
+    let mut any = vec![2u8, PROTOCOL_VERSION, 3 | KIND_TAGGED];
+    any.extend_from_slice(&5u64.to_le_bytes());
+    any.extend_from_slice(&1u64.to_le_bytes());
+    any.extend_from_slice(&[1, 1, 0, 0]);
+    for setup in [0u8, 1, 2, 3] {
+        let cases: [(&str, Vec<u8>); 12] = [
+            ("hello-crc", flip(&hello, 8)),
+            ("hello-tag", flip(&hello, 16)),
+            ("hello-tag-presence", flip(&hello, 32)),
+            ("hello-entropy", flip(&hello, 64)),
+            ("hello-unpadded", unpadded.clone()),
+            ("hello-v3", v3.clone()),
+            ("crc", [&hello[..], &flip(&hbr, 8)].concat()),
+            ("tag", [&hello[..], &flip(&hbr, 16)].concat()),
+            ("tag-presence", [&hello[..], &flip(&hbr, 32)].concat()),
+            ("psk-tag", [&hello[..], &flip(&hbr, 128)].concat()),
+            ("any", [&hello[..], &any].concat()),
+            (
+                "junk",
+                [
+                    &hello[..],
+                    &[4u8, 4, 1, 2, 3, 0][..],
+                    &[12, 2, 9, 9][..],
+                    &hbr[..],
+                ]
+                .concat(),
+            ),
+        ];
+        for (name, r) in cases {
+            out.push((
+                "link_session",
+                format!("seed-{setup}-bad-{name}"),
+                session(setup, &[&r]),
+            ));
+        }
+    }
+    out
+}
+
+/// The robot nonce of the raw target's robot (its entropy source fills with 0x5a).
+const RAW_ROBOT_NONCE: [u8; NONCE_LEN] = [0x5a; NONCE_LEN];
+
+/// Wire frames as a robot reads them, keyed and not, for the raw `frame_decoder` target: a
+/// Hello, then session frames of every message type in the session that Hello opens with the
+/// target's fixed robot nonce (so they are accepted), singly and as one stream; a HelloAck.
+pub fn frame_decoder() -> Vec<Seed> {
+    let key = Key::new(FUZZ_KEY).expect("key");
+    let mut out = Vec::new();
+    for (k, kname) in [(None, "plain"), (Some(key), "keyed")] {
+        let nonce = [0x11; NONCE_LEN];
+        let mut buf = [0u8; MAX_FRAME];
+        let hello = Hello {
+            protocol: PROTOCOL_VERSION,
+            client_nonce: nonce,
+        };
+        let n = encode_hello(&hello, k.as_ref(), &mut buf).expect("a Hello encodes");
+        let hello = buf[..n].to_vec();
+        out.push((
+            "frame_decoder",
+            format!("seed-{kname}-hello"),
+            hello.clone(),
+        ));
+        let psk: &[u8] = if k.is_some() { FUZZ_KEY } else { &[] };
+        let (id, ks) = derive(psk, &nonce, &RAW_ROBOT_NONCE);
+        let mac = k.as_ref().map(|_| MacKey::new(&ks));
+        let mut stream = hello.clone();
+        for (seq, (name, m)) in (1u64..).zip(messages()) {
+            let n = encode_message(id, seq, &m, mac.as_ref(), &mut buf).expect("encodes");
+            let frame = [&hello[..], &buf[..n]].concat();
+            out.push(("frame_decoder", format!("seed-{kname}-{name}"), frame));
+            stream.extend_from_slice(&buf[..n]);
+        }
+        out.push(("frame_decoder", format!("seed-{kname}-stream"), stream));
+        // The answer an operator reads (the raw target feeds its operator end too).
+        let ack = HelloAck {
+            info: RobotInfo {
+                protocol: PROTOCOL_VERSION,
+                kind: RobotKind::Caster,
+                plan_capacity: 64,
+                rate_hz: 100.0,
+                watchdog: 0.5,
+                authenticated: k.is_some(),
+            },
+            client_nonce: nonce,
+            robot_nonce: RAW_ROBOT_NONCE,
+        };
+        let n = omnikin::link::encode_frame_with(
+            omnikin::link::Kind::HelloAck,
+            id,
+            0,
+            k.as_ref().map(Key::mac),
+            |b| {
+                postcard::to_slice(&ack, b)
+                    .map(|s| s.len())
+                    .map_err(|_| omnikin::link::EncodeError::TooLarge)
+            },
+            &mut buf,
+        )
+        .expect("a HelloAck encodes");
+        out.push((
+            "frame_decoder",
+            format!("seed-{kname}-hello-ack"),
+            buf[..n].to_vec(),
+        ));
+    }
+    out
+}
+
+const ROBOTS: [(&str, &str); 3] = [
+    ("sphere-omni", include_str!("../../robots/sphere-omni.toml")),
+    ("ballbot", include_str!("../../robots/ballbot.toml")),
+    ("caster3", include_str!("../../robots/caster3.toml")),
+];
+
+fn text(target: &'static str, name: &str, t: &str) -> Seed {
+    (target, format!("seed-{name}"), t.as_bytes().to_vec())
+}
+
+/// Robot descriptions: the repository's `robots/*.toml` and variants of them.
+pub fn robot_toml() -> Vec<Seed> {
+    let mut out = Vec::new();
+    for (name, t) in ROBOTS {
+        out.push(text("robot_toml", name, t));
+        // Without comments, name and limits: the smallest valid files.
+        let bare: String = t
+            .lines()
+            .map(|l| l.split('#').next().unwrap_or("").trim_end())
+            .filter(|l| !l.is_empty() && !l.starts_with("name"))
+            .take_while(|l| *l != "[limits]")
+            .map(|l| format!("{l}\n"))
+            .collect();
+        out.push(text("robot_toml", &format!("{name}-bare"), &bare));
+    }
+    out
+}
+
+const PROFILE_FULL: &str = r#"rate = 1000.0
+hold = "linear"
+
+[wheel_motor]
+steps_per_rev = 200
+microsteps = 16
+max_step_rate = 40000.0
+lag_time_constant = 0.005
+max_accel = 300.0
+fluctuation_abs = 0.02
+fluctuation_rel = 0.01
+fluctuation_period = 0.01
+radius_error_std = 0.003
+rate_bias_rel = 0.0
+
+[steer_motor]
+max_accel = 100.0
+lag_time_constant = 0.01
+
+[shell_spin]
+std = 0.01
+slip_gain = 0.875
+slip_exponent = 1.22
+
+[roller]
+amplitude = 0.02
+rollers = 8
+
+[floor]
+rel_std = 0.01
+corr_time = 0.5
+
+[tracking]
+offset = [0.0, 0.0]
+height = -0.03
+tilt_gain = 1.0
+noise_std = 0.001
+
+[encoder]
+counts_per_rev = 4096
+"#;
+
+const SENSORS_FULL: &str = r#"counts_per_rev = 4096
+steer_counts_per_rev = 2048
+
+[gyro]
+noise_std = 0.002
+bias = 0.001
+bias_std = 0.0005
+
+[yaw]
+noise_std = 0.01
+wrap = true
+
+[imu]
+gyro_noise_std = 0.001
+gyro_bias = [0.0, 0.0, 0.002]
+accel_noise_std = 0.05
+mag_noise_std = 0.5
+field = [0.0, 20.0, -45.0]
+
+[camera]
+period = 0.1
+latency = 0.1
+noise_std = 0.005
+heading_noise_std = 0.02
+outlier_probability = 0.01
+outlier_distance = 0.5
+"#;
+
+/// Disturbance and sensor profiles: every key of each.
+pub fn profile_toml() -> Vec<Seed> {
+    vec![
+        text("profile_toml", "disturbance-full", PROFILE_FULL),
+        text(
+            "profile_toml",
+            "disturbance-zoh",
+            "hold = \"zoh\"\n[encoder]\ncounts_per_rev = 1024\n",
+        ),
+        text("profile_toml", "empty", ""),
+        text("profile_toml", "sensors-full", SENSORS_FULL),
+        text(
+            "profile_toml",
+            "sensors-gyro",
+            "counts_per_rev = 4096\n[gyro]\nnoise_std = 0.002\nbias = 0.0\nbias_std = 0.0\n",
+        ),
+    ]
+}
+
+/// Waypoint files, CSV and TOML.
+pub fn waypoints() -> Vec<Seed> {
+    vec![
+        text("waypoints", "csv-xy", "0,0\n1,0\n1,1\n0,1\n"),
+        text(
+            "waypoints",
+            "csv-header-heading",
+            "# a square, facing the motion\nx,y,heading\n0.0,0.0,0.0\n\n1.0,0.0,1.5708\n1.0,1.0,3.1416\n",
+        ),
+        text("waypoints", "csv-header", "x, y\n-0.5, 0.25\n0.5e0, -1\n"),
+        text(
+            "waypoints",
+            "toml",
+            "[[waypoint]]\nx = 0.0\ny = 0.0\n\n[[waypoint]]\nx = 1.0\ny = 0.5\n",
+        ),
+        text(
+            "waypoints",
+            "toml-heading",
+            "[[waypoint]]\nx = 0.0\ny = 0.0\nheading = 0.0\n[[waypoint]]\nx = 1.0\ny = 0.0\nheading = 1.57\n[[waypoint]]\nx = 1.0\ny = 1.0\nheading = 3.14\n",
+        ),
+    ]
+}
+
+/// A plan CSV from the planner: the first `rows` samples of paper 000's circle 1 on `robot`.
+fn planned_csv(robot: &str, rows: usize) -> Vec<u8> {
+    use omnikin_plan::generators::Circle;
+    use omnikin_plan::planner::plan;
+    let d = omnikin::description::RobotDescription::preset(robot).expect("preset");
+    let model = omnikin_plan::RobotModel::from_description(&d).expect("preset model");
+    let c = Circle::paper(1.0);
+    let opts = c.options(20.0);
+    let mut planned = plan(&c.path().expect("path"), &c.heading(), &model, &opts)
+        .expect("paper circle plans")
+        .plan;
+    planned.samples.truncate(rows);
+    let mut out = Vec::new();
+    planned.write_csv(&mut out).expect("to memory");
+    out
+}
+
+/// CSV tables: plans (sphere, caster) from the planner, a tracked run, encoder logs and
+/// camera fixes.
+pub fn csv_tables() -> Vec<Seed> {
+    let mut out = vec![
+        (
+            "csv_tables",
+            "seed-plan-sphere".into(),
+            planned_csv("sphere-omni", 12),
+        ),
+        (
+            "csv_tables",
+            "seed-plan-caster".into(),
+            planned_csv("caster3", 12),
+        ),
+    ];
+    out.push(text(
+        "csv_tables",
+        "track",
+        "t,x,y,heading\n0.0,0.0,0.0,0.0\n0.1,0.01,0.0,0.01\n0.2,0.02,0.001,0.02\n0.3,0.031,0.002,0.03\n",
+    ));
+    out.push(text(
+        "csv_tables",
+        "track-quoted",
+        "\"t\",\"x\",\"y\",extra\n0,0,0,a\n0.05,\"0.001\",0,b\n\n0.1,0.002,0,\"c,d\"\n",
+    ));
+    out.push(text(
+        "csv_tables",
+        "encoder-log",
+        "t,q1,q2,q3,gyro_z,yaw\n0.00,0.0,0.0,0.0,0.0,0.0\n0.01,0.012,-0.006,-0.006,0.1,0.001\n0.02,0.024,-0.012,-0.012,0.1,0.002\n",
+    ));
+    out.push(text(
+        "csv_tables",
+        "encoder-log-caster",
+        "t,q1,q2,q3,s1,s2,s3\n0,0,0,0,0,0,0\n0.01,0.02,0.02,0.02,0.001,0.001,0.001\n",
+    ));
+    out.push(text(
+        "csv_tables",
+        "fixes",
+        "t,x,y,heading,arrival\n0.1,0.01,0.0,0.0,0.2\n0.2,0.02,0.001,0.01,0.3\n",
+    ));
+    out
+}
+
+/// Every seed of every target.
+pub fn all() -> Vec<Seed> {
+    let mut v = frame_decoder();
+    v.extend(link_session());
+    v.extend(robot_toml());
+    v.extend(profile_toml());
+    v.extend(waypoints());
+    v.extend(csv_tables());
+    v
+}
