@@ -24,6 +24,10 @@ use crate::args::{Triple, finite_f64};
 /// Odometry-step history kept for late camera fixes (at 100 Hz: 2.5 s).
 const HISTORY: usize = 256;
 
+/// Largest encoder log or fix file, bytes: 1 GiB (about 10^7 rows, `MAX_TRACK_ROWS`). The file
+/// is read whole: a larger one is refused instead of exhausting memory.
+const MAX_LOG_BYTES: usize = 1 << 30;
+
 /// `omnikin odometry`.
 #[derive(clap::Args, Debug)]
 pub struct OdometryArgs {
@@ -84,7 +88,12 @@ impl Table {
     /// Reads `path`; every value must be a finite number; blank lines are skipped.
     fn read(path: &Path) -> Result<Self> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).with_context(|| format!("{file}: cannot read"))?;
+        let text = omnikin::description::read_text_limited(
+            path,
+            MAX_LOG_BYTES,
+            "MAX_LOG_BYTES of omnikin-cli's odometry",
+        )
+        .with_context(|| format!("{file}: cannot read"))?;
         let mut lines = text
             .lines()
             .enumerate()

@@ -50,8 +50,12 @@ fn sensor_profile(sensors: Option<&Path>) -> Result<omnikin_sim::sensors::Sensor
     use omnikin_sim::sensors::SensorProfile;
     Ok(match sensors {
         Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("cannot read sensor profile {}", p.display()))?;
+            let text = omnikin::description::read_text_limited(
+                p,
+                omnikin::description::MAX_TOML_BYTES,
+                "MAX_TOML_BYTES of omnikin::description",
+            )
+            .with_context(|| format!("cannot read sensor profile {}", p.display()))?;
             SensorProfile::from_toml_str(&text, &p.display().to_string())?
         }
         None => SensorProfile::typical(),

@@ -474,3 +474,69 @@ fn figures_of_long_plans_are_thinned_not_gigabytes() {
     assert!(lines >= 4, "{lines} polylines");
     assert!(text.len() < 8_000_000, "{} bytes", text.len());
 }
+
+#[test]
+fn input_files_read_whole_are_bounded_before_they_are_read() {
+    // Files larger than anything their format needs (sparse: no disk used). Each was read
+    // whole and parsed: at 2.5 GB, odometry and plan waypoints aborted (allocation failure),
+    // and a robot or profile TOML needed 7x its size — aborted too. Now each is refused by
+    // its size first, naming the limit.
+    let d = tmp("big-files");
+    let sparse = |name: &str, len: u64| {
+        let p = d.join(name);
+        std::fs::File::create(&p).unwrap().set_len(len).unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let toml = sparse("robot.toml", (1 << 20) + 1);
+    let out = d.join("o.csv");
+    let o = out.to_str().unwrap();
+    fails_with(
+        &["plan", "square", "--robot", &toml, "--out", o],
+        &["MAX_TOML_BYTES"],
+    );
+    let plan = d.join("p.csv");
+    assert!(
+        run(&[
+            "plan",
+            "square",
+            "--robot",
+            "sphere-omni",
+            "--out",
+            plan.to_str().unwrap()
+        ])
+        .status
+        .success()
+    );
+    let s = d.join("sim");
+    fails_with(
+        &[
+            "simulate",
+            plan.to_str().unwrap(),
+            "--robot",
+            "sphere-omni",
+            "--disturbances",
+            &toml,
+            "--out",
+            s.to_str().unwrap(),
+        ],
+        &["MAX_TOML_BYTES"],
+    );
+    let wp = sparse("w.csv", (64 << 20) + 1);
+    fails_with(
+        &[
+            "plan",
+            "waypoints",
+            &wp,
+            "--robot",
+            "sphere-omni",
+            "--out",
+            o,
+        ],
+        &["MAX_WAYPOINT_FILE_BYTES"],
+    );
+    let log = sparse("enc.csv", (1 << 30) + 1);
+    fails_with(
+        &["odometry", &log, "--robot", "sphere-omni", "--out", o],
+        &["MAX_LOG_BYTES"],
+    );
+}

@@ -37,6 +37,10 @@ pub const MAX_PLAN_GRID_CELLS: usize = 2_000_000;
 /// Most waypoints in a waypoint file.
 pub const MAX_WAYPOINTS: usize = 100_000;
 
+/// Largest waypoint file, bytes: 64 MiB (over 600 bytes for each of [`MAX_WAYPOINTS`]); the
+/// file is read whole, so a multi-gigabyte one aborted the process instead of being refused.
+pub const MAX_WAYPOINT_FILE_BYTES: usize = 64 << 20;
+
 /// Longest line of a CSV input read as a stream (plans, tracks), bytes: 1 MiB, some 10⁴
 /// columns. The CSV reader grows its record buffer to the longest line, so without this bound
 /// one line of gigabytes (a file without newlines) exhausted memory and aborted the process.
