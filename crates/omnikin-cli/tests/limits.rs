@@ -540,3 +540,32 @@ fn input_files_read_whole_are_bounded_before_they_are_read() {
         &["MAX_LOG_BYTES"],
     );
 }
+
+#[test]
+fn a_key_file_is_not_read_past_what_a_key_can_be() {
+    // `--key /dev/zero` read until memory ran out (2 GB) before failing "out of memory".
+    fails_with(
+        &[
+            "drive",
+            "--connect",
+            "127.0.0.1:9",
+            "--key",
+            "/dev/zero",
+            "hello",
+        ],
+        &["--key /dev/zero", "16 to 64 bytes"],
+    );
+    fails_with(
+        &[
+            "robot",
+            "--sim",
+            "--robot",
+            "sphere-omni",
+            "--listen",
+            "127.0.0.1:9",
+            "--key",
+            "/dev/zero",
+        ],
+        &["--key /dev/zero", "16 to 64 bytes"],
+    );
+}
