@@ -569,3 +569,45 @@ fn a_key_file_is_not_read_past_what_a_key_can_be() {
         &["--key /dev/zero", "16 to 64 bytes"],
     );
 }
+
+#[test]
+fn force_into_a_directory_holding_an_input_under_an_output_name_writes_nothing() {
+    // `--force simulate DIR/mean.csv --out DIR`: mean.csv (the plan) was refused only when
+    // its turn came, after metrics.json and trials.csv had been replaced — a failed command
+    // leaving new results beside an old figure.
+    let d = tmp("force-input-in-dir");
+    let out = d.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    let plan = out.join("mean.csv");
+    assert!(
+        run(&[
+            "plan",
+            "square",
+            "--robot",
+            "sphere-omni",
+            "--out",
+            plan.to_str().unwrap()
+        ])
+        .status
+        .success()
+    );
+    write(&out.join("metrics.json"), "old\n");
+    write(&out.join("trials.csv"), "old\n");
+    for cmd in [
+        vec!["simulate", "--trials", "1", "--robot", "sphere-omni"],
+        vec!["evaluate", "--plan", plan.to_str().unwrap()],
+    ] {
+        let mut args = vec!["--force"];
+        args.extend(cmd);
+        args.extend([plan.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        fails_with(&args, &["is also the input"]);
+        for f in ["metrics.json", "trials.csv"] {
+            assert_eq!(
+                std::fs::read_to_string(out.join(f)).unwrap(),
+                "old\n",
+                "{args:?}: {f} untouched"
+            );
+        }
+        assert!(!out.join("figure.svg").exists() && !out.join("runs.csv").exists());
+    }
+}
