@@ -44,10 +44,23 @@ pub fn parse_address(s: &str, what: &str) -> Result<Address> {
     Ok(Address::Udp(addr))
 }
 
+/// Most bytes of a key file read (64 key bytes and any trailing whitespace).
+const MAX_KEY_FILE: usize = 4096;
+
 /// Reads a shared key file: its bytes with trailing whitespace removed, 16 to 64 bytes.
 pub fn load_key(path: &Path) -> Result<Key> {
-    let bytes =
-        std::fs::read(path).with_context(|| format!("--key {}: cannot read", path.display()))?;
+    // A key is at most 64 bytes: read a little more than that, never the whole file (a
+    // `--key /dev/zero` grew to 2 GB before failing "out of memory").
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_KEY_FILE as u64 + 1).read_to_end(&mut bytes))
+        .with_context(|| format!("--key {}: cannot read", path.display()))?;
+    if bytes.len() > MAX_KEY_FILE {
+        bail!(
+            "--key {}: key must be 16 to 64 bytes (after trailing whitespace), the file has more than {MAX_KEY_FILE} bytes",
+            path.display()
+        );
+    }
     let mut end = bytes.len();
     while end > 0 && bytes[end - 1].is_ascii_whitespace() {
         end -= 1;

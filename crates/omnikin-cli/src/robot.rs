@@ -1,7 +1,7 @@
 //! `omnikin robot --sim`: the robot runtime plus the simulated plant in real time (software in
 //! the loop), serving the operator link over UDP or a serial port.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 use std::io::Write;
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -9,7 +9,10 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use omnikin::description::RobotDescription;
-use omnikin::link::{DropReason, MAX_FRAME, Message, RobotEvent, RobotLink, robot_info, serve};
+use omnikin::link::{
+    DropReason, MAX_FRAME, Message, PENDING_SLOTS, RobotEvent, RobotLink, parse_frame, robot_info,
+    serve,
+};
 use omnikin::runtime::{Config, Runtime};
 use omnikin::{Pose2, Robot};
 use omnikin_sim::profile::Profile;
@@ -195,8 +198,14 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     let mut k: u64 = 0;
     let mut status;
     let mut stopped_by = None;
-    // Where telemetry goes: the address that confirmed the active session.
+    // Where telemetry goes: the address the active session's HelloAck was sent to — the one
+    // that proved it receives the robot's answers by confirming the id it was sent. Not the
+    // confirming frame's source: a peer that handshakes from its own address could confirm
+    // from a spoofed one and turn the telemetry stream on a victim.
     let mut active: Option<SocketAddr> = None;
+    // Where each recent HelloAck went, by session id (newest last; a pending session is always
+    // among the 4 × PENDING_SLOTS most recently answered ids).
+    let mut acked: VecDeque<(u64, Option<SocketAddr>)> = VecDeque::new();
     let mut amp = AmplificationBudget::default();
     let mut sessions = 0u32;
     let mut takeovers = 0u32;
@@ -218,6 +227,13 @@ pub fn run(a: &RobotArgs) -> Result<()> {
                 Ok(RobotEvent::Hello(n)) => {
                     // Never larger than the Hello it answers (the core checks it).
                     amp.sent(f.from, n);
+                    if let Some(id) = ack_session(&reply[..n]) {
+                        acked.retain(|(i, _)| *i != id);
+                        acked.push_back((id, f.from));
+                        if acked.len() > 4 * PENDING_SLOTS {
+                            acked.pop_front();
+                        }
+                    }
                     link.transport.send_to(&reply[..n], f.from)?;
                 }
                 Ok(RobotEvent::Message {
@@ -233,11 +249,15 @@ pub fn run(a: &RobotArgs) -> Result<()> {
                             takeovers += 1;
                         }
                         sessions += 1;
-                        active = f.from;
+                        let id = robot_link.session_id();
+                        active = acked
+                            .iter()
+                            .find(|(i, _)| Some(*i) == id)
+                            .and_then(|(_, a)| *a);
                         crate::errln!(
                             "robot: session {:016x} opened{}{}",
                             robot_link.session_id().unwrap_or(0),
-                            f.from.map(|a| format!(" by {a}")).unwrap_or_default(),
+                            active.map(|a| format!(" by {a}")).unwrap_or_default(),
                             if replaced.is_some() {
                                 " (replacing the previous session, whose operator is told)"
                             } else {
@@ -350,6 +370,12 @@ pub fn run(a: &RobotArgs) -> Result<()> {
         Some(sig) => Err(sig.into()),
         None => Ok(()),
     }
+}
+
+/// The session id named by an encoded HelloAck (its header), `None` if it does not parse.
+fn ack_session(frame: &[u8]) -> Option<u64> {
+    let mut raw = frame.get(..frame.len().checked_sub(1)?)?.to_vec();
+    parse_frame(&mut raw).ok().map(|p| p.header.session)
 }
 
 /// Anti-amplification for the answers the robot sends before an address has proved itself

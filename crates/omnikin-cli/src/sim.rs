@@ -50,8 +50,12 @@ fn sensor_profile(sensors: Option<&Path>) -> Result<omnikin_sim::sensors::Sensor
     use omnikin_sim::sensors::SensorProfile;
     Ok(match sensors {
         Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("cannot read sensor profile {}", p.display()))?;
+            let text = omnikin::description::read_text_limited(
+                p,
+                omnikin::description::MAX_TOML_BYTES,
+                "MAX_TOML_BYTES of omnikin::description",
+            )
+            .with_context(|| format!("cannot read sensor profile {}", p.display()))?;
             SensorProfile::from_toml_str(&text, &p.display().to_string())?
         }
         None => SensorProfile::typical(),
@@ -128,6 +132,18 @@ fn parse_pair(s: &str) -> Result<[f64; 2], String> {
 /// [`crate::output`]).
 fn create_dir(dir: &Path) -> Result<()> {
     crate::output::create_dir("--out", dir)
+}
+
+/// [`create_dir`], then the output rules for every file the command will write there, before
+/// any is written: with `--force`, an input under one of these names used to be refused only
+/// when its turn came, after the files before it had been replaced (a failed command leaving
+/// new `metrics.json`/`trials.csv` beside the old figure).
+fn create_dir_for(dir: &Path, names: &[&str]) -> Result<()> {
+    create_dir(dir)?;
+    for n in names {
+        crate::output::check_file("--out", &dir.join(n))?;
+    }
+    Ok(())
 }
 
 /// Writes one file of the output directory (temporary file, then rename).
@@ -246,7 +262,10 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     } else {
         None
     };
-    create_dir(&a.out)?;
+    create_dir_for(
+        &a.out,
+        &["metrics.json", "trials.csv", "mean.csv", "figure.svg"],
+    )?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads.unwrap_or(0))
         .build()
@@ -379,7 +398,10 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
     }
     let omnikin_sim::metrics::Evaluation { metrics, mean } = evaluate(&plan, &runs)?;
     finite(&metrics)?;
-    create_dir(&a.out)?;
+    create_dir_for(
+        &a.out,
+        &["metrics.json", "runs.csv", "mean.csv", "figure.svg"],
+    )?;
     let mut j = serde_json::to_value(&metrics)?;
     j["evaluation"] = json!({
         "plan": a.plan.display().to_string(),
@@ -461,7 +483,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
     let d = RobotDescription::preset("sphere-omni").context("the sphere-omni preset is missing")?;
     let robot = d.build::<f64>()?;
     let series = rp::sphere_2019_series(&d, a.rate)?;
-    create_dir(&a.out)?;
+    create_dir_for(&a.out, &["table.md", "table.csv", "metrics.json"])?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads.unwrap_or(0))
         .build()

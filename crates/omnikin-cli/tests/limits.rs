@@ -474,3 +474,140 @@ fn figures_of_long_plans_are_thinned_not_gigabytes() {
     assert!(lines >= 4, "{lines} polylines");
     assert!(text.len() < 8_000_000, "{} bytes", text.len());
 }
+
+#[test]
+fn input_files_read_whole_are_bounded_before_they_are_read() {
+    // Files larger than anything their format needs (sparse: no disk used). Each was read
+    // whole and parsed: at 2.5 GB, odometry and plan waypoints aborted (allocation failure),
+    // and a robot or profile TOML needed 7x its size — aborted too. Now each is refused by
+    // its size first, naming the limit.
+    let d = tmp("big-files");
+    let sparse = |name: &str, len: u64| {
+        let p = d.join(name);
+        std::fs::File::create(&p).unwrap().set_len(len).unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let toml = sparse("robot.toml", (1 << 20) + 1);
+    let out = d.join("o.csv");
+    let o = out.to_str().unwrap();
+    fails_with(
+        &["plan", "square", "--robot", &toml, "--out", o],
+        &["MAX_TOML_BYTES"],
+    );
+    let plan = d.join("p.csv");
+    assert!(
+        run(&[
+            "plan",
+            "square",
+            "--robot",
+            "sphere-omni",
+            "--out",
+            plan.to_str().unwrap()
+        ])
+        .status
+        .success()
+    );
+    let s = d.join("sim");
+    fails_with(
+        &[
+            "simulate",
+            plan.to_str().unwrap(),
+            "--robot",
+            "sphere-omni",
+            "--disturbances",
+            &toml,
+            "--out",
+            s.to_str().unwrap(),
+        ],
+        &["MAX_TOML_BYTES"],
+    );
+    let wp = sparse("w.csv", (64 << 20) + 1);
+    fails_with(
+        &[
+            "plan",
+            "waypoints",
+            &wp,
+            "--robot",
+            "sphere-omni",
+            "--out",
+            o,
+        ],
+        &["MAX_WAYPOINT_FILE_BYTES"],
+    );
+    let log = sparse("enc.csv", (1 << 30) + 1);
+    fails_with(
+        &["odometry", &log, "--robot", "sphere-omni", "--out", o],
+        &["MAX_LOG_BYTES"],
+    );
+}
+
+#[test]
+fn a_key_file_is_not_read_past_what_a_key_can_be() {
+    // `--key /dev/zero` read until memory ran out (2 GB) before failing "out of memory".
+    fails_with(
+        &[
+            "drive",
+            "--connect",
+            "127.0.0.1:9",
+            "--key",
+            "/dev/zero",
+            "hello",
+        ],
+        &["--key /dev/zero", "16 to 64 bytes"],
+    );
+    fails_with(
+        &[
+            "robot",
+            "--sim",
+            "--robot",
+            "sphere-omni",
+            "--listen",
+            "127.0.0.1:9",
+            "--key",
+            "/dev/zero",
+        ],
+        &["--key /dev/zero", "16 to 64 bytes"],
+    );
+}
+
+#[test]
+fn force_into_a_directory_holding_an_input_under_an_output_name_writes_nothing() {
+    // `--force simulate DIR/mean.csv --out DIR`: mean.csv (the plan) was refused only when
+    // its turn came, after metrics.json and trials.csv had been replaced — a failed command
+    // leaving new results beside an old figure.
+    let d = tmp("force-input-in-dir");
+    let out = d.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    let plan = out.join("mean.csv");
+    assert!(
+        run(&[
+            "plan",
+            "square",
+            "--robot",
+            "sphere-omni",
+            "--out",
+            plan.to_str().unwrap()
+        ])
+        .status
+        .success()
+    );
+    write(&out.join("metrics.json"), "old\n");
+    write(&out.join("trials.csv"), "old\n");
+    for cmd in [
+        vec!["simulate", "--trials", "1", "--robot", "sphere-omni"],
+        vec!["evaluate", "--plan", plan.to_str().unwrap()],
+    ] {
+        let mut args = vec!["--force"];
+        args.extend(cmd);
+        args.extend([plan.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        fails_with(&args, &["is also the input"]);
+        for f in ["metrics.json", "trials.csv"] {
+            assert_eq!(
+                std::fs::read_to_string(out.join(f)).unwrap(),
+                "old\n",
+                "{args:?}: {f} untouched"
+            );
+        }
+        assert!(!out.join("figure.svg").exists() && !out.join("runs.csv").exists());
+    }
+}

@@ -423,6 +423,11 @@ impl Client {
     }
     /// Handshake (retransmitting the Hello) and key confirmation.
     fn connect(&mut self) {
+        self.handshake();
+        self.send(&Message::Heartbeat);
+    }
+    /// The handshake only (retransmitting the Hello until the HelloAck), no confirmation.
+    fn handshake(&mut self) {
         let mut rng = clock_rng();
         let end = Instant::now() + Duration::from_secs(3);
         while self.op.info().is_none() {
@@ -433,7 +438,6 @@ impl Client {
             std::thread::sleep(Duration::from_millis(5));
             self.drain();
         }
-        self.send(&Message::Heartbeat);
     }
     fn frame(&mut self, m: &Message) -> Vec<u8> {
         let mut buf = [0u8; MAX_FRAME];
@@ -1059,4 +1063,43 @@ fn telemetry_stops_when_the_operator_goes_silent() {
     let t2 = c.wait(200);
     assert!(t2.time_us > t.time_us);
     assert!(c.received.0 > quiet.0);
+}
+
+#[test]
+fn telemetry_goes_to_the_address_that_received_the_hello_ack_not_to_the_confirmer() {
+    // A handshakes from its own address, then sends the key confirmation and keep-alives with
+    // another source address B (here another socket; on a network, a spoofed victim). Before,
+    // the robot streamed telemetry to B, which had never received anything from it: 4 frames
+    // of 25 bytes bought ~21 kB at a victim (x200), unkeyed or by any key holder.
+    let robot = Robot::start(&["--max-time", "16"]);
+    let target = robot.socket_addr();
+    let mut a = Client::new(target);
+    a.handshake();
+    let mut b = Client::new(target);
+    let end = Instant::now() + Duration::from_millis(600);
+    while Instant::now() < end {
+        let f = a.frame(&Message::Heartbeat);
+        b.raw(&f);
+        std::thread::sleep(Duration::from_millis(20));
+        a.drain();
+        b.drain();
+    }
+    std::thread::sleep(Duration::from_millis(100));
+    a.drain();
+    b.drain();
+    println!(
+        "A sent {:?} received {:?}; B sent {:?} received {:?}",
+        a.sent, a.received, b.sent, b.received
+    );
+    assert_eq!(
+        b.received,
+        (0, 0),
+        "nothing to an address that got no HelloAck"
+    );
+    assert!(
+        a.latest.is_some(),
+        "the telemetry goes to the handshaking address"
+    );
+    let s = robot.summary();
+    assert_eq!(s["link"]["sessions"], 1);
 }

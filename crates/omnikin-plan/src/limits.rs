@@ -37,6 +37,55 @@ pub const MAX_PLAN_GRID_CELLS: usize = 2_000_000;
 /// Most waypoints in a waypoint file.
 pub const MAX_WAYPOINTS: usize = 100_000;
 
+/// Largest waypoint file, bytes: 64 MiB (over 600 bytes for each of [`MAX_WAYPOINTS`]); the
+/// file is read whole, so a multi-gigabyte one aborted the process instead of being refused.
+pub const MAX_WAYPOINT_FILE_BYTES: usize = 64 << 20;
+
+/// Longest line of a CSV input read as a stream (plans, tracks), bytes: 1 MiB, some 10⁴
+/// columns. The CSV reader grows its record buffer to the longest line, so without this bound
+/// one line of gigabytes (a file without newlines) exhausted memory and aborted the process.
+pub const MAX_CSV_LINE: usize = 1 << 20;
+
+/// A reader that fails with [`std::io::ErrorKind::InvalidData`] once a line (bytes between
+/// `\n`) exceeds `max` bytes, naming the limit; otherwise passes the bytes through.
+#[derive(Debug)]
+pub struct LineLimit<R> {
+    inner: R,
+    max: usize,
+    run: usize,
+}
+
+impl<R> LineLimit<R> {
+    /// Limits `inner`'s lines to `max` bytes (use [`MAX_CSV_LINE`]).
+    pub fn new(inner: R, max: usize) -> Self {
+        Self { inner, max, run: 0 }
+    }
+}
+
+impl<R: std::io::Read> std::io::Read for LineLimit<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        for &b in &buf[..n] {
+            if b == b'\n' {
+                self.run = 0;
+            } else {
+                self.run += 1;
+                if self.run > self.max {
+                    return Err(std::io::Error::new(
+                        std::io::ErrorKind::InvalidData,
+                        format!(
+                            "a line longer than {} bytes (the limit MAX_CSV_LINE of \
+                             omnikin_plan::limits): is this a CSV file?",
+                            self.max
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(n)
+    }
+}
+
 /// Plan sampling rate, Hz.
 pub const RATE_RANGE: (f64, f64) = (0.1, 1e5);
 

@@ -213,9 +213,9 @@ impl Plan {
             line,
             message,
         };
-        let mut r = csv::ReaderBuilder::new()
-            .trim(csv::Trim::All)
-            .from_reader(input);
+        let mut r = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(
+            crate::limits::LineLimit::new(input, crate::limits::MAX_CSV_LINE),
+        );
         let header = r
             .headers()
             .map_err(|e| err(Some(1), format!("cannot read the header: {e}")))?

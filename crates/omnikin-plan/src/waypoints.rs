@@ -81,8 +81,12 @@ impl Waypoints {
     /// [`PlanningError::Waypoints`] naming the file, the line and the problem.
     pub fn load(path: &std::path::Path) -> Result<Self, PlanningError> {
         let name = path.display().to_string();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| err(&name, None, format!("cannot read: {e}")))?;
+        let text = omnikin::description::read_text_limited(
+            path,
+            crate::limits::MAX_WAYPOINT_FILE_BYTES,
+            "MAX_WAYPOINT_FILE_BYTES of omnikin_plan::limits",
+        )
+        .map_err(|e| err(&name, None, format!("cannot read: {e}")))?;
         if path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("toml"))

@@ -328,3 +328,26 @@ fn motion_limits_and_path_sizes_have_ranges() {
     .unwrap_err();
     assert_eq!(out_of_range(&e).0, "turns");
 }
+
+#[test]
+fn a_csv_line_longer_than_the_limit_is_refused_while_streaming() {
+    use omnikin_plan::Plan;
+    use omnikin_plan::limits::MAX_CSV_LINE;
+    use std::io::Read;
+    // A file without newlines: the CSV reader grew one record to the whole file (a 4 GB
+    // file aborted `simulate` and `drive plan` under a 3 GiB limit). Here 4 MiB of digits
+    // after a valid header, read lazily: refused at the limit, naming it.
+    let header = "t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3\n";
+    let input = header.as_bytes().chain(std::io::repeat(b'1').take(4 << 20));
+    let e = Plan::read_csv(input, "p.csv").unwrap_err().to_string();
+    assert!(e.contains("MAX_CSV_LINE") && e.contains("p.csv"), "{e}");
+    assert!(e.len() < 1000, "the message does not echo the line");
+    // A header line over the limit, too.
+    let e = Plan::read_csv(std::io::repeat(b'a').take(2 * MAX_CSV_LINE as u64), "h.csv")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("MAX_CSV_LINE"), "{e}");
+    // A line just within the limit is read (and fails on its content, not its length).
+    let long = format!("{header}1{}\n", ",0".repeat(9));
+    assert!(Plan::read_csv(long.as_bytes(), "ok.csv").is_ok());
+}

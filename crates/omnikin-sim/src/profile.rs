@@ -210,7 +210,12 @@ impl Profile {
     /// Reads and validates a profile file.
     pub fn load(path: &std::path::Path) -> Result<Self, ProfileError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| ProfileError {
+        let text = omnikin::description::read_text_limited(
+            path,
+            omnikin::description::MAX_TOML_BYTES,
+            "MAX_TOML_BYTES of omnikin::description",
+        )
+        .map_err(|e| ProfileError {
             file: file.clone(),
             line: None,
             message: format!("cannot read: {e}"),

@@ -38,7 +38,12 @@ impl NumericTable {
     /// [`TableError`] when the file cannot be read or is malformed.
     pub fn load(path: &Path) -> Result<Self, TableError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| TableError {
+        let text = omnikin::description::read_text_limited(
+            path,
+            crate::limits::MAX_LOG_BYTES,
+            "MAX_LOG_BYTES of omnikin_sim::limits",
+        )
+        .map_err(|e| TableError {
             file: file.clone(),
             line: 1,
             message: format!("cannot read: {e}"),

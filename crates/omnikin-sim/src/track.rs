@@ -70,9 +70,9 @@ impl Track {
             line,
             message,
         };
-        let mut r = csv::ReaderBuilder::new()
-            .trim(csv::Trim::All)
-            .from_reader(input);
+        let mut r = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(
+            omnikin_plan::limits::LineLimit::new(input, omnikin_plan::limits::MAX_CSV_LINE),
+        );
         let header = r
             .headers()
             .map_err(|e| err(Some(1), format!("cannot read the header: {e}")))?

@@ -184,3 +184,14 @@ fn track_files_with_a_byte_order_mark_read() {
     let t = Track::read_csv("\u{feff}t,x,y\n0,0,0\n0.1,0.01,0\n".as_bytes(), "t.csv").unwrap();
     assert_eq!(t.t, vec![0.0, 0.1]);
 }
+
+#[test]
+fn a_track_line_longer_than_the_limit_is_refused_while_streaming() {
+    use std::io::Read;
+    let input = "t,x,y\n"
+        .as_bytes()
+        .chain(std::io::repeat(b'1').take(4 << 20));
+    let e = Track::read_csv(input, "track.csv").unwrap_err().to_string();
+    assert!(e.contains("MAX_CSV_LINE") && e.contains("track.csv"), "{e}");
+    assert!(e.len() < 1000, "the message does not echo the line");
+}

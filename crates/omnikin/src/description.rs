@@ -62,6 +62,42 @@ pub const MOTOR_ACCEL_RANGE: (f64, f64) = (1e-3, 1e7);
 /// (they end up in terminal output and SVG figures).
 pub const MAX_NAME_CHARS: usize = 64;
 
+/// Largest TOML text file the tools read (robot descriptions, disturbance and sensor
+/// profiles), bytes: 1 MiB. The TOML parser needs several times a file's size, so a
+/// multi-gigabyte file given as a robot aborted the process instead of being refused.
+pub const MAX_TOML_BYTES: usize = 1 << 20;
+
+/// Reads a text file of at most `max` bytes (`limit` names the constant in the error: a
+/// file over it is refused before it is read, a device or pipe once `max` bytes came).
+///
+/// # Errors
+/// The I/O error, or [`std::io::ErrorKind::InvalidData`] for a file over the limit or not
+/// UTF-8.
+pub fn read_text_limited(
+    path: &std::path::Path,
+    max: usize,
+    limit: &str,
+) -> std::io::Result<String> {
+    use std::io::Read;
+    let too_large = || {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("larger than {max} bytes (the limit {limit}): is this the right file?"),
+        )
+    };
+    let f = std::fs::File::open(path)?;
+    let len = f.metadata().map(|m| m.len()).unwrap_or(0);
+    if len > max as u64 {
+        return Err(too_large());
+    }
+    let mut s = String::with_capacity(len as usize);
+    f.take(max as u64 + 1).read_to_string(&mut s)?;
+    if s.len() > max {
+        return Err(too_large());
+    }
+    Ok(s)
+}
+
 /// A number for a message: plain, or `1e300` style when tiny or huge.
 fn num(v: f64) -> String {
     let a = v.abs();
@@ -224,7 +260,12 @@ impl RobotDescription {
     /// Loads and validates a description file.
     pub fn load(path: &std::path::Path) -> Result<Self, DescriptionError> {
         let source = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| DescriptionError {
+        let text = read_text_limited(
+            path,
+            MAX_TOML_BYTES,
+            "MAX_TOML_BYTES of omnikin::description",
+        )
+        .map_err(|e| DescriptionError {
             source_name: source.clone(),
             line: None,
             field: "file".into(),

@@ -953,13 +953,22 @@ impl Session {
         Ok(n)
     }
 
-    fn open(&mut self, p: &Parsed<'_>) -> Result<(u64, Message), DropReason> {
+    /// Verifies, checks freshness and decodes a frame of this session; `to_robot` says which
+    /// end is receiving. Both directions share `K_s`, so a message for the other end (a
+    /// robot's own telemetry reflected back to it, an operator's command sent back to the
+    /// operator) carries a valid tag: it is dropped as malformed before it can move the
+    /// replay window (which would lock out the peer's lower sequence numbers) or `ack_seq`.
+    fn open(&mut self, p: &Parsed<'_>, to_robot: bool) -> Result<(u64, Message), DropReason> {
         p.verify(self.mac.as_ref())?;
         let seq = p.header.seq;
         if !self.window.is_fresh(seq) {
             return Err(DropReason::Replay(seq));
         }
         let msg = decode_message(p.body)?;
+        let for_robot = !matches!(msg, Message::Telemetry(_) | Message::SessionEnd(_));
+        if for_robot != to_robot {
+            return Err(DropReason::Malformed);
+        }
         self.window.accept(seq);
         Ok((seq, msg))
     }
@@ -1169,7 +1178,7 @@ impl RobotLink {
             Kind::Session => {
                 let id = p.header.session;
                 if let Some(a) = self.active.as_mut().filter(|a| a.id == id) {
-                    let (seq, msg) = a.open(&p)?;
+                    let (seq, msg) = a.open(&p, true)?;
                     self.ack_seq = self.ack_seq.max(seq);
                     return Ok(RobotEvent::Message {
                         seq,
@@ -1190,7 +1199,7 @@ impl RobotLink {
                     return Err(DropReason::Session(id));
                 };
                 let mut session = Session::new(id, &pd.ks, self.key.is_some());
-                let (seq, msg) = session.open(&p)?;
+                let (seq, msg) = session.open(&p, true)?;
                 // The other pending handshakes stay (they may still confirm and take over).
                 if let Some(pd) = self.pending[slot].take() {
                     self.active_nonce = pd.client_nonce;
@@ -1438,7 +1447,7 @@ impl OperatorLink {
             }
             Kind::Session => match &mut self.state {
                 OpState::Established { session, .. } if session.id == p.header.session => {
-                    let (seq, msg) = session.open(&p)?;
+                    let (seq, msg) = session.open(&p, false)?;
                     if let Message::SessionEnd(r) = msg {
                         self.ended = Some(r);
                     }

@@ -948,3 +948,64 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn reflected_frames_are_dropped_and_do_not_move_the_windows() {
+    // Both directions of a session share K_s: without a direction check the robot accepts its
+    // own telemetry sent back to it (a valid tag, a fresh seq), counts it `ok` and advances its
+    // window to the telemetry's seq, so the operator's next commands (lower seqs) land in
+    // `replay` — a lock-out by one reflected frame, with a key. Likewise the other way.
+    for keyed in [true, false] {
+        let k = keyed.then(key);
+        let mut rng = TestRng(81);
+        let mut bot = Bot::new(k.clone(), 82);
+        let mut op = OperatorLink::new(k);
+        connect(&mut op, &mut bot, &mut rng);
+        let status = Plant::new().cycle();
+        // The robot streams 100 telemetry frames; the operator has sent 1 frame.
+        let mut tele = vec![];
+        for _ in 0..100 {
+            let t = bot.link.telemetry(&status);
+            tele.push(bot.tx(&Message::Telemetry(t)).unwrap());
+        }
+        for t in &tele[..99] {
+            assert!(op_rx(&mut op, t).is_ok());
+        }
+        let ok = bot.link.counters().ok;
+        // The newest telemetry frame, reflected back to the robot.
+        let (r, reply) = bot.rx(&tele[99]);
+        assert_eq!(r, Err(DropReason::Malformed), "keyed {keyed}");
+        assert!(reply.is_empty());
+        assert_eq!(
+            bot.link.counters().ok,
+            ok,
+            "a reflected frame is not accepted"
+        );
+        assert_eq!(bot.link.counters().malformed, 1);
+        // The operator's next command still gets through, and ack_seq names it.
+        let cmd = op_tx(&mut op, &Message::Stop);
+        let (r, _) = bot.rx(&cmd);
+        assert!(matches!(r, Ok(RobotEvent::Message { seq: 2, .. })), "{r:?}");
+        assert_eq!(bot.link.telemetry(&status).ack_seq, 2);
+        // The other way: the operator has sent 200 more commands, then one of them comes
+        // back to it; it is dropped and the robot's next telemetry (seq 101, far below the
+        // reflected seq 203) still arrives.
+        for _ in 0..200 {
+            let f = op_tx(&mut op, &Message::Heartbeat);
+            assert!(bot.rx(&f).0.is_ok());
+        }
+        let reflected = op_tx(&mut op, &Message::Heartbeat);
+        let before = op.counters().malformed;
+        assert_eq!(op_rx(&mut op, &reflected), Err(DropReason::Malformed));
+        assert_eq!(op.counters().malformed, before + 1);
+        let t = bot.link.telemetry(&status);
+        let next = bot.tx(&Message::Telemetry(t)).unwrap();
+        assert!(
+            matches!(
+                op_rx(&mut op, &next),
+                Ok(OperatorEvent::Message { seq: 101, .. })
+            ),
+            "keyed {keyed}"
+        );
+    }
+}
