@@ -55,8 +55,18 @@ fn names_key(message: &str) -> bool {
         return false;
     };
     keys.split(" / ").all(|key| {
-        key.split('.')
-            .all(|p| !p.is_empty() && p.bytes().all(|b| b.is_ascii_lowercase() || b == b'_'))
+        key.split('.').all(|p| {
+            // A list element is named by its index: `imu.gyro_bias[1]`.
+            let p = match p.strip_suffix(']').and_then(|q| q.rsplit_once('[')) {
+                Some((name, index))
+                    if !index.is_empty() && index.bytes().all(|b| b.is_ascii_digit()) =>
+                {
+                    name
+                }
+                _ => p,
+            };
+            !p.is_empty() && p.bytes().all(|b| b.is_ascii_lowercase() || b == b'_')
+        })
     })
 }
 

@@ -267,6 +267,16 @@ impl Session {
         if let Some(t) = self.last_telemetry
             && t.elapsed() > self.timeout
         {
+            if self.latest.is_none() {
+                // The HelloAck came, but no telemetry of the new session ever did: the robot
+                // never took the confirming frame (lost, or the pending handshake was evicted
+                // by more than four other Hellos in one round trip).
+                bail!(
+                    "the robot at {} answered the handshake but never confirmed the session: no telemetry of it in {:.1} s (frames lost, or another client is flooding the robot with Hellos, which evicts pending handshakes); try again",
+                    self.addr,
+                    self.timeout.as_secs_f64()
+                );
+            }
             bail!(
                 "lost the session with the robot at {}: no telemetry of this session for {:.1} s (link down, or the robot restarted)",
                 self.addr,
