@@ -159,7 +159,11 @@ impl Waypoints {
                     err(
                         file,
                         Some(line),
-                        format!("column {}: \"{field}\" is not a number", NAMES[c]),
+                        format!(
+                            "column {}: \"{}\" is not a number",
+                            NAMES[c],
+                            omnikin::description::excerpt(field)
+                        ),
                     )
                 })?;
                 if !x.is_finite() {

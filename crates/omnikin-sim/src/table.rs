@@ -101,9 +101,16 @@ impl NumericTable {
             }
             let mut v = Vec::with_capacity(cells.len());
             for (c, name) in cells.iter().zip(&header) {
-                let x: f64 = c
-                    .parse()
-                    .map_err(|_| err(n, format!("column {name}: \"{c}\" is not a number")))?;
+                let x: f64 = c.parse().map_err(|_| {
+                    err(
+                        n,
+                        format!(
+                            "column {}: \"{}\" is not a number",
+                            omnikin::description::excerpt(name),
+                            omnikin::description::excerpt(c)
+                        ),
+                    )
+                })?;
                 if !x.is_finite() {
                     return Err(err(n, format!("column {name}: {c} is not finite")));
                 }
@@ -171,6 +178,21 @@ mod tests {
         assert_eq!(t.rows, vec![(3, vec![0.0, 1.5]), (4, vec![1.0, -2.0])]);
         assert_eq!(t.col("q1"), Some(1));
         assert_eq!(t.require(&["t", "q1"], "x").unwrap(), [0, 1]);
+    }
+
+    #[test]
+    fn a_huge_bad_value_is_quoted_in_part() {
+        // A malformed megabyte field was echoed whole into the message.
+        let text = format!("t,x\n0,{}\n", "9".repeat(40) + &"z".repeat(1 << 20));
+        let e = NumericTable::parse(&text, "f.csv").unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!(
+                "f.csv:2: column x: \"{}… ({} bytes)\" is not a number",
+                "9".repeat(40),
+                40 + (1 << 20)
+            )
+        );
     }
 
     #[test]

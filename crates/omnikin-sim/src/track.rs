@@ -117,7 +117,10 @@ impl Track {
                 let v: f64 = s.parse().map_err(|_| {
                     err(
                         Some(line),
-                        format!("column {name}: \"{s}\" is not a number"),
+                        format!(
+                            "column {name}: \"{}\" is not a number",
+                            omnikin::description::excerpt(s)
+                        ),
                     )
                 })?;
                 if v.is_finite() {

@@ -62,6 +62,19 @@ pub const MOTOR_ACCEL_RANGE: (f64, f64) = (1e-3, 1e7);
 /// (they end up in terminal output and SVG figures).
 pub const MAX_NAME_CHARS: usize = 64;
 
+/// Characters of a bad value that an error message quotes ([`excerpt`]).
+pub const MAX_QUOTED_CHARS: usize = 40;
+
+/// `s` as an error message quotes it: whole up to [`MAX_QUOTED_CHARS`] characters, else its
+/// first ones followed by `…` and the full length, so a malformed 1 GB field does not become a
+/// 1 GB message.
+pub fn excerpt(s: &str) -> std::borrow::Cow<'_, str> {
+    match s.char_indices().nth(MAX_QUOTED_CHARS) {
+        None => std::borrow::Cow::Borrowed(s),
+        Some((end, _)) => std::borrow::Cow::Owned(format!("{}… ({} bytes)", &s[..end], s.len())),
+    }
+}
+
 /// Largest TOML text file the tools read (robot descriptions, disturbance and sensor
 /// profiles), bytes: 1 MiB. The TOML parser needs several times a file's size, so a
 /// multi-gigabyte file given as a robot aborted the process instead of being refused.
