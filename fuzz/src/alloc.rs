@@ -112,3 +112,11 @@ pub fn measure<R>(f: impl FnOnce() -> R) -> (R, Usage) {
 pub fn text_budget(len: usize) -> usize {
     len.saturating_mul(256).saturating_add(1 << 20)
 }
+
+/// The heap the TOML parser may use for an input of `len` bytes: 1 KiB per input byte plus
+/// 1 MiB. Nested inline tables (`a={b={c={…`) cost the `toml` crate about 1 KB of heap per
+/// input byte (CI found 1 387 bytes taking 1.47 MB, past [`text_budget`]); still linear, and
+/// the tools read TOML files of at most 1 MiB (`omnikin::description::MAX_TOML_BYTES`).
+pub fn toml_budget(len: usize) -> usize {
+    len.saturating_mul(1024).saturating_add(1 << 20)
+}

@@ -11,19 +11,28 @@ use omnikin_sim::sensors::SensorProfile;
 use omnikin_sim::table::NumericTable;
 use omnikin_sim::track::Track;
 
-use crate::alloc::{measure, text_budget};
+use crate::alloc::{measure, text_budget, toml_budget};
 
 /// The name the fuzzed text is parsed under (every error must start with it).
 pub const FILE: &str = "fuzz-input";
 
 fn bounded<R>(len: usize, f: impl FnOnce() -> R) -> R {
+    within(text_budget(len), len, f)
+}
+
+/// [`bounded`] for TOML parsers ([`toml_budget`]).
+fn bounded_toml<R>(len: usize, f: impl FnOnce() -> R) -> R {
+    within(toml_budget(len), len, f)
+}
+
+fn within<R>(budget: usize, len: usize, f: impl FnOnce() -> R) -> R {
     let (r, usage) = measure(f);
     assert!(
-        usage.peak <= text_budget(len),
+        usage.peak <= budget,
         "{} bytes of input took {} bytes of heap (budget {})",
         len,
         usage.peak,
-        text_budget(len)
+        budget
     );
     r
 }
@@ -77,7 +86,7 @@ pub fn robot_toml(data: &[u8]) {
     let Ok(text) = std::str::from_utf8(data) else {
         return;
     };
-    let r = bounded(text.len(), || RobotDescription::from_toml_str(text, FILE));
+    let r = bounded_toml(text.len(), || RobotDescription::from_toml_str(text, FILE));
     match r {
         Ok(d) => {
             assert!(!d.name.is_empty());
@@ -118,7 +127,7 @@ pub fn profile_toml(data: &[u8]) {
     let Ok(text) = std::str::from_utf8(data) else {
         return;
     };
-    match bounded(text.len(), || {
+    match bounded_toml(text.len(), || {
         omnikin_sim::Profile::from_toml_str(text, FILE)
     }) {
         Ok(p) => {
@@ -128,7 +137,7 @@ pub fn profile_toml(data: &[u8]) {
         }
         Err(e) => check_profile_error(&e, text),
     }
-    match bounded(text.len(), || SensorProfile::from_toml_str(text, FILE)) {
+    match bounded_toml(text.len(), || SensorProfile::from_toml_str(text, FILE)) {
         Ok(_) => {}
         Err(e) => check_profile_error(&e, text),
     }
@@ -182,7 +191,7 @@ pub fn waypoints(data: &[u8]) {
         text,
     );
     check_waypoints(
-        bounded(text.len(), || Waypoints::from_toml(text, FILE)),
+        bounded_toml(text.len(), || Waypoints::from_toml(text, FILE)),
         text,
     );
 }
