@@ -81,16 +81,25 @@ impl Waypoints {
     /// [`PlanningError::Waypoints`] naming the file, the line and the problem.
     pub fn load(path: &std::path::Path) -> Result<Self, PlanningError> {
         let name = path.display().to_string();
-        let text = omnikin::description::read_text_limited(
-            path,
-            crate::limits::MAX_WAYPOINT_FILE_BYTES,
-            "MAX_WAYPOINT_FILE_BYTES of omnikin_plan::limits",
-        )
-        .map_err(|e| err(&name, None, format!("cannot read: {e}")))?;
-        if path
+        let toml = path
             .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
-        {
+            .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+        // The TOML parser needs up to ~1 KB of heap per input byte (nested inline tables), so
+        // a TOML waypoint file has the 1 MiB cap of every TOML input; CSV may be larger.
+        let (max, limit) = if toml {
+            (
+                omnikin::description::MAX_TOML_BYTES,
+                "MAX_TOML_BYTES of omnikin::description",
+            )
+        } else {
+            (
+                crate::limits::MAX_WAYPOINT_FILE_BYTES,
+                "MAX_WAYPOINT_FILE_BYTES of omnikin_plan::limits",
+            )
+        };
+        let text = omnikin::description::read_text_limited(path, max, limit)
+            .map_err(|e| err(&name, None, format!("cannot read: {e}")))?;
+        if toml {
             Self::from_toml(&text, &name)
         } else {
             Self::from_csv(&text, &name)
