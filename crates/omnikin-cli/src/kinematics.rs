@@ -70,6 +70,7 @@ pub fn inverse(a: &InverseArgs) -> Result<()> {
             let r = m.motor_rates(world, a.heading, steer)?;
             (r.roll, Some(r.steer))
         }
+        _ => anyhow::bail!("{} is not supported by this command yet", d.kind()),
     };
     warn_limits(
         "wheel",
@@ -154,6 +155,7 @@ pub fn forward(a: &ForwardArgs) -> Result<()> {
             let f = m.body_twist(&rates, heading, steer)?;
             (f.twist, Some(f))
         }
+        _ => anyhow::bail!("{} is not supported by this command yet", d.kind()),
     };
     if a.json {
         let mut o = json!({ "vx": twist.vx, "vy": twist.vy, "yaw_rate": twist.yaw_rate });
@@ -419,6 +421,7 @@ pub fn check(a: &CheckArgs) -> Result<()> {
                 j["max_yaw_rate_rad_per_s"] = json!(yaw);
             }
         }
+        _ => anyhow::bail!("{} is not supported by this command yet", d.kind()),
     }
     if let Some((dirs, yaw)) = reach {
         text.push("fastest motion within max_wheel_rate (robot frame, no yaw, no spin):".into());

@@ -3,7 +3,7 @@
 //! (wheel 1–3, and for the caster steer 1–3).
 
 use omnikin::description::{Limits, RobotDescription};
-use omnikin::{Robot, Twist2};
+use omnikin::{Actuators, Robot, Twist2};
 
 use crate::PlanningError;
 
@@ -142,22 +142,14 @@ impl RobotModel {
         twist_world: Twist2<f64>,
         steer: [f64; 3],
     ) -> Result<MotorRates, PlanningError> {
-        Ok(match &self.model {
-            Robot::Sphere(m) => MotorRates {
-                wheel: m.wheel_rates_world(twist_world, heading, 0.0)?,
-                steer: None,
-            },
-            Robot::Ballbot(m) => MotorRates {
-                wheel: m.wheel_rates_world(twist_world, heading, 0.0)?,
-                steer: None,
-            },
-            Robot::Caster(m) => {
-                let r = m.motor_rates(twist_world, heading, steer)?;
-                MotorRates {
-                    wheel: r.roll,
-                    steer: Some(r.steer),
-                }
-            }
+        let a = self
+            .model
+            .inverse_world(twist_world, heading, &Actuators::at_steer(&steer))?;
+        Ok(MotorRates {
+            wheel: [a.wheel_rates[0], a.wheel_rates[1], a.wheel_rates[2]],
+            steer: self
+                .is_caster()
+                .then(|| [a.steer_rates[0], a.steer_rates[1], a.steer_rates[2]]),
         })
     }
 
@@ -176,11 +168,11 @@ impl RobotModel {
     ) -> Result<MotorRates, PlanningError> {
         // World → robot frame: the rotation by −ψ, whose (sin, cos) is (−sin ψ, cos ψ).
         let body = twist_world.rotated_sc((-cs[1], cs[0]));
-        let wheel = match &self.model {
-            Robot::Sphere(m) => m.wheel_rates(body, 0.0)?,
-            Robot::Ballbot(m) => m.wheel_rates(body, 0.0)?,
-            Robot::Caster(_) => return self.rates(heading, twist_world, steer),
-        };
+        if self.is_caster() {
+            return self.rates(heading, twist_world, steer);
+        }
+        let a = self.model.inverse(body, &Actuators::zero())?;
+        let wheel = [a.wheel_rates[0], a.wheel_rates[1], a.wheel_rates[2]];
         Ok(MotorRates { wheel, steer: None })
     }
 

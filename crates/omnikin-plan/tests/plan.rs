@@ -178,6 +178,7 @@ fn wheel_rates_equal_the_core_inverse_kinematics_of_the_sampled_twist() {
                     let rr = m.motor_rates(s.twist, s.pose.heading, g).unwrap();
                     (rr.roll, Some(rr.steer))
                 }
+                _ => unreachable!("assorted() plans sphere, ballbot and caster"),
             };
             for i in 0..3 {
                 assert!(

@@ -283,6 +283,11 @@ pub fn simulate_trial(
                     steer = steer_next;
                     fwd.twist.to_robot(pose.heading)
                 }
+                _ => {
+                    return Err(kin(omnikin::InputError::Singular {
+                        reason: "this robot kind is not simulated yet",
+                    }));
+                }
             };
             if floor_std > 0.0 {
                 let decay = (-dt / floor_tau).exp();
@@ -323,6 +328,7 @@ pub fn plan_mismatch(robot: &Robot<f64>, plan: &Plan) -> Option<String> {
                 .steer
                 .and_then(|(g, _)| m.motor_rates(s.twist, s.pose.heading, g).ok())
                 .map(|r| r.roll.iter().chain(&r.steer).copied().collect()),
+            _ => None,
         };
         let Some(expected) = expected else { continue };
         let planned: Vec<f64> = s

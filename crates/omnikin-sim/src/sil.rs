@@ -195,6 +195,11 @@ impl SilPlant {
                 self.steer = next;
                 fwd.twist.to_robot(self.pose.heading)
             }
+            _ => {
+                return Err(kin(omnikin::InputError::Singular {
+                    reason: "this robot kind is not simulated yet",
+                }));
+            }
         };
         let floor_std = p.floor.rel_std.unwrap_or(0.0);
         if floor_std > 0.0 {

@@ -37,7 +37,7 @@ fn plan(
                 let wheel_rates = match robot {
                     Robot::Sphere(m) => m.wheel_rates_world(twist, pose.heading, 0.0).unwrap(),
                     Robot::Ballbot(m) => m.wheel_rates_world(twist, pose.heading, 0.0).unwrap(),
-                    Robot::Caster(_) => unreachable!("caster plans are built separately"),
+                    _ => unreachable!("sphere and ballbot only; caster plans are built separately"),
                 };
                 Sample {
                     t,

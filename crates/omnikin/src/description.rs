@@ -3,7 +3,7 @@
 //! A description names the robot's `kind`, its `[geometry]` and optional motor `[limits]`:
 //!
 //! ```toml
-//! kind = "sphere-omni"            # or "ballbot", "caster3"
+//! kind = "sphere-omni"            # or "ballbot", "caster3", "omni", "swerve"
 //! name = "my-sphere"              # optional, defaults to the kind
 //!
 //! [geometry]                      # keys depend on the kind, see robots/*.toml
@@ -33,17 +33,23 @@ use serde::Deserialize;
 
 use crate::ballbot::{Ballbot, BallbotParams};
 use crate::caster::{Caster3, CasterParams};
+use crate::drive::omni::OmniWheel;
+use crate::drive::swerve::SwerveModule;
 use crate::sphere::{SphereOmni, SphereParams};
-use crate::{GeometryError, Real, Robot};
+use crate::{GeometryError, Kind, Real, Robot};
 
 /// The compiled-in presets: `(name, TOML text)`, identical to the files in `robots/`.
-pub const PRESETS: [(&str, &str); 3] = [
+pub const PRESETS: [(&str, &str); 7] = [
     (
         "sphere-omni",
         include_str!("../../../robots/sphere-omni.toml"),
     ),
     ("ballbot", include_str!("../../../robots/ballbot.toml")),
     ("caster3", include_str!("../../../robots/caster3.toml")),
+    ("kiwi", include_str!("../../../robots/kiwi.toml")),
+    ("x-drive", include_str!("../../../robots/x-drive.toml")),
+    ("mecanum", include_str!("../../../robots/mecanum.toml")),
+    ("swerve4", include_str!("../../../robots/swerve4.toml")),
 ];
 
 /// Plausible range of every length in a description (`shell_radius`, `wheel_radius`,
@@ -156,7 +162,7 @@ pub struct Limits {
 }
 
 /// The geometry of a described robot, in SI units (radians), ready to build a model.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Geometry {
     /// Spherical robot (paper 000).
     Sphere(SphereParams<f64>),
@@ -164,6 +170,15 @@ pub enum Geometry {
     Ballbot(BallbotParams<f64>),
     /// Three-caster base (paper 003).
     Caster(CasterParams<f64>),
+    /// N omni or mecanum wheels (`kind = "omni"`), in file order.
+    Omni(std::vec::Vec<OmniWheel<f64>>),
+    /// N centred swerve modules (`kind = "swerve"`), in file order.
+    Swerve {
+        /// The modules.
+        modules: std::vec::Vec<SwerveModule<f64>>,
+        /// `optimize_steering`: flip and reverse a module instead of turning it > 90°.
+        optimize: bool,
+    },
 }
 
 /// A validated robot description.
@@ -240,10 +255,41 @@ struct CasterGeometry {
     mount_angles_deg: List,
 }
 
-const KINDS: &str = "one of \"sphere-omni\", \"ballbot\", \"caster3\"";
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct OmniGeometry {
+    wheels: std::vec::Vec<OmniWheelFile>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct OmniWheelFile {
+    position: [f64; 2],
+    drive_angle_deg: f64,
+    roller_angle_deg: f64,
+    radius: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SwerveGeometry {
+    #[serde(default)]
+    optimize_steering: bool,
+    modules: std::vec::Vec<SwerveModuleFile>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SwerveModuleFile {
+    position: [f64; 2],
+    wheel_radius: f64,
+}
+
+const KINDS: &str = "one of \"sphere-omni\", \"ballbot\", \"caster3\", \"omni\", \"swerve\"";
 
 impl RobotDescription {
-    /// The compiled-in preset called `name` (`sphere-omni`, `ballbot`, `caster3`).
+    /// The compiled-in preset called `name` (`sphere-omni`, `ballbot`, `caster3`, `kiwi`,
+    /// `x-drive`, `mecanum`, `swerve4`).
     pub fn preset(name: &str) -> Option<Self> {
         let (_, text) = PRESETS.iter().find(|(n, _)| *n == name)?;
         // The presets are tested to load; a failure here would be a build defect.
@@ -382,6 +428,40 @@ impl RobotDescription {
                 Caster3::new(p).map_err(|e| geometry_error(e, source_name, "caster3"))?;
                 (f.name, Geometry::Caster(p), f.limits)
             }
+            "omni" => {
+                let f: File<OmniGeometry> = toml::from_str(text).map_err(de_err)?;
+                let wheels: std::vec::Vec<OmniWheel<f64>> = f
+                    .geometry
+                    .wheels
+                    .iter()
+                    .map(|w| {
+                        OmniWheel::at_angle(
+                            w.position,
+                            w.drive_angle_deg.to_radians(),
+                            w.roller_angle_deg.to_radians(),
+                            w.radius,
+                        )
+                    })
+                    .collect();
+                Robot::<f64>::omni(&wheels).map_err(|e| geometry_error(e, source_name, "omni"))?;
+                (f.name, Geometry::Omni(wheels), f.limits)
+            }
+            "swerve" => {
+                let f: File<SwerveGeometry> = toml::from_str(text).map_err(de_err)?;
+                let modules: std::vec::Vec<SwerveModule<f64>> = f
+                    .geometry
+                    .modules
+                    .iter()
+                    .map(|m| SwerveModule {
+                        position: m.position,
+                        wheel_radius: m.wheel_radius,
+                    })
+                    .collect();
+                let optimize = f.geometry.optimize_steering;
+                Robot::<f64>::swerve(&modules, optimize)
+                    .map_err(|e| geometry_error(e, source_name, "swerve"))?;
+                (f.name, Geometry::Swerve { modules, optimize }, f.limits)
+            }
             other => {
                 return Err(err(
                     None,
@@ -454,6 +534,52 @@ impl RobotDescription {
                 range(field, v, r, unit)?;
             }
         }
+        let mut owned: std::vec::Vec<(String, f64)> = std::vec::Vec::new();
+        match &geometry {
+            Geometry::Omni(w) => {
+                for (i, w) in w.iter().enumerate() {
+                    owned.push((format!("geometry.wheels[{i}].radius"), w.radius));
+                    let p = w.position[0].hypot(w.position[1]);
+                    if p.is_nan() || p > LENGTH_RANGE.1 {
+                        return Err(err(
+                            None,
+                            &format!("geometry.wheels[{i}].position"),
+                            format!(
+                                "is {} m from the robot origin, outside the plausible range \
+                                 [0, {}] m (omnikin::description)",
+                                num(p),
+                                num(LENGTH_RANGE.1)
+                            ),
+                        ));
+                    }
+                }
+            }
+            Geometry::Swerve { modules, .. } => {
+                for (i, m) in modules.iter().enumerate() {
+                    owned.push((
+                        format!("geometry.modules[{i}].wheel_radius"),
+                        m.wheel_radius,
+                    ));
+                    let p = m.position[0].hypot(m.position[1]);
+                    if p.is_nan() || p > LENGTH_RANGE.1 {
+                        return Err(err(
+                            None,
+                            &format!("geometry.modules[{i}].position"),
+                            format!(
+                                "is {} m from the robot origin, outside the plausible range \
+                                 [0, {}] m (omnikin::description)",
+                                num(p),
+                                num(LENGTH_RANGE.1)
+                            ),
+                        ));
+                    }
+                }
+            }
+            _ => {}
+        }
+        for (field, v) in &owned {
+            range(field, *v, LENGTH_RANGE, "m")?;
+        }
         let lengths: &[(&str, f64)] = match &geometry {
             Geometry::Sphere(p) => &[
                 ("geometry.shell_radius", p.shell_radius),
@@ -470,6 +596,7 @@ impl RobotDescription {
                 ("geometry.eccentricity", p.eccentricity),
                 ("geometry.wheel_radius", p.wheel_radius),
             ],
+            Geometry::Omni(_) | Geometry::Swerve { .. } => &[],
         };
         for &(field, v) in lengths {
             range(field, v, LENGTH_RANGE, "m")?;
@@ -477,13 +604,15 @@ impl RobotDescription {
         if let Some(n) = &name {
             check_name(n).map_err(|rule| err(None, "name", rule))?;
         }
-        if !matches!(geometry, Geometry::Caster(_))
-            && (limits.max_steer_rate.is_some() || limits.max_steer_accel.is_some())
-        {
+        let steerable = Kind::from_name(&kind).is_some_and(Kind::steerable);
+        if !steerable && (limits.max_steer_rate.is_some() || limits.max_steer_accel.is_some()) {
             return Err(err(
                 None,
                 "limits.max_steer_rate",
-                format!("steer limits apply only to kind \"caster3\", not \"{kind}\""),
+                format!(
+                    "steer limits apply only to kinds with steering (\"caster3\", \"swerve\"), \
+                     not \"{kind}\""
+                ),
             ));
         }
         Ok(Self {
@@ -496,10 +625,17 @@ impl RobotDescription {
 
     /// The robot's kind as written in files and on the command line.
     pub fn kind(&self) -> &'static str {
+        self.robot_kind().name()
+    }
+
+    /// The robot's kind.
+    pub fn robot_kind(&self) -> Kind {
         match self.geometry {
-            Geometry::Sphere(_) => "sphere-omni",
-            Geometry::Ballbot(_) => "ballbot",
-            Geometry::Caster(_) => "caster3",
+            Geometry::Sphere(_) => Kind::Sphere,
+            Geometry::Ballbot(_) => Kind::Ballbot,
+            Geometry::Caster(_) => Kind::Caster,
+            Geometry::Omni(_) => Kind::Omni,
+            Geometry::Swerve { .. } => Kind::Swerve,
         }
     }
 
@@ -508,8 +644,30 @@ impl RobotDescription {
         let c = |x: f64| T::of(x);
         let kind = self.kind();
         let wrap = |e| geometry_error(e, &self.source_name, kind);
-        Ok(match self.geometry {
-            Geometry::Sphere(p) => Robot::Sphere(
+        Ok(match &self.geometry {
+            Geometry::Omni(wheels) => {
+                let w: std::vec::Vec<OmniWheel<T>> = wheels
+                    .iter()
+                    .map(|w| OmniWheel {
+                        position: w.position.map(c),
+                        drive: w.drive.map(c),
+                        roller_angle: c(w.roller_angle),
+                        radius: c(w.radius),
+                    })
+                    .collect();
+                Robot::omni(&w).map_err(wrap)?
+            }
+            Geometry::Swerve { modules, optimize } => {
+                let m: std::vec::Vec<SwerveModule<T>> = modules
+                    .iter()
+                    .map(|m| SwerveModule {
+                        position: m.position.map(c),
+                        wheel_radius: c(m.wheel_radius),
+                    })
+                    .collect();
+                Robot::swerve(&m, *optimize).map_err(wrap)?
+            }
+            &Geometry::Sphere(p) => Robot::Sphere(
                 SphereOmni::new(SphereParams {
                     shell_radius: c(p.shell_radius),
                     wheel_radius: p.wheel_radius.map(c),
@@ -519,7 +677,7 @@ impl RobotDescription {
                 })
                 .map_err(wrap)?,
             ),
-            Geometry::Ballbot(p) => Robot::Ballbot(
+            &Geometry::Ballbot(p) => Robot::Ballbot(
                 Ballbot::new(BallbotParams {
                     ball_radius: c(p.ball_radius),
                     wheel_radius: c(p.wheel_radius),
@@ -528,7 +686,7 @@ impl RobotDescription {
                 })
                 .map_err(wrap)?,
             ),
-            Geometry::Caster(p) => Robot::Caster(
+            &Geometry::Caster(p) => Robot::Caster(
                 Caster3::new(CasterParams {
                     mount_radius: c(p.mount_radius),
                     eccentricity: c(p.eccentricity),
@@ -578,7 +736,16 @@ fn geometry_error(e: GeometryError, source_name: &str, kind: &str) -> Descriptio
         GeometryError::WheelTooLarge { .. } => "wheel_radius",
         GeometryError::DeadWheel { .. } => "roller_angle",
         GeometryError::IllConditioned { .. } => "",
+        GeometryError::WheelCount { field, .. } => field,
     };
+    if kind == "omni" || kind == "swerve" {
+        return DescriptionError {
+            source_name: source_name.to_string(),
+            line: None,
+            field: drive_key(&e, core_field, kind),
+            rule: e.to_string(),
+        };
+    }
     let base = core_field.split('[').next().unwrap_or(core_field);
     let index = core_field.strip_prefix(base).unwrap_or("");
     let key = match (kind, base) {
@@ -602,4 +769,28 @@ fn geometry_error(e: GeometryError, source_name: &str, kind: &str) -> Descriptio
         field: key,
         rule: e.to_string(),
     }
+}
+
+/// The TOML key of an omni/swerve geometry error: the core names `wheels[i].drive`,
+/// `wheels[i].roller_angle`, `modules[i].position`…, the file `geometry.wheels[i].drive_angle_deg`.
+fn drive_key(e: &GeometryError, core_field: &str, kind: &str) -> String {
+    let list = if kind == "omni" { "wheels" } else { "modules" };
+    if let GeometryError::DeadWheel {
+        wheel, quantity, ..
+    } = e
+    {
+        let what = if *quantity == "|drive|" {
+            "drive_angle_deg"
+        } else {
+            "roller_angle_deg"
+        };
+        return format!("geometry.{list}[{}].{what}", wheel.saturating_sub(1));
+    }
+    if core_field.is_empty() {
+        return format!("geometry.{list}");
+    }
+    let key = core_field
+        .replace(".drive", ".drive_angle_deg")
+        .replace(".roller_angle", ".roller_angle_deg");
+    format!("geometry.{key}")
 }

@@ -30,6 +30,18 @@ pub enum GeometryError {
         /// The shell radius, m.
         shell_radius: f64,
     },
+    /// A list of wheels (modules) has a length the kind does not support.
+    #[error("{field}: {got} given, this kind supports {min} to {max}")]
+    WheelCount {
+        /// The list's name (`"wheels"`, `"modules"`).
+        field: &'static str,
+        /// The number given.
+        got: usize,
+        /// Fewest supported.
+        min: usize,
+        /// Most supported ([`crate::drive::MAX_WHEELS`]).
+        max: usize,
+    },
     /// An angle parameter is outside the range the model allows.
     #[error("{field} = {value} rad is out of range: {rule}")]
     AngleOutOfRange {

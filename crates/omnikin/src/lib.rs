@@ -80,17 +80,7 @@ pub use error::{GeometryError, InputError};
 pub use real::Real;
 pub use types::{Pose2, Twist2};
 
-/// Any of the three robot models, for code that takes the robot as data (a description file,
-/// a command-line argument).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Robot<T> {
-    /// Spherical robot with an internal omni-wheel platform (paper 000).
-    Sphere(sphere::SphereOmni<T>),
-    /// Ball-balancing robot (paper 001).
-    Ballbot(ballbot::Ballbot<T>),
-    /// Base with three off-centred steerable wheels (paper 003).
-    Caster(caster::Caster3<T>),
-}
+pub use drive::robot::{Actuators, EncoderAngles, Kind, MAX_WHEELS, Motion, Robot};
 
 /// Largest accepted 2-norm condition number of a robot's 3×3 wheel-constraint matrix. Above it
 /// a wheel-rate error of 1 % can become a body-velocity error of more than 10 × 1000 %; such a

@@ -157,6 +157,34 @@ pub enum RobotKind {
     Ballbot,
     /// `caster3`.
     Caster,
+    /// `omni` (N omni/mecanum wheels).
+    Omni,
+    /// `swerve` (N centred steerable modules).
+    Swerve,
+}
+
+impl RobotKind {
+    /// The wire name of a robot kind.
+    pub fn of(kind: crate::Kind) -> Self {
+        match kind {
+            crate::Kind::Sphere => RobotKind::Sphere,
+            crate::Kind::Ballbot => RobotKind::Ballbot,
+            crate::Kind::Caster => RobotKind::Caster,
+            crate::Kind::Omni => RobotKind::Omni,
+            crate::Kind::Swerve => RobotKind::Swerve,
+        }
+    }
+
+    /// The robot kind of a wire name.
+    pub fn kind(self) -> crate::Kind {
+        match self {
+            RobotKind::Sphere => crate::Kind::Sphere,
+            RobotKind::Ballbot => crate::Kind::Ballbot,
+            RobotKind::Caster => crate::Kind::Caster,
+            RobotKind::Omni => crate::Kind::Omni,
+            RobotKind::Swerve => crate::Kind::Swerve,
+        }
+    }
 }
 
 /// Who the robot is, in its answer to a Hello ([`HelloAck`]; the same fields as in v1).
@@ -1535,11 +1563,7 @@ pub fn robot_info<T: Real, const N: usize>(
 ) -> RobotInfo {
     RobotInfo {
         protocol: PROTOCOL_VERSION,
-        kind: match runtime.robot() {
-            crate::Robot::Sphere(_) => RobotKind::Sphere,
-            crate::Robot::Ballbot(_) => RobotKind::Ballbot,
-            crate::Robot::Caster(_) => RobotKind::Caster,
-        },
+        kind: RobotKind::of(runtime.robot().kind()),
         plan_capacity: N.min(u16::MAX as usize) as u16,
         rate_hz: runtime.config().rate_hz.to_f64() as f32,
         watchdog: runtime.config().watchdog.to_f64() as f32,

@@ -29,8 +29,7 @@
 
 use core::num::NonZeroU32;
 
-use crate::caster::CasterRates;
-use crate::{InputError, Pose2, Real, Robot, Twist2, se2};
+use crate::{EncoderAngles, InputError, MAX_WHEELS, Pose2, Real, Robot, Twist2};
 
 /// Why an odometry (or estimator) update was rejected. The state is left unchanged.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
@@ -61,36 +60,49 @@ impl From<InputError> for OdometryError {
     }
 }
 
-/// One encoder sample: time and cumulative angles. For the caster also the steer angles.
+/// One encoder sample: time and cumulative angles, for any robot (entries
+/// `0..robot.wheels()` used, the rest ignored).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EncoderReading<T> {
     /// Sample time, s (must increase strictly from sample to sample).
     pub t: T,
     /// Cumulative wheel angles, rad (sphere: `χ_i` about `n_i`; ballbot: `ψ_i`; caster: roll
-    /// angles `φ_i`), not wrapped: counters are expected to keep counting.
-    pub wheel_angles: [T; 3],
-    /// Caster only: steer angles `γ_i` relative to the body, rad (0 = pointing radially
-    /// outward). May be wrapped (an absolute steer encoder); increments are wrapped into
-    /// `(−π, π]`. Ignored for the sphere and the ballbot.
-    pub steer_angles: [T; 3],
+    /// angles `φ_i`; omni and swerve: wheel angles), not wrapped: counters are expected to
+    /// keep counting.
+    pub wheel_angles: [T; MAX_WHEELS],
+    /// Steerable kinds (caster, swerve): steer angles `γ_i` relative to the body, rad. May be
+    /// wrapped (an absolute steer encoder); increments are wrapped into `(−π, π]`. Ignored for
+    /// the other kinds.
+    pub steer_angles: [T; MAX_WHEELS],
 }
 
 impl<T: Real> EncoderReading<T> {
-    /// A sample of three wheel angles (sphere, ballbot); steer angles are set to 0.
-    pub fn new(t: T, wheel_angles: [T; 3]) -> Self {
+    /// A sample of `N ≤ MAX_WHEELS` wheel angles (rad); steer angles are set to 0.
+    pub fn new<const N: usize>(t: T, wheel_angles: [T; N]) -> Self {
+        let a = EncoderAngles::new(&wheel_angles, &[]);
         Self {
             t,
-            wheel_angles,
-            steer_angles: [T::zero(); 3],
+            wheel_angles: a.wheel,
+            steer_angles: a.steer,
         }
     }
 
-    /// A caster sample: roll angles `φ_i` and steer angles `γ_i` (rad).
-    pub fn with_steer(t: T, wheel_angles: [T; 3], steer_angles: [T; 3]) -> Self {
+    /// A sample of a steerable robot: wheel (roll) angles `φ_i` and steer angles `γ_i` (rad).
+    pub fn with_steer<const N: usize>(t: T, wheel_angles: [T; N], steer_angles: [T; N]) -> Self {
+        let a = EncoderAngles::new(&wheel_angles, &steer_angles);
         Self {
             t,
-            wheel_angles,
-            steer_angles,
+            wheel_angles: a.wheel,
+            steer_angles: a.steer,
+        }
+    }
+
+    /// The angles of the sample.
+    #[inline]
+    pub fn angles(&self) -> EncoderAngles<T> {
+        EncoderAngles {
+            wheel: self.wheel_angles,
+            steer: self.steer_angles,
         }
     }
 }
@@ -138,11 +150,12 @@ pub struct OdometryStep<T> {
     /// Heading change implied by the wheels alone, rad (equals `delta.heading` with
     /// [`HeadingInput::Wheels`]); compare with a gyro to detect slip.
     pub wheel_heading_change: T,
-    /// Caster: least-squares slip residual of the six encoder increments, m/s (mean over the
-    /// step; see [`crate::caster::CasterForward::slip_residual`]). 0 for the other robots.
+    /// Least-squares slip residual of the encoder increments, m/s (mean over the step; see
+    /// [`crate::Motion::slip_residual`]): caster, swerve, omni with more than three wheels. 0
+    /// for the kinds with exactly as many wheel constraints as unknowns.
     pub slip_residual: T,
-    /// Caster: per-wheel part of the slip residual, m/s. 0 for the other robots.
-    pub wheel_slip: [T; 3],
+    /// Per-wheel part of the slip residual, m/s (entries past the wheel count are 0).
+    pub wheel_slip: [T; MAX_WHEELS],
     /// Sphere: shell spin `Ω3` about the vertical (rad/s, mean over the step) recovered from the
     /// wheels and the measured heading change, `Ω3 = (ω̃Δ_z + Δψ)/Δt` (paper 000, eq. 5.6);
     /// ballbot: the ball's spin, likewise. `None` when the heading comes from the wheels (then
@@ -195,19 +208,6 @@ fn finite<T: Real>(x: T, field: &'static str) -> Result<T, OdometryError> {
     } else {
         Err(OdometryError::NonFinite { field })
     }
-}
-
-/// The robot-frame increment of one step implied by the encoders alone.
-struct WheelIncrement<T> {
-    /// Robot-frame translation generator `(u, v)` (m): `delta = exp((u, v, Δθ))`.
-    u: T,
-    v: T,
-    /// Heading change from the wheels, rad (sphere/ballbot: with zero spin).
-    heading: T,
-    /// Sphere/ballbot: `ω̃Δ_z` (rad), the relative rotation about the vertical.
-    rel_z: T,
-    slip: T,
-    wheel_slip: [T; 3],
 }
 
 impl<T: Real> Odometry<T> {
@@ -281,14 +281,13 @@ impl<T: Real> Odometry<T> {
                 previous: prev.t.to_f64(),
             });
         }
-        // The rotation of the pose at the start of the step (every robot composes with it).
-        let (sin0, cos0) = self.pose.heading.sin_cos();
-
-        let inc = self.increment(&prev, reading)?;
-        let spin_turn = self.assumed_spin * dt;
-        let wheel_heading = match self.robot {
-            Robot::Caster(_) => inc.heading,
-            _ => inc.heading + spin_turn,
+        let (start, end) = (prev.angles(), reading.angles());
+        let inc = self.robot.displacement(&start, &end)?;
+        let spins = self.robot.kind().has_vertical_spin();
+        let wheel_heading = if spins {
+            inc.twist.yaw_rate + self.assumed_spin * dt
+        } else {
+            inc.twist.yaw_rate
         };
         // The heading change of the step and whether it was measured.
         let (dtheta, measured) = match heading {
@@ -302,39 +301,28 @@ impl<T: Real> Odometry<T> {
                 None => (wheel_heading, false),
             },
         };
-        let body = Twist2::new(inc.u, inc.v, dtheta);
-        let (delta, pose) = match self.robot {
-            Robot::Ballbot(b) => {
-                // Paper 001's odometry step: the world ball displacement between the two yaws.
-                let yaw0 = self.pose.heading;
-                let d = b.ball_displacement(
-                    sub3(reading.wheel_angles, prev.wheel_angles),
-                    yaw0,
-                    yaw0 + dtheta,
-                )?;
-                let (s, c) = (sin0, cos0);
-                let delta = Pose2::new(c * d[0] + s * d[1], -s * d[0] + c * d[1], dtheta);
-                let pose = Pose2::new(self.pose.x + d[0], self.pose.y + d[1], yaw0 + dtheta);
-                (delta, pose)
-            }
-            _ => {
-                let delta = se2::twist_exp(body, T::one());
-                (delta, se2::compose_rotated(self.pose, sin0, cos0, delta))
-            }
-        };
+        let body = Twist2::new(inc.twist.vx, inc.twist.vy, dtheta);
+        let (delta, pose) = self.robot.step_pose(self.pose, body, &start, &end)?;
         let inv_dt = T::one() / dt;
-        let shell_spin = match (&self.robot, measured) {
-            (Robot::Caster(_), _) | (_, false) => None,
-            _ => Some((inc.rel_z + dtheta) * inv_dt),
+        // Sphere/ballbot: the spin the measured heading reveals, `Ω3 = (ω̃Δ_z + Δψ)/Δt` with
+        // `ω̃Δ_z = −(wheel heading change at zero spin)`.
+        let shell_spin = if spins && measured {
+            Some((dtheta - inc.twist.yaw_rate) * inv_dt)
+        } else {
+            None
         };
         let step = OdometryStep {
             t: reading.t,
             dt,
             pose,
             delta,
-            twist: Twist2::new(inc.u * inv_dt, inc.v * inv_dt, dtheta * inv_dt),
+            twist: Twist2::new(
+                inc.twist.vx * inv_dt,
+                inc.twist.vy * inv_dt,
+                dtheta * inv_dt,
+            ),
             wheel_heading_change: wheel_heading,
-            slip_residual: inc.slip * inv_dt,
+            slip_residual: inc.slip_residual * inv_dt,
             wheel_slip: inc.wheel_slip.map(|s| s * inv_dt),
             shell_spin,
         };
@@ -370,7 +358,7 @@ impl<T: Real> Odometry<T> {
             twist: Twist2::new(T::zero(), T::zero(), T::zero()),
             wheel_heading_change: T::zero(),
             slip_residual: T::zero(),
-            wheel_slip: [T::zero(); 3],
+            wheel_slip: [T::zero(); MAX_WHEELS],
             shell_spin: None,
         }
     }
@@ -383,24 +371,25 @@ impl<T: Real> Odometry<T> {
         reading: &EncoderReading<T>,
         heading: HeadingInput<T>,
     ) -> Result<(), OdometryError> {
-        let caster = matches!(self.robot, Robot::Caster(_));
+        let (n, steer) = (self.robot.wheels(), self.robot.steerable());
         let h = match heading {
             HeadingInput::Wheels => T::zero(),
             HeadingInput::GyroRate(g) => g,
             HeadingInput::Absolute(y) => y,
         };
-        let [w0, w1, w2] = reading.wheel_angles;
-        let mut sum = reading.t + w0 + w1 + w2 + h;
-        if caster {
-            let [s0, s1, s2] = reading.steer_angles;
-            sum += s0 + s1 + s2;
+        let mut sum = reading.t + h;
+        for i in 0..n {
+            sum += reading.wheel_angles[i];
+            if steer {
+                sum += reading.steer_angles[i];
+            }
         }
         // One test for the usual case: a sum is finite if every term is (it may also be
         // infinite when finite terms overflow; the field-by-field pass below then finds nothing).
         if sum.is_finite() {
             return Ok(());
         }
-        Self::first_non_finite(reading, heading, caster)
+        Self::first_non_finite(reading, heading, n, steer)
     }
 
     /// The field-by-field pass of [`Odometry::check_finite`].
@@ -409,14 +398,29 @@ impl<T: Real> Odometry<T> {
     fn first_non_finite(
         reading: &EncoderReading<T>,
         heading: HeadingInput<T>,
-        caster: bool,
+        n: usize,
+        steer: bool,
     ) -> Result<(), OdometryError> {
-        const WHEEL: [&str; 3] = ["wheel_angles[0]", "wheel_angles[1]", "wheel_angles[2]"];
-        const STEER: [&str; 3] = ["steer_angles[0]", "steer_angles[1]", "steer_angles[2]"];
+        const WHEEL: [&str; MAX_WHEELS] = [
+            "wheel_angles[0]",
+            "wheel_angles[1]",
+            "wheel_angles[2]",
+            "wheel_angles[3]",
+            "wheel_angles[4]",
+            "wheel_angles[5]",
+        ];
+        const STEER: [&str; MAX_WHEELS] = [
+            "steer_angles[0]",
+            "steer_angles[1]",
+            "steer_angles[2]",
+            "steer_angles[3]",
+            "steer_angles[4]",
+            "steer_angles[5]",
+        ];
         finite(reading.t, "t")?;
-        for i in 0..3 {
+        for i in 0..n {
             finite(reading.wheel_angles[i], WHEEL[i])?;
-            if caster {
+            if steer {
                 finite(reading.steer_angles[i], STEER[i])?;
             }
         }
@@ -431,74 +435,6 @@ impl<T: Real> Odometry<T> {
         }
         Ok(())
     }
-
-    /// Robot-frame increment from the encoders alone (forward kinematics on increments).
-    fn increment(
-        &self,
-        prev: &EncoderReading<T>,
-        now: &EncoderReading<T>,
-    ) -> Result<WheelIncrement<T>, OdometryError> {
-        let dq = sub3(now.wheel_angles, prev.wheel_angles);
-        let zero = [T::zero(); 3];
-        match &self.robot {
-            Robot::Sphere(m) => {
-                // body_twist with Ω3 = 0 on increments: (R ω̃Δ_y, −R ω̃Δ_x, −ω̃Δ_z).
-                let tw = m.body_twist(dq, T::zero())?;
-                Ok(WheelIncrement {
-                    u: tw.vx,
-                    v: tw.vy,
-                    heading: tw.yaw_rate,
-                    rel_z: -tw.yaw_rate,
-                    slip: T::zero(),
-                    wheel_slip: zero,
-                })
-            }
-            Robot::Ballbot(m) => {
-                let tw = m.body_twist(dq, T::zero())?;
-                Ok(WheelIncrement {
-                    u: tw.vx,
-                    v: tw.vy,
-                    heading: tw.yaw_rate,
-                    rel_z: -tw.yaw_rate,
-                    slip: T::zero(),
-                    wheel_slip: zero,
-                })
-            }
-            Robot::Caster(m) => {
-                let mut dg = zero;
-                let mut mid = zero;
-                for i in 0..3 {
-                    dg[i] = wrap_angle(now.steer_angles[i] - prev.steer_angles[i]);
-                    mid[i] = prev.steer_angles[i] + dg[i] * T::of(0.5);
-                }
-                let rates = CasterRates {
-                    roll: dq,
-                    steer: dg,
-                };
-                // Heading 0: the least-squares twist comes out in the robot frame. The angles
-                // were checked, so the increments are finite unless a difference overflowed;
-                // then the fit fails (a non-finite rate makes the yaw rate NaN) and the checked
-                // path names the rate.
-                let f = match m.body_twist_robot_unchecked(&rates, mid) {
-                    Ok(f) => f,
-                    Err(_) => m.body_twist(&rates, T::zero(), mid)?,
-                };
-                Ok(WheelIncrement {
-                    u: f.twist.vx,
-                    v: f.twist.vy,
-                    heading: f.twist.yaw_rate,
-                    rel_z: T::zero(),
-                    slip: f.slip_residual,
-                    wheel_slip: f.wheel_slip,
-                })
-            }
-        }
-    }
-}
-
-#[inline]
-fn sub3<T: Real>(a: [T; 3], b: [T; 3]) -> [T; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 #[cfg(test)]

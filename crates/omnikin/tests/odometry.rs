@@ -73,7 +73,7 @@ fn omni_log(
             let tau = k as f64 * dt;
             readings.push(EncoderReading::new(
                 t0 + tau,
-                core::array::from_fn(|i| q0[i] + w[i] * tau),
+                core::array::from_fn::<_, 3, _>(|i| q0[i] + w[i] * tau),
             ));
             truth.push(exact(p0, s.twist, tau));
             yaw_rates.push(s.twist.yaw_rate);

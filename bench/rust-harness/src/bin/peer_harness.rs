@@ -236,7 +236,7 @@ fn main() {
                         .unwrap(),
                 );
             }),
-            Robot::Caster(_) => unreachable!(),
+            _ => unreachable!("sphere or ballbot"),
         };
         if let Some(ns) = ns {
             println!("{label}\t{ns:.3}\t-");
@@ -290,7 +290,7 @@ fn main() {
                 let k = i as usize & (K - 1);
                 black_box(b.body_twist(wheels(k), black_box(0.0)).unwrap());
             }),
-            Robot::Caster(_) => unreachable!(),
+            _ => unreachable!("sphere or ballbot"),
         };
         if let Some(ns) = ns {
             println!("{label}\t{ns:.3}\t-");

@@ -171,7 +171,12 @@
 //! `roller_angle_deg`), as `description.rs` already maps `mount_angles[0]`.
 
 pub mod omni;
+pub mod robot;
 pub mod swerve;
+
+pub use robot::{
+    Actuators, EncoderAngles, Kind, KindModel, MAX_WHEELS, Motion, Robot, TorqueSpace,
+};
 
 use core::fmt::Debug;
 

@@ -6,9 +6,7 @@ use crate::odometry::{EncoderReading, HeadingInput, Odometry};
 use crate::{Pose2, Real, Robot, Twist2};
 
 use super::hal::{EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOutputs};
-use super::limits::{
-    RateLimits, Slew, SlewLimits, desaturate_sc, motor_rates_sc, saturation_scale,
-};
+use super::limits::{RateLimits, Slew, SlewLimits, desaturate, motor_rates, saturation_scale};
 
 /// What the robot is doing. Wire-stable: the discriminants are sent as one byte.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -1125,11 +1123,10 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         let steer = self.steer;
         let to_world = |v: Twist2<T>| v.rotated_sc(sc);
         let to_robot = |v: Twist2<T>| v.rotated_sc((-sc.0, sc.1));
-        let d = desaturate_sc(
+        let d = desaturate(
             &self.robot,
             to_robot(target_world),
             heading,
-            sc,
             steer,
             &cfg.rate_limits,
         )
@@ -1139,7 +1136,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         }
         let v_world = self.slew.step(to_world(d.twist), dt, &cfg.slew);
         let mut v = to_robot(v_world);
-        let mut rates = motor_rates_sc(&self.robot, v, heading, sc, steer).map_err(|_| ())?;
+        let mut rates = motor_rates(&self.robot, v, heading, steer).map_err(|_| ())?;
         // Wheel (and steer) acceleration limit: scale the change of all rates by one factor.
         let mut s = T::one();
         let mut limit = |new: &[T; 3], old: &[T; 3], a: Option<T>| {

@@ -1,62 +1,30 @@
 //! Command shaping: inverse kinematics to motor rates, direction-keeping desaturation, and
 //! acceleration/jerk limiting. Pure functions and `Copy` state; no allocation, no panic.
 
-use crate::caster::CasterRates;
-use crate::{InputError, Real, Robot, Twist2};
+use crate::{Actuators, InputError, Real, Robot, Twist2};
 
 use super::hal::MotorCommand;
 
-/// Motor rates (rad/s) of a **robot-frame** twist at the given heading (rad, world) and caster
-/// steer angles (rad; ignored by the sphere and the ballbot), with zero shell/ball spin.
+/// Motor rates (rad/s) of a **robot-frame** twist at the given steer angles (rad; ignored by
+/// kinds without steering), with zero shell/ball spin: [`Robot::inverse`]. The heading is not
+/// needed (every model is invariant under a rotation of the world) and only names the
+/// argument of the older API.
 ///
-/// The map is linear in the twist for fixed heading and steer angles, which is what makes
-/// [`desaturate`] keep the direction of motion.
+/// The map is linear in the twist for fixed steer angles, which is what makes [`desaturate`]
+/// keep the direction of motion.
 ///
 /// # Errors
 /// [`InputError`] from the kinematics for non-finite input.
 pub fn motor_rates<T: Real>(
     robot: &Robot<T>,
     twist: Twist2<T>,
-    heading: T,
+    _heading: T,
     steer: [T; 3],
 ) -> Result<MotorCommand<T>, InputError> {
-    motor_rates_sc(robot, twist, heading, heading_sc(robot, heading), steer)
-}
-
-/// `(sin, cos)` of the heading for the caster, the only robot whose kinematics need it here.
-fn heading_sc<T: Real>(robot: &Robot<T>, heading: T) -> (T, T) {
-    match robot {
-        Robot::Caster(_) => heading.sin_cos(),
-        _ => (T::zero(), T::one()),
-    }
-}
-
-/// [`motor_rates`] with the heading's `(sin ψ, cos ψ)` already known (`sc`, used only by the
-/// caster: for the world-frame twist its kinematics take, and for its wheel directions).
-pub(crate) fn motor_rates_sc<T: Real>(
-    robot: &Robot<T>,
-    twist: Twist2<T>,
-    heading: T,
-    sc: (T, T),
-    steer: [T; 3],
-) -> Result<MotorCommand<T>, InputError> {
-    Ok(match robot {
-        Robot::Sphere(m) => MotorCommand {
-            wheel: m.wheel_rates(twist, T::zero())?,
-            steer: [T::zero(); 3],
-        },
-        Robot::Ballbot(m) => MotorCommand {
-            wheel: m.wheel_rates(twist, T::zero())?,
-            steer: [T::zero(); 3],
-        },
-        Robot::Caster(m) => {
-            let CasterRates { roll, steer: sd } =
-                m.motor_rates_sc(twist.rotated_sc(sc), heading, sc, steer)?;
-            MotorCommand {
-                wheel: roll,
-                steer: sd,
-            }
-        }
+    let a = robot.inverse(twist, &Actuators::at_steer(&steer))?;
+    Ok(MotorCommand {
+        wheel: [a.wheel_rates[0], a.wheel_rates[1], a.wheel_rates[2]],
+        steer: [a.steer_rates[0], a.steer_rates[1], a.steer_rates[2]],
     })
 }
 
@@ -115,26 +83,7 @@ pub fn desaturate<T: Real>(
     steer: [T; 3],
     limits: &RateLimits<T>,
 ) -> Result<Desaturated<T>, InputError> {
-    desaturate_sc(
-        robot,
-        twist,
-        heading,
-        heading_sc(robot, heading),
-        steer,
-        limits,
-    )
-}
-
-/// [`desaturate`] with the heading's `(sin ψ, cos ψ)` already known (see [`motor_rates_sc`]).
-pub(crate) fn desaturate_sc<T: Real>(
-    robot: &Robot<T>,
-    twist: Twist2<T>,
-    heading: T,
-    sc: (T, T),
-    steer: [T; 3],
-    limits: &RateLimits<T>,
-) -> Result<Desaturated<T>, InputError> {
-    let rates = motor_rates_sc(robot, twist, heading, sc, steer)?;
+    let rates = motor_rates(robot, twist, heading, steer)?;
     let scale = saturation_scale(&rates, limits);
     if scale >= T::one() {
         return Ok(Desaturated {
