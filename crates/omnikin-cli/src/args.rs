@@ -103,6 +103,44 @@ impl FromStr for Triple {
     }
 }
 
+/// One finite number per wheel (or module), given as `A,B,C,…`: 1 to
+/// [`omnikin::MAX_WHEELS`] values. The robot's wheel count is checked by [`List::exactly`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct List(pub Vec<f64>);
+
+impl FromStr for List {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        // Bounded before splitting: a list is never longer than the most wheels of any kind.
+        let parts: Vec<&str> = s.splitn(omnikin::MAX_WHEELS + 1, ',').collect();
+        if parts.len() > omnikin::MAX_WHEELS {
+            return Err(format!(
+                "expected at most {} comma-separated numbers (one per wheel), got more",
+                omnikin::MAX_WHEELS
+            ));
+        }
+        let mut out = Vec::with_capacity(parts.len());
+        for (i, p) in parts.iter().enumerate() {
+            out.push(finite_f64(p).map_err(|e| format!("item {}: {e}", i + 1))?);
+        }
+        Ok(List(out))
+    }
+}
+
+impl List {
+    /// The values, or an error naming `flag`, the expected count and the robot.
+    pub fn exactly(&self, n: usize, flag: &str, robot: &str) -> anyhow::Result<&[f64]> {
+        if self.0.len() == n {
+            Ok(&self.0)
+        } else {
+            anyhow::bail!(
+                "{flag}: expected {n} values (one per wheel of {robot}, in the robot file's order), got {}",
+                self.0.len()
+            )
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -119,6 +157,31 @@ mod tests {
         assert!("1,NaN,3".parse::<Triple>().unwrap_err().contains("finite"));
         assert!(finite_f64("inf").is_err());
         assert_eq!(finite_f64("-0.1").unwrap(), -0.1);
+    }
+
+    #[test]
+    fn lists() {
+        assert_eq!(
+            "1,-2,3,4".parse::<List>().unwrap().0,
+            vec![1.0, -2.0, 3.0, 4.0]
+        );
+        assert!(
+            "1,2,3,4,5,6,7"
+                .parse::<List>()
+                .unwrap_err()
+                .contains("at most 6")
+        );
+        assert!("1,,3".parse::<List>().unwrap_err().contains("item 2"));
+        let l = "1,2,3".parse::<List>().unwrap();
+        let e = l
+            .exactly(4, "--wheel-rates", "mecanum")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("expected 4 values") && e.contains("got 3"),
+            "{e}"
+        );
+        assert_eq!(l.exactly(3, "--x", "kiwi").unwrap(), &[1.0, 2.0, 3.0]);
     }
 
     #[test]

@@ -2,9 +2,11 @@
 
 use anyhow::{Context, Result, bail};
 use omnikin::description::{Limits, RobotDescription};
-use omnikin::{Robot, Twist2};
+use omnikin::drive::TorqueSpace;
+use omnikin::{Actuators, Kind, MAX_WHEELS, Robot, Twist2};
 use serde_json::json;
 
+use crate::args::List;
 use crate::{CheckArgs, ForwardArgs, InverseArgs, TorquesArgs};
 
 /// Loads `ROBOT` (preset or file) and builds its f64 model.
@@ -18,8 +20,31 @@ fn fmt3(label: &str, v: [f64; 3]) -> String {
     format!("{label:<22}{:>12.6} {:>12.6} {:>12.6}", v[0], v[1], v[2])
 }
 
+/// A row of one value per wheel.
+fn fmt_row(label: &str, v: &[f64]) -> String {
+    let mut s = format!("{label:<22}");
+    for x in v {
+        s += &format!("{x:>12.6} ");
+    }
+    s.trim_end().to_string()
+}
+
+/// The header row `wheel 1 … wheel N` (`module` for swerve).
+fn header(robot: &Robot<f64>) -> String {
+    let what = if robot.kind() == Kind::Swerve {
+        "module"
+    } else {
+        "wheel"
+    };
+    let mut s = format!("{:<22}", "");
+    for i in 0..robot.wheels() {
+        s += &format!("{:>12} ", format!("{what} {}", i + 1));
+    }
+    s.trim_end().to_string()
+}
+
 /// Warns (on stderr) about any rate above the robot file's limit.
-fn warn_limits(what: &str, rates: [f64; 3], limit: Option<f64>, key: &str) {
+fn warn_limits(what: &str, rates: &[f64], limit: Option<f64>, key: &str) {
     if let Some(max) = limit {
         for (i, r) in rates.iter().enumerate() {
             if r.abs() > max {
@@ -37,41 +62,52 @@ fn reject_for(kind: &str, flag: &str, allowed: &str) -> anyhow::Error {
     anyhow::anyhow!("{flag} applies only to {allowed}, not to robot kind {kind}")
 }
 
+/// `--shell-spin`, refused for kinds without a shell or ball.
+fn spin_of(robot: &Robot<f64>, spin: Option<f64>) -> Result<f64> {
+    match spin {
+        Some(_) if !robot.kind().has_vertical_spin() => Err(reject_for(
+            robot.kind().name(),
+            "--shell-spin",
+            "sphere-omni and ballbot",
+        )),
+        s => Ok(s.unwrap_or(0.0)),
+    }
+}
+
+/// `--steer`: one angle per wheel for steerable kinds (default 0), refused for the others.
+fn steer_of(robot: &Robot<f64>, steer: &Option<List>, name: &str) -> Result<[f64; MAX_WHEELS]> {
+    let mut out = [0.0; MAX_WHEELS];
+    if let Some(l) = steer {
+        if !robot.steerable() {
+            return Err(reject_for(
+                robot.kind().name(),
+                "--steer",
+                "kinds with steering (caster3, swerve)",
+            ));
+        }
+        out[..robot.wheels()].copy_from_slice(l.exactly(robot.wheels(), "--steer", name)?);
+    }
+    Ok(out)
+}
+
 pub fn inverse(a: &InverseArgs) -> Result<()> {
     let (d, robot) = load(&a.robot)?;
-    let kind = d.kind();
+    let kind = robot.kind();
+    let n = robot.wheels();
     let input = Twist2::new(a.vx, a.vy, a.yaw_rate);
-    // Robot-frame twist for sphere and ballbot; world-frame for the caster model.
+    // Every kind's inverse takes the robot-frame twist.
     let robot_twist = if a.world {
         input.to_robot(a.heading)
     } else {
         input
     };
-    let spin = a.shell_spin.unwrap_or(0.0);
-    let (wheel_rates, steer_rates) = match robot {
-        Robot::Sphere(m) => {
-            if a.steer.is_some() {
-                return Err(reject_for(kind, "--steer", "caster3"));
-            }
-            (m.wheel_rates(robot_twist, spin)?, None)
-        }
-        Robot::Ballbot(m) => {
-            if a.steer.is_some() {
-                return Err(reject_for(kind, "--steer", "caster3"));
-            }
-            (m.wheel_rates(robot_twist, spin)?, None)
-        }
-        Robot::Caster(m) => {
-            if a.shell_spin.is_some() {
-                return Err(reject_for(kind, "--shell-spin", "sphere-omni and ballbot"));
-            }
-            let steer = a.steer.map(|t| t.0).unwrap_or([0.0; 3]);
-            let world = robot_twist.to_world(a.heading);
-            let r = m.motor_rates(world, a.heading, steer)?;
-            (r.roll, Some(r.steer))
-        }
-        _ => anyhow::bail!("{} is not supported by this command yet", d.kind()),
-    };
+    let spin = spin_of(&robot, a.shell_spin)?;
+    let steer = steer_of(&robot, &a.steer, &d.name)?;
+    let out = robot.inverse_spin(robot_twist, spin, &Actuators::at_steer(&steer))?;
+    let wheel_rates = &out.wheel_rates[..n];
+    // The caster's steer motors are rate-driven; a swerve module's steering is a set-point.
+    let steer_rates = (kind == Kind::Caster).then(|| &out.steer_rates[..n]);
+    let steer_angles = (kind == Kind::Swerve).then(|| &out.steer_angles[..n]);
     warn_limits(
         "wheel",
         wheel_rates,
@@ -86,6 +122,9 @@ pub fn inverse(a: &InverseArgs) -> Result<()> {
         if let Some(s) = steer_rates {
             o["steer_rates"] = json!(s);
         }
+        if let Some(s) = steer_angles {
+            o["steer_angles"] = json!(s);
+        }
         crate::outln!("{o}")?;
         return Ok(());
     }
@@ -94,7 +133,7 @@ pub fn inverse(a: &InverseArgs) -> Result<()> {
     } else {
         "robot frame".into()
     };
-    crate::outln!("robot: {} ({}, {})", d.name, kind, d.source_name)?;
+    crate::outln!("robot: {} ({}, {})", d.name, kind.name(), d.source_name)?;
     crate::outln!(
         "body motion: vx {} m/s, vy {} m/s ({frame}), yaw rate {} rad/s",
         a.vx,
@@ -102,65 +141,57 @@ pub fn inverse(a: &InverseArgs) -> Result<()> {
         a.yaw_rate
     )?;
     match kind {
-        "sphere-omni" => crate::outln!("shell spin: {spin} rad/s")?,
-        "ballbot" => crate::outln!("ball spin: {spin} rad/s")?,
-        _ => crate::outln!(
-            "steer angles: {:?} rad",
-            a.steer.map(|t| t.0).unwrap_or([0.0; 3])
-        )?,
+        Kind::Sphere => crate::outln!("shell spin: {spin} rad/s")?,
+        Kind::Ballbot => crate::outln!("ball spin: {spin} rad/s")?,
+        Kind::Caster => crate::outln!("steer angles: {:?} rad", &steer[..n])?,
+        Kind::Swerve if a.steer.is_some() => {
+            crate::outln!("current steer angles: {:?} rad", &steer[..n])?
+        }
+        _ => {}
     }
-    crate::outln!(
-        "{:<22}{:>12} {:>12} {:>12}",
-        "",
-        "wheel 1",
-        "wheel 2",
-        "wheel 3"
-    )?;
+    crate::outln!("{}", header(&robot))?;
     let label = if steer_rates.is_some() {
         "roll rates [rad/s]"
     } else {
         "wheel rates [rad/s]"
     };
-    crate::outln!("{}", fmt3(label, wheel_rates))?;
+    crate::outln!("{}", fmt_row(label, wheel_rates))?;
     if let Some(s) = steer_rates {
-        crate::outln!("{}", fmt3("steer rates [rad/s]", s))?;
+        crate::outln!("{}", fmt_row("steer rates [rad/s]", s))?;
+    }
+    if let Some(s) = steer_angles {
+        crate::outln!("{}", fmt_row("steer angles [rad]", s))?;
     }
     Ok(())
 }
 
 pub fn forward(a: &ForwardArgs) -> Result<()> {
     let (d, robot) = load(&a.robot)?;
-    let kind = d.kind();
-    let w = a.wheel_rates.0;
-    let spin = a.shell_spin.unwrap_or(0.0);
+    let kind = robot.kind();
+    let n = robot.wheels();
+    let spin = spin_of(&robot, a.shell_spin)?;
     let heading = a.heading.unwrap_or(0.0);
-    let (twist, slip) = match robot {
-        Robot::Sphere(_) | Robot::Ballbot(_) if a.steer.is_some() || a.steer_rates.is_some() => {
-            return Err(reject_for(kind, "--steer/--steer-rates", "caster3"));
+    let mut act =
+        Actuators::from_wheel_rates(a.wheel_rates.exactly(n, "--wheel-rates", &d.name)?);
+    act.steer_angles = steer_of(&robot, &a.steer, &d.name)?;
+    match (&a.steer_rates, kind) {
+        (Some(l), Kind::Caster) => {
+            act.steer_rates[..n].copy_from_slice(l.exactly(n, "--steer-rates", &d.name)?)
         }
-        Robot::Sphere(m) => (m.body_twist(w, spin)?.to_world(heading), None),
-        Robot::Ballbot(m) => (m.body_twist(w, spin)?.to_world(heading), None),
-        Robot::Caster(m) => {
-            if a.shell_spin.is_some() {
-                return Err(reject_for(kind, "--shell-spin", "sphere-omni and ballbot"));
-            }
-            let steer_rates = a
-                .steer_rates
-                .context("caster3 needs all six motor rates: add --steer-rates S1,S2,S3 (rad/s)")?;
-            let steer = a.steer.map(|t| t.0).unwrap_or([0.0; 3]);
-            let rates = omnikin::caster::CasterRates {
-                roll: w,
-                steer: steer_rates.0,
-            };
-            let f = m.body_twist(&rates, heading, steer)?;
-            (f.twist, Some(f))
+        (None, Kind::Caster) => {
+            bail!("caster3 needs all six motor rates: add --steer-rates S1,S2,S3 (rad/s)")
         }
-        _ => anyhow::bail!("{} is not supported by this command yet", d.kind()),
-    };
+        (Some(_), _) => return Err(reject_for(kind.name(), "--steer-rates", "caster3")),
+        (None, _) => {}
+    }
+    let m = robot.forward_spin(&act, spin)?;
+    let twist = m.twist.to_world(heading);
+    // Kinds with more wheel constraints than unknowns report how inconsistent the rates are.
+    let has_slip = !kind.has_vertical_spin();
     if a.json {
         let mut o = json!({ "vx": twist.vx, "vy": twist.vy, "yaw_rate": twist.yaw_rate });
-        if let Some(f) = slip {
-            o["slip_residual"] = json!(f.slip_residual);
+        if has_slip {
+            o["slip_residual"] = json!(m.slip_residual);
         }
         crate::outln!("{o}")?;
         return Ok(());
@@ -169,23 +200,29 @@ pub fn forward(a: &ForwardArgs) -> Result<()> {
         Some(h) => format!("world frame, heading {h} rad"),
         None => "robot frame".into(),
     };
-    crate::outln!("robot: {} ({}, {})", d.name, kind, d.source_name)?;
+    crate::outln!("robot: {} ({}, {})", d.name, kind.name(), d.source_name)?;
     crate::outln!("twist ({frame}):")?;
     crate::outln!("  vx       {:>12.6} m/s", twist.vx)?;
     crate::outln!("  vy       {:>12.6} m/s", twist.vy)?;
     crate::outln!("  yaw rate {:>12.6} rad/s", twist.yaw_rate)?;
-    if let Some(f) = slip {
+    if has_slip {
+        let per: Vec<String> = m.wheel_slip[..n]
+            .iter()
+            .map(|s| format!("{s:.6}"))
+            .collect();
         crate::outln!(
-            "slip residual {:.6} m/s (per wheel: {:.6} {:.6} {:.6}); 0 means the six rates are consistent",
-            f.slip_residual,
-            f.wheel_slip[0],
-            f.wheel_slip[1],
-            f.wheel_slip[2]
+            "slip residual {:.6} m/s (per wheel: {}); 0 means the rates are consistent",
+            m.slip_residual,
+            per.join(" ")
         )?;
     } else {
         crate::outln!(
             "(assumed {} spin {spin} rad/s)",
-            if kind == "ballbot" { "ball" } else { "shell" }
+            if kind == Kind::Ballbot {
+                "ball"
+            } else {
+                "shell"
+            }
         )?;
     }
     Ok(())
@@ -193,55 +230,159 @@ pub fn forward(a: &ForwardArgs) -> Result<()> {
 
 pub fn torques(a: &TorquesArgs) -> Result<()> {
     let (d, robot) = load(&a.robot)?;
-    let Robot::Ballbot(m) = robot else {
+    let kind = robot.kind();
+    let n = robot.wheels();
+    let Some(space) = robot.torque_space() else {
         bail!(
-            "torques applies only to robot kind ballbot, not to {} ({})",
-            d.kind(),
+            "torques applies only to robot kinds with a torque map (ballbot, omni, swerve), \
+             not to {} ({})",
+            kind.name(),
             d.source_name
         );
     };
-    let (key, out) = match (a.model, a.wheels) {
-        (Some(t), None) => ("wheel_torques", m.wheel_torques(t.0, a.yaw)?),
-        (None, Some(t)) => ("model_torques", m.model_torques(t.0, a.yaw)?),
-        _ => bail!("give exactly one of --model TX,TY,TZ or --wheels T1,T2,T3"),
+    if space == TorqueSpace::BallbotModel && a.wrench.is_some() {
+        bail!("ballbot torques are model torques: use --model TX,TY,TZ, not --wrench");
+    }
+    if space == TorqueSpace::BodyWrench && a.model.is_some() {
+        bail!(
+            "{} torques balance a body wrench: use --wrench FX,FY,MZ, not --model",
+            kind.name()
+        );
+    }
+    if space == TorqueSpace::BodyWrench && a.yaw != 0.0 {
+        bail!("--yaw applies only to the ballbot's model torques");
+    }
+    let steer = steer_of(&robot, &a.steer, &d.name)?;
+    // The ballbot's map at a yaw: model torques in the rotated frame are the body-frame ones
+    // turned by the yaw about z (Tz unchanged).
+    let rot = |g: [f64; 3], by: f64| {
+        let (s, c) = by.sin_cos();
+        [c * g[0] - s * g[1], s * g[0] + c * g[1], g[2]]
+    };
+    let (key, out): (&str, Vec<f64>) = match (a.model.or(a.wrench), &a.wheels) {
+        (Some(g), None) => {
+            let g = if space == TorqueSpace::BallbotModel {
+                rot(g.0, -a.yaw)
+            } else {
+                g.0
+            };
+            let t = robot.wheel_torques(g, &steer).context("no torque map")??;
+            ("wheel_torques", t[..n].to_vec())
+        }
+        (None, Some(w)) => {
+            let mut tau = [0.0; MAX_WHEELS];
+            tau[..n].copy_from_slice(w.exactly(n, "--wheels", &d.name)?);
+            let g = robot
+                .generalized_forces(&tau, &steer)
+                .context("no torque map")??;
+            let g = if space == TorqueSpace::BallbotModel {
+                rot(g, a.yaw)
+            } else {
+                g
+            };
+            (space.name(), g.to_vec())
+        }
+        _ => bail!(
+            "give exactly one of --{} or --wheels T1,…,T{n}",
+            if space == TorqueSpace::BallbotModel {
+                "model TX,TY,TZ"
+            } else {
+                "wrench FX,FY,MZ"
+            }
+        ),
     };
     if a.json {
         crate::outln!("{}", json!({ key: out }))?;
+        return Ok(());
+    }
+    crate::outln!("robot: {} ({}, {})", d.name, kind.name(), d.source_name)?;
+    if space == TorqueSpace::BallbotModel {
+        crate::outln!("yaw {} rad", a.yaw)?;
+    }
+    if key == "wheel_torques" {
+        crate::outln!("{}", header(&robot))?;
+        crate::outln!("{}", fmt_row("wheel torques [N·m]", &out))?;
     } else {
+        let [c0, c1, c2] = space.components();
+        let [u0, u1, u2] = space.units();
+        crate::outln!("{:<22}{:>12} {:>12} {:>12}", "", c0, c1, c2)?;
         crate::outln!(
-            "robot: {} ({}, {}), yaw {} rad",
-            d.name,
-            d.kind(),
-            d.source_name,
-            a.yaw
+            "{}",
+            fmt3(
+                &format!("{} [{u0}, {u1}, {u2}]", space.name()),
+                [out[0], out[1], out[2]]
+            )
         )?;
-        if key == "wheel_torques" {
-            crate::outln!("{:<22}{:>12} {:>12} {:>12}", "", "T1", "T2", "T3")?;
-            crate::outln!("{}", fmt3("wheel torques [N·m]", out))?;
-        } else {
-            crate::outln!("{:<22}{:>12} {:>12} {:>12}", "", "Tx", "Ty", "Tz")?;
-            crate::outln!("{}", fmt3("model torques [N·m]", out))?;
-        }
     }
     Ok(())
 }
 
 /// Fastest speed along each of 8 robot-frame directions, and fastest pure yaw rate, for a
 /// linear wheel-rate map (sphere, ballbot) under `max_rate`.
-fn linear_reach(
-    wheel_rates: impl Fn(Twist2<f64>) -> [f64; 3],
-    max_rate: f64,
-) -> (Vec<(f64, f64)>, f64) {
-    let scale = |w: [f64; 3]| w.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+fn linear_reach(peak_rate: impl Fn(Twist2<f64>) -> f64, max_rate: f64) -> (Vec<(f64, f64)>, f64) {
     let dirs = (0..8)
         .map(|k| {
             let deg = 45.0 * k as f64;
             let (s, c) = deg.to_radians().sin_cos();
-            (deg, max_rate / scale(wheel_rates(Twist2::new(c, s, 0.0))))
+            (deg, max_rate / peak_rate(Twist2::new(c, s, 0.0)))
         })
         .collect();
-    let yaw = max_rate / scale(wheel_rates(Twist2::new(0.0, 0.0, 1.0)));
+    let yaw = max_rate / peak_rate(Twist2::new(0.0, 0.0, 1.0));
     (dirs, yaw)
+}
+
+/// `check` for the layouts (omni, swerve): the wheels of the robot file and the condition of
+/// the wheel-constraint map.
+fn describe_layout(
+    d: &RobotDescription,
+    robot: &Robot<f64>,
+    text: &mut Vec<String>,
+    j: &mut serde_json::Value,
+) {
+    use omnikin::description::Geometry;
+    match &d.geometry {
+        Geometry::Omni(wheels) => {
+            text.push(format!(
+                "geometry: {} omni/mecanum wheels (robot frame; drive direction and roller angle from +x, CCW):",
+                wheels.len()
+            ));
+            for (i, w) in wheels.iter().enumerate() {
+                text.push(format!(
+                    "  wheel {}: position ({:>8.4}, {:>8.4}) m   drive {:>8.3}°   roller {:>7.3}°   radius {} m",
+                    i + 1,
+                    w.position[0],
+                    w.position[1],
+                    w.drive[1].atan2(w.drive[0]).to_degrees(),
+                    w.roller_angle.to_degrees(),
+                    w.radius
+                ));
+            }
+        }
+        Geometry::Swerve { modules, optimize } => {
+            text.push(format!(
+                "geometry: {} centred swerve modules (robot frame), steering optimisation {}:",
+                modules.len(),
+                if *optimize { "on" } else { "off" }
+            ));
+            for (i, m) in modules.iter().enumerate() {
+                text.push(format!(
+                    "  module {}: position ({:>8.4}, {:>8.4}) m   wheel radius {} m",
+                    i + 1,
+                    m.position[0],
+                    m.position[1],
+                    m.wheel_radius
+                ));
+            }
+        }
+        _ => {}
+    }
+    text.push(format!(
+        "wheels: {}, motors: {} (valid: the layout controls vx, vy and yaw)",
+        robot.wheels(),
+        robot.motors()
+    ));
+    j["wheels"] = json!(robot.wheels());
+    j["motors"] = json!(robot.motors());
 }
 
 fn vec3(v: &[f64; 3]) -> String {
@@ -317,7 +458,11 @@ pub fn check(a: &CheckArgs) -> Result<()> {
             })).collect::<Vec<_>>());
             if let Some(max) = d.limits.max_wheel_rate {
                 reach = Some(linear_reach(
-                    |t| m.wheel_rates(t, 0.0).unwrap_or([f64::INFINITY; 3]),
+                    |t| {
+                        m.wheel_rates(t, 0.0)
+                            .map(|w| w.iter().fold(0.0f64, |m, x| m.max(x.abs())))
+                            .unwrap_or(f64::INFINITY)
+                    },
                     max,
                 ));
             }
@@ -363,7 +508,11 @@ pub fn check(a: &CheckArgs) -> Result<()> {
             j["condition_number"] = json!(m.condition_number());
             if let Some(max) = d.limits.max_wheel_rate {
                 reach = Some(linear_reach(
-                    |t| m.wheel_rates(t, 0.0).unwrap_or([f64::INFINITY; 3]),
+                    |t| {
+                        m.wheel_rates(t, 0.0)
+                            .map(|w| w.iter().fold(0.0f64, |m, x| m.max(x.abs())))
+                            .unwrap_or(f64::INFINITY)
+                    },
                     max,
                 ));
             }
@@ -421,7 +570,25 @@ pub fn check(a: &CheckArgs) -> Result<()> {
                 j["max_yaw_rate_rad_per_s"] = json!(yaw);
             }
         }
-        _ => anyhow::bail!("{} is not supported by this command yet", d.kind()),
+        _ => {
+            describe_layout(&d, &robot, &mut text, &mut j);
+            if let Some(max) = d.limits.max_wheel_rate {
+                let n = robot.wheels();
+                reach = Some(linear_reach(
+                    |t| {
+                        robot
+                            .inverse(t, &Actuators::zero())
+                            .map(|a| {
+                                a.wheel_rates[..n]
+                                    .iter()
+                                    .fold(0.0f64, |m, x| m.max(x.abs()))
+                            })
+                            .unwrap_or(f64::INFINITY)
+                    },
+                    max,
+                ));
+            }
+        }
     }
     if let Some((dirs, yaw)) = reach {
         text.push("fastest motion within max_wheel_rate (robot frame, no yaw, no spin):".into());

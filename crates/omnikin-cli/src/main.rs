@@ -21,7 +21,7 @@ mod robot;
 mod sim;
 mod teleop;
 
-use args::{Triple, finite_f64};
+use args::{List, Triple, finite_f64};
 
 /// Kinematics of three-wheeled omnidirectional robots: a sphere rolled by an internal
 /// omni-wheel platform (sphere-omni), a ball-balancing robot (ballbot) and a base on three
@@ -84,7 +84,8 @@ enum Command {
 /// `omnikin inverse`.
 #[derive(clap::Args, Debug)]
 pub struct InverseArgs {
-    /// Robot: preset name (sphere-omni, ballbot, caster3) or path to a TOML description.
+    /// Robot: preset name (sphere-omni, ballbot, caster3, kiwi, x-drive, mecanum, swerve4) or
+    /// path to a TOML description.
     pub robot: String,
     /// Velocity along x, m/s (robot frame; world frame with --world).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = finite_f64)]
@@ -104,9 +105,11 @@ pub struct InverseArgs {
     /// Spin of the shell (sphere-omni) or ball (ballbot) about the vertical, rad/s.
     #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
     pub shell_spin: Option<f64>,
-    /// caster3 only: steer angles G1,G2,G3 relative to the body, rad (default 0,0,0).
-    #[arg(long, allow_hyphen_values = true, value_name = "G1,G2,G3")]
-    pub steer: Option<Triple>,
+    /// Steerable kinds only: the current steer angles G1,…,GN, rad (default 0). caster3: the
+    /// steer state the rates are for; swerve: the angles a stopped module keeps (and the
+    /// reference of steering optimisation).
+    #[arg(long, allow_hyphen_values = true, value_name = "G1,…,GN")]
+    pub steer: Option<List>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -115,22 +118,24 @@ pub struct InverseArgs {
 /// `omnikin forward`.
 #[derive(clap::Args, Debug)]
 pub struct ForwardArgs {
-    /// Robot: preset name (sphere-omni, ballbot, caster3) or path to a TOML description.
+    /// Robot: preset name (sphere-omni, ballbot, caster3, kiwi, x-drive, mecanum, swerve4) or
+    /// path to a TOML description.
     pub robot: String,
-    /// Wheel rates W1,W2,W3, rad/s (caster3: roll rates).
+    /// Wheel rates W1,…,WN, rad/s, one per wheel in the robot file's order (caster3: roll
+    /// rates).
     #[arg(
         long,
         required = true,
         allow_hyphen_values = true,
-        value_name = "W1,W2,W3"
+        value_name = "W1,…,WN"
     )]
-    pub wheel_rates: Triple,
-    /// caster3 only: steer angles G1,G2,G3, rad (default 0,0,0).
-    #[arg(long, allow_hyphen_values = true, value_name = "G1,G2,G3")]
-    pub steer: Option<Triple>,
+    pub wheel_rates: List,
+    /// Steerable kinds only: steer angles G1,…,GN, rad (default 0).
+    #[arg(long, allow_hyphen_values = true, value_name = "G1,…,GN")]
+    pub steer: Option<List>,
     /// caster3 only (required there): steer rates S1,S2,S3, rad/s.
     #[arg(long, allow_hyphen_values = true, value_name = "S1,S2,S3")]
-    pub steer_rates: Option<Triple>,
+    pub steer_rates: Option<List>,
     /// Heading, rad: report the twist in the world frame (default: robot frame).
     #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
     pub heading: Option<f64>,
@@ -145,19 +150,26 @@ pub struct ForwardArgs {
 
 /// `omnikin torques`.
 #[derive(clap::Args, Debug)]
-#[command(group(clap::ArgGroup::new("input").required(true).args(["model", "wheels"])))]
+#[command(group(clap::ArgGroup::new("input").required(true).args(["model", "wrench", "wheels"])))]
 pub struct TorquesArgs {
-    /// Robot: ballbot preset or a ballbot description file.
+    /// Robot with a torque map: ballbot (model torques) or an omni/swerve drive (body wrench).
     pub robot: String,
-    /// Model torques TX,TY,TZ, N·m -> wheel torques.
+    /// ballbot: model torques TX,TY,TZ, N·m -> wheel torques.
     #[arg(long, allow_hyphen_values = true, value_name = "TX,TY,TZ")]
     pub model: Option<Triple>,
-    /// Wheel torques T1,T2,T3, N·m -> model torques.
-    #[arg(long, allow_hyphen_values = true, value_name = "T1,T2,T3")]
-    pub wheels: Option<Triple>,
-    /// Body yaw, rad: model torques are in the frame rotated by it (0: body frame).
+    /// omni, swerve: body wrench FX,FY,MZ (N, N, N·m, robot frame) -> minimum-norm wheel
+    /// torques.
+    #[arg(long, allow_hyphen_values = true, value_name = "FX,FY,MZ")]
+    pub wrench: Option<Triple>,
+    /// Wheel torques T1,…,TN, N·m -> model torques (ballbot) or body wrench (omni, swerve).
+    #[arg(long, allow_hyphen_values = true, value_name = "T1,…,TN")]
+    pub wheels: Option<List>,
+    /// ballbot: body yaw, rad: model torques are in the frame rotated by it (0: body frame).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = finite_f64)]
     pub yaw: f64,
+    /// swerve only: steer angles G1,…,GN, rad (default 0).
+    #[arg(long, allow_hyphen_values = true, value_name = "G1,…,GN")]
+    pub steer: Option<List>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -166,7 +178,8 @@ pub struct TorquesArgs {
 /// `omnikin check`.
 #[derive(clap::Args, Debug)]
 pub struct CheckArgs {
-    /// Robot: preset name (sphere-omni, ballbot, caster3) or path to a TOML description.
+    /// Robot: preset name (sphere-omni, ballbot, caster3, kiwi, x-drive, mecanum, swerve4) or
+    /// path to a TOML description.
     pub robot: String,
     /// Print one JSON object instead of text.
     #[arg(long)]

@@ -275,6 +275,32 @@ pub trait KindModel<T: Real> {
     /// [`InputError`] for a non-finite actuator, a singular configuration or overflow.
     fn forward(&self, actuators: &Actuators<T>) -> Result<Motion<T>, InputError>;
 
+    /// [`KindModel::inverse`] with the shell/ball spin `Ω3` about the vertical (rad/s) of the
+    /// kinds that have one ([`Kind::has_vertical_spin`]). Default: only `Ω3 = 0` is accepted.
+    ///
+    /// # Errors
+    /// As [`KindModel::inverse`]; [`InputError::Singular`] for a non-zero spin of a kind
+    /// without one.
+    fn inverse_spin(
+        &self,
+        twist: Twist2<T>,
+        spin: T,
+        current: &Actuators<T>,
+    ) -> Result<Actuators<T>, InputError> {
+        no_spin(spin)?;
+        self.inverse(twist, current)
+    }
+
+    /// [`KindModel::forward`] with an assumed shell/ball spin (see
+    /// [`KindModel::inverse_spin`]).
+    ///
+    /// # Errors
+    /// As [`KindModel::forward`] and [`KindModel::inverse_spin`].
+    fn forward_spin(&self, actuators: &Actuators<T>, spin: T) -> Result<Motion<T>, InputError> {
+        no_spin(spin)?;
+        self.forward(actuators)
+    }
+
     /// The robot-frame displacement between two encoder readings (forward kinematics of the
     /// increments; steer increments wrapped into `(−π, π]`).
     ///
@@ -360,6 +386,18 @@ pub enum Robot<T> {
     Swerve5(Swerve<T, 5>),
     /// 6 swerve modules.
     Swerve6(Swerve<T, 6>),
+}
+
+/// `Ok` for a zero spin: kinds without a shell or ball have no spin to set.
+fn no_spin<T: Real>(spin: T) -> Result<(), InputError> {
+    crate::real::finite(spin, "shell_spin")?;
+    if spin == T::zero() {
+        Ok(())
+    } else {
+        Err(InputError::Singular {
+            reason: "shell_spin applies only to kinds rolling on a shell or ball (sphere-omni, ballbot)",
+        })
+    }
 }
 
 /// The one dispatch on the kind: `$m` bound to the concrete model in every arm.
@@ -517,6 +555,28 @@ impl<T: Real> Robot<T> {
         dispatch!(self, m => KindModel::<T>::forward(m, actuators))
     }
 
+    /// [`Robot::inverse`] with the shell/ball spin `Ω3` (rad/s) of the sphere and the ballbot
+    /// (see [`KindModel::inverse_spin`]).
+    ///
+    /// # Errors
+    /// As [`KindModel::inverse_spin`].
+    pub fn inverse_spin(
+        &self,
+        twist: Twist2<T>,
+        spin: T,
+        current: &Actuators<T>,
+    ) -> Result<Actuators<T>, InputError> {
+        dispatch!(self, m => KindModel::<T>::inverse_spin(m, twist, spin, current))
+    }
+
+    /// [`Robot::forward`] with an assumed shell/ball spin (see [`KindModel::forward_spin`]).
+    ///
+    /// # Errors
+    /// As [`KindModel::forward_spin`].
+    pub fn forward_spin(&self, actuators: &Actuators<T>, spin: T) -> Result<Motion<T>, InputError> {
+        dispatch!(self, m => KindModel::<T>::forward_spin(m, actuators, spin))
+    }
+
     /// The robot-frame displacement between two encoder readings.
     ///
     /// # Errors
@@ -652,6 +712,19 @@ impl<T: Real> KindModel<T> for SphereOmni<T> {
         Ok(rigid(self.body_twist(head(&a.wheel_rates), T::zero())?))
     }
 
+    fn inverse_spin(
+        &self,
+        twist: Twist2<T>,
+        spin: T,
+        _c: &Actuators<T>,
+    ) -> Result<Actuators<T>, InputError> {
+        Ok(Actuators::from_wheel_rates(&self.wheel_rates(twist, spin)?))
+    }
+
+    fn forward_spin(&self, a: &Actuators<T>, spin: T) -> Result<Motion<T>, InputError> {
+        Ok(rigid(self.body_twist(head(&a.wheel_rates), spin)?))
+    }
+
     fn displacement(
         &self,
         start: &EncoderAngles<T>,
@@ -680,6 +753,19 @@ impl<T: Real> KindModel<T> for Ballbot<T> {
     #[inline]
     fn forward(&self, a: &Actuators<T>) -> Result<Motion<T>, InputError> {
         Ok(rigid(self.body_twist(head(&a.wheel_rates), T::zero())?))
+    }
+
+    fn inverse_spin(
+        &self,
+        twist: Twist2<T>,
+        spin: T,
+        _c: &Actuators<T>,
+    ) -> Result<Actuators<T>, InputError> {
+        Ok(Actuators::from_wheel_rates(&self.wheel_rates(twist, spin)?))
+    }
+
+    fn forward_spin(&self, a: &Actuators<T>, spin: T) -> Result<Motion<T>, InputError> {
+        Ok(rigid(self.body_twist(head(&a.wheel_rates), spin)?))
     }
 
     fn displacement(
