@@ -1,4 +1,4 @@
-//! The planner: path + heading law + timing → a sampled [`Plan`] of wheel commands that
+//! The planner: path + heading law + timing → a sampled [`Plan`](crate::Plan) of wheel commands that
 //! respects the robot's motor limits (paper 000, §5: `r_C(t)`, `ψ(t)` → wheel rates by
 //! eqs. 5.6–5.7; likewise for the ballbot, paper 001, and the caster base, paper 003, eq. 2).
 //!

@@ -121,8 +121,9 @@ pub struct PlanReport {
     /// Peak of every limited-or-not motor quantity (wheel rate and acceleration; the caster adds
     /// steer rate and acceleration).
     pub peaks: Vec<Peak>,
-    /// Moves slowed down because of a motor limit ([`Timing::Profile`] /
-    /// [`Timing::ConstantSpeed`] with [`OnLimit::Retime`]).
+    /// Moves slowed down because of a motor limit ([`Timing::Profile`](super::Timing::Profile) /
+    /// [`Timing::ConstantSpeed`](super::Timing::ConstantSpeed) with
+    /// [`OnLimit::Retime`](super::OnLimit::Retime)).
     pub retimed: Vec<Retiming>,
     /// What limited the speed, with the share of the plan's time (0–1) it was active
     /// (sorted, largest first).
