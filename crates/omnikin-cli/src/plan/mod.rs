@@ -1,6 +1,9 @@
 //! `omnikin plan`: paper 000's square and circle, or a path through waypoints, planned within
 //! the robot file's motor limits and written as a plan CSV/JSON (conventions.md columns), with
 //! an optional SVG figure and a human summary on stderr.
+//!
+//! `args` holds the command line, `request` turns each kind into a planner call, `write`
+//! writes the plan and the summary, `figure` draws the `--plot` SVG.
 
 mod args;
 mod figure;

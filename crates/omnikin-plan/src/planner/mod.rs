@@ -50,6 +50,21 @@
 //!    checked against the limits (rates at each sample, accelerations as differences between
 //!    consecutive samples); a residual excess from the grid approximation is removed by slowing
 //!    the offending move further.
+//!
+//! # Where each step lives
+//!
+//! | file | what |
+//! |---|---|
+//! | `options.rs` | the request: [`MotionLimits`], [`Timing`], [`OnLimit`], [`InitialSteer`], [`PlanOptions`] |
+//! | `moves.rs` | step 1: cutting the path into moves (stops, jumps of `q'`, turns in place) |
+//! | `geometry.rs` | step 2: a move's configuration `q(σ)`, `q'(σ)` and `A(σ)`, and the heading unwrap |
+//! | `grid.rs` | step 2: the adaptive grid of a move and the cell lookup |
+//! | `steer.rs` | step 2: the caster's steer angles (RK4 of paper 003, eq. 5), aligned start, grid step |
+//! | `timing.rs` | step 3: a move's timing, its first timing (dilation or rejection), the requested limits |
+//! | `time_optimal.rs` | step 3: the time-optimal reachability pass |
+//! | `sample.rs` | step 4: sampling the timed moves |
+//! | `report.rs` | the result: [`Planned`], [`PlanReport`], [`plan_peaks`] |
+//! | this file | [`plan`]: the steps in order, the final check and slow-down |
 
 mod geometry;
 mod grid;
