@@ -1,0 +1,226 @@
+//! The command line of `omnikin plan`: its subcommands (square, circle, waypoints), their
+//! flags with defaults and value checks, and the options every kind shares ([`Common`]).
+
+use std::path::PathBuf;
+
+use clap::{Args, Subcommand, ValueEnum};
+use omnikin_plan::profile::ProfileKind;
+
+use crate::args::{Triple, finite_f64};
+
+/// `omnikin plan`.
+#[derive(Args, Debug)]
+pub struct PlanArgs {
+    #[command(subcommand)]
+    pub kind: PlanKind,
+}
+
+/// What to plan.
+#[derive(Subcommand, Debug)]
+pub enum PlanKind {
+    /// Paper 000's square (eq. 6.1): legs +y, +x, -y, -x from the origin, heading 0, full stop
+    /// at each corner, ramps of --ramp-fraction of the leg time.
+    ///
+    /// Paper series (side 0.4 m): --speed 0.1, 0.2, 0.4, 0.5 (leg time 4/k s).
+    Square(SquareArgs),
+    /// Paper 000's circle (eq. 6.3): x = R cos(w t), y = R sin(w t), heading = w t.
+    ///
+    /// Starts at full speed like the paper unless --ramp is given. omega is fixed by the
+    /// request: a circle too fast for the robot is rejected with the wheel, rate and excess.
+    /// Paper series (radius 0.2 m): --omega 0.5, 1, 2, 2.5.
+    Circle(CircleArgs),
+    /// A path through waypoints from FILE: CSV `x,y[,heading]` (optional header) or TOML
+    /// `[[waypoint]]` tables with x, y[, heading] (m, rad).
+    Waypoints(WaypointArgs),
+}
+
+/// Output format of the plan.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Format {
+    /// `t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3[,s1,s2,s3,sd1,sd2,sd3]`.
+    Csv,
+    /// `{"columns": [...], "samples": [[...], ...]}`.
+    Json,
+}
+
+/// Velocity profile shape.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ProfileArg {
+    /// Constant-acceleration ramps.
+    Trapezoid,
+    /// Jerk-limited ramps.
+    SCurve,
+}
+
+impl From<ProfileArg> for ProfileKind {
+    fn from(p: ProfileArg) -> Self {
+        match p {
+            ProfileArg::Trapezoid => ProfileKind::Trapezoid,
+            ProfileArg::SCurve => ProfileKind::SCurve,
+        }
+    }
+}
+
+/// Heading law.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum HeadingArg {
+    /// Constant heading --heading (plus --spin rad/m along the path).
+    Constant,
+    /// Heading = direction of motion + --heading-offset (paper 000, eq. 5.5); turns in place
+    /// at stops.
+    Tangent,
+    /// Interpolate the waypoint file's heading column along the path (natural cubic spline).
+    Waypoints,
+}
+
+/// Path through the waypoints.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PathArg {
+    /// Straight legs (corners per --corners).
+    Polyline,
+    /// Quintic spline with continuous curvature.
+    Spline,
+}
+
+/// Corner treatment of a polyline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CornerArg {
+    /// Full stop at each corner.
+    Stop,
+    /// Circular fillet of --fillet-radius.
+    Fillet,
+}
+
+/// Options shared by every plan kind.
+#[derive(Args, Debug)]
+pub struct Common {
+    /// Robot: preset name (sphere-omni, ballbot, caster3) or path to a TOML description.
+    #[arg(long)]
+    pub robot: String,
+    /// Sampling rate, Hz (samples at k/rate, plus the exact end time).
+    #[arg(long, default_value_t = 100.0, allow_hyphen_values = true, value_parser = positive)]
+    pub rate: f64,
+    /// Output file (default: stdout).
+    #[arg(long, short)]
+    pub out: Option<PathBuf>,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = Format::Csv)]
+    pub format: Format,
+    /// Also draw the plan as an SVG figure (path with arrows, wheel rates over time).
+    #[arg(long, value_name = "SVG")]
+    pub plot: Option<PathBuf>,
+    /// caster3: initial steer angles G1,G2,G3, rad (default: aligned with the first motion,
+    /// each wheel trailing its steering axis).
+    #[arg(long, allow_hyphen_values = true, value_name = "G1,G2,G3")]
+    pub initial_steer: Option<Triple>,
+}
+
+/// `omnikin plan square`.
+#[derive(Args, Debug)]
+pub struct SquareArgs {
+    /// Side length, m.
+    #[arg(long, default_value_t = 0.4, allow_hyphen_values = true, value_parser = positive)]
+    pub side: f64,
+    /// Cruise speed along each leg, m/s.
+    #[arg(long, default_value_t = 0.1, allow_hyphen_values = true, value_parser = positive)]
+    pub speed: f64,
+    /// Duration of each ramp as a fraction of side/speed (paper: at most 5 %).
+    #[arg(long, default_value_t = 0.05, allow_hyphen_values = true, value_parser = positive)]
+    pub ramp_fraction: f64,
+    /// Ramp shape.
+    #[arg(long, value_enum, default_value_t = ProfileArg::Trapezoid)]
+    pub profile: ProfileArg,
+    /// Reject instead of slowing down when a motor limit would be exceeded.
+    #[arg(long)]
+    pub no_retime: bool,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// `omnikin plan circle`.
+#[derive(Args, Debug)]
+pub struct CircleArgs {
+    /// Radius R_t, m.
+    #[arg(long, default_value_t = 0.2, allow_hyphen_values = true, value_parser = positive)]
+    pub radius: f64,
+    /// Angular rate omega_0 about the centre, rad/s (negative: clockwise).
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub omega: f64,
+    /// Number of turns.
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = positive)]
+    pub turns: f64,
+    /// Ramp up from rest (and down at the end) over this many seconds instead of starting at
+    /// full speed.
+    #[arg(long, allow_hyphen_values = true, value_parser = positive)]
+    pub ramp: Option<f64>,
+    /// Face the direction of motion (paper 000, eq. 5.5: heading = omega t + pi/2) instead of
+    /// eq. 6.3's heading = omega t.
+    #[arg(long)]
+    pub face_motion: bool,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// `omnikin plan waypoints`.
+#[derive(Args, Debug)]
+pub struct WaypointArgs {
+    /// Waypoint file (.csv or .toml).
+    pub file: PathBuf,
+    /// Path through the waypoints.
+    #[arg(long, value_enum, default_value_t = PathArg::Polyline)]
+    pub path: PathArg,
+    /// Polyline corners.
+    #[arg(long, value_enum, default_value_t = CornerArg::Stop)]
+    pub corners: CornerArg,
+    /// Fillet radius for --corners fillet, m.
+    #[arg(long, default_value_t = 0.1, allow_hyphen_values = true, value_parser = positive)]
+    pub fillet_radius: f64,
+    /// Heading law (default: waypoints if the file has a heading column, else constant).
+    #[arg(long, value_enum)]
+    pub heading_law: Option<HeadingArg>,
+    /// Constant heading, rad (constant law).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub heading: f64,
+    /// Spin while translating, rad per metre of path (constant law): heading = H + spin * s.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub spin: f64,
+    /// Added to the direction of motion, rad (tangent law).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub heading_offset: f64,
+    /// Max speed along the path, m/s.
+    #[arg(long, default_value_t = 0.2, allow_hyphen_values = true, value_parser = positive)]
+    pub max_speed: f64,
+    /// Max acceleration along the path, m/s².
+    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true, value_parser = positive)]
+    pub max_accel: f64,
+    /// Max jerk along the path, m/s³ (s-curve profile).
+    #[arg(long, default_value_t = 5.0, allow_hyphen_values = true, value_parser = positive, conflicts_with = "time_optimal")]
+    pub max_jerk: f64,
+    /// Max yaw rate of a turn in place, rad/s.
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = positive)]
+    pub max_yaw_rate: f64,
+    /// Max yaw acceleration of a turn in place, rad/s².
+    #[arg(long, default_value_t = 2.0, allow_hyphen_values = true, value_parser = positive)]
+    pub max_yaw_accel: f64,
+    /// Velocity profile shape.
+    #[arg(long, value_enum, default_value_t = ProfileArg::Trapezoid, conflicts_with = "time_optimal")]
+    pub profile: ProfileArg,
+    /// Fastest timing within all limits (forward-backward pass over the path; no jerk limit).
+    #[arg(long)]
+    pub time_optimal: bool,
+    /// Reject instead of slowing down when a motor limit would be exceeded.
+    #[arg(long, conflicts_with = "time_optimal")]
+    pub no_retime: bool,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// A finite number > 0.
+fn positive(s: &str) -> Result<f64, String> {
+    let v = finite_f64(s)?;
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("must be > 0, got {v}"))
+    }
+}

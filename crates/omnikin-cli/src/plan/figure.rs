@@ -1,0 +1,134 @@
+//! The `--plot` figure of a plan (SVG): the path with direction arrows, the wheel rates over
+//! time, and the steer rates (caster) or the speed and yaw rate.
+
+use std::path::Path as FsPath;
+
+use anyhow::Result;
+use omnikin_plan::{Plan, RobotModel};
+
+use crate::plot::{self, Arrow, PALETTE, Series};
+
+/// Draws the plan: the path with direction arrows (left), wheel rates over time (top right),
+/// steer rates (caster) or speed and yaw rate (bottom right).
+pub(super) fn plan_figure(
+    flag: &str,
+    svg: &FsPath,
+    title: &str,
+    plan: &Plan,
+    robot: &RobotModel,
+) -> Result<()> {
+    plot::svg_file(flag, svg, (1300, 640), |root| {
+        draw_plan(root, title, plan, robot)
+    })
+}
+
+fn draw_plan(root: &plot::Area, title: &str, plan: &Plan, robot: &RobotModel) -> Result<()> {
+    use plotters::prelude::*;
+    root.fill(&WHITE).map_err(plot::draw_err)?;
+    let root = root
+        .titled(&crate::plot::svg_text(title), ("sans-serif", 22))
+        .map_err(plot::draw_err)?;
+    let (left, right) = root.split_horizontally(600);
+    let (top, bottom) = right.split_vertically(305);
+    let s = &plan.samples;
+    let xy: Vec<(f64, f64)> = s.iter().map(|p| (p.pose.x, p.pose.y)).collect();
+    // Arrows at ~12 evenly spaced points along the path (by arc length), pointing along the
+    // velocity there.
+    let total = plan.path_length();
+    let mut arrows = Vec::new();
+    let mut next = total / 24.0;
+    let mut acc = 0.0;
+    for w in s.windows(2) {
+        acc += (w[1].pose.x - w[0].pose.x).hypot(w[1].pose.y - w[0].pose.y);
+        if acc >= next && total > 0.0 {
+            let v = (w[1].twist.vx, w[1].twist.vy);
+            if v.0.hypot(v.1) > 1e-9 {
+                arrows.push(Arrow {
+                    at: (w[1].pose.x, w[1].pose.y),
+                    dir: v,
+                    color: PALETTE[3],
+                });
+            }
+            next += total / 12.0;
+        }
+    }
+    plot::xy_panel(
+        &left,
+        "path (world frame), arrows = direction of motion",
+        "x [m]",
+        "y [m]",
+        &[Series::solid("planned path r_C", xy, PALETTE[0])],
+        &[],
+        &arrows,
+    )?;
+    let t: Vec<f64> = s.iter().map(|p| p.t).collect();
+    let wheels: Vec<Series> = (0..3)
+        .map(|i| {
+            Series::solid(
+                format!("w{}", i + 1),
+                t.iter()
+                    .zip(s)
+                    .map(|(&t, p)| (t, p.wheel_rates[i]))
+                    .collect(),
+                PALETTE[i],
+            )
+        })
+        .collect();
+    let caster = robot.is_caster();
+    plot::time_panel(
+        &top,
+        if caster { "roll rates" } else { "wheel rates" },
+        "rate [rad/s]",
+        &wheels,
+        &[],
+        robot.limits.max_wheel_rate.map(|l| (l, "±max_wheel_rate")),
+    )?;
+    if caster {
+        let steer: Vec<Series> = (0..3)
+            .map(|i| {
+                Series::solid(
+                    format!("sd{}", i + 1),
+                    t.iter()
+                        .zip(s)
+                        .map(|(&t, p)| (t, p.steer.map_or(0.0, |(_, r)| r[i])))
+                        .collect(),
+                    PALETTE[i + 3],
+                )
+            })
+            .collect();
+        plot::time_panel(
+            &bottom,
+            "steer rates",
+            "steer rate [rad/s]",
+            &steer,
+            &[],
+            robot.limits.max_steer_rate.map(|l| (l, "±max_steer_rate")),
+        )?;
+    } else {
+        let speed = Series::solid(
+            "speed |v| [m/s]",
+            t.iter()
+                .zip(s)
+                .map(|(&t, p)| (t, p.twist.vx.hypot(p.twist.vy)))
+                .collect(),
+            PALETTE[4],
+        );
+        let yaw = Series::solid(
+            "yaw rate [rad/s]",
+            t.iter()
+                .zip(s)
+                .map(|(&t, p)| (t, p.twist.yaw_rate))
+                .collect(),
+            PALETTE[5],
+        );
+        plot::time_panel(
+            &bottom,
+            "speed and yaw rate",
+            "[m/s], [rad/s]",
+            &[speed, yaw],
+            &[],
+            None,
+        )?;
+    }
+    Ok(())
+}

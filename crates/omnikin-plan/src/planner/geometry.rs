@@ -1,0 +1,139 @@
+//! The geometry of a move, independent of its timing: what a move is ([`Kind`]: travel along
+//! the path or turn in place), its configuration `q(σ) = (x, y, ψ)` and derivative `q'(σ)`
+//! at a parameter ([`Config`], from [`Ctx::config`]), the unwrapped heading near a hint
+//! ([`Hint`]), and the motor rates per unit `σ̇`, `A(σ)` ([`Ctx::rates_per_speed`]).
+
+use omnikin::{Pose2, Twist2};
+
+use crate::PlanningError;
+use crate::heading::{HeadingLaw, Side, wrap_pi};
+use crate::path::Path;
+use crate::robot::RobotModel;
+
+/// Configuration and its derivative with respect to the move parameter.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Config {
+    pub(super) pose: Pose2<f64>,
+    /// `(cos ψ, sin ψ)` of the heading (from the tangent for the tangent law, so the grid needs
+    /// no trigonometry).
+    pub(super) cs: [f64; 2],
+    /// `q'(σ) = (dx/dσ, dy/dσ, dψ/dσ)`.
+    pub(super) dq: [f64; 3],
+}
+
+#[derive(Clone, Debug)]
+pub(super) enum Kind {
+    Travel { s0: f64, s1: f64 },
+    Turn { x: f64, y: f64, psi0: f64, dir: f64 },
+}
+
+pub(super) struct Ctx<'a> {
+    pub(super) path: &'a Path,
+    pub(super) heading: &'a HeadingLaw,
+    pub(super) robot: &'a RobotModel,
+    /// `(cos, sin)` of the tangent law's offset, or of the constant heading.
+    pub(super) heading_cs: [f64; 2],
+}
+
+/// An unwrapped heading `ψ` (rad) near the one sought, with `(cos ψ, sin ψ)` when known.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Hint {
+    pub(super) psi: f64,
+    pub(super) cs: Option<[f64; 2]>,
+}
+
+impl Hint {
+    pub(super) fn angle(psi: f64) -> Self {
+        Self { psi, cs: None }
+    }
+
+    pub(super) fn of(c: &Config) -> Self {
+        Self {
+            psi: c.pose.heading,
+            cs: Some(c.cs),
+        }
+    }
+
+    /// The unwrapped angle of the unit vector `dir` within ±π of the hint: from the angle
+    /// between the two, `δ = 2 atan(t)`, `t = (h × d)/(1 + h·d)`, by its series when it is
+    /// below 0.1 rad (`|t| < 0.05`: the terms to `t¹¹` leave < 1e-18), as between neighbouring
+    /// grid nodes; by `atan2` otherwise.
+    pub(super) fn unwrap(self, dir: [f64; 2]) -> f64 {
+        if let Some([c, s]) = self.cs {
+            let dot = c * dir[0] + s * dir[1];
+            if dot > 0.995 {
+                let t = (c * dir[1] - s * dir[0]) / (1.0 + dot);
+                let t2 = t * t;
+                let atan = t
+                    * (1.0
+                        - t2 * (1.0 / 3.0
+                            - t2 * (1.0 / 5.0
+                                - t2 * (1.0 / 7.0 - t2 * (1.0 / 9.0 - t2 * (1.0 / 11.0))))));
+                return self.psi + 2.0 * atan;
+            }
+        }
+        self.psi + wrap_pi(dir[1].atan2(dir[0]) - self.psi)
+    }
+}
+
+impl Ctx<'_> {
+    /// Configuration at parameter `sigma` of a move; `hint` is an unwrapped heading within
+    /// ±π of the answer (for the tangent law).
+    pub(super) fn config(&self, kind: &Kind, len: f64, sigma: f64, hint: Hint) -> Config {
+        match *kind {
+            Kind::Travel { s0, s1 } => {
+                // The end is evaluated exactly at `s1` on the incoming side (`s0 + len` can
+                // round past a join and pick the next piece's direction).
+                let s = s0 + sigma.max(0.0);
+                let (s, side) = if sigma >= len || s >= s1 {
+                    (s1, Side::Before)
+                } else {
+                    (s, Side::After)
+                };
+                let p = self.path.at_side(s, side);
+                let (psi, cs, dpsi) = match self.heading {
+                    HeadingLaw::Constant(c) => (*c, self.heading_cs, 0.0),
+                    HeadingLaw::Tangent { .. } => {
+                        let [c, s] = self.heading_cs;
+                        let [tx, ty] = p.tangent;
+                        let d = [c * tx - s * ty, s * tx + c * ty];
+                        (hint.unwrap(d), d, p.curvature)
+                    }
+                    HeadingLaw::Profile(prof) => {
+                        let (psi, dpsi) = prof.at(s, side);
+                        let (s, c) = psi.sin_cos();
+                        (psi, [c, s], dpsi)
+                    }
+                };
+                Config {
+                    pose: Pose2::new(p.point[0], p.point[1], psi),
+                    cs,
+                    dq: [p.tangent[0], p.tangent[1], dpsi],
+                }
+            }
+            Kind::Turn { x, y, psi0, dir } => {
+                let psi = psi0 + dir * sigma.clamp(0.0, len);
+                let (s, c) = psi.sin_cos();
+                Config {
+                    pose: Pose2::new(x, y, psi),
+                    cs: [c, s],
+                    dq: [0.0, 0.0, dir],
+                }
+            }
+        }
+    }
+
+    /// Motor rates per unit `σ̇` (the columns `A(σ)`), and `dγ/dσ` for the caster.
+    pub(super) fn rates_per_speed(
+        &self,
+        c: &Config,
+        gamma: [f64; 3],
+    ) -> Result<[f64; 6], PlanningError> {
+        self.robot.channel_rates_cs(
+            c.pose.heading,
+            c.cs,
+            Twist2::new(c.dq[0], c.dq[1], c.dq[2]),
+            gamma,
+        )
+    }
+}

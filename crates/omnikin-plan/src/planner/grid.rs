@@ -1,0 +1,408 @@
+//! A move's adaptive grid of `σ` (module docs, step 2): the [`Move`] with `A`, `A'` and the
+//! steer angles tabulated at its nodes, built by [`Ctx::build_move`] (a node at every kink,
+//! equal cells between, refined to [`GRID_TOL`]), the cell lookup ([`cell`], [`cell_from`])
+//! and the one-sided derivatives at kinks.
+
+use crate::PlanningError;
+use crate::limits::MAX_MOVE_GRID_CELLS;
+
+use super::geometry::{Config, Ctx, Hint, Kind};
+use super::timing::MoveTiming;
+
+/// Finest grid step in the move parameter (m or rad).
+pub(super) const GRID_MIN: f64 = 2e-3;
+
+/// Coarsest grid step in the move parameter (m or rad).
+pub(super) const GRID_MAX: f64 = 0.05;
+
+/// Largest linear-interpolation error of the motor rates per unit speed `A(σ)` between grid
+/// nodes, relative to the motor's largest `|A|` on the move.
+const GRID_TOL: f64 = 1e-2;
+
+/// Fewest grid cells per move.
+pub(super) const MIN_CELLS: usize = 16;
+
+/// A move with its grid: node parameters, heading (unwrapped), `A`, `A'` and the caster's
+/// steer angles.
+#[derive(Clone, Debug)]
+pub(super) struct Move {
+    pub(super) kind: Kind,
+    pub(super) len: f64,
+    pub(super) sig: Vec<f64>,
+    pub(super) psi: Vec<f64>,
+    /// `(cos ψ, sin ψ)` at each node (the heading hint of the samples in its cell).
+    pub(super) cs: Vec<[f64; 2]>,
+    pub(super) a: Vec<[f64; 6]>,
+    /// `A'` at each node as seen from the cell that ends there (one-sided at a kink).
+    pub(super) b_in: Vec<[f64; 6]>,
+    /// `A'` at each node as seen from the cell that starts there (one-sided at a kink).
+    pub(super) b_out: Vec<[f64; 6]>,
+    pub(super) gamma: Vec<[f64; 3]>,
+    pub(super) timing: MoveTiming,
+    pub(super) t0: f64,
+    /// Factor (≤ 1) on the motor limits the time-optimal pass aims at, lowered when the final
+    /// check on the samples finds a residual excess.
+    pub(super) limit_scale: f64,
+}
+
+impl Ctx<'_> {
+    /// Builds a move's grid starting from heading `psi_start` and steer angles `gamma0`. The
+    /// grid has a node at every kink `kinks` (σ where `A'` may jump: the joins of the path's
+    /// pieces) and, between kinks, equal cells of at most `step`, refined (once, by the factor
+    /// the error estimate asks for) until the linear interpolation of every motor's `A(σ)`
+    /// between nodes is within [`GRID_TOL`] of that motor's largest `|A|` on the move, or the
+    /// cells are [`GRID_MIN`].
+    pub(super) fn build_move(
+        &self,
+        kind: Kind,
+        len: f64,
+        psi_start: f64,
+        gamma0: [f64; 3],
+        step: f64,
+        kinks: &[f64],
+    ) -> Result<Move, PlanningError> {
+        // Stretches between kinks, each with its number of cells.
+        let mut bounds = vec![0.0];
+        bounds.extend(
+            kinks
+                .iter()
+                .copied()
+                .filter(|&k| k > 1e-9 && k < len - 1e-9),
+        );
+        bounds.push(len);
+        let cells = |l: f64, h: f64| ((l / h).ceil() as usize).max(1);
+        let too_many_cells = |n: &[usize]| {
+            let needed = n.iter().sum::<usize>();
+            if needed > MAX_MOVE_GRID_CELLS {
+                return Err(PlanningError::TooLarge {
+                    what: format!("a move of length {len:.4e} (m or rad)"),
+                    items: "grid cells",
+                    needed: needed as f64,
+                    limit: "MAX_MOVE_GRID_CELLS",
+                    max: MAX_MOVE_GRID_CELLS,
+                    hint: "shorten the path (--side, --radius, --turns, the waypoints) or cut it \
+                           into several plans",
+                });
+            }
+            Ok(())
+        };
+        let mut n: Vec<usize> = bounds
+            .windows(2)
+            .map(|w| cells(w[1] - w[0], step))
+            .collect();
+        let total: usize = n.iter().sum();
+        if total < MIN_CELLS {
+            let f = MIN_CELLS.div_ceil(total);
+            n.iter_mut().for_each(|c| *c *= f);
+        }
+        too_many_cells(&n)?;
+        // Each stretch starts from the end state (heading, steer angles) of the one before.
+        let caster = self.robot.is_caster();
+        let mut parts: Vec<Stretch> = Vec::with_capacity(n.len());
+        for j in 0..n.len() {
+            let (psi0, g0) = parts
+                .last()
+                .map_or((psi_start, gamma0), |p: &Stretch| p.end());
+            parts.push(self.stretch(&kind, len, bounds[j], bounds[j + 1], n[j], psi0, g0)?);
+        }
+        // Refine the stretches whose interpolation error is too large, rebuilding only them (and,
+        // for the caster, whose steer angles carry over, every stretch after the first rebuilt).
+        let chans = self.robot.channels();
+        // Each stretch's largest |A| and |A'|, recomputed only when it is rebuilt.
+        let mut scales: Vec<[[f64; 6]; 2]> = parts.iter().map(|p| p.scale(chans)).collect();
+        for _ in 0..8 {
+            let mut scale = [[0.0_f64; 6]; 2];
+            for ps in &scales {
+                for i in 0..2 {
+                    for ch in 0..chans {
+                        scale[i][ch] = scale[i][ch].max(ps[i][ch]);
+                    }
+                }
+            }
+            let mut dirty = false;
+            for j in 0..parts.len() {
+                let c = n[j];
+                let h = (bounds[j + 1] - bounds[j]) / c as f64;
+                let err = parts[j].error(&scale, chans);
+                let refine = err > GRID_TOL && h > GRID_MIN;
+                if refine {
+                    // Linear interpolation error scales with h²; aim at half the tolerance.
+                    let f = (err / (0.5 * GRID_TOL)).sqrt().min(1e3);
+                    let want = ((c as f64 * f).ceil() as usize).max(c + 1);
+                    n[j] = want.min(cells(bounds[j + 1] - bounds[j], GRID_MIN).max(c));
+                }
+                if refine || (caster && dirty) {
+                    let (psi0, g0) = if j == 0 {
+                        (psi_start, gamma0)
+                    } else {
+                        parts[j - 1].end()
+                    };
+                    parts[j] =
+                        self.stretch(&kind, len, bounds[j], bounds[j + 1], n[j], psi0, g0)?;
+                    scales[j] = parts[j].scale(chans);
+                    dirty = true;
+                }
+            }
+            if !dirty {
+                break;
+            }
+            too_many_cells(&n)?;
+        }
+        let total: usize = n.iter().sum();
+        let mut sig = Vec::with_capacity(total + 1);
+        let mut psi = Vec::with_capacity(total + 1);
+        let mut cs = Vec::with_capacity(total + 1);
+        let mut a = Vec::with_capacity(total + 1);
+        let mut gamma = Vec::with_capacity(total + 1);
+        for (j, p) in parts.iter().enumerate() {
+            let skip = usize::from(j > 0);
+            sig.extend_from_slice(&p.sig[skip..]);
+            psi.extend_from_slice(&p.psi[skip..]);
+            cs.extend_from_slice(&p.cs[skip..]);
+            a.extend_from_slice(&p.a[skip..]);
+            gamma.extend_from_slice(&p.gamma[skip..]);
+        }
+        let (b_in, b_out) = derivative(&a, &sig, &n);
+        Ok(Move {
+            kind,
+            len,
+            sig,
+            psi,
+            cs,
+            a,
+            b_in,
+            b_out,
+            gamma,
+            timing: MoveTiming::Constant { v: 1.0 },
+            t0: 0.0,
+            limit_scale: 1.0,
+        })
+    }
+
+    /// One stretch of a move's grid: `n` equal cells from `s0` to `s1`, starting from heading
+    /// hint `psi0` and steer angles `g0`.
+    #[allow(clippy::too_many_arguments)]
+    fn stretch(
+        &self,
+        kind: &Kind,
+        len: f64,
+        s0: f64,
+        s1: f64,
+        n: usize,
+        psi0: f64,
+        g0: [f64; 3],
+    ) -> Result<Stretch, PlanningError> {
+        let sig: Vec<f64> = (0..=n)
+            .map(|i| {
+                if i == n {
+                    s1
+                } else {
+                    s0 + (s1 - s0) * i as f64 / n as f64
+                }
+            })
+            .collect();
+        let (psi, cs, a, gamma) = self.grid(kind, len, psi0, g0, &sig)?;
+        Ok(Stretch {
+            sig,
+            psi,
+            cs,
+            a,
+            gamma,
+        })
+    }
+
+    /// Heading (and its cosine and sine), `A` and steer angles at the nodes `sig` of a move.
+    #[allow(clippy::type_complexity)]
+    fn grid(
+        &self,
+        kind: &Kind,
+        len: f64,
+        psi_start: f64,
+        gamma0: [f64; 3],
+        sig: &[f64],
+    ) -> Result<(Vec<f64>, Vec<[f64; 2]>, Vec<[f64; 6]>, Vec<[f64; 3]>), PlanningError> {
+        let mut psi = Vec::with_capacity(sig.len());
+        let mut cs = Vec::with_capacity(sig.len());
+        let mut a = Vec::with_capacity(sig.len());
+        let mut gamma = Vec::with_capacity(sig.len());
+        let mut hint = Hint::angle(psi_start);
+        let mut g = gamma0;
+        for (k, &sigma) in sig.iter().enumerate() {
+            if k > 0 {
+                let h = sigma - sig[k - 1];
+                g = self.steer_step(kind, len, sig[k - 1], g, h, hint)?;
+            }
+            let c = self.config(kind, len, sigma, hint);
+            hint = Hint::of(&c);
+            psi.push(c.pose.heading);
+            cs.push(c.cs);
+            a.push(self.rates_per_speed(&c, g)?);
+            gamma.push(g);
+        }
+        Ok((psi, cs, a, gamma))
+    }
+
+    /// Steer angles at `sigma` within a move, and the configuration there; `from` is the
+    /// grid cell of the previous call (see [`cell_from`]) and is updated.
+    pub(super) fn state(
+        &self,
+        mv: &Move,
+        sigma: f64,
+        from: &mut usize,
+    ) -> Result<(Config, [f64; 3]), PlanningError> {
+        let k = cell_from(&mv.sig, sigma, *from);
+        *from = k;
+        let hint = Hint {
+            psi: mv.psi[k],
+            cs: Some(mv.cs[k]),
+        };
+        let c = self.config(&mv.kind, mv.len, sigma, hint);
+        let g = self.steer_step(
+            &mv.kind,
+            mv.len,
+            mv.sig[k],
+            mv.gamma[k],
+            (sigma - mv.sig[k]).max(0.0),
+            hint,
+        )?;
+        Ok((c, g))
+    }
+}
+
+/// One stretch of a move's grid between kinks (equal cells).
+struct Stretch {
+    sig: Vec<f64>,
+    psi: Vec<f64>,
+    cs: Vec<[f64; 2]>,
+    a: Vec<[f64; 6]>,
+    gamma: Vec<[f64; 3]>,
+}
+
+impl Stretch {
+    /// Heading and steer angles at the stretch's last node.
+    fn end(&self) -> (f64, [f64; 3]) {
+        (
+            *self.psi.last().expect("a stretch has nodes"),
+            *self.gamma.last().expect("a stretch has nodes"),
+        )
+    }
+
+    /// Largest `|A|` and `|A'|` (central differences) per channel on the stretch (the first
+    /// `chans` channels; the others stay 0).
+    fn scale(&self, chans: usize) -> [[f64; 6]; 2] {
+        let a = &self.a;
+        let mut out = [[0.0_f64; 6]; 2];
+        for row in a {
+            for ch in 0..chans {
+                out[0][ch] = out[0][ch].max(row[ch].abs());
+            }
+        }
+        if a.len() >= 3 {
+            let h = self.sig[1] - self.sig[0];
+            for k in 1..a.len() - 1 {
+                for ch in 0..chans {
+                    let d = (a[k + 1][ch] - a[k - 1][ch]) / (2.0 * h);
+                    out[1][ch] = out[1][ch].max(d.abs());
+                }
+            }
+        }
+        out
+    }
+
+    /// Largest estimated error of linear interpolation between the nodes of `A`
+    /// (`|Δ²A|/8 = h² A''/8`) and of its central differences `A'` (inside the stretch),
+    /// relative to each channel's largest `|A|` and `|A'|` on the move (`scale`).
+    fn error(&self, scale: &[[f64; 6]; 2], chans: usize) -> f64 {
+        let a = &self.a;
+        let m = a.len();
+        if m < 3 {
+            return 0.0;
+        }
+        let h = self.sig[1] - self.sig[0];
+        let inv = |s: f64, f: f64| if s > 0.0 { 1.0 / (f * s) } else { 0.0 };
+        let inv_a: [f64; 6] = core::array::from_fn(|ch| inv(scale[0][ch], 8.0));
+        // A'(k) = (A[k+1] − A[k−1]) / 2h, so Δ²A'/8 = (A[k+2] − 2A[k+1] + 2A[k−1] − A[k−2]) / 16h.
+        let inv_b: [f64; 6] = core::array::from_fn(|ch| inv(scale[1][ch], 16.0 * h));
+        let mut err = 0.0_f64;
+        for k in 1..m - 1 {
+            for ch in 0..chans {
+                let d2 = a[k - 1][ch] - 2.0 * a[k][ch] + a[k + 1][ch];
+                err = err.max(d2.abs() * inv_a[ch]);
+            }
+        }
+        for k in 2..m.saturating_sub(2) {
+            for ch in 0..chans {
+                let d = a[k + 2][ch] - 2.0 * a[k + 1][ch] + 2.0 * a[k - 1][ch] - a[k - 2][ch];
+                err = err.max(d.abs() * inv_b[ch]);
+            }
+        }
+        err
+    }
+}
+
+/// Index `k` of the grid cell `[sig[k], sig[k + 1]]` containing `sigma` (clamped).
+pub(super) fn cell(sig: &[f64], sigma: f64) -> usize {
+    let n = sig.len() - 1;
+    sig.partition_point(|&x| x <= sigma)
+        .saturating_sub(1)
+        .min(n.saturating_sub(1))
+}
+
+/// [`cell`], for queries that mostly move forward a little: a few steps on from the previous
+/// answer `from`, bisection otherwise. Same result as [`cell`] for every input.
+pub(super) fn cell_from(sig: &[f64], sigma: f64, from: usize) -> usize {
+    let last = sig.len().saturating_sub(2);
+    let mut k = from.min(last);
+    if sig.len() < 2 || sigma.is_nan() || sig[k] > sigma {
+        return cell(sig, sigma);
+    }
+    for _ in 0..8 {
+        if k >= last || sig[k + 1] > sigma {
+            return k;
+        }
+        k += 1;
+    }
+    k + cell(&sig[k..], sigma)
+}
+
+/// Derivative of a vector function tabulated at the nodes `sig`, made of stretches of `n[j]`
+/// equal cells: central differences inside a stretch, second-order one-sided differences at
+/// the stretch ends (kinks, where the derivative may jump). Returns the derivative seen from
+/// the cell ending at each node and from the cell starting there (equal except at kinks).
+#[allow(clippy::type_complexity)]
+fn derivative(a: &[[f64; 6]], sig: &[f64], n: &[usize]) -> (Vec<[f64; 6]>, Vec<[f64; 6]>) {
+    let m = a.len();
+    let mut b_in = vec![[0.0; 6]; m];
+    let mut b_out = vec![[0.0; 6]; m];
+    let mut first = 0;
+    for &c in n {
+        let last = first + c;
+        let h = (sig[last] - sig[first]) / c as f64;
+        for k in first..=last {
+            let d: [f64; 6] = if k > first && k < last {
+                core::array::from_fn(|i| (a[k + 1][i] - a[k - 1][i]) / (2.0 * h))
+            } else if c == 1 {
+                core::array::from_fn(|i| (a[last][i] - a[first][i]) / h)
+            } else if k == first {
+                core::array::from_fn(|i| {
+                    (-3.0 * a[k][i] + 4.0 * a[k + 1][i] - a[k + 2][i]) / (2.0 * h)
+                })
+            } else {
+                core::array::from_fn(|i| {
+                    (3.0 * a[k][i] - 4.0 * a[k - 1][i] + a[k - 2][i]) / (2.0 * h)
+                })
+            };
+            if k > first {
+                b_in[k] = d;
+            }
+            if k < last {
+                b_out[k] = d;
+            }
+        }
+        first = last;
+    }
+    // The first node has no incoming cell and the last no outgoing one.
+    b_in[0] = b_out[0];
+    b_out[m - 1] = b_in[m - 1];
+    (b_in, b_out)
+}

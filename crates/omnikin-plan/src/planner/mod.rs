@@ -1,0 +1,279 @@
+//! The planner: path + heading law + timing → a sampled [`Plan`](crate::Plan) of wheel commands that
+//! respects the robot's motor limits (paper 000, §5: `r_C(t)`, `ψ(t)` → wheel rates by
+//! eqs. 5.6–5.7; likewise for the ballbot, paper 001, and the caster base, paper 003, eq. 2).
+//!
+//! # How a plan is made
+//!
+//! 1. **Moves.** The path is cut into *moves* that start and end at rest: at its stops
+//!    ([`crate::path::Corners::Stop`]) and wherever the wheel rates per unit speed jump (the
+//!    tangent or the heading rate `dψ/ds` jumps — e.g. where a fillet meets a leg under the
+//!    tangent heading law); a jump in wheel rate at non-zero speed would need infinite wheel
+//!    acceleration. Under the tangent law (paper 000, eq. 5.5) a stop where the direction
+//!    changes gets a **turn in place** from the old to the new direction.
+//! 2. **Geometry along a move.** Each move has a parameter `σ` (arc length `s` in m, or the
+//!    turned angle in rad for a turn in place) and a configuration `q(σ) = (x, y, ψ)`. Because
+//!    every robot's motor rates are linear in the world twist `q̇ = q'(σ) σ̇`, they are
+//!    `w(σ, σ̇) = A(σ) σ̇` with `A(σ)` the core inverse kinematics applied to `q'(σ)`
+//!    (including the heading-rate term `ψ' = dψ/ds`), and the motor accelerations are
+//!    `ẇ = A(σ) σ̈ + A'(σ) σ̇²`. `A` is tabulated on an **adaptive grid** of `σ`: a node at
+//!    every join of the path's pieces (where `A'` may jump, e.g. the curvature's derivative
+//!    at a spline waypoint; `A'` is taken one-sided there) and equal cells between joins,
+//!    5 cm (50 mrad for turns; a fifth of the eccentricity for the caster) refined where the
+//!    linear interpolation of `A` or `A'` between nodes would be off by more than 1 % of that
+//!    motor's largest value on the move, down to 2 mm. For the caster the steer angles `γ(σ)` obey `dγ/dσ = J2(θ, γ) q'(σ)` (paper 003, eq. 5), which
+//!    does not depend on the timing, so they are integrated once along the grid (RK4).
+//! 3. **Timing**, one of [`Timing`]:
+//!    * [`Timing::Profile`]: a trapezoidal or S-curve profile per move with the requested
+//!      speed, acceleration and jerk. If a motor would exceed its limit the move is slowed by a
+//!      uniform **time dilation** `σ_λ(t) = σ(λt)`: rates scale with `λ`, accelerations with
+//!      `λ²`, so `λ = min(1, limit_rate/peak_rate, √(limit_accel/peak_accel))` (the ramps keep
+//!      their share of the move's time). [`OnLimit::Reject`] refuses instead.
+//!    * [`Timing::ConstantSpeed`]: constant speed from start to end (paper 000's circle law,
+//!      eq. 6.3, which starts at full speed); slowed or rejected like a profile.
+//!    * [`Timing::TimeOptimal`]: the fastest timing within all limits, by a
+//!      **backward reachability pass and a greedy forward pass** over the path parameter on
+//!      `x = σ̇²` (time-optimal path parameterisation by reachability analysis, as in Pham &
+//!      Pham, "TOPP-RA", IEEE T-RO 2018). On each grid cell `σ̈ = (x_{k+1} − x_k)/(2h)` is
+//!      constant, and every acceleration limit (the requested path acceleration and each
+//!      motor's `|A_i σ̈ + A_i' x| ≤ limit`, at both ends of the cell) is linear in the two end
+//!      values: a convex polygon. Speed caps: `x ≤ v_max²` and `x ≤ (limit_rate_i/|A_i|)²`
+//!      (the wheel-rate cap `v_max(s) = max_rate / max_i |∂w_i/∂v(s)|`, with `|A_i|` raised by
+//!      its estimated bulge between nodes). The backward pass finds, from rest at the end,
+//!      the largest `x_k` from which the end is still reachable (the largest start of the
+//!      cell's polygon whose end is reachable); the forward pass then accelerates from rest as
+//!      hard as the cell allows without leaving the reachable set. No step can get stuck, and
+//!      the joint limits of all motors are respected at every node. Jerk is not limited in
+//!      this mode.
+//! 4. **Sampling** at the requested rate: pose, world twist, motor rates from the core
+//!    inverse kinematics (sphere: `SphereOmni::wheel_rates_world`, ballbot:
+//!    `Ballbot::wheel_rates_world`, caster: `Caster3::motor_rates`). Finally every sample is
+//!    checked against the limits (rates at each sample, accelerations as differences between
+//!    consecutive samples); a residual excess from the grid approximation is removed by slowing
+//!    the offending move further.
+//!
+//! # Where each step lives
+//!
+//! | file | what |
+//! |---|---|
+//! | `options.rs` | the request: [`MotionLimits`], [`Timing`], [`OnLimit`], [`InitialSteer`], [`PlanOptions`] |
+//! | `moves.rs` | step 1: cutting the path into moves (stops, jumps of `q'`, turns in place) |
+//! | `geometry.rs` | step 2: a move's configuration `q(σ)`, `q'(σ)` and `A(σ)`, and the heading unwrap |
+//! | `grid.rs` | step 2: the adaptive grid of a move and the cell lookup |
+//! | `steer.rs` | step 2: the caster's steer angles (RK4 of paper 003, eq. 5), aligned start, grid step |
+//! | `timing.rs` | step 3: a move's timing, its first timing (dilation or rejection), the requested limits |
+//! | `time_optimal.rs` | step 3: the time-optimal reachability pass |
+//! | `sample.rs` | step 4: sampling the timed moves |
+//! | `report.rs` | the result: [`Planned`], [`PlanReport`], [`plan_peaks`] |
+//! | this file | [`plan`]: the steps in order, the final check and slow-down |
+
+mod geometry;
+mod grid;
+mod moves;
+mod options;
+mod report;
+mod sample;
+mod steer;
+mod time_optimal;
+mod timing;
+
+pub use options::{InitialSteer, MotionLimits, OnLimit, PlanOptions, Timing};
+pub use report::{Limiter, MoveKind, MoveSummary, Peak, PlanReport, Planned, Retiming, plan_peaks};
+
+use crate::PlanningError;
+use crate::error::Violation;
+use crate::heading::HeadingLaw;
+use crate::limits::{RATE_RANGE, SPEED_RANGE, check_range};
+use crate::path::Path;
+use crate::profile::ProfileKind;
+use crate::robot::RobotModel;
+
+use geometry::Ctx;
+use grid::Move;
+use moves::build_moves;
+use report::report;
+use sample::sample;
+use time_optimal::time_optimal;
+use timing::{MoveTiming, initial_timing, note_retime, user_limits};
+
+/// Plans `path` with the heading law `heading` for `robot` (see the module docs for how).
+///
+/// # Errors
+/// * [`PlanningError::InvalidParameter`] for a non-finite steer angle;
+/// * [`PlanningError::OutOfRange`] for a rate, motion limit, heading or steer angle outside
+///   its range in [`crate::limits`];
+/// * [`PlanningError::TooLarge`] when the path needs more grid cells than
+///   [`crate::limits::MAX_MOVE_GRID_CELLS`] / [`crate::limits::MAX_PLAN_GRID_CELLS`] or the
+///   timed plan more samples than [`crate::limits::MAX_PLAN_SAMPLES`] (checked before
+///   allocating them);
+/// * [`PlanningError::LimitExceeded`] when `opts.on_limit` is [`OnLimit::Reject`] and the
+///   requested timing needs more than a motor limit allows (the worst excess: motor, value,
+///   time, limit, percent);
+/// * [`PlanningError::Infeasible`] for a constant-speed law on a path with stops, or a speed
+///   cap of zero;
+/// * [`PlanningError::Kinematics`] if the kinematics meet a non-finite number.
+pub fn plan(
+    path: &Path,
+    heading: &HeadingLaw,
+    robot: &RobotModel,
+    opts: &PlanOptions,
+) -> Result<Planned, PlanningError> {
+    validate_request(heading, opts)?;
+    let heading_cs = match heading {
+        HeadingLaw::Constant(a) | HeadingLaw::Tangent { offset: a } => {
+            let (s, c) = a.sin_cos();
+            [c, s]
+        }
+        HeadingLaw::Profile(_) => [1.0, 0.0],
+    };
+    let ctx = Ctx {
+        path,
+        heading,
+        robot,
+        heading_cs,
+    };
+    let mut moves = build_moves(&ctx, opts)?;
+    if matches!(opts.timing, Timing::ConstantSpeed { .. }) && moves.len() != 1 {
+        return Err(PlanningError::Infeasible(format!(
+            "a constant-speed law cannot stop, but this path/heading law needs {} stops",
+            moves.len() - 1
+        )));
+    }
+    let mut retimed = Vec::new();
+    let mut active_w: Vec<(Limiter, f64)> = Vec::new();
+    let mut t0 = 0.0;
+    for (i, mv) in moves.iter_mut().enumerate() {
+        mv.t0 = t0;
+        let (timing, limiters) = initial_timing(robot, mv, opts, i, &mut retimed)?;
+        mv.timing = timing;
+        t0 += mv.timing.duration(mv.len);
+        active_w.extend(limiters);
+    }
+    // Sample, check strictly, slow down what still exceeds (grid approximation), repeat.
+    for round in 0..25 {
+        let mut t0 = 0.0;
+        for mv in moves.iter_mut() {
+            mv.t0 = t0;
+            t0 += mv.timing.duration(mv.len);
+        }
+        let plan = sample(&ctx, &moves, opts.rate)?;
+        let peaks = plan_peaks(&plan, robot);
+        let worst = peaks
+            .iter()
+            .filter_map(|p| p.limit.map(|l| (p, p.value / l)))
+            .filter(|(_, r)| *r > 1.0 + 1e-9)
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        match worst {
+            None => {
+                let report = report(
+                    path,
+                    &moves,
+                    plan.duration(),
+                    peaks,
+                    retimed,
+                    active_w,
+                    &plan,
+                );
+                return Ok(Planned { plan, report });
+            }
+            Some((p, ratio)) if round < 24 => {
+                slow_down(robot, opts, &mut moves, &mut retimed, *p, ratio)?
+            }
+            Some((p, _)) => {
+                return Err(PlanningError::Infeasible(format!(
+                    "could not bring {} {} within {} after repeated slow-downs (peak {:.3} {})",
+                    p.quantity.motor(),
+                    p.motor,
+                    p.quantity.key(),
+                    p.value,
+                    p.quantity.unit()
+                )));
+            }
+        }
+    }
+    unreachable!("the loop returns on its last round")
+}
+
+/// Checks the request before anything is built: the heading law, the sampling rate, the
+/// timing's motion limits and the caster's given initial steer angles, each against its
+/// range in [`crate::limits`].
+fn validate_request(heading: &HeadingLaw, opts: &PlanOptions) -> Result<(), PlanningError> {
+    heading.validate()?;
+    check_range("rate", opts.rate, RATE_RANGE, "Hz")?;
+    match opts.timing {
+        Timing::Profile { kind, limits } => limits.validate(kind == ProfileKind::SCurve)?,
+        Timing::TimeOptimal { limits } => limits.validate(false)?,
+        Timing::ConstantSpeed { speed } => check_range("speed", speed, SPEED_RANGE, "m/s")?,
+    }
+    if let InitialSteer::Given(g) = opts.initial_steer
+        && g.iter().any(|v| !v.is_finite())
+    {
+        return Err(PlanningError::InvalidParameter {
+            name: "initial steer",
+            value: g.into_iter().find(|v| !v.is_finite()).unwrap_or(f64::NAN),
+            rule: "steer angles must be finite (rad)",
+        });
+    }
+    if let InitialSteer::Given(g) = opts.initial_steer {
+        for v in g {
+            crate::limits::check_magnitude("initial steer", v, crate::limits::MAX_HEADING, "rad")?;
+        }
+    }
+    Ok(())
+}
+
+/// Slows down the move that holds the worst excess `p` (`ratio` = peak / limit, > 1) found on
+/// the samples, a residue of the grid approximation: a profile or constant speed by a further
+/// time dilation, a time-optimal timing by re-running the pass with a lower limit scale.
+/// Refuses instead under [`OnLimit::Reject`] (except for the time-optimal timing).
+fn slow_down(
+    robot: &RobotModel,
+    opts: &PlanOptions,
+    moves: &mut [Move],
+    retimed: &mut Vec<Retiming>,
+    p: Peak,
+    ratio: f64,
+) -> Result<(), PlanningError> {
+    let idx = moves.iter().rposition(|m| m.t0 <= p.t).unwrap_or(0);
+    if opts.on_limit == OnLimit::Reject && !matches!(opts.timing, Timing::TimeOptimal { .. }) {
+        // Only a grid-approximation residue can get here; refuse like the dense check.
+        return Err(PlanningError::LimitExceeded(Violation {
+            quantity: p.quantity,
+            motor: p.motor,
+            needed: p.value,
+            t: p.t,
+            limit: p.limit.unwrap_or(f64::NAN),
+        }));
+    }
+    let f = if p.quantity.is_accel() {
+        ratio.sqrt()
+    } else {
+        ratio
+    };
+    let limiter = Limiter::Motor {
+        quantity: p.quantity,
+        motor: p.motor,
+    };
+    let mv = &mut moves[idx];
+    match &mut mv.timing {
+        MoveTiming::Profile { lambda, .. } => {
+            *lambda *= 0.999 / f;
+            note_retime(retimed, idx, *lambda, limiter);
+        }
+        MoveTiming::Constant { v } => {
+            *v *= 0.999 / f;
+            if let Timing::ConstantSpeed { speed } = opts.timing {
+                note_retime(retimed, idx, *v / speed, limiter);
+            }
+        }
+        MoveTiming::Grid { .. } => {
+            mv.limit_scale *= 0.995 / ratio;
+            let (v_user, a_user, user) = user_limits(opts, &mv.kind);
+            let (timing, _) = time_optimal(robot, mv, v_user, a_user, user)?;
+            mv.timing = timing;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,151 @@
+//! Cutting the path into moves that start and end at rest (module docs, step 1): at stops
+//! and where `q'` jumps, with a turn in place at a stop where the tangent heading law changes
+//! direction; each move's grid is built as it is cut ([`build_moves`]).
+
+use crate::PlanningError;
+use crate::heading::{HeadingLaw, Side, wrap_pi};
+use crate::limits::MAX_PLAN_GRID_CELLS;
+
+use super::geometry::{Ctx, Hint, Kind};
+use super::grid::{MIN_CELLS, Move};
+use super::options::{InitialSteer, PlanOptions};
+use super::steer::{aligned_steer, grid_step};
+
+/// Cuts the path into moves (see the module docs) and builds their grids.
+pub(super) fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, PlanningError> {
+    let path = ctx.path;
+    let len = path.length();
+    let heading_rate = |s: f64, side: Side, curvature: f64| match ctx.heading {
+        HeadingLaw::Constant(_) => 0.0,
+        HeadingLaw::Tangent { .. } => curvature,
+        HeadingLaw::Profile(p) => p.at(s, side).1,
+    };
+    // Cut points: stops, and joins where q' jumps.
+    let mut cuts: Vec<f64> = Vec::new();
+    for j in path.joins() {
+        let before = [
+            j.before.tangent[0],
+            j.before.tangent[1],
+            heading_rate(j.s, Side::Before, j.before.curvature),
+        ];
+        let after = [
+            j.after.tangent[0],
+            j.after.tangent[1],
+            heading_rate(j.s, Side::After, j.after.curvature),
+        ];
+        if j.stop || jumps(before, after) {
+            cuts.push(j.s);
+        }
+    }
+    for s in ctx.heading.breakpoints() {
+        if s > 0.0 && s < len {
+            let p_before = path.at_side(s, Side::Before);
+            let p_after = path.at_side(s, Side::After);
+            let before = [
+                p_before.tangent[0],
+                p_before.tangent[1],
+                heading_rate(s, Side::Before, p_before.curvature),
+            ];
+            let after = [
+                p_after.tangent[0],
+                p_after.tangent[1],
+                heading_rate(s, Side::After, p_after.curvature),
+            ];
+            if jumps(before, after) {
+                cuts.push(s);
+            }
+        }
+    }
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
+    let mut bounds = vec![0.0];
+    bounds.extend(cuts.into_iter().filter(|&s| s > 1e-12 && s < len - 1e-12));
+    bounds.push(len);
+
+    // The grid's size before refinement, from the lengths alone: refuse a path too long for
+    // the grid before building any of it (refinement is checked move by move below).
+    let step = grid_step(ctx.robot);
+    let coarse: f64 = bounds
+        .windows(2)
+        .map(|w| ((w[1] - w[0]) / step).ceil().max(MIN_CELLS as f64))
+        .sum();
+    if coarse.is_nan() || coarse > MAX_PLAN_GRID_CELLS as f64 {
+        return Err(too_many_plan_cells(len, bounds.len() - 1, coarse));
+    }
+    let first = path.at_side(0.0, Side::After);
+    let mut psi = match ctx.heading {
+        HeadingLaw::Constant(c) => *c,
+        HeadingLaw::Tangent { offset } => first.direction() + offset,
+        HeadingLaw::Profile(p) => p.at(0.0, Side::After).0,
+    };
+    let mut gamma = match opts.initial_steer {
+        InitialSteer::Given(g) => g,
+        InitialSteer::Aligned => {
+            let kind = Kind::Travel {
+                s0: 0.0,
+                s1: bounds[1],
+            };
+            let c = ctx.config(&kind, bounds[1], 0.0, Hint::angle(psi));
+            aligned_steer(ctx.robot, &c)
+        }
+    };
+    if !ctx.robot.is_caster() {
+        gamma = [0.0; 3];
+    }
+    let mut moves = Vec::new();
+    for w in bounds.windows(2) {
+        let (s0, s1) = (w[0], w[1]);
+        if let HeadingLaw::Tangent { offset } = ctx.heading
+            && s0 > 0.0
+        {
+            let want = path.at_side(s0, Side::After).direction() + offset;
+            let delta = wrap_pi(want - psi);
+            if delta.abs() > 1e-9 {
+                let p = path.at(s0).point;
+                let kind = Kind::Turn {
+                    x: p[0],
+                    y: p[1],
+                    psi0: psi,
+                    dir: delta.signum(),
+                };
+                let mv = ctx.build_move(kind, delta.abs(), psi, gamma, step, &[])?;
+                psi += delta;
+                gamma = *mv.gamma.last().unwrap_or(&gamma);
+                moves.push(mv);
+            }
+        }
+        let kind = Kind::Travel { s0, s1 };
+        let kinks: Vec<f64> = path
+            .piece_starts()
+            .iter()
+            .chain(ctx.heading.knots())
+            .filter(|&&k| k > s0 && k < s1)
+            .map(|k| k - s0)
+            .collect();
+        let mv = ctx.build_move(kind, s1 - s0, psi, gamma, step, &kinks)?;
+        psi = *mv.psi.last().unwrap_or(&psi);
+        gamma = *mv.gamma.last().unwrap_or(&gamma);
+        moves.push(mv);
+        let cells: usize = moves.iter().map(|m| m.sig.len() - 1).sum();
+        if cells > MAX_PLAN_GRID_CELLS {
+            return Err(too_many_plan_cells(len, moves.len(), cells as f64));
+        }
+    }
+    Ok(moves)
+}
+
+/// `true` when two derivative vectors `q'` differ (a jump in the wheel rates per unit speed).
+fn jumps(a: [f64; 3], b: [f64; 3]) -> bool {
+    (0..3).any(|i| (a[i] - b[i]).abs() > 1e-9 * (1.0 + a[i].abs().max(b[i].abs())))
+}
+
+fn too_many_plan_cells(len: f64, moves: usize, cells: f64) -> PlanningError {
+    PlanningError::TooLarge {
+        what: format!("the path (length {len:.4e} m, {moves} moves)"),
+        items: "grid cells",
+        needed: cells,
+        limit: "MAX_PLAN_GRID_CELLS",
+        max: MAX_PLAN_GRID_CELLS,
+        hint: "shorten the path or cut it into several plans",
+    }
+}

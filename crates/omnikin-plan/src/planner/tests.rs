@@ -1,0 +1,164 @@
+//! Unit tests of the planner's internals: the heading unwrap series, the cell search, the
+//! reachability step against a brute-force LP, and the time-optimal pass with stored and
+//! rebuilt cell constraints.
+
+use super::*;
+use geometry::Hint;
+use grid::{cell, cell_from};
+use proptest::prelude::*;
+use time_optimal::{CellConstraints, time_optimal_storing};
+
+/// Brute force: the largest x ∈ [0, x_cap] for which the y-interval is non-empty, from
+/// every pair of a lower and an upper bound (y ≥ 0 and y ≤ y_max included).
+fn largest_start_pairwise(c: &CellConstraints, x_cap: f64, y_max: f64) -> f64 {
+    let mut lower: Vec<(f64, f64)> = vec![(0.0, 0.0)];
+    let mut upper: Vec<(f64, f64)> = vec![(y_max, 0.0)];
+    for i in 0..c.n {
+        lower.push((-c.hi[i], c.slope[i]));
+        upper.push((c.hi[i], c.slope[i]));
+    }
+    let mut best = x_cap.min(c.x_max);
+    for &(la, lb) in &lower {
+        for &(ua, ub) in &upper {
+            if lb - ub > 0.0 {
+                best = best.min((ua - la) / (lb - ub));
+            }
+        }
+    }
+    best.max(0.0)
+}
+
+#[test]
+fn heading_increment_series_is_accurate_to_rounding() {
+    // Near the series' largest argument (|δ| just below 0.1 rad, |t| ≈ 0.05, where its last
+    // term t¹¹/11 is ≈ 4e-16 of δ) and for small headings, so rounding is ≈ 1e-16: the
+    // answer must be within 4e-16 of ψ + δ.
+    for &psi in &[0.0, 0.3, -0.7, 1.0] {
+        for &delta in &[0.0999, -0.0999, 0.08, -0.05, 0.01, 1e-9] {
+            let (s, c) = f64::sin_cos(psi);
+            let (sd, cd) = f64::sin_cos(psi + delta);
+            let got = Hint {
+                psi,
+                cs: Some([c, s]),
+            }
+            .unwrap([cd, sd]);
+            assert!(
+                (got - (psi + delta)).abs() <= 4e-16,
+                "ψ {psi} δ {delta}: {got} vs {}",
+                psi + delta
+            );
+        }
+    }
+}
+
+#[test]
+fn time_optimal_timing_is_the_same_with_stored_and_rebuilt_cells() {
+    let wps: Vec<[f64; 2]> = (0..8)
+        .map(|k| [0.5 * k as f64, 0.4 * (0.9 * k as f64).sin()])
+        .collect();
+    let path = Path::spline(&wps).expect("spline");
+    let heading = HeadingLaw::Tangent { offset: 0.3 };
+    for name in ["sphere-omni", "caster3"] {
+        let robot = RobotModel::from_description(
+            &omnikin::description::RobotDescription::preset(name).expect("preset"),
+        )
+        .expect("model");
+        let heading_cs = [0.3_f64.cos(), 0.3_f64.sin()];
+        let ctx = Ctx {
+            path: &path,
+            heading: &heading,
+            robot: &robot,
+            heading_cs,
+        };
+        let opts = PlanOptions {
+            timing: Timing::TimeOptimal {
+                limits: MotionLimits {
+                    max_speed: 0.6,
+                    max_accel: 1.0,
+                    ..MotionLimits::default()
+                },
+            },
+            on_limit: OnLimit::Retime,
+            rate: 100.0,
+            initial_steer: InitialSteer::Aligned,
+        };
+        let moves = build_moves(&ctx, &opts).expect("moves");
+        for mv in &moves {
+            let (v, a, user) = user_limits(&opts, &mv.kind);
+            let (kept, who_kept) =
+                time_optimal_storing(&robot, mv, v, a, user, usize::MAX).expect("timing");
+            let (rebuilt, who_rebuilt) =
+                time_optimal_storing(&robot, mv, v, a, user, 0).expect("timing");
+            let (MoveTiming::Grid { x: x1, t: t1 }, MoveTiming::Grid { x: x2, t: t2 }) =
+                (kept, rebuilt)
+            else {
+                panic!("grid timings expected")
+            };
+            assert!(x1.len() > 16);
+            assert_eq!(x1, x2, "{name}");
+            assert_eq!(t1, t2, "{name}");
+            assert_eq!(who_kept, who_rebuilt, "{name}");
+        }
+    }
+}
+
+proptest! {
+    /// The forward-stepping cell search answers as the bisection does, wherever it starts.
+    /// (`from` stays below the node count so that exact ties ahead of it are queried.)
+    #[test]
+    fn cell_from_matches_cell(
+        steps in proptest::collection::vec(1e-3_f64..1.0, 1..40),
+        x in prop_oneof![-1.0_f64..45.0, Just(f64::NAN), Just(f64::INFINITY)],
+        from in 0usize..50,
+    ) {
+        let mut sig = vec![0.0];
+        for h in steps {
+            sig.push(sig[sig.len() - 1] + h);
+        }
+        // Arbitrary points, and every node ahead of the start (exact ties included).
+        let nodes = (0..12).map(|j| sig[(from + j) % sig.len()]);
+        for q in std::iter::once(x).chain(nodes) {
+            prop_assert_eq!(cell_from(&sig, q, from), cell(&sig, q), "x {}", q);
+        }
+    }
+
+    /// The heading increment between neighbouring grid nodes (series of `atan`) agrees with
+    /// `atan2` to rounding, near and far from the hint, wrapped or not.
+    #[test]
+    fn heading_unwrap_matches_atan2(
+        psi in -20.0_f64..20.0,
+        delta in prop_oneof![-0.12_f64..0.12, -3.1_f64..3.1],
+    ) {
+        let (s, c) = psi.sin_cos();
+        let hint = Hint { psi, cs: Some([c, s]) };
+        let (sd, cd) = (psi + delta).sin_cos();
+        let got = hint.unwrap([cd, sd]);
+        let want = Hint::angle(psi).unwrap([cd, sd]);
+        prop_assert!((got - want).abs() < 1e-13, "{} vs {}", got, want);
+        prop_assert!((got - (psi + delta)).abs() < 1e-12, "{} vs {}", got, psi + delta);
+    }
+
+    #[test]
+    fn reachability_step_matches_the_pairwise_lp(
+        rows in proptest::collection::vec(
+            (-50.0..50.0_f64, -50.0..50.0_f64, 0.1..100.0_f64), 1..13),
+        x_cap in 0.0..20.0_f64,
+        y_max in 0.0..20.0_f64,
+    ) {
+        let mut c = CellConstraints::new();
+        for (k, &(cy, cx, bound)) in rows.iter().enumerate() {
+            c.add(cy, cx, bound, k as u8);
+        }
+        let (x, _) = c.largest_start(x_cap, y_max);
+        let want = largest_start_pairwise(&c, x_cap, y_max);
+        prop_assert!((x - want).abs() <= 1e-9 * (1.0 + want), "{x} vs {want}");
+        // And the forward step from there finds an admissible end value.
+        let (y, _) = c.largest_end(x, y_max);
+        prop_assert!(y >= 0.0 && y <= y_max * (1.0 + 1e-12) + 1e-12);
+        for i in 0..c.n {
+            let tol = 1e-7 * (1.0 + c.hi[i].abs() + (c.slope[i] * x).abs());
+            prop_assert!(y <= c.hi[i] + c.slope[i] * x + tol, "upper {i}");
+            prop_assert!(y >= -c.hi[i] + c.slope[i] * x - tol, "lower {i}");
+        }
+    }
+}
