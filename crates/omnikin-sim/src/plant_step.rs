@@ -47,7 +47,7 @@
 //! SIL gave the ballbot only `Ω₀`, dropping the speed-dependent term the simulator applied, so
 //! with a `slip_gain` the two disagreed on the ballbot's heading.)
 //!
-//! [`Motors`] (crate-private) is the other half both callers share: the motor models turning
+//! `Motors` (crate-private) is the other half both callers share: the motor models turning
 //! set-points into the [`MotorMotion`] this step consumes.
 
 use omnikin::caster::CasterRates;
@@ -134,7 +134,11 @@ impl Plant {
             robot,
             pose,
             twist: Twist2::default(),
-            steer: if has_steering(&robot) { steer } else { [0.0; 3] },
+            steer: if has_steering(&robot) {
+                steer
+            } else {
+                [0.0; 3]
+            },
             slip_residual: 0.0,
             radius_scale,
             roller_amp: profile.roller.amplitude.unwrap_or(0.0),
