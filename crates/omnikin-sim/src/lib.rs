@@ -8,8 +8,12 @@
 //! * [`profile`]: which disturbances to simulate (TOML): stepper quantisation, motor lag and
 //!   acceleration limits (ramp phases), speed fluctuation, wheel-radius errors, shell spin
 //!   (random and speed-dependent), roller hand-over, floor slip, tracking offset and noise.
-//! * [`simulate_trial`]: the kinematic plant — the plan's motor set-points through the motor
-//!   models and the forward kinematics, integrated exactly on SE(2).
+//! * [`plant_step`]: the one plant step — the motors' actual motion through the forward
+//!   kinematics (with the shell/ball spin law) and floor slip, integrated exactly on SE(2);
+//!   shared by the simulator and software in the loop.
+//! * [`simulate_trial`]: the open-loop simulator — a plan's motor set-points through the motor
+//!   models and the plant step.
+//! * [`sil`]: software in the loop — the same plant as a board for the robot runtime.
 //! * [`run_trials`]: seeded parallel Monte Carlo; trial `i` draws from its own ChaCha8 stream,
 //!   so results do not depend on the number of threads.
 //! * [`metrics`]: deviation from the planned path (m and % of path), end-point and heading
@@ -28,6 +32,7 @@ mod monte_carlo;
 mod motor;
 mod path_index;
 mod plant;
+pub mod plant_step;
 pub mod profile;
 pub mod reproduce;
 pub mod sensors;

@@ -1,15 +1,14 @@
-//! The kinematic plant: a plan's motor commands → what the motors actually did → how the
-//! robot actually moved (forward kinematics, exact SE(2) steps).
+//! The open-loop simulator: a plan's motor set-points, interpolated between samples, through
+//! the one plant step of [`crate::plant_step`] (motor models, forward kinematics, exact SE(2)
+//! steps), recorded at the plan's sample times with what a tracker and the encoders would see.
 
-use omnikin::caster::CasterRates;
-use omnikin::{Pose2, Robot, Twist2, se2};
+use omnikin::{Pose2, Robot};
 use omnikin_plan::Plan;
-use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
 use crate::limits::MAX_PLANT_STEPS;
-use crate::motor::Motor;
+use crate::plant_step::{Motors, Plant, has_steering};
 use crate::profile::{Hold, Profile};
 
 /// One simulated run, recorded at the plan's sample times.
@@ -78,12 +77,12 @@ fn gauss(rng: &mut ChaCha8Rng) -> f64 {
 ///
 /// The plan's wheel (and steer) rates are motor set-points, interpolated between samples per
 /// `profile.hold`; each motor model ([`crate::profile::MotorProfile`]) turns them into actual
-/// angle increments; the increments, scaled by the per-trial wheel-radius errors and roller
-/// modulation, go through the robot's forward kinematics (sphere: with the shell spin of the
-/// profile; caster: least squares over all six motors, recording the slip residual), the
-/// floor slip scales the resulting body velocity, and [`omnikin::se2::integrate`] advances the
-/// pose exactly over each plant step. Plant steps divide each plan interval evenly, so the
-/// state lands exactly on every sample time.
+/// angle increments, and [`crate::plant_step::Plant::step`] moves the robot by them (wheel-radius
+/// errors, roller modulation, forward kinematics with the spin law of the profile, floor slip,
+/// an exact SE(2) step) — the same plant step as software in the loop
+/// ([`crate::sil::SilPlant`]). The motors start at the first sample's rates, the pose and
+/// steer angles at its pose and steer angles. Plant steps divide each plan interval evenly, so
+/// the state lands exactly on every sample time.
 ///
 /// # Errors
 /// [`SimError::Mismatch`] for an empty plan or a plan of another robot kind;
@@ -99,7 +98,7 @@ pub fn simulate_trial(
     let Some(first) = samples.first() else {
         return Err(SimError::Mismatch("the plan has no samples".into()));
     };
-    let caster = matches!(robot, Robot::Caster(_));
+    let caster = has_steering(robot);
     if caster != plan.is_caster() {
         return Err(SimError::Mismatch(if caster {
             "robot is caster3 but the plan has no steer columns (s1..s3, sd1..sd3)".into()
@@ -125,30 +124,9 @@ pub fn simulate_trial(
             hint: "shorten the plan (check its t column) or lower the profile's plant `rate`",
         });
     }
-    let wm = profile.wheel_motor;
-    let radius_scale: [f64; 3] =
-        core::array::from_fn(|_| 1.0 + wm.radius_error_std.unwrap_or(0.0) * gauss(rng));
-    let const_spin = profile.shell_spin.std.unwrap_or(0.0) * gauss(rng);
-    let roller_amp = profile.roller.amplitude.unwrap_or(0.0);
-    let rollers = profile.roller.rollers.unwrap_or(8) as f64;
-    let roller_phase: [f64; 3] =
-        core::array::from_fn(|_| rng.random_range(0.0..core::f64::consts::TAU));
-    let floor_std = profile.floor.rel_std.unwrap_or(0.0);
-    let floor_tau = profile.floor.corr_time.unwrap_or(0.5);
-    let mut floor = [0.0f64; 3];
-    if floor_std > 0.0 {
-        floor = core::array::from_fn(|_| floor_std * gauss(rng));
-    }
-    let offset = profile.tracking.offset.unwrap_or([0.0, 0.0]);
-    let noise = profile.tracking.noise_std.unwrap_or(0.0);
-
-    let mut wheels: [Motor; 3] = core::array::from_fn(|i| Motor::new(wm, first.wheel_rates[i]));
     let (first_steer, first_steer_rates) = first.steer.unwrap_or(([0.0; 3], [0.0; 3]));
-    let mut steer_motors: [Motor; 3] =
-        core::array::from_fn(|i| Motor::new(profile.steer_motor, first_steer_rates[i]));
-    let mut steer = first_steer;
-    let mut pose = first.pose;
-    let mut slip = 0.0;
+    let mut plant = Plant::new(*robot, profile, first.pose, first_steer, rng);
+    let mut motors = Motors::new(&plant, profile, first.wheel_rates, first_steer_rates);
 
     let n = samples.len();
     let mut out = Trial {
@@ -171,22 +149,10 @@ pub fn simulate_trial(
     // step-to-step jitter of a stepper does not read as acceleration.
     let mut last_position: Option<(f64, [f64; 2])> = None;
     let mut last_velocity: Option<(f64, [f64; 2])> = None;
-    // Shell (ballbot: ball) spin about the vertical, Ω3 = const + g·|V|^p·ω̃_z, added to the
-    // yaw rate of a twist computed with Ω3 = 0 (where ω̃_z = −yaw rate).
-    let (spin_gain, spin_exp) = (
-        profile.shell_spin.slip_gain.unwrap_or(0.0),
-        profile.shell_spin.slip_exponent.unwrap_or(1.0),
-    );
-    let with_spin = |tw0: Twist2<f64>| {
-        let spin = const_spin + spin_gain * tw0.vx.hypot(tw0.vy).powf(spin_exp) * (-tw0.yaw_rate);
-        Twist2::new(tw0.vx, tw0.vy, tw0.yaw_rate + spin)
-    };
-    let mut record = |t: f64,
-                      pose: Pose2<f64>,
-                      slip: f64,
-                      wheels: &[Motor; 3],
-                      steer: [f64; 3],
-                      rng: &mut ChaCha8Rng| {
+    let offset = profile.tracking.offset.unwrap_or([0.0, 0.0]);
+    let noise = profile.tracking.noise_std.unwrap_or(0.0);
+    let mut record = |t: f64, plant: &Plant, motors: &Motors, rng: &mut ChaCha8Rng| {
+        let pose = plant.pose();
         let (s, c) = pose.heading.sin_cos();
         let mut p = [
             pose.x + c * offset[0] - s * offset[1],
@@ -221,19 +187,19 @@ pub fn simulate_trial(
             p[0] += noise * gauss(rng);
             p[1] += noise * gauss(rng);
         }
-        let angles: [f64; 3] = core::array::from_fn(|i| wheels[i].angle());
+        let angles = motors.wheel_angles();
         out.t.push(t);
         out.pose.push(pose);
         out.tracked.push(p);
-        out.slip_residual.push(slip);
+        out.slip_residual.push(plant.slip_residual());
         out.wheel_angles.push(angles);
         out.encoder_angles.push(match count {
             Some(q) => angles.map(|a| (a / q).floor() * q),
             None => angles,
         });
-        out.steer_angles.push(steer);
+        out.steer_angles.push(plant.steer_angles());
     };
-    record(first.t, pose, 0.0, &wheels, steer, rng);
+    record(first.t, &plant, &motors, rng);
 
     for k in 0..n - 1 {
         let (a, b) = (&samples[k], &samples[k + 1]);
@@ -249,61 +215,18 @@ pub fn simulate_trial(
                 Hold::Linear => (j as f64 + 0.5) / steps as f64,
                 Hold::Zoh => 0.0,
             };
-            let t = a.t + j as f64 * dt;
             let lerp = |x: f64, y: f64| x + (y - x) * f;
-            // Effective wheel rates: motor output × radius error × roller modulation.
-            let mut w = [0.0; 3];
-            for i in 0..3 {
-                let q0 = wheels[i].angle();
-                let dq = wheels[i].step(lerp(a.wheel_rates[i], b.wheel_rates[i]), dt, rng);
-                let mut eff = dq / dt * radius_scale[i];
-                if roller_amp > 0.0 {
-                    eff *= 1.0 + roller_amp * (rollers * (q0 + 0.5 * dq) + roller_phase[i]).cos();
-                }
-                w[i] = eff;
-            }
-            let kin = |source| SimError::Kinematics { t, source };
-            let mut twist = match robot {
-                Robot::Sphere(m) => with_spin(m.body_twist(w, 0.0).map_err(kin)?),
-                Robot::Ballbot(m) => with_spin(m.body_twist(w, 0.0).map_err(kin)?),
-                Robot::Caster(m) => {
-                    let mut sd = [0.0; 3];
-                    let mut steer_next = steer;
-                    for i in 0..3 {
-                        let d = steer_motors[i].step(lerp(sa[i], sb[i]), dt, rng);
-                        sd[i] = d / dt;
-                        steer_next[i] += d;
-                    }
-                    // Forward kinematics at the mid-step steer angles.
-                    let mid: [f64; 3] = core::array::from_fn(|i| 0.5 * (steer[i] + steer_next[i]));
-                    let fwd = m
-                        .body_twist(&CasterRates { roll: w, steer: sd }, pose.heading, mid)
-                        .map_err(kin)?;
-                    slip = fwd.slip_residual;
-                    steer = steer_next;
-                    fwd.twist.to_robot(pose.heading)
-                }
-                _ => {
-                    return Err(kin(omnikin::InputError::Singular {
-                        reason: "this robot kind is not simulated yet",
-                    }));
-                }
-            };
-            if floor_std > 0.0 {
-                let decay = (-dt / floor_tau).exp();
-                let kick = floor_std * (1.0 - decay * decay).sqrt();
-                for e in floor.iter_mut() {
-                    *e = *e * decay + kick * gauss(rng);
-                }
-                twist = Twist2::new(
-                    twist.vx * (1.0 + floor[0]),
-                    twist.vy * (1.0 + floor[1]),
-                    twist.yaw_rate * (1.0 + floor[2]),
-                );
-            }
-            pose = se2::integrate(pose, twist, dt);
+            let wheel = core::array::from_fn(|i| lerp(a.wheel_rates[i], b.wheel_rates[i]));
+            let steer = core::array::from_fn(|i| lerp(sa[i], sb[i]));
+            let motion = motors.step(wheel, steer, dt, rng);
+            plant
+                .step(&motion, dt, rng)
+                .map_err(|source| SimError::Kinematics {
+                    t: a.t + j as f64 * dt,
+                    source,
+                })?;
         }
-        record(b.t, pose, slip, &wheels, steer, rng);
+        record(b.t, &plant, &motors, rng);
     }
     Ok(out)
 }

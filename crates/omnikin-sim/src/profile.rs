@@ -21,7 +21,7 @@
 //!
 //! [steer_motor]                 # caster steering motors: the same motor keys
 //!
-//! [shell_spin]                  # sphere-omni only (ballbot: the ball's spin)
+//! [shell_spin]                  # sphere-omni: the shell, ballbot: the ball (plant_step)
 //! std = 0.01                    # rad/s, constant random spin per trial
 //! slip_gain = 0.875             # speed-dependent spin Ω3 = gain·|V|^exponent·ω̃_z
 //! slip_exponent = 1.22

@@ -1,101 +1,76 @@
 //! Software in the loop: the simulated robot as a **board** for the robot runtime.
 //!
 //! [`SilPlant`] implements the hardware traits of [`omnikin::runtime::hal`] — encoders, IMU,
-//! motor outputs and clock — on top of the same motor models and disturbances as
-//! [`crate::simulate_trial`] (a [`Profile`]): the runtime's motor set-points go through the
-//! motor models (lag, acceleration limit, stepper quantisation, speed fluctuation), the
-//! per-trial wheel-radius errors, roller hand-over, shell spin and floor slip, then the forward
-//! kinematics and the exact SE(2) step move the **true** pose. The encoders read the motors'
+//! motor outputs and clock — on top of the same plant step as [`crate::simulate_trial`]
+//! ([`crate::plant_step`], under a [`Profile`]): the runtime's motor set-points, held between
+//! cycles, go through the motor models (lag, acceleration limit, stepper quantisation, speed
+//! fluctuation), then [`Plant::step`] (wheel-radius errors, roller hand-over, forward
+//! kinematics with the shell/ball spin law, floor slip, exact SE(2) step) moves the **true**
+//! pose; for the same set-points and seed the true trajectory is the simulator's. The plant
+//! starts at rest (motors at 0 rad/s, caster steer angles 0). The encoders read the motors'
 //! output angles (what a real encoder sees: radius errors and floor slip are invisible to
 //! them), the gyro reads the true yaw rate. Stepping is explicit ([`SilPlant::advance`]), so
 //! the same plant runs in real time (the `omnikin robot --sim` command sleeps between steps),
 //! faster than real time in tests, or in lock-step.
 
-use omnikin::caster::CasterRates;
 use omnikin::runtime::hal::{
     Clock, EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOutputs,
 };
 use omnikin::runtime::{Runtime, Status};
-use omnikin::{Pose2, Robot, Twist2, se2};
-use rand::{RngExt, SeedableRng};
+use omnikin::{Pose2, Robot, Twist2};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
 
-use crate::motor::Motor;
 use crate::plant::SimError;
+use crate::plant_step::{Motors, Plant};
 use crate::profile::Profile;
 
 /// The simulated robot: true state, motors and disturbances. Implements
 /// [`Encoders`], [`Imu`], [`MotorOutputs`] and [`Clock`].
 #[derive(Clone, Debug)]
 pub struct SilPlant {
-    robot: Robot<f64>,
     profile: Profile,
     rng: ChaCha8Rng,
-    wheels: [Motor; 3],
-    steer_motors: [Motor; 3],
-    steer: [f64; 3],
+    motors: Motors,
+    plant: Plant,
     command: MotorCommand<f64>,
-    pose: Pose2<f64>,
-    twist: Twist2<f64>,
     time_us: u64,
     /// Sub-step remainder, s (advance() may be called with any dt).
     carry: f64,
-    radius_scale: [f64; 3],
-    const_spin: f64,
-    roller_phase: [f64; 3],
-    floor: [f64; 3],
-    slip_residual: f64,
-}
-
-fn gauss(rng: &mut ChaCha8Rng) -> f64 {
-    StandardNormal.sample(rng)
 }
 
 impl SilPlant {
     /// A plant for `robot` at rest at the true pose `pose` (world), with the disturbances of
-    /// `profile` drawn from a ChaCha8 stream seeded with `seed` (reproducible).
+    /// `profile` drawn from a ChaCha8 stream seeded with `seed` (reproducible; the same stream
+    /// as [`crate::simulate_trial`] given `ChaCha8Rng::seed_from_u64(seed)`).
     pub fn new(robot: Robot<f64>, profile: Profile, seed: u64, pose: Pose2<f64>) -> Self {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let wm = profile.wheel_motor;
-        let radius_scale =
-            core::array::from_fn(|_| 1.0 + wm.radius_error_std.unwrap_or(0.0) * gauss(&mut rng));
-        let const_spin = profile.shell_spin.std.unwrap_or(0.0) * gauss(&mut rng);
-        let roller_phase = core::array::from_fn(|_| rng.random_range(0.0..core::f64::consts::TAU));
-        let floor_std = profile.floor.rel_std.unwrap_or(0.0);
-        let floor = if floor_std > 0.0 {
-            core::array::from_fn(|_| floor_std * gauss(&mut rng))
-        } else {
-            [0.0; 3]
-        };
+        let plant = Plant::new(robot, &profile, pose, [0.0; 3], &mut rng);
+        let motors = Motors::new(&plant, &profile, [0.0; 3], [0.0; 3]);
         Self {
-            robot,
             profile,
             rng,
-            wheels: core::array::from_fn(|_| Motor::new(wm, 0.0)),
-            steer_motors: core::array::from_fn(|_| Motor::new(profile.steer_motor, 0.0)),
-            steer: [0.0; 3],
+            motors,
+            plant,
             command: MotorCommand::zero(),
-            pose,
-            twist: Twist2::default(),
             time_us: 0,
             carry: 0.0,
-            radius_scale,
-            const_spin,
-            roller_phase,
-            floor,
-            slip_residual: 0.0,
         }
     }
 
     /// The true pose (world; m, m, rad unwrapped).
     pub fn true_pose(&self) -> Pose2<f64> {
-        self.pose
+        self.plant.pose()
     }
 
     /// The true robot-frame twist of the last plant step.
     pub fn true_twist(&self) -> Twist2<f64> {
-        self.twist
+        self.plant.twist()
+    }
+
+    /// The true plant: pose, twist, steer angles, slip residual.
+    pub fn plant(&self) -> &Plant {
+        &self.plant
     }
 
     /// Simulated time, µs.
@@ -127,11 +102,7 @@ impl SilPlant {
     /// Pushes the robot: adds `delta` (world frame, m, m, rad) to the true pose (a kick the
     /// odometry cannot see).
     pub fn push(&mut self, delta: Pose2<f64>) {
-        self.pose = Pose2::new(
-            self.pose.x + delta.x,
-            self.pose.y + delta.y,
-            self.pose.heading + delta.heading,
-        );
+        self.plant.push(delta);
     }
 
     /// Advances the plant by `dt` seconds under the current motor command, in sub-steps of
@@ -155,68 +126,11 @@ impl SilPlant {
     }
 
     fn substep(&mut self, dt: f64, t: f64) -> Result<(), SimError> {
-        let p = &self.profile;
-        let roller_amp = p.roller.amplitude.unwrap_or(0.0);
-        let rollers = p.roller.rollers.unwrap_or(8) as f64;
-        let mut w = [0.0; 3];
-        for i in 0..3 {
-            let q0 = self.wheels[i].angle();
-            let dq = self.wheels[i].step(self.command.wheel[i], dt, &mut self.rng);
-            let mut eff = dq / dt * self.radius_scale[i];
-            if roller_amp > 0.0 {
-                eff *= 1.0 + roller_amp * (rollers * (q0 + 0.5 * dq) + self.roller_phase[i]).cos();
-            }
-            w[i] = eff;
-        }
-        let kin = |source| SimError::Kinematics { t, source };
-        let mut twist = match &self.robot {
-            Robot::Sphere(m) => {
-                let tw0 = m.body_twist(w, 0.0).map_err(kin)?;
-                let speed = tw0.vx.hypot(tw0.vy);
-                let g = p.shell_spin.slip_gain.unwrap_or(0.0);
-                let e = p.shell_spin.slip_exponent.unwrap_or(1.0);
-                let spin = self.const_spin + g * speed.powf(e) * (-tw0.yaw_rate);
-                Twist2::new(tw0.vx, tw0.vy, tw0.yaw_rate + spin)
-            }
-            Robot::Ballbot(m) => m.body_twist(w, self.const_spin).map_err(kin)?,
-            Robot::Caster(m) => {
-                let mut sd = [0.0; 3];
-                let mut next = self.steer;
-                for i in 0..3 {
-                    let d = self.steer_motors[i].step(self.command.steer[i], dt, &mut self.rng);
-                    sd[i] = d / dt;
-                    next[i] += d;
-                }
-                let mid: [f64; 3] = core::array::from_fn(|i| 0.5 * (self.steer[i] + next[i]));
-                let fwd = m
-                    .body_twist(&CasterRates { roll: w, steer: sd }, self.pose.heading, mid)
-                    .map_err(kin)?;
-                self.slip_residual = fwd.slip_residual;
-                self.steer = next;
-                fwd.twist.to_robot(self.pose.heading)
-            }
-            _ => {
-                return Err(kin(omnikin::InputError::Singular {
-                    reason: "this robot kind is not simulated yet",
-                }));
-            }
-        };
-        let floor_std = p.floor.rel_std.unwrap_or(0.0);
-        if floor_std > 0.0 {
-            let tau = p.floor.corr_time.unwrap_or(0.5);
-            let decay = (-dt / tau).exp();
-            let kick = floor_std * (1.0 - decay * decay).sqrt();
-            for e in self.floor.iter_mut() {
-                *e = *e * decay + kick * gauss(&mut self.rng);
-            }
-            twist = Twist2::new(
-                twist.vx * (1.0 + self.floor[0]),
-                twist.vy * (1.0 + self.floor[1]),
-                twist.yaw_rate * (1.0 + self.floor[2]),
-            );
-        }
-        self.twist = twist;
-        self.pose = se2::integrate(self.pose, twist, dt);
+        let c = &self.command;
+        let motion = self.motors.step(c.wheel, c.steer, dt, &mut self.rng);
+        self.plant
+            .step(&motion, dt, &mut self.rng)
+            .map_err(|source| SimError::Kinematics { t, source })?;
         Ok(())
     }
 }
@@ -243,8 +157,8 @@ impl Encoders<f64> for SilPlant {
     type Error = core::convert::Infallible;
     fn read(&mut self) -> Result<EncoderAngles<f64>, Self::Error> {
         Ok(EncoderAngles {
-            wheel: core::array::from_fn(|i| self.wheels[i].angle()),
-            steer: self.steer,
+            wheel: self.motors.wheel_angles(),
+            steer: self.plant.steer_angles(),
         })
     }
 }
@@ -253,7 +167,7 @@ impl Imu<f64> for SilPlant {
     type Error = core::convert::Infallible;
     fn read(&mut self) -> Result<Option<ImuSample<f64>>, Self::Error> {
         Ok(Some(ImuSample {
-            gyro: [0.0, 0.0, self.twist.yaw_rate],
+            gyro: [0.0, 0.0, self.plant.twist().yaw_rate],
             accel: [0.0, 0.0, 9.81],
         }))
     }

@@ -1,0 +1,328 @@
+//! The one plant step: what the motors actually turned through → how the robot actually
+//! moved. Both the open-loop simulator ([`crate::simulate_trial`]) and software in the loop
+//! ([`crate::sil::SilPlant`]) move the true robot only through [`Plant::step`], so for the
+//! same motor set-points, profile and seed they produce the same true trajectory.
+//!
+//! [`Plant`] holds the true state of a simulated robot (world pose, robot-frame twist, caster
+//! steer angles and slip residual) and the per-trial disturbances of a [`Profile`] that act
+//! between the motors and the floor. [`Plant::step`] takes the motors' **actual** motion over
+//! one plant step ([`MotorMotion`]: the output of the motor models, i.e. after lag,
+//! acceleration limit, fluctuation, bias and stepper quantisation) and, in this order:
+//!
+//! 1. turns each wheel's mean actual rate `Δq/dt` into an effective rate: × its per-trial
+//!    radius scale `1 + ε_i` (`wheel_motor.radius_error_std`), × the roller hand-over
+//!    modulation `1 + a·cos(n·q_mid + φ_i)` at the mid-step wheel angle (`[roller]`);
+//! 2. applies the robot's forward kinematics to get the robot-frame twist — sphere and
+//!    ballbot with the spin law below, caster by least squares over all six motors at the
+//!    mid-step steer angles (recording the slip residual) — the one dispatch on the robot kind
+//!    in the stepping (the simulator and SIL have none of their own);
+//! 3. scales the twist per axis by the floor slip `1 + e(t)`, `e` an Ornstein–Uhlenbeck
+//!    process (`[floor]`);
+//! 4. holds that twist over the step and advances the pose exactly on SE(2)
+//!    ([`omnikin::se2::integrate`]): a constant twist traces an exact circular arc (or line)
+//!    whatever the step size, so the plant rate sets only how finely the *inputs* are resolved.
+//!
+//! # Spin about the vertical (sphere shell, ballbot ball)
+//! On both rolling-ball robots the three wheels fix only the angular velocity `ω̃` of the
+//! shell (ball) **relative to the body**; how its vertical component splits into the body's
+//! yaw rate `ψ̇` and the shell's (ball's) spin `Ω` about the vertical, `ψ̇ = Ω − ω̃_z`, is set by
+//! the floor contact, not by the wheels. The two robots have the same chain — body, wheels,
+//! shell/ball, floor: the sphere's platform touches nothing but the shell, the ballbot's body
+//! nothing but the ball — so the same law holds for both:
+//!
+//! * **Nominal: `Ω = 0`** ("rubber rolling", paper 000's choice): the floor's pivot friction at
+//!   the contact holds the shell/ball, so the wheels' yaw reaction turns the body. This is what
+//!   the planner and the runtime assume (their inverse kinematics use spin 0), so the ideal
+//!   plant reproduces a plan.
+//! * **Disturbed: `Ω = Ω₀ + g·|V|^p·ω̃_z`**, `Ω₀` a constant drawn per trial
+//!   (`shell_spin.std`), `g` and `p` = `shell_spin.slip_gain` and `slip_exponent`, `|V|` the
+//!   centre's speed (m/s): the contact gives way in the direction the wheels drive the
+//!   shell/ball relative to the body, more at speed (paper 000's suspected cause of its large
+//!   circles at 0.4–0.5 m/s). `Ω` is passed to the kinematic model as its `shell_spin`
+//!   ([`omnikin::sphere::SphereOmni::body_twist`]) or `ball_spin`
+//!   ([`omnikin::ballbot::Ballbot::body_twist`]) argument, so `ψ̇ = ψ̇₀ + Ω` with `ψ̇₀` the yaw
+//!   rate at zero spin.
+//!
+//! The caster has no such degree of freedom and ignores `[shell_spin]`. (Before this module
+//! SIL gave the ballbot only `Ω₀`, dropping the speed-dependent term the simulator applied, so
+//! with a `slip_gain` the two disagreed on the ballbot's heading.)
+//!
+//! `Motors` (crate-private) is the other half both callers share: the motor models turning
+//! set-points into the [`MotorMotion`] this step consumes.
+
+use omnikin::caster::CasterRates;
+use omnikin::{InputError, Pose2, Robot, Twist2, se2};
+use rand::RngExt;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+use crate::motor::Motor;
+use crate::profile::Profile;
+
+fn gauss(rng: &mut ChaCha8Rng) -> f64 {
+    StandardNormal.sample(rng)
+}
+
+/// Whether `robot` has steering motors (the caster), i.e. whether [`MotorMotion::steer_turn`]
+/// and a plan's steer columns mean anything for it.
+pub fn has_steering(robot: &Robot<f64>) -> bool {
+    matches!(robot, Robot::Caster(_))
+}
+
+/// What the motors actually did during one plant step (after the motor models), rad.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MotorMotion {
+    /// Each wheel (roll) motor's output angle at the start of the step, rad (places the roller
+    /// hand-over).
+    pub wheel_angle: [f64; 3],
+    /// Angle each wheel (roll) motor turned through during the step, rad: its mean actual rate
+    /// × `dt`.
+    pub wheel_turn: [f64; 3],
+    /// Caster: angle each steering motor turned through during the step, rad (counter-clockwise
+    /// about the steering axis, relative to the body); ignored for the other robots.
+    pub steer_turn: [f64; 3],
+}
+
+/// The true state of a simulated robot and the per-trial disturbances between its motors and
+/// the floor (see the [module docs](self)).
+#[derive(Clone, Debug)]
+pub struct Plant {
+    robot: Robot<f64>,
+    /// True pose, world frame (m, m, rad unwrapped).
+    pose: Pose2<f64>,
+    /// Robot-frame twist of the last step.
+    twist: Twist2<f64>,
+    /// Caster: true steer angles, rad.
+    steer: [f64; 3],
+    /// Caster: slip residual of the last step's least-squares fit, m/s.
+    slip_residual: f64,
+    radius_scale: [f64; 3],
+    roller_amp: f64,
+    rollers: f64,
+    roller_phase: [f64; 3],
+    spin_const: f64,
+    spin_gain: f64,
+    spin_exp: f64,
+    floor_std: f64,
+    floor_tau: f64,
+    floor: [f64; 3],
+}
+
+impl Plant {
+    /// A plant for `robot` at the true pose `pose` (world) with steer angles `steer` (rad;
+    /// caster only, ignored otherwise), drawing the per-trial disturbances of `profile` from
+    /// `rng` in a fixed order: three wheel-radius errors, the constant spin, three roller
+    /// phases, then (with floor slip) the three initial floor-slip factors.
+    pub fn new(
+        robot: Robot<f64>,
+        profile: &Profile,
+        pose: Pose2<f64>,
+        steer: [f64; 3],
+        rng: &mut ChaCha8Rng,
+    ) -> Self {
+        let radius_std = profile.wheel_motor.radius_error_std.unwrap_or(0.0);
+        let radius_scale = core::array::from_fn(|_| 1.0 + radius_std * gauss(rng));
+        let spin_const = profile.shell_spin.std.unwrap_or(0.0) * gauss(rng);
+        let roller_phase = core::array::from_fn(|_| rng.random_range(0.0..core::f64::consts::TAU));
+        let floor_std = profile.floor.rel_std.unwrap_or(0.0);
+        let floor = if floor_std > 0.0 {
+            core::array::from_fn(|_| floor_std * gauss(rng))
+        } else {
+            [0.0; 3]
+        };
+        Self {
+            robot,
+            pose,
+            twist: Twist2::default(),
+            steer: if has_steering(&robot) {
+                steer
+            } else {
+                [0.0; 3]
+            },
+            slip_residual: 0.0,
+            radius_scale,
+            roller_amp: profile.roller.amplitude.unwrap_or(0.0),
+            rollers: profile.roller.rollers.unwrap_or(8) as f64,
+            roller_phase,
+            spin_const,
+            spin_gain: profile.shell_spin.slip_gain.unwrap_or(0.0),
+            spin_exp: profile.shell_spin.slip_exponent.unwrap_or(1.0),
+            floor_std,
+            floor_tau: profile.floor.corr_time.unwrap_or(0.5),
+            floor,
+        }
+    }
+
+    /// The simulated robot.
+    pub fn robot(&self) -> &Robot<f64> {
+        &self.robot
+    }
+
+    /// Whether the robot has steering motors ([`has_steering`]).
+    pub fn has_steering(&self) -> bool {
+        has_steering(&self.robot)
+    }
+
+    /// The true pose (world frame; m, m, rad unwrapped).
+    pub fn pose(&self) -> Pose2<f64> {
+        self.pose
+    }
+
+    /// The true robot-frame twist of the last step (m/s, m/s, rad/s; zero before the first).
+    pub fn twist(&self) -> Twist2<f64> {
+        self.twist
+    }
+
+    /// Caster: the true steer angles, rad (zeros for the other robots).
+    pub fn steer_angles(&self) -> [f64; 3] {
+        self.steer
+    }
+
+    /// Caster: slip residual of the last step's least-squares forward kinematics, m/s (0 for
+    /// the other robots and before the first step).
+    pub fn slip_residual(&self) -> f64 {
+        self.slip_residual
+    }
+
+    /// Pushes the robot: adds `delta` (world frame, m, m, rad) to the true pose (a kick no
+    /// motor or encoder sees).
+    pub fn push(&mut self, delta: Pose2<f64>) {
+        self.pose = Pose2::new(
+            self.pose.x + delta.x,
+            self.pose.y + delta.y,
+            self.pose.heading + delta.heading,
+        );
+    }
+
+    /// **The plant step**: moves the true robot over `dt` seconds (> 0) given what the motors
+    /// actually did in that time, drawing the floor slip from `rng` (see the
+    /// [module docs](self) for the order of effects). Returns the robot-frame twist that was
+    /// held over the step (also [`Plant::twist`]).
+    ///
+    /// # Errors
+    /// The core's [`InputError`] when the forward kinematics reject the state (non-finite
+    /// rates: the simulated motion diverged); the state is then unchanged.
+    pub fn step(
+        &mut self,
+        motion: &MotorMotion,
+        dt: f64,
+        rng: &mut ChaCha8Rng,
+    ) -> Result<Twist2<f64>, InputError> {
+        let w: [f64; 3] = core::array::from_fn(|i| {
+            let dq = motion.wheel_turn[i];
+            let mut eff = dq / dt * self.radius_scale[i];
+            if self.roller_amp > 0.0 {
+                let q_mid = motion.wheel_angle[i] + 0.5 * dq;
+                eff *= 1.0 + self.roller_amp * (self.rollers * q_mid + self.roller_phase[i]).cos();
+            }
+            eff
+        });
+        let mut twist = self.forward(w, &motion.steer_turn, dt)?;
+        if self.floor_std > 0.0 {
+            let decay = (-dt / self.floor_tau).exp();
+            let kick = self.floor_std * (1.0 - decay * decay).sqrt();
+            for e in self.floor.iter_mut() {
+                *e = *e * decay + kick * gauss(rng);
+            }
+            twist = Twist2::new(
+                twist.vx * (1.0 + self.floor[0]),
+                twist.vy * (1.0 + self.floor[1]),
+                twist.yaw_rate * (1.0 + self.floor[2]),
+            );
+        }
+        self.twist = twist;
+        self.pose = se2::integrate(self.pose, twist, dt);
+        Ok(twist)
+    }
+
+    /// The spin `Ω` about the vertical (rad/s) for the zero-spin twist `tw0`:
+    /// `Ω₀ + g·|V|^p·ω̃_z` with `ω̃_z = −ψ̇₀` (module docs).
+    fn spin(&self, tw0: Twist2<f64>) -> f64 {
+        let speed = tw0.vx.hypot(tw0.vy);
+        self.spin_const + self.spin_gain * speed.powf(self.spin_exp) * (-tw0.yaw_rate)
+    }
+
+    /// Forward kinematics of the effective wheel rates `w` (rad/s) and the steer turns (rad,
+    /// caster) over `dt`: the robot-frame twist. Updates the caster's steer angles and slip
+    /// residual.
+    fn forward(
+        &mut self,
+        w: [f64; 3],
+        steer_turn: &[f64; 3],
+        dt: f64,
+    ) -> Result<Twist2<f64>, InputError> {
+        match &self.robot {
+            Robot::Sphere(m) => m.body_twist(w, self.spin(m.body_twist(w, 0.0)?)),
+            Robot::Ballbot(m) => m.body_twist(w, self.spin(m.body_twist(w, 0.0)?)),
+            Robot::Caster(m) => {
+                let sd = steer_turn.map(|d| d / dt);
+                let next: [f64; 3] = core::array::from_fn(|i| self.steer[i] + steer_turn[i]);
+                // Least squares at the mid-step steer angles.
+                let mid: [f64; 3] = core::array::from_fn(|i| 0.5 * (self.steer[i] + next[i]));
+                let heading = self.pose.heading;
+                let fwd = m.body_twist(&CasterRates { roll: w, steer: sd }, heading, mid)?;
+                self.slip_residual = fwd.slip_residual;
+                self.steer = next;
+                Ok(fwd.twist.to_robot(heading))
+            }
+            _ => Err(InputError::Singular {
+                reason: "this robot kind is not simulated yet",
+            }),
+        }
+    }
+}
+
+/// The motor models of one robot: three wheel (roll) motors and, for a robot with steering,
+/// three steering motors. Turns set-points into the [`MotorMotion`] of a plant step.
+#[derive(Clone, Debug)]
+pub(crate) struct Motors {
+    wheels: [Motor; 3],
+    /// `None` without steering: steering motors are then never stepped (nor draw randomness).
+    steer: Option<[Motor; 3]>,
+}
+
+impl Motors {
+    /// The motors of `plant`'s robot under `profile`, running at `wheel_rates` and (with
+    /// steering) `steer_rates`, rad/s, at output angle 0.
+    pub(crate) fn new(
+        plant: &Plant,
+        profile: &Profile,
+        wheel_rates: [f64; 3],
+        steer_rates: [f64; 3],
+    ) -> Self {
+        Self {
+            wheels: core::array::from_fn(|i| Motor::new(profile.wheel_motor, wheel_rates[i])),
+            steer: plant
+                .has_steering()
+                .then(|| core::array::from_fn(|i| Motor::new(profile.steer_motor, steer_rates[i]))),
+        }
+    }
+
+    /// Steps every motor by `dt` seconds under the set-points `wheel` and `steer` (rad/s;
+    /// `steer` ignored without steering), drawing from `rng` in a fixed order (wheel motors,
+    /// then steering motors), and returns what they did.
+    pub(crate) fn step(
+        &mut self,
+        wheel: [f64; 3],
+        steer: [f64; 3],
+        dt: f64,
+        rng: &mut ChaCha8Rng,
+    ) -> MotorMotion {
+        let mut m = MotorMotion::default();
+        for i in 0..3 {
+            m.wheel_angle[i] = self.wheels[i].angle();
+            m.wheel_turn[i] = self.wheels[i].step(wheel[i], dt, rng);
+        }
+        if let Some(motors) = &mut self.steer {
+            for i in 0..3 {
+                m.steer_turn[i] = motors[i].step(steer[i], dt, rng);
+            }
+        }
+        m
+    }
+
+    /// The wheel motors' output angles, rad (the encoders' ground truth).
+    pub(crate) fn wheel_angles(&self) -> [f64; 3] {
+        core::array::from_fn(|i| self.wheels[i].angle())
+    }
+}
