@@ -55,6 +55,7 @@ fn sphere_trial(profile: &Profile, seed: u64) -> (Robot<f64>, Trial) {
     let (rt, w0) = (0.25, 0.8);
     let n = (1.5 * TAU / w0 * 100.0) as usize;
     let plan = Plan {
+        wheels: 3,
         samples: (0..=n)
             .map(|k| {
                 let t = k as f64 / 100.0;
@@ -65,7 +66,9 @@ fn sphere_trial(profile: &Profile, seed: u64) -> (Robot<f64>, Trial) {
                     t,
                     pose,
                     twist,
-                    wheel_rates: m.wheel_rates_world(twist, pose.heading, 0.0).unwrap(),
+                    wheel_rates: omnikin_plan::per_wheel(
+                        &m.wheel_rates_world(twist, pose.heading, 0.0).unwrap(),
+                    ),
                     steer: None,
                 }
             })
@@ -140,6 +143,7 @@ fn caster_log_with_imu_yaw_and_counts() {
     let p = *m.params();
     let (beta0, rho, xi) = (0.3, 1.5, 4.0);
     let plan = Plan {
+        wheels: 3,
         samples: (0..=300)
             .map(|k| {
                 let t = k as f64 / 100.0;
@@ -147,10 +151,12 @@ fn caster_log_with_imu_yaw_and_counts() {
                     t,
                     pose: Pose2::new(0.0, 0.0, 0.0),
                     twist: Twist2::new(0.0, 0.0, 0.0),
-                    wheel_rates: [xi; 3],
+                    wheel_rates: omnikin_plan::per_wheel(&[xi; 3]),
                     steer: Some((
-                        core::array::from_fn(|i| beta0 - p.mount_angles[i] + rho * t),
-                        [rho; 3],
+                        omnikin_plan::per_wheel(&core::array::from_fn::<_, 3, _>(|i| {
+                            beta0 - p.mount_angles[i] + rho * t
+                        })),
+                        omnikin_plan::per_wheel(&[rho; 3]),
                     )),
                 }
             })

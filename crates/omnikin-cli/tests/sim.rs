@@ -34,13 +34,15 @@ fn circle_plan(dir: &Path) -> PathBuf {
                 t,
                 pose,
                 twist,
-                wheel_rates: m.wheel_rates_world(twist, pose.heading, 0.0).unwrap(),
+                wheel_rates: omnikin_plan::per_wheel(
+                        &m.wheel_rates_world(twist, pose.heading, 0.0).unwrap(),
+                    ),
                 steer: None,
             }
         })
         .collect();
     let path = dir.join("circle.csv");
-    Plan { samples }.save_csv(&path).unwrap();
+    Plan { wheels: 3, samples }.save_csv(&path).unwrap();
     path
 }
 

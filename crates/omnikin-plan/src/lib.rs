@@ -47,5 +47,5 @@ pub mod robot;
 pub mod waypoints;
 
 pub use error::{PlanningError, Violation};
-pub use plan::{CASTER_COLUMNS, COLUMNS, Plan, PlanError, Sample};
+pub use plan::{COLUMNS, Plan, PlanError, Sample, per_wheel, wheel_columns};
 pub use robot::{MotorRates, Quantity, RobotModel};

@@ -3,12 +3,13 @@
 use std::io::{Read, Write};
 use std::path::Path;
 
-use omnikin::{Pose2, Twist2};
+use omnikin::{MAX_WHEELS, Pose2, Twist2};
 
 use crate::limits::MAX_PLAN_ROWS;
 
-/// One sample of a plan: world pose and velocity, wheel rates, and for the caster base its
-/// steer angles and steer rates. SI units (m, rad, s).
+/// One sample of a plan: world pose and velocity, wheel rates, and for kinds with steering
+/// (caster, swerve) the steer angles and steer rates. SI units (m, rad, s). Per-wheel arrays
+/// have the capacity [`MAX_WHEELS`]; entries `0..plan.wheels` are used, the rest are 0.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample {
     /// Time since the start of the plan, s.
@@ -17,25 +18,67 @@ pub struct Sample {
     pub pose: Pose2<f64>,
     /// World-frame velocity `(ẋ, ẏ)` (m/s) and yaw rate (rad/s).
     pub twist: Twist2<f64>,
-    /// Wheel rates `w1, w2, w3`, rad/s (caster: roll rates `φ̇_i`).
-    pub wheel_rates: [f64; 3],
-    /// Caster only: steer angles `γ_i` (rad) and steer rates `γ̇_i` (rad/s).
-    pub steer: Option<([f64; 3], [f64; 3])>,
+    /// Wheel rates `w1 … wN`, rad/s (caster: roll rates `φ̇_i`).
+    pub wheel_rates: [f64; MAX_WHEELS],
+    /// Kinds with steering only: steer angles `γ_i` (rad) and steer rates `γ̇_i` (rad/s).
+    pub steer: Option<([f64; MAX_WHEELS], [f64; MAX_WHEELS])>,
+}
+
+/// A per-wheel array of [`MAX_WHEELS`] entries from one value per wheel (the rest 0; values
+/// past the capacity are ignored).
+pub fn per_wheel(v: &[f64]) -> [f64; MAX_WHEELS] {
+    let mut a = [0.0; MAX_WHEELS];
+    for (d, s) in a.iter_mut().zip(v) {
+        *d = *s;
+    }
+    a
+}
+
+impl Sample {
+    /// A sample with `wheel_rates` (and steering) given as slices of one value per wheel
+    /// (at most [`MAX_WHEELS`]; the rest are 0).
+    pub fn new(
+        t: f64,
+        pose: Pose2<f64>,
+        twist: Twist2<f64>,
+        wheel_rates: &[f64],
+        steer: Option<(&[f64], &[f64])>,
+    ) -> Self {
+        let pad = per_wheel;
+        Self {
+            t,
+            pose,
+            twist,
+            wheel_rates: pad(wheel_rates),
+            steer: steer.map(|(g, gd)| (pad(g), pad(gd))),
+        }
+    }
 }
 
 /// A sampled plan: samples in strictly increasing time.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Plan {
+    /// Number of wheels (modules) of the robot it was made for: the used length of every
+    /// sample's per-wheel arrays, and the number of `w`, `s`, `sd` columns of its files.
+    pub wheels: usize,
     /// The samples.
     pub samples: Vec<Sample>,
 }
 
-/// Columns of a plan CSV, in order (conventions.md, "Files").
-pub const COLUMNS: [&str; 10] = [
-    "t", "x", "y", "heading", "vx", "vy", "yaw_rate", "w1", "w2", "w3",
-];
-/// Extra columns of a caster plan.
-pub const CASTER_COLUMNS: [&str; 6] = ["s1", "s2", "s3", "sd1", "sd2", "sd3"];
+/// Columns of a plan CSV before the wheel columns, in order (conventions.md, "Files"); then
+/// `w1 … wN`, and for kinds with steering `s1 … sN, sd1 … sdN`.
+pub const COLUMNS: [&str; 7] = ["t", "x", "y", "heading", "vx", "vy", "yaw_rate"];
+
+/// The names of the per-wheel columns of a plan of `wheels` wheels: `w1 … wN`, then with
+/// `steer` `s1 … sN, sd1 … sdN`.
+pub fn wheel_columns(wheels: usize, steer: bool) -> Vec<String> {
+    let mut c: Vec<String> = (1..=wheels).map(|i| format!("w{i}")).collect();
+    if steer {
+        c.extend((1..=wheels).map(|i| format!("s{i}")));
+        c.extend((1..=wheels).map(|i| format!("sd{i}")));
+    }
+    c
+}
 
 /// A plan file that could not be read, written or validated: where and why.
 #[derive(Debug, thiserror::Error)]
@@ -61,9 +104,37 @@ pub enum PlanError {
 }
 
 impl Plan {
-    /// `true` when the samples carry caster steer columns.
-    pub fn is_caster(&self) -> bool {
+    /// `true` when the samples carry steer columns (kinds with steering).
+    pub fn steerable(&self) -> bool {
         self.samples.first().is_some_and(|s| s.steer.is_some())
+    }
+
+    /// Every column of the plan's files, in order.
+    pub fn columns(&self) -> Vec<String> {
+        let mut c: Vec<String> = COLUMNS.iter().map(|s| s.to_string()).collect();
+        c.extend(wheel_columns(self.wheels, self.steerable()));
+        c
+    }
+
+    /// One row of the plan's files: the values of [`Plan::columns`] for sample `s`.
+    fn row(&self, s: &Sample, out: &mut Vec<f64>) {
+        let n = self.wheels;
+        out.clear();
+        out.extend([
+            s.t,
+            s.pose.x,
+            s.pose.y,
+            s.pose.heading,
+            s.twist.vx,
+            s.twist.vy,
+            s.twist.yaw_rate,
+        ]);
+        out.extend(&s.wheel_rates[..n]);
+        if self.steerable() {
+            let (g, gd) = s.steer.unwrap_or(([f64::NAN; MAX_WHEELS], [f64::NAN; MAX_WHEELS]));
+            out.extend(&g[..n]);
+            out.extend(&gd[..n]);
+        }
     }
 
     /// Duration of the plan, s (0 for fewer than two samples).
@@ -85,26 +156,14 @@ impl Plan {
     /// Writes the plan as CSV with the conventions' header.
     pub fn write_csv<W: Write>(&self, out: W) -> std::io::Result<()> {
         let mut w = csv::Writer::from_writer(out);
-        let caster = self.is_caster();
-        let mut header: Vec<&str> = COLUMNS.to_vec();
-        if caster {
-            header.extend(CASTER_COLUMNS);
-        }
-        w.write_record(&header)?;
-        let mut row: Vec<String> = Vec::with_capacity(16);
+        w.write_record(self.columns())?;
+        let mut row: Vec<f64> = Vec::with_capacity(7 + 3 * MAX_WHEELS);
+        let mut text: Vec<String> = Vec::with_capacity(7 + 3 * MAX_WHEELS);
         for s in &self.samples {
-            row.clear();
-            let p = s.pose;
-            let v = s.twist;
-            for x in [s.t, p.x, p.y, p.heading, v.vx, v.vy, v.yaw_rate] {
-                row.push(fmt(x));
-            }
-            row.extend(s.wheel_rates.iter().map(|&x| fmt(x)));
-            if caster {
-                let (g, gd) = s.steer.unwrap_or(([f64::NAN; 3], [f64::NAN; 3]));
-                row.extend(g.iter().chain(gd.iter()).map(|&x| fmt(x)));
-            }
-            w.write_record(&row)?;
+            self.row(s, &mut row);
+            text.clear();
+            text.extend(row.iter().map(|&x| fmt(x)));
+            w.write_record(&text)?;
         }
         w.flush()
     }
@@ -112,33 +171,16 @@ impl Plan {
     /// Writes the plan as JSON: `{"columns": [...], "samples": [[...], ...]}` with the same
     /// columns as the CSV.
     pub fn to_json(&self) -> serde_json::Value {
-        let caster = self.is_caster();
-        let mut cols: Vec<&str> = COLUMNS.to_vec();
-        if caster {
-            cols.extend(CASTER_COLUMNS);
-        }
+        let mut row = Vec::new();
         let rows: Vec<Vec<f64>> = self
             .samples
             .iter()
             .map(|s| {
-                let mut r = vec![
-                    s.t,
-                    s.pose.x,
-                    s.pose.y,
-                    s.pose.heading,
-                    s.twist.vx,
-                    s.twist.vy,
-                    s.twist.yaw_rate,
-                ];
-                r.extend(s.wheel_rates);
-                if let Some((g, gd)) = s.steer {
-                    r.extend(g);
-                    r.extend(gd);
-                }
-                r
+                self.row(s, &mut row);
+                row.clone()
             })
             .collect();
-        serde_json::json!({ "columns": cols, "samples": rows })
+        serde_json::json!({ "columns": self.columns(), "samples": rows })
     }
 
     /// Writes the JSON of [`Plan::to_json`] to `out` row by row, without building the whole
@@ -146,37 +188,16 @@ impl Plan {
     /// [`crate::limits::MAX_PLAN_SAMPLES`] would need gigabytes).
     pub fn write_json<W: Write>(&self, out: W) -> std::io::Result<()> {
         let mut w = std::io::BufWriter::new(out);
-        let mut cols: Vec<&str> = COLUMNS.to_vec();
-        if self.is_caster() {
-            cols.extend(CASTER_COLUMNS);
-        }
         w.write_all(b"{\"columns\":")?;
-        serde_json::to_writer(&mut w, &cols)?;
+        serde_json::to_writer(&mut w, &self.columns())?;
         w.write_all(b",\"samples\":[")?;
+        let mut row = Vec::with_capacity(7 + 3 * MAX_WHEELS);
         for (k, s) in self.samples.iter().enumerate() {
             if k > 0 {
                 w.write_all(b",")?;
             }
-            let mut r = [0.0; 16];
-            r[..7].copy_from_slice(&[
-                s.t,
-                s.pose.x,
-                s.pose.y,
-                s.pose.heading,
-                s.twist.vx,
-                s.twist.vy,
-                s.twist.yaw_rate,
-            ]);
-            r[7..10].copy_from_slice(&s.wheel_rates);
-            let n = match s.steer {
-                Some((g, gd)) => {
-                    r[10..13].copy_from_slice(&g);
-                    r[13..16].copy_from_slice(&gd);
-                    16
-                }
-                None => 10,
-            };
-            serde_json::to_writer(&mut w, &r[..n])?;
+            self.row(s, &mut row);
+            serde_json::to_writer(&mut w, &row)?;
         }
         w.write_all(b"]}")?;
         w.flush()
@@ -202,8 +223,9 @@ impl Plan {
         Self::read_csv(f, &name)
     }
 
-    /// Reads a plan CSV: a header naming at least the columns of [`COLUMNS`] (any order, extra
-    /// columns ignored; the caster's [`CASTER_COLUMNS`] all or none), then one sample per row.
+    /// Reads a plan CSV: a header naming at least the columns of [`COLUMNS`] and `w1 … wN`
+    /// (any order, extra columns ignored; the steer columns `s1 … sN, sd1 … sdN` all or none),
+    /// then one sample per row.
     /// Every value must be a finite number and time must increase strictly; errors name the
     /// file, the line and the column. At most [`crate::limits::MAX_PLAN_ROWS`] rows; a leading
     /// UTF-8 byte-order mark is skipped.
@@ -221,7 +243,7 @@ impl Plan {
             .map_err(|e| err(Some(1), format!("cannot read the header: {e}")))?
             .clone();
         let find = |name: &str| header.iter().position(|h| h == name);
-        let mut idx = [0usize; 10];
+        let mut idx = [0usize; 7];
         let mut missing = Vec::new();
         for (k, c) in COLUMNS.iter().enumerate() {
             match find(c) {
@@ -229,25 +251,40 @@ impl Plan {
                 None => missing.push(*c),
             }
         }
+        // The wheel count is the number of consecutive `w1, w2, …` columns.
+        let wheels = (1..=MAX_WHEELS)
+            .take_while(|i| find(&format!("w{i}")).is_some())
+            .count();
+        if wheels == 0 {
+            missing.push("w1");
+        }
         if !missing.is_empty() {
             return Err(err(
                 Some(1),
                 format!(
-                    "missing column(s) {}; a plan needs {} (caster adds {})",
+                    "missing column(s) {}; a plan needs {},w1,…,wN (kinds with steering add \
+                     s1,…,sN,sd1,…,sdN)",
                     missing.join(", "),
-                    COLUMNS.join(","),
-                    CASTER_COLUMNS.join(",")
+                    COLUMNS.join(",")
                 ),
             ));
         }
-        let caster_idx: Vec<Option<usize>> = CASTER_COLUMNS.iter().map(|c| find(c)).collect();
-        let n_caster = caster_idx.iter().filter(|i| i.is_some()).count();
-        if n_caster != 0 && n_caster != 6 {
+        if find(&format!("w{}", wheels + 1)).is_some() {
+            return Err(err(
+                Some(1),
+                format!("more than {MAX_WHEELS} wheel columns (the most of any robot kind)"),
+            ));
+        }
+        let names = wheel_columns(wheels, true);
+        let wheel_idx: Vec<usize> = names[..wheels].iter().filter_map(|c| find(c)).collect();
+        let steer_idx: Vec<Option<usize>> = names[wheels..].iter().map(|c| find(c)).collect();
+        let n_steer = steer_idx.iter().filter(|i| i.is_some()).count();
+        if n_steer != 0 && n_steer != 2 * wheels {
             return Err(err(
                 Some(1),
                 format!(
-                    "caster columns must be all of {} or none",
-                    CASTER_COLUMNS.join(",")
+                    "steer columns must be all of {} or none",
+                    names[wheels..].join(",")
                 ),
             ));
         }
@@ -288,16 +325,21 @@ impl Plan {
                     Err(err(Some(line), format!("column {name}: {s} is not finite")))
                 }
             };
-            let mut v = [0.0; 10];
-            for c in 0..10 {
+            let mut v = [0.0; 7];
+            for c in 0..7 {
                 v[c] = get(idx[c], COLUMNS[c])?;
             }
-            let steer = if n_caster == 6 {
-                let mut g = [0.0; 6];
-                for c in 0..6 {
-                    g[c] = get(caster_idx[c].unwrap_or(0), CASTER_COLUMNS[c])?;
+            let mut w = [0.0; MAX_WHEELS];
+            for i in 0..wheels {
+                w[i] = get(wheel_idx[i], &names[i])?;
+            }
+            let steer = if n_steer > 0 {
+                let (mut g, mut gd) = ([0.0; MAX_WHEELS], [0.0; MAX_WHEELS]);
+                for i in 0..wheels {
+                    g[i] = get(steer_idx[i].unwrap_or(0), &names[wheels + i])?;
+                    gd[i] = get(steer_idx[wheels + i].unwrap_or(0), &names[2 * wheels + i])?;
                 }
-                Some(([g[0], g[1], g[2]], [g[3], g[4], g[5]]))
+                Some((g, gd))
             } else {
                 None
             };
@@ -316,14 +358,14 @@ impl Plan {
                 t: v[0],
                 pose: Pose2::new(v[1], v[2], v[3]),
                 twist: Twist2::new(v[4], v[5], v[6]),
-                wheel_rates: [v[7], v[8], v[9]],
+                wheel_rates: w,
                 steer,
             });
         }
         if samples.is_empty() {
             return Err(err(None, "no samples after the header".into()));
         }
-        Ok(Self { samples })
+        Ok(Self { wheels, samples })
     }
 }
 
@@ -345,8 +387,41 @@ mod tests {
             t,
             pose: Pose2::new(t * 0.1, -0.2, 0.3 + t),
             twist: Twist2::new(0.1, 0.0, 1.0),
-            wheel_rates: [1.0 / 3.0, -2.0, 1e-9],
-            steer: caster.then_some(([0.1, 0.2, 0.3], [-1.0, 0.0, 1.0])),
+            wheel_rates: [1.0 / 3.0, -2.0, 1e-9, 0.0, 0.0, 0.0],
+            steer: caster.then_some((
+                [0.1, 0.2, 0.3, 0.0, 0.0, 0.0],
+                [-1.0, 0.0, 1.0, 0.0, 0.0, 0.0],
+            )),
+        }
+    }
+
+    #[test]
+    fn four_wheel_plans_round_trip_with_their_columns() {
+        for steer in [false, true] {
+            let plan = Plan {
+                wheels: 4,
+                samples: (0..3)
+                    .map(|k| {
+                        let t = k as f64 * 0.1;
+                        Sample::new(
+                            t,
+                            Pose2::new(t, 0.0, 0.0),
+                            Twist2::new(1.0, 0.0, 0.0),
+                            &[1.0, -2.0, 3.5, t],
+                            steer.then_some((&[0.1, 0.2, 0.3, 0.4][..], &[0.0, 1.0, -1.0, t][..])),
+                        )
+                    })
+                    .collect(),
+            };
+            let mut buf = Vec::new();
+            plan.write_csv(&mut buf).unwrap();
+            let text = String::from_utf8(buf.clone()).unwrap();
+            assert!(text.starts_with(if steer {
+                "t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3,w4,s1,s2,s3,s4,sd1,sd2,sd3,sd4\n"
+            } else {
+                "t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3,w4\n"
+            }), "{text}");
+            assert_eq!(Plan::read_csv(&buf[..], "mem").unwrap(), plan);
         }
     }
 
@@ -354,6 +429,7 @@ mod tests {
     fn csv_round_trips_exactly() {
         for caster in [false, true] {
             let plan = Plan {
+                wheels: 3,
                 samples: (0..5).map(|k| sample(k as f64 * 0.01, caster)).collect(),
             };
             let mut buf = Vec::new();
@@ -373,6 +449,7 @@ mod tests {
     fn streamed_json_is_the_json_document() {
         for caster in [false, true] {
             let plan = Plan {
+                wheels: 3,
                 samples: (0..4).map(|k| sample(k as f64 * 0.01, caster)).collect(),
             };
             let mut buf = Vec::new();
@@ -389,6 +466,7 @@ mod tests {
     #[test]
     fn a_byte_order_mark_is_skipped() {
         let plan = Plan {
+            wheels: 3,
             samples: (0..3).map(|k| sample(k as f64 * 0.01, false)).collect(),
         };
         let mut buf = "\u{feff}".as_bytes().to_vec();
@@ -438,6 +516,6 @@ mod tests {
         )
         .unwrap_err()
         .to_string();
-        assert!(e.contains("caster columns"), "{e}");
+        assert!(e.contains("steer columns"), "{e}");
     }
 }

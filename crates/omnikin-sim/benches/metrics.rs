@@ -30,6 +30,7 @@ fn plan_and_run(n: usize, laps: bool) -> (Plan, Run) {
         })
         .collect();
     let plan = Plan {
+        wheels: 3,
         samples: xy
             .iter()
             .enumerate()
@@ -37,7 +38,7 @@ fn plan_and_run(n: usize, laps: bool) -> (Plan, Run) {
                 t: k as f64 * 0.01,
                 pose: Pose2::new(p[0], p[1], 0.0),
                 twist: Twist2::new(0.0, 0.0, 0.0),
-                wheel_rates: [0.0; 3],
+                wheel_rates: [0.0; omnikin::MAX_WHEELS],
                 steer: None,
             })
             .collect(),

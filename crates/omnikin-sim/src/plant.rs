@@ -2,13 +2,13 @@
 //! the one plant step of [`crate::plant_step`] (motor models, forward kinematics, exact SE(2)
 //! steps), recorded at the plan's sample times with what a tracker and the encoders would see.
 
-use omnikin::{Pose2, Robot};
+use omnikin::{Actuators, MAX_WHEELS, Pose2, Robot};
 use omnikin_plan::Plan;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
 use crate::limits::MAX_PLANT_STEPS;
-use crate::plant_step::{Motors, Plant, has_steering};
+use crate::plant_step::{Motors, Plant};
 use crate::profile::{Hold, Profile};
 
 /// One simulated run, recorded at the plan's sample times.
@@ -98,12 +98,26 @@ pub fn simulate_trial(
     let Some(first) = samples.first() else {
         return Err(SimError::Mismatch("the plan has no samples".into()));
     };
-    let caster = has_steering(robot);
-    if caster != plan.is_caster() {
-        return Err(SimError::Mismatch(if caster {
-            "robot is caster3 but the plan has no steer columns (s1..s3, sd1..sd3)".into()
+    let steerable = robot.steerable();
+    if plan.wheels != robot.wheels() {
+        return Err(SimError::Mismatch(format!(
+            "the plan has {} wheel columns but the robot ({}) has {} wheels",
+            plan.wheels,
+            robot.kind().name(),
+            robot.wheels()
+        )));
+    }
+    if steerable != plan.steerable() {
+        return Err(SimError::Mismatch(if steerable {
+            format!(
+                "the robot ({}) steers its wheels but the plan has no steer columns (s1.., sd1..)",
+                robot.kind().name()
+            )
         } else {
-            "the plan has caster steer columns but the robot is not caster3".into()
+            format!(
+                "the plan has steer columns but the robot ({}) has no steering",
+                robot.kind().name()
+            )
         }));
     }
     let rate = profile.rate_hz();
@@ -124,9 +138,14 @@ pub fn simulate_trial(
             hint: "shorten the plan (check its t column) or lower the profile's plant `rate`",
         });
     }
-    let (first_steer, first_steer_rates) = first.steer.unwrap_or(([0.0; 3], [0.0; 3]));
-    let mut plant = Plant::new(*robot, profile, first.pose, first_steer, rng);
-    let mut motors = Motors::new(&plant, profile, first.wheel_rates, first_steer_rates);
+    let (first_steer, first_steer_rates) = first.steer.unwrap_or(([0.0; MAX_WHEELS], [0.0; MAX_WHEELS]));
+    let mut plant = Plant::new(*robot, profile, first.pose, head3(&first_steer), rng);
+    let mut motors = Motors::new(
+        &plant,
+        profile,
+        head3(&first.wheel_rates),
+        head3(&first_steer_rates),
+    );
 
     let n = samples.len();
     let mut out = Trial {
@@ -207,8 +226,8 @@ pub fn simulate_trial(
         let steps = ((interval * rate).round() as usize).max(1);
         let dt = interval / steps as f64;
         let (sa, sb) = (
-            a.steer.map(|s| s.1).unwrap_or([0.0; 3]),
-            b.steer.map(|s| s.1).unwrap_or([0.0; 3]),
+            a.steer.map(|s| s.1).unwrap_or([0.0; MAX_WHEELS]),
+            b.steer.map(|s| s.1).unwrap_or([0.0; MAX_WHEELS]),
         );
         for j in 0..steps {
             let f = match profile.hold {
@@ -238,26 +257,27 @@ pub fn simulate_trial(
 pub fn plan_mismatch(robot: &Robot<f64>, plan: &Plan) -> Option<String> {
     let mut worst: Option<(f64, f64, usize, f64, f64)> = None; // (excess, t, wheel, plan, robot)
     for s in &plan.samples {
-        let expected: Option<Vec<f64>> = match robot {
-            Robot::Sphere(m) => m
-                .wheel_rates_world(s.twist, s.pose.heading, 0.0)
-                .ok()
-                .map(|w| w.to_vec()),
-            Robot::Ballbot(m) => m
-                .wheel_rates_world(s.twist, s.pose.heading, 0.0)
-                .ok()
-                .map(|w| w.to_vec()),
-            Robot::Caster(m) => s
-                .steer
-                .and_then(|(g, _)| m.motor_rates(s.twist, s.pose.heading, g).ok())
-                .map(|r| r.roll.iter().chain(&r.steer).copied().collect()),
-            _ => None,
+        let n = robot.wheels();
+        let current = match s.steer {
+            Some((g, _)) => Actuators::at_steer(&g[..n]),
+            None => Actuators::zero(),
         };
+        let expected: Option<Vec<f64>> =
+            robot
+                .inverse_world(s.twist, s.pose.heading, &current)
+                .ok()
+                .map(|a| {
+                    let mut v = a.wheel_rates[..n].to_vec();
+                    if robot.steerable() {
+                        v.extend(&a.steer_rates[..n]);
+                    }
+                    v
+                });
         let Some(expected) = expected else { continue };
-        let planned: Vec<f64> = s
-            .wheel_rates
+        let n = robot.wheels();
+        let planned: Vec<f64> = s.wheel_rates[..n.min(plan.wheels)]
             .iter()
-            .chain(s.steer.iter().flat_map(|(_, sd)| sd.iter()))
+            .chain(s.steer.iter().flat_map(|(_, sd)| sd[..n.min(plan.wheels)].iter()))
             .copied()
             .collect();
         for (i, (&p, &e)) in planned.iter().zip(&expected).enumerate() {
@@ -271,4 +291,9 @@ pub fn plan_mismatch(robot: &Robot<f64>, plan: &Plan) -> Option<String> {
         let name = if i < 3 { format!("w{}", i + 1) } else { format!("sd{}", i - 2) };
         format!("the plan's {name} = {p:.6} rad/s at t = {t:.3} s, but this robot's inverse kinematics give {e:.6} rad/s (planned for another robot or geometry?)")
     })
+}
+
+/// The first three entries of a per-wheel array (the plant models three wheels so far).
+fn head3(a: &[f64; MAX_WHEELS]) -> [f64; 3] {
+    [a[0], a[1], a[2]]
 }

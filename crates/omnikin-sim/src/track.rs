@@ -249,6 +249,7 @@ mod tests {
     fn line_plan() -> Plan {
         // Still for 1 s, then 0.1 m/s along x for 2 s, sampled at 10 Hz.
         Plan {
+            wheels: 3,
             samples: (0..=30)
                 .map(|k| {
                     let t = k as f64 * 0.1;
@@ -257,7 +258,7 @@ mod tests {
                         t,
                         pose: Pose2::new(x, 0.0, 0.0),
                         twist: Twist2::default(),
-                        wheel_rates: [0.0; 3],
+                        wheel_rates: [0.0; omnikin::MAX_WHEELS],
                         steer: None,
                     }
                 })

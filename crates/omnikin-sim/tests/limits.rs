@@ -19,13 +19,14 @@ fn sphere() -> Robot<f64> {
 /// A sphere plan at rest with samples at `times`.
 fn plan_at(times: &[f64]) -> Plan {
     Plan {
+        wheels: 3,
         samples: times
             .iter()
             .map(|&t| Sample {
                 t,
                 pose: Pose2::default(),
                 twist: Twist2::new(0.0, 0.0, 0.0),
-                wheel_rates: [0.0; 3],
+                wheel_rates: [0.0; omnikin::MAX_WHEELS],
                 steer: None,
             })
             .collect(),

@@ -30,6 +30,7 @@ fn plan(
 ) -> Plan {
     let n = (duration * rate).round() as usize;
     Plan {
+        wheels: 3,
         samples: (0..=n)
             .map(|k| {
                 let t = k as f64 / rate;
@@ -43,7 +44,7 @@ fn plan(
                     t,
                     pose,
                     twist,
-                    wheel_rates,
+                    wheel_rates: omnikin_plan::per_wheel(&wheel_rates),
                     steer: None,
                 }
             })
@@ -76,6 +77,7 @@ fn caster_plan(m: &Caster3<f64>, duration: f64) -> Plan {
     let gamma0: [f64; 3] = core::array::from_fn(|i| beta0 - p.mount_angles[i]);
     let n = (duration * 100.0).round() as usize;
     Plan {
+        wheels: 3,
         samples: (0..=n)
             .map(|k| {
                 let t = k as f64 / 100.0;
@@ -88,8 +90,13 @@ fn caster_plan(m: &Caster3<f64>, duration: f64) -> Plan {
                         -p.wheel_radius * xi * s - p.eccentricity * rho * c,
                         0.0,
                     ),
-                    wheel_rates: [xi; 3],
-                    steer: Some((core::array::from_fn(|i| gamma0[i] + rho * t), [rho; 3])),
+                    wheel_rates: omnikin_plan::per_wheel(&[xi; 3]),
+                    steer: Some((
+                        omnikin_plan::per_wheel(&core::array::from_fn::<_, 3, _>(|i| {
+                            gamma0[i] + rho * t
+                        })),
+                        omnikin_plan::per_wheel(&[rho; 3]),
+                    )),
                 }
             })
             .collect(),
@@ -339,7 +346,7 @@ fn shell_spin_is_recovered_in_simulation() {
         )
     });
     let w = plan.samples[0].wheel_rates;
-    let tw0 = m.body_twist(w, 0.0).unwrap();
+    let tw0 = m.body_twist([w[0], w[1], w[2]], 0.0).unwrap();
     let spin_true = g * tw0.vx.hypot(tw0.vy).powf(p) * (-tw0.yaw_rate);
     let trial = simulate_trial(&robot, &plan, &profile, &mut trial_rng(5, 0)).unwrap();
     let sensors = SensorProfile {

@@ -23,6 +23,7 @@ fn sphere_plan(
     let m = SphereOmni::new(SphereParams::preset()).unwrap();
     let n = (duration * rate).round() as usize;
     Plan {
+        wheels: 3,
         samples: (0..=n)
             .map(|k| {
                 let t = k as f64 / rate;
@@ -31,7 +32,7 @@ fn sphere_plan(
                     t,
                     pose,
                     twist,
-                    wheel_rates: m.wheel_rates_world(twist, pose.heading, 0.0).unwrap(),
+                    wheel_rates: omnikin_plan::per_wheel(&m.wheel_rates_world(twist, pose.heading, 0.0).unwrap()),
                     steer: None,
                 }
             })
@@ -132,15 +133,17 @@ fn caster_single_wheel_plan(
                     -p.wheel_radius * roll_rate * s - p.eccentricity * steer_rate * c,
                     0.0,
                 ),
-                wheel_rates: [roll_rate; 3],
+                wheel_rates: omnikin_plan::per_wheel(&[roll_rate; 3]),
                 steer: Some((
-                    core::array::from_fn(|i| gamma0[i] + steer_rate * t),
-                    [steer_rate; 3],
+                    omnikin_plan::per_wheel(&core::array::from_fn::<_, 3, _>(|i| {
+                        gamma0[i] + steer_rate * t
+                    })),
+                    omnikin_plan::per_wheel(&[steer_rate; 3]),
                 )),
             }
         })
         .collect();
-    (Plan { samples }, m)
+    (Plan { wheels: 3, samples }, m)
 }
 
 #[test]
@@ -252,12 +255,15 @@ fn acceleration_phase_matches_paper_003_section_4_2() {
                 t: k as f64 / rate,
                 pose: Pose2::default(),
                 twist: Twist2::default(),
-                wheel_rates: [rr; 3],
-                steer: Some((gamma0, [sr; 3])),
+                wheel_rates: omnikin_plan::per_wheel(&[rr; 3]),
+                steer: Some((
+                    omnikin_plan::per_wheel(&gamma0),
+                    omnikin_plan::per_wheel(&[sr; 3]),
+                )),
             }
         })
         .collect();
-    let plan = Plan { samples };
+    let plan = Plan { wheels: 3, samples };
     let ramp = Profile::from_toml_str(
         &format!(
             "hold = \"zoh\"\n[wheel_motor]\nmax_accel = {}\n[steer_motor]\nmax_accel = {}\n",
@@ -420,7 +426,7 @@ fn presets_simulate() {
     // A caster plan on a sphere is refused with the reason.
     let (cplan, _) = caster_single_wheel_plan(0.0, 1.0, 1.0, 0.1, 100.0);
     let e = simulate_trial(&robot, &cplan, &Profile::default(), &mut trial_rng(3, 0)).unwrap_err();
-    assert!(e.to_string().contains("not caster3"), "{e}");
+    assert!(e.to_string().contains("has no steering"), "{e}");
 }
 
 #[test]
@@ -513,12 +519,12 @@ fn ballbot_plant_reproduces_its_plan_and_caster_slip_shows_with_a_bad_wheel() {
                 t,
                 pose,
                 twist,
-                wheel_rates: b.wheel_rates_world(twist, pose.heading, 0.0).unwrap(),
+                wheel_rates: omnikin_plan::per_wheel(&b.wheel_rates_world(twist, pose.heading, 0.0).unwrap()),
                 steer: None,
             }
         })
         .collect();
-    let plan = Plan { samples };
+    let plan = Plan { wheels: 3, samples };
     let t = simulate_trial(
         &Robot::Ballbot(b),
         &plan,

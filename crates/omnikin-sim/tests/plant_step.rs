@@ -63,6 +63,7 @@ const PERIOD: f64 = 0.01;
 fn plan_of(robot: &Robot<f64>, steps: usize) -> Plan {
     let caster = matches!(robot, Robot::Caster(_));
     Plan {
+        wheels: 3,
         samples: (0..=steps)
             .map(|k| {
                 let (w, s) = setpoint(robot, k.min(steps - 1));
@@ -70,8 +71,8 @@ fn plan_of(robot: &Robot<f64>, steps: usize) -> Plan {
                     t: k as f64 * PERIOD,
                     pose: Pose2::default(),
                     twist: Twist2::default(),
-                    wheel_rates: w,
-                    steer: caster.then_some(([0.0; 3], s)),
+                    wheel_rates: omnikin_plan::per_wheel(&w),
+                    steer: caster.then_some(([0.0; omnikin::MAX_WHEELS], omnikin_plan::per_wheel(&s))),
                 }
             })
             .collect(),
@@ -172,12 +173,13 @@ fn ballbot_ball_spin_follows_the_spin_law_in_simulator_and_sil() {
         let expected = omnikin::se2::integrate(Pose2::default(), Twist2::new(0.3, 0.1, yaw), t_end);
 
         let plan = Plan {
+            wheels: 3,
             samples: [0.0, t_end]
                 .map(|t| Sample {
                     t,
                     pose: Pose2::default(),
                     twist: Twist2::default(),
-                    wheel_rates: w,
+                    wheel_rates: omnikin_plan::per_wheel(&w),
                     steer: None,
                 })
                 .to_vec(),
@@ -312,13 +314,15 @@ fn a_constant_twist_traces_an_exact_arc_at_any_plant_step() {
         // The simulator at plant rates from 1 Hz (two steps) to 1 kHz, with constant
         // disturbances: one arc of the disturbed twist, whatever the rate.
         let plan = Plan {
+            wheels: 3,
             samples: [0.0, t_end]
                 .map(|t| Sample {
                     t,
                     pose: Pose2::default(),
                     twist: Twist2::default(),
-                    wheel_rates: w,
-                    steer: has_steering(&robot).then_some((steer, [0.0; 3])),
+                    wheel_rates: omnikin_plan::per_wheel(&w),
+                    steer: has_steering(&robot)
+                        .then_some((omnikin_plan::per_wheel(&steer), [0.0; omnikin::MAX_WHEELS])),
                 })
                 .to_vec(),
         };

@@ -55,17 +55,17 @@ pub(super) fn sample(ctx: &Ctx, moves: &[Move], rate: f64) -> Result<Plan, Plann
         let (c, gamma) = ctx.state(mv, sigma, &mut from_s)?;
         let twist = Twist2::new(c.dq[0] * v, c.dq[1] * v, c.dq[2] * v);
         let r = ctx.robot.rates_cs(c.pose.heading, c.cs, twist, gamma)?;
-        samples.push(Sample {
+        let steer_rates = r.steer.unwrap_or([0.0; 3]);
+        samples.push(Sample::new(
             t,
-            pose: c.pose,
+            c.pose,
             twist,
-            wheel_rates: r.wheel,
-            steer: if caster {
-                Some((gamma, r.steer.unwrap_or([0.0; 3])))
-            } else {
-                None
-            },
-        });
+            &r.wheel,
+            caster.then_some((&gamma[..], &steer_rates[..])),
+        ));
     }
-    Ok(Plan { samples })
+    Ok(Plan {
+        wheels: ctx.robot.model.wheels().min(3),
+        samples,
+    })
 }

@@ -165,6 +165,7 @@ use proptest::prelude::*;
 
 fn plan_of(xy: &[[f64; 2]]) -> Plan {
     Plan {
+        wheels: 3,
         samples: xy
             .iter()
             .enumerate()
@@ -172,7 +173,7 @@ fn plan_of(xy: &[[f64; 2]]) -> Plan {
                 t: 0.01 * k as f64,
                 pose: Pose2::new(p[0], p[1], 0.1 * k as f64),
                 twist: Twist2::new(0.0, 0.0, 0.0),
-                wheel_rates: [0.0; 3],
+                wheel_rates: [0.0; omnikin::MAX_WHEELS],
                 steer: None,
             })
             .collect(),
