@@ -8,7 +8,7 @@ use core::f64::consts::{FRAC_PI_2, PI, TAU};
 
 use omnikin::ballbot::{Ballbot, BallbotParams};
 use omnikin::caster::{Caster3, CasterParams};
-use omnikin::odometry::{EncoderReading, HeadingInput, Odometry, OdometryError};
+use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry, OdometryError};
 use omnikin::sphere::{SphereOmni, SphereParams};
 use omnikin::{Pose2, Robot, Twist2};
 

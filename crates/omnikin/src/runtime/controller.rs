@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::odometry::{EncoderReading, HeadingInput, Odometry};
+use crate::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use crate::{Pose2, Real, Robot, Twist2};
 
 use super::hal::{EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOutputs};
