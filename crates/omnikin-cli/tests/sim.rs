@@ -303,8 +303,7 @@ fn evaluate_with_marker_offset_and_wrapped_heading() {
     let mut text = String::from("t,x,y,heading\n");
     for s in &plan.samples {
         let (sn, cs) = s.pose.heading.sin_cos();
-        let h = (s.pose.heading + core::f64::consts::PI).rem_euclid(core::f64::consts::TAU)
-            - core::f64::consts::PI;
+        let h = omnikin::wrap_angle(s.pose.heading);
         text.push_str(&format!(
             "{},{},{},{}\n",
             s.t,

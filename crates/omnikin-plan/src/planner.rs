@@ -51,11 +51,11 @@
 //!    consecutive samples); a residual excess from the grid approximation is removed by slowing
 //!    the offending move further.
 
-use omnikin::{Pose2, Robot, Twist2};
+use omnikin::{Pose2, Robot, Twist2, wrap_angle};
 
 use crate::PlanningError;
 use crate::error::Violation;
-use crate::heading::{HeadingLaw, Side, wrap_pi};
+use crate::heading::{HeadingLaw, Side};
 use crate::limits::{
     MAX_MOVE_GRID_CELLS, MAX_PLAN_GRID_CELLS, MAX_PLAN_SAMPLES, RATE_RANGE, SPEED_RANGE,
     check_range,
@@ -464,7 +464,7 @@ impl Hint {
                 return self.psi + 2.0 * atan;
             }
         }
-        self.psi + wrap_pi(dir[1].atan2(dir[0]) - self.psi)
+        self.psi + wrap_angle(dir[1].atan2(dir[0]) - self.psi)
     }
 }
 
@@ -941,7 +941,7 @@ fn aligned_steer(robot: &RobotModel, c: &Config) -> [f64; 3] {
         let chi = vf[1].atan2(vf[0]);
         let rho = (c.dq[2] * p.eccentricity / speed).clamp(-1.0, 1.0);
         let beta = chi + std::f64::consts::PI - rho.asin();
-        wrap_pi(beta - p.mount_angles[i] - th)
+        wrap_angle(beta - p.mount_angles[i] - th)
     })
 }
 
@@ -1634,7 +1634,7 @@ fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, PlanningError
             && s0 > 0.0
         {
             let want = path.at_side(s0, Side::After).direction() + offset;
-            let delta = wrap_pi(want - psi);
+            let delta = wrap_angle(want - psi);
             if delta.abs() > 1e-9 {
                 let p = path.at(s0).point;
                 let kind = Kind::Turn {

@@ -37,7 +37,8 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! Shared value types are [`Twist2`] and [`Pose2`]; [`se2`] integrates a twist exactly.
+//! Shared value types are [`Twist2`] and [`Pose2`]; [`se2`] integrates a twist exactly;
+//! [`wrap_angle`] folds an angle into `(−π, π]` (the one wrap helper of the workspace).
 //! Frames and signs follow REP-103 (x forward, y left, z up, counter-clockwise positive) and
 //! the project conventions: where a printed paper formula is wrong (errata E1–E4 of the seed
 //! digest) the physically correct one is implemented and the module docs say so.
@@ -55,6 +56,7 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+mod angle;
 mod error;
 mod real;
 mod types;
@@ -79,6 +81,7 @@ use estimate::odometry;
 /// The linear-algebra crate of the public API (vectors such as [`sphere::SphereOmni::levers`]).
 pub use nalgebra;
 
+pub use angle::wrap_angle;
 pub use error::{GeometryError, InputError};
 pub use real::Real;
 pub use types::{Pose2, Twist2};

@@ -339,7 +339,7 @@ fn gyro_and_absolute_yaw_heading_sources() {
     let mut odo = Odometry::new(Robot::Sphere(m), Pose2::new(0.0, 0.0, 0.0));
     let mut poses = Vec::new();
     for (r, p) in log.iter().zip(&truth) {
-        let yaw = (p.heading + PI).rem_euclid(TAU) - PI;
+        let yaw = omnikin::wrap_angle(p.heading);
         poses.push(odo.update(r, HeadingInput::Absolute(yaw)).unwrap().pose);
     }
     let (pos, head) = worst(&poses, &truth);

@@ -17,7 +17,7 @@
 
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 
-use crate::estimate::odometry::wrap_angle;
+use crate::wrap_angle;
 use crate::{Pose2, Real, Twist2, se2};
 
 /// Why the estimator rejected an input. The state is left unchanged.

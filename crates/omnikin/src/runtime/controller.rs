@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
-use crate::{Pose2, Real, Robot, Twist2};
+use crate::{Pose2, Real, Robot, Twist2, wrap_angle as wrap};
 
 use super::hal::{EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOutputs};
 use super::limits::{
@@ -573,17 +573,6 @@ pub struct Runtime<T, const N: usize> {
     /// Low-passed |gyro − wheel yaw rate| (rad/s) and caster residual (m/s).
     slip_state: [T; 2],
     rejected: u32,
-}
-
-fn wrap<T: Real>(x: T) -> T {
-    let two_pi = T::two_pi();
-    let mut y = x - two_pi * (x / two_pi).round();
-    if y <= -T::pi() {
-        y += two_pi;
-    } else if y > T::pi() {
-        y -= two_pi;
-    }
-    y
 }
 
 fn zero_twist<T: Real>() -> Twist2<T> {
