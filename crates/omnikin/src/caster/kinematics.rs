@@ -5,6 +5,7 @@
 use super::{
     Caster3, CasterForward, CasterRates, ROLL_RATES, STEER, STEER_RATES, WheelTrig, cs, zero_rates,
 };
+use crate::drive::Rot2;
 use crate::real::{finite, finite3};
 use crate::{InputError, Real, Twist2};
 
@@ -26,22 +27,22 @@ impl<T: Real> Caster3<T> {
         heading: T,
         steer: [T; 3],
     ) -> Result<CasterRates<T>, InputError> {
-        self.motor_rates_sc(twist_world, heading, heading.sin_cos(), steer)
+        self.motor_rates_at(twist_world, heading, Rot2::from_angle(heading), steer)
     }
 
-    /// [`Caster3::motor_rates`] with `heading_sc = (sin θ, cos θ)` of the heading already known
+    /// [`Caster3::motor_rates`] with the heading's rotation `rot = {cos θ, sin θ}` already known
     /// (the runtime shares one `sin_cos` per cycle between its frame changes and this call);
     /// `heading` itself only names the field in an error.
     #[inline]
-    pub(crate) fn motor_rates_sc(
+    pub(crate) fn motor_rates_at(
         &self,
         twist_world: Twist2<T>,
         heading: T,
-        heading_sc: (T, T),
+        rot: Rot2<T>,
         steer: [T; 3],
     ) -> Result<CasterRates<T>, InputError> {
         let q = twist_world.to_array();
-        let trig = self.wheel_trig_sc(heading_sc, steer);
+        let trig = self.wheel_trig(rot, steer);
         let mut out = zero_rates();
         let wheel = |w: &WheelTrig<T>| {
             // Rows i of J1 and J2 (see `j1_row`, `j2_row`).

@@ -63,7 +63,7 @@ fn cs<T: Real>(a: T) -> (T, T) {
     (c, s)
 }
 
-/// Cosines and sines of one wheel's angles (see [`Caster3::wheel_trig_sc`]).
+/// Cosines and sines of one wheel's angles (see `Caster3::wheel_trig`).
 #[derive(Clone, Copy)]
 struct WheelTrig<T> {
     /// `cos β_i`, `sin β_i`, `β_i = α_i + θ + γ_i`: the wheel's world direction.

@@ -4,6 +4,7 @@
 use nalgebra::Matrix3;
 
 use super::{Caster3, CasterParams, MIN_MOUNT_SEPARATION, MOUNT_ANGLES, WheelTrig, cs};
+use crate::drive::Rot2;
 use crate::real::{finite_param, positive};
 use crate::{GeometryError, Real};
 
@@ -81,11 +82,11 @@ impl<T: Real> Caster3<T> {
     }
 
     /// The cosines and sines of `β_i = α_i + θ + γ_i` and `γ_i` for the three wheels, from
-    /// `(sin θ, cos θ)` of the heading, one `sin_cos` per steer angle and the precomputed
+    /// the heading's rotation `{cos θ, sin θ}`, one `sin_cos` per steer angle and the precomputed
     /// `(cos α_i, sin α_i)`, by the angle-addition formulas.
     #[inline(always)]
-    pub(super) fn wheel_trig_sc(&self, heading_sc: (T, T), steer: [T; 3]) -> [WheelTrig<T>; 3] {
-        let (st, ct) = heading_sc;
+    pub(super) fn wheel_trig(&self, heading: Rot2<T>, steer: [T; 3]) -> [WheelTrig<T>; 3] {
+        let (ct, st) = (heading.cos, heading.sin);
         let wheel = |i: usize| {
             let (cm, sm) = self.mount_cs[i];
             let (cg, sg) = cs(steer[i]);

@@ -2,6 +2,7 @@
 //! acceleration/jerk limiting. Pure functions and `Copy` state; no allocation, no panic.
 
 use crate::caster::CasterRates;
+use crate::drive::Rot2;
 use crate::{InputError, Real, Robot, Twist2};
 
 use super::hal::MotorCommand;
@@ -20,24 +21,38 @@ pub fn motor_rates<T: Real>(
     heading: T,
     steer: [T; 3],
 ) -> Result<MotorCommand<T>, InputError> {
-    motor_rates_sc(robot, twist, heading, heading_sc(robot, heading), steer)
+    motor_rates_rot(robot, twist, heading, heading_rot(robot, heading), steer)
 }
 
-/// `(sin, cos)` of the heading for the caster, the only robot whose kinematics need it here.
-fn heading_sc<T: Real>(robot: &Robot<T>, heading: T) -> (T, T) {
+/// The heading's rotation `{cos, sin}` for the caster, the only robot whose kinematics need it
+/// here (the identity for the others).
+fn heading_rot<T: Real>(robot: &Robot<T>, heading: T) -> Rot2<T> {
     match robot {
-        Robot::Caster(_) => heading.sin_cos(),
-        _ => (T::zero(), T::one()),
+        Robot::Caster(_) => Rot2::from_angle(heading),
+        _ => Rot2::identity(),
     }
 }
 
-/// [`motor_rates`] with the heading's `(sin ψ, cos ψ)` already known (`sc`, used only by the
-/// caster: for the world-frame twist its kinematics take, and for its wheel directions).
+/// [`motor_rates_rot`] for a caller holding the heading's `(sin ψ, cos ψ)` tuple (the runtime
+/// cycle; to be replaced by `motor_rates_rot` when it passes a [`Rot2`]).
 pub(crate) fn motor_rates_sc<T: Real>(
     robot: &Robot<T>,
     twist: Twist2<T>,
     heading: T,
     sc: (T, T),
+    steer: [T; 3],
+) -> Result<MotorCommand<T>, InputError> {
+    let (sin, cos) = sc;
+    motor_rates_rot(robot, twist, heading, Rot2 { cos, sin }, steer)
+}
+
+/// [`motor_rates`] with the heading's rotation `rot = {cos ψ, sin ψ}` already known (used only
+/// by the caster: for the world-frame twist its kinematics take, and for its wheel directions).
+pub(crate) fn motor_rates_rot<T: Real>(
+    robot: &Robot<T>,
+    twist: Twist2<T>,
+    heading: T,
+    rot: Rot2<T>,
     steer: [T; 3],
 ) -> Result<MotorCommand<T>, InputError> {
     Ok(match robot {
@@ -51,7 +66,7 @@ pub(crate) fn motor_rates_sc<T: Real>(
         },
         Robot::Caster(m) => {
             let CasterRates { roll, steer: sd } =
-                m.motor_rates_sc(twist.rotated_sc(sc), heading, sc, steer)?;
+                m.motor_rates_at(twist.rotated_by(rot), heading, rot, steer)?;
             MotorCommand {
                 wheel: roll,
                 steer: sd,
@@ -115,17 +130,18 @@ pub fn desaturate<T: Real>(
     steer: [T; 3],
     limits: &RateLimits<T>,
 ) -> Result<Desaturated<T>, InputError> {
-    desaturate_sc(
+    desaturate_rot(
         robot,
         twist,
         heading,
-        heading_sc(robot, heading),
+        heading_rot(robot, heading),
         steer,
         limits,
     )
 }
 
-/// [`desaturate`] with the heading's `(sin ψ, cos ψ)` already known (see [`motor_rates_sc`]).
+/// [`desaturate_rot`] for a caller holding the heading's `(sin ψ, cos ψ)` tuple (the runtime
+/// cycle; to be replaced by `desaturate_rot` when it passes a [`Rot2`]).
 pub(crate) fn desaturate_sc<T: Real>(
     robot: &Robot<T>,
     twist: Twist2<T>,
@@ -134,7 +150,21 @@ pub(crate) fn desaturate_sc<T: Real>(
     steer: [T; 3],
     limits: &RateLimits<T>,
 ) -> Result<Desaturated<T>, InputError> {
-    let rates = motor_rates_sc(robot, twist, heading, sc, steer)?;
+    let (sin, cos) = sc;
+    desaturate_rot(robot, twist, heading, Rot2 { cos, sin }, steer, limits)
+}
+
+/// [`desaturate`] with the heading's rotation `{cos ψ, sin ψ}` already known (see
+/// [`motor_rates_rot`]).
+pub(crate) fn desaturate_rot<T: Real>(
+    robot: &Robot<T>,
+    twist: Twist2<T>,
+    heading: T,
+    rot: Rot2<T>,
+    steer: [T; 3],
+    limits: &RateLimits<T>,
+) -> Result<Desaturated<T>, InputError> {
+    let rates = motor_rates_rot(robot, twist, heading, rot, steer)?;
     let scale = saturation_scale(&rates, limits);
     if scale >= T::one() {
         return Ok(Desaturated {
