@@ -1,6 +1,6 @@
 //! `omnikin odometry LOG.csv --robot R [--imu] [--fixes FIXES.csv] --out poses.csv [--plot F.svg]`:
 //! wheel odometry (and camera fusion) over a recorded encoder log, with the core's
-//! [`omnikin::odometry::Odometry`] and [`omnikin::estimator::PoseEstimator`].
+//! [`omnikin::estimate::odometry::Odometry`] and [`omnikin::estimate::estimator::PoseEstimator`].
 //!
 //! Input: the encoder log of conventions.md (`t,q1,q2,q3` cumulative wheel angles in rad, or
 //! counts with `--counts-per-rev`; `s1,s2,s3` steer angles for caster3; optional `gyro_z`
@@ -14,9 +14,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use omnikin::description::RobotDescription;
-use omnikin::estimator::{EstimatorError, Fix, FixOutcome, PoseEstimator, ProcessNoise};
+use omnikin::estimate::estimator::{EstimatorError, Fix, FixOutcome, PoseEstimator, ProcessNoise};
+use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::nalgebra::{Matrix3, Vector3};
-use omnikin::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::{Pose2, Robot};
 // The log and fixes parser lives in the library so that it can be fuzzed (fuzz/).
 use omnikin_sim::table::NumericTable as Table;

@@ -35,8 +35,8 @@ fn circle_plan(dir: &Path) -> PathBuf {
                 pose,
                 twist,
                 wheel_rates: omnikin_plan::per_wheel(
-                        &m.wheel_rates_world(twist, pose.heading, 0.0).unwrap(),
-                    ),
+                    &m.wheel_rates_world(twist, pose.heading, 0.0).unwrap(),
+                ),
                 steer: None,
             }
         })
@@ -305,8 +305,7 @@ fn evaluate_with_marker_offset_and_wrapped_heading() {
     let mut text = String::from("t,x,y,heading\n");
     for s in &plan.samples {
         let (sn, cs) = s.pose.heading.sin_cos();
-        let h = (s.pose.heading + core::f64::consts::PI).rem_euclid(core::f64::consts::TAU)
-            - core::f64::consts::PI;
+        let h = omnikin::wrap_angle(s.pose.heading);
         text.push_str(&format!(
             "{},{},{},{}\n",
             s.t,

@@ -188,16 +188,6 @@ impl HeadingLaw {
     }
 }
 
-/// Wraps an angle into (−π, π], rad.
-pub(crate) fn wrap_pi(a: f64) -> f64 {
-    let tau = std::f64::consts::TAU;
-    let mut r = a.rem_euclid(tau);
-    if r > std::f64::consts::PI {
-        r -= tau;
-    }
-    r
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -221,7 +211,9 @@ mod tests {
 
     #[test]
     fn wrap() {
-        assert!((wrap_pi(3.0 * std::f64::consts::PI) - std::f64::consts::PI).abs() < 1e-12);
-        assert!((wrap_pi(-0.5) + 0.5).abs() < 1e-15);
+        assert!(
+            (omnikin::wrap_angle(3.0 * std::f64::consts::PI) - std::f64::consts::PI).abs() < 1e-12
+        );
+        assert!((omnikin::wrap_angle(-0.5_f64) + 0.5).abs() < 1e-15);
     }
 }

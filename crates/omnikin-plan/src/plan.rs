@@ -131,7 +131,9 @@ impl Plan {
         ]);
         out.extend(&s.wheel_rates[..n]);
         if self.steerable() {
-            let (g, gd) = s.steer.unwrap_or(([f64::NAN; MAX_WHEELS], [f64::NAN; MAX_WHEELS]));
+            let (g, gd) = s
+                .steer
+                .unwrap_or(([f64::NAN; MAX_WHEELS], [f64::NAN; MAX_WHEELS]));
             out.extend(&g[..n]);
             out.extend(&gd[..n]);
         }
@@ -416,11 +418,14 @@ mod tests {
             let mut buf = Vec::new();
             plan.write_csv(&mut buf).unwrap();
             let text = String::from_utf8(buf.clone()).unwrap();
-            assert!(text.starts_with(if steer {
-                "t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3,w4,s1,s2,s3,s4,sd1,sd2,sd3,sd4\n"
-            } else {
-                "t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3,w4\n"
-            }), "{text}");
+            assert!(
+                text.starts_with(if steer {
+                    "t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3,w4,s1,s2,s3,s4,sd1,sd2,sd3,sd4\n"
+                } else {
+                    "t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3,w4\n"
+                }),
+                "{text}"
+            );
             assert_eq!(Plan::read_csv(&buf[..], "mem").unwrap(), plan);
         }
     }

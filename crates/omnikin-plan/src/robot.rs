@@ -167,7 +167,10 @@ impl RobotModel {
         steer: [f64; 3],
     ) -> Result<MotorRates, PlanningError> {
         // World → robot frame: the rotation by −ψ, whose (sin, cos) is (−sin ψ, cos ψ).
-        let body = twist_world.rotated_sc((-cs[1], cs[0]));
+        let body = twist_world.rotated_by(omnikin::drive::Rot2 {
+            cos: cs[0],
+            sin: -cs[1],
+        });
         if self.is_caster() {
             return self.rates(heading, twist_world, steer);
         }

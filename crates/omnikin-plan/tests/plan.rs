@@ -175,7 +175,9 @@ fn wheel_rates_equal_the_core_inverse_kinematics_of_the_sampled_twist() {
                 ),
                 Robot::Caster(m) => {
                     let (g, _) = s.steer.expect("caster plans carry steer columns");
-                    let rr = m.motor_rates(s.twist, s.pose.heading, [g[0], g[1], g[2]]).unwrap();
+                    let rr = m
+                        .motor_rates(s.twist, s.pose.heading, [g[0], g[1], g[2]])
+                        .unwrap();
                     (rr.roll, Some(rr.steer))
                 }
                 _ => unreachable!("assorted() plans sphere, ballbot and caster"),

@@ -138,7 +138,9 @@ pub fn simulate_trial(
             hint: "shorten the plan (check its t column) or lower the profile's plant `rate`",
         });
     }
-    let (first_steer, first_steer_rates) = first.steer.unwrap_or(([0.0; MAX_WHEELS], [0.0; MAX_WHEELS]));
+    let (first_steer, first_steer_rates) = first
+        .steer
+        .unwrap_or(([0.0; MAX_WHEELS], [0.0; MAX_WHEELS]));
     let mut plant = Plant::new(*robot, profile, first.pose, head3(&first_steer), rng);
     let mut motors = Motors::new(
         &plant,
@@ -262,22 +264,25 @@ pub fn plan_mismatch(robot: &Robot<f64>, plan: &Plan) -> Option<String> {
             Some((g, _)) => Actuators::at_steer(&g[..n]),
             None => Actuators::zero(),
         };
-        let expected: Option<Vec<f64>> =
-            robot
-                .inverse_world(s.twist, s.pose.heading, &current)
-                .ok()
-                .map(|a| {
-                    let mut v = a.wheel_rates[..n].to_vec();
-                    if robot.steerable() {
-                        v.extend(&a.steer_rates[..n]);
-                    }
-                    v
-                });
+        let expected: Option<Vec<f64>> = robot
+            .inverse_world(s.twist, s.pose.heading, &current)
+            .ok()
+            .map(|a| {
+                let mut v = a.wheel_rates[..n].to_vec();
+                if robot.steerable() {
+                    v.extend(&a.steer_rates[..n]);
+                }
+                v
+            });
         let Some(expected) = expected else { continue };
         let n = robot.wheels();
         let planned: Vec<f64> = s.wheel_rates[..n.min(plan.wheels)]
             .iter()
-            .chain(s.steer.iter().flat_map(|(_, sd)| sd[..n.min(plan.wheels)].iter()))
+            .chain(
+                s.steer
+                    .iter()
+                    .flat_map(|(_, sd)| sd[..n.min(plan.wheels)].iter()),
+            )
             .copied()
             .collect();
         for (i, (&p, &e)) in planned.iter().zip(&expected).enumerate() {

@@ -324,15 +324,6 @@ fn quantise(x: f64, counts_per_rev: Option<u32>) -> f64 {
     }
 }
 
-fn wrap(x: f64) -> f64 {
-    let y = (x + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
-    if y <= -std::f64::consts::PI {
-        y + std::f64::consts::TAU
-    } else {
-        y
-    }
-}
-
 /// Derivative of `f` at sample `k` (central difference; one-sided at the ends).
 fn derivative(t: &[f64], k: usize, f: impl Fn(usize) -> f64) -> f64 {
     let n = t.len();
@@ -389,7 +380,7 @@ pub fn emit(
             .map(|g| derivative(&t[..n], k, heading) + out.gyro_bias + g.noise_std * gauss(rng));
         let yaw = profile.yaw.map(|y| {
             let v = heading(k) + y.noise_std * gauss(rng);
-            if y.wrap { wrap(v) } else { v }
+            if y.wrap { omnikin::wrap_angle(v) } else { v }
         });
         out.encoder.push(EncoderRow {
             t: t[k],
@@ -616,7 +607,7 @@ mod tests {
     #[test]
     fn wrap_range() {
         let pi = std::f64::consts::PI;
-        assert!((wrap(3.0 * pi) - pi).abs() < 1e-12);
-        assert!((wrap(-0.5 - 4.0 * pi) + 0.5).abs() < 1e-12);
+        assert!((omnikin::wrap_angle(3.0 * pi) - pi).abs() < 1e-12);
+        assert!((omnikin::wrap_angle(-0.5 - 4.0 * pi) + 0.5).abs() < 1e-12);
     }
 }

@@ -7,8 +7,8 @@ use std::f64::consts::{PI, TAU};
 
 use omnikin::ballbot::{Ballbot, BallbotParams};
 use omnikin::caster::{Caster3, CasterParams};
-use omnikin::estimator::{Fix, FixOutcome, PoseEstimator, ProcessNoise};
-use omnikin::odometry::{EncoderReading, HeadingInput, Odometry};
+use omnikin::estimate::estimator::{Fix, FixOutcome, PoseEstimator, ProcessNoise};
+use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::sphere::{SphereOmni, SphereParams};
 use omnikin::{Pose2, Robot, Twist2};
 use omnikin_plan::{Plan, Sample};

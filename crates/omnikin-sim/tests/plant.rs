@@ -32,7 +32,9 @@ fn sphere_plan(
                     t,
                     pose,
                     twist,
-                    wheel_rates: omnikin_plan::per_wheel(&m.wheel_rates_world(twist, pose.heading, 0.0).unwrap()),
+                    wheel_rates: omnikin_plan::per_wheel(
+                        &m.wheel_rates_world(twist, pose.heading, 0.0).unwrap(),
+                    ),
                     steer: None,
                 }
             })
@@ -519,7 +521,9 @@ fn ballbot_plant_reproduces_its_plan_and_caster_slip_shows_with_a_bad_wheel() {
                 t,
                 pose,
                 twist,
-                wheel_rates: omnikin_plan::per_wheel(&b.wheel_rates_world(twist, pose.heading, 0.0).unwrap()),
+                wheel_rates: omnikin_plan::per_wheel(
+                    &b.wheel_rates_world(twist, pose.heading, 0.0).unwrap(),
+                ),
                 steer: None,
             }
         })

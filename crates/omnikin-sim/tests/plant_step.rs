@@ -72,7 +72,8 @@ fn plan_of(robot: &Robot<f64>, steps: usize) -> Plan {
                     pose: Pose2::default(),
                     twist: Twist2::default(),
                     wheel_rates: omnikin_plan::per_wheel(&w),
-                    steer: caster.then_some(([0.0; omnikin::MAX_WHEELS], omnikin_plan::per_wheel(&s))),
+                    steer: caster
+                        .then_some(([0.0; omnikin::MAX_WHEELS], omnikin_plan::per_wheel(&s))),
                 }
             })
             .collect(),

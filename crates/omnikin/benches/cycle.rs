@@ -18,7 +18,7 @@ use criterion::{
 };
 use omnikin::ballbot::{Ballbot, BallbotParams};
 use omnikin::caster::{Caster3, CasterParams};
-use omnikin::odometry::{EncoderReading, HeadingInput, Odometry};
+use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::runtime::hal::{EncoderAngles, Encoders, MotorCommand, MotorOutputs, NoImu};
 use omnikin::runtime::limits::RateLimits;
 use omnikin::runtime::{Command, Config, Frame, Runtime};

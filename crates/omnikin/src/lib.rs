@@ -16,11 +16,11 @@
 //! | [`sphere`] | sphere rolled by an internal 3-omni-wheel platform | 000 | [`sphere::SphereOmni::wheel_rates`] | [`sphere::SphereOmni::body_twist`] |
 //! | [`ballbot`] | body balancing on a ball, 3 omni-wheels | 001 | [`ballbot::Ballbot::wheel_rates`] | [`ballbot::Ballbot::body_twist`] |
 //! | [`caster`] | base on three off-centred steerable wheels | 003 | [`caster::Caster3::motor_rates`] | [`caster::Caster3::body_twist`] |
-//! | [`odometry`] | all three: encoder angles → pose (exact SE(2) steps), heading from wheels, gyro or yaw; caster slip residual, sphere shell spin | 000, 001, 003 | — | [`odometry::Odometry::update`] |
-//! | [`ahrs`] | attitude and gyro bias from gyro + accelerometer + magnetometer (Mahony 2008) | 000 | — | [`ahrs::Mahony::update`] |
+//! | [`estimate::odometry`] | all three: encoder angles → pose (exact SE(2) steps), heading from wheels, gyro or yaw; caster slip residual, sphere shell spin | 000, 001, 003 | — | [`estimate::odometry::Odometry::update`] |
+//! | [`estimate::ahrs`] | attitude and gyro bias from gyro + accelerometer + magnetometer (Mahony 2008) | 000 | — | [`estimate::ahrs::Mahony::update`] |
 //! | [`runtime`] | all three: fixed-rate control loop over hardware traits — limits, desaturation, velocity/trajectory/stop/e-stop modes, watchdog, faults | 000 Fig. 1, 001 | [`runtime::Runtime::cycle`] | odometry |
 //! | [`link`] | all three: operator link — postcard + COBS + CRC-32C frames, versioned; sessions from a PSK handshake with fresh nonces, per-session HMAC-SHA256 key, sequence numbers and replay window | 000 Fig. 1 | — | — |
-//! | [`estimator`] | Kalman filter over (x, y, heading): odometry prediction, delayed camera fixes (WPILib-style replay), χ² gate | 000 | — | [`estimator::PoseEstimator::add_fix`] |
+//! | [`estimate::estimator`] | Kalman filter over (x, y, heading): odometry prediction, delayed camera fixes (WPILib-style replay), χ² gate | 000 | — | [`estimate::estimator::PoseEstimator::add_fix`] |
 //!
 //! ```
 //! use omnikin::sphere::{SphereOmni, SphereParams};
@@ -37,7 +37,8 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! Shared value types are [`Twist2`] and [`Pose2`]; [`se2`] integrates a twist exactly.
+//! Shared value types are [`Twist2`] and [`Pose2`]; [`se2`] integrates a twist exactly;
+//! [`wrap_angle`] folds an angle into `(−π, π]` (the one wrap helper of the workspace).
 //! Frames and signs follow REP-103 (x forward, y left, z up, counter-clockwise positive) and
 //! the project conventions: where a printed paper formula is wrong (errata E1–E4 of the seed
 //! digest) the physically correct one is implemented and the module docs say so.
@@ -55,17 +56,16 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+mod angle;
 mod error;
 mod real;
 mod types;
 
-pub mod ahrs;
 pub mod ballbot;
 pub mod caster;
 pub mod drive;
-pub mod estimator;
+pub mod estimate;
 pub mod link;
-pub mod odometry;
 pub mod runtime;
 pub mod se2;
 pub mod sphere;
@@ -76,6 +76,7 @@ pub mod description;
 /// The linear-algebra crate of the public API (vectors such as [`sphere::SphereOmni::levers`]).
 pub use nalgebra;
 
+pub use angle::wrap_angle;
 pub use error::{GeometryError, InputError};
 pub use real::Real;
 pub use types::{Pose2, Twist2};

@@ -29,14 +29,14 @@ impl<T: Real> Twist2<T> {
     /// Rotates the linear part by `angle` (rad, counter-clockwise); the yaw rate is unchanged.
     #[inline]
     pub fn rotated(self, angle: T) -> Self {
-        self.rotated_sc(angle.sin_cos())
+        self.rotated_by(crate::drive::Rot2::from_angle(angle))
     }
 
-    /// [`Twist2::rotated`] by the angle whose `(sin, cos)` is `sc` (one `sin_cos` shared by
-    /// several frame changes at the same heading; `(−sin ψ, cos ψ)` turns world → robot).
+    /// [`Twist2::rotated`] by the rotation `r = {cos, sin}` (one `sin_cos` shared by several
+    /// frame changes at the same heading; `{cos ψ, −sin ψ}` turns world → robot).
     #[inline]
-    pub fn rotated_sc(self, sc: (T, T)) -> Self {
-        let (s, c) = sc;
+    pub fn rotated_by(self, r: crate::drive::Rot2<T>) -> Self {
+        let (c, s) = (r.cos, r.sin);
         Self::new(
             c * self.vx - s * self.vy,
             s * self.vx + c * self.vy,

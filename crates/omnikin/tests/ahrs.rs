@@ -6,7 +6,7 @@
 use core::f64::consts::{FRAC_PI_2, PI};
 
 use nalgebra::{UnitQuaternion, Vector3};
-use omnikin::ahrs::{AhrsError, Mahony, MahonyGains};
+use omnikin::estimate::ahrs::{AhrsError, Mahony, MahonyGains};
 
 /// Earth field in the world (ENU): 20 µT north (+y), 45 µT down.
 fn field() -> Vector3<f64> {

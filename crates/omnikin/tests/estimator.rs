@@ -7,10 +7,12 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use nalgebra::{Matrix3, Vector3};
-use omnikin::ahrs::{Mahony, MahonyGains};
 use omnikin::caster::{Caster3, CasterParams};
-use omnikin::estimator::{EstimatorError, Fix, FixOutcome, Gate, PoseEstimator, ProcessNoise};
-use omnikin::odometry::{EncoderReading, HeadingInput, Odometry};
+use omnikin::estimate::ahrs::{Mahony, MahonyGains};
+use omnikin::estimate::estimator::{
+    EstimatorError, Fix, FixOutcome, Gate, PoseEstimator, ProcessNoise,
+};
+use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::sphere::{SphereOmni, SphereParams};
 use omnikin::{Pose2, Robot, Twist2, se2};
 

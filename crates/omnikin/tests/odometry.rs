@@ -8,7 +8,7 @@ use core::f64::consts::{FRAC_PI_2, PI, TAU};
 
 use omnikin::ballbot::{Ballbot, BallbotParams};
 use omnikin::caster::{Caster3, CasterParams};
-use omnikin::odometry::{EncoderReading, HeadingInput, Odometry, OdometryError};
+use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry, OdometryError};
 use omnikin::sphere::{SphereOmni, SphereParams};
 use omnikin::{Pose2, Robot, Twist2};
 
@@ -339,7 +339,7 @@ fn gyro_and_absolute_yaw_heading_sources() {
     let mut odo = Odometry::new(Robot::Sphere(m), Pose2::new(0.0, 0.0, 0.0));
     let mut poses = Vec::new();
     for (r, p) in log.iter().zip(&truth) {
-        let yaw = (p.heading + PI).rem_euclid(TAU) - PI;
+        let yaw = omnikin::wrap_angle(p.heading);
         poses.push(odo.update(r, HeadingInput::Absolute(yaw)).unwrap().pose);
     }
     let (pos, head) = worst(&poses, &truth);

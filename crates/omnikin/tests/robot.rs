@@ -2,7 +2,7 @@
 //! preset and for random twists, so a kind added to the enum is tested by adding its preset.
 
 use omnikin::description::{PRESETS, RobotDescription};
-use omnikin::odometry::{EncoderReading, HeadingInput, Odometry};
+use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::{Actuators, EncoderAngles, Kind, Pose2, Robot, Twist2};
 use proptest::prelude::*;
 

@@ -24,8 +24,7 @@ fn close(a: f64, b: f64, tol: f64) -> bool {
 
 /// `a − b` wrapped into (−π, π].
 fn angle_diff(a: f64, b: f64) -> f64 {
-    let d = (a - b).rem_euclid(2.0 * PI);
-    if d > PI { d - 2.0 * PI } else { d }
+    omnikin::wrap_angle(a - b)
 }
 
 fn assert_twist(a: Twist2<f64>, b: Twist2<f64>, tol: f64) {

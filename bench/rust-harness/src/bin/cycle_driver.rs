@@ -17,7 +17,7 @@ use std::hint::black_box;
 
 use omnikin::Robot;
 use omnikin::caster::CasterRates;
-use omnikin::odometry::{EncoderReading, HeadingInput, Odometry};
+use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::runtime::{Faults, Mode};
 use omnikin_bench::{Inputs, K, Loop, robot};
 

@@ -17,7 +17,7 @@ use omnikin::caster::{Caster3, CasterParams, CasterRates};
 use omnikin::drive::omni::{Omni, presets};
 use omnikin::drive::swerve::{Swerve, SwervePositions, SwerveState, swerve4};
 use omnikin::drive::{Odometry as DriveOdometry, Rot2};
-use omnikin::odometry::{EncoderReading, HeadingInput, Odometry};
+use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::{Pose2, Robot};
 use omnikin_bench::{Inputs, K, measure, plan20, robot, waypoints20};
 use omnikin_plan::path::Path;

@@ -6,9 +6,10 @@
 use omnikin::{Pose2, Twist2};
 
 use crate::PlanningError;
-use crate::heading::{HeadingLaw, Side, wrap_pi};
+use crate::heading::{HeadingLaw, Side};
 use crate::path::Path;
 use crate::robot::RobotModel;
+use omnikin::wrap_angle;
 
 /// Configuration and its derivative with respect to the move parameter.
 #[derive(Clone, Copy, Debug)]
@@ -72,7 +73,7 @@ impl Hint {
                 return self.psi + 2.0 * atan;
             }
         }
-        self.psi + wrap_pi(dir[1].atan2(dir[0]) - self.psi)
+        self.psi + wrap_angle(dir[1].atan2(dir[0]) - self.psi)
     }
 }
 

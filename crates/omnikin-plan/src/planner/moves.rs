@@ -3,8 +3,9 @@
 //! direction; each move's grid is built as it is cut ([`build_moves`]).
 
 use crate::PlanningError;
-use crate::heading::{HeadingLaw, Side, wrap_pi};
+use crate::heading::{HeadingLaw, Side};
 use crate::limits::MAX_PLAN_GRID_CELLS;
+use omnikin::wrap_angle;
 
 use super::geometry::{Ctx, Hint, Kind};
 use super::grid::{MIN_CELLS, Move};
@@ -99,7 +100,7 @@ pub(super) fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, Pl
             && s0 > 0.0
         {
             let want = path.at_side(s0, Side::After).direction() + offset;
-            let delta = wrap_pi(want - psi);
+            let delta = wrap_angle(want - psi);
             if delta.abs() > 1e-9 {
                 let p = path.at(s0).point;
                 let kind = Kind::Turn {

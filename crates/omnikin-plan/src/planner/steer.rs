@@ -7,8 +7,8 @@
 use omnikin::Robot;
 
 use crate::PlanningError;
-use crate::heading::wrap_pi;
 use crate::robot::RobotModel;
+use omnikin::wrap_angle;
 
 use super::geometry::{Config, Ctx, Hint, Kind};
 use super::grid::{GRID_MAX, GRID_MIN};
@@ -65,7 +65,7 @@ pub(super) fn aligned_steer(robot: &RobotModel, c: &Config) -> [f64; 3] {
         let chi = vf[1].atan2(vf[0]);
         let rho = (c.dq[2] * p.eccentricity / speed).clamp(-1.0, 1.0);
         let beta = chi + std::f64::consts::PI - rho.asin();
-        wrap_pi(beta - p.mount_angles[i] - th)
+        wrap_angle(beta - p.mount_angles[i] - th)
     })
 }
 

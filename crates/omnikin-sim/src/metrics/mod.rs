@@ -185,10 +185,10 @@ pub enum MetricsError {
     },
 }
 
-/// `a − b` folded into (−π, π]: headings that differ by whole turns are equal.
+/// `a − b` (rad) folded into `(−π, π]` by [`omnikin::wrap_angle`]: headings that differ by
+/// whole turns are equal, and a half-turn difference is `+π` whichever way round.
 pub fn angle_diff(a: f64, b: f64) -> f64 {
-    let d = a - b;
-    d - core::f64::consts::TAU * (d / core::f64::consts::TAU).round()
+    omnikin::wrap_angle(a - b)
 }
 
 /// The plan as seen by a tracker that follows a point at the horizontal `offset` (robot frame,

@@ -62,7 +62,7 @@
 //! `UnitComplex` and WPILib's `Rotation2d`: the inverse kinematics produces it from a velocity
 //! with one square root and no `atan2`, the forward kinematics consumes it with no
 //! trigonometry; [`Rot2::angle`] gives radians at the edge (CLI, CSV). Wrapping an angle into
-//! `(−π, π]` uses the one helper of the crate (the odometry's `wrap_angle`).
+//! `(−π, π]` uses the one helper of the crate, [`crate::wrap_angle`].
 //!
 //! ## Limits and desaturation
 //!
@@ -180,7 +180,7 @@ pub use robot::{
 
 use core::fmt::Debug;
 
-use crate::odometry::wrap_angle;
+use crate::wrap_angle;
 use crate::{InputError, Pose2, Real, Twist2, se2};
 
 /// Indexed field names `prefix[0]`..`prefix[15]`, then `prefix[16+]` for any later index: the

@@ -44,8 +44,8 @@ use crate::caster::{Caster3, CasterRates};
 use crate::drive::omni::Omni;
 use crate::drive::swerve::{Swerve, SwervePositions, SwerveState};
 use crate::drive::{Desaturated, Rot2, Wrench2, desaturation_scale};
-use crate::odometry::wrap_angle;
 use crate::sphere::SphereOmni;
+use crate::wrap_angle;
 use crate::{InputError, Pose2, Real, Twist2, se2};
 
 /// Largest number of wheels (modules) of any kind, the capacity of [`Actuators`] and
@@ -101,7 +101,7 @@ impl Kind {
 
     /// `true` when the body rolls on a ball or shell that can spin about the vertical
     /// independently of the wheels' odometry (sphere, ballbot): a measured heading then
-    /// reveals that spin ([`crate::odometry::OdometryStep::shell_spin`]).
+    /// reveals that spin ([`crate::estimate::odometry::OdometryStep::shell_spin`]).
     pub const fn has_vertical_spin(self) -> bool {
         matches!(self, Kind::Sphere | Kind::Ballbot)
     }

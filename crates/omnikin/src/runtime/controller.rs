@@ -2,8 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::odometry::{EncoderReading, HeadingInput, Odometry};
-use crate::{Pose2, Real, Robot, Twist2};
+use crate::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
+use crate::{Pose2, Real, Robot, Twist2, wrap_angle as wrap};
 
 use super::hal::{EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOutputs};
 use super::limits::{RateLimits, Slew, SlewLimits, desaturate, motor_rates, saturation_scale};
@@ -573,17 +573,6 @@ pub struct Runtime<T, const N: usize> {
     rejected: u32,
 }
 
-fn wrap<T: Real>(x: T) -> T {
-    let two_pi = T::two_pi();
-    let mut y = x - two_pi * (x / two_pi).round();
-    if y <= -T::pi() {
-        y += two_pi;
-    } else if y > T::pi() {
-        y -= two_pi;
-    }
-    y
-}
-
 fn zero_twist<T: Real>() -> Twist2<T> {
     Twist2::new(T::zero(), T::zero(), T::zero())
 }
@@ -1025,11 +1014,11 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         }
 
         // Target (world frame). One `sin_cos` of the heading serves every frame change below.
-        let sc = pose.heading.sin_cos();
+        let rot = crate::drive::Rot2::from_angle(pose.heading);
         let target = match self.mode {
             Mode::Idle | Mode::Stopping | Mode::EStop => zero_twist(),
             Mode::Velocity => match self.velocity.1 {
-                Frame::Robot => self.velocity.0.rotated_sc(sc),
+                Frame::Robot => self.velocity.0.rotated_by(rot),
                 Frame::World => self.velocity.0,
             },
             Mode::Trajectory => {
@@ -1067,7 +1056,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 faults.insert(Faults::ESTOP);
             }
         } else {
-            match self.shape(target, pose.heading, sc, dt, &mut faults) {
+            match self.shape(target, pose.heading, rot, dt, &mut faults) {
                 Ok((c, tw)) => {
                     command = c;
                     twist_cmd = tw;
@@ -1110,19 +1099,24 @@ impl<T: Real, const N: usize> Runtime<T, N> {
     }
 
     /// Desaturation → slew → inverse kinematics → wheel-acceleration limit → final rate clamp.
-    /// `sc` is `(sin, cos)` of `heading`: every frame change here shares it.
+    /// `rot` is `{cos, sin}` of `heading`: every frame change here shares it.
     fn shape(
         &mut self,
         target_world: Twist2<T>,
         heading: T,
-        sc: (T, T),
+        rot: crate::drive::Rot2<T>,
         dt: T,
         faults: &mut Faults,
     ) -> Result<(MotorCommand<T>, Twist2<T>), ()> {
         let cfg = &self.config;
         let steer = self.steer;
-        let to_world = |v: Twist2<T>| v.rotated_sc(sc);
-        let to_robot = |v: Twist2<T>| v.rotated_sc((-sc.0, sc.1));
+        let to_world = |v: Twist2<T>| v.rotated_by(rot);
+        let to_robot = |v: Twist2<T>| {
+            v.rotated_by(crate::drive::Rot2 {
+                cos: rot.cos,
+                sin: -rot.sin,
+            })
+        };
         let d = desaturate(
             &self.robot,
             to_robot(target_world),

@@ -10,7 +10,7 @@
 //! * [`Clock`]: a free-running microsecond counter (SysTick or a 32-bit timer extended to
 //!   64 bits in its overflow interrupt);
 //! * [`Encoders`]: quadrature timers read as counts and converted with
-//!   [`crate::odometry::counts_to_radians`] (or step counters of the stepper drivers for
+//!   [`crate::estimate::odometry::counts_to_radians`] (or step counters of the stepper drivers for
 //!   open-loop steppers);
 //! * [`Imu`]: an SPI/I²C gyro and accelerometer, converted to rad/s and m/s²;
 //! * [`MotorOutputs`]: PWM/velocity set-points of the motor drivers, **or** [`StepOutputs`] for

@@ -3,7 +3,7 @@
 //! Paper 000's control system (Fig. 1) and paper 001's control iteration, as one `no_std`
 //! loop: an operator's commands arrive over a link ([`crate::link`]), and every cycle the
 //! runtime reads the encoders (and the IMU), updates the wheel odometry
-//! ([`crate::odometry::Odometry`]), takes the newest valid command, shapes it within the
+//! ([`crate::estimate::odometry::Odometry`]), takes the newest valid command, shapes it within the
 //! robot's limits, runs the inverse kinematics and writes the motor set-points.
 //!
 //! * [`hal`]: the hardware traits ([`hal::Clock`], [`hal::Encoders`], [`hal::Imu`],

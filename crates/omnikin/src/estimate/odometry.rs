@@ -29,7 +29,7 @@
 
 use core::num::NonZeroU32;
 
-use crate::{EncoderAngles, InputError, MAX_WHEELS, Pose2, Real, Robot, Twist2};
+use crate::{EncoderAngles, InputError, MAX_WHEELS, Pose2, Real, Robot, Twist2, wrap_angle};
 
 /// Why an odometry (or estimator) update was rejected. The state is left unchanged.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
@@ -143,7 +143,7 @@ pub struct OdometryStep<T> {
     /// World pose after the step (m, m, rad unwrapped).
     pub pose: Pose2<T>,
     /// The step's pose change in the robot frame at its start (`pose = pose_before ⊕ delta`),
-    /// the input a [`crate::estimator::PoseEstimator`] predicts with.
+    /// the input a [`crate::estimate::estimator::PoseEstimator`] predicts with.
     pub delta: Pose2<T>,
     /// Mean robot-frame twist over the step (m/s, m/s, rad/s): `delta = exp(twist·dt)`.
     pub twist: Twist2<T>,
@@ -173,31 +173,6 @@ pub struct Odometry<T> {
     last_gyro: Option<T>,
     last_yaw: Option<T>,
     assumed_spin: T,
-}
-
-/// `x` wrapped into `(−π, π]`.
-#[inline(always)]
-pub(crate) fn wrap_angle<T: Real>(x: T) -> T {
-    // Already in range (every per-step increment): the general path would return `x`
-    // unchanged, so skip its `round` (a libm call in no_std builds).
-    if x > -T::pi() && x <= T::pi() {
-        return x;
-    }
-    wrap_angle_out_of_range(x)
-}
-
-/// [`wrap_angle`] for `x` outside `(−π, π]` (or NaN).
-#[cold]
-#[inline(never)]
-fn wrap_angle_out_of_range<T: Real>(x: T) -> T {
-    let two_pi = T::two_pi();
-    let mut y = x - two_pi * (x / two_pi).round();
-    if y <= -T::pi() {
-        y += two_pi;
-    } else if y > T::pi() {
-        y -= two_pi;
-    }
-    y
 }
 
 /// `Ok(x)` if finite, else [`OdometryError::NonFinite`] naming `field`.
@@ -440,25 +415,6 @@ impl<T: Real> Odometry<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn wrap_angle_range() {
-        let pi = core::f64::consts::PI;
-        for &(x, y) in &[
-            (0.0, 0.0),
-            (pi, pi),
-            (-pi, pi),
-            (3.0 * pi, pi),
-            (0.5 + 4.0 * pi, 0.5),
-            (-0.5 - 6.0 * pi, -0.5),
-        ] {
-            assert!(
-                (wrap_angle(x) - y).abs() < 1e-12,
-                "{x} -> {}",
-                wrap_angle(x)
-            );
-        }
-    }
 
     #[test]
     fn counts() {

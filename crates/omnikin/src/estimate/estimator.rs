@@ -17,7 +17,7 @@
 
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 
-use crate::odometry::wrap_angle;
+use crate::wrap_angle;
 use crate::{Pose2, Real, Twist2, se2};
 
 /// Why the estimator rejected an input. The state is left unchanged.
@@ -278,7 +278,7 @@ struct Entry<T> {
 /// steps) and a χ² outlier gate. `N ≥ 2`; `N` entries of about 20 scalars each.
 ///
 /// * [`PoseEstimator::predict`]: one odometry step (its robot-frame increment
-///   [`crate::odometry::OdometryStep::delta`]), `x⁺ = x ⊕ Δ`, `P⁺ = F P Fᵀ + G Q Gᵀ` with
+///   [`crate::estimate::odometry::OdometryStep::delta`]), `x⁺ = x ⊕ Δ`, `P⁺ = F P Fᵀ + G Q Gᵀ` with
 ///   `F = ∂(x ⊕ Δ)/∂x` and `G` the rotation of the robot frame (EKF on the SE(2) composition).
 /// * [`PoseEstimator::add_fix`]: a measurement of `(x, y)` or `(x, y, heading)` taken at
 ///   `fix.t` in the past; linear update with Joseph-form covariance, heading innovation wrapped
@@ -505,7 +505,7 @@ impl<T: Real, const N: usize> PoseEstimator<T, N> {
 
     /// **Prediction** with one odometry step ending at `t` (s) whose pose change in the robot
     /// frame at its start is `delta` (m, m, rad): typically
-    /// [`crate::odometry::OdometryStep::delta`]. Returns the new estimate. When the buffer is
+    /// [`crate::estimate::odometry::OdometryStep::delta`]. Returns the new estimate. When the buffer is
     /// full the oldest step is forgotten (fixes older than it become
     /// [`EstimatorError::FixTooOld`]).
     ///

@@ -1,0 +1,270 @@
+//! Inverse and forward kinematics of a [`Caster3`]: motor rates from a twist
+//! (paper 003, eqs. (2), (4), (5)) and the least-squares twist, with its slip residuals,
+//! from six motor rates.
+
+use super::{
+    Caster3, CasterForward, CasterRates, ROLL_RATES, STEER, STEER_RATES, WheelTrig, cs, zero_rates,
+};
+use crate::drive::Rot2;
+use crate::real::{finite, finite3};
+use crate::{InputError, Real, Twist2};
+
+impl<T: Real> Caster3<T> {
+    /// Inverse kinematics (paper 003, eqs. (2), (4), (5)): the roll and steer rates (rad/s) that
+    /// move the base with the **world-frame** twist `twist_world` (m/s, m/s, rad/s) at heading
+    /// `θ = heading` (rad) with steer angles `steer = γ` (rad), without slip:
+    /// `φ̇_i = (−cos β_i ẋ − sin β_i ẏ − D sin γ_i θ̇)/r`,
+    /// `γ̇_i = (sin β_i ẋ − cos β_i ẏ − (D cos γ_i + d) θ̇)/d`.
+    ///
+    /// Always solvable (every twist is reachable from every steer state). No limits applied.
+    ///
+    /// # Errors
+    /// [`InputError::NonFinite`] naming `"vx"`, `"vy"`, `"yaw_rate"`, `"heading"` or
+    /// `"steer[i]"`; [`InputError::Overflow`] when finite inputs give non-finite rates.
+    pub fn motor_rates(
+        &self,
+        twist_world: Twist2<T>,
+        heading: T,
+        steer: [T; 3],
+    ) -> Result<CasterRates<T>, InputError> {
+        self.motor_rates_at(twist_world, heading, Rot2::from_angle(heading), steer)
+    }
+
+    /// [`Caster3::motor_rates`] with the heading's rotation `rot = {cos θ, sin θ}` already known
+    /// (the runtime shares one `sin_cos` per cycle between its frame changes and this call);
+    /// `heading` itself only names the field in an error.
+    #[inline]
+    pub(crate) fn motor_rates_at(
+        &self,
+        twist_world: Twist2<T>,
+        heading: T,
+        rot: Rot2<T>,
+        steer: [T; 3],
+    ) -> Result<CasterRates<T>, InputError> {
+        let q = twist_world.to_array();
+        let trig = self.wheel_trig(rot, steer);
+        let mut out = zero_rates();
+        let wheel = |w: &WheelTrig<T>| {
+            // Rows i of J1 and J2 (see `j1_row`, `j2_row`).
+            let a = [
+                -w.cb * self.inv_r,
+                -w.sb * self.inv_r,
+                -self.big_d_over_r * w.sg,
+            ];
+            let b = [
+                w.sb * self.inv_d,
+                -w.cb * self.inv_d,
+                -self.big_d_over_d * w.cg - T::one(),
+            ];
+            (
+                a[0] * q[0] + a[1] * q[1] + a[2] * q[2],
+                b[0] * q[0] + b[1] * q[1] + b[2] * q[2],
+            )
+        };
+        (out.roll[0], out.steer[0]) = wheel(&trig[0]);
+        (out.roll[1], out.steer[1]) = wheel(&trig[1]);
+        (out.roll[2], out.steer[2]) = wheel(&trig[2]);
+        // A non-finite input makes every rate of its rows non-finite (`sin_cos` of a non-finite
+        // angle is NaN, and each rate has every twist component times a finite coefficient), so
+        // one test of the six rates covers the usual call; only a failure pays for naming the
+        // field, with the same precedence as checking the inputs first.
+        let sum =
+            out.roll[0] + out.roll[1] + out.roll[2] + out.steer[0] + out.steer[1] + out.steer[2];
+        if !sum.is_finite() {
+            twist_world.check_finite()?;
+            finite(heading, "heading")?;
+            finite3(steer, STEER)?;
+            crate::real::finite_out(out.roll, "roll rates")?;
+            crate::real::finite_out(out.steer, "steer rates")?;
+        }
+        Ok(out)
+    }
+
+    /// Forward kinematics: the **world-frame** twist `(ẋ, ẏ, θ̇)` (m/s, m/s, rad/s) that best
+    /// explains all six measured motor rates (rad/s) at heading `θ` and steer angles `γ` (rad).
+    ///
+    /// The six equations of paper 003, eq. (2) are weighted to physical units — each `J1` row
+    /// by `r`, each `J2` row by `d`:
+    /// `r φ̇_i = (−cos β_i, −sin β_i, −D sin γ_i)·q̇`,
+    /// `d γ̇_i = (sin β_i, −cos β_i, −(D cos γ_i + d))·q̇` — and solved by least squares through
+    /// the 3×3 normal equations. Per wheel these two weighted rows are an orthogonal transform of
+    /// `v_C + θ̇ k × (O_i − C)`, so the normal equations reduce to a rigid-velocity fit, solved
+    /// here in closed form (Schur complement): with `p_i = O_i − C`, the implied point velocities
+    /// `m_i = (−r φ̇_i cos β_i + d γ̇_i sin β_i, −r φ̇_i sin β_i − d γ̇_i cos β_i)` (the first two
+    /// columns of `M_i`, paper 003, eq. (1)), and bars for means over the wheels:
+    /// `θ̇ = Σ (p_i − p̄) × (m_i − m̄) / Σ |p_i − p̄|²`, `v_C = m̄ − θ̇ k × p̄`.
+    ///
+    /// The residuals are velocities in m/s (see [`CasterForward`]).
+    ///
+    /// # Errors
+    /// * [`InputError::NonFinite`] naming `"roll_rates[i]"`, `"steer_rates[i]"`, `"heading"` or
+    ///   `"steer[i]"`;
+    /// * [`InputError::Singular`] when the three wheel centres `O_i` (nearly) coincide, so the
+    ///   yaw rate is unobservable: `Σ |p_i − p̄|² ≤ 1000 ε (D + d)²`. This is possible only when
+    ///   `d = D` and every `γ_i = π`.
+    pub fn body_twist(
+        &self,
+        rates: &CasterRates<T>,
+        heading: T,
+        steer: [T; 3],
+    ) -> Result<CasterForward<T>, InputError> {
+        // The fit is done in the robot frame on the precomputed steering-axis geometry and the
+        // twist turned into the world frame after (the residuals' magnitudes do not depend on
+        // the frame). A non-finite input always ends in a non-finite twist, which the fit
+        // reports as an error, so the inputs are tested — in the documented order, before any
+        // error of the fit — only when the fit fails or the heading is not finite.
+        let fit = self.body_twist_robot_unchecked(rates, steer);
+        if fit.is_err() || !heading.is_finite() {
+            finite3(rates.roll, ROLL_RATES)?;
+            finite3(rates.steer, STEER_RATES)?;
+            finite(heading, "heading")?;
+            finite3(steer, STEER)?;
+        }
+        let f = fit?;
+        let twist = f.twist.to_world(heading);
+        if !twist.is_finite() {
+            return Err(InputError::Singular {
+                reason: "the least-squares twist overflows: motor rates too large for the scalar type",
+            });
+        }
+        Ok(CasterForward { twist, ..f })
+    }
+
+    /// Forward kinematics in the **robot** frame: the twist `(v_x, v_y, θ̇)` of the body centre
+    /// (m/s, m/s, rad/s, robot axes) that best explains all six motor rates (rad/s) at steer
+    /// angles `γ` (rad) — [`Caster3::body_twist`] without the turn into the world frame, so it
+    /// needs no heading (paper 003, eqs. (1), (2); the same least-squares fit, on the
+    /// steering-axis geometry precomputed at construction: one `sin_cos` per steer angle).
+    /// The counterpart of WPILib's `SwerveDriveKinematics::ToChassisSpeeds`, whose chassis
+    /// speeds are robot-relative too.
+    ///
+    /// # Errors
+    /// * [`InputError::NonFinite`] naming `"roll_rates[i]"`, `"steer_rates[i]"` or
+    ///   `"steer[i]"`, in that order of precedence;
+    /// * [`InputError::Singular`] as for [`Caster3::body_twist`].
+    pub fn robot_twist(
+        &self,
+        rates: &CasterRates<T>,
+        steer: [T; 3],
+    ) -> Result<CasterForward<T>, InputError> {
+        // A non-finite input always ends in a non-finite twist, which the fit reports as an
+        // error: the inputs are tested (in the documented order) only then.
+        let fit = self.body_twist_robot_unchecked(rates, steer);
+        if fit.is_err() {
+            finite3(rates.roll, ROLL_RATES)?;
+            finite3(rates.steer, STEER_RATES)?;
+            finite3(steer, STEER)?;
+        }
+        fit
+    }
+
+    /// [`Caster3::body_twist`] at heading `θ = 0`, i.e. the least-squares twist in the **robot**
+    /// frame (m/s, m/s, rad/s, or m, m, rad for angle increments), for callers that have
+    /// already checked their inputs (the odometry step, which feeds encoder increments as
+    /// rates): `rates` in rad/s (or rad), `steer` = `γ_i` in rad, all finite (not checked here;
+    /// non-finite input gives non-finite output or an error). The steering-axis geometry is
+    /// precomputed, so the only trigonometry is one `sin_cos` per steer angle; the fit is the
+    /// same as `body_twist`'s (paper 003, eqs. (1), (2)), equal to it to rounding.
+    ///
+    /// # Errors
+    /// [`InputError::Singular`] as for [`Caster3::body_twist`].
+    #[inline]
+    pub(crate) fn body_twist_robot_unchecked(
+        &self,
+        rates: &CasterRates<T>,
+        steer: [T; 3],
+    ) -> Result<CasterForward<T>, InputError> {
+        let dir = core::array::from_fn(|i| {
+            let (cm, sm) = self.mount_cs[i];
+            let (cg, sg) = cs(steer[i]);
+            [cm * cg - sm * sg, sm * cg + cm * sg]
+        });
+        self.fit(self.mount_centred, self.mount_mean, dir, rates)
+    }
+
+    /// The least-squares rigid-velocity fit of [`Caster3::body_twist`] (see there), in the
+    /// frame the twist is wanted in, given the steering axes relative to their centroid,
+    /// `centred[i] = F_i − F̄` (m), the centroid `mean = F̄ − C` (m) and each wheel's direction
+    /// `dir[i] = (cos β_i, sin β_i)`.
+    ///
+    /// With `b̄` the mean direction, the wheel centres relative to their centroid are
+    /// `q_i = O_i − Ō = (F_i − F̄) + d (b_i − b̄)` and `Ō − C = F̄ + d b̄`; with `n_i = m_i − m̄`
+    /// the implied velocities relative to their mean, `θ̇ = Σ q_i × n_i / Σ |q_i|²`,
+    /// `v_C = m̄ − θ̇ k × (Ō − C)`, and the residual of wheel `i` is `n_i − θ̇ k × q_i`.
+    #[inline(always)]
+    fn fit(
+        &self,
+        centred: [[T; 2]; 3],
+        mean: [T; 2],
+        dir: [[T; 2]; 3],
+        rates: &CasterRates<T>,
+    ) -> Result<CasterForward<T>, InputError> {
+        let p = &self.params;
+        let (d, r) = (p.eccentricity, p.wheel_radius);
+        let third = T::of(1.0 / 3.0);
+        let bbar = [
+            (dir[0][0] + dir[1][0] + dir[2][0]) * third,
+            (dir[0][1] + dir[1][1] + dir[2][1]) * third,
+        ];
+        let mut q = [[T::zero(); 2]; 3];
+        let mut m = [[T::zero(); 2]; 3];
+        for i in 0..3 {
+            let [cb, sb] = dir[i];
+            q[i] = [
+                centred[i][0] + d * (cb - bbar[0]),
+                centred[i][1] + d * (sb - bbar[1]),
+            ];
+            // The velocity of the point above O_i implied by wheel i's motors (the first two
+            // columns of M_i, paper 003, eq. (1)).
+            let (u, w) = (r * rates.roll[i], d * rates.steer[i]);
+            m[i] = [w * sb - u * cb, -(u * sb + w * cb)];
+        }
+        let mbar = [
+            (m[0][0] + m[1][0] + m[2][0]) * third,
+            (m[0][1] + m[1][1] + m[2][1]) * third,
+        ];
+        // Σ q_i = 0, so Σ q_i × n_i = Σ q_i × m_i: the moment does not wait for the mean m̄.
+        let (mut spread, mut moment) = (T::zero(), T::zero());
+        for i in 0..3 {
+            spread += q[i][0] * q[i][0] + q[i][1] * q[i][1];
+            moment += q[i][0] * m[i][1] - q[i][1] * m[i][0];
+        }
+        let n = m.map(|mi| [mi[0] - mbar[0], mi[1] - mbar[1]]);
+        if spread <= T::of(1.0e3) * T::EPSILON * self.scale * self.scale {
+            return Err(InputError::Singular {
+                reason: "the three wheel centres O_i coincide (d = D with every steer angle \
+                         γ_i = π): the yaw rate cannot be recovered from the motor rates",
+            });
+        }
+        let omega = moment / spread;
+        // v_C = m̄ − θ̇ k × (Ō − C), with k × (x, y) = (−y, x).
+        let pbar = [mean[0] + d * bbar[0], mean[1] + d * bbar[1]];
+        let vx = mbar[0] + omega * pbar[1];
+        let vy = mbar[1] - omega * pbar[0];
+        let twist = Twist2::new(vx, vy, omega);
+        if !twist.is_finite() {
+            return Err(InputError::Singular {
+                reason: "the least-squares twist overflows: motor rates too large for the scalar type",
+            });
+        }
+        let mut wheel_slip = [T::zero(); 3];
+        let mut total = T::zero();
+        for i in 0..3 {
+            let ex = n[i][0] + omega * q[i][1];
+            let ey = n[i][1] - omega * q[i][0];
+            let e2 = ex * ex + ey * ey;
+            wheel_slip[i] = e2.sqrt();
+            total += e2;
+        }
+        if !total.is_finite() {
+            return Err(InputError::Singular {
+                reason: "the slip residual overflows: motor rates too large for the scalar type",
+            });
+        }
+        Ok(CasterForward {
+            twist,
+            slip_residual: total.sqrt(),
+            wheel_slip,
+        })
+    }
+}

@@ -1,0 +1,16 @@
+//! # State estimation: where the robot is and how it is oriented
+//!
+//! Everything that turns sensor readings into a state estimate, no allocation, no panic:
+//!
+//! | module | in | out |
+//! |---|---|---|
+//! | [`odometry`] | cumulative encoder angles (+ gyro or yaw) | world pose by exact SE(2) steps; caster slip residual, sphere shell spin |
+//! | [`ahrs`] | gyro + accelerometer + magnetometer | attitude and gyro bias (Mahony's complementary filter) |
+//! | [`estimator`] | odometry steps + delayed external position fixes | filtered pose and covariance (EKF with replay and a χ² gate) |
+//!
+//! The runtime ([`crate::runtime`]) runs odometry every cycle; the AHRS and the pose filter
+//! are for hosts and firmware that have those sensors.
+
+pub mod ahrs;
+pub mod estimator;
+pub mod odometry;

@@ -1,0 +1,315 @@
+//! The messages of the link: what an operator and a robot say to each other in a session
+//! ([`Message`]), the handshake bodies ([`Hello`], [`HelloAck`]) and the wire types they carry
+//! ([`Telemetry`], [`WirePoint`], [`RobotInfo`]). Field and variant order is part of the
+//! protocol (postcard writes them in order).
+
+use serde::{Deserialize, Serialize};
+
+use super::{CHUNK_POINTS, LinkCounters, NONCE_LEN};
+use crate::runtime::{Command, Faults, Frame, Mode, PlanPoint, PlanStatus, Status};
+use crate::{Pose2, Real, Twist2};
+
+/// One plan point on the wire (world frame, SI, `f32`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WirePoint {
+    /// Plan time, s.
+    pub t: f32,
+    /// Pose `[x, y, heading]`, m, m, rad.
+    pub pose: [f32; 3],
+    /// World twist `[vx, vy, yaw_rate]`, m/s, m/s, rad/s.
+    pub twist: [f32; 3],
+}
+
+impl WirePoint {
+    /// From a runtime point.
+    pub fn from_point<T: Real>(p: &PlanPoint<T>) -> Self {
+        let f = |x: T| x.to_f64() as f32;
+        Self {
+            t: f(p.t),
+            pose: [f(p.pose.x), f(p.pose.y), f(p.pose.heading)],
+            twist: [f(p.twist.vx), f(p.twist.vy), f(p.twist.yaw_rate)],
+        }
+    }
+    /// To a runtime point (no validation: [`Runtime::handle`](crate::runtime::Runtime::handle) validates).
+    pub fn to_point<T: Real>(&self) -> PlanPoint<T> {
+        let c = |x: f32| T::of(x as f64);
+        PlanPoint {
+            t: c(self.t),
+            pose: Pose2::new(c(self.pose[0]), c(self.pose[1]), c(self.pose[2])),
+            twist: Twist2::new(c(self.twist[0]), c(self.twist[1]), c(self.twist[2])),
+        }
+    }
+}
+
+/// Which robot model a runtime drives (in [`RobotInfo`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum RobotKind {
+    /// `sphere-omni`.
+    Sphere,
+    /// `ballbot`.
+    Ballbot,
+    /// `caster3`.
+    Caster,
+    /// `omni` (N omni/mecanum wheels).
+    Omni,
+    /// `swerve` (N centred steerable modules).
+    Swerve,
+}
+
+impl RobotKind {
+    /// The wire name of a robot kind.
+    pub fn of(kind: crate::Kind) -> Self {
+        match kind {
+            crate::Kind::Sphere => RobotKind::Sphere,
+            crate::Kind::Ballbot => RobotKind::Ballbot,
+            crate::Kind::Caster => RobotKind::Caster,
+            crate::Kind::Omni => RobotKind::Omni,
+            crate::Kind::Swerve => RobotKind::Swerve,
+        }
+    }
+
+    /// The robot kind of a wire name.
+    pub fn kind(self) -> crate::Kind {
+        match self {
+            RobotKind::Sphere => crate::Kind::Sphere,
+            RobotKind::Ballbot => crate::Kind::Ballbot,
+            RobotKind::Caster => crate::Kind::Caster,
+            RobotKind::Omni => crate::Kind::Omni,
+            RobotKind::Swerve => crate::Kind::Swerve,
+        }
+    }
+}
+
+/// Who the robot is, in its answer to a Hello ([`HelloAck`]; the same fields as in v1).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RobotInfo {
+    /// The robot's protocol version.
+    pub protocol: u8,
+    /// Robot model.
+    pub kind: RobotKind,
+    /// Plan buffer capacity, points.
+    pub plan_capacity: u16,
+    /// Control rate, Hz.
+    pub rate_hz: f32,
+    /// Watchdog time, s.
+    pub watchdog: f32,
+    /// Whether commands must carry a tag.
+    pub authenticated: bool,
+}
+
+/// Robot state at one cycle, as sent to the operator (all `f32`, SI units).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Telemetry {
+    /// Robot clock, µs.
+    pub time_us: u64,
+    /// Mode.
+    pub mode: Mode,
+    /// Faults active in this cycle.
+    pub faults: Faults,
+    /// Faults since the last clear.
+    pub fault_history: Faults,
+    /// Estimated pose `[x, y, heading]` (world; m, m, rad).
+    pub pose: [f32; 3],
+    /// Measured robot-frame twist `[vx, vy, yaw_rate]` from the encoders.
+    pub twist: [f32; 3],
+    /// Commanded robot-frame twist after limits.
+    pub command: [f32; 3],
+    /// Commanded wheel rates, rad/s.
+    pub wheel_rates: [f32; 3],
+    /// Commanded caster steer rates, rad/s (zeros otherwise).
+    pub steer_rates: [f32; 3],
+    /// Encoder wheel angles, rad.
+    pub wheel_angles: [f32; 3],
+    /// Caster steer angles, rad (zeros otherwise).
+    pub steer_angles: [f32; 3],
+    /// Gyro, rad/s, robot frame (zeros without an IMU).
+    pub gyro: [f32; 3],
+    /// Accelerometer, m/s², robot frame (zeros without an IMU).
+    pub accel: [f32; 3],
+    /// Plan buffer.
+    pub plan: PlanStatus,
+    /// Plan time, s.
+    pub plan_time: f32,
+    /// Plan reference pose at `plan_time` `[x, y, heading]`.
+    pub reference: [f32; 3],
+    /// Caster slip residual, m/s.
+    pub slip_residual: f32,
+    /// Commands rejected by the runtime.
+    pub rejected: u32,
+    /// Robot clock of the last valid command, µs (0: none).
+    pub last_command_us: u64,
+    /// The robot's receive statistics.
+    pub link: LinkCounters,
+    /// Sequence number of the newest command frame accepted in this session (0: none yet).
+    pub ack_seq: u64,
+    /// Sequence number of the newest `EStop` accepted in this session while the e-stop is
+    /// latched (0: not latched by this session). An operator takes this, in a frame of its own
+    /// session, as the confirmation of *its* e-stop.
+    pub estop_seq: u64,
+}
+
+impl Telemetry {
+    /// Telemetry from a runtime status and the link counters (`ack_seq`, `estop_seq` zero:
+    /// [`RobotLink::telemetry`](super::RobotLink::telemetry) fills them in).
+    pub fn new<T: Real>(s: &Status<T>, link: &LinkCounters) -> Self {
+        let f = |x: T| x.to_f64() as f32;
+        let p = |p: Pose2<T>| [f(p.x), f(p.y), f(p.heading)];
+        let w = |t: Twist2<T>| [f(t.vx), f(t.vy), f(t.yaw_rate)];
+        let a = |x: [T; 3]| x.map(f);
+        let imu = s.imu;
+        Self {
+            time_us: s.time_us,
+            mode: s.mode,
+            faults: s.faults,
+            fault_history: s.fault_history,
+            pose: p(s.pose),
+            twist: w(s.twist),
+            command: w(s.command),
+            wheel_rates: a(s.motors.wheel),
+            steer_rates: a(s.motors.steer),
+            wheel_angles: a(s.encoders.wheel),
+            steer_angles: a(s.encoders.steer),
+            gyro: imu.map_or([0.0; 3], |i| a(i.gyro)),
+            accel: imu.map_or([0.0; 3], |i| a(i.accel)),
+            plan: s.plan,
+            plan_time: f(s.plan_time),
+            reference: p(s.reference),
+            slip_residual: f(s.slip_residual),
+            rejected: s.rejected,
+            last_command_us: s.last_command_us,
+            link: *link,
+            ack_seq: 0,
+            estop_seq: 0,
+        }
+    }
+}
+
+/// Why a session ended ([`Message::SessionEnd`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum EndReason {
+    /// Another operator completed a handshake and took over.
+    TakenOver,
+}
+
+/// Every message of a session (the body of a [`Kind::Session`](super::Kind::Session) frame). Operator → robot:
+/// `Heartbeat` … `SetPose`; robot → operator: `Telemetry`, `SessionEnd`. Variant order is part
+/// of the wire format.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Message {
+    /// Keep-alive: feeds the watchdog (and confirms a new session).
+    Heartbeat,
+    /// Drive at this twist (m/s, m/s, rad/s) in `frame`.
+    SetVelocity {
+        /// Frame of `vx`, `vy`.
+        frame: Frame,
+        /// m/s.
+        vx: f32,
+        /// m/s.
+        vy: f32,
+        /// rad/s.
+        yaw_rate: f32,
+    },
+    /// Begin uploading plan `id` of `len` points.
+    PlanBegin {
+        /// Plan id.
+        id: u16,
+        /// Points to follow.
+        len: u16,
+    },
+    /// Points `offset..` of plan `id` (at most [`CHUNK_POINTS`]).
+    PlanChunk {
+        /// Plan id.
+        id: u16,
+        /// First point's index.
+        offset: u16,
+        /// The points.
+        points: heapless::Vec<WirePoint, CHUNK_POINTS>,
+    },
+    /// Start following plan `id`.
+    PlanStart {
+        /// Plan id.
+        id: u16,
+    },
+    /// Controlled stop.
+    Stop,
+    /// Emergency stop (latched).
+    EStop,
+    /// Clear the e-stop latch and the fault history.
+    Clear,
+    /// Reset the pose estimate (world; m, m, rad).
+    SetPose {
+        /// m.
+        x: f32,
+        /// m.
+        y: f32,
+        /// rad.
+        heading: f32,
+    },
+    /// Robot state.
+    Telemetry(Telemetry),
+    /// The robot ended this session (its last frame in it).
+    SessionEnd(EndReason),
+}
+
+/// The body of a [`Kind::Hello`](super::Kind::Hello) frame (then zero padding up to [`HANDSHAKE_BODY`](super::HANDSHAKE_BODY) bytes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Hello {
+    /// The operator's protocol version.
+    pub protocol: u8,
+    /// Fresh random bytes of the operator, echoed by the robot.
+    pub client_nonce: [u8; NONCE_LEN],
+}
+
+/// The body of a [`Kind::HelloAck`](super::Kind::HelloAck) frame.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HelloAck {
+    /// Who the robot is.
+    pub info: RobotInfo,
+    /// The Hello's nonce (binds the answer to that Hello).
+    pub client_nonce: [u8; NONCE_LEN],
+    /// Fresh random bytes of the robot (make the session new even for a replayed Hello).
+    pub robot_nonce: [u8; NONCE_LEN],
+}
+
+impl Message {
+    /// The runtime command of an operator message (`None` for `Telemetry` and `SessionEnd`).
+    /// Chunk points are converted into `buf`.
+    pub fn command<'b, T: Real>(
+        &self,
+        buf: &'b mut [PlanPoint<T>; CHUNK_POINTS],
+    ) -> Option<Command<'b, T>> {
+        let c = |x: f32| T::of(x as f64);
+        Some(match self {
+            Message::Heartbeat => Command::Heartbeat,
+            Message::SetVelocity {
+                frame,
+                vx,
+                vy,
+                yaw_rate,
+            } => Command::Velocity {
+                twist: Twist2::new(c(*vx), c(*vy), c(*yaw_rate)),
+                frame: *frame,
+            },
+            Message::PlanBegin { id, len } => Command::PlanBegin { id: *id, len: *len },
+            Message::PlanChunk { id, offset, points } => {
+                let n = points.len().min(CHUNK_POINTS);
+                for (dst, src) in buf.iter_mut().zip(points.iter()) {
+                    *dst = src.to_point();
+                }
+                Command::PlanChunk {
+                    id: *id,
+                    offset: *offset,
+                    points: &buf[..n],
+                }
+            }
+            Message::PlanStart { id } => Command::PlanStart { id: *id },
+            Message::Stop => Command::Stop,
+            Message::EStop => Command::EStop,
+            Message::Clear => Command::Clear,
+            Message::SetPose { x, y, heading } => {
+                Command::SetPose(Pose2::new(c(*x), c(*y), c(*heading)))
+            }
+            Message::Telemetry(_) | Message::SessionEnd(_) => return None,
+        })
+    }
+}

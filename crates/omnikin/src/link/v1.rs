@@ -1,0 +1,96 @@
+//! Protocol v1 (`COBS(version=1 | flags | seq:u64 | body | tag[8] | crc32c)`), kept only so
+//! that v1 and v2 peers tell each other apart: a v2 robot answers a v1 frame with a v1 HelloAck
+//! saying `protocol: 2`; a v2 operator that gets no answer probes with a v1 Hello, so a v1
+//! robot's HelloAck (`protocol: 1`) names the mismatch.
+
+use serde::Serialize;
+
+use super::{CRC, EncodeError, Key, MAX_RAW, RobotInfo, stuff};
+use serde::Deserialize;
+
+/// The version byte of v1 frames.
+pub const VERSION: u8 = 1;
+const HEADER: usize = 10;
+const TAG: usize = 8;
+const FLAG_AUTH: u8 = 1;
+
+/// The first two variants of v1's `Message` (postcard writes the variant index first, so
+/// these encode and decode exactly as v1's `Hello` and `HelloAck`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Frame {
+    /// v1 `Hello { protocol }`.
+    Hello {
+        /// The sender's protocol version.
+        protocol: u8,
+    },
+    /// v1 `HelloAck(RobotInfo)`.
+    HelloAck(RobotInfo),
+}
+
+fn encode(f: &Frame, seq: u64, key: Option<&Key>, out: &mut [u8]) -> Result<usize, EncodeError> {
+    let mut raw = [0u8; MAX_RAW];
+    raw[0] = VERSION;
+    raw[1] = if key.is_some() { FLAG_AUTH } else { 0 };
+    raw[2..HEADER].copy_from_slice(&seq.to_le_bytes());
+    let body = postcard::to_slice(f, &mut raw[HEADER..HEADER + 64])
+        .map_err(|_| EncodeError::TooLarge)?
+        .len();
+    let mut n = HEADER + body;
+    if let Some(k) = key {
+        let t = k.mac().tag(&raw[..n]);
+        raw[n..n + TAG].copy_from_slice(&t[..TAG]);
+        n += TAG;
+    }
+    stuff(&mut raw, n, out)
+}
+
+/// A v1 Hello as a v1 operator sends it.
+///
+/// # Errors
+/// [`EncodeError::TooLarge`] when `out` is too small.
+pub fn encode_hello(seq: u64, key: Option<&Key>, out: &mut [u8]) -> Result<usize, EncodeError> {
+    encode(&Frame::Hello { protocol: VERSION }, seq, key, out)
+}
+
+/// A v1 HelloAck carrying `info`.
+///
+/// # Errors
+/// [`EncodeError::TooLarge`] when `out` is too small.
+pub fn encode_hello_ack(
+    info: &RobotInfo,
+    seq: u64,
+    key: Option<&Key>,
+    out: &mut [u8],
+) -> Result<usize, EncodeError> {
+    encode(&Frame::HelloAck(*info), seq, key, out)
+}
+
+/// Decodes a v1 Hello or HelloAck (the bytes between delimiters, decoded in place; the
+/// tag checked when `key` is given, as v1 did). `None` for anything else, never a panic.
+pub fn parse(frame: &mut [u8], key: Option<&Key>) -> Option<(u64, Frame)> {
+    let n = super::cobs_decode_in_place(frame)?;
+    let raw = frame.get(..n)?;
+    if n < HEADER + 1 + 4 {
+        return None;
+    }
+    let (data, crc) = raw.split_at(n - 4);
+    if CRC.checksum(data).to_le_bytes() != crc[..4] || data[0] != VERSION {
+        return None;
+    }
+    let mut s = [0u8; 8];
+    s.copy_from_slice(&data[2..HEADER]);
+    let mut end = data.len();
+    if data[1] & FLAG_AUTH != 0 {
+        end = end.checked_sub(TAG).filter(|&e| e > HEADER)?;
+    }
+    if let Some(k) = key {
+        let t = k.mac().tag(&data[..end]);
+        if data[1] & FLAG_AUTH == 0 || !super::ct_eq(&t[..TAG], &data[end..end + TAG]) {
+            return None;
+        }
+    }
+    match postcard::take_from_bytes::<Frame>(&data[HEADER..end]) {
+        Ok((f, [])) => Some((u64::from_le_bytes(s), f)),
+        _ => None,
+    }
+}
