@@ -61,14 +61,14 @@ mod error;
 mod real;
 mod types;
 
-pub mod ballbot;
-pub mod caster;
 pub mod drive;
 pub mod estimate;
 pub mod link;
 pub mod runtime;
 pub mod se2;
-pub mod sphere;
+
+/// The paper robots' models live in [`drive`] with the other kinds; these paths are theirs too.
+pub use drive::{ballbot, caster, sphere};
 
 #[cfg(feature = "std")]
 pub mod description;

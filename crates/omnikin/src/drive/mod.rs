@@ -1,11 +1,15 @@
-//! # drive — one abstraction for a wheeled drive, and the omni/mecanum and swerve layouts
+//! # drive — every robot kind, and the one type the layers above speak to
 //!
-//! This module is the groundwork of issue 13: the [`Drive`] trait every layer above the core
-//! will speak to, and the first two kinds written against it, [`omni::Omni`] (N omni or
-//! mecanum wheels: kiwi, X-drive, mecanum, any irregular layout) and [`swerve::Swerve`]
-//! (N centred steerable modules). The sphere, ballbot and caster models keep their own modules
-//! for now and adopt the trait when the planner, simulator, runtime and CLI are rewired (see
-//! *Adopting the trait* below).
+//! * One file (or folder) per kind: [`sphere`] (paper 000), [`ballbot`] (paper 001),
+//!   [`caster`] (paper 003), [`omni`] (N omni or mecanum wheels: kiwi, X-drive, mecanum, any
+//!   irregular layout) and [`swerve`] (N centred steerable modules).
+//! * [`robot`]: the [`Robot`] enum over all of them with the uniform verbs on [`Actuators`]
+//!   and [`EncoderAngles`] — **the one place the kind is dispatched and the one place a kind is
+//!   added** (see its module docs). The planner, simulator, runtime, odometry and CLI use
+//!   only [`Robot`] and [`Kind`].
+//! * [`Drive`]: the statically sized trait of the const-generic layouts ([`omni::Omni`],
+//!   [`swerve::Swerve`]) for firmware that knows its layout at compile time, with WPILib's
+//!   split (actuators, positions, inverse, forward, displacement, desaturate).
 //!
 //! ## What others call these things
 //!
@@ -34,11 +38,11 @@
 //!   every value is a fixed-size array.
 //! * [`Odometry`] is written once, generic over any [`Drive`] (WPILib's lesson): adding a drive
 //!   never touches it.
-//! * The set of kinds is closed (every kind is a robot-file `kind`), so the layers above will
-//!   hold an **enum over the concrete drives with the `match` in exactly one module** (the
-//!   `Robot` enum of the crate root grows `Omni3`/`Omni4`/`Swerve4`… variants that delegate to
-//!   [`Drive`]); generic code (odometry, limits, the runtime cycle) is written against the
-//!   trait so the compiler, not a reviewer, finds every place a new kind must be taught.
+//! * The set of kinds is closed (every kind is a robot-file `kind`), so the layers above hold
+//!   an **enum over the concrete models with the `match` in exactly one module**
+//!   ([`robot`]'s `dispatch!`): [`Robot`]'s variants delegate to each model's
+//!   [`KindModel`] implementation, and a new kind that forgets a verb does not compile. The
+//!   runtime cycle, odometry, planner and simulator are written once against [`Robot`].
 //!
 //! ## One frame per verb
 //!
@@ -107,21 +111,7 @@
 //! [`crate::InputError`] naming the first non-finite input (`wheel_rates[3]`) or the output that
 //! overflowed. Nothing panics, nothing allocates.
 //!
-//! ## Adopting the trait (what is left for the wiring)
-//!
-//! * `sphere::SphereOmni`: `Actuators = [T; 3]`; the shell spin `Ω3` becomes a model parameter
-//!   (or a 4th actuator entry) so `inverse` has the common signature; its torque map stays an
-//!   inherent method (a future `Drive::torques` default returning "not defined" would cover the
-//!   kinds without one).
-//! * `ballbot::Ballbot`: `Actuators = [T; 3]`, the body yaw argument as for the sphere.
-//! * `caster::Caster3`: `Actuators` = roll rates + steer angles + steer rates; its `inverse`
-//!   uses `current` for the steer angles `γ` exactly as swerve uses them for the zero-speed
-//!   case, and converts its world-frame paper equations at the boundary. It is the off-centred
-//!   member of the swerve family (eccentricity `d > 0`; [`swerve::Swerve`] is `d = 0`).
-//! * `odometry::Odometry` (over the `Robot` enum) is replaced by [`Odometry`] over a `Robot`
-//!   enum that implements [`Drive`] by delegation (one `match` per verb, in one module).
-//!
-//! ## Robot files for the new kinds (schema proposal)
+//! ## Robot files for the layouts
 //!
 //! The presets are `robots/kiwi.toml`, `robots/x-drive.toml`, `robots/mecanum.toml` and
 //! `robots/swerve4.toml`; angles in degrees only where the key says `_deg`:
@@ -158,11 +148,10 @@
 //! max_steer_rate = 12.0            # max_steer_accel (rad/s, rad/s^2)
 //! ```
 //!
-//! The number of wheels is a const generic in the core; the loader in `description.rs`
-//! picks the model by count (3, 4, 6, … — one `Robot` variant per supported count, or a
-//! macro over a fixed list) and rejects other counts with a message naming the supported
-//! ones. A wheel count that does not match a `--wheel-rates` list is the CLI's "expected N
-//! values" error.
+//! The number of wheels is a const generic of [`omni::Omni`] and [`swerve::Swerve`];
+//! [`Robot::omni`] / [`Robot::swerve`] pick the variant by count (omni 3–6, swerve 2–6,
+//! [`MAX_WHEELS`]) and reject other counts with [`crate::GeometryError::WheelCount`]. A wheel
+//! count that does not match a `--wheel-rates` list is the CLI's "expected N values" error.
 //!
 //! Field names of [`crate::GeometryError`] (`wheels[i].position`, `wheels[i].drive`,
 //! `wheels[i].roller_angle`, `wheels[i].radius`, `modules[i].position`,
@@ -170,8 +159,11 @@
 //! the TOML array index; `drive` is `drive_angle_deg`, `roller_angle` is
 //! `roller_angle_deg`), as `description.rs` already maps `mount_angles[0]`.
 
+pub mod ballbot;
+pub mod caster;
 pub mod omni;
 pub mod robot;
+pub mod sphere;
 pub mod swerve;
 
 pub use robot::{

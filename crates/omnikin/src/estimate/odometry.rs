@@ -1,5 +1,6 @@
-//! Wheel odometry for all three robots: cumulative encoder angles in, world pose out, one fixed-size
-//! step per encoder sample (no allocation, no panic).
+//! Wheel odometry for every robot kind: cumulative encoder angles in, world pose out, one
+//! fixed-size step per encoder sample (no allocation, no panic). The increments go through the
+//! uniform [`crate::Robot::displacement`], so a kind added in `drive/robot.rs` has odometry.
 //!
 //! Each [`Odometry::update`] takes the encoder increments since the previous sample, turns them
 //! into the robot-frame displacement of the step by the robot's forward kinematics (the maps are
@@ -22,6 +23,9 @@
 //!   slip residual (divided by `Δt`, so in m/s) is exposed per step in
 //!   [`OdometryStep::slip_residual`] and [`OdometryStep::wheel_slip`] so a caller can detect a
 //!   slipping wheel.
+//! * **Omni, swerve**: the least-squares forward kinematics of the wheel increments (swerve: at
+//!   the end reading's steer angles, WPILib's `ToTwist2d`); with more wheels than three the
+//!   slip residual is reported as for the caster.
 //!
 //! Frames and units follow the project conventions (REP-103, SI): world pose `(x, y, heading)`
 //! in m, m, rad with the heading unwrapped; robot-frame increments in the frame of the pose at
@@ -232,7 +236,7 @@ impl<T: Real> Odometry<T> {
     /// The increments since the previous sample give the robot-frame translation through the
     /// forward kinematics (see the module docs per robot); the heading change comes from
     /// `heading`; the pose advances by the exact SE(2) step
-    /// `pose ⊕ exp(u, v, Δθ)` ([`se2::twist_exp`], [`se2::compose`]), i.e. assuming a constant
+    /// `pose ⊕ exp(u, v, Δθ)` ([`crate::se2::twist_exp`], [`crate::se2::compose`]), i.e. assuming a constant
     /// body twist over the step.
     ///
     /// # Errors
