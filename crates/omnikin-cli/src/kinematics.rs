@@ -3,7 +3,8 @@
 use anyhow::{Context, Result, bail};
 use omnikin::description::{Limits, RobotDescription};
 use omnikin::drive::TorqueSpace;
-use omnikin::{Actuators, Kind, MAX_WHEELS, Robot, Twist2};
+use omnikin::drive::report::REACH_DIRECTIONS_DEG;
+use omnikin::{Actuators, MAX_WHEELS, Robot, Twist2};
 use serde_json::json;
 
 use crate::args::List;
@@ -31,11 +32,7 @@ fn fmt_row(label: &str, v: &[f64]) -> String {
 
 /// The header row `wheel 1 … wheel N` (`module` for swerve).
 fn header(robot: &Robot<f64>) -> String {
-    let what = if robot.kind() == Kind::Swerve {
-        "module"
-    } else {
-        "wheel"
-    };
+    let what = robot.kind().wheel_noun();
     let mut s = format!("{:<22}", "");
     for i in 0..robot.wheels() {
         s += &format!("{:>12} ", format!("{what} {}", i + 1));
@@ -106,8 +103,9 @@ pub fn inverse(a: &InverseArgs) -> Result<()> {
     let out = robot.inverse_spin(robot_twist, spin, &Actuators::at_steer(&steer))?;
     let wheel_rates = &out.wheel_rates[..n];
     // The caster's steer motors are rate-driven; a swerve module's steering is a set-point.
-    let steer_rates = (kind == Kind::Caster).then(|| &out.steer_rates[..n]);
-    let steer_angles = (kind == Kind::Swerve).then(|| &out.steer_angles[..n]);
+    let set_point = kind.steer_is_set_point();
+    let steer_rates = (robot.steerable() && !set_point).then(|| &out.steer_rates[..n]);
+    let steer_angles = (robot.steerable() && set_point).then(|| &out.steer_angles[..n]);
     warn_limits(
         "wheel",
         wheel_rates,
@@ -140,14 +138,11 @@ pub fn inverse(a: &InverseArgs) -> Result<()> {
         a.vy,
         a.yaw_rate
     )?;
-    match kind {
-        Kind::Sphere => crate::outln!("shell spin: {spin} rad/s")?,
-        Kind::Ballbot => crate::outln!("ball spin: {spin} rad/s")?,
-        Kind::Caster => crate::outln!("steer angles: {:?} rad", &steer[..n])?,
-        Kind::Swerve if a.steer.is_some() => {
-            crate::outln!("current steer angles: {:?} rad", &steer[..n])?
-        }
-        _ => {}
+    if kind.has_vertical_spin() {
+        crate::outln!("{} spin: {spin} rad/s", kind.spin_body().unwrap_or("shell"))?;
+    }
+    if robot.steerable() && (a.steer.is_some() || !kind.steer_is_set_point()) {
+        crate::outln!("steer angles: {:?} rad", &steer[..n])?;
     }
     crate::outln!("{}", header(&robot))?;
     let label = if steer_rates.is_some() {
@@ -174,15 +169,25 @@ pub fn forward(a: &ForwardArgs) -> Result<()> {
     let mut act =
         Actuators::from_wheel_rates(a.wheel_rates.exactly(n, "--wheel-rates", &d.name)?);
     act.steer_angles = steer_of(&robot, &a.steer, &d.name)?;
-    match (&a.steer_rates, kind) {
-        (Some(l), Kind::Caster) => {
+    // Rate-driven steering (the caster's) is part of the motion; set-point steering is not.
+    let rate_steered = robot.steerable() && !kind.steer_is_set_point();
+    match (&a.steer_rates, rate_steered) {
+        (Some(l), true) => {
             act.steer_rates[..n].copy_from_slice(l.exactly(n, "--steer-rates", &d.name)?)
         }
-        (None, Kind::Caster) => {
-            bail!("caster3 needs all six motor rates: add --steer-rates S1,S2,S3 (rad/s)")
+        (None, true) => bail!(
+            "{} needs all {} motor rates: add --steer-rates S1,…,S{n} (rad/s)",
+            kind.name(),
+            robot.motors()
+        ),
+        (Some(_), false) => {
+            return Err(reject_for(
+                kind.name(),
+                "--steer-rates",
+                "kinds with rate-driven steering (caster3)",
+            ));
         }
-        (Some(_), _) => return Err(reject_for(kind.name(), "--steer-rates", "caster3")),
-        (None, _) => {}
+        (None, false) => {}
     }
     let m = robot.forward_spin(&act, spin)?;
     let twist = m.twist.to_world(heading);
@@ -218,11 +223,7 @@ pub fn forward(a: &ForwardArgs) -> Result<()> {
     } else {
         crate::outln!(
             "(assumed {} spin {spin} rad/s)",
-            if kind == Kind::Ballbot {
-                "ball"
-            } else {
-                "shell"
-            }
+            kind.spin_body().unwrap_or("shell")
         )?;
     }
     Ok(())
@@ -317,78 +318,6 @@ pub fn torques(a: &TorquesArgs) -> Result<()> {
     Ok(())
 }
 
-/// Fastest speed along each of 8 robot-frame directions, and fastest pure yaw rate, for a
-/// linear wheel-rate map (sphere, ballbot) under `max_rate`.
-fn linear_reach(peak_rate: impl Fn(Twist2<f64>) -> f64, max_rate: f64) -> (Vec<(f64, f64)>, f64) {
-    let dirs = (0..8)
-        .map(|k| {
-            let deg = 45.0 * k as f64;
-            let (s, c) = deg.to_radians().sin_cos();
-            (deg, max_rate / peak_rate(Twist2::new(c, s, 0.0)))
-        })
-        .collect();
-    let yaw = max_rate / peak_rate(Twist2::new(0.0, 0.0, 1.0));
-    (dirs, yaw)
-}
-
-/// `check` for the layouts (omni, swerve): the wheels of the robot file and the condition of
-/// the wheel-constraint map.
-fn describe_layout(
-    d: &RobotDescription,
-    robot: &Robot<f64>,
-    text: &mut Vec<String>,
-    j: &mut serde_json::Value,
-) {
-    use omnikin::description::Geometry;
-    match &d.geometry {
-        Geometry::Omni(wheels) => {
-            text.push(format!(
-                "geometry: {} omni/mecanum wheels (robot frame; drive direction and roller angle from +x, CCW):",
-                wheels.len()
-            ));
-            for (i, w) in wheels.iter().enumerate() {
-                text.push(format!(
-                    "  wheel {}: position ({:>8.4}, {:>8.4}) m   drive {:>8.3}°   roller {:>7.3}°   radius {} m",
-                    i + 1,
-                    w.position[0],
-                    w.position[1],
-                    w.drive[1].atan2(w.drive[0]).to_degrees(),
-                    w.roller_angle.to_degrees(),
-                    w.radius
-                ));
-            }
-        }
-        Geometry::Swerve { modules, optimize } => {
-            text.push(format!(
-                "geometry: {} centred swerve modules (robot frame), steering optimisation {}:",
-                modules.len(),
-                if *optimize { "on" } else { "off" }
-            ));
-            for (i, m) in modules.iter().enumerate() {
-                text.push(format!(
-                    "  module {}: position ({:>8.4}, {:>8.4}) m   wheel radius {} m",
-                    i + 1,
-                    m.position[0],
-                    m.position[1],
-                    m.wheel_radius
-                ));
-            }
-        }
-        _ => {}
-    }
-    text.push(format!(
-        "wheels: {}, motors: {} (valid: the layout controls vx, vy and yaw)",
-        robot.wheels(),
-        robot.motors()
-    ));
-    j["wheels"] = json!(robot.wheels());
-    j["motors"] = json!(robot.motors());
-}
-
-fn vec3(v: &[f64; 3]) -> String {
-    format!("({:>9.5}, {:>9.5}, {:>9.5})", v[0], v[1], v[2])
-}
-
 fn print_limits(l: &Limits) -> Result<()> {
     let show = |name: &str, v: Option<f64>, unit: &str| -> Result<()> {
         match v {
@@ -408,200 +337,40 @@ fn print_limits(l: &Limits) -> Result<()> {
 
 pub fn check(a: &CheckArgs) -> Result<()> {
     let (d, robot) = load(&a.robot)?;
-    let deg = |x: f64| x.to_degrees();
-    let mut j = json!({ "name": d.name, "kind": d.kind(), "source": d.source_name, "valid": true });
-    let mut text: Vec<String> = vec![format!(
-        "robot: {} ({}, {}): valid",
+    let mut j = json!({
+        "name": d.name, "kind": d.kind(), "source": d.source_name, "valid": true,
+        "wheels": robot.wheels(), "motors": robot.motors(),
+    });
+    let mut text = format!(
+        "robot: {} ({}, {}): valid\n",
         d.name,
         d.kind(),
         d.source_name
-    )];
-    let mut reach: Option<(Vec<(f64, f64)>, f64)> = None;
-    match robot {
-        Robot::Sphere(m) => {
-            let p = m.params();
-            text.push(format!(
-                "geometry: R {} m, R_i {:?} m, tilt δ {:.3}°, roller angle ξ {:.3}°, azimuths φ {:.3?}°",
-                p.shell_radius, p.wheel_radius, deg(p.tilt), deg(p.roller_angle), p.azimuths.map(deg)
-            ));
-            text.push("derived vectors (platform frame, paper 000 §4):".into());
-            let arr = |v: &omnikin::nalgebra::Vector3<f64>| [v.x, v.y, v.z];
-            for i in 0..3 {
-                text.push(format!("  wheel {}:", i + 1));
-                text.push(format!(
-                    "    r_i  {} m   (centre → wheel centre)",
-                    vec3(&arr(&m.wheel_centres()[i]))
-                ));
-                text.push(format!(
-                    "    n_i  {}     (wheel axis)",
-                    vec3(&arr(&m.wheel_axes()[i]))
-                ));
-                text.push(format!(
-                    "    α_i  {}     (roller axis)",
-                    vec3(&arr(&m.roller_axes()[i]))
-                ));
-                text.push(format!(
-                    "    s_i  {} m   (r_i × α_i)",
-                    vec3(&arr(&m.levers()[i]))
-                ));
-                text.push(format!("    s_i·n_i {:.6} m", m.s_dot_n()[i]));
-            }
-            text.push(format!(
-                "condition number of [s1; s2; s3] (normalised): {:.4} (max accepted {:.0e})",
-                m.condition_number(),
-                omnikin::MAX_CONDITION
-            ));
-            j["condition_number"] = json!(m.condition_number());
-            j["vectors"] = json!((0..3).map(|i| json!({
-                "r": arr(&m.wheel_centres()[i]), "n": arr(&m.wheel_axes()[i]),
-                "alpha": arr(&m.roller_axes()[i]), "s": arr(&m.levers()[i]), "s_dot_n": m.s_dot_n()[i],
-            })).collect::<Vec<_>>());
-            if let Some(max) = d.limits.max_wheel_rate {
-                reach = Some(linear_reach(
-                    |t| {
-                        m.wheel_rates(t, 0.0)
-                            .map(|w| w.iter().fold(0.0f64, |m, x| m.max(x.abs())))
-                            .unwrap_or(f64::INFINITY)
-                    },
-                    max,
-                ));
-            }
+    );
+    robot
+        .describe(&mut text)
+        .context("formatting the derived geometry")?;
+    if let Some(max) = d.limits.max_wheel_rate
+        && let Some(reach) = robot.reach(max, d.limits.max_steer_rate)
+    {
+        let what = if robot.steerable() {
+            "with the wheels steered along the motion"
+        } else {
+            "robot frame, no yaw, no spin"
+        };
+        text += &format!("fastest motion within the limits ({what}):\n");
+        for (dg, v) in REACH_DIRECTIONS_DEG.iter().zip(reach.speed) {
+            text += &format!("  direction {dg:>5.0}°: {v:.4} m/s\n");
         }
-        Robot::Ballbot(m) => {
-            let p = m.params();
-            text.push(format!(
-                "geometry: ball R_b {} m, wheel r_w {} m, zenith α {:.3}°, azimuths β_i {:.3?}°",
-                p.ball_radius,
-                p.wheel_radius,
-                deg(p.zenith),
-                p.azimuths.map(deg)
-            ));
-            text.push("derived vectors (body frame, paper 001):".into());
-            let arr = |v: &omnikin::nalgebra::Vector3<f64>| [v.x, v.y, v.z];
-            for i in 0..3 {
-                text.push(format!(
-                    "  wheel {}: contact direction {}   drive direction {}",
-                    i + 1,
-                    vec3(&arr(&m.contact_directions()[i])),
-                    vec3(&arr(&m.drive_directions()[i]))
-                ));
-            }
-            let a0: Vec<[f64; 3]> = (0..3)
-                .map(|i| {
-                    let mut e = [0.0; 3];
-                    e[i] = 1.0;
-                    m.model_torques(e, 0.0).unwrap_or([f64::NAN; 3])
-                })
-                .collect();
-            text.push(
-                "torque projection A(0) (columns = wheels; [Tx,Ty,Tz] = A [T1,T2,T3]):".into(),
-            );
-            for row in [0usize, 1, 2] {
-                let [c1, c2, c3] = [0, 1, 2].map(|wheel| a0[wheel][row]);
-                text.push(format!("  {c1:>10.6} {c2:>10.6} {c3:>10.6}"));
-            }
-            text.push(format!(
-                "condition number of the contact matrix: {:.4} (max accepted {:.0e})",
-                m.condition_number(),
-                omnikin::MAX_CONDITION
-            ));
-            j["condition_number"] = json!(m.condition_number());
-            if let Some(max) = d.limits.max_wheel_rate {
-                reach = Some(linear_reach(
-                    |t| {
-                        m.wheel_rates(t, 0.0)
-                            .map(|w| w.iter().fold(0.0f64, |m, x| m.max(x.abs())))
-                            .unwrap_or(f64::INFINITY)
-                    },
-                    max,
-                ));
-            }
-        }
-        Robot::Caster(m) => {
-            let p = m.params();
-            text.push(format!(
-                "geometry: D {} m, d {} m, r {} m, mounting angles α_i {:.3?}°",
-                p.mount_radius,
-                p.eccentricity,
-                p.wheel_radius,
-                p.mount_angles.map(deg)
-            ));
-            text.push(
-                "steering axes F_i and wheel centres O_i at γ = 0 (body frame, paper 003 §2):"
-                    .into(),
-            );
-            for i in 0..3 {
-                let (s, c) = p.mount_angles[i].sin_cos();
-                text.push(format!(
-                    "  wheel {}: F ({:>8.4}, {:>8.4}) m   O ({:>8.4}, {:>8.4}) m",
-                    i + 1,
-                    p.mount_radius * c,
-                    p.mount_radius * s,
-                    (p.mount_radius + p.eccentricity) * c,
-                    (p.mount_radius + p.eccentricity) * s
-                ));
-            }
-            let det = m.det_j2(0.0, [0.0; 3]);
-            text.push(format!(
-                "det J2 at γ = 0: {det:.6} (≠ 0: steering must move for the base to move)"
-            ));
-            text.push(format!(
-                "turn in place is singular where cos γ_1 = −d/D, i.e. γ_1 = ±{:.3}°",
-                deg((-p.eccentricity / p.mount_radius).acos())
-            ));
-            j["det_j2_at_zero_steer"] = json!(det);
-            if let Some(max) = d.limits.max_wheel_rate {
-                let v = p.wheel_radius * max;
-                let mut yaw = v / p.mount_radius;
-                if let Some(ms) = d.limits.max_steer_rate {
-                    yaw = yaw.min(ms);
-                }
-                text.push("fastest motion within the limits:".into());
-                text.push(format!("  translation, wheels aligned with the motion: {v:.4} m/s in every direction (r · max_wheel_rate)"));
-                text.push(format!(
-                    "  turning in place, wheels tangential (γ = ±90°): {yaw:.4} rad/s"
-                ));
-                // Same shape as the other robots: one entry per direction (all equal here).
-                j["max_speed_m_per_s"] = json!(
-                    (0..8)
-                        .map(|k| json!({"direction_deg": 45.0 * k as f64, "speed": v}))
-                        .collect::<Vec<_>>()
-                );
-                j["max_yaw_rate_rad_per_s"] = json!(yaw);
-            }
-        }
-        _ => {
-            describe_layout(&d, &robot, &mut text, &mut j);
-            if let Some(max) = d.limits.max_wheel_rate {
-                let n = robot.wheels();
-                reach = Some(linear_reach(
-                    |t| {
-                        robot
-                            .inverse(t, &Actuators::zero())
-                            .map(|a| {
-                                a.wheel_rates[..n]
-                                    .iter()
-                                    .fold(0.0f64, |m, x| m.max(x.abs()))
-                            })
-                            .unwrap_or(f64::INFINITY)
-                    },
-                    max,
-                ));
-            }
-        }
-    }
-    if let Some((dirs, yaw)) = reach {
-        text.push("fastest motion within max_wheel_rate (robot frame, no yaw, no spin):".into());
-        for (dg, v) in &dirs {
-            text.push(format!("  direction {dg:>5.0}°: {v:.4} m/s"));
-        }
-        text.push(format!("  turning on the spot: {yaw:.4} rad/s"));
+        text += &format!("  turning on the spot: {:.4} rad/s\n", reach.yaw_rate);
         j["max_speed_m_per_s"] = json!(
-            dirs.iter()
+            REACH_DIRECTIONS_DEG
+                .iter()
+                .zip(reach.speed)
                 .map(|(dg, v)| json!({"direction_deg": dg, "speed": v}))
                 .collect::<Vec<_>>()
         );
-        j["max_yaw_rate_rad_per_s"] = json!(yaw);
+        j["max_yaw_rate_rad_per_s"] = json!(reach.yaw_rate);
     }
     j["limits"] = json!({
         "max_wheel_rate": d.limits.max_wheel_rate, "max_wheel_accel": d.limits.max_wheel_accel,
@@ -610,9 +379,7 @@ pub fn check(a: &CheckArgs) -> Result<()> {
     if a.json {
         crate::outln!("{j}")?;
     } else {
-        for line in text {
-            crate::outln!("{line}")?;
-        }
+        crate::outln!("{}", text.trim_end())?;
         print_limits(&d.limits)?;
     }
     Ok(())

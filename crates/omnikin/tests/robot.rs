@@ -275,3 +275,26 @@ fn f32_and_f64_agree_for_every_kind() {
         }
     }
 }
+
+#[test]
+fn every_kind_describes_itself_and_its_reach() {
+    for (name, r) in presets() {
+        let mut text = String::new();
+        r.describe(&mut text).unwrap();
+        assert!(text.lines().count() >= 2, "{name}: {text}");
+        assert!(text.contains("geometry:"), "{name}: {text}");
+        let reach = r.reach(10.0, Some(5.0)).unwrap();
+        // The reach is the largest speed whose wheel rates stay within the limit: at it, the
+        // fastest wheel turns exactly at the limit (the caster's closed form included).
+        for (k, v) in reach.speed.iter().enumerate() {
+            assert!(*v > 0.0 && v.is_finite(), "{name} {k}");
+            if r.kind() != Kind::Caster {
+                let (s, c) = (45.0 * k as f64).to_radians().sin_cos();
+                let a = r.inverse(Twist2::new(c * v, s * v, 0.0), &Actuators::zero()).unwrap();
+                let peak = a.wheel_rates.iter().fold(0.0f64, |m, w| m.max(w.abs()));
+                assert!(close(peak, 10.0, 1e-12), "{name} {k}: {peak}");
+            }
+        }
+        assert!(r.reach(0.0, None).is_none() && r.reach(f64::NAN, None).is_none());
+    }
+}

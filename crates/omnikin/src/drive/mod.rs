@@ -162,6 +162,7 @@
 pub mod ballbot;
 pub mod caster;
 pub mod omni;
+pub mod report;
 pub mod robot;
 pub mod sphere;
 pub mod swerve;

@@ -42,6 +42,7 @@
 use crate::ballbot::Ballbot;
 use crate::caster::{Caster3, CasterRates};
 use crate::drive::omni::Omni;
+use crate::drive::report::{self, REACH_DIRECTIONS_DEG, Reach};
 use crate::drive::swerve::{Swerve, SwervePositions, SwerveState};
 use crate::drive::{Desaturated, Rot2, Wrench2, desaturation_scale};
 use crate::sphere::SphereOmni;
@@ -104,6 +105,24 @@ impl Kind {
     /// reveals that spin ([`crate::estimate::odometry::OdometryStep::shell_spin`]).
     pub const fn has_vertical_spin(self) -> bool {
         matches!(self, Kind::Sphere | Kind::Ballbot)
+    }
+
+    /// What the robot's wheel units are called in output: `module` (swerve), else `wheel`.
+    pub const fn wheel_noun(self) -> &'static str {
+        match self {
+            Kind::Swerve => "module",
+            _ => "wheel",
+        }
+    }
+
+    /// What spins about the vertical for [`Kind::has_vertical_spin`] kinds: `shell` (sphere),
+    /// `ball` (ballbot); `None` for the others.
+    pub const fn spin_body(self) -> Option<&'static str> {
+        match self {
+            Kind::Sphere => Some("shell"),
+            Kind::Ballbot => Some("ball"),
+            _ => None,
+        }
     }
 
     /// `true` when the steering of a module is free (centred modules): a module steers to any
@@ -332,6 +351,23 @@ pub trait KindModel<T: Real> {
 
     /// The kind's torque map, if it has one.
     fn torque_space(&self) -> Option<TorqueSpace> {
+        None
+    }
+
+    /// Writes the derived geometry a reader checks a robot file against (one line each; see
+    /// [`crate::drive::report`]).
+    ///
+    /// # Errors
+    /// The writer's.
+    fn describe(&self, out: &mut dyn core::fmt::Write) -> core::fmt::Result;
+
+    /// The fastest motion within the limits in closed form, where the kind has one; `None`:
+    /// [`Robot::reach`] computes it from the inverse kinematics.
+    fn closed_form_reach(
+        &self,
+        _max_wheel_rate: f64,
+        _max_steer_rate: Option<f64>,
+    ) -> Option<Reach> {
         None
     }
 
@@ -632,6 +668,48 @@ impl<T: Real> Robot<T> {
         })
     }
 
+    /// Writes the kind's derived geometry, one line each (`omnikin check`).
+    ///
+    /// # Errors
+    /// The writer's.
+    pub fn describe(&self, out: &mut dyn core::fmt::Write) -> core::fmt::Result {
+        dispatch!(self, m => KindModel::<T>::describe(m, out))
+    }
+
+    /// The fastest motion within `max_wheel_rate` (rad/s) and, for steerable kinds,
+    /// `max_steer_rate`: along eight robot-frame directions without yaw, and turning on the
+    /// spot. From the kind's closed form, or else `max / max_i |ω_i|` of the inverse
+    /// kinematics of a unit motion (the map is linear in the twist). `None` for a limit that
+    /// is not a positive finite number.
+    pub fn reach(&self, max_wheel_rate: f64, max_steer_rate: Option<f64>) -> Option<Reach> {
+        if !(max_wheel_rate.is_finite() && max_wheel_rate > 0.0) {
+            return None;
+        }
+        if let Some(r) = dispatch!(self, m => KindModel::<T>::closed_form_reach(m, max_wheel_rate, max_steer_rate))
+        {
+            return Some(r);
+        }
+        let n = self.wheels();
+        let peak = |t: Twist2<T>| {
+            self.inverse(t, &Actuators::zero())
+                .map(|a| {
+                    a.wheel_rates[..n]
+                        .iter()
+                        .fold(0.0f64, |m, w| m.max(w.to_f64().abs()))
+                })
+                .unwrap_or(f64::INFINITY)
+        };
+        let mut speed = [0.0; 8];
+        for (v, d) in speed.iter_mut().zip(REACH_DIRECTIONS_DEG) {
+            let (s, c) = d.to_radians().sin_cos();
+            *v = max_wheel_rate / peak(Twist2::new(T::of(c), T::of(s), T::zero()));
+        }
+        Some(Reach {
+            speed,
+            yaw_rate: max_wheel_rate / peak(Twist2::new(T::zero(), T::zero(), T::one())),
+        })
+    }
+
     /// The torque map's generalized forces, or `None` when the kind has none.
     pub fn torque_space(&self) -> Option<TorqueSpace> {
         dispatch!(self, m => KindModel::<T>::torque_space(m))
@@ -696,6 +774,10 @@ fn rigid<T: Real>(twist: Twist2<T>) -> Motion<T> {
 impl<T: Real> KindModel<T> for SphereOmni<T> {
     const KIND: Kind = Kind::Sphere;
 
+    fn describe(&self, out: &mut dyn core::fmt::Write) -> core::fmt::Result {
+        report::sphere(self, out)
+    }
+
     fn wheels(&self) -> usize {
         3
     }
@@ -738,6 +820,10 @@ impl<T: Real> KindModel<T> for SphereOmni<T> {
 
 impl<T: Real> KindModel<T> for Ballbot<T> {
     const KIND: Kind = Kind::Ballbot;
+
+    fn describe(&self, out: &mut dyn core::fmt::Write) -> core::fmt::Result {
+        report::ballbot(self, out)
+    }
 
     fn wheels(&self) -> usize {
         3
@@ -843,6 +929,14 @@ fn caster_motion<T: Real>(f: crate::caster::CasterForward<T>) -> Motion<T> {
 impl<T: Real> KindModel<T> for Caster3<T> {
     const KIND: Kind = Kind::Caster;
 
+    fn describe(&self, out: &mut dyn core::fmt::Write) -> core::fmt::Result {
+        report::caster(self, out)
+    }
+
+    fn closed_form_reach(&self, max_wheel_rate: f64, max_steer_rate: Option<f64>) -> Option<Reach> {
+        Some(report::caster_reach(self, max_wheel_rate, max_steer_rate))
+    }
+
     fn wheels(&self) -> usize {
         3
     }
@@ -894,6 +988,10 @@ impl<T: Real> KindModel<T> for Caster3<T> {
 
 impl<T: Real, const N: usize> KindModel<T> for Omni<T, N> {
     const KIND: Kind = Kind::Omni;
+
+    fn describe(&self, out: &mut dyn core::fmt::Write) -> core::fmt::Result {
+        report::omni(self, out)
+    }
 
     fn wheels(&self) -> usize {
         N
@@ -967,6 +1065,10 @@ fn directions<T: Real, const N: usize>(angles: &[T; MAX_WHEELS]) -> [Rot2<T>; N]
 
 impl<T: Real, const N: usize> KindModel<T> for Swerve<T, N> {
     const KIND: Kind = Kind::Swerve;
+
+    fn describe(&self, out: &mut dyn core::fmt::Write) -> core::fmt::Result {
+        report::swerve(self, out)
+    }
 
     fn wheels(&self) -> usize {
         N
