@@ -290,7 +290,9 @@ fn every_kind_describes_itself_and_its_reach() {
             assert!(*v > 0.0 && v.is_finite(), "{name} {k}");
             if r.kind() != Kind::Caster {
                 let (s, c) = (45.0 * k as f64).to_radians().sin_cos();
-                let a = r.inverse(Twist2::new(c * v, s * v, 0.0), &Actuators::zero()).unwrap();
+                let a = r
+                    .inverse(Twist2::new(c * v, s * v, 0.0), &Actuators::zero())
+                    .unwrap();
                 let peak = a.wheel_rates.iter().fold(0.0f64, |m, w| m.max(w.abs()));
                 assert!(close(peak, 10.0, 1e-12), "{name} {k}: {peak}");
             }
