@@ -9,8 +9,10 @@ use std::cell::Cell;
 
 use core::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
+use omnikin::Robot;
 use omnikin::drive::omni::{Omni, OmniWheel, presets};
-use omnikin::drive::{Drive, Odometry, Wrench2};
+use omnikin::drive::{Drive, Wrench2};
+use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::{GeometryError, InputError, Pose2, Twist2};
 use proptest::prelude::*;
 
@@ -527,14 +529,15 @@ proptest! {
                                  total in 0.1..3.0_f64, yaw0 in -PI..PI) {
         let w = o.wheel_rates(t).unwrap();
         let start = Pose2::new(0.0, 0.0, 0.0);
-        let mut odo = Odometry::new(o, start, [0.0; 4]);
-        let mut gyro = Odometry::new(o, start, [0.0; 4]);
-        gyro.update(&[0.0; 4], Some(yaw0)).unwrap();
+        let mut odo = Odometry::new(Robot::Omni4(o), start);
+        let mut gyro = Odometry::new(Robot::Omni4(o), start);
+        odo.update(&EncoderReading::new(0.0, [0.0; 4]), HeadingInput::Wheels).unwrap();
+        gyro.update(&EncoderReading::new(0.0, [0.0; 4]), HeadingInput::Absolute(yaw0)).unwrap();
         let dt = total / steps as f64;
         for k in 1..=steps {
-            let q = w.map(|x| x * dt * k as f64);
-            odo.update(&q, None).unwrap();
-            gyro.update(&q, Some(yaw0 + t.yaw_rate * dt * k as f64)).unwrap();
+            let q = EncoderReading::new(dt * k as f64, w.map(|x| x * dt * k as f64));
+            odo.update(&q, HeadingInput::Wheels).unwrap();
+            gyro.update(&q, HeadingInput::Absolute(yaw0 + t.yaw_rate * dt * k as f64)).unwrap();
         }
         let want = arc_pose(t, total);
         // A gyro sampled once per step cannot tell a turn of more than π per step from its
@@ -637,8 +640,17 @@ fn omni_calls_allocate_nothing() {
         acc += m.wheel_rates(Twist2::new(f64::NAN, 0.0, 0.0)).is_err() as u8 as f64;
         acc += m.body_twist(&[0.0, f64::NAN, 0.0, 0.0]).is_err() as u8 as f64;
         acc += k.wheel_rates(Twist2::new(0.1, 0.0, 0.2)).unwrap()[0] as f64;
-        let mut odo = Odometry::new(m, Pose2::default(), [0.0; 4]);
-        acc += odo.update(&w, Some(0.1)).unwrap().x;
+        let mut odo = Odometry::new(Robot::Omni4(m), Pose2::default());
+        odo.update(
+            &EncoderReading::new(0.0, [0.0; 4]),
+            HeadingInput::Absolute(0.0),
+        )
+        .unwrap();
+        acc += odo
+            .update(&EncoderReading::new(1.0, w), HeadingInput::Absolute(0.1))
+            .unwrap()
+            .pose
+            .x;
         let mut bad = presets::mecanum::<f64>();
         bad[0].radius = -1.0;
         acc += Omni::new(bad).is_err() as u8 as f64;

@@ -9,8 +9,10 @@ use std::cell::Cell;
 
 use core::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
-use omnikin::drive::swerve::{Swerve, SwerveModule, SwervePositions, SwerveState, swerve4};
-use omnikin::drive::{Drive, Odometry, Rot2, Wrench2};
+use omnikin::Robot;
+use omnikin::drive::swerve::{Swerve, SwerveModule, SwerveState, swerve4};
+use omnikin::drive::{Drive, Rot2, Wrench2};
+use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::{GeometryError, InputError, Pose2, Twist2};
 use proptest::prelude::*;
 
@@ -452,18 +454,21 @@ proptest! {
     fn odometry_is_exact_on_arcs(s in layout::<4>(), t in twist(), steps in 1usize..40,
                                  total in 0.1..3.0_f64, yaw0 in -PI..PI) {
         let st = s.module_states(t, &REST).unwrap();
-        let at = |k: usize, dt: f64| SwervePositions {
-            wheel_angles: st.wheel_rates.map(|w| w * dt * k as f64),
-            steer: st.steer,
-        };
+        let at = |k: usize, dt: f64| EncoderReading::with_steer(
+            dt * k as f64,
+            st.wheel_rates.map(|w| w * dt * k as f64),
+            st.steer_angles(),
+        );
         let start = Pose2::new(0.0, 0.0, 0.0);
-        let mut odo = Odometry::new(s, start, at(0, 0.0));
-        let mut gyro = Odometry::new(s, start, at(0, 0.0));
-        gyro.update(&at(0, 0.0), Some(yaw0)).unwrap();
+        let mut odo = Odometry::new(Robot::Swerve4(s), start);
+        let mut gyro = Odometry::new(Robot::Swerve4(s), start);
         let dt = total / steps as f64;
+        odo.update(&at(0, dt), HeadingInput::Wheels).unwrap();
+        gyro.update(&at(0, dt), HeadingInput::Absolute(yaw0)).unwrap();
         for k in 1..=steps {
-            odo.update(&at(k, dt), None).unwrap();
-            gyro.update(&at(k, dt), Some(yaw0 + t.yaw_rate * dt * k as f64)).unwrap();
+            odo.update(&at(k, dt), HeadingInput::Wheels).unwrap();
+            gyro.update(&at(k, dt), HeadingInput::Absolute(yaw0 + t.yaw_rate * dt * k as f64))
+                .unwrap();
         }
         let want = arc_pose(t, total);
         let both = [odo.pose(), gyro.pose()];
@@ -565,12 +570,11 @@ fn swerve_calls_allocate_nothing() {
         acc += s
             .module_states(Twist2::new(f64::NAN, 0.0, 0.0), &REST)
             .is_err() as u8 as f64;
-        let p = SwervePositions {
-            wheel_angles: st.wheel_rates,
-            steer: st.steer,
-        };
-        let mut odo = Odometry::new(s, Pose2::default(), p);
-        acc += odo.update(&p, Some(0.2)).unwrap().x;
+        let mut odo = Odometry::new(Robot::Swerve4(s), Pose2::default());
+        let zero = EncoderReading::with_steer(0.0, [0.0; 4], st.steer_angles());
+        odo.update(&zero, HeadingInput::Absolute(0.0)).unwrap();
+        let p = EncoderReading::with_steer(1.0, st.wheel_rates, st.steer_angles());
+        acc += odo.update(&p, HeadingInput::Absolute(0.2)).unwrap().pose.x;
         let s32 = Swerve::new(swerve4::<f32>()).unwrap();
         acc += s32.forward(&s32.rest()).unwrap().vx as f64;
         acc

@@ -14,9 +14,9 @@ use std::hint::black_box;
 
 use omnikin::Twist2;
 use omnikin::caster::{Caster3, CasterParams, CasterRates};
+use omnikin::drive::Rot2;
 use omnikin::drive::omni::{Omni, presets};
-use omnikin::drive::swerve::{Swerve, SwervePositions, SwerveState, swerve4};
-use omnikin::drive::{Odometry as DriveOdometry, Rot2};
+use omnikin::drive::swerve::{Swerve, SwerveState, swerve4};
 use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::{Pose2, Robot};
 use omnikin_bench::{Inputs, K, measure, plan20, robot, waypoints20};
@@ -107,16 +107,21 @@ fn print_values(inp: &Inputs, in4: &Inputs4) {
         let t = mec.body_twist(&in4.speed[k].map(|v| v / R4)).unwrap();
         row("mecanum_forward", k, &t.to_array());
     }
-    let mut odo = DriveOdometry::new(mec, Pose2::default(), [0.0; 4]);
+    let mut odo = Odometry::new(Robot::Omni4(mec), Pose2::default());
     let (mut q, mut yaw) = ([0.0f64; 4], 0.0f64);
-    odo.update(&q, Some(yaw)).unwrap();
+    odo.update(&EncoderReading::new(0.0, q), HeadingInput::Absolute(yaw))
+        .unwrap();
     for k in 0..4 * K {
         let kk = k & (K - 1);
         for j in 0..4 {
             q[j] += 20.0 * in4.dist[kk][j] * if j % 2 == 1 { 1.0 } else { -0.5 } / R4;
         }
         yaw += 1e-3 * inp.twist[kk].yaw_rate * 20.0;
-        let p = odo.update(&q, Some(yaw)).unwrap();
+        let t = (k + 1) as f64;
+        let p = odo
+            .update(&EncoderReading::new(t, q), HeadingInput::Absolute(yaw))
+            .unwrap()
+            .pose;
         row(
             "mecanum_odometry",
             k,
@@ -148,24 +153,18 @@ fn print_values(inp: &Inputs, in4: &Inputs4) {
             &sw.body_twist(&st).unwrap().to_array(),
         );
     }
-    let start = SwervePositions {
-        wheel_angles: [0.0; 4],
-        steer: in4.steer[0].map(Rot2::from_angle),
-    };
-    let mut odo = DriveOdometry::new(sw, Pose2::default(), start);
+    let mut odo = Odometry::new(Robot::Swerve4(sw), Pose2::default());
     let (mut q, mut yaw) = ([0.0f64; 4], 0.0f64);
-    odo.update(&start, Some(yaw)).unwrap();
+    let start = EncoderReading::with_steer(0.0, q, in4.steer[0]);
+    odo.update(&start, HeadingInput::Absolute(yaw)).unwrap();
     for k in 0..4 * K {
         let kk = k & (K - 1);
         for j in 0..4 {
             q[j] += 20.0 * in4.dist[kk][j] / R4;
         }
         yaw += 1e-3 * inp.twist[kk].yaw_rate * 20.0;
-        let pos = SwervePositions {
-            wheel_angles: q,
-            steer: in4.steer[kk].map(Rot2::from_angle),
-        };
-        let p = odo.update(&pos, Some(yaw)).unwrap();
+        let pos = EncoderReading::with_steer((k + 1) as f64, q, in4.steer[kk]);
+        let p = odo.update(&pos, HeadingInput::Absolute(yaw)).unwrap().pose;
         row(
             "swerve4_odometry",
             k,
@@ -380,8 +379,8 @@ fn main() {
             println!("mecanum_forward\t{ns:.3}\t-");
         }
         let step: [[f64; 4]; K] = core::array::from_fn(|k| in4.dist[k].map(|v| v / R4));
-        let mut odo = DriveOdometry::new(mec, Pose2::default(), [0.0; 4]);
-        let (mut q, mut yaw) = ([0.0f64; 4], 0.0f64);
+        let mut odo = Odometry::new(Robot::Omni4(mec), Pose2::default());
+        let (mut q, mut yaw, mut t) = ([0.0f64; 4], 0.0f64, 0.0f64);
         let mut failures = 0u64;
         let ns = rn.run("mecanum_odometry", 1.0, |i| {
             let k = i as usize & (K - 1);
@@ -389,7 +388,9 @@ fn main() {
                 q[j] += step[k][j];
             }
             yaw += 1e-3 * inp.twist[k].yaw_rate;
-            match odo.update(black_box(&q), Some(black_box(yaw))) {
+            t += 1e-3;
+            let r = EncoderReading::new(t, black_box(q));
+            match odo.update(&r, HeadingInput::Absolute(black_box(yaw))) {
                 Ok(p) => {
                     black_box(p);
                 }
@@ -432,12 +433,8 @@ fn main() {
             println!("swerve4_forward\t{ns:.3}\t-");
         }
         let step: [[f64; 4]; K] = core::array::from_fn(|k| in4.dist[k].map(|v| v / R4));
-        let start = SwervePositions {
-            wheel_angles: [0.0; 4],
-            steer: in4.steer[0].map(Rot2::from_angle),
-        };
-        let mut odo = DriveOdometry::new(sw, Pose2::default(), start);
-        let (mut q, mut yaw) = ([0.0f64; 4], 0.0f64);
+        let mut odo = Odometry::new(Robot::Swerve4(sw), Pose2::default());
+        let (mut q, mut yaw, mut t) = ([0.0f64; 4], 0.0f64, 0.0f64);
         let mut failures = 0u64;
         let ns = rn.run("swerve4_odometry", 1.0, |i| {
             let k = i as usize & (K - 1);
@@ -445,11 +442,9 @@ fn main() {
                 q[j] += step[k][j];
             }
             yaw += 1e-3 * inp.twist[k].yaw_rate;
-            let pos = SwervePositions {
-                wheel_angles: black_box(q),
-                steer: black_box(in4.steer[k]).map(Rot2::from_angle),
-            };
-            match odo.update(&pos, Some(black_box(yaw))) {
+            t += 1e-3;
+            let pos = EncoderReading::with_steer(t, black_box(q), black_box(in4.steer[k]));
+            match odo.update(&pos, HeadingInput::Absolute(black_box(yaw))) {
                 Ok(p) => {
                     black_box(p);
                 }

@@ -36,7 +36,7 @@
 //!   and state interfaces of the joints) and [`Drive::Positions`] (what the encoders read, for
 //!   odometry). The number of wheels is a const generic of each kind (nalgebra's lesson), so
 //!   every value is a fixed-size array.
-//! * [`Odometry`] is written once, generic over any [`Drive`] (WPILib's lesson): adding a drive
+//! * Odometry is written once ([`crate::estimate::odometry::Odometry`], over [`Robot`]; WPILib's lesson): adding a drive
 //!   never touches it.
 //! * The set of kinds is closed (every kind is a robot-file `kind`), so the layers above hold
 //!   an **enum over the concrete models with the `match` in exactly one module**
@@ -53,7 +53,7 @@
 //! | [`Drive::forward_fit`] | actuators | body twist + slip residual (m/s) | robot frame |
 //! | [`Drive::displacement`] | two encoder readings | `twist·Δt` of the step (m, m, rad) | robot frame at the start of the step |
 //! | [`Drive::inverse_world`], [`Drive::forward_world`] | as above + **explicit heading** ψ (rad) | | world frame |
-//! | [`Odometry::update`] | encoder reading, optional absolute gyro yaw (rad) | pose | world frame |
+//! | [`crate::estimate::odometry::Odometry::update`] | encoder reading, heading source (wheels, gyro rate, absolute yaw) | pose | world frame |
 //! | `body_wrench` / `wheel_torques` (per kind, see *Torques*) | wheel torques (N·m) / [`Wrench2`] | the other | robot frame |
 //!
 //! The world frame is reached **only** through an explicit heading:
@@ -83,7 +83,7 @@
 //! [`Drive::displacement`] turns two encoder readings into the robot-frame displacement
 //! `(Δx, Δy, Δθ)` of the step, the forward kinematics applied to the increments — for
 //! steerable kinds with the steering of the *end* reading, as WPILib's
-//! `SwerveDriveKinematics::ToTwist2d`. [`Odometry`] composes the pose with the exact SE(2)
+//! `SwerveDriveKinematics::ToTwist2d`. The odometry composes the pose with the exact SE(2)
 //! exponential of that displacement ([`crate::se2::twist_exp`]), so a constant twist (a
 //! circular arc) is integrated exactly whatever the step; with a gyro, the gyro's wrapped
 //! heading change replaces `Δθ` and the pose's heading follows the gyro (WPILib's
@@ -173,8 +173,7 @@ pub use robot::{
 
 use core::fmt::Debug;
 
-use crate::wrap_angle;
-use crate::{InputError, Pose2, Real, Twist2, se2};
+use crate::{InputError, Real, Twist2};
 
 /// Indexed field names `prefix[0]`..`prefix[15]`, then `prefix[16+]` for any later index: the
 /// errors are `Copy` and allocation-free, so names are static strings.
@@ -413,7 +412,7 @@ pub trait Drive: Copy + Debug {
     /// kinds. What [`Drive::inverse`] returns and [`Drive::forward`] takes.
     type Actuators: Copy + Debug + PartialEq;
     /// One encoder reading: cumulative wheel angles (rad), plus steering directions of
-    /// steerable kinds. What [`Drive::displacement`] and [`Odometry`] take.
+    /// steerable kinds. What [`Drive::displacement`] takes.
     type Positions: Copy + Debug + PartialEq;
 
     /// Number of wheels (modules), in the order of the robot file.
@@ -548,80 +547,4 @@ pub fn desaturation_scale<T: Real>(rates: &[T], max: T) -> Result<T, InputError>
         }
     }
     Ok(if peak > max { max / peak } else { T::one() })
-}
-
-/// Wheel odometry over any [`Drive`] (WPILib's `Odometry<S, P>`): feed it every encoder
-/// reading with [`Odometry::update`], read the world pose. Fixed-size state, `Copy`, no
-/// allocation.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Odometry<D: Drive> {
-    drive: D,
-    pose: Pose2<D::Scalar>,
-    last: D::Positions,
-    last_gyro: Option<D::Scalar>,
-}
-
-impl<D: Drive> Odometry<D> {
-    /// Odometry of `drive` at the world pose `pose`, with the encoders reading `positions`
-    /// there.
-    pub fn new(drive: D, pose: Pose2<D::Scalar>, positions: D::Positions) -> Self {
-        Self {
-            drive,
-            pose,
-            last: positions,
-            last_gyro: None,
-        }
-    }
-
-    /// The drive.
-    pub fn drive(&self) -> &D {
-        &self.drive
-    }
-
-    /// The current world pose (heading unwrapped).
-    pub fn pose(&self) -> Pose2<D::Scalar> {
-        self.pose
-    }
-
-    /// Moves the estimate to `pose` with the encoders reading `positions`; the next gyro
-    /// sample becomes the new heading reference.
-    pub fn reset(&mut self, pose: Pose2<D::Scalar>, positions: D::Positions) {
-        self.pose = pose;
-        self.last = positions;
-        self.last_gyro = None;
-    }
-
-    /// One step: the displacement between the last reading and `positions`
-    /// ([`Drive::displacement`]), integrated exactly on SE(2). With `gyro_yaw` (absolute yaw,
-    /// rad, any offset), the gyro's heading change since the previous sample (wrapped into
-    /// `(−π, π]`) replaces the wheels' one; the first gyro sample only sets the reference (the
-    /// wheels give that step's heading change). A gyro must therefore be sampled often enough
-    /// that the robot turns less than π between samples.
-    ///
-    /// # Errors
-    /// [`InputError`] from [`Drive::displacement`], or [`InputError::NonFinite`] naming
-    /// `gyro_yaw`; the state is unchanged on error.
-    pub fn update(
-        &mut self,
-        positions: &D::Positions,
-        gyro_yaw: Option<D::Scalar>,
-    ) -> Result<Pose2<D::Scalar>, InputError> {
-        if let Some(g) = gyro_yaw {
-            crate::real::finite(g, "gyro_yaw")?;
-        }
-        let mut d = self.drive.displacement(&self.last, positions)?;
-        if let (Some(g), Some(g0)) = (gyro_yaw, self.last_gyro) {
-            d.yaw_rate = wrap_angle(g - g0);
-        }
-        let pose = se2::compose(self.pose, se2::twist_exp(d, <D::Scalar as Real>::of(1.0)));
-        if !all_finite(&[pose.x, pose.y, pose.heading]) {
-            return Err(InputError::Overflow { quantity: "pose" });
-        }
-        self.pose = pose;
-        self.last = *positions;
-        if gyro_yaw.is_some() {
-            self.last_gyro = gyro_yaw;
-        }
-        Ok(pose)
-    }
 }
