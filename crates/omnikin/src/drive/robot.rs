@@ -8,6 +8,21 @@
 //! (what the encoders read): at most [`MAX_WHEELS`] wheels, the first [`Robot::wheels`] entries
 //! used, the rest zero. No heap, no panic, `Copy`.
 //!
+//! ```
+//! use omnikin::description::RobotDescription;
+//! use omnikin::{Actuators, Robot, Twist2};
+//!
+//! // Any robot file or preset; the code below does not know which kind it is.
+//! let robot: Robot<f64> = RobotDescription::preset("mecanum").unwrap().build()?;
+//! let a = robot.inverse(Twist2::new(0.3, 0.1, 0.5), &Actuators::zero())?;
+//! assert_eq!(robot.wheels(), 4);
+//! // WPILib's MecanumDriveKinematics::ToWheelSpeeds front-left / r: (0.3 − 0.1 − 0.45·0.5)/0.05.
+//! assert!((a.wheel_rates[0] - -0.5).abs() < 1e-12);
+//! let back = robot.forward(&a)?;
+//! assert!((back.twist.yaw_rate - 0.5).abs() < 1e-12 && back.slip_residual < 1e-12);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! ## The one place a kind is added
 //!
 //! 1. write the model (its own module, its own parameter type and validation);
