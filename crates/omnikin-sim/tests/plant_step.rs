@@ -290,7 +290,13 @@ fn a_constant_twist_traces_an_exact_arc_at_any_plant_step() {
         for dt in [1e-3_f64, 0.01, 0.1, 0.5, 2.0] {
             let profile = Profile::default();
             let mut rng = ChaCha8Rng::seed_from_u64(9);
-            let mut plant = Plant::new(robot, &profile, Pose2::default(), omnikin_plan::per_wheel(&steer), &mut rng);
+            let mut plant = Plant::new(
+                robot,
+                &profile,
+                Pose2::default(),
+                omnikin_plan::per_wheel(&steer),
+                &mut rng,
+            );
             let n = (t_end / dt).round() as usize;
             for _ in 0..n {
                 let motion = MotorMotion {
@@ -322,7 +328,8 @@ fn a_constant_twist_traces_an_exact_arc_at_any_plant_step() {
                     pose: Pose2::default(),
                     twist: Twist2::default(),
                     wheel_rates: omnikin_plan::per_wheel(&w),
-                    steer: robot.steerable()
+                    steer: robot
+                        .steerable()
                         .then_some((omnikin_plan::per_wheel(&steer), [0.0; omnikin::MAX_WHEELS])),
                 })
                 .to_vec(),
@@ -331,7 +338,13 @@ fn a_constant_twist_traces_an_exact_arc_at_any_plant_step() {
             let profile = constant_disturbances(rate);
             // The disturbed twist this seed holds: one plant step of the same draws.
             let mut rng = ChaCha8Rng::seed_from_u64(4);
-            let mut probe = Plant::new(robot, &profile, Pose2::default(), omnikin_plan::per_wheel(&steer), &mut rng);
+            let mut probe = Plant::new(
+                robot,
+                &profile,
+                Pose2::default(),
+                omnikin_plan::per_wheel(&steer),
+                &mut rng,
+            );
             let motion = MotorMotion {
                 wheel_angle: [0.0; omnikin::MAX_WHEELS],
                 wheel_turn: omnikin_plan::per_wheel(&w.map(|x| x * 0.01)),
