@@ -17,10 +17,7 @@ fn omnikin() -> Command {
 }
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "omnikin-sim-layouts-{}-{name}",
-        std::process::id()
-    ));
+    let d = std::env::temp_dir().join(format!("omnikin-sim-layouts-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
@@ -106,7 +103,13 @@ fn mecanum_plan_file_simulate_evaluate_and_odometry_round_trip() {
         &plan,
         "mecanum",
         &ideal,
-        &["--trials", "2", "--emit-sensors", "--sensors", exact.to_str().unwrap()],
+        &[
+            "--trials",
+            "2",
+            "--emit-sensors",
+            "--sensors",
+            exact.to_str().unwrap(),
+        ],
     );
     let m = metrics(&ideal);
     assert!(m["max_deviation_m"].as_f64().unwrap() < 1e-9, "{m}");
@@ -195,7 +198,10 @@ fn mecanum_plan_file_simulate_evaluate_and_odometry_round_trip() {
 
 #[test]
 fn swerve_and_kiwi_encoder_logs_round_trip_through_odometry() {
-    for (name, header) in [("swerve4", "t,q1,q2,q3,q4,s1,s2,s3,s4"), ("kiwi", "t,q1,q2,q3")] {
+    for (name, header) in [
+        ("swerve4", "t,q1,q2,q3,q4,s1,s2,s3,s4"),
+        ("kiwi", "t,q1,q2,q3"),
+    ] {
         let d = tmp(name);
         let plan = circle_plan(&d, name);
         let exact = d.join("exact.toml");
@@ -205,7 +211,13 @@ fn swerve_and_kiwi_encoder_logs_round_trip_through_odometry() {
             &plan,
             name,
             &out,
-            &["--trials", "1", "--emit-sensors", "--sensors", exact.to_str().unwrap()],
+            &[
+                "--trials",
+                "1",
+                "--emit-sensors",
+                "--sensors",
+                exact.to_str().unwrap(),
+            ],
         );
         assert!(metrics(&out)["max_deviation_m"].as_f64().unwrap() < 1e-9);
         let sensors = out.join("sensors").join("trial-000");
@@ -239,7 +251,13 @@ fn errors_name_the_columns_the_robot_needs() {
     std::fs::write(&log, "t,q1,q2,q3\n0,0,0,0\n0.1,1,1,1\n").unwrap();
     let out = d.join("poses.csv");
     omnikin()
-        .args(["odometry", log.to_str().unwrap(), "--robot", "mecanum", "--out"])
+        .args([
+            "odometry",
+            log.to_str().unwrap(),
+            "--robot",
+            "mecanum",
+            "--out",
+        ])
         .arg(&out)
         .assert()
         .failure()
@@ -251,7 +269,13 @@ fn errors_name_the_columns_the_robot_needs() {
     let log = d.join("swerve.csv");
     std::fs::write(&log, "t,q1,q2,q3,q4\n0,0,0,0,0\n0.1,1,1,1,1\n").unwrap();
     omnikin()
-        .args(["odometry", log.to_str().unwrap(), "--robot", "swerve4", "--out"])
+        .args([
+            "odometry",
+            log.to_str().unwrap(),
+            "--robot",
+            "swerve4",
+            "--out",
+        ])
         .arg(&out)
         .assert()
         .failure()
@@ -262,12 +286,17 @@ fn errors_name_the_columns_the_robot_needs() {
     // A kiwi plan simulated on a mecanum robot.
     let plan = circle_plan(&d, "kiwi");
     omnikin()
-        .args(["simulate", plan.to_str().unwrap(), "--robot", "mecanum", "--out"])
+        .args([
+            "simulate",
+            plan.to_str().unwrap(),
+            "--robot",
+            "mecanum",
+            "--out",
+        ])
         .arg(d.join("sim"))
         .assert()
         .failure()
         .stderr(
-            predicate::str::contains("3 wheel columns")
-                .and(predicate::str::contains("4 wheels")),
+            predicate::str::contains("3 wheel columns").and(predicate::str::contains("4 wheels")),
         );
 }

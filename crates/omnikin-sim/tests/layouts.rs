@@ -218,7 +218,7 @@ fn odometry_of_the_simulated_encoder_log_recovers_the_true_pose() {
         let plan = circle_plan(&robot, TWIST, 6.0, 0.01);
         for (what, prof, moved) in [
             ("ideal", Profile::default(), false),
-            ("motors", motors.clone(), true),
+            ("motors", motors, true),
         ] {
             let trial =
                 simulate_trial(&robot, &plan, &prof, &mut ChaCha8Rng::seed_from_u64(3)).unwrap();
