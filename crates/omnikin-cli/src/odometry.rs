@@ -4,8 +4,8 @@
 //!
 //! Input: the encoder log of conventions.md (`t,q1..qN` cumulative wheel angles in rad, or
 //! counts with `--counts-per-rev`, one per wheel of the robot; `s1..sN` steer angles for the
-//! steerable kinds, caster3 and swerve; optional `gyro_z` rad/s and `yaw` rad). Fixes: `t,x,y` with optional `heading` and `arrival` (s; when the fix
-//! reached the robot, default `t`); each fix is handed to the filter when it arrives and fused
+//! steerable kinds, caster3 and swerve; optional `gyro_z` rad/s and `yaw` rad). Fixes: `t,x,y`
+//! with optional `heading` and `arrival` (s; when the fix reached the robot, default `t`); each fix is handed to the filter when it arrives and fused
 //! at the time it was taken. Output: `t,x,y,heading` per log row. Bad files are rejected with
 //! `FILE:LINE: column NAME: what is wrong`.
 

@@ -117,7 +117,7 @@ impl Default for CameraProfile {
 pub struct SensorProfile {
     /// Wheel-encoder resolution, counts per revolution (`None`: exact angles).
     pub counts_per_rev: Option<u32>,
-    /// Caster steer-encoder resolution, counts per revolution (`None`: exact angles).
+    /// Steer-encoder resolution (steerable kinds), counts per revolution (`None`: exact angles).
     pub steer_counts_per_rev: Option<u32>,
     /// Emit a `gyro_z` column.
     pub gyro: Option<GyroProfile>,
