@@ -330,3 +330,27 @@ fn a_plan_of_another_robot_is_refused_or_reported() {
     .unwrap_err();
     assert!(e.to_string().contains("no steer columns"), "{e}");
 }
+
+#[test]
+fn a_circle_is_exact_at_any_plant_rate() {
+    // Two samples 2 s apart: the plant rate alone sets the number of steps (2 to 2000).
+    for name in LAYOUTS {
+        let robot = preset(name);
+        let plan = circle_plan(&robot, TWIST, 2.0, 2.0);
+        assert_eq!(plan.samples.len(), 2);
+        for rate in [1.0, 3.0, 100.0, 1000.0] {
+            let trial = simulate_trial(
+                &robot,
+                &plan,
+                &profile(&format!("rate = {rate}\n")),
+                &mut ChaCha8Rng::seed_from_u64(1),
+            )
+            .unwrap();
+            let (p, q) = (trial.pose[1], arc(TWIST, 2.0));
+            let err = (p.x - q.x)
+                .hypot(p.y - q.y)
+                .max((p.heading - q.heading).abs());
+            assert!(err < 1e-12, "{name} at {rate} Hz: {p:?} vs {q:?}");
+        }
+    }
+}
