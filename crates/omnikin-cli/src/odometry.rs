@@ -2,10 +2,10 @@
 //! wheel odometry (and camera fusion) over a recorded encoder log, with the core's
 //! [`omnikin::estimate::odometry::Odometry`] and [`omnikin::estimate::estimator::PoseEstimator`].
 //!
-//! Input: the encoder log of conventions.md (`t,q1,q2,q3` cumulative wheel angles in rad, or
-//! counts with `--counts-per-rev`; `s1,s2,s3` steer angles for caster3; optional `gyro_z`
-//! rad/s and `yaw` rad). Fixes: `t,x,y` with optional `heading` and `arrival` (s; when the fix
-//! reached the robot, default `t`); each fix is handed to the filter when it arrives and fused
+//! Input: the encoder log of conventions.md (`t,q1..qN` cumulative wheel angles in rad, or
+//! counts with `--counts-per-rev`, one per wheel of the robot; `s1..sN` steer angles for the
+//! steerable kinds, caster3 and swerve; optional `gyro_z` rad/s and `yaw` rad). Fixes: `t,x,y`
+//! with optional `heading` and `arrival` (s; when the fix reached the robot, default `t`); each fix is handed to the filter when it arrives and fused
 //! at the time it was taken. Output: `t,x,y,heading` per log row. Bad files are rejected with
 //! `FILE:LINE: column NAME: what is wrong`.
 
@@ -17,7 +17,7 @@ use omnikin::description::RobotDescription;
 use omnikin::estimate::estimator::{EstimatorError, Fix, FixOutcome, PoseEstimator, ProcessNoise};
 use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::nalgebra::{Matrix3, Vector3};
-use omnikin::{Pose2, Robot};
+use omnikin::{MAX_WHEELS, Pose2};
 // The log and fixes parser lives in the library so that it can be fuzzed (fuzz/).
 use omnikin_sim::table::NumericTable as Table;
 
@@ -29,10 +29,11 @@ const HISTORY: usize = 256;
 /// `omnikin odometry`.
 #[derive(clap::Args, Debug)]
 pub struct OdometryArgs {
-    /// Encoder log CSV: t,q1,q2,q3 (rad, cumulative), caster3 adds s1,s2,s3 (rad); optional
-    /// gyro_z (rad/s) and yaw (rad).
+    /// Encoder log CSV: t,q1..qN (rad, cumulative; one per wheel), steerable kinds (caster3,
+    /// swerve) add s1..sN (rad); optional gyro_z (rad/s) and yaw (rad).
     pub log: PathBuf,
-    /// Robot: preset name (sphere-omni, ballbot, caster3) or path to a TOML description.
+    /// Robot: preset name (sphere-omni, ballbot, caster3, kiwi, x-drive, mecanum, swerve4) or
+    /// path to a TOML description.
     #[arg(long)]
     pub robot: String,
     /// Heading from the IMU instead of the wheels: the log's `yaw` column (absolute heading) if
@@ -86,13 +87,31 @@ struct Output {
 pub fn run(args: &OdometryArgs) -> Result<()> {
     let description = RobotDescription::resolve(&args.robot)?;
     let robot = description.build::<f64>()?;
-    let caster = matches!(robot, Robot::Caster(_));
+    let n = robot.wheels();
+    let steerable = robot.steerable();
     let log = Table::load(&args.log)?;
-    let q = log.require(&["t", "q1", "q2", "q3"], "an encoder log needs t,q1,q2,q3")?;
-    let s = if caster {
+    let wheel_cols: Vec<String> = std::iter::once("t".to_string())
+        .chain((1..=n).map(|i| format!("q{i}")))
+        .collect();
+    let q = log.require(
+        &wheel_cols.iter().map(String::as_str).collect::<Vec<_>>(),
+        &format!(
+            "an encoder log of {} ({}, {n} wheels) needs {}",
+            description.name,
+            description.kind(),
+            wheel_cols.join(",")
+        ),
+    )?;
+    let s = if steerable {
+        let steer_cols: Vec<String> = (1..=n).map(|i| format!("s{i}")).collect();
         log.require(
-            &["s1", "s2", "s3"],
-            "caster3 needs its steer angles s1,s2,s3",
+            &steer_cols.iter().map(String::as_str).collect::<Vec<_>>(),
+            &format!(
+                "{} ({}) steers its wheels: it needs its steer angles {}",
+                description.name,
+                description.kind(),
+                steer_cols.join(",")
+            ),
         )?
     } else {
         Vec::new()
@@ -147,19 +166,20 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     for (line, v) in &log.rows {
         let at = |i: usize| v[i];
         let t = at(q[0]);
-        let wheels = [at(q[1]) * scale, at(q[2]) * scale, at(q[3]) * scale];
-        let steer = if caster {
-            [at(s[0]) * scale, at(s[1]) * scale, at(s[2]) * scale]
-        } else {
-            [0.0; 3]
-        };
+        let mut reading = EncoderReading::new(t, [0.0; MAX_WHEELS]);
+        for i in 0..n {
+            reading.wheel_angles[i] = at(q[i + 1]) * scale;
+        }
+        for (i, &c) in s.iter().enumerate() {
+            reading.steer_angles[i] = at(c) * scale;
+        }
         let heading = match source {
             Source::Wheels => HeadingInput::Wheels,
             Source::Gyro(g) => HeadingInput::GyroRate(at(g) - args.gyro_bias),
             Source::Yaw(y) => HeadingInput::Absolute(at(y)),
         };
         let step = odo
-            .update(&EncoderReading::with_steer(t, wheels, steer), heading)
+            .update(&reading, heading)
             .with_context(|| format!("{}:{line}", log.file))?;
         path += step.delta.x.hypot(step.delta.y);
         if step.slip_residual > max_slip.0 {
@@ -226,7 +246,8 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         end.y,
         end.heading
     );
-    if caster {
+    // Kinds fitted by least squares (more motors than the twist has components) report slip.
+    if robot.motors() > 3 {
         crate::errln!(
             "largest slip residual {:.4} m/s at t = {} s",
             max_slip.0,
@@ -235,12 +256,7 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     }
     if spin_sum.1 > 0 {
         crate::errln!(
-            "mean {} spin about the vertical (from wheels + IMU heading): {:.4} rad/s",
-            if matches!(robot, Robot::Sphere(_)) {
-                "shell"
-            } else {
-                "ball"
-            },
+            "mean shell/ball spin about the vertical (from wheels + IMU heading): {:.4} rad/s",
             spin_sum.0 / spin_sum.1 as f64
         );
     }

@@ -15,9 +15,11 @@ use serde_json::json;
 /// `omnikin simulate`.
 #[derive(clap::Args, Debug)]
 pub struct SimulateArgs {
-    /// Plan CSV (t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3[,s1,s2,s3,sd1,sd2,sd3]), e.g. from `omnikin plan`.
+    /// Plan CSV (t,x,y,heading,vx,vy,yaw_rate,w1..wN[,s1..sN,sd1..sdN]: one w per wheel, steer
+    /// columns for the steerable kinds), e.g. from `omnikin plan`.
     pub plan: PathBuf,
-    /// Robot: preset name (sphere-omni, ballbot, caster3) or path to a TOML description.
+    /// Robot: preset name (sphere-omni, ballbot, caster3, kiwi, x-drive, mecanum, swerve4) or
+    /// path to a TOML description.
     #[arg(long)]
     pub robot: String,
     /// Disturbance profile (TOML; see the omnikin-sim docs). Default: the ideal kinematic plant.
@@ -170,27 +172,29 @@ pub fn write_mean(path: &Path, plan: &Plan, mean: &MeanTrajectory) -> Result<()>
     })
 }
 
-/// Header of `trials.csv`.
-const TRIALS_HEADER: &str = "trial,t,x,y,heading,tracked_x,tracked_y,slip_residual,q1,q2,q3";
+/// Header of `trials.csv` for a robot of `wheels` wheels: one encoder column `q1..qN` per wheel.
+fn trials_header(wheels: usize) -> String {
+    let mut h = String::from("trial,t,x,y,heading,tracked_x,tracked_y,slip_residual");
+    for i in 1..=wheels {
+        h.push_str(&format!(",q{i}"));
+    }
+    h
+}
 
 /// Writes trial `i`'s rows of `trials.csv`.
 fn write_trial(w: &mut impl Write, i: usize, tr: &Trial) -> std::io::Result<()> {
+    let wheels = tr.wheels.min(omnikin::MAX_WHEELS);
     for k in 0..tr.t.len() {
         let (p, q) = (tr.pose[k], tr.tracked[k]);
-        writeln!(
+        write!(
             w,
-            "{i},{},{},{},{},{},{},{},{},{},{}",
-            tr.t[k],
-            p.x,
-            p.y,
-            p.heading,
-            q[0],
-            q[1],
-            tr.slip_residual[k],
-            tr.encoder_angles[k][0],
-            tr.encoder_angles[k][1],
-            tr.encoder_angles[k][2]
+            "{i},{},{},{},{},{},{},{}",
+            tr.t[k], p.x, p.y, p.heading, q[0], q[1], tr.slip_residual[k],
         )?;
+        for a in &tr.encoder_angles[k][..wheels] {
+            write!(w, ",{a}")?;
+        }
+        writeln!(w)?;
     }
     Ok(())
 }
@@ -281,7 +285,7 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     // Under the output rules: a temporary file, renamed into place only when every trial ran
     // (a run that stops part-way leaves no truncated trials.csv behind).
     let mut trials_csv = crate::output::OutFile::create("--out", &trials_path)?;
-    writeln!(trials_csv, "{TRIALS_HEADER}")
+    writeln!(trials_csv, "{}", trials_header(robot.wheels()))
         .with_context(|| format!("cannot write {}", trials_path.display()))?;
     let mc = pool
         .install(|| {

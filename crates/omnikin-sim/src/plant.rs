@@ -14,22 +14,26 @@ use crate::profile::{Hold, Profile};
 /// One simulated run, recorded at the plan's sample times.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Trial {
+    /// Number of wheels of the simulated robot: the used entries of the per-wheel arrays.
+    pub wheels: usize,
     /// Sample times, s (the plan's).
     pub t: Vec<f64>,
     /// True pose of the robot centre (world frame; heading unwrapped).
     pub pose: Vec<Pose2<f64>>,
     /// What the tracker recorded: the tracked point with tracking noise, m (world frame).
     pub tracked: Vec<[f64; 2]>,
-    /// Caster: slip residual of the least-squares forward kinematics at the last plant step
-    /// before each sample, m/s (0 for the other robots).
+    /// Slip residual of the least-squares forward kinematics at the last plant step before
+    /// each sample, m/s (0 for kinds with as many constraints as unknowns: sphere, ballbot,
+    /// 3-wheel omni).
     pub slip_residual: Vec<f64>,
-    /// Actual cumulative wheel (roll) angles, rad: the encoders' ground truth.
-    pub wheel_angles: Vec<[f64; 3]>,
+    /// Actual cumulative wheel (roll) angles, rad: the encoders' ground truth (entries
+    /// `0..wheels` used).
+    pub wheel_angles: Vec<[f64; MAX_WHEELS]>,
     /// What the wheel encoders read, rad: `wheel_angles` quantised down to whole counts
     /// (`[encoder] counts_per_rev`; equal to `wheel_angles` without an encoder profile).
-    pub encoder_angles: Vec<[f64; 3]>,
-    /// Caster: actual steer angles, rad.
-    pub steer_angles: Vec<[f64; 3]>,
+    pub encoder_angles: Vec<[f64; MAX_WHEELS]>,
+    /// Steerable kinds: actual steer angles, rad (zeros for the others).
+    pub steer_angles: Vec<[f64; MAX_WHEELS]>,
 }
 
 /// A simulation that could not run.
@@ -141,16 +145,12 @@ pub fn simulate_trial(
     let (first_steer, first_steer_rates) = first
         .steer
         .unwrap_or(([0.0; MAX_WHEELS], [0.0; MAX_WHEELS]));
-    let mut plant = Plant::new(*robot, profile, first.pose, head3(&first_steer), rng);
-    let mut motors = Motors::new(
-        &plant,
-        profile,
-        head3(&first.wheel_rates),
-        head3(&first_steer_rates),
-    );
+    let mut plant = Plant::new(*robot, profile, first.pose, first_steer, rng);
+    let mut motors = Motors::new(&plant, profile, first.wheel_rates, first_steer_rates);
 
     let n = samples.len();
     let mut out = Trial {
+        wheels: robot.wheels(),
         t: Vec::with_capacity(n),
         pose: Vec::with_capacity(n),
         tracked: Vec::with_capacity(n),
@@ -252,53 +252,54 @@ pub fn simulate_trial(
     Ok(out)
 }
 
-/// Checks that `plan`'s wheel (and steer) rates are what `robot`'s inverse kinematics give for
-/// the planned motion. Returns a description of the largest disagreement when it exceeds
-/// 1e-6 rad/s relative, e.g. a plan made for another robot or geometry. (Simulating a nominal
-/// plan on a deliberately different robot file is legitimate, so callers usually warn.)
+/// Checks that `plan`'s wheel rates (and steering) are what `robot`'s inverse kinematics give
+/// for the planned motion. Returns a description of the largest disagreement when it exceeds
+/// 1e-6 relative (rad/s, or rad for steer angles), e.g. a plan made for another robot or
+/// geometry. (Simulating a nominal plan on a deliberately different robot file is legitimate,
+/// so callers usually warn.)
+///
+/// The steering compared is what the kind's inverse fixes: the steer **rates** of a kind whose
+/// steer rates follow from the twist (the caster), the steer **angles** of one whose steer
+/// angles are set-points ([`omnikin::Kind::steer_is_set_point`], swerve; the inverse is asked
+/// from the plan's own angles, so a stopped module and the flip optimisation agree). The plan
+/// must have the robot's wheel count ([`simulate_trial`] refuses it otherwise); only the first
+/// `min(plan, robot)` wheels are compared.
 pub fn plan_mismatch(robot: &Robot<f64>, plan: &Plan) -> Option<String> {
-    let mut worst: Option<(f64, f64, usize, f64, f64)> = None; // (excess, t, wheel, plan, robot)
+    // (excess, t, column, plan, robot)
+    let mut worst: Option<(f64, f64, String, f64, f64)> = None;
+    let n = robot.wheels().min(plan.wheels);
+    let set_point = robot.kind().steer_is_set_point();
     for s in &plan.samples {
-        let n = robot.wheels();
         let current = match s.steer {
             Some((g, _)) => Actuators::at_steer(&g[..n]),
             None => Actuators::zero(),
         };
-        let expected: Option<Vec<f64>> = robot
-            .inverse_world(s.twist, s.pose.heading, &current)
-            .ok()
-            .map(|a| {
-                let mut v = a.wheel_rates[..n].to_vec();
-                if robot.steerable() {
-                    v.extend(&a.steer_rates[..n]);
-                }
-                v
-            });
-        let Some(expected) = expected else { continue };
-        let n = robot.wheels();
-        let planned: Vec<f64> = s.wheel_rates[..n.min(plan.wheels)]
-            .iter()
-            .chain(
-                s.steer
-                    .iter()
-                    .flat_map(|(_, sd)| sd[..n.min(plan.wheels)].iter()),
-            )
-            .copied()
+        let Ok(a) = robot.inverse_world(s.twist, s.pose.heading, &current) else {
+            continue;
+        };
+        let mut pairs: Vec<(String, f64, f64)> = (0..n)
+            .map(|i| (format!("w{}", i + 1), s.wheel_rates[i], a.wheel_rates[i]))
             .collect();
-        for (i, (&p, &e)) in planned.iter().zip(&expected).enumerate() {
+        if let (true, Some((g, gd))) = (robot.steerable(), s.steer) {
+            pairs.extend((0..n).map(|i| {
+                if set_point {
+                    // The planned angle against the inverse's, as the nearest equivalent angle.
+                    let e = g[i] + omnikin::wrap_angle(a.steer_angles[i] - g[i]);
+                    (format!("s{}", i + 1), g[i], e)
+                } else {
+                    (format!("sd{}", i + 1), gd[i], a.steer_rates[i])
+                }
+            }));
+        }
+        for (name, p, e) in pairs {
             let excess = (p - e).abs() / (1.0 + e.abs());
-            if excess > 1e-6 && worst.is_none_or(|w| excess > w.0) {
-                worst = Some((excess, s.t, i, p, e));
+            if excess > 1e-6 && worst.as_ref().is_none_or(|w| excess > w.0) {
+                worst = Some((excess, s.t, name, p, e));
             }
         }
     }
-    worst.map(|(_, t, i, p, e)| {
-        let name = if i < 3 { format!("w{}", i + 1) } else { format!("sd{}", i - 2) };
-        format!("the plan's {name} = {p:.6} rad/s at t = {t:.3} s, but this robot's inverse kinematics give {e:.6} rad/s (planned for another robot or geometry?)")
+    worst.map(|(_, t, name, p, e)| {
+        let unit = if name.starts_with("s") && !name.starts_with("sd") { "rad" } else { "rad/s" };
+        format!("the plan's {name} = {p:.6} {unit} at t = {t:.3} s, but this robot's inverse kinematics give {e:.6} {unit} (planned for another robot or geometry?)")
     })
-}
-
-/// The first three entries of a per-wheel array (the plant models three wheels so far).
-fn head3(a: &[f64; MAX_WHEELS]) -> [f64; 3] {
-    [a[0], a[1], a[2]]
 }

@@ -3,8 +3,8 @@
 //! ([`crate::sil::SilPlant`]) move the true robot only through [`Plant::step`], so for the
 //! same motor set-points, profile and seed they produce the same true trajectory.
 //!
-//! [`Plant`] holds the true state of a simulated robot (world pose, robot-frame twist, caster
-//! steer angles and slip residual) and the per-trial disturbances of a [`Profile`] that act
+//! [`Plant`] holds the true state of a simulated robot (world pose, robot-frame twist, steer
+//! angles of a steerable kind and slip residual) and the per-trial disturbances of a [`Profile`] that act
 //! between the motors and the floor. [`Plant::step`] takes the motors' **actual** motion over
 //! one plant step ([`MotorMotion`]: the output of the motor models, i.e. after lag,
 //! acceleration limit, fluctuation, bias and stepper quantisation) and, in this order:
@@ -12,10 +12,13 @@
 //! 1. turns each wheel's mean actual rate `Δq/dt` into an effective rate: × its per-trial
 //!    radius scale `1 + ε_i` (`wheel_motor.radius_error_std`), × the roller hand-over
 //!    modulation `1 + a·cos(n·q_mid + φ_i)` at the mid-step wheel angle (`[roller]`);
-//! 2. applies the robot's forward kinematics to get the robot-frame twist — sphere and
-//!    ballbot with the spin law below, caster by least squares over all six motors at the
-//!    mid-step steer angles (recording the slip residual) — the one dispatch on the robot kind
-//!    in the stepping (the simulator and SIL have none of their own);
+//! 2. applies the robot's forward kinematics, [`Robot::forward_spin`], to get the robot-frame
+//!    twist: least squares where the kind is over-determined (an omni drive of more than three
+//!    wheels, the caster's six motors, a swerve's 2N wheel constraints), recording the slip
+//!    residual of the fit; steerable kinds at the mid-step steer angles, with the steer rates
+//!    the steer motors turned at; the rolling-ball kinds ([`omnikin::Kind::has_vertical_spin`])
+//!    with the spin law below. The simulator and SIL have no kind dispatch of their own, and
+//!    neither has this step: it asks the kind only whether it steers and whether it spins;
 //! 3. scales the twist per axis by the floor slip `1 + e(t)`, `e` an Ornstein–Uhlenbeck
 //!    process (`[floor]`);
 //! 4. holds that twist over the step and advances the pose exactly on SE(2)
@@ -43,15 +46,16 @@
 //!   ([`omnikin::ballbot::Ballbot::body_twist`]) argument, so `ψ̇ = ψ̇₀ + Ω` with `ψ̇₀` the yaw
 //!   rate at zero spin.
 //!
-//! The caster has no such degree of freedom and ignores `[shell_spin]`. (Before this module
+//! The other kinds (caster, omni, swerve) have no such degree of freedom and ignore
+//! `[shell_spin]` (its constant is still drawn, so the random stream does not depend on the
+//! kind). (Before this module
 //! SIL gave the ballbot only `Ω₀`, dropping the speed-dependent term the simulator applied, so
 //! with a `slip_gain` the two disagreed on the ballbot's heading.)
 //!
 //! `Motors` (crate-private) is the other half both callers share: the motor models turning
 //! set-points into the [`MotorMotion`] this step consumes.
 
-use omnikin::caster::CasterRates;
-use omnikin::{InputError, Pose2, Robot, Twist2, se2};
+use omnikin::{Actuators, InputError, MAX_WHEELS, Pose2, Robot, Twist2, se2};
 use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -63,24 +67,20 @@ fn gauss(rng: &mut ChaCha8Rng) -> f64 {
     StandardNormal.sample(rng)
 }
 
-/// Whether `robot` has steering motors (the caster), i.e. whether [`MotorMotion::steer_turn`]
-/// and a plan's steer columns mean anything for it.
-pub fn has_steering(robot: &Robot<f64>) -> bool {
-    matches!(robot, Robot::Caster(_))
-}
-
-/// What the motors actually did during one plant step (after the motor models), rad.
+/// What the motors actually did during one plant step (after the motor models), rad. Entries
+/// `0..robot.wheels()` are used, the rest are zero.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MotorMotion {
     /// Each wheel (roll) motor's output angle at the start of the step, rad (places the roller
     /// hand-over).
-    pub wheel_angle: [f64; 3],
+    pub wheel_angle: [f64; MAX_WHEELS],
     /// Angle each wheel (roll) motor turned through during the step, rad: its mean actual rate
     /// × `dt`.
-    pub wheel_turn: [f64; 3],
-    /// Caster: angle each steering motor turned through during the step, rad (counter-clockwise
-    /// about the steering axis, relative to the body); ignored for the other robots.
-    pub steer_turn: [f64; 3],
+    pub wheel_turn: [f64; MAX_WHEELS],
+    /// Steerable kinds ([`Robot::steerable`]): angle each steering motor turned through during
+    /// the step, rad (counter-clockwise about the steering axis, relative to the body); ignored
+    /// for the other kinds.
+    pub steer_turn: [f64; MAX_WHEELS],
 }
 
 /// The true state of a simulated robot and the per-trial disturbances between its motors and
@@ -92,14 +92,14 @@ pub struct Plant {
     pose: Pose2<f64>,
     /// Robot-frame twist of the last step.
     twist: Twist2<f64>,
-    /// Caster: true steer angles, rad.
-    steer: [f64; 3],
-    /// Caster: slip residual of the last step's least-squares fit, m/s.
+    /// Steerable kinds: true steer angles, rad (zeros otherwise).
+    steer: [f64; MAX_WHEELS],
+    /// Slip residual of the last step's least-squares fit, m/s.
     slip_residual: f64,
-    radius_scale: [f64; 3],
+    radius_scale: [f64; MAX_WHEELS],
     roller_amp: f64,
     rollers: f64,
-    roller_phase: [f64; 3],
+    roller_phase: [f64; MAX_WHEELS],
     spin_const: f64,
     spin_gain: f64,
     spin_exp: f64,
@@ -110,20 +110,32 @@ pub struct Plant {
 
 impl Plant {
     /// A plant for `robot` at the true pose `pose` (world) with steer angles `steer` (rad;
-    /// caster only, ignored otherwise), drawing the per-trial disturbances of `profile` from
-    /// `rng` in a fixed order: three wheel-radius errors, the constant spin, three roller
-    /// phases, then (with floor slip) the three initial floor-slip factors.
+    /// steerable kinds only, ignored otherwise; entries `0..robot.wheels()` used), drawing the
+    /// per-trial disturbances of `profile` from `rng` in a fixed order: one wheel-radius error
+    /// per wheel, the constant spin, one roller phase per wheel, then (with floor slip) the
+    /// three initial floor-slip factors (vx, vy, yaw rate).
     pub fn new(
         robot: Robot<f64>,
         profile: &Profile,
         pose: Pose2<f64>,
-        steer: [f64; 3],
+        steer: [f64; MAX_WHEELS],
         rng: &mut ChaCha8Rng,
     ) -> Self {
+        let n = robot.wheels();
         let radius_std = profile.wheel_motor.radius_error_std.unwrap_or(0.0);
-        let radius_scale = core::array::from_fn(|_| 1.0 + radius_std * gauss(rng));
+        let mut radius_scale = [1.0; MAX_WHEELS];
+        for r in &mut radius_scale[..n] {
+            *r = 1.0 + radius_std * gauss(rng);
+        }
         let spin_const = profile.shell_spin.std.unwrap_or(0.0) * gauss(rng);
-        let roller_phase = core::array::from_fn(|_| rng.random_range(0.0..core::f64::consts::TAU));
+        let mut roller_phase = [0.0; MAX_WHEELS];
+        for p in &mut roller_phase[..n] {
+            *p = rng.random_range(0.0..core::f64::consts::TAU);
+        }
+        let mut steer_used = [0.0; MAX_WHEELS];
+        if robot.steerable() {
+            steer_used[..n].copy_from_slice(&steer[..n]);
+        }
         let floor_std = profile.floor.rel_std.unwrap_or(0.0);
         let floor = if floor_std > 0.0 {
             core::array::from_fn(|_| floor_std * gauss(rng))
@@ -134,11 +146,7 @@ impl Plant {
             robot,
             pose,
             twist: Twist2::default(),
-            steer: if has_steering(&robot) {
-                steer
-            } else {
-                [0.0; 3]
-            },
+            steer: steer_used,
             slip_residual: 0.0,
             radius_scale,
             roller_amp: profile.roller.amplitude.unwrap_or(0.0),
@@ -158,11 +166,6 @@ impl Plant {
         &self.robot
     }
 
-    /// Whether the robot has steering motors ([`has_steering`]).
-    pub fn has_steering(&self) -> bool {
-        has_steering(&self.robot)
-    }
-
     /// The true pose (world frame; m, m, rad unwrapped).
     pub fn pose(&self) -> Pose2<f64> {
         self.pose
@@ -173,13 +176,15 @@ impl Plant {
         self.twist
     }
 
-    /// Caster: the true steer angles, rad (zeros for the other robots).
-    pub fn steer_angles(&self) -> [f64; 3] {
+    /// Steerable kinds: the true steer angles, rad (zeros for the other kinds and past the
+    /// wheel count).
+    pub fn steer_angles(&self) -> [f64; MAX_WHEELS] {
         self.steer
     }
 
-    /// Caster: slip residual of the last step's least-squares forward kinematics, m/s (0 for
-    /// the other robots and before the first step).
+    /// Slip residual of the last step's least-squares forward kinematics, m/s (0 for kinds
+    /// with as many constraints as unknowns — sphere, ballbot, 3-wheel omni — and before the
+    /// first step).
     pub fn slip_residual(&self) -> f64 {
         self.slip_residual
     }
@@ -208,7 +213,11 @@ impl Plant {
         dt: f64,
         rng: &mut ChaCha8Rng,
     ) -> Result<Twist2<f64>, InputError> {
-        let w: [f64; 3] = core::array::from_fn(|i| {
+        let n = self.robot.wheels();
+        let w: [f64; MAX_WHEELS] = core::array::from_fn(|i| {
+            if i >= n {
+                return 0.0;
+            }
             let dq = motion.wheel_turn[i];
             let mut eff = dq / dt * self.radius_scale[i];
             if self.roller_amp > 0.0 {
@@ -242,43 +251,48 @@ impl Plant {
         self.spin_const + self.spin_gain * speed.powf(self.spin_exp) * (-tw0.yaw_rate)
     }
 
-    /// Forward kinematics of the effective wheel rates `w` (rad/s) and the steer turns (rad,
-    /// caster) over `dt`: the robot-frame twist. Updates the caster's steer angles and slip
-    /// residual.
+    /// Forward kinematics of the effective wheel rates `w` (rad/s) and, for a steerable kind,
+    /// the steer turns (rad) over `dt`: the robot-frame twist. Updates the steer angles and the
+    /// slip residual.
     fn forward(
         &mut self,
-        w: [f64; 3],
-        steer_turn: &[f64; 3],
+        w: [f64; MAX_WHEELS],
+        steer_turn: &[f64; MAX_WHEELS],
         dt: f64,
     ) -> Result<Twist2<f64>, InputError> {
-        match &self.robot {
-            Robot::Sphere(m) => m.body_twist(w, self.spin(m.body_twist(w, 0.0)?)),
-            Robot::Ballbot(m) => m.body_twist(w, self.spin(m.body_twist(w, 0.0)?)),
-            Robot::Caster(m) => {
-                let sd = steer_turn.map(|d| d / dt);
-                let next: [f64; 3] = core::array::from_fn(|i| self.steer[i] + steer_turn[i]);
-                // Least squares at the mid-step steer angles.
-                let mid: [f64; 3] = core::array::from_fn(|i| 0.5 * (self.steer[i] + next[i]));
-                let heading = self.pose.heading;
-                let fwd = m.body_twist(&CasterRates { roll: w, steer: sd }, heading, mid)?;
-                self.slip_residual = fwd.slip_residual;
-                self.steer = next;
-                Ok(fwd.twist.to_robot(heading))
+        let n = self.robot.wheels();
+        let mut a = Actuators::from_wheel_rates(&w[..n]);
+        let mut next = self.steer;
+        if self.robot.steerable() {
+            for i in 0..n {
+                next[i] = self.steer[i] + steer_turn[i];
+                // The fit at the mid-step steer angles, with the rates the steer motors ran at.
+                a.steer_angles[i] = 0.5 * (self.steer[i] + next[i]);
+                a.steer_rates[i] = steer_turn[i] / dt;
             }
-            _ => Err(InputError::Singular {
-                reason: "this robot kind is not simulated yet",
-            }),
         }
+        let spin = if self.robot.kind().has_vertical_spin() {
+            self.spin(self.robot.forward_spin(&a, 0.0)?.twist)
+        } else {
+            0.0
+        };
+        let motion = self.robot.forward_spin(&a, spin)?;
+        self.slip_residual = motion.slip_residual;
+        self.steer = next;
+        Ok(motion.twist)
     }
 }
 
-/// The motor models of one robot: three wheel (roll) motors and, for a robot with steering,
-/// three steering motors. Turns set-points into the [`MotorMotion`] of a plant step.
+/// The motor models of one robot: one wheel (roll) motor per wheel and, for a steerable
+/// kind, one steering motor per wheel. Turns set-points into the [`MotorMotion`] of a plant
+/// step.
 #[derive(Clone, Debug)]
 pub(crate) struct Motors {
-    wheels: [Motor; 3],
+    /// Number of wheels: only motors `0..wheels` are stepped (and draw randomness).
+    wheels: usize,
+    wheel: [Motor; MAX_WHEELS],
     /// `None` without steering: steering motors are then never stepped (nor draw randomness).
-    steer: Option<[Motor; 3]>,
+    steer: Option<[Motor; MAX_WHEELS]>,
 }
 
 impl Motors {
@@ -287,13 +301,15 @@ impl Motors {
     pub(crate) fn new(
         plant: &Plant,
         profile: &Profile,
-        wheel_rates: [f64; 3],
-        steer_rates: [f64; 3],
+        wheel_rates: [f64; MAX_WHEELS],
+        steer_rates: [f64; MAX_WHEELS],
     ) -> Self {
         Self {
-            wheels: core::array::from_fn(|i| Motor::new(profile.wheel_motor, wheel_rates[i])),
+            wheels: plant.robot().wheels(),
+            wheel: core::array::from_fn(|i| Motor::new(profile.wheel_motor, wheel_rates[i])),
             steer: plant
-                .has_steering()
+                .robot()
+                .steerable()
                 .then(|| core::array::from_fn(|i| Motor::new(profile.steer_motor, steer_rates[i]))),
         }
     }
@@ -303,26 +319,27 @@ impl Motors {
     /// then steering motors), and returns what they did.
     pub(crate) fn step(
         &mut self,
-        wheel: [f64; 3],
-        steer: [f64; 3],
+        wheel: [f64; MAX_WHEELS],
+        steer: [f64; MAX_WHEELS],
         dt: f64,
         rng: &mut ChaCha8Rng,
     ) -> MotorMotion {
         let mut m = MotorMotion::default();
-        for i in 0..3 {
-            m.wheel_angle[i] = self.wheels[i].angle();
-            m.wheel_turn[i] = self.wheels[i].step(wheel[i], dt, rng);
+        for i in 0..self.wheels {
+            m.wheel_angle[i] = self.wheel[i].angle();
+            m.wheel_turn[i] = self.wheel[i].step(wheel[i], dt, rng);
         }
         if let Some(motors) = &mut self.steer {
-            for i in 0..3 {
+            for i in 0..self.wheels {
                 m.steer_turn[i] = motors[i].step(steer[i], dt, rng);
             }
         }
         m
     }
 
-    /// The wheel motors' output angles, rad (the encoders' ground truth).
-    pub(crate) fn wheel_angles(&self) -> [f64; 3] {
-        core::array::from_fn(|i| self.wheels[i].angle())
+    /// The wheel motors' output angles, rad (the encoders' ground truth; zeros past the wheel
+    /// count).
+    pub(crate) fn wheel_angles(&self) -> [f64; MAX_WHEELS] {
+        core::array::from_fn(|i| self.wheel[i].angle())
     }
 }

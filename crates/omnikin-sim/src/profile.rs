@@ -19,7 +19,7 @@
 //! radius_error_std = 0.003      # relative wheel-radius error, drawn per wheel per trial
 //! rate_bias_rel = 0.0           # relative rate bias (clock or gear-ratio error)
 //!
-//! [steer_motor]                 # caster steering motors: the same motor keys
+//! [steer_motor]                 # steering motors (caster, swerve): same keys
 //!
 //! [shell_spin]                  # sphere-omni: the shell, ballbot: the ball (plant_step)
 //! std = 0.01                    # rad/s, constant random spin per trial
@@ -46,7 +46,7 @@
 
 use serde::Deserialize;
 
-/// Motor imperfections (roll/omni-wheel motors, or caster steering motors). All optional.
+/// Motor imperfections (wheel motors, or the steering motors of a steerable kind). All optional.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MotorProfile {
@@ -164,7 +164,7 @@ pub struct Profile {
     /// Roll / omni-wheel motors.
     #[serde(default)]
     pub wheel_motor: MotorProfile,
-    /// Caster steering motors.
+    /// Steering motors of the steerable kinds (caster, swerve).
     #[serde(default)]
     pub steer_motor: MotorProfile,
     /// Shell (ball) spin.

@@ -5,8 +5,8 @@
 //! From the trial's true cumulative wheel angles, steer angles and poses at the plan's sample
 //! times, [`emit`] produces, with a seeded RNG:
 //!
-//! * the **encoder log** of conventions.md (`t,q1,q2,q3` cumulative wheel angles, `s1,s2,s3` for
-//!   the caster, optional `gyro_z` and `yaw`), angles quantised to whole counts of a counting
+//! * the **encoder log** of conventions.md (`t,q1..qN` cumulative wheel angles, `s1..sN` for
+//!   the steerable kinds, optional `gyro_z` and `yaw`), angles quantised to whole counts of a counting
 //!   encoder (`floor`, `counts_per_rev`);
 //! * a level **IMU** (3-axis gyro with constant bias and white noise, accelerometer = specific
 //!   force, magnetometer = the world field in the body frame) for AHRS tests;
@@ -19,7 +19,7 @@
 
 use std::io::Write;
 
-use omnikin::Robot;
+use omnikin::{MAX_WHEELS, Robot};
 use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -117,7 +117,7 @@ impl Default for CameraProfile {
 pub struct SensorProfile {
     /// Wheel-encoder resolution, counts per revolution (`None`: exact angles).
     pub counts_per_rev: Option<u32>,
-    /// Caster steer-encoder resolution, counts per revolution (`None`: exact angles).
+    /// Steer-encoder resolution (steerable kinds), counts per revolution (`None`: exact angles).
     pub steer_counts_per_rev: Option<u32>,
     /// Emit a `gyro_z` column.
     pub gyro: Option<GyroProfile>,
@@ -257,10 +257,12 @@ impl SensorProfile {
 pub struct EncoderRow {
     /// Time, s.
     pub t: f64,
-    /// Cumulative wheel angles as the encoders read them, rad.
-    pub q: [f64; 3],
-    /// Caster: steer angles as read, rad.
-    pub steer: Option<[f64; 3]>,
+    /// Number of wheels: the used entries of `q` and `steer`.
+    pub wheels: usize,
+    /// Cumulative wheel angles as the encoders read them, rad (entries `0..wheels`).
+    pub q: [f64; MAX_WHEELS],
+    /// Steerable kinds (caster, swerve): steer angles as read, rad (entries `0..wheels`).
+    pub steer: Option<[f64; MAX_WHEELS]>,
     /// Gyro z rate, rad/s.
     pub gyro_z: Option<f64>,
     /// Absolute yaw, rad.
@@ -350,14 +352,16 @@ fn second_derivative(t: &[f64], k: usize, f: impl Fn(usize) -> f64) -> f64 {
 }
 
 /// The sensor logs a robot running `trial` would have recorded (see the module docs). `robot`
-/// decides whether steer angles are written (caster). All randomness comes from `rng`.
+/// decides how many wheel columns there are and whether steer angles are written (steerable
+/// kinds). All randomness comes from `rng`.
 pub fn emit(
     robot: &Robot<f64>,
     trial: &Trial,
     profile: &SensorProfile,
     rng: &mut ChaCha8Rng,
 ) -> Sensors {
-    let caster = matches!(robot, Robot::Caster(_));
+    let wheels = robot.wheels();
+    let steerable = robot.steerable();
     let t = &trial.t;
     let n = t.len().min(trial.pose.len()).min(trial.wheel_angles.len());
     let heading = |k: usize| trial.pose[k].heading;
@@ -367,12 +371,12 @@ pub fn emit(
     }
     for k in 0..n {
         let q = trial.wheel_angles[k].map(|x| quantise(x, profile.counts_per_rev));
-        let steer = caster.then(|| {
+        let steer = steerable.then(|| {
             trial
                 .steer_angles
                 .get(k)
                 .copied()
-                .unwrap_or([0.0; 3])
+                .unwrap_or([0.0; MAX_WHEELS])
                 .map(|x| quantise(x, profile.steer_counts_per_rev))
         });
         let gyro_z = profile
@@ -384,6 +388,7 @@ pub fn emit(
         });
         out.encoder.push(EncoderRow {
             t: t[k],
+            wheels,
             q,
             steer,
             gyro_z,
@@ -467,18 +472,25 @@ fn num(x: f64) -> String {
     format!("{x}")
 }
 
-/// Writes the encoder log CSV of conventions.md: `t,q1,q2,q3`, then `s1,s2,s3` (caster),
-/// `gyro_z`, `yaw` when the rows carry them (decided by the first row).
+/// Writes the encoder log CSV of conventions.md: `t,q1..qN`, then `s1..sN` (steerable kinds),
+/// `gyro_z`, `yaw` when the rows carry them (the wheel count and the optional columns decided
+/// by the first row).
 pub fn write_encoder_log<W: Write>(rows: &[EncoderRow], mut out: W) -> std::io::Result<()> {
     let first = rows.first();
-    let (steer, gyro, yaw) = (
+    let (wheels, steer, gyro, yaw) = (
+        first.map_or(0, |r| r.wheels.min(MAX_WHEELS)),
         first.is_some_and(|r| r.steer.is_some()),
         first.is_some_and(|r| r.gyro_z.is_some()),
         first.is_some_and(|r| r.yaw.is_some()),
     );
-    let mut header = String::from("t,q1,q2,q3");
+    let mut header = String::from("t");
+    for i in 1..=wheels {
+        header.push_str(&format!(",q{i}"));
+    }
     if steer {
-        header.push_str(",s1,s2,s3");
+        for i in 1..=wheels {
+            header.push_str(&format!(",s{i}"));
+        }
     }
     if gyro {
         header.push_str(",gyro_z");
@@ -488,16 +500,17 @@ pub fn write_encoder_log<W: Write>(rows: &[EncoderRow], mut out: W) -> std::io::
     }
     writeln!(out, "{header}")?;
     for r in rows {
-        let mut line = format!(
-            "{},{},{},{}",
-            num(r.t),
-            num(r.q[0]),
-            num(r.q[1]),
-            num(r.q[2])
-        );
+        let mut line = num(r.t);
+        for q in &r.q[..wheels] {
+            line.push(',');
+            line.push_str(&num(*q));
+        }
         if steer {
-            let s = r.steer.unwrap_or([f64::NAN; 3]);
-            line.push_str(&format!(",{},{},{}", num(s[0]), num(s[1]), num(s[2])));
+            let s = r.steer.unwrap_or([f64::NAN; MAX_WHEELS]);
+            for g in &s[..wheels] {
+                line.push(',');
+                line.push_str(&num(*g));
+            }
         }
         if gyro {
             line.push_str(&format!(",{}", num(r.gyro_z.unwrap_or(f64::NAN))));

@@ -17,7 +17,7 @@ use omnikin::runtime::hal::{
     Clock, EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOutputs,
 };
 use omnikin::runtime::{Runtime, Status};
-use omnikin::{Pose2, Robot, Twist2};
+use omnikin::{MAX_WHEELS, Pose2, Robot, Twist2};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -45,8 +45,8 @@ impl SilPlant {
     /// as [`crate::simulate_trial`] given `ChaCha8Rng::seed_from_u64(seed)`).
     pub fn new(robot: Robot<f64>, profile: Profile, seed: u64, pose: Pose2<f64>) -> Self {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let plant = Plant::new(robot, &profile, pose, [0.0; 3], &mut rng);
-        let motors = Motors::new(&plant, &profile, [0.0; 3], [0.0; 3]);
+        let plant = Plant::new(robot, &profile, pose, [0.0; MAX_WHEELS], &mut rng);
+        let motors = Motors::new(&plant, &profile, [0.0; MAX_WHEELS], [0.0; MAX_WHEELS]);
         Self {
             profile,
             rng,
@@ -127,12 +127,22 @@ impl SilPlant {
 
     fn substep(&mut self, dt: f64, t: f64) -> Result<(), SimError> {
         let c = &self.command;
-        let motion = self.motors.step(c.wheel, c.steer, dt, &mut self.rng);
+        let motion = self.motors.step(
+            omnikin_plan::per_wheel(&c.wheel),
+            omnikin_plan::per_wheel(&c.steer),
+            dt,
+            &mut self.rng,
+        );
         self.plant
             .step(&motion, dt, &mut self.rng)
             .map_err(|source| SimError::Kinematics { t, source })?;
         Ok(())
     }
+}
+
+/// The first three entries of a per-wheel array (the runtime's HAL has three channels so far).
+fn head3(a: [f64; MAX_WHEELS]) -> [f64; 3] {
+    [a[0], a[1], a[2]]
 }
 
 /// A sensor reading taken before the cycle (so the plant can be the motor board at the same
@@ -157,8 +167,8 @@ impl Encoders<f64> for SilPlant {
     type Error = core::convert::Infallible;
     fn read(&mut self) -> Result<EncoderAngles<f64>, Self::Error> {
         Ok(EncoderAngles {
-            wheel: self.motors.wheel_angles(),
-            steer: self.plant.steer_angles(),
+            wheel: head3(self.motors.wheel_angles()),
+            steer: head3(self.plant.steer_angles()),
         })
     }
 }

@@ -106,7 +106,7 @@ fn caster_plan(m: &Caster3<f64>, duration: f64) -> Plan {
 fn readings(rows: &[EncoderRow]) -> impl Iterator<Item = (EncoderReading<f64>, &EncoderRow)> {
     rows.iter().map(|r| {
         (
-            EncoderReading::with_steer(r.t, r.q, r.steer.unwrap_or([0.0; 3])),
+            EncoderReading::with_steer(r.t, r.q, r.steer.unwrap_or([0.0; omnikin::MAX_WHEELS])),
             r,
         )
     })

@@ -8,7 +8,7 @@ use omnikin::runtime::hal::{MotorCommand, MotorOutputs};
 use omnikin::{Pose2, Robot, Twist2};
 use omnikin_plan::{Plan, Sample};
 use omnikin_sim::Profile;
-use omnikin_sim::plant_step::{MotorMotion, Plant, has_steering};
+use omnikin_sim::plant_step::{MotorMotion, Plant};
 use omnikin_sim::sil::SilPlant;
 use omnikin_sim::simulate_trial;
 use rand::SeedableRng;
@@ -290,13 +290,19 @@ fn a_constant_twist_traces_an_exact_arc_at_any_plant_step() {
         for dt in [1e-3_f64, 0.01, 0.1, 0.5, 2.0] {
             let profile = Profile::default();
             let mut rng = ChaCha8Rng::seed_from_u64(9);
-            let mut plant = Plant::new(robot, &profile, Pose2::default(), steer, &mut rng);
+            let mut plant = Plant::new(
+                robot,
+                &profile,
+                Pose2::default(),
+                omnikin_plan::per_wheel(&steer),
+                &mut rng,
+            );
             let n = (t_end / dt).round() as usize;
             for _ in 0..n {
                 let motion = MotorMotion {
-                    wheel_angle: [0.0; 3],
-                    wheel_turn: w.map(|x| x * dt),
-                    steer_turn: [0.0; 3],
+                    wheel_angle: [0.0; omnikin::MAX_WHEELS],
+                    wheel_turn: omnikin_plan::per_wheel(&w.map(|x| x * dt)),
+                    steer_turn: [0.0; omnikin::MAX_WHEELS],
                 };
                 plant.step(&motion, dt, &mut rng).unwrap();
             }
@@ -322,7 +328,8 @@ fn a_constant_twist_traces_an_exact_arc_at_any_plant_step() {
                     pose: Pose2::default(),
                     twist: Twist2::default(),
                     wheel_rates: omnikin_plan::per_wheel(&w),
-                    steer: has_steering(&robot)
+                    steer: robot
+                        .steerable()
                         .then_some((omnikin_plan::per_wheel(&steer), [0.0; omnikin::MAX_WHEELS])),
                 })
                 .to_vec(),
@@ -331,11 +338,17 @@ fn a_constant_twist_traces_an_exact_arc_at_any_plant_step() {
             let profile = constant_disturbances(rate);
             // The disturbed twist this seed holds: one plant step of the same draws.
             let mut rng = ChaCha8Rng::seed_from_u64(4);
-            let mut probe = Plant::new(robot, &profile, Pose2::default(), steer, &mut rng);
+            let mut probe = Plant::new(
+                robot,
+                &profile,
+                Pose2::default(),
+                omnikin_plan::per_wheel(&steer),
+                &mut rng,
+            );
             let motion = MotorMotion {
-                wheel_angle: [0.0; 3],
-                wheel_turn: w.map(|x| x * 0.01),
-                steer_turn: [0.0; 3],
+                wheel_angle: [0.0; omnikin::MAX_WHEELS],
+                wheel_turn: omnikin_plan::per_wheel(&w.map(|x| x * 0.01)),
+                steer_turn: [0.0; omnikin::MAX_WHEELS],
             };
             let disturbed = probe.step(&motion, 0.01, &mut rng).unwrap();
             assert!(
@@ -352,7 +365,7 @@ fn a_constant_twist_traces_an_exact_arc_at_any_plant_step() {
                 arc(disturbed, t_end)
             );
             // SIL starts at rest with zero steer angles: the rolling robots only.
-            if !has_steering(&robot) {
+            if !robot.steerable() {
                 let mut sil = SilPlant::new(robot, profile, 4, Pose2::default());
                 sil.set_rates(&MotorCommand {
                     wheel: w,
