@@ -540,8 +540,8 @@ pub(super) fn finite<T: Real, const N: usize>(x: &[T; N]) -> bool {
         even += x[i];
     }
     let s = even + odd;
-    // `s − s` is 0 for a finite sum and NaN otherwise; "ordered" is one compare and one branch.
-    (s - s).partial_cmp(&T::zero()).is_some() || each_finite(*x)
+    // `0·s` is ±0 for a finite sum and NaN otherwise; "ordered" is one compare and one branch.
+    (s * T::zero()).partial_cmp(&T::zero()).is_some() || each_finite(*x)
 }
 
 #[cold]
