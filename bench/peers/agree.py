@@ -2,7 +2,8 @@
 """Agreement check of the peer comparison: `agree.py CPP_VALUES RUST_VALUES [TOL]`.
 
 Both harnesses' `--values` print one line per call, `name<TAB>k<TAB>v...`, for the same inputs
-and in omnikin's units (wheel rates rad/s, directions as cos and sin, poses x, y, cos, sin).
+and in omnikin's units; the Rust side prints each call a second time through `omnikin::Robot`
+(`robot_<name>`), compared with the same WPILib line (wheel rates rad/s, directions as cos and sin, poses x, y, cos, sin).
 Every value must agree to TOL (default 1e-9) relative to max(1, |WPILib value|); prints the
 largest difference per benchmark and exits 1 on any disagreement or missing line.
 """
@@ -23,6 +24,9 @@ def main():
     if len(sys.argv) not in (3, 4):
         sys.exit(__doc__)
     cpp, rust = load(sys.argv[1]), load(sys.argv[2])
+    # The Rust side prints every call twice: through the concrete model (`mecanum_inverse`)
+    # and through `omnikin::Robot` (`robot_mecanum_inverse`); both are held to WPILib's row.
+    cpp.update({("robot_" + name, k): v for (name, k), v in list(cpp.items())})
     tol = float(sys.argv[3]) if len(sys.argv) == 4 else 1e-9
     ok = True
     if cpp.keys() != rust.keys():
@@ -47,7 +51,7 @@ def main():
         n = sum(1 for k in cpp if k[0] == name)
         e = worst.get(name, (0.0, 0, 0, 0.0, 0.0))
         flag = "ok" if e[0] <= tol else "DISAGREE"
-        print(f"  {name:<18} {n:4} calls  max rel. diff {e[0]:.2e}  {flag}"
+        print(f"  {name:<24} {n:4} calls  max rel. diff {e[0]:.2e}  {flag}"
               + (f" (call {e[1]}, value {e[2]}: omnikin {e[3]!r}, WPILib {e[4]!r})" if e[0] > tol else ""))
     if not ok:
         sys.exit(f"omnikin and WPILib disagree beyond {tol}")

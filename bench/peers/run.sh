@@ -10,7 +10,8 @@
 # 3. builds the Rust harness (crate bench/rust-harness, `omnikin-peer-harness`) in release
 #    mode with --locked;
 # 4. checks that both sides agree to 1e-9 on the mecanum and swerve4 inverse, forward and
-#    odometry calls for the same inputs (`--values` of each harness, bench/peers/agree.py);
+#    odometry calls for the same inputs (`--values` of each harness, bench/peers/agree.py),
+#    omnikin's side both through the concrete models and through `omnikin::Robot`;
 # 5. runs the two alternately for N rounds (default 7; odd rounds C++ first, even rounds Rust
 #    first), recording the load average around each round, and prints the median over rounds
 #    of each benchmark's per-round median (ns per call) and the ratio WPILib / omnikin for
@@ -108,6 +109,10 @@ if [ "$instructions" = 1 ]; then
                 mecanum_odometry:wpi_mecanum_odometry \
                 swerve4_inverse:wpi_swerve4_inverse swerve4_forward:wpi_swerve4_forward \
                 swerve4_odometry:wpi_swerve4_odometry \
+                robot_mecanum_inverse:wpi_mecanum_inverse robot_mecanum_forward:wpi_mecanum_forward \
+                robot_mecanum_odometry:wpi_mecanum_odometry \
+                robot_swerve4_inverse:wpi_swerve4_inverse robot_swerve4_forward:wpi_swerve4_forward \
+                robot_swerve4_odometry:wpi_swerve4_odometry \
                 plan20_11hz_time_optimal:plan20_wpilib plan20_1khz_time_optimal:plan20_wpilib; do
       a=${pair%%:*}; b=${pair#*:}
       case "$a" in plan20_1khz*) n1=1; n2=2 ;; plan20*) n1=1; n2=3 ;; *) n1=1000; n2=11000 ;; esac
@@ -171,6 +176,12 @@ pairs = [
     ("swerve4_inverse", "wpi_swerve4_inverse"),
     ("swerve4_forward", "wpi_swerve4_forward"),
     ("swerve4_odometry", "wpi_swerve4_odometry"),
+    ("robot_mecanum_inverse", "wpi_mecanum_inverse"),
+    ("robot_mecanum_forward", "wpi_mecanum_forward"),
+    ("robot_mecanum_odometry", "wpi_mecanum_odometry"),
+    ("robot_swerve4_inverse", "wpi_swerve4_inverse"),
+    ("robot_swerve4_forward", "wpi_swerve4_forward"),
+    ("robot_swerve4_odometry", "wpi_swerve4_odometry"),
     ("plan20_11hz_time_optimal", "plan20_wpilib"),
     ("plan20_1khz_time_optimal", "plan20_wpilib"),
     ("plan20_1khz_trapezoid", "plan20_wpilib"),

@@ -1,5 +1,6 @@
-//! Inverse and forward kinematics of the three robots, in `f32` and `f64`, one call per
-//! iteration on the presets. Inputs cycle through a 64-entry table and pass through
+//! Inverse and forward kinematics of the three paper robots through their own models, and of
+//! every preset (kiwi, X-drive, mecanum, swerve4 too) through the uniform `omnikin::Robot`, in
+//! `f32` and `f64`, one call per iteration. Inputs cycle through a 64-entry table and pass through
 //! `black_box`, so neither the inputs nor the results can be folded away.
 //!
 //! `cargo bench -p omnikin --bench kinematics` (or `-- --test` for one quick run of each).
@@ -13,7 +14,9 @@ use omnikin::Real;
 use omnikin::Twist2;
 use omnikin::ballbot::{Ballbot, BallbotParams};
 use omnikin::caster::{Caster3, CasterParams, CasterRates};
+use omnikin::description::{PRESETS, RobotDescription};
 use omnikin::sphere::{SphereOmni, SphereParams};
+use omnikin::{Actuators, Robot};
 
 const K: usize = 64;
 
@@ -105,10 +108,44 @@ fn robots<T: Real>(g: &mut BenchmarkGroup<'_, WallTime>, ty: &str) {
     });
 }
 
+/// The uniform path: `Robot::inverse` and `Robot::forward` of every preset
+/// (`omnikin::description::PRESETS`, built as a robot file builds them), on the same twist
+/// table; the forward inputs are the inverse's outputs.
+fn presets<T: Real>(g: &mut BenchmarkGroup<'_, WallTime>, ty: &str) {
+    let inp = inputs::<T>();
+    for (name, _) in PRESETS {
+        let robot: Robot<T> = RobotDescription::preset(name)
+            .expect("preset")
+            .build()
+            .expect("preset robot");
+        let rest = Actuators::<T>::zero();
+        let acts: Vec<Actuators<T>> = inp
+            .iter()
+            .map(|x| robot.inverse(x.twist, &rest).unwrap())
+            .collect();
+        let mut i = 0usize;
+        g.bench_function(format!("robot/{name}/inverse/{ty}"), |b| {
+            b.iter(|| {
+                i = (i + 1) & (K - 1);
+                let x = black_box(&inp[i]);
+                black_box(robot.inverse(x.twist, black_box(&rest)))
+            })
+        });
+        g.bench_function(format!("robot/{name}/forward/{ty}"), |b| {
+            b.iter(|| {
+                i = (i + 1) & (K - 1);
+                black_box(robot.forward(black_box(&acts[i])))
+            })
+        });
+    }
+}
+
 fn kinematics(c: &mut Criterion) {
     let mut g = c.benchmark_group("kinematics");
     robots::<f32>(&mut g, "f32");
     robots::<f64>(&mut g, "f64");
+    presets::<f32>(&mut g, "f32");
+    presets::<f64>(&mut g, "f64");
     g.finish();
 }
 

@@ -8,7 +8,8 @@
 //! `omnikin-peer-harness --count NAME N`: exactly `N` untimed calls of benchmark `NAME`, nothing
 //! else (for callgrind: `bench/peers/run.sh --instructions`), or
 //! `omnikin-peer-harness --values`: the results of the mecanum and swerve4 calls for the inputs
-//! the C++ side's `--values` uses, which `bench/peers/agree.py` compares to 1e-9.
+//! the C++ side's `--values` uses, through the concrete models and again through
+//! `omnikin::Robot` (`robot_*` rows), which `bench/peers/agree.py` compares to 1e-9.
 
 use std::hint::black_box;
 
@@ -18,7 +19,7 @@ use omnikin::drive::Rot2;
 use omnikin::drive::omni::{Omni, presets};
 use omnikin::drive::swerve::{Swerve, SwerveState, swerve4};
 use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
-use omnikin::{Pose2, Robot};
+use omnikin::{Actuators, Pose2, Robot};
 use omnikin_bench::{Inputs, K, measure, plan20, robot, waypoints20};
 use omnikin_plan::path::Path;
 use omnikin_plan::planner::{PlanOptions, Timing, plan};
@@ -83,6 +84,14 @@ impl Inputs4 {
             }),
         }
     }
+}
+
+/// A preset robot as a robot file builds it (`robots/<name>.toml`).
+fn preset_robot(name: &str) -> Robot<f64> {
+    omnikin::description::RobotDescription::preset(name)
+        .expect("preset")
+        .build::<f64>()
+        .expect("preset robot")
 }
 
 fn row(name: &str, k: usize, v: &[f64]) {
@@ -173,6 +182,88 @@ fn print_values(inp: &Inputs, in4: &Inputs4) {
     }
 }
 
+/// `--values` of the uniform path: the same calls as [`print_values`] through `omnikin::Robot`
+/// built from the presets, printed as `robot_<name>` rows (agree.py compares each with the
+/// WPILib row of the same call).
+fn print_robot_values(inp: &Inputs, in4: &Inputs4) {
+    let mec = preset_robot("mecanum");
+    let zero = Actuators::<f64>::zero();
+    for k in 0..K {
+        let a = mec.inverse(inp.twist[k], &zero).unwrap();
+        row("robot_mecanum_inverse", k, &a.wheel_rates[..4]);
+    }
+    for k in 0..K {
+        let m = mec
+            .forward(&Actuators::from_wheel_rates(&in4.speed[k].map(|v| v / R4)))
+            .unwrap();
+        row("robot_mecanum_forward", k, &m.twist.to_array());
+    }
+    let mut odo = Odometry::new(mec, Pose2::default());
+    let (mut q, mut yaw) = ([0.0f64; 4], 0.0f64);
+    odo.update(&EncoderReading::new(0.0, q), HeadingInput::Absolute(yaw))
+        .unwrap();
+    for k in 0..4 * K {
+        let kk = k & (K - 1);
+        for j in 0..4 {
+            q[j] += 20.0 * in4.dist[kk][j] * if j % 2 == 1 { 1.0 } else { -0.5 } / R4;
+        }
+        yaw += 1e-3 * inp.twist[kk].yaw_rate * 20.0;
+        let r = EncoderReading::new(1e-3 * (k + 1) as f64, q);
+        let p = odo.update(&r, HeadingInput::Absolute(yaw)).unwrap().pose;
+        row(
+            "robot_mecanum_odometry",
+            k,
+            &[p.x, p.y, p.heading.cos(), p.heading.sin()],
+        );
+    }
+
+    let sw = preset_robot("swerve4");
+    let mut cur = Actuators::<f64>::zero();
+    for k in 0..K {
+        let t = if k % 16 == 15 {
+            Twist2::default()
+        } else {
+            inp.twist[k]
+        };
+        let a = sw.inverse(t, &cur).unwrap();
+        cur = a;
+        let mut v = a.wheel_rates[..4].to_vec();
+        v.extend(a.steer_angles[..4].iter().map(|g| g.cos()));
+        v.extend(a.steer_angles[..4].iter().map(|g| g.sin()));
+        row("robot_swerve4_inverse", k, &v);
+    }
+    for k in 0..K {
+        let mut a = Actuators::from_wheel_rates(&in4.speed[k].map(|v| v / R4));
+        a.steer_angles[..4].copy_from_slice(&in4.steer[k]);
+        row(
+            "robot_swerve4_forward",
+            k,
+            &sw.forward(&a).unwrap().twist.to_array(),
+        );
+    }
+    let mut odo = Odometry::new(sw, Pose2::default());
+    let (mut q, mut yaw) = ([0.0f64; 4], 0.0f64);
+    odo.update(
+        &EncoderReading::with_steer(0.0, q, in4.steer[0]),
+        HeadingInput::Absolute(yaw),
+    )
+    .unwrap();
+    for k in 0..4 * K {
+        let kk = k & (K - 1);
+        for j in 0..4 {
+            q[j] += 20.0 * in4.dist[kk][j] / R4;
+        }
+        yaw += 1e-3 * inp.twist[kk].yaw_rate * 20.0;
+        let r = EncoderReading::with_steer(1e-3 * (k + 1) as f64, q, in4.steer[kk]);
+        let p = odo.update(&r, HeadingInput::Absolute(yaw)).unwrap().pose;
+        row(
+            "robot_swerve4_odometry",
+            k,
+            &[p.x, p.y, p.heading.cos(), p.heading.sin()],
+        );
+    }
+}
+
 fn main() {
     let mut rn = Runner {
         batch_ms: 20.0,
@@ -198,6 +289,7 @@ fn main() {
     let in4 = Inputs4::new();
     if args.iter().any(|a| a == "--values") {
         print_values(&inp, &in4);
+        print_robot_values(&inp, &in4);
         return;
     }
     let caster = Caster3::<f64>::new(CasterParams::preset()).unwrap();
@@ -454,6 +546,80 @@ fn main() {
         assert_eq!(failures, 0, "swerve4 odometry steps failed");
         if let Some(ns) = ns {
             println!("swerve4_odometry\t{ns:.3}\t-");
+        }
+    }
+
+    // The uniform path: the same calls through `omnikin::Robot` built from the presets as a
+    // robot file builds them (`RobotDescription::build`), with the fixed-capacity `Actuators`
+    // and `EncoderAngles` — what the enum dispatch and the uniform values cost over the
+    // concrete models above. `Robot::forward` also returns the slip residual and per-wheel slip
+    // (the concrete `body_twist` above does not); the swerve's `Robot::inverse` takes the
+    // current steer angles in radians (one `sin_cos` each, to keep a stopped module's angle)
+    // and returns angles (one `atan2` each); the odometry is `estimate::odometry::Odometry`,
+    // as for the sphere, ballbot and caster above.
+    for name in ["mecanum", "swerve4"] {
+        let rob = preset_robot(name);
+        let steer = name == "swerve4";
+        let label = |verb: &str| format!("robot_{name}_{verb}");
+        let current = Actuators::<f64>::zero();
+        let ns = rn.run(&label("inverse"), 1.0, |i| {
+            let k = i as usize & (K - 1);
+            black_box(
+                rob.inverse(black_box(inp.twist[k]), black_box(&current))
+                    .unwrap(),
+            );
+        });
+        if let Some(ns) = ns {
+            println!("{}\t{ns:.3}\t-", label("inverse"));
+        }
+        // Wheel rates in rad/s (and steer angles in rad), built before timing as above.
+        let acts: [Actuators<f64>; K] = core::array::from_fn(|k| {
+            let mut a = Actuators::from_wheel_rates(&in4.speed[k].map(|v| v / R4));
+            if steer {
+                a.steer_angles[..4].copy_from_slice(&in4.steer[k]);
+            }
+            a
+        });
+        let ns = rn.run(&label("forward"), 1.0, |i| {
+            let k = i as usize & (K - 1);
+            black_box(rob.forward(black_box(&acts[k])).unwrap());
+        });
+        if let Some(ns) = ns {
+            println!("{}\t{ns:.3}\t-", label("forward"));
+        }
+        let step: [[f64; 4]; K] = core::array::from_fn(|k| in4.dist[k].map(|v| v / R4));
+        let mut odo = Odometry::new(rob, Pose2::new(0.0, 0.0, 0.0));
+        let (mut t, mut yaw, mut q) = (0.0f64, 0.0f64, [0.0f64; 4]);
+        let first = if steer {
+            EncoderReading::with_steer(0.0, q, in4.steer[0])
+        } else {
+            EncoderReading::new(0.0, q)
+        };
+        odo.update(&first, HeadingInput::Absolute(0.0))
+            .expect("first reading");
+        let mut failures = 0u64;
+        let ns = rn.run(&label("odometry"), 1.0, |i| {
+            let k = i as usize & (K - 1);
+            for j in 0..4 {
+                q[j] += step[k][j];
+            }
+            t += 1e-3;
+            yaw += 1e-3 * inp.twist[k].yaw_rate;
+            let reading = if steer {
+                EncoderReading::with_steer(black_box(t), black_box(q), black_box(in4.steer[k]))
+            } else {
+                EncoderReading::new(black_box(t), black_box(q))
+            };
+            match odo.update(&reading, HeadingInput::Absolute(black_box(yaw))) {
+                Ok(step) => {
+                    black_box(step.pose);
+                }
+                Err(_) => failures += 1,
+            }
+        });
+        assert_eq!(failures, 0, "{name}: odometry steps through Robot failed");
+        if let Some(ns) = ns {
+            println!("{}\t{ns:.3}\t-", label("odometry"));
         }
     }
 

@@ -176,9 +176,13 @@ pub struct Omni<T, const N: usize> {
     rows: [[T; 3]; N],
     /// `k_i = r_i cos ρ_i`, m/rad.
     k: [T; N],
-    /// Inverse matrix `A_i / k_i` (rad/s per unit twist), column-major so a call is three
-    /// vectorisable `axpy`s: `ω = inv[0] vx + inv[1] vy + inv[2] yaw_rate`.
-    inv: [[T; N]; 3],
+    /// Inverse matrix, row `i` = `A_i / k_i` (rad/s per unit twist):
+    /// `ω_i = inv[i][0] vx + inv[i][1] vy + inv[i][2] yaw_rate`. Row-major on purpose: the
+    /// compiler then reads `(vx, vy)` as one 16-byte pair and `yaw_rate` alone, which a twist
+    /// just stored to memory (two stores, 16 + 8 bytes) can forward. Column-major made it
+    /// read `(vy, yaw_rate)` as one pair straddling the two stores, a store-forwarding stall
+    /// of ~10 ns per call (`bench/peers`).
+    inv: [[T; 3]; N],
     /// Forward matrix `(AᵀA)⁻¹ Aᵀ K`, row-major (`3 × N`): `vx = fwd[0] · ω`, ….
     fwd: [[T; N]; 3],
     /// Minimum-norm torque matrix `J (JᵀJ)⁻¹` (`N × 3`, column-major, `J = K⁻¹A`):
@@ -207,7 +211,7 @@ impl<T: Real, const N: usize> Omni<T, N> {
             wheels,
             rows: [[T::zero(); 3]; N],
             k: [T::zero(); N],
-            inv: [[T::zero(); N]; 3],
+            inv: [[T::zero(); 3]; N],
             fwd: [[T::zero(); N]; 3],
             tq: [[T::zero(); N]; 3],
             condition: f64::INFINITY,
@@ -258,9 +262,7 @@ impl<T: Real, const N: usize> Omni<T, N> {
             out.rows[i] = [cx, cy, px * cy - py * cx];
             out.k[i] = w.radius * cr;
             let inv_k = T::one() / out.k[i];
-            out.inv[0][i] = cx * inv_k;
-            out.inv[1][i] = cy * inv_k;
-            out.inv[2][i] = out.rows[i][2] * inv_k;
+            out.inv[i] = [cx * inv_k, cy * inv_k, out.rows[i][2] * inv_k];
             sum_p2 += px * px + py * py;
         }
         // Unit-free rank test: yaw column divided by the layout's RMS radius ℓ.
@@ -330,7 +332,7 @@ impl<T: Real, const N: usize> Omni<T, N> {
         // τ = J̃ G̃⁻¹ (fx, fy, mz/ℓ).
         let mut gj = Matrix3::<T>::zeros();
         for i in 0..N {
-            let j = [out.inv[0][i], out.inv[1][i], out.inv[2][i] * inv_ell];
+            let j = [out.inv[i][0], out.inv[i][1], out.inv[i][2] * inv_ell];
             for a in 0..3 {
                 for b in 0..3 {
                     gj[(a, b)] += j[a] * j[b];
@@ -345,7 +347,7 @@ impl<T: Real, const N: usize> Omni<T, N> {
             });
         };
         for i in 0..N {
-            let j = nalgebra::Vector3::new(out.inv[0][i], out.inv[1][i], out.inv[2][i] * inv_ell);
+            let j = nalgebra::Vector3::new(out.inv[i][0], out.inv[i][1], out.inv[i][2] * inv_ell);
             let c = gj_inv * j;
             out.tq[0][i] = c[0];
             out.tq[1][i] = c[1];
@@ -381,13 +383,13 @@ impl<T: Real, const N: usize> Omni<T, N> {
     #[inline]
     pub fn wheel_rates(&self, twist: Twist2<T>) -> Result<[T; N], InputError> {
         let mut w = [T::zero(); N];
-        let [a, b, c] = &self.inv;
         for i in 0..N {
-            w[i] = a[i] * twist.vx + b[i] * twist.vy + c[i] * twist.yaw_rate;
+            let r = &self.inv[i];
+            w[i] = r[0] * twist.vx + r[1] * twist.vy + r[2] * twist.yaw_rate;
         }
         // A non-finite input makes every rate non-finite (`0·∞` is NaN), so one check of the
         // output covers the input too; the error is classified off the hot path.
-        if all_finite(&w) {
+        if finite(&w) {
             Ok(w)
         } else {
             Err(twist_error(twist, "wheel_rates"))
@@ -421,7 +423,7 @@ impl<T: Real, const N: usize> Omni<T, N> {
             vy += b[i] * x[i];
             wz += c[i] * x[i];
         }
-        if all_finite(&[vx, vy, wz]) {
+        if finite(&[vx, vy, wz]) {
             Ok(Twist2::new(vx, vy, wz))
         } else {
             Err(array_error(x, names, quantity))
@@ -481,11 +483,11 @@ impl<T: Real, const N: usize> Omni<T, N> {
     /// [`InputError::NonFinite`] naming `wheel_torques[i]`; [`InputError::Overflow`].
     pub fn body_wrench(&self, torques: &[T; N]) -> Result<Wrench2<T>, InputError> {
         let (mut fx, mut fy, mut mz) = (T::zero(), T::zero(), T::zero());
-        let [a, b, c] = &self.inv;
         for i in 0..N {
-            fx += a[i] * torques[i];
-            fy += b[i] * torques[i];
-            mz += c[i] * torques[i];
+            let r = &self.inv[i];
+            fx += r[0] * torques[i];
+            fy += r[1] * torques[i];
+            mz += r[2] * torques[i];
         }
         if all_finite(&[fx, fy, mz]) {
             Ok(Wrench2::new(fx, fy, mz))
@@ -514,6 +516,38 @@ impl<T: Real, const N: usize> Omni<T, N> {
             })
         }
     }
+}
+
+/// `true` when every entry of `x` is finite, for the hot paths. A sum is finite only if every
+/// entry is, so the fast test is one sum (two interleaved partial sums, which SSE adds two
+/// entries at a time); only when the sum is not finite (a non-finite entry, or finite entries
+/// whose sum overflows) does the cold fallback look at each entry. `x` goes to the fallback by
+/// value: passing its address would keep it in memory on the fast path too.
+#[inline(always)]
+pub(super) fn finite<T: Real, const N: usize>(x: &[T; N]) -> bool {
+    if N == 0 {
+        return true;
+    }
+    let mut even = x[0];
+    let mut odd = if N > 1 { x[1] } else { T::zero() };
+    let mut i = 2;
+    while i + 1 < N {
+        even += x[i];
+        odd += x[i + 1];
+        i += 2;
+    }
+    if i < N {
+        even += x[i];
+    }
+    let s = even + odd;
+    // `0·s` is ±0 for a finite sum and NaN otherwise; "ordered" is one compare and one branch.
+    (s * T::zero()).partial_cmp(&T::zero()).is_some() || each_finite(*x)
+}
+
+#[cold]
+#[inline(never)]
+fn each_finite<T: Real, const N: usize>(x: [T; N]) -> bool {
+    x.iter().all(|v| v.is_finite())
 }
 
 /// Condition number of a symmetric 2×2 positive semi-definite matrix (∞ if singular).
