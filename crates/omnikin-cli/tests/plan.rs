@@ -360,7 +360,7 @@ fn negative_values_after_flags_and_caster_steer() {
         .assert()
         .failure()
         .stderr(predicate::str::contains(
-            "applies only to robot kind caster3",
+            "applies only to robot kinds with steering",
         ));
     omnikin()
         .args([

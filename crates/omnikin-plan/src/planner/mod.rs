@@ -130,6 +130,7 @@ pub fn plan(
         heading,
         robot,
         heading_cs,
+        set_point: robot.model.kind().steer_is_set_point(),
     };
     let mut moves = build_moves(&ctx, opts)?;
     if matches!(opts.timing, Timing::ConstantSpeed { .. }) && moves.len() != 1 {

@@ -69,6 +69,7 @@ fn time_optimal_timing_is_the_same_with_stored_and_rebuilt_cells() {
             heading: &heading,
             robot: &robot,
             heading_cs,
+            set_point: robot.model.kind().steer_is_set_point(),
         };
         let opts = PlanOptions {
             timing: Timing::TimeOptimal {
