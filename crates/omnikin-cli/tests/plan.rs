@@ -360,7 +360,7 @@ fn negative_values_after_flags_and_caster_steer() {
         .assert()
         .failure()
         .stderr(predicate::str::contains(
-            "applies only to robot kind caster3",
+            "applies only to robot kinds with steering",
         ));
     omnikin()
         .args([
@@ -381,4 +381,126 @@ fn negative_values_after_flags_and_caster_steer() {
         .assert()
         .failure()
         .stderr(predicate::str::contains("must be > 0"));
+}
+
+/// The CSV header of a plan written to stdout.
+fn header(args: &[&str]) -> (Vec<String>, Plan, String) {
+    let out = omnikin().args(args).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(out.status.success(), "{args:?}: {stderr}");
+    let text = String::from_utf8(out.stdout.clone()).unwrap();
+    let head = text
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .map(String::from)
+        .collect();
+    (
+        head,
+        Plan::read_csv(&out.stdout[..], "stdout").unwrap(),
+        stderr,
+    )
+}
+
+#[test]
+fn kiwi_and_mecanum_squares_have_one_column_per_wheel() {
+    for (robot, n) in [("kiwi", 3), ("mecanum", 4), ("x-drive", 4)] {
+        let svg = tmp(&format!("{robot}-square.svg"));
+        let (head, p, err) = header(&[
+            "plan",
+            "square",
+            "--robot",
+            robot,
+            "--side",
+            "0.4",
+            "--speed",
+            "0.2",
+            "--plot",
+            svg.to_str().unwrap(),
+        ]);
+        let mut want: Vec<String> = ["t", "x", "y", "heading", "vx", "vy", "yaw_rate"]
+            .map(String::from)
+            .to_vec();
+        want.extend((1..=n).map(|i| format!("w{i}")));
+        assert_eq!(head, want, "{robot}");
+        assert_eq!(p.wheels, n);
+        assert!((p.path_length() - 1.6).abs() < 1e-9, "{robot}");
+        // The square's corners are reached, and every wheel turns.
+        let end = p.samples.last().unwrap().pose;
+        assert!(end.x.abs() < 1e-9 && end.y.abs() < 1e-9, "{robot}: {end:?}");
+        for i in 0..n {
+            assert!(
+                p.samples.iter().any(|s| s.wheel_rates[i].abs() > 0.5),
+                "{robot}: wheel {} never turns",
+                i + 1
+            );
+        }
+        assert!(err.contains(&format!("robot: {robot} (omni,")), "{err}");
+        assert!(err.contains(&format!("w{n} ")), "{err}");
+        let fig = std::fs::read_to_string(&svg).unwrap();
+        for i in 1..=n {
+            let label = format!("w{i}");
+            assert!(
+                fig.lines().any(|l| l.trim() == label),
+                "{robot}: figure lacks the series {label}"
+            );
+        }
+    }
+}
+
+#[test]
+fn swerve_plans_carry_steer_columns_and_take_one_initial_angle_per_module() {
+    let (head, p, err) = header(&[
+        "plan",
+        "square",
+        "--robot",
+        "swerve4",
+        "--initial-steer",
+        "0.1,-0.2,0.3,-0.4",
+    ]);
+    assert_eq!(head.len(), 7 + 3 * 4);
+    assert_eq!(
+        &head[7..],
+        [
+            "w1", "w2", "w3", "w4", "s1", "s2", "s3", "s4", "sd1", "sd2", "sd3", "sd4"
+        ]
+    );
+    let g = p.samples[0].steer.unwrap().0;
+    for (got, want) in g.iter().zip([0.1, -0.2, 0.3, -0.4]) {
+        assert!((got - want).abs() < 1e-15, "{g:?}");
+    }
+    assert!(
+        err.contains("initial steer angles: 0.1000, -0.2000, 0.3000, -0.4000 rad"),
+        "{err}"
+    );
+    assert!(err.contains("peak steer rate"), "{err}");
+    omnikin()
+        .args([
+            "plan",
+            "square",
+            "--robot",
+            "swerve4",
+            "--initial-steer",
+            "0,0,0",
+        ])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains(
+            "--initial-steer: expected 4 values",
+        ));
+    omnikin()
+        .args([
+            "plan",
+            "square",
+            "--robot",
+            "kiwi",
+            "--initial-steer",
+            "0,0,0",
+        ])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains(
+            "applies only to robot kinds with steering",
+        ));
 }

@@ -15,7 +15,7 @@
 //! | [`generators`] | paper 000's experiments: the square (eq. 6.1) and the circle (eq. 6.3) |
 //! | [`limits`] | the stated limits: most samples, grid cells and waypoints, and the plausible range of every physical parameter |
 //! | [`waypoints`] | waypoint files (CSV or TOML) with `file:line` errors |
-//! | [`Plan`] / [`Sample`] | the sampled plan and its CSV/JSON format (conventions.md: `t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3`, the caster adding `s1,s2,s3,sd1,sd2,sd3`) |
+//! | [`Plan`] / [`Sample`] | the sampled plan and its CSV/JSON format (conventions.md: `t,x,y,heading,vx,vy,yaw_rate,w1..wN`, steerable kinds adding `s1..sN,sd1..sdN`) |
 //!
 //! ```
 //! use omnikin::description::RobotDescription;
@@ -48,4 +48,4 @@ pub mod waypoints;
 
 pub use error::{PlanningError, Violation};
 pub use plan::{COLUMNS, Plan, PlanError, Sample, per_wheel, wheel_columns};
-pub use robot::{MotorRates, Quantity, RobotModel};
+pub use robot::{MAX_CHANNELS, Quantity, RobotModel};

@@ -1,9 +1,10 @@
 //! The robot as the planner sees it: a core kinematic model plus the motor limits of its
-//! description file, with the motor rates arranged as up to six "channels"
-//! (wheel 1–3, and for the caster steer 1–3).
+//! description file, with its motors arranged as **channels**: `0..N` the `N` wheel motors,
+//! `N..2N` the steer motors of steerable kinds ([`RobotModel::channel`] names them). Every
+//! kinematic call goes through the uniform [`omnikin::Robot`] API.
 
 use omnikin::description::{Limits, RobotDescription};
-use omnikin::{Actuators, Robot, Twist2};
+use omnikin::{Actuators, MAX_WHEELS, Robot, Twist2};
 
 use crate::PlanningError;
 
@@ -12,20 +13,14 @@ use crate::PlanningError;
 pub struct RobotModel {
     /// Display name (the description's `name`).
     pub name: String,
-    /// The kinematic model (paper 000 sphere, paper 001 ballbot or paper 003 caster base).
+    /// The kinematic model (any kind: sphere, ballbot, caster, omni, swerve).
     pub model: Robot<f64>,
     /// Motor limits; `None` = unlimited.
     pub limits: Limits,
 }
 
-/// Motor rates of one instant: wheel (roll) rates and, for the caster, steer rates (rad/s).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MotorRates {
-    /// Wheel rates `w1, w2, w3` (sphere `χ̇_i`, ballbot `ψ̇_i`, caster roll `φ̇_i`), rad/s.
-    pub wheel: [f64; 3],
-    /// Caster only: steer rates `γ̇_i`, rad/s.
-    pub steer: Option<[f64; 3]>,
-}
+/// Most motor channels of any robot: a wheel motor and a steer motor per wheel.
+pub const MAX_CHANNELS: usize = 2 * MAX_WHEELS;
 
 /// A limited quantity of one motor.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -34,9 +29,9 @@ pub enum Quantity {
     WheelRate,
     /// Wheel (roll) acceleration, rad/s² (`limits.max_wheel_accel`).
     WheelAccel,
-    /// Caster steer rate, rad/s (`limits.max_steer_rate`).
+    /// Steer rate (caster, swerve), rad/s (`limits.max_steer_rate`).
     SteerRate,
-    /// Caster steer acceleration, rad/s² (`limits.max_steer_accel`).
+    /// Steer acceleration (caster, swerve), rad/s² (`limits.max_steer_accel`).
     SteerAccel,
 }
 
@@ -71,16 +66,6 @@ impl Quantity {
     pub fn is_accel(self) -> bool {
         matches!(self, Quantity::WheelAccel | Quantity::SteerAccel)
     }
-
-    /// The quantity of channel `ch` (0–2 wheels, 3–5 steer motors) and order (rate/accel).
-    pub(crate) fn of(ch: usize, accel: bool) -> Self {
-        match (ch < 3, accel) {
-            (true, false) => Quantity::WheelRate,
-            (true, true) => Quantity::WheelAccel,
-            (false, false) => Quantity::SteerRate,
-            (false, true) => Quantity::SteerAccel,
-        }
-    }
 }
 
 impl RobotModel {
@@ -100,19 +85,38 @@ impl RobotModel {
         })
     }
 
-    /// `true` for the caster base (paper 003), whose plans carry steer angles and rates.
-    pub fn is_caster(&self) -> bool {
-        matches!(self.model, Robot::Caster(_))
+    /// Number of wheels (modules) `N`.
+    pub fn wheels(&self) -> usize {
+        self.model.wheels()
     }
 
-    /// Number of motor channels: 3, or 6 for the caster.
+    /// `true` for kinds with steer motors (caster, swerve), whose plans carry steer angles
+    /// and rates.
+    pub fn steerable(&self) -> bool {
+        self.model.steerable()
+    }
+
+    /// Number of motor channels: `N` wheels, plus `N` steer motors for steerable kinds.
     pub fn channels(&self) -> usize {
-        if self.is_caster() { 6 } else { 3 }
+        self.model.motors()
     }
 
-    /// Rate limit (rad/s) of channel `ch` (0–2 wheels, 3–5 steer motors).
+    /// What channel `ch` is: its limited quantity (rate, or acceleration if `accel`) and its
+    /// 1-based motor number (wheel `ch + 1` for `ch < N`, steer motor `ch − N + 1` after).
+    pub fn channel(&self, ch: usize, accel: bool) -> (Quantity, usize) {
+        let n = self.wheels();
+        let q = match (ch < n, accel) {
+            (true, false) => Quantity::WheelRate,
+            (true, true) => Quantity::WheelAccel,
+            (false, false) => Quantity::SteerRate,
+            (false, true) => Quantity::SteerAccel,
+        };
+        (q, if ch < n { ch + 1 } else { ch - n + 1 })
+    }
+
+    /// Rate limit (rad/s) of channel `ch`.
     pub fn rate_limit(&self, ch: usize) -> Option<f64> {
-        if ch < 3 {
+        if ch < self.wheels() {
             self.limits.max_wheel_rate
         } else {
             self.limits.max_steer_rate
@@ -121,76 +125,61 @@ impl RobotModel {
 
     /// Acceleration limit (rad/s²) of channel `ch`.
     pub fn accel_limit(&self, ch: usize) -> Option<f64> {
-        if ch < 3 {
+        if ch < self.wheels() {
             self.limits.max_wheel_accel
         } else {
             self.limits.max_steer_accel
         }
     }
 
-    /// **Inverse kinematics** through the core crate for a world-frame twist `(ẋ, ẏ, ψ̇)`
-    /// (m/s, m/s, rad/s) at heading `ψ` (rad) — sphere: `SphereOmni::wheel_rates_world` with
-    /// shell spin `Ω3 = 0` (paper 000, eqs. 5.6–5.7); ballbot: `Ballbot::wheel_rates_world`
-    /// with ball spin 0 (paper 001); caster: `Caster3::motor_rates` at steer angles `steer`
-    /// (rad; paper 003, eq. 2). The result is linear in the twist.
+    /// The channel values of actuators: wheel rates in `0..N`, steer rates in `N..2N`
+    /// (steerable kinds), the rest 0 (rad/s).
+    pub fn channel_values(&self, a: &Actuators<f64>) -> [f64; MAX_CHANNELS] {
+        let n = self.wheels();
+        let mut out = [0.0; MAX_CHANNELS];
+        out[..n].copy_from_slice(&a.wheel_rates[..n]);
+        if self.steerable() {
+            out[n..2 * n].copy_from_slice(&a.steer_rates[..n]);
+        }
+        out
+    }
+
+    /// **Inverse kinematics** through the core crate ([`Robot::inverse_accel`]) for a
+    /// world-frame twist `(ẋ, ẏ, ψ̇)` (m/s, m/s, rad/s) at heading `ψ` (rad), with the
+    /// robot-frame time derivative of the twist `twist_rate` (fixes a swerve's steer rates;
+    /// ignored by the other kinds) and the `current` actuators (the caster's steer state, a
+    /// swerve's current module angles). The wheel rates and the steer rates of kinds whose
+    /// steering follows the twist are linear in the twist.
     ///
     /// # Errors
     /// [`PlanningError::Kinematics`] for non-finite input.
-    pub fn rates(
+    pub fn actuators(
         &self,
         heading: f64,
         twist_world: Twist2<f64>,
-        steer: [f64; 3],
-    ) -> Result<MotorRates, PlanningError> {
-        let a = self
-            .model
-            .inverse_world(twist_world, heading, &Actuators::at_steer(&steer))?;
-        Ok(MotorRates {
-            wheel: [a.wheel_rates[0], a.wheel_rates[1], a.wheel_rates[2]],
-            steer: self
-                .is_caster()
-                .then(|| [a.steer_rates[0], a.steer_rates[1], a.steer_rates[2]]),
-        })
+        twist_rate: Twist2<f64>,
+        current: &Actuators<f64>,
+    ) -> Result<Actuators<f64>, PlanningError> {
+        let (s, c) = heading.sin_cos();
+        self.actuators_cs([c, s], twist_world, twist_rate, current)
     }
 
-    /// [`RobotModel::rates`] with the heading's `(cos ψ, sin ψ)` given (the planner has them
-    /// from the path tangent): the sphere and the ballbot rotate the twist into the robot frame
-    /// with them instead of evaluating `sin_cos(ψ)` (paper 000, eq. 5.4); the caster uses
-    /// `heading` as [`RobotModel::rates`] does. For the sphere and ballbot a non-finite input
-    /// is reported through the robot-frame twist it produces (the first non-finite component),
-    /// not by the world-frame field or `"heading"`: the planner validates its inputs before.
-    pub(crate) fn rates_cs(
+    /// [`RobotModel::actuators`] with the heading's `(cos ψ, sin ψ)` given (the planner has
+    /// them from the path tangent), so no `sin_cos(ψ)` is evaluated (paper 000, eq. 5.4). A
+    /// non-finite input is reported through the robot-frame twist it produces.
+    pub(crate) fn actuators_cs(
         &self,
-        heading: f64,
         cs: [f64; 2],
         twist_world: Twist2<f64>,
-        steer: [f64; 3],
-    ) -> Result<MotorRates, PlanningError> {
-        // World → robot frame: the rotation by −ψ, whose (sin, cos) is (−sin ψ, cos ψ).
+        twist_rate: Twist2<f64>,
+        current: &Actuators<f64>,
+    ) -> Result<Actuators<f64>, PlanningError> {
+        // World → robot frame: the rotation by −ψ, whose (cos, sin) is (cos ψ, −sin ψ).
         let body = twist_world.rotated_by(omnikin::drive::Rot2 {
             cos: cs[0],
             sin: -cs[1],
         });
-        if self.is_caster() {
-            return self.rates(heading, twist_world, steer);
-        }
-        let a = self.model.inverse(body, &Actuators::zero())?;
-        let wheel = [a.wheel_rates[0], a.wheel_rates[1], a.wheel_rates[2]];
-        Ok(MotorRates { wheel, steer: None })
-    }
-
-    /// [`RobotModel::channel_rates`] with the heading's `(cos ψ, sin ψ)` given (see
-    /// [`RobotModel::rates_cs`]).
-    pub(crate) fn channel_rates_cs(
-        &self,
-        heading: f64,
-        cs: [f64; 2],
-        twist_world: Twist2<f64>,
-        steer: [f64; 3],
-    ) -> Result<[f64; 6], PlanningError> {
-        let r = self.rates_cs(heading, cs, twist_world, steer)?;
-        let s = r.steer.unwrap_or([0.0; 3]);
-        Ok([r.wheel[0], r.wheel[1], r.wheel[2], s[0], s[1], s[2]])
+        Ok(self.model.inverse_accel(body, twist_rate, current)?)
     }
 }
 
@@ -200,45 +189,73 @@ mod tests {
 
     #[test]
     fn rates_with_a_given_heading_cosine_match_the_trigonometric_ones() {
-        for name in ["sphere-omni", "ballbot", "caster3"] {
+        for (name, _) in omnikin::description::PRESETS {
             let d = RobotDescription::preset(name).expect("preset");
             let robot = RobotModel::from_description(&d).expect("model");
+            let n = robot.wheels();
             for i in 0..200 {
                 let x = i as f64;
                 let heading = 7.0 * (0.37 * x).sin() - 1.0;
                 let twist = Twist2::new((1.3 * x).cos(), (0.7 * x).sin() * 0.8, (2.1 * x).sin());
-                let steer = [(0.3 * x).sin(), 1.0 - (0.2 * x).cos(), -(0.5 * x).sin()];
-                let want = robot.rates(heading, twist, steer).expect("rates");
+                let rate = Twist2::new((0.9 * x).sin(), 0.3, (1.1 * x).cos());
+                let steer: Vec<f64> = (0..n).map(|j| (0.3 * x + j as f64).sin()).collect();
+                let current = Actuators::at_steer(&steer);
+                let want = robot
+                    .model
+                    .inverse_accel(twist.to_robot(heading), rate, &current)
+                    .expect("inverse");
                 let (s, c) = heading.sin_cos();
                 let got = robot
-                    .rates_cs(heading, [c, s], twist, steer)
+                    .actuators_cs([c, s], twist, rate, &current)
                     .expect("rates");
-                let channels = robot
-                    .channel_rates_cs(heading, [c, s], twist, steer)
-                    .expect("rates");
-                let want_steer = want.steer.unwrap_or([0.0; 3]);
-                assert_eq!(got.steer.is_some(), want.steer.is_some(), "{name}");
-                let got_steer = got.steer.unwrap_or([0.0; 3]);
-                for j in 0..3 {
-                    for (g, w) in [
-                        (got.wheel[j], want.wheel[j]),
-                        (channels[j], want.wheel[j]),
-                        (got_steer[j], want_steer[j]),
-                        (channels[3 + j], want_steer[j]),
-                    ] {
-                        assert!(
-                            (g - w).abs() <= 1e-12 * (1.0 + w.abs()),
-                            "{name} heading {heading} motor {j}: {g} vs {w}"
-                        );
+                let (gv, wv) = (robot.channel_values(&got), robot.channel_values(&want));
+                for ch in 0..MAX_CHANNELS {
+                    assert!(
+                        (gv[ch] - wv[ch]).abs() <= 1e-12 * (1.0 + wv[ch].abs()),
+                        "{name} heading {heading} channel {ch}: {} vs {}",
+                        gv[ch],
+                        wv[ch]
+                    );
+                    if ch >= robot.channels() {
+                        assert_eq!(gv[ch], 0.0, "{name}");
                     }
                 }
             }
             let bad = Twist2::new(f64::NAN, 0.0, 0.0);
+            let zero = Twist2::new(0.0, 0.0, 0.0);
             assert!(
                 robot
-                    .channel_rates_cs(0.0, [1.0, 0.0], bad, [0.0; 3])
+                    .actuators_cs([1.0, 0.0], bad, zero, &Actuators::zero())
                     .is_err()
             );
+        }
+    }
+
+    #[test]
+    fn channels_name_wheels_then_steer_motors() {
+        for (name, _) in omnikin::description::PRESETS {
+            let robot =
+                RobotModel::from_description(&RobotDescription::preset(name).unwrap()).unwrap();
+            let n = robot.wheels();
+            assert_eq!(robot.channels(), if robot.steerable() { 2 * n } else { n });
+            for ch in 0..robot.channels() {
+                let (q, m) = robot.channel(ch, false);
+                let (qa, ma) = robot.channel(ch, true);
+                assert_eq!(m, ma);
+                if ch < n {
+                    assert_eq!(
+                        (q, qa, m),
+                        (Quantity::WheelRate, Quantity::WheelAccel, ch + 1)
+                    );
+                    assert_eq!(robot.rate_limit(ch), robot.limits.max_wheel_rate);
+                } else {
+                    assert_eq!(
+                        (q, qa, m),
+                        (Quantity::SteerRate, Quantity::SteerAccel, ch - n + 1)
+                    );
+                    assert_eq!(robot.accel_limit(ch), robot.limits.max_steer_accel);
+                }
+            }
         }
     }
 }

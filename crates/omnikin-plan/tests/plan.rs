@@ -635,7 +635,7 @@ fn caster_steer_angles_integrate_their_rates_and_start_aligned() {
         timing: profile(0.2, 0.5),
         on_limit: OnLimit::Retime,
         rate: 100.0,
-        initial_steer: InitialSteer::Given([0.1, -0.2, 0.3]),
+        initial_steer: InitialSteer::Given(omnikin_plan::per_wheel(&[0.1, -0.2, 0.3])),
     };
     let p = plan(&path, &HeadingLaw::Constant(0.0), &robot("caster3"), &opts)
         .unwrap()

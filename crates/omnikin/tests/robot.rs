@@ -298,5 +298,65 @@ fn every_kind_describes_itself_and_its_reach() {
             }
         }
         assert!(r.reach(0.0, None).is_none() && r.reach(f64::NAN, None).is_none());
+=======
+proptest! {
+    /// `aligned_steer`: the caster's trailing configuration starts the motion with zero steer
+    /// rates and positive roll rates (the wheel trails); a swerve's is the inverse's module
+    /// directions; the others have none.
+    #[test]
+    fn aligned_steer_starts_the_motion_without_re_steering(
+        vx in -2.0..2.0f64, vy in -2.0..2.0f64, w in -3.0..3.0f64,
+    ) {
+        let twist = Twist2::new(vx, vy, w);
+        prop_assume!(vx.hypot(vy) > 0.05);
+        for (name, robot) in presets() {
+            let n = robot.wheels();
+            let g = robot.aligned_steer(twist).unwrap();
+            prop_assert!(g[n..].iter().all(|&x| x == 0.0), "{}", name);
+            match robot.kind() {
+                Kind::Caster => {
+                    // A zero steer rate exists when |ω| d < |v_F|, which |ω| (D + d) < |v|
+                    // guarantees (|v_F| ≥ |v| − |ω| D).
+                    let d = RobotDescription::preset(name).unwrap();
+                    let omnikin::description::Geometry::Caster(p) = d.geometry else {
+                        panic!("{name}: caster without caster geometry")
+                    };
+                    if w.abs() * (p.mount_radius + p.eccentricity) >= 0.9 * vx.hypot(vy) {
+                        continue;
+                    }
+                    let a = robot.inverse(twist, &Actuators::at_steer(&g)).unwrap();
+                    for i in 0..n {
+                        prop_assert!(a.steer_rates[i].abs() < 1e-9, "{} steer {}: {}", name, i, a.steer_rates[i]);
+                        prop_assert!(a.wheel_rates[i] >= -1e-9, "{} roll {}: {}", name, i, a.wheel_rates[i]);
+                        prop_assert!(g[i].abs() <= std::f64::consts::PI + 1e-12);
+                    }
+                }
+                Kind::Swerve => {
+                    let a = robot.inverse(twist, &Actuators::zero()).unwrap();
+                    for i in 0..n {
+                        prop_assert!(close(g[i], a.steer_angles[i], 1e-12), "{}", name);
+                    }
+                }
+                _ => prop_assert!(g.iter().all(|&x| x == 0.0), "{}", name),
+            }
+        }
+    }
+}
+
+#[test]
+fn steer_length_is_the_casters_eccentricity_only() {
+    for (name, robot) in presets() {
+        let d = RobotDescription::preset(name).unwrap();
+        match (robot.kind(), &d.geometry) {
+            (Kind::Caster, omnikin::description::Geometry::Caster(p)) => {
+                assert_eq!(robot.steer_length(), Some(p.eccentricity), "{name}")
+            }
+            (Kind::Caster, _) => panic!("{name}: caster without caster geometry"),
+            _ => assert_eq!(robot.steer_length(), None, "{name}"),
+        }
+    }
+    let bad = Twist2::new(f64::NAN, 0.0, 0.0);
+    for (name, robot) in presets() {
+        assert!(robot.aligned_steer(bad).is_err(), "{name}");
     }
 }

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use clap::{Args, Subcommand, ValueEnum};
 use omnikin_plan::profile::ProfileKind;
 
-use crate::args::{Triple, finite_f64};
+use crate::args::{List, finite_f64};
 
 /// `omnikin plan`.
 #[derive(Args, Debug)]
@@ -37,7 +37,8 @@ pub enum PlanKind {
 /// Output format of the plan.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Format {
-    /// `t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3[,s1,s2,s3,sd1,sd2,sd3]`.
+    /// `t,x,y,heading,vx,vy,yaw_rate,w1..wN[,s1..sN,sd1..sdN]` (N wheels; steer columns for
+    /// robots with steering).
     Csv,
     /// `{"columns": [...], "samples": [[...], ...]}`.
     Json,
@@ -94,7 +95,8 @@ pub enum CornerArg {
 /// Options shared by every plan kind.
 #[derive(Args, Debug)]
 pub struct Common {
-    /// Robot: preset name (sphere-omni, ballbot, caster3) or path to a TOML description.
+    /// Robot: preset name (sphere-omni, ballbot, caster3, kiwi, x-drive, mecanum, swerve4) or
+    /// path to a TOML description.
     #[arg(long)]
     pub robot: String,
     /// Sampling rate, Hz (samples at k/rate, plus the exact end time).
@@ -109,10 +111,11 @@ pub struct Common {
     /// Also draw the plan as an SVG figure (path with arrows, wheel rates over time).
     #[arg(long, value_name = "SVG")]
     pub plot: Option<PathBuf>,
-    /// caster3: initial steer angles G1,G2,G3, rad (default: aligned with the first motion,
-    /// each wheel trailing its steering axis).
-    #[arg(long, allow_hyphen_values = true, value_name = "G1,G2,G3")]
-    pub initial_steer: Option<Triple>,
+    /// Robots with steering (caster3, swerve): initial steer angles G1,G2,…, rad, one per
+    /// wheel (module) in the robot file's order (default: aligned with the first motion — a
+    /// caster's wheels trailing their steering axes, a swerve's modules along their velocity).
+    #[arg(long, allow_hyphen_values = true, value_name = "G1,G2,...")]
+    pub initial_steer: Option<List>,
 }
 
 /// `omnikin plan square`.

@@ -1,5 +1,6 @@
 //! The `--plot` figure of a plan (SVG): the path with direction arrows, the wheel rates over
-//! time, and the steer rates (caster) or the speed and yaw rate.
+//! time (one series per wheel), and the steer rates (one series per steer motor of robots
+//! with steering) or the speed and yaw rate.
 
 use std::path::Path as FsPath;
 
@@ -9,7 +10,7 @@ use omnikin_plan::{Plan, RobotModel};
 use crate::plot::{self, Arrow, PALETTE, Series};
 
 /// Draws the plan: the path with direction arrows (left), wheel rates over time (top right),
-/// steer rates (caster) or speed and yaw rate (bottom right).
+/// steer rates (robots with steering) or speed and yaw rate (bottom right).
 pub(super) fn plan_figure(
     flag: &str,
     svg: &FsPath,
@@ -62,7 +63,8 @@ fn draw_plan(root: &plot::Area, title: &str, plan: &Plan, robot: &RobotModel) ->
         &arrows,
     )?;
     let t: Vec<f64> = s.iter().map(|p| p.t).collect();
-    let wheels: Vec<Series> = (0..3)
+    let n = plan.wheels;
+    let wheels: Vec<Series> = (0..n)
         .map(|i| {
             Series::solid(
                 format!("w{}", i + 1),
@@ -70,21 +72,21 @@ fn draw_plan(root: &plot::Area, title: &str, plan: &Plan, robot: &RobotModel) ->
                     .zip(s)
                     .map(|(&t, p)| (t, p.wheel_rates[i]))
                     .collect(),
-                PALETTE[i],
+                PALETTE[i % PALETTE.len()],
             )
         })
         .collect();
-    let caster = robot.is_caster();
+    let steered = robot.steerable();
     plot::time_panel(
         &top,
-        if caster { "roll rates" } else { "wheel rates" },
+        if steered { "roll rates" } else { "wheel rates" },
         "rate [rad/s]",
         &wheels,
         &[],
         robot.limits.max_wheel_rate.map(|l| (l, "±max_wheel_rate")),
     )?;
-    if caster {
-        let steer: Vec<Series> = (0..3)
+    if steered {
+        let steer: Vec<Series> = (0..n)
             .map(|i| {
                 Series::solid(
                     format!("sd{}", i + 1),
@@ -92,7 +94,7 @@ fn draw_plan(root: &plot::Area, title: &str, plan: &Plan, robot: &RobotModel) ->
                         .zip(s)
                         .map(|(&t, p)| (t, p.steer.map_or(0.0, |(_, r)| r[i])))
                         .collect(),
-                    PALETTE[i + 3],
+                    PALETTE[(i + 3) % PALETTE.len()],
                 )
             })
             .collect();

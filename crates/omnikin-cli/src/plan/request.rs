@@ -234,12 +234,16 @@ fn load_robot(robot: &str) -> Result<(RobotDescription, RobotModel)> {
 }
 
 fn initial_steer(c: &Common, robot: &RobotModel) -> Result<InitialSteer> {
-    match c.initial_steer {
-        Some(g) if !robot.is_caster() => bail!(
-            "--initial-steer {:?} applies only to robot kind caster3",
-            g.0
+    match &c.initial_steer {
+        Some(g) if !robot.steerable() => bail!(
+            "--initial-steer {:?} applies only to robot kinds with steering (caster3, swerve), not {}",
+            g.0,
+            robot.model.kind().name()
         ),
-        Some(g) => Ok(InitialSteer::Given(g.0)),
+        Some(g) => {
+            let g = g.exactly(robot.wheels(), "--initial-steer", &robot.name)?;
+            Ok(InitialSteer::Given(omnikin_plan::per_wheel(g)))
+        }
         None => Ok(InitialSteer::Aligned),
     }
 }

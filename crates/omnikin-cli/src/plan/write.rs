@@ -117,6 +117,18 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
             p.t
         );
     }
+    let n = planned.plan.wheels;
+    let per_wheel: Vec<String> = (0..n)
+        .map(|i| {
+            let peak = planned
+                .plan
+                .samples
+                .iter()
+                .fold(0.0_f64, |m, s| m.max(s.wheel_rates[i].abs()));
+            format!("w{} {peak:.3}", i + 1)
+        })
+        .collect();
+    crate::errln!("peak wheel rate per wheel: {} rad/s", per_wheel.join(", "));
     let motor_active = r
         .active
         .iter()
@@ -148,25 +160,26 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
             rt.limiter
         );
     }
+    let list = |v: &[f64], prec: usize| -> String {
+        v.iter()
+            .map(|x| format!("{x:.prec$}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     if r.starts_moving
         && let Some(s) = planned.plan.samples.first()
     {
-        let w = s.wheel_rates;
         crate::errln!(
-            "note: the plan starts at full speed (paper 000's law): at t = 0 the wheels must already turn at {:.3}, {:.3}, {:.3} rad/s; use --ramp to start from rest",
-            w[0],
-            w[1],
-            w[2]
+            "note: the plan starts at full speed (paper 000's law): at t = 0 the wheels must already turn at {} rad/s; use --ramp to start from rest",
+            list(&s.wheel_rates[..n], 3)
         );
     }
-    if robot.is_caster()
+    if robot.steerable()
         && let Some((g, _)) = planned.plan.samples.first().and_then(|s| s.steer)
     {
         crate::errln!(
-            "initial steer angles: {:.4}, {:.4}, {:.4} rad{}",
-            g[0],
-            g[1],
-            g[2],
+            "initial steer angles: {} rad{}",
+            list(&g[..n], 4),
             if c.initial_steer.is_none() {
                 " (aligned with the first motion)"
             } else {

@@ -1,13 +1,16 @@
 //! The geometry of a move, independent of its timing: what a move is ([`Kind`]: travel along
 //! the path or turn in place), its configuration `q(σ) = (x, y, ψ)` and derivative `q'(σ)`
 //! at a parameter ([`Config`], from [`Ctx::config`]), the unwrapped heading near a hint
-//! ([`Hint`]), and the motor rates per unit `σ̇`, `A(σ)` ([`Ctx::rates_per_speed`]).
+//! ([`Hint`]), and the motor rates per unit `σ̇`, `A(σ)` ([`Ctx::rates_per_speed`]), with the
+//! robot-frame twist's derivative along the move a swerve's steer rates need
+//! ([`Ctx::twist_rate_per_speed`]).
 
-use omnikin::{Pose2, Twist2};
+use omnikin::{Actuators, MAX_WHEELS, Pose2, Twist2};
 
 use crate::PlanningError;
 use crate::heading::{HeadingLaw, Side};
 use crate::path::Path;
+use crate::robot::MAX_CHANNELS;
 use crate::robot::RobotModel;
 use omnikin::wrap_angle;
 
@@ -34,7 +37,14 @@ pub(super) struct Ctx<'a> {
     pub(super) robot: &'a RobotModel,
     /// `(cos, sin)` of the tangent law's offset, or of the constant heading.
     pub(super) heading_cs: [f64; 2],
+    /// The robot's steer angles are set-points ([`omnikin::Kind::steer_is_set_point`]: a
+    /// swerve's follow the twist) rather than a state integrated along the path (the caster).
+    pub(super) set_point: bool,
 }
+
+/// Steer angles `γ_i` of a steer state (rad), entries `0..N` used (0 for kinds without
+/// steering).
+pub(super) type Steer = [f64; MAX_WHEELS];
 
 /// An unwrapped heading `ψ` (rad) near the one sought, with `(cos ψ, sin ψ)` when known.
 #[derive(Clone, Copy, Debug)]
@@ -124,17 +134,70 @@ impl Ctx<'_> {
         }
     }
 
-    /// Motor rates per unit `σ̇` (the columns `A(σ)`), and `dγ/dσ` for the caster.
+    /// Motor rates per unit `σ̇` (the columns `A(σ)`, channels as in [`RobotModel::channel`]):
+    /// wheel rates, and steer rates per unit speed (`dγ/dσ`) of steerable kinds, at the steer
+    /// state `gamma` (the caster's integrated angles; a swerve's set-points at `c`). For kinds
+    /// whose steer angles are set-points the robot-frame twist's derivative along the move
+    /// ([`Ctx::twist_rate_per_speed`]) fixes the steer rates.
     pub(super) fn rates_per_speed(
         &self,
+        kind: &Kind,
+        len: f64,
+        sigma: f64,
         c: &Config,
-        gamma: [f64; 3],
-    ) -> Result<[f64; 6], PlanningError> {
-        self.robot.channel_rates_cs(
-            c.pose.heading,
+        gamma: &Steer,
+    ) -> Result<[f64; MAX_CHANNELS], PlanningError> {
+        let rate = if self.set_point {
+            self.twist_rate_per_speed(kind, len, sigma, c)
+        } else {
+            Twist2::new(0.0, 0.0, 0.0)
+        };
+        let a = self.robot.actuators_cs(
             c.cs,
             Twist2::new(c.dq[0], c.dq[1], c.dq[2]),
-            gamma,
+            rate,
+            &Actuators::at_steer(gamma),
+        )?;
+        Ok(self.robot.channel_values(&a))
+    }
+
+    /// `d b/dσ`, the derivative along the move of the robot-frame twist per unit speed
+    /// `b(σ) = (Q(ψ)ᵀ (dx/dσ, dy/dσ), dψ/dσ)`, by a central difference over ±[`DIFF_STEP`]
+    /// (one-sided at the ends of the move). At speed `σ̇` and path acceleration `σ̈` the
+    /// robot-frame twist rate is `b' σ̇² + b σ̈`.
+    pub(super) fn twist_rate_per_speed(
+        &self,
+        kind: &Kind,
+        len: f64,
+        sigma: f64,
+        c: &Config,
+    ) -> Twist2<f64> {
+        let lo = (sigma - DIFF_STEP).max(0.0);
+        let hi = (sigma + DIFF_STEP).min(len);
+        if hi <= lo {
+            return Twist2::new(0.0, 0.0, 0.0);
+        }
+        let hint = Hint::of(c);
+        let b0 = body_per_speed(&self.config(kind, len, lo, hint));
+        let b1 = body_per_speed(&self.config(kind, len, hi, hint));
+        let inv = 1.0 / (hi - lo);
+        Twist2::new(
+            (b1.vx - b0.vx) * inv,
+            (b1.vy - b0.vy) * inv,
+            (b1.yaw_rate - b0.yaw_rate) * inv,
         )
     }
+}
+
+/// Half-width of the central difference of [`Ctx::twist_rate_per_speed`] (m or rad).
+const DIFF_STEP: f64 = 1e-5;
+
+/// The robot-frame twist per unit speed of a configuration, `(Q(ψ)ᵀ (dx/dσ, dy/dσ), dψ/dσ)`.
+pub(super) fn body_per_speed(c: &Config) -> Twist2<f64> {
+    let [co, si] = c.cs;
+    Twist2::new(
+        co * c.dq[0] + si * c.dq[1],
+        -si * c.dq[0] + co * c.dq[1],
+        c.dq[2],
+    )
 }

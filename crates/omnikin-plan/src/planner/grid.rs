@@ -5,8 +5,9 @@
 
 use crate::PlanningError;
 use crate::limits::MAX_MOVE_GRID_CELLS;
+use crate::robot::MAX_CHANNELS;
 
-use super::geometry::{Config, Ctx, Hint, Kind};
+use super::geometry::{Config, Ctx, Hint, Kind, Steer};
 use super::timing::MoveTiming;
 
 /// Finest grid step in the move parameter (m or rad).
@@ -22,8 +23,8 @@ const GRID_TOL: f64 = 1e-2;
 /// Fewest grid cells per move.
 pub(super) const MIN_CELLS: usize = 16;
 
-/// A move with its grid: node parameters, heading (unwrapped), `A`, `A'` and the caster's
-/// steer angles.
+/// A move with its grid: node parameters, heading (unwrapped), `A`, `A'` (one column per
+/// motor channel) and the steer angles of steerable kinds.
 #[derive(Clone, Debug)]
 pub(super) struct Move {
     pub(super) kind: Kind,
@@ -32,12 +33,12 @@ pub(super) struct Move {
     pub(super) psi: Vec<f64>,
     /// `(cos ψ, sin ψ)` at each node (the heading hint of the samples in its cell).
     pub(super) cs: Vec<[f64; 2]>,
-    pub(super) a: Vec<[f64; 6]>,
+    pub(super) a: Vec<[f64; MAX_CHANNELS]>,
     /// `A'` at each node as seen from the cell that ends there (one-sided at a kink).
-    pub(super) b_in: Vec<[f64; 6]>,
+    pub(super) b_in: Vec<[f64; MAX_CHANNELS]>,
     /// `A'` at each node as seen from the cell that starts there (one-sided at a kink).
-    pub(super) b_out: Vec<[f64; 6]>,
-    pub(super) gamma: Vec<[f64; 3]>,
+    pub(super) b_out: Vec<[f64; MAX_CHANNELS]>,
+    pub(super) gamma: Vec<Steer>,
     pub(super) timing: MoveTiming,
     pub(super) t0: f64,
     /// Factor (≤ 1) on the motor limits the time-optimal pass aims at, lowered when the final
@@ -57,7 +58,7 @@ impl Ctx<'_> {
         kind: Kind,
         len: f64,
         psi_start: f64,
-        gamma0: [f64; 3],
+        gamma0: Steer,
         step: f64,
         kinks: &[f64],
     ) -> Result<Move, PlanningError> {
@@ -97,7 +98,7 @@ impl Ctx<'_> {
         }
         too_many_cells(&n)?;
         // Each stretch starts from the end state (heading, steer angles) of the one before.
-        let caster = self.robot.is_caster();
+        let steered = self.robot.steerable();
         let mut parts: Vec<Stretch> = Vec::with_capacity(n.len());
         for j in 0..n.len() {
             let (psi0, g0) = parts
@@ -106,12 +107,13 @@ impl Ctx<'_> {
             parts.push(self.stretch(&kind, len, bounds[j], bounds[j + 1], n[j], psi0, g0)?);
         }
         // Refine the stretches whose interpolation error is too large, rebuilding only them (and,
-        // for the caster, whose steer angles carry over, every stretch after the first rebuilt).
+        // for steerable kinds, whose steer angles carry over, every stretch after the first rebuilt).
         let chans = self.robot.channels();
         // Each stretch's largest |A| and |A'|, recomputed only when it is rebuilt.
-        let mut scales: Vec<[[f64; 6]; 2]> = parts.iter().map(|p| p.scale(chans)).collect();
+        let mut scales: Vec<[[f64; MAX_CHANNELS]; 2]> =
+            parts.iter().map(|p| p.scale(chans)).collect();
         for _ in 0..8 {
-            let mut scale = [[0.0_f64; 6]; 2];
+            let mut scale = [[0.0_f64; MAX_CHANNELS]; 2];
             for ps in &scales {
                 for i in 0..2 {
                     for ch in 0..chans {
@@ -131,7 +133,7 @@ impl Ctx<'_> {
                     let want = ((c as f64 * f).ceil() as usize).max(c + 1);
                     n[j] = want.min(cells(bounds[j + 1] - bounds[j], GRID_MIN).max(c));
                 }
-                if refine || (caster && dirty) {
+                if refine || (steered && dirty) {
                     let (psi0, g0) = if j == 0 {
                         (psi_start, gamma0)
                     } else {
@@ -190,7 +192,7 @@ impl Ctx<'_> {
         s1: f64,
         n: usize,
         psi0: f64,
-        g0: [f64; 3],
+        g0: Steer,
     ) -> Result<Stretch, PlanningError> {
         let sig: Vec<f64> = (0..=n)
             .map(|i| {
@@ -218,9 +220,17 @@ impl Ctx<'_> {
         kind: &Kind,
         len: f64,
         psi_start: f64,
-        gamma0: [f64; 3],
+        gamma0: Steer,
         sig: &[f64],
-    ) -> Result<(Vec<f64>, Vec<[f64; 2]>, Vec<[f64; 6]>, Vec<[f64; 3]>), PlanningError> {
+    ) -> Result<
+        (
+            Vec<f64>,
+            Vec<[f64; 2]>,
+            Vec<[f64; MAX_CHANNELS]>,
+            Vec<Steer>,
+        ),
+        PlanningError,
+    > {
         let mut psi = Vec::with_capacity(sig.len());
         let mut cs = Vec::with_capacity(sig.len());
         let mut a = Vec::with_capacity(sig.len());
@@ -236,20 +246,21 @@ impl Ctx<'_> {
             hint = Hint::of(&c);
             psi.push(c.pose.heading);
             cs.push(c.cs);
-            a.push(self.rates_per_speed(&c, g)?);
+            a.push(self.rates_per_speed(kind, len, sigma, &c, &g)?);
             gamma.push(g);
         }
         Ok((psi, cs, a, gamma))
     }
 
-    /// Steer angles at `sigma` within a move, and the configuration there; `from` is the
-    /// grid cell of the previous call (see [`cell_from`]) and is updated.
+    /// Steer angles at `sigma` within a move (integrated ones; for set-points those of the
+    /// cell's start node), and the configuration there; `from` is the grid cell of the previous
+    /// call (see [`cell_from`]) and is updated.
     pub(super) fn state(
         &self,
         mv: &Move,
         sigma: f64,
         from: &mut usize,
-    ) -> Result<(Config, [f64; 3]), PlanningError> {
+    ) -> Result<(Config, Steer), PlanningError> {
         let k = cell_from(&mv.sig, sigma, *from);
         *from = k;
         let hint = Hint {
@@ -257,6 +268,10 @@ impl Ctx<'_> {
             cs: Some(mv.cs[k]),
         };
         let c = self.config(&mv.kind, mv.len, sigma, hint);
+        if self.set_point {
+            // Set-points come from the inverse at each sample (see `sample`).
+            return Ok((c, mv.gamma[k]));
+        }
         let g = self.steer_step(
             &mv.kind,
             mv.len,
@@ -274,13 +289,13 @@ struct Stretch {
     sig: Vec<f64>,
     psi: Vec<f64>,
     cs: Vec<[f64; 2]>,
-    a: Vec<[f64; 6]>,
-    gamma: Vec<[f64; 3]>,
+    a: Vec<[f64; MAX_CHANNELS]>,
+    gamma: Vec<Steer>,
 }
 
 impl Stretch {
     /// Heading and steer angles at the stretch's last node.
-    fn end(&self) -> (f64, [f64; 3]) {
+    fn end(&self) -> (f64, Steer) {
         (
             *self.psi.last().expect("a stretch has nodes"),
             *self.gamma.last().expect("a stretch has nodes"),
@@ -289,9 +304,9 @@ impl Stretch {
 
     /// Largest `|A|` and `|A'|` (central differences) per channel on the stretch (the first
     /// `chans` channels; the others stay 0).
-    fn scale(&self, chans: usize) -> [[f64; 6]; 2] {
+    fn scale(&self, chans: usize) -> [[f64; MAX_CHANNELS]; 2] {
         let a = &self.a;
-        let mut out = [[0.0_f64; 6]; 2];
+        let mut out = [[0.0_f64; MAX_CHANNELS]; 2];
         for row in a {
             for ch in 0..chans {
                 out[0][ch] = out[0][ch].max(row[ch].abs());
@@ -312,7 +327,7 @@ impl Stretch {
     /// Largest estimated error of linear interpolation between the nodes of `A`
     /// (`|Δ²A|/8 = h² A''/8`) and of its central differences `A'` (inside the stretch),
     /// relative to each channel's largest `|A|` and `|A'|` on the move (`scale`).
-    fn error(&self, scale: &[[f64; 6]; 2], chans: usize) -> f64 {
+    fn error(&self, scale: &[[f64; MAX_CHANNELS]; 2], chans: usize) -> f64 {
         let a = &self.a;
         let m = a.len();
         if m < 3 {
@@ -320,9 +335,9 @@ impl Stretch {
         }
         let h = self.sig[1] - self.sig[0];
         let inv = |s: f64, f: f64| if s > 0.0 { 1.0 / (f * s) } else { 0.0 };
-        let inv_a: [f64; 6] = core::array::from_fn(|ch| inv(scale[0][ch], 8.0));
+        let inv_a: [f64; MAX_CHANNELS] = core::array::from_fn(|ch| inv(scale[0][ch], 8.0));
         // A'(k) = (A[k+1] − A[k−1]) / 2h, so Δ²A'/8 = (A[k+2] − 2A[k+1] + 2A[k−1] − A[k−2]) / 16h.
-        let inv_b: [f64; 6] = core::array::from_fn(|ch| inv(scale[1][ch], 16.0 * h));
+        let inv_b: [f64; MAX_CHANNELS] = core::array::from_fn(|ch| inv(scale[1][ch], 16.0 * h));
         let mut err = 0.0_f64;
         for k in 1..m - 1 {
             for ch in 0..chans {
@@ -370,16 +385,20 @@ pub(super) fn cell_from(sig: &[f64], sigma: f64, from: usize) -> usize {
 /// the stretch ends (kinks, where the derivative may jump). Returns the derivative seen from
 /// the cell ending at each node and from the cell starting there (equal except at kinks).
 #[allow(clippy::type_complexity)]
-fn derivative(a: &[[f64; 6]], sig: &[f64], n: &[usize]) -> (Vec<[f64; 6]>, Vec<[f64; 6]>) {
+fn derivative(
+    a: &[[f64; MAX_CHANNELS]],
+    sig: &[f64],
+    n: &[usize],
+) -> (Vec<[f64; MAX_CHANNELS]>, Vec<[f64; MAX_CHANNELS]>) {
     let m = a.len();
-    let mut b_in = vec![[0.0; 6]; m];
-    let mut b_out = vec![[0.0; 6]; m];
+    let mut b_in = vec![[0.0; MAX_CHANNELS]; m];
+    let mut b_out = vec![[0.0; MAX_CHANNELS]; m];
     let mut first = 0;
     for &c in n {
         let last = first + c;
         let h = (sig[last] - sig[first]) / c as f64;
         for k in first..=last {
-            let d: [f64; 6] = if k > first && k < last {
+            let d: [f64; MAX_CHANNELS] = if k > first && k < last {
                 core::array::from_fn(|i| (a[k + 1][i] - a[k - 1][i]) / (2.0 * h))
             } else if c == 1 {
                 core::array::from_fn(|i| (a[last][i] - a[first][i]) / h)

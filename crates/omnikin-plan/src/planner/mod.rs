@@ -1,6 +1,7 @@
 //! The planner: path + heading law + timing → a sampled [`Plan`](crate::Plan) of wheel commands that
 //! respects the robot's motor limits (paper 000, §5: `r_C(t)`, `ψ(t)` → wheel rates by
-//! eqs. 5.6–5.7; likewise for the ballbot, paper 001, and the caster base, paper 003, eq. 2).
+//! eqs. 5.6–5.7; likewise for the ballbot, paper 001, the caster base, paper 003, eq. 2, and
+//! every omni and swerve drive, through the core's uniform inverse).
 //!
 //! # How a plan is made
 //!
@@ -20,8 +21,14 @@
 //!    at a spline waypoint; `A'` is taken one-sided there) and equal cells between joins,
 //!    5 cm (50 mrad for turns; a fifth of the eccentricity for the caster) refined where the
 //!    linear interpolation of `A` or `A'` between nodes would be off by more than 1 % of that
-//!    motor's largest value on the move, down to 2 mm. For the caster the steer angles `γ(σ)` obey `dγ/dσ = J2(θ, γ) q'(σ)` (paper 003, eq. 5), which
-//!    does not depend on the timing, so they are integrated once along the grid (RK4).
+//!    motor's largest value on the move, down to 2 mm. The rows of `A` are the robot's motor
+//!    **channels** ([`RobotModel::channel`]): its `N` wheels, then its `N` steer motors if it
+//!    has steering. For the caster the steer angles `γ(σ)` obey `dγ/dσ = J2(θ, γ) q'(σ)`
+//!    (paper 003, eq. 5), which does not depend on the timing, so they are integrated once
+//!    along the grid (RK4). A swerve's steer angles are set-points, the module directions of
+//!    the inverse at `q'(σ)`; its steer rates per unit speed follow from the derivative of the
+//!    robot-frame twist along the move (`γ̇ = (u ẇ − w u̇)/(u² + w²)` for a module velocity
+//!    `(u, w)`), so they are linear in `σ̇` too.
 //! 3. **Timing**, one of [`Timing`]:
 //!    * [`Timing::Profile`]: a trapezoidal or S-curve profile per move with the requested
 //!      speed, acceleration and jerk. If a motor would exceed its limit the move is slowed by a
@@ -45,8 +52,8 @@
 //!      the joint limits of all motors are respected at every node. Jerk is not limited in
 //!      this mode.
 //! 4. **Sampling** at the requested rate: pose, world twist, motor rates from the core
-//!    inverse kinematics (sphere: `SphereOmni::wheel_rates_world`, ballbot:
-//!    `Ballbot::wheel_rates_world`, caster: `Caster3::motor_rates`). Finally every sample is
+//!    inverse kinematics ([`omnikin::Robot::inverse_accel`]; a swerve's steer angles from the
+//!    previous sample's, so a stopped module keeps its angle). Finally every sample is
 //!    checked against the limits (rates at each sample, accelerations as differences between
 //!    consecutive samples); a residual excess from the grid approximation is removed by slowing
 //!    the offending move further.
@@ -59,7 +66,7 @@
 //! | `moves.rs` | step 1: cutting the path into moves (stops, jumps of `q'`, turns in place) |
 //! | `geometry.rs` | step 2: a move's configuration `q(σ)`, `q'(σ)` and `A(σ)`, and the heading unwrap |
 //! | `grid.rs` | step 2: the adaptive grid of a move and the cell lookup |
-//! | `steer.rs` | step 2: the caster's steer angles (RK4 of paper 003, eq. 5), aligned start, grid step |
+//! | `steer.rs` | step 2: the steer state along a move (caster: RK4 of paper 003, eq. 5; swerve: set-points), aligned start, grid step |
 //! | `timing.rs` | step 3: a move's timing, its first timing (dilation or rejection), the requested limits |
 //! | `time_optimal.rs` | step 3: the time-optimal reachability pass |
 //! | `sample.rs` | step 4: sampling the timed moves |
@@ -130,6 +137,7 @@ pub fn plan(
         heading,
         robot,
         heading_cs,
+        set_point: robot.model.kind().steer_is_set_point(),
     };
     let mut moves = build_moves(&ctx, opts)?;
     if matches!(opts.timing, Timing::ConstantSpeed { .. }) && moves.len() != 1 {
@@ -194,7 +202,7 @@ pub fn plan(
 }
 
 /// Checks the request before anything is built: the heading law, the sampling rate, the
-/// timing's motion limits and the caster's given initial steer angles, each against its
+/// timing's motion limits and the given initial steer angles, each against its
 /// range in [`crate::limits`].
 fn validate_request(heading: &HeadingLaw, opts: &PlanOptions) -> Result<(), PlanningError> {
     heading.validate()?;

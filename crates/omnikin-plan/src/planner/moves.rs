@@ -5,7 +5,7 @@
 use crate::PlanningError;
 use crate::heading::{HeadingLaw, Side};
 use crate::limits::MAX_PLAN_GRID_CELLS;
-use omnikin::wrap_angle;
+use omnikin::{MAX_WHEELS, wrap_angle};
 
 use super::geometry::{Ctx, Hint, Kind};
 use super::grid::{MIN_CELLS, Move};
@@ -87,12 +87,14 @@ pub(super) fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, Pl
                 s1: bounds[1],
             };
             let c = ctx.config(&kind, bounds[1], 0.0, Hint::angle(psi));
-            aligned_steer(ctx.robot, &c)
+            aligned_steer(ctx.robot, &c)?
         }
     };
-    if !ctx.robot.is_caster() {
-        gamma = [0.0; 3];
+    let n = ctx.robot.wheels();
+    if !ctx.robot.steerable() {
+        gamma = [0.0; MAX_WHEELS];
     }
+    gamma[n..].fill(0.0);
     let mut moves = Vec::new();
     for w in bounds.windows(2) {
         let (s0, s1) = (w[0], w[1]);

@@ -1,6 +1,8 @@
 //! What a caller asks of the planner: the motion limits ([`MotionLimits`]), the timing law
-//! ([`Timing`]), what to do at a motor limit ([`OnLimit`]), the caster's initial steer angles
+//! ([`Timing`]), what to do at a motor limit ([`OnLimit`]), a steerable robot's initial steer angles
 //! ([`InitialSteer`]), all bundled in [`PlanOptions`].
+
+use omnikin::MAX_WHEELS;
 
 use crate::PlanningError;
 use crate::limits::check_range;
@@ -93,12 +95,15 @@ pub enum OnLimit {
     Reject,
 }
 
-/// Initial steer angles of a caster base (ignored for other robots).
+/// Initial steer angles of a steerable robot (caster, swerve; ignored for the others).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum InitialSteer {
-    /// Given steer angles `γ_i`, rad.
-    Given([f64; 3]),
-    /// The configuration the first motion needs: each wheel trails its steering axis so its
+    /// Given steer angles `γ_i`, rad: entries `0..N` for `N` wheels (modules), the rest
+    /// ignored ([`crate::per_wheel`] pads a slice).
+    Given([f64; MAX_WHEELS]),
+    /// The configuration the first motion needs ([`omnikin::Robot::aligned_steer`]). A
+    /// swerve's modules point along their velocity in the first motion. A caster's wheels
+    /// trail: each wheel trails its steering axis so its
     /// steer rate is zero at the start. Wheel `i`'s steering axis `F_i` moves with
     /// `v_F = (ẋ, ẏ) + θ̇ k × D(cos(α_i+θ), sin(α_i+θ))` (direction `χ`); the steer rate
     /// (paper 003, eq. 3) vanishes for `sin(β_i − χ) = θ̇ d/|v_F|`, which has two solutions.
@@ -120,6 +125,7 @@ pub struct PlanOptions {
     pub on_limit: OnLimit,
     /// Sampling rate of the output, Hz (samples at `k / rate`, plus the exact end time).
     pub rate: f64,
-    /// Caster only: initial steer angles.
+    /// Steerable kinds only: initial steer angles (a swerve's are the current angles of its
+    /// first sample, which it keeps while at rest).
     pub initial_steer: InitialSteer,
 }

@@ -118,8 +118,8 @@ pub struct PlanReport {
     pub path_length: f64,
     /// The moves, in order.
     pub moves: Vec<MoveSummary>,
-    /// Peak of every limited-or-not motor quantity (wheel rate and acceleration; the caster adds
-    /// steer rate and acceleration).
+    /// Peak of every limited-or-not motor quantity (wheel rate and acceleration; steerable
+    /// kinds add steer rate and acceleration).
     pub peaks: Vec<Peak>,
     /// Moves slowed down because of a motor limit ([`Timing::Profile`](super::Timing::Profile) /
     /// [`Timing::ConstantSpeed`](super::Timing::ConstantSpeed) with
@@ -145,21 +145,22 @@ pub struct Planned {
 /// Peaks of every motor quantity over a sampled plan, against the robot's limits: rates at the
 /// samples, accelerations as differences of consecutive samples over their time step.
 pub fn plan_peaks(plan: &Plan, robot: &RobotModel) -> Vec<Peak> {
+    let n = robot.wheels();
     let chans = robot.channels();
     let value = |s: &Sample, ch: usize| -> f64 {
-        if ch < 3 {
+        if ch < n {
             s.wheel_rates[ch]
         } else {
-            s.steer.map(|(_, r)| r[ch - 3]).unwrap_or(0.0)
+            s.steer.map(|(_, r)| r[ch - n]).unwrap_or(0.0)
         }
     };
     let mut out = Vec::new();
     for accel in [false, true] {
-        for group in [0..3, 3..6] {
+        for group in [0..n, n..2 * n] {
             if group.start >= chans {
                 continue;
             }
-            let quantity = Quantity::of(group.start, accel);
+            let (quantity, _) = robot.channel(group.start, accel);
             let mut best = Peak {
                 quantity,
                 motor: 1,
@@ -177,7 +178,7 @@ pub fn plan_peaks(plan: &Plan, robot: &RobotModel) -> Vec<Peak> {
                         let d = ((value(&w[1], ch) - value(&w[0], ch)) / (w[1].t - w[0].t)).abs();
                         if d > best.value * (1.0 + 1e-9) {
                             best.value = d;
-                            best.motor = ch % 3 + 1;
+                            best.motor = robot.channel(ch, accel).1;
                             best.t = w[1].t;
                         }
                     }
@@ -186,7 +187,7 @@ pub fn plan_peaks(plan: &Plan, robot: &RobotModel) -> Vec<Peak> {
                         let r = value(s, ch).abs();
                         if r > best.value * (1.0 + 1e-9) {
                             best.value = r;
-                            best.motor = ch % 3 + 1;
+                            best.motor = robot.channel(ch, accel).1;
                             best.t = s.t;
                         }
                     }

@@ -1,13 +1,15 @@
 //! Sampling the timed moves at the requested rate (module docs, step 4): pose, world twist
-//! and motor rates from the core inverse kinematics at every sample time.
+//! and motor rates from the core inverse kinematics at every sample time; steer angles
+//! integrated along the move (caster) or the inverse's set-points from the previous sample's
+//! (swerve), whose steer rates follow from the robot-frame twist rate.
 
-use omnikin::Twist2;
+use omnikin::{Actuators, Twist2};
 
 use crate::PlanningError;
 use crate::limits::MAX_PLAN_SAMPLES;
 use crate::plan::{Plan, Sample};
 
-use super::geometry::Ctx;
+use super::geometry::{Ctx, body_per_speed};
 use super::grid::Move;
 
 /// Samples the timed moves at `rate` Hz (plus the exact end time).
@@ -40,7 +42,11 @@ pub(super) fn sample(ctx: &Ctx, moves: &[Move], rate: f64) -> Result<Plan, Plann
         j += 1;
     }
     times.push(total);
-    let caster = ctx.robot.is_caster();
+    let robot = ctx.robot;
+    let (n, steerable) = (robot.wheels(), robot.steerable());
+    // A swerve's set-points at each sample follow from the previous sample's angles (a
+    // stopped module keeps its angle), starting from the initial steer angles.
+    let mut current = Actuators::at_steer(&moves[0].gamma[0]);
     let mut samples = Vec::with_capacity(times.len());
     let mut m = 0;
     // Grid cells of the previous sample (time and parameter), restarted with each move.
@@ -51,21 +57,34 @@ pub(super) fn sample(ctx: &Ctx, moves: &[Move], rate: f64) -> Result<Plan, Plann
             (from_t, from_s) = (0, 0);
         }
         let mv = &moves[m];
-        let (sigma, v, _) = mv.timing.eval(t - mv.t0, mv.len, &mv.sig, &mut from_t);
+        let (sigma, v, acc) = mv.timing.eval(t - mv.t0, mv.len, &mv.sig, &mut from_t);
         let (c, gamma) = ctx.state(mv, sigma, &mut from_s)?;
         let twist = Twist2::new(c.dq[0] * v, c.dq[1] * v, c.dq[2] * v);
-        let r = ctx.robot.rates_cs(c.pose.heading, c.cs, twist, gamma)?;
-        let steer_rates = r.steer.unwrap_or([0.0; 3]);
+        let a = if ctx.set_point {
+            // Robot-frame twist rate b' σ̇² + b σ̈ for the steer rates.
+            let b1 = ctx.twist_rate_per_speed(&mv.kind, mv.len, sigma, &c);
+            let b = body_per_speed(&c);
+            let rate = |d1: f64, d0: f64| d1 * v * v + d0 * acc;
+            let twist_rate = Twist2::new(
+                rate(b1.vx, b.vx),
+                rate(b1.vy, b.vy),
+                rate(b1.yaw_rate, b.yaw_rate),
+            );
+            let a = robot.actuators_cs(c.cs, twist, twist_rate, &current)?;
+            current = a;
+            a
+        } else {
+            let zero = Twist2::new(0.0, 0.0, 0.0);
+            robot.actuators_cs(c.cs, twist, zero, &Actuators::at_steer(&gamma))?
+        };
+        let angles = if ctx.set_point { a.steer_angles } else { gamma };
         samples.push(Sample::new(
             t,
             c.pose,
             twist,
-            &r.wheel,
-            caster.then_some((&gamma[..], &steer_rates[..])),
+            &a.wheel_rates[..n],
+            steerable.then_some((&angles[..n], &a.steer_rates[..n])),
         ));
     }
-    Ok(Plan {
-        wheels: ctx.robot.model.wheels().min(3),
-        samples,
-    })
+    Ok(Plan { wheels: n, samples })
 }

@@ -58,7 +58,7 @@ fn time_optimal_timing_is_the_same_with_stored_and_rebuilt_cells() {
         .collect();
     let path = Path::spline(&wps).expect("spline");
     let heading = HeadingLaw::Tangent { offset: 0.3 };
-    for name in ["sphere-omni", "caster3"] {
+    for name in ["sphere-omni", "caster3", "mecanum", "swerve4"] {
         let robot = RobotModel::from_description(
             &omnikin::description::RobotDescription::preset(name).expect("preset"),
         )
@@ -69,6 +69,7 @@ fn time_optimal_timing_is_the_same_with_stored_and_rebuilt_cells() {
             heading: &heading,
             robot: &robot,
             heading_cs,
+            set_point: robot.model.kind().steer_is_set_point(),
         };
         let opts = PlanOptions {
             timing: Timing::TimeOptimal {

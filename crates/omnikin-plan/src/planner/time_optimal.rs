@@ -3,18 +3,18 @@
 //! "TOPP-RA"), with each cell's linear constraints in [`CellConstraints`].
 
 use crate::PlanningError;
-use crate::robot::{Quantity, RobotModel};
+use crate::robot::{MAX_CHANNELS, RobotModel};
 
 use super::grid::Move;
 use super::report::Limiter;
 use super::timing::{MARGIN, MoveTiming};
 
-/// Most constraints of a grid cell: the requested acceleration plus two per motor.
-const CELL_MAX: usize = 13;
+/// Most constraints of a grid cell: the requested acceleration plus two per motor channel.
+const CELL_MAX: usize = 1 + 2 * MAX_CHANNELS;
 
 /// Up to this many cells the time-optimal pass keeps each cell's constraints from the
-/// backward pass for the forward one (≈ 12 MB at most) instead of rebuilding them.
-const STORED_CELLS: usize = 50_000;
+/// backward pass for the forward one (≈ 11 MB at most) instead of rebuilding them.
+const STORED_CELLS: usize = 25_000;
 
 /// The constraints of one grid cell in the unknowns `x = x_k` (start) and `y = x_{k+1}`
 /// (end): for each `i`, `−hi[i] + slope[i]·x ≤ y ≤ hi[i] + slope[i]·x` (every constraint is
@@ -161,13 +161,13 @@ pub(super) fn time_optimal_storing(
     let sig = &mv.sig;
     let chans = robot.channels();
     let margin = MARGIN * mv.limit_scale;
-    let motor = |ch: usize, accel: bool| Limiter::Motor {
-        quantity: Quantity::of(ch, accel),
-        motor: ch % 3 + 1,
+    let motor = |ch: usize, accel: bool| {
+        let (quantity, motor) = robot.channel(ch, accel);
+        Limiter::Motor { quantity, motor }
     };
-    let rate_limits: [Option<f64>; 6] =
+    let rate_limits: [Option<f64>; MAX_CHANNELS] =
         core::array::from_fn(|ch| robot.rate_limit(ch).map(|l| l * margin));
-    let accel_limits: [Option<f64>; 6] =
+    let accel_limits: [Option<f64>; MAX_CHANNELS] =
         core::array::from_fn(|ch| robot.accel_limit(ch).map(|l| l * margin));
     // Speed caps on x = σ̇²: the requested speed and every motor's rate limit.
     let mut cap = vec![0.0; n + 1];
@@ -219,7 +219,7 @@ pub(super) fn time_optimal_storing(
         }
     };
     // Backward: reach[k] = the largest x_k from which rest at the end is reachable. The
-    // forward pass reuses the cells' constraints (≈ 230 bytes a cell) up to STORED_CELLS
+    // forward pass reuses the cells' constraints (≈ 440 bytes a cell) up to STORED_CELLS
     // cells and rebuilds them beyond, so a long fine grid does not hold them all.
     let store = n <= stored_cells;
     let mut stored: Vec<CellConstraints> = Vec::with_capacity(if store { n } else { 0 });

@@ -6,7 +6,7 @@
 use crate::PlanningError;
 use crate::error::Violation;
 use crate::profile::Profile1D;
-use crate::robot::{Quantity, RobotModel};
+use crate::robot::RobotModel;
 
 use super::geometry::Kind;
 use super::grid::{Move, cell_from};
@@ -199,7 +199,7 @@ pub(super) fn initial_timing(
     } else {
         (ra.sqrt(), peaks.accel, true)
     };
-    let quantity = Quantity::of(ch, accel);
+    let (quantity, motor) = robot.channel(ch, accel);
     if opts.on_limit == OnLimit::Reject {
         let worst = if rr >= ra {
             (peaks.rate, false)
@@ -207,7 +207,7 @@ pub(super) fn initial_timing(
             (peaks.accel, true)
         };
         let ((_, ch, t, value), accel) = worst;
-        let quantity = Quantity::of(ch, accel);
+        let (quantity, motor) = robot.channel(ch, accel);
         let limit = if accel {
             robot.accel_limit(ch)
         } else {
@@ -216,17 +216,14 @@ pub(super) fn initial_timing(
         .unwrap_or(f64::NAN);
         return Err(PlanningError::LimitExceeded(Violation {
             quantity,
-            motor: ch % 3 + 1,
+            motor,
             needed: value,
             t: t + mv.t0,
             limit,
         }));
     }
     let lambda = MARGIN / ratio;
-    let limiter = Limiter::Motor {
-        quantity,
-        motor: ch % 3 + 1,
-    };
+    let limiter = Limiter::Motor { quantity, motor };
     note_retime(retimed, idx, lambda, limiter);
     let timing = match timing {
         MoveTiming::Profile { p, .. } => MoveTiming::Profile { p, lambda },

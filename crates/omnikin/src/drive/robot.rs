@@ -303,6 +303,26 @@ pub trait KindModel<T: Real> {
         self.inverse(twist, current)
     }
 
+    /// Steer angles (rad) aligned with the robot-frame `twist` a motion starts with, so that
+    /// it starts without re-steering. Caster: each wheel **trails** its steering axis, the
+    /// stable solution of a zero steer rate (paper 003, eq. 3; see
+    /// [`Robot::aligned_steer`]); swerve: the module directions of the inverse (0 for a
+    /// stopped module). Default (kinds without steering): zeros.
+    ///
+    /// # Errors
+    /// [`InputError`] for a non-finite twist.
+    fn aligned_steer(&self, twist: Twist2<T>) -> Result<[T; MAX_WHEELS], InputError> {
+        crate::real::finite3(twist.to_array(), ["vx", "vy", "yaw_rate"])?;
+        Ok([T::zero(); MAX_WHEELS])
+    }
+
+    /// For kinds whose steer angles follow the path by a first-order law rather than being
+    /// set-points (the caster, paper 003, eq. 5): the length (m) over which they change, of
+    /// the order of the wheel's eccentricity `d`. `None` for the others (default).
+    fn steer_length(&self) -> Option<T> {
+        None
+    }
+
     /// Forward kinematics (least squares where over-determined).
     ///
     /// # Errors
@@ -594,6 +614,24 @@ impl<T: Real> Robot<T> {
     ) -> Result<Actuators<T>, InputError> {
         crate::real::finite(heading, "heading")?;
         self.inverse(twist_world.to_robot(heading), current)
+    }
+
+    /// Steer angles aligned with the robot-frame `twist` a motion starts with (see
+    /// [`KindModel::aligned_steer`]). For the caster, wheel `i`'s steering axis `F_i` moves with
+    /// `v_F = (vx, vy) + ω k × D(cos α_i, sin α_i)` (direction `χ`); its steer rate vanishes for
+    /// `sin(β_i − χ) = ω d/|v_F|`, whose trailing solution `β_i = χ + π − asin(ω d/|v_F|)` is
+    /// the stable equilibrium (a leading wheel would need ever larger steer rates to follow
+    /// any curve); `γ_i = β_i − α_i` wrapped into (−π, π], 0 for a steering axis at rest.
+    ///
+    /// # Errors
+    /// [`InputError`] for a non-finite twist.
+    pub fn aligned_steer(&self, twist: Twist2<T>) -> Result<[T; MAX_WHEELS], InputError> {
+        dispatch!(self, m => KindModel::<T>::aligned_steer(m, twist))
+    }
+
+    /// See [`KindModel::steer_length`] (m).
+    pub fn steer_length(&self) -> Option<T> {
+        dispatch!(self, m => KindModel::<T>::steer_length(m))
     }
 
     /// Forward kinematics: the **robot-frame** twist that best explains `actuators`, with the
@@ -974,6 +1012,34 @@ impl<T: Real> KindModel<T> for Caster3<T> {
         ))
     }
 
+    /// The trailing configuration of [`Robot::aligned_steer`].
+    fn aligned_steer(&self, twist: Twist2<T>) -> Result<[T; MAX_WHEELS], InputError> {
+        crate::real::finite3(twist.to_array(), ["vx", "vy", "yaw_rate"])?;
+        let p = self.params();
+        let mut out = [T::zero(); MAX_WHEELS];
+        for (i, g) in out.iter_mut().take(3).enumerate() {
+            let (sa, ca) = p.mount_angles[i].sin_cos();
+            let vf = [
+                twist.vx - twist.yaw_rate * p.mount_radius * sa,
+                twist.vy + twist.yaw_rate * p.mount_radius * ca,
+            ];
+            let speed = vf[0].hypot(vf[1]);
+            if speed < T::of(1e-12) {
+                continue;
+            }
+            let chi = vf[1].atan2(vf[0]);
+            let rho = (twist.yaw_rate * p.eccentricity / speed).clamp(-T::one(), T::one());
+            let beta = chi + T::pi() - rho.asin();
+            *g = wrap_angle(beta - p.mount_angles[i]);
+        }
+        Ok(out)
+    }
+
+    /// The eccentricity `d`.
+    fn steer_length(&self) -> Option<T> {
+        Some(self.params().eccentricity)
+    }
+
     /// The six increments (roll, wrapped steer) fitted at the step's mid steer angles.
     fn displacement(
         &self,
@@ -1115,6 +1181,20 @@ impl<T: Real, const N: usize> KindModel<T> for Swerve<T, N> {
         let r = self.steer_rates(twist, twist_rate)?;
         a.steer_rates[..N].copy_from_slice(&r.steer_rates);
         Ok(a)
+    }
+
+    /// The module directions of the unoptimised inverse (0 for a stopped module).
+    fn aligned_steer(&self, twist: Twist2<T>) -> Result<[T; MAX_WHEELS], InputError> {
+        let rest = SwerveState {
+            wheel_rates: [T::zero(); N],
+            steer: directions(&[T::zero(); MAX_WHEELS]),
+        };
+        let st = crate::drive::Drive::inverse(&self.with_optimization(false), twist, &rest)?;
+        let mut out = [T::zero(); MAX_WHEELS];
+        for i in 0..N {
+            out[i] = st.steer[i].angle();
+        }
+        Ok(out)
     }
 
     #[inline]
