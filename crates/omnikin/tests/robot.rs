@@ -298,7 +298,9 @@ fn every_kind_describes_itself_and_its_reach() {
             }
         }
         assert!(r.reach(0.0, None).is_none() && r.reach(f64::NAN, None).is_none());
-=======
+    }
+}
+
 proptest! {
     /// `aligned_steer`: the caster's trailing configuration starts the motion with zero steer
     /// rates and positive roll rates (the wheel trails); a swerve's is the inverse's module
