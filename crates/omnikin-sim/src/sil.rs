@@ -127,12 +127,25 @@ impl SilPlant {
 
     fn substep(&mut self, dt: f64, t: f64) -> Result<(), SimError> {
         let c = &self.command;
-        let motion = self.motors.step(c.wheel, c.steer, dt, &mut self.rng);
+        let motion = self
+            .motors
+            .step(resize(c.wheel), resize(c.steer), dt, &mut self.rng);
         self.plant
             .step(&motion, dt, &mut self.rng)
             .map_err(|source| SimError::Kinematics { t, source })?;
         Ok(())
     }
+}
+
+/// The HAL's per-wheel arrays ([`omnikin::MAX_WHEELS`] entries, the robot's wheels first)
+/// to and from the plant step's: the first `min(A, B)` entries copied, the rest zero (entries
+/// past the robot's wheel count are zero on both sides).
+fn resize<const A: usize, const B: usize>(x: [f64; A]) -> [f64; B] {
+    let mut out = [0.0; B];
+    for (o, v) in out.iter_mut().zip(x) {
+        *o = v;
+    }
+    out
 }
 
 /// A sensor reading taken before the cycle (so the plant can be the motor board at the same
@@ -157,8 +170,8 @@ impl Encoders<f64> for SilPlant {
     type Error = core::convert::Infallible;
     fn read(&mut self) -> Result<EncoderAngles<f64>, Self::Error> {
         Ok(EncoderAngles {
-            wheel: self.motors.wheel_angles(),
-            steer: self.plant.steer_angles(),
+            wheel: resize(self.motors.wheel_angles()),
+            steer: resize(self.plant.steer_angles()),
         })
     }
 }
