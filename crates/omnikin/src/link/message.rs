@@ -114,6 +114,8 @@ pub struct Telemetry {
     pub twist: [f32; 3],
     /// Commanded robot-frame twist after limits.
     pub command: [f32; 3],
+    /// The robot's wheel (module) count: the used length of the four per-wheel arrays.
+    pub wheels: u8,
     /// Commanded wheel rates, rad/s, in the robot file's wheel order (entries past the wheel
     /// count 0; postcard writes the [`MAX_WHEELS`] floats without a length).
     pub wheel_rates: [f32; MAX_WHEELS],
@@ -167,6 +169,7 @@ impl Telemetry {
             pose: p(s.pose),
             twist: w(s.twist),
             command: w(s.command),
+            wheels: s.wheels,
             wheel_rates: m(s.motors.wheel),
             steer_rates: m(s.motors.steer),
             wheel_angles: m(s.encoders.wheel),

@@ -229,6 +229,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             pose,
             twist: self.twist,
             command: twist_cmd,
+            wheels: self.wheels as u8,
             motors: command,
             encoders: self.encoders,
             imu: self.imu,

@@ -61,6 +61,32 @@ pub fn saturation_scale<T: Real>(cmd: &MotorCommand<T>, limits: &RateLimits<T>) 
     s
 }
 
+/// [`saturation_scale`] over the first `n` motors of each kind (the robot's wheels).
+#[inline(always)]
+pub(super) fn saturation_scale_of<T: Real>(
+    cmd: &MotorCommand<T>,
+    limits: &RateLimits<T>,
+    n: usize,
+) -> T {
+    let mut s = T::one();
+    let mut apply = |rates: &[T; MAX_WHEELS], lim: Option<T>| {
+        if let Some(lim) = lim {
+            for &r in rates.iter().take(n) {
+                let a = r.abs();
+                if a > lim && a > T::zero() {
+                    let k = lim / a;
+                    if k < s {
+                        s = k;
+                    }
+                }
+            }
+        }
+    };
+    apply(&cmd.wheel, limits.wheel);
+    apply(&cmd.steer, limits.steer);
+    s
+}
+
 /// Result of [`desaturate`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Desaturated<T> {

@@ -30,7 +30,7 @@ use crate::{Actuators, MAX_WHEELS, Real, Twist2, wrap_angle};
 
 use super::controller::Runtime;
 use super::hal::MotorCommand;
-use super::limits::{desaturate, motor_rates, saturation_scale};
+use super::limits::{motor_rates, saturation_scale_of};
 use super::status::Faults;
 
 impl<T: Real, const N: usize> Runtime<T, N> {
@@ -55,12 +55,18 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 sin: -rot.sin,
             })
         };
-        let d = desaturate(&self.robot, to_robot(target_world), steer, &cfg.rate_limits)
-            .map_err(|_| ())?;
-        if d.scale < T::one() {
+        // Desaturation (limits::desaturate without scaling the rates, which are not used).
+        let mut want = to_robot(target_world);
+        let scale = saturation_scale_of(
+            &motor_rates(&self.robot, want, steer).map_err(|_| ())?,
+            &cfg.rate_limits,
+            n,
+        );
+        if scale < T::one() {
             faults.insert(Faults::LIMIT);
+            want = Twist2::new(want.vx * scale, want.vy * scale, want.yaw_rate * scale);
         }
-        let v_world = self.slew.step(to_world(d.twist), dt, &cfg.slew);
+        let v_world = self.slew.step(to_world(want), dt, &cfg.slew);
         let mut v = to_robot(v_world);
         // Set-point steering: the module angles (and their feed-forward rates) of the inverse;
         // the wheel rates scaled by the cosine of each module's angle error.
@@ -77,8 +83,8 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 .inverse_accel(v, rate, &Actuators::at_steer(steer))
                 .map_err(|_| ())?;
             let mut wheel = a.wheel_rates;
-            for i in 0..n {
-                wheel[i] *= Rot2::from_angle(a.steer_angles[i] - steer[i]).cos;
+            for ((w, sp), m) in wheel.iter_mut().zip(&a.steer_angles).zip(steer).take(n) {
+                *w *= Rot2::from_angle(*sp - *m).cos;
             }
             set_points = Some(a);
             MotorCommand {
@@ -94,8 +100,8 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         let mut limit = |new: &[T; MAX_WHEELS], old: &[T; MAX_WHEELS], a: Option<T>| {
             if let Some(a) = a {
                 let step = a * dt;
-                for i in 0..n {
-                    let dlt = (new[i] - old[i]).abs();
+                for (x, o) in new.iter().zip(old).take(n) {
+                    let dlt = (*x - *o).abs();
                     if dlt > step && dlt > T::zero() {
                         s = s.min(step / dlt);
                     }
@@ -108,11 +114,14 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         }
         if s < T::one() {
             faults.insert(Faults::LIMIT);
-            let old = self.last_motor;
-            for i in 0..n {
-                rates.wheel[i] = old.wheel[i] + s * (rates.wheel[i] - old.wheel[i]);
-                rates.steer[i] = old.steer[i] + s * (rates.steer[i] - old.steer[i]);
-            }
+            let old = &self.last_motor;
+            let blend = |new: &mut [T; MAX_WHEELS], old: &[T; MAX_WHEELS]| {
+                for (x, o) in new.iter_mut().zip(old) {
+                    *x = *o + s * (*x - *o);
+                }
+            };
+            blend(&mut rates.wheel, &old.wheel);
+            blend(&mut rates.steer, &old.steer);
             let lc = self.last_command;
             v = Twist2::new(
                 lc.vx + s * (v.vx - lc.vx),
@@ -121,12 +130,11 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             );
             self.slew.set_velocity(to_world(v));
         }
-        let k = saturation_scale(&rates, &cfg.rate_limits);
+        let k = saturation_scale_of(&rates, &cfg.rate_limits, n);
         if k < T::one() {
             faults.insert(Faults::LIMIT);
-            for i in 0..n {
-                rates.wheel[i] *= k;
-                rates.steer[i] *= k;
+            for x in rates.wheel.iter_mut().chain(rates.steer.iter_mut()) {
+                *x *= k;
             }
             v = Twist2::new(v.vx * k, v.vy * k, v.yaw_rate * k);
             self.slew.set_velocity(to_world(v));
@@ -134,10 +142,8 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         if let Some(a) = set_points {
             rates.steer = self.steer_rates(&a, dt);
         }
-        let finite = rates.wheel[..n]
-            .iter()
-            .chain(rates.steer[..n].iter())
-            .all(|x| x.is_finite());
+        let finite = rates.wheel.iter().take(n).all(|x| x.is_finite())
+            && rates.steer.iter().take(n).all(|x| x.is_finite());
         if !finite {
             return Err(());
         }

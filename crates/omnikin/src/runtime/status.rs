@@ -148,6 +148,8 @@ pub struct Status<T> {
     pub twist: Twist2<T>,
     /// Commanded robot-frame twist after limits.
     pub command: Twist2<T>,
+    /// The robot's wheel (module) count, the used length of `motors` and `encoders`.
+    pub wheels: u8,
     /// Motor set-points sent this cycle, rad/s (entries past the wheel count 0).
     pub motors: MotorCommand<T>,
     /// Encoder angles read this cycle, rad.
