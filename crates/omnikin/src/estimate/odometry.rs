@@ -232,7 +232,7 @@ impl<T: Real> Odometry<T> {
     /// The increments since the previous sample give the robot-frame translation through the
     /// forward kinematics (see the module docs per robot); the heading change comes from
     /// `heading`; the pose advances by the exact SE(2) step
-    /// `pose ⊕ exp(u, v, Δθ)` ([`se2::twist_exp`], [`se2::compose`]), i.e. assuming a constant
+    /// `pose ⊕ exp(u, v, Δθ)` ([`crate::se2::twist_exp`], [`crate::se2::compose`]), i.e. assuming a constant
     /// body twist over the step.
     ///
     /// # Errors
