@@ -187,8 +187,6 @@ struct Session {
     key: Option<Key>,
     addr: String,
     latest: Option<Telemetry>,
-    /// Wheel count and steer columns of the CSV log, fixed by its first row.
-    log_columns: Option<(usize, bool)>,
     /// When the newest telemetry frame of this session arrived.
     last_telemetry: Option<Instant>,
     /// What a v1 HelloAck said (the answer to the v1 probe): (protocol, robot has a key).
@@ -216,7 +214,6 @@ impl Session {
             key,
             addr: a.connect.clone(),
             latest: None,
-            log_columns: None,
             last_telemetry: None,
             v1_answer: None,
             log: None,
@@ -229,8 +226,11 @@ impl Session {
     fn record(&mut self, out: Option<&Path>) -> Result<()> {
         if let Some(p) = out {
             // The log is kept on every exit path, Ctrl-C included (see crate::output).
-            let w = crate::output::OutFile::log("--out", p)?;
-            // The header follows with the first telemetry, which names the wheel count.
+            // Every kind in one layout: MAX_WHEELS wheel and steer columns (zero past the
+            // robot's wheel count, which telemetry's `wheels` names).
+            let mut w = crate::output::OutFile::log("--out", p)?;
+            writeln!(w, "{}", telemetry_header(omnikin::MAX_WHEELS, true))
+                .context("--out: cannot write")?;
             self.log = Some(w);
             crate::output::catch_signals()?;
         }
@@ -265,20 +265,7 @@ impl Session {
                         self.latest = Some(t);
                     }
                     if let Some(w) = self.log.as_mut() {
-                        let (n, steer) = match self.log_columns {
-                            Some(c) => c,
-                            None => {
-                                let c = (
-                                    (t.wheels as usize).clamp(1, omnikin::MAX_WHEELS),
-                                    self.op.info().is_some_and(|i| i.kind.kind().steerable()),
-                                );
-                                writeln!(w, "{}", telemetry_header(c.0, c.1))
-                                    .context("--out: cannot write")?;
-                                self.log_columns = Some(c);
-                                c
-                            }
-                        };
-                        writeln!(w, "{}", telemetry_row(&t, n, steer))
+                        writeln!(w, "{}", telemetry_row(&t, omnikin::MAX_WHEELS, true))
                             .context("--out: cannot write")?;
                     }
                     self.last_telemetry = Some(Instant::now());
