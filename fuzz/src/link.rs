@@ -312,9 +312,9 @@ impl Entropy for FuzzEntropy {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Board {
     /// Wheel angles, rad.
-    pub wheel: [f32; 3],
+    pub wheel: [f32; omnikin::MAX_WHEELS],
     /// Steer angles, rad.
-    pub steer: [f32; 3],
+    pub steer: [f32; omnikin::MAX_WHEELS],
     /// Last command.
     pub command: Option<MotorCommand<f32>>,
 }
@@ -940,7 +940,7 @@ impl Session {
         let cmd = self.board.command.expect("cycle sets the motors");
         assert_eq!(cmd, st.motors);
         let dt = 1.0 / RATE_HZ;
-        for i in 0..3 {
+        for i in 0..omnikin::MAX_WHEELS {
             let (w, s) = (cmd.wheel[i], cmd.steer[i]);
             assert!(w.is_finite() && s.is_finite(), "motor command {cmd:?}");
             assert!(w.abs() <= WHEEL_LIMIT * 1.0001, "wheel {w} over the limit");

@@ -112,10 +112,7 @@ impl Loop {
         let rt = Runtime::new(robot, cfg, Pose2::new(0.0, 0.0, 0.0)).expect("valid config");
         Self {
             rt,
-            enc: Enc(EncoderAngles {
-                wheel: [0.0; 3],
-                steer: [0.0; 3],
-            }),
+            enc: Enc(EncoderAngles::zero()),
             motors: Motors(MotorCommand::zero()),
             now_us: 0,
             k: 0,

@@ -106,13 +106,31 @@ pub enum DriveAction {
     },
 }
 
-/// Telemetry CSV header: pose columns first (the pose CSV of the conventions), then the rest.
-pub const TELEMETRY_HEADER: &str = "t,x,y,heading,vx,vy,yaw_rate,cmd_vx,cmd_vy,cmd_yaw_rate,w1,w2,w3,q1,q2,q3,gyro_z,mode,faults,fault_history,plan_id,plan_received,plan_len,plan_time,ref_x,ref_y,ref_heading,rejected,last_command_t,rx_ok,rx_framing,rx_crc,rx_version,rx_auth,rx_replay,rx_malformed,rx_session,rx_entropy";
+/// Telemetry CSV header for a robot of `wheels` wheels (`steer`: with steer motors): pose
+/// columns first (the pose CSV of the conventions), commanded wheel rates `w1..wN`, encoder
+/// wheel angles `q1..qN` and, for kinds with steer motors, steer angles `s1..sN` (so the log
+/// is an encoder log for `omnikin odometry`), then the rest.
+pub fn telemetry_header(wheels: usize, steer: bool) -> String {
+    let mut h = String::from("t,x,y,heading,vx,vy,yaw_rate,cmd_vx,cmd_vy,cmd_yaw_rate");
+    let mut cols = |p: &str| {
+        for i in 1..=wheels {
+            h.push_str(&format!(",{p}{i}"));
+        }
+    };
+    cols("w");
+    cols("q");
+    if steer {
+        cols("s");
+    }
+    h.push_str(",gyro_z,mode,faults,fault_history,plan_id,plan_received,plan_len,plan_time,ref_x,ref_y,ref_heading,rejected,last_command_t,rx_ok,rx_framing,rx_crc,rx_version,rx_auth,rx_replay,rx_malformed,rx_session,rx_entropy");
+    h
+}
 
-fn telemetry_row(t: &Telemetry) -> String {
+/// One telemetry CSV row in the columns of [`telemetry_header`].
+fn telemetry_row(t: &Telemetry, wheels: usize, steer: bool) -> String {
     let l = &t.link;
-    format!(
-        "{:.6},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.6},{},{},{},{},{},{},{},{},{}",
+    let mut r = format!(
+        "{:.6},{},{},{},{},{},{},{},{},{}",
         t.time_us as f64 * 1e-6,
         t.pose[0],
         t.pose[1],
@@ -123,12 +141,19 @@ fn telemetry_row(t: &Telemetry) -> String {
         t.command[0],
         t.command[1],
         t.command[2],
-        t.wheel_rates[0],
-        t.wheel_rates[1],
-        t.wheel_rates[2],
-        t.wheel_angles[0],
-        t.wheel_angles[1],
-        t.wheel_angles[2],
+    );
+    let mut cols = |v: &[f32]| {
+        for x in v.iter().take(wheels) {
+            r.push_str(&format!(",{x}"));
+        }
+    };
+    cols(&t.wheel_rates);
+    cols(&t.wheel_angles);
+    if steer {
+        cols(&t.steer_angles);
+    }
+    r.push_str(&format!(
+        ",{},{},{},{},{},{},{},{},{},{},{},{},{:.6},{},{},{},{},{},{},{},{},{}",
         t.gyro[2],
         t.mode,
         t.faults,
@@ -151,7 +176,8 @@ fn telemetry_row(t: &Telemetry) -> String {
         l.malformed,
         l.session,
         l.entropy,
-    )
+    ));
+    r
 }
 
 /// An operator session: the link, the newest telemetry of this session, an optional CSV log.
@@ -200,8 +226,11 @@ impl Session {
     fn record(&mut self, out: Option<&Path>) -> Result<()> {
         if let Some(p) = out {
             // The log is kept on every exit path, Ctrl-C included (see crate::output).
+            // Every kind in one layout: MAX_WHEELS wheel and steer columns (zero past the
+            // robot's wheel count, which telemetry's `wheels` names).
             let mut w = crate::output::OutFile::log("--out", p)?;
-            writeln!(w, "{TELEMETRY_HEADER}").context("--out: cannot write")?;
+            writeln!(w, "{}", telemetry_header(omnikin::MAX_WHEELS, true))
+                .context("--out: cannot write")?;
             self.log = Some(w);
             crate::output::catch_signals()?;
         }
@@ -236,7 +265,8 @@ impl Session {
                         self.latest = Some(t);
                     }
                     if let Some(w) = self.log.as_mut() {
-                        writeln!(w, "{}", telemetry_row(&t)).context("--out: cannot write")?;
+                        writeln!(w, "{}", telemetry_row(&t, omnikin::MAX_WHEELS, true))
+                            .context("--out: cannot write")?;
                     }
                     self.last_telemetry = Some(Instant::now());
                     self.frames += 1;

@@ -36,7 +36,7 @@ pub struct RobotArgs {
     /// robot the runtime runs in firmware (see examples/firmware-cortex-m4).
     #[arg(long)]
     pub sim: bool,
-    /// Robot: preset name (sphere-omni, ballbot, caster3) or path to a TOML description. Its
+    /// Robot: preset name (sphere-omni, ballbot, caster3, kiwi, x-drive, mecanum, swerve4) or path to a TOML description. Its
     /// [limits] become the runtime's motor limits.
     #[arg(long)]
     pub robot: String,

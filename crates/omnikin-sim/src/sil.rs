@@ -127,22 +127,12 @@ impl SilPlant {
 
     fn substep(&mut self, dt: f64, t: f64) -> Result<(), SimError> {
         let c = &self.command;
-        let motion = self.motors.step(
-            omnikin_plan::per_wheel(&c.wheel),
-            omnikin_plan::per_wheel(&c.steer),
-            dt,
-            &mut self.rng,
-        );
+        let motion = self.motors.step(c.wheel, c.steer, dt, &mut self.rng);
         self.plant
             .step(&motion, dt, &mut self.rng)
             .map_err(|source| SimError::Kinematics { t, source })?;
         Ok(())
     }
-}
-
-/// The first three entries of a per-wheel array (the runtime's HAL has three channels so far).
-fn head3(a: [f64; MAX_WHEELS]) -> [f64; 3] {
-    [a[0], a[1], a[2]]
 }
 
 /// A sensor reading taken before the cycle (so the plant can be the motor board at the same
@@ -167,8 +157,8 @@ impl Encoders<f64> for SilPlant {
     type Error = core::convert::Infallible;
     fn read(&mut self) -> Result<EncoderAngles<f64>, Self::Error> {
         Ok(EncoderAngles {
-            wheel: head3(self.motors.wheel_angles()),
-            steer: head3(self.plant.steer_angles()),
+            wheel: self.motors.wheel_angles(),
+            steer: self.plant.steer_angles(),
         })
     }
 }

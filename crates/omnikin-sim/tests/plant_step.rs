@@ -80,13 +80,21 @@ fn plan_of(robot: &Robot<f64>, steps: usize) -> Plan {
     }
 }
 
+/// A HAL motor command of these wheel and steer rates (the rest zero).
+fn command(wheel: &[f64], steer: &[f64]) -> MotorCommand<f64> {
+    let mut c = MotorCommand::zero();
+    c.wheel[..wheel.len()].copy_from_slice(wheel);
+    c.steer[..steer.len()].copy_from_slice(steer);
+    c
+}
+
 /// The true poses of SIL at every control step under the same set-points.
 fn sil_poses(robot: Robot<f64>, profile: Profile, seed: u64, steps: usize) -> Vec<Pose2<f64>> {
     let mut plant = SilPlant::new(robot, profile, seed, Pose2::default());
     let mut out = vec![plant.true_pose()];
     for k in 0..steps {
         let (wheel, steer) = setpoint(&robot, k);
-        plant.set_rates(&MotorCommand { wheel, steer }).unwrap();
+        plant.set_rates(&command(&wheel, &steer)).unwrap();
         plant.advance(PERIOD).unwrap();
         out.push(plant.true_pose());
     }
@@ -191,11 +199,7 @@ fn ballbot_ball_spin_follows_the_spin_law_in_simulator_and_sil() {
 
         // SIL from rest with ideal motors: the set-point is reached at once.
         let mut sil = SilPlant::new(robot, profile, 1, Pose2::default());
-        sil.set_rates(&MotorCommand {
-            wheel: w,
-            steer: [0.0; 3],
-        })
-        .unwrap();
+        sil.set_rates(&command(&w, &[])).unwrap();
         sil.advance(t_end).unwrap();
         let twist = sil.true_twist();
         assert!(
@@ -367,11 +371,7 @@ fn a_constant_twist_traces_an_exact_arc_at_any_plant_step() {
             // SIL starts at rest with zero steer angles: the rolling robots only.
             if !robot.steerable() {
                 let mut sil = SilPlant::new(robot, profile, 4, Pose2::default());
-                sil.set_rates(&MotorCommand {
-                    wheel: w,
-                    steer: [0.0; 3],
-                })
-                .unwrap();
+                sil.set_rates(&command(&w, &[])).unwrap();
                 sil.advance(t_end).unwrap();
                 let gap = worst_gap(&[sil.true_pose()], &[arc(disturbed, t_end)]);
                 assert!(

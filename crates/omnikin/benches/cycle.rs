@@ -135,10 +135,7 @@ fn control_cycle<T: Real>(g: &mut BenchmarkGroup<'_, WallTime>, ty: &str) {
             Pose2::new(T::zero(), T::zero(), T::zero()),
         )
         .unwrap();
-        let mut enc = Enc(EncoderAngles {
-            wheel: [T::zero(); 3],
-            steer: [T::zero(); 3],
-        });
+        let mut enc = Enc(EncoderAngles::zero());
         let mut motors = Motors(MotorCommand::zero());
         let dt = T::of(1e-3);
         let (mut now_us, mut k) = (0u64, 0usize);

@@ -16,7 +16,7 @@ use omnikin::runtime::hal::{
 };
 use omnikin::runtime::{Config, Faults, Frame, Mode, PlanStatus, Runtime};
 use omnikin::sphere::{SphereOmni, SphereParams};
-use omnikin::{Pose2, Robot};
+use omnikin::{MAX_WHEELS, Pose2, Robot};
 use proptest::prelude::*;
 
 fn f() -> impl Strategy<Value = f32> {
@@ -25,6 +25,9 @@ fn f() -> impl Strategy<Value = f32> {
 }
 fn f3() -> impl Strategy<Value = [f32; 3]> {
     [f(), f(), f()]
+}
+fn f6() -> impl Strategy<Value = [f32; MAX_WHEELS]> {
+    [f(), f(), f(), f(), f(), f()]
 }
 
 fn point() -> impl Strategy<Value = WirePoint> {
@@ -52,7 +55,7 @@ fn telemetry() -> impl Strategy<Value = Telemetry> {
             f3(),
             f3(),
         ),
-        (f3(), f3(), f3(), f3(), f3(), f3()),
+        (f6(), f6(), f6(), f6(), f3(), f3(), 1u8..=6),
         (
             any::<(u16, u16, u16, bool)>(),
             f(),
@@ -71,6 +74,7 @@ fn telemetry() -> impl Strategy<Value = Telemetry> {
             pose: a.4,
             twist: a.5,
             command: a.6,
+            wheels: b.6,
             wheel_rates: b.0,
             steer_rates: b.1,
             wheel_angles: b.2,
@@ -454,21 +458,21 @@ fn wrong_or_missing_key_and_forged_headers_are_unauthenticated() {
 /// A simulated robot: runtime and board whose motors turn as commanded.
 struct Plant {
     rt: Runtime<f32, 64>,
-    wheel: [f32; 3],
-    rates: [f32; 3],
+    wheel: [f32; MAX_WHEELS],
+    rates: [f32; MAX_WHEELS],
     now: u64,
 }
-struct Enc([f32; 3]);
+struct Enc([f32; MAX_WHEELS]);
 impl Encoders<f32> for Enc {
     type Error = ();
     fn read(&mut self) -> Result<EncoderAngles<f32>, ()> {
         Ok(EncoderAngles {
             wheel: self.0,
-            steer: [0.0; 3],
+            steer: [0.0; MAX_WHEELS],
         })
     }
 }
-struct Out<'a>(&'a mut [f32; 3]);
+struct Out<'a>(&'a mut [f32; MAX_WHEELS]);
 impl MotorOutputs<f32> for Out<'_> {
     type Error = ();
     fn set_rates(&mut self, c: &MotorCommand<f32>) -> Result<(), ()> {
@@ -481,8 +485,8 @@ impl Plant {
         let robot = Robot::Sphere(SphereOmni::<f32>::new(SphereParams::preset()).unwrap());
         Plant {
             rt: Runtime::new(robot, Config::new(100.0), Pose2::default()).unwrap(),
-            wheel: [0.0; 3],
-            rates: [0.0; 3],
+            wheel: [0.0; MAX_WHEELS],
+            rates: [0.0; MAX_WHEELS],
             now: 0,
         }
     }
@@ -1008,4 +1012,57 @@ fn reflected_frames_are_dropped_and_do_not_move_the_windows() {
             "keyed {keyed}"
         );
     }
+}
+
+/// The largest telemetry (every varint at its widest, MAX_WHEELS wheels and steer motors)
+/// still fits a frame body: the per-wheel arrays keep the encoding bounded.
+#[test]
+fn largest_telemetry_fits_a_frame() {
+    let m = f32::MAX;
+    let t = Telemetry {
+        time_us: u64::MAX,
+        mode: Mode::EStop,
+        faults: Faults(u16::MAX),
+        fault_history: Faults(u16::MAX),
+        pose: [m; 3],
+        twist: [m; 3],
+        command: [m; 3],
+        wheels: MAX_WHEELS as u8,
+        wheel_rates: [m; MAX_WHEELS],
+        steer_rates: [m; MAX_WHEELS],
+        wheel_angles: [m; MAX_WHEELS],
+        steer_angles: [m; MAX_WHEELS],
+        gyro: [m; 3],
+        accel: [m; 3],
+        plan: PlanStatus {
+            id: u16::MAX,
+            received: u16::MAX,
+            len: u16::MAX,
+            done: true,
+        },
+        plan_time: m,
+        reference: [m; 3],
+        slip_residual: m,
+        rejected: u32::MAX,
+        last_command_us: u64::MAX,
+        link: LinkCounters {
+            ok: u32::MAX,
+            framing: u32::MAX,
+            crc: u32::MAX,
+            version: u32::MAX,
+            auth: u32::MAX,
+            replay: u32::MAX,
+            malformed: u32::MAX,
+            session: u32::MAX,
+            entropy: u32::MAX,
+        },
+        ack_seq: u64::MAX,
+        estop_seq: u64::MAX,
+    };
+    let msg = Message::Telemetry(t);
+    let k = key();
+    let mut buf = [0u8; MAX_FRAME];
+    let n = encode_message(u64::MAX, u64::MAX, &msg, Some(k.mac()), &mut buf).unwrap();
+    let p = parse_frame(&mut buf[..n - 1]).unwrap();
+    assert_eq!(omnikin::link::decode_message(p.body).unwrap(), msg);
 }

@@ -9,12 +9,12 @@ use omnikin::runtime::{
     Command, CommandError, Config, Faults, Frame, Mode, PlanPoint, Runtime, Status,
 };
 use omnikin::sphere::{SphereOmni, SphereParams};
-use omnikin::{Pose2, Robot, Twist2};
+use omnikin::{MAX_WHEELS, Pose2, Robot, Twist2};
 
 #[derive(Default)]
 struct Board {
-    wheel: [f64; 3],
-    steer: [f64; 3],
+    wheel: [f64; MAX_WHEELS],
+    steer: [f64; MAX_WHEELS],
     cmd: Option<MotorCommand<f64>>,
     /// Gyro bias added to the true yaw rate (to fake slip), rad/s.
     gyro_offset: f64,
@@ -89,7 +89,7 @@ impl Rig {
         let st = self
             .rt
             .cycle(self.now, &mut self.board, &mut imu, &mut Board::default());
-        for i in 0..3 {
+        for i in 0..MAX_WHEELS {
             self.board.wheel[i] += st.motors.wheel[i] * DT;
             self.board.steer[i] += st.motors.steer[i] * DT;
         }
@@ -266,7 +266,7 @@ fn emergency_stop_latches_until_cleared() {
     let st = rig.step();
     assert_eq!(st.mode, Mode::EStop);
     assert_eq!(
-        st.motors.wheel, [0.0; 3],
+        st.motors.wheel, [0.0; MAX_WHEELS],
         "e-stop zeroes the motors at once"
     );
     assert_eq!(rig.cmd(vel(0.1, 0.0, 0.0)), Err(CommandError::EStopLatched));
@@ -471,7 +471,7 @@ fn hardware_error_stops_and_is_reported() {
     rig.board.fail_encoders = true;
     let st = rig.step();
     assert!(st.faults.contains(Faults::HARDWARE));
-    assert_eq!(st.motors.wheel, [0.0; 3]);
+    assert_eq!(st.motors.wheel, [0.0; MAX_WHEELS]);
     assert_eq!(st.mode, Mode::Stopping);
 }
 
@@ -516,13 +516,7 @@ fn caster_and_ballbot_run_the_same_loop() {
             .all(|s| s.motors.steer.iter().all(|x| x.abs() <= 10.0 + 1e-9))
     );
     // Inverse kinematics consistent with the library call.
-    let m = motor_rates(
-        rig.rt.robot(),
-        st.command,
-        st.pose.heading,
-        st.encoders.steer,
-    )
-    .unwrap();
+    let m = motor_rates(rig.rt.robot(), st.command, &st.encoders.steer).unwrap();
     assert!((m.wheel[0] - st.motors.wheel[0]).abs() < 1e-9);
 
     let bb = Robot::Ballbot(Ballbot::new(BallbotParams::preset()).unwrap());

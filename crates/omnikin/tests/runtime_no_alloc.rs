@@ -5,6 +5,7 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
+use omnikin::description::RobotDescription;
 use omnikin::link::{
     CHUNK_POINTS, FrameReader, Key, MAX_FRAME, Message, OperatorLink, RobotEvent, RobotInfo,
     RobotLink, WirePoint, robot_info, serve,
@@ -14,7 +15,7 @@ use omnikin::runtime::hal::{
 };
 use omnikin::runtime::{Command, Config, Frame, Mode, PlanPoint, Runtime};
 use omnikin::sphere::{SphereOmni, SphereParams};
-use omnikin::{Pose2, Robot, Twist2};
+use omnikin::{MAX_WHEELS, Pose2, Robot, Twist2};
 
 struct Counting;
 
@@ -46,23 +47,19 @@ fn allocations<R>(f: impl FnOnce() -> R) -> (usize, R) {
 }
 
 struct Board {
-    wheel: [f32; 3],
-    rates: [f32; 3],
+    angles: EncoderAngles<f32>,
 }
 impl Encoders<f32> for Board {
     type Error = ();
     fn read(&mut self) -> Result<EncoderAngles<f32>, ()> {
-        Ok(EncoderAngles {
-            wheel: self.wheel,
-            steer: [0.0; 3],
-        })
+        Ok(self.angles)
     }
 }
-struct Out<'a>(&'a mut [f32; 3]);
+struct Out<'a>(&'a mut MotorCommand<f32>);
 impl MotorOutputs<f32> for Out<'_> {
     type Error = ();
     fn set_rates(&mut self, c: &MotorCommand<f32>) -> Result<(), ()> {
-        *self.0 = c.wheel;
+        *self.0 = *c;
         Ok(())
     }
 }
@@ -133,10 +130,30 @@ fn the_counter_counts() {
 
 #[test]
 fn control_cycles_and_link_allocate_nothing() {
-    let robot = Robot::Sphere(SphereOmni::<f32>::new(SphereParams::preset()).unwrap());
+    session_allocates_nothing(Robot::Sphere(
+        SphereOmni::<f32>::new(SphereParams::preset()).unwrap(),
+    ));
+}
+
+#[test]
+fn mecanum_and_swerve_runtimes_allocate_nothing() {
+    for name in ["mecanum", "swerve4"] {
+        let robot = RobotDescription::preset(name)
+            .unwrap()
+            .build::<f32>()
+            .unwrap();
+        session_allocates_nothing(robot);
+    }
+}
+
+/// A keyed session (velocity, rejected commands, a corrupt frame, a plan upload and its
+/// trajectory with telemetry, watchdog stop, e-stop) makes no allocation.
+fn session_allocates_nothing(robot: Robot<f32>) {
     let mut cfg = Config::new(100.0);
     cfg.rate_limits.wheel = Some(12.0);
     cfg.wheel_accel = Some(400.0);
+    cfg.rate_limits.steer = Some(12.0);
+    cfg.steer_accel = Some(80.0);
     cfg.slew.jerk = Some(20.0);
     // Built outside the measured region (construction is allowed to be anywhere, but the
     // runtime is a plain value: no allocation there either).
@@ -144,8 +161,7 @@ fn control_cycles_and_link_allocate_nothing() {
     assert_eq!(n0, 0);
     let mut rt = rt.unwrap();
     let mut board = Board {
-        wheel: [0.0; 3],
-        rates: [0.0; 3],
+        angles: EncoderAngles::zero(),
     };
     let key = Key::new(b"0123456789abcdef").unwrap();
     let mut w = Wire {
@@ -167,11 +183,11 @@ fn control_cycles_and_link_allocate_nothing() {
     let mut cycles = 0usize;
     let (n, ()) = allocations(|| {
         let mut cycle = |rt: &mut Runtime<f32, 128>, board: &mut Board, now: &mut u64| {
-            let mut out = [0.0f32; 3];
+            let mut out = MotorCommand::zero();
             let st = rt.cycle(*now, board, &mut NoImu, &mut Out(&mut out));
-            board.rates = out;
-            for i in 0..3 {
-                board.wheel[i] += board.rates[i] * 0.01;
+            for i in 0..MAX_WHEELS {
+                board.angles.wheel[i] += out.wheel[i] * 0.01;
+                board.angles.steer[i] += out.steer[i] * 0.01;
             }
             *now += 10_000;
             cycles += 1;

@@ -1,5 +1,5 @@
 //! omnikin on a microcontroller: the robot runtime and the link codec, `no_std`, no heap, in
-//! `f32`, on a Cortex-M4F (QEMU `mps2-an386`), for each of the three robots.
+//! `f32`, on a Cortex-M4F (QEMU `mps2-an386`), for each of the three paper robots and a mecanum base.
 //!
 //! Each robot runs against a minimal in-firmware plant (motors turn as commanded; the sphere's
 //! steppers through [`Steppers`] with 3200 microsteps per revolution, so its encoders read
@@ -27,7 +27,7 @@ use omnikin::runtime::hal::{
 };
 use omnikin::runtime::{Config, Frame, Mode, PlanPoint, Runtime};
 use omnikin::sphere::{SphereOmni, SphereParams};
-use omnikin::{Pose2, Robot, Twist2, se2};
+use omnikin::{MAX_WHEELS, Pose2, Robot, Twist2, se2};
 use panic_semihosting as _;
 
 const DT: f32 = 0.01;
@@ -38,26 +38,26 @@ const PLAN_POINTS: usize = 81;
 
 /// Motors that turn exactly as commanded (rad/s), or steppers (steps/s, whole steps).
 struct Plant {
-    wheel: [f32; 3],
-    steer: [f32; 3],
+    wheel: [f32; MAX_WHEELS],
+    steer: [f32; MAX_WHEELS],
     rates: MotorCommand<f32>,
     /// Stepper mode: accumulated microsteps and microsteps per radian.
-    steps: [f32; 3],
+    steps: [f32; MAX_WHEELS],
     steps_per_rad: Option<f32>,
 }
 
 impl Plant {
     fn new(steps_per_rad: Option<f32>) -> Self {
         Plant {
-            wheel: [0.0; 3],
-            steer: [0.0; 3],
+            wheel: [0.0; MAX_WHEELS],
+            steer: [0.0; MAX_WHEELS],
             rates: MotorCommand::zero(),
-            steps: [0.0; 3],
+            steps: [0.0; MAX_WHEELS],
             steps_per_rad,
         }
     }
     fn advance(&mut self) {
-        for i in 0..3 {
+        for i in 0..MAX_WHEELS {
             match self.steps_per_rad {
                 // `rates.wheel` holds step frequencies in stepper mode.
                 Some(k) => {
@@ -102,9 +102,9 @@ impl MotorOutputs<f32> for Plant {
 struct StepPins<'a>(&'a mut Plant);
 impl StepOutputs for StepPins<'_> {
     type Error = ();
-    fn set_step_frequencies(&mut self, hz: [f32; 6]) -> Result<(), ()> {
-        self.0.rates.wheel = [hz[0], hz[1], hz[2]];
-        self.0.rates.steer = [0.0; 3];
+    fn set_step_frequencies(&mut self, hz: [f32; 2 * MAX_WHEELS]) -> Result<(), ()> {
+        self.0.rates.wheel.copy_from_slice(&hz[..MAX_WHEELS]);
+        self.0.rates.steer = [0.0; MAX_WHEELS];
         Ok(())
     }
 }
@@ -248,7 +248,7 @@ fn run(robot: Robot<f32>, config: Config<f32>, steps_per_rad: Option<f32>) -> Op
         let st = match plant.steps_per_rad {
             Some(k) => {
                 let mut steppers = Steppers::new(StepPins(plant), 200, 16, 1.0e5);
-                steppers.steps_per_rad = [k; 6];
+                steppers.steps_per_rad = [k; 2 * MAX_WHEELS];
                 rt.cycle(*now, &mut enc, &mut NoImu, &mut steppers)
             }
             None => rt.cycle(*now, &mut enc, &mut NoImu, plant),
@@ -393,7 +393,7 @@ fn main() -> ! {
     let mut cfg = Config::<f32>::new(100.0);
     cfg.watchdog = 0.5;
     cfg.slew.accel = 1.0;
-    let robots: [(&str, Option<Robot<f32>>, Option<f32>); 3] = [
+    let robots: [(&str, Option<Robot<f32>>, Option<f32>); 4] = [
         (
             "sphere-omni (steppers)",
             SphereOmni::new(SphereParams::preset())
@@ -411,6 +411,11 @@ fn main() -> ! {
         (
             "caster3",
             Caster3::new(CasterParams::preset()).ok().map(Robot::Caster),
+            None,
+        ),
+        (
+            "mecanum",
+            Robot::omni(&omnikin::drive::omni::presets::mecanum()).ok(),
             None,
         ),
     ];

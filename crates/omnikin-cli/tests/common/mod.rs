@@ -38,16 +38,14 @@ pub struct Robot {
 
 impl Robot {
     pub fn start(extra: &[&str]) -> Self {
+        Self::start_robot("sphere-omni", extra)
+    }
+
+    /// [`Robot::start`] of another robot (preset name or file).
+    pub fn start_robot(robot: &str, extra: &[&str]) -> Self {
         let addr = format!("127.0.0.1:{}", free_port());
         let child = Command::new(BIN)
-            .args([
-                "robot",
-                "--sim",
-                "--robot",
-                "sphere-omni",
-                "--listen",
-                &addr,
-            ])
+            .args(["robot", "--sim", "--robot", robot, "--listen", &addr])
             .args(["--time-scale", "8"])
             .args(extra)
             .stdout(Stdio::piped())

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{CHUNK_POINTS, LinkCounters, NONCE_LEN};
 use crate::runtime::{Command, Faults, Frame, Mode, PlanPoint, PlanStatus, Status};
-use crate::{Pose2, Real, Twist2};
+use crate::{MAX_WHEELS, Pose2, Real, Twist2};
 
 /// One plan point on the wire (world frame, SI, `f32`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -114,14 +114,17 @@ pub struct Telemetry {
     pub twist: [f32; 3],
     /// Commanded robot-frame twist after limits.
     pub command: [f32; 3],
-    /// Commanded wheel rates, rad/s.
-    pub wheel_rates: [f32; 3],
-    /// Commanded caster steer rates, rad/s (zeros otherwise).
-    pub steer_rates: [f32; 3],
+    /// The robot's wheel (module) count: the used length of the four per-wheel arrays.
+    pub wheels: u8,
+    /// Commanded wheel rates, rad/s, in the robot file's wheel order (entries past the wheel
+    /// count 0; postcard writes the [`MAX_WHEELS`] floats without a length).
+    pub wheel_rates: [f32; MAX_WHEELS],
+    /// Commanded steer rates, rad/s (kinds with steer motors; zeros otherwise).
+    pub steer_rates: [f32; MAX_WHEELS],
     /// Encoder wheel angles, rad.
-    pub wheel_angles: [f32; 3],
-    /// Caster steer angles, rad (zeros otherwise).
-    pub steer_angles: [f32; 3],
+    pub wheel_angles: [f32; MAX_WHEELS],
+    /// Encoder steer angles, rad (kinds with steer motors; zeros otherwise).
+    pub steer_angles: [f32; MAX_WHEELS],
     /// Gyro, rad/s, robot frame (zeros without an IMU).
     pub gyro: [f32; 3],
     /// Accelerometer, m/s², robot frame (zeros without an IMU).
@@ -132,7 +135,7 @@ pub struct Telemetry {
     pub plan_time: f32,
     /// Plan reference pose at `plan_time` `[x, y, heading]`.
     pub reference: [f32; 3],
-    /// Caster slip residual, m/s.
+    /// Least-squares slip residual of the odometry fit, m/s (0 for exactly determined kinds).
     pub slip_residual: f32,
     /// Commands rejected by the runtime.
     pub rejected: u32,
@@ -156,6 +159,7 @@ impl Telemetry {
         let p = |p: Pose2<T>| [f(p.x), f(p.y), f(p.heading)];
         let w = |t: Twist2<T>| [f(t.vx), f(t.vy), f(t.yaw_rate)];
         let a = |x: [T; 3]| x.map(f);
+        let m = |x: [T; MAX_WHEELS]| x.map(f);
         let imu = s.imu;
         Self {
             time_us: s.time_us,
@@ -165,10 +169,11 @@ impl Telemetry {
             pose: p(s.pose),
             twist: w(s.twist),
             command: w(s.command),
-            wheel_rates: a(s.motors.wheel),
-            steer_rates: a(s.motors.steer),
-            wheel_angles: a(s.encoders.wheel),
-            steer_angles: a(s.encoders.steer),
+            wheels: s.wheels,
+            wheel_rates: m(s.motors.wheel),
+            steer_rates: m(s.motors.steer),
+            wheel_angles: m(s.encoders.wheel),
+            steer_angles: m(s.encoders.steer),
             gyro: imu.map_or([0.0; 3], |i| a(i.gyro)),
             accel: imu.map_or([0.0; 3], |i| a(i.accel)),
             plan: s.plan,

@@ -19,26 +19,35 @@
 //! * [`Entropy`]: unpredictable bytes for the link's handshake nonces ([`crate::link`]): the
 //!   MCU's TRNG (e.g. the STM32 `RNG` peripheral), or the OS on a PC.
 //!
+//! ## What a board fills, per robot
+//!
+//! A robot has [`Robot::wheels`](crate::Robot::wheels) wheels (modules), at most
+//! [`MAX_WHEELS`]; the HAL's arrays are that capacity, in the robot file's wheel order, and
+//! entries past the wheel count are ignored on input and zero on output:
+//!
+//! * [`Encoders::read`] returns an [`EncoderAngles`] (the core's one type for an encoder
+//!   reading): `wheel[i]`, the cumulative roll angle of wheel `i` (rad, unwrapped, about its
+//!   axle, right-hand rule); `steer[i]`, the steer angle of module `i` for kinds with steer
+//!   motors ([`Kind::steerable`](crate::Kind::steerable): rad, counter-clockwise, may be
+//!   wrapped), 0 otherwise.
+//! * [`MotorOutputs::set_rates`] receives a [`MotorCommand`]: `wheel[i]` the roll-rate
+//!   set-point of wheel `i` (rad/s), `steer[i]` the steer-rate set-point of module `i`
+//!   (rad/s; 0 for kinds without steering). Steer motors are always rate-driven: for a swerve,
+//!   whose steer *angles* are the kinematic set-points, the runtime closes the angle loop
+//!   itself ([`crate::runtime`], "Steering") so a board only needs velocity control.
+//!
 //! Every method returns a `Result` with the board's own error type; the runtime never panics
 //! on a hardware error, it raises [`super::Faults::HARDWARE`] and brings the robot to rest.
 
-use crate::Real;
+use crate::{MAX_WHEELS, Real};
+
+pub use crate::EncoderAngles;
 
 /// A free-running monotonic clock.
 pub trait Clock {
     /// Microseconds since an arbitrary epoch; must never decrease (64 bits: no wrap-around in
     /// practice).
     fn now_us(&mut self) -> u64;
-}
-
-/// Cumulative motor angles, rad, since power-up (or any fixed reference).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct EncoderAngles<T> {
-    /// Wheel (roll) angles `q_i`, rad, about each wheel's axis (right-hand rule).
-    pub wheel: [T; 3],
-    /// Caster steer angles `γ_i` relative to the body, rad (counter-clockwise); zeros for the
-    /// sphere and the ballbot.
-    pub steer: [T; 3],
 }
 
 /// Reads the motor encoders.
@@ -77,21 +86,22 @@ impl<T> Imu<T> for NoImu {
     }
 }
 
-/// Motor set-points of one cycle, rad/s.
+/// Motor set-points of one cycle, rad/s, in the robot file's wheel order. Entries past
+/// [`Robot::wheels`](crate::Robot::wheels) are zero.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MotorCommand<T> {
     /// Wheel (roll) rates, rad/s, about each wheel's axis (right-hand rule).
-    pub wheel: [T; 3],
-    /// Caster steer rates, rad/s (zeros for the sphere and the ballbot).
-    pub steer: [T; 3],
+    pub wheel: [T; MAX_WHEELS],
+    /// Steer rates, rad/s, of kinds with steer motors (caster, swerve); zeros otherwise.
+    pub steer: [T; MAX_WHEELS],
 }
 
 impl<T: Real> MotorCommand<T> {
     /// All motors at rest.
     pub fn zero() -> Self {
         Self {
-            wheel: [T::zero(); 3],
-            steer: [T::zero(); 3],
+            wheel: [T::zero(); MAX_WHEELS],
+            steer: [T::zero(); MAX_WHEELS],
         }
     }
 }
@@ -108,9 +118,10 @@ pub trait MotorOutputs<T> {
 pub trait StepOutputs {
     /// The board's error.
     type Error: core::fmt::Debug;
-    /// Sets the signed step frequencies, steps/s (sign = direction pin): wheels 1–3, then the
-    /// caster's steer motors 1–3 (zero for the other robots).
-    fn set_step_frequencies(&mut self, hz: [f32; 6]) -> Result<(), Self::Error>;
+    /// Sets the signed step frequencies, steps/s (sign = direction pin): wheels 1–`MAX_WHEELS`
+    /// (entry `i`), then the steer motors 1–`MAX_WHEELS` (entry `MAX_WHEELS + i`); entries
+    /// past the robot's wheel count, and the steer entries of kinds without steering, are 0.
+    fn set_step_frequencies(&mut self, hz: [f32; 2 * MAX_WHEELS]) -> Result<(), Self::Error>;
 }
 
 /// Adapts [`StepOutputs`] to [`MotorOutputs`]: `f = ω · steps_per_rev · microsteps / 2π`,
@@ -119,8 +130,9 @@ pub trait StepOutputs {
 pub struct Steppers<S> {
     /// The stepper outputs.
     pub outputs: S,
-    /// Microsteps per radian of each motor (wheels 1–3, steer 1–3).
-    pub steps_per_rad: [f32; 6],
+    /// Microsteps per radian of each motor, in the order of
+    /// [`StepOutputs::set_step_frequencies`] (wheels, then steer motors).
+    pub steps_per_rad: [f32; 2 * MAX_WHEELS],
     /// Largest step frequency a driver accepts, steps/s.
     pub max_step_rate: f32,
 }
@@ -131,19 +143,19 @@ impl<S> Steppers<S> {
         let k = (steps_per_rev as f32 * microsteps as f32) / core::f32::consts::TAU;
         Self {
             outputs,
-            steps_per_rad: [k; 6],
+            steps_per_rad: [k; 2 * MAX_WHEELS],
             max_step_rate,
         }
     }
 
     /// The step frequencies (steps/s) for a rate command.
-    pub fn frequencies<T: Real>(&self, command: &MotorCommand<T>) -> [f32; 6] {
-        let mut hz = [0.0f32; 6];
-        for i in 0..6 {
-            let w = if i < 3 {
+    pub fn frequencies<T: Real>(&self, command: &MotorCommand<T>) -> [f32; 2 * MAX_WHEELS] {
+        let mut hz = [0.0f32; 2 * MAX_WHEELS];
+        for i in 0..2 * MAX_WHEELS {
+            let w = if i < MAX_WHEELS {
                 command.wheel[i]
             } else {
-                command.steer[i - 3]
+                command.steer[i - MAX_WHEELS]
             };
             let f = w.to_f64() as f32 * self.steps_per_rad[i];
             hz[i] = if f.is_finite() {

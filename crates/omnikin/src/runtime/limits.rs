@@ -1,39 +1,41 @@
 //! Command shaping: inverse kinematics to motor rates, direction-keeping desaturation, and
 //! acceleration/jerk limiting. Pure functions and `Copy` state; no allocation, no panic.
 
-use crate::{Actuators, InputError, Real, Robot, Twist2};
+use crate::{Actuators, InputError, MAX_WHEELS, Real, Robot, Twist2};
 
 use super::hal::MotorCommand;
 
-/// Motor rates (rad/s) of a **robot-frame** twist at the given steer angles (rad; ignored by
-/// kinds without steering), with zero shell/ball spin: [`Robot::inverse`]. The heading is not
-/// needed (every model is invariant under a rotation of the world) and only names the
-/// argument of the older API.
+/// Motor rates (rad/s) of a **robot-frame** twist at the measured steer angles `steer` (rad;
+/// ignored by kinds without steering), with zero shell/ball spin: [`Robot::inverse`]'s wheel
+/// rates and steer rates. Kinds whose steer angles are set-points
+/// ([`crate::Kind::steer_is_set_point`], swerve) get steer rates 0 here: the runtime drives
+/// their steer motors to the inverse's angles itself.
 ///
 /// The map is linear in the twist for fixed steer angles, which is what makes [`desaturate`]
 /// keep the direction of motion.
 ///
 /// # Errors
 /// [`InputError`] from the kinematics for non-finite input.
+#[inline]
 pub fn motor_rates<T: Real>(
     robot: &Robot<T>,
     twist: Twist2<T>,
-    _heading: T,
-    steer: [T; 3],
+    steer: &[T; MAX_WHEELS],
 ) -> Result<MotorCommand<T>, InputError> {
-    let a = robot.inverse(twist, &Actuators::at_steer(&steer))?;
+    let a = robot.inverse(twist, &Actuators::at_steer(steer))?;
     Ok(MotorCommand {
-        wheel: [a.wheel_rates[0], a.wheel_rates[1], a.wheel_rates[2]],
-        steer: [a.steer_rates[0], a.steer_rates[1], a.steer_rates[2]],
+        wheel: a.wheel_rates,
+        steer: a.steer_rates,
     })
 }
 
-/// Motor rate limits, rad/s (`None`: unlimited).
+/// Motor rate limits, rad/s (`None`: unlimited), the same for every wheel motor and for every
+/// steer motor.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RateLimits<T> {
     /// Largest wheel (roll) rate magnitude, rad/s.
     pub wheel: Option<T>,
-    /// Largest caster steer rate magnitude, rad/s.
+    /// Largest steer rate magnitude (caster, swerve), rad/s.
     pub steer: Option<T>,
 }
 
@@ -41,9 +43,35 @@ pub struct RateLimits<T> {
 /// (`s = min(1, limit / max|rate|)`), or 1 when nothing exceeds.
 pub fn saturation_scale<T: Real>(cmd: &MotorCommand<T>, limits: &RateLimits<T>) -> T {
     let mut s = T::one();
-    let mut apply = |rates: &[T; 3], lim: Option<T>| {
+    let mut apply = |rates: &[T; MAX_WHEELS], lim: Option<T>| {
         if let Some(lim) = lim {
             for &r in rates {
+                let a = r.abs();
+                if a > lim && a > T::zero() {
+                    let k = lim / a;
+                    if k < s {
+                        s = k;
+                    }
+                }
+            }
+        }
+    };
+    apply(&cmd.wheel, limits.wheel);
+    apply(&cmd.steer, limits.steer);
+    s
+}
+
+/// [`saturation_scale`] over the first `n` motors of each kind (the robot's wheels).
+#[inline(always)]
+pub(super) fn saturation_scale_of<T: Real>(
+    cmd: &MotorCommand<T>,
+    limits: &RateLimits<T>,
+    n: usize,
+) -> T {
+    let mut s = T::one();
+    let mut apply = |rates: &[T; MAX_WHEELS], lim: Option<T>| {
+        if let Some(lim) = lim {
+            for &r in rates.iter().take(n) {
                 let a = r.abs();
                 if a > lim && a > T::zero() {
                     let k = lim / a;
@@ -72,18 +100,18 @@ pub struct Desaturated<T> {
 
 /// Wheel-rate desaturation that keeps the motion's direction: the **whole** twist (linear
 /// velocity and yaw rate together) is scaled by one factor so the worst motor sits exactly at
-/// its limit, instead of clipping single wheels (which would bend the path).
+/// its limit, instead of clipping single wheels (which would bend the path). The rates are
+/// those of [`motor_rates`] at the steer angles `steer`.
 ///
 /// # Errors
 /// [`InputError`] from the kinematics for non-finite input.
 pub fn desaturate<T: Real>(
     robot: &Robot<T>,
     twist: Twist2<T>,
-    heading: T,
-    steer: [T; 3],
+    steer: &[T; MAX_WHEELS],
     limits: &RateLimits<T>,
 ) -> Result<Desaturated<T>, InputError> {
-    let rates = motor_rates(robot, twist, heading, steer)?;
+    let rates = motor_rates(robot, twist, steer)?;
     let scale = saturation_scale(&rates, limits);
     if scale >= T::one() {
         return Ok(Desaturated {
@@ -92,7 +120,7 @@ pub fn desaturate<T: Real>(
             scale: T::one(),
         });
     }
-    let k = |x: [T; 3]| x.map(|v| v * scale);
+    let k = |x: [T; MAX_WHEELS]| x.map(|v| v * scale);
     Ok(Desaturated {
         twist: Twist2::new(twist.vx * scale, twist.vy * scale, twist.yaw_rate * scale),
         rates: MotorCommand {
@@ -273,7 +301,7 @@ mod tests {
             steer: None,
         };
         let tw = Twist2::new(3.0, 1.0, 2.0);
-        let d = desaturate(&sphere(), tw, 0.0, [0.0; 3], &lim).unwrap();
+        let d = desaturate(&sphere(), tw, &[0.0; MAX_WHEELS], &lim).unwrap();
         assert!(d.scale < 1.0);
         let worst = d.rates.wheel.iter().fold(0.0f64, |m, r| m.max(r.abs()));
         assert!((worst - 12.0).abs() < 1e-9, "{worst}");
@@ -282,7 +310,7 @@ mod tests {
         assert!((d.twist.yaw_rate / d.twist.vy - 2.0).abs() < 1e-12);
         // Within limits: untouched.
         let small = Twist2::new(0.1, 0.0, 0.0);
-        let d = desaturate(&sphere(), small, 0.0, [0.0; 3], &lim).unwrap();
+        let d = desaturate(&sphere(), small, &[0.0; MAX_WHEELS], &lim).unwrap();
         assert_eq!(d.scale, 1.0);
         assert_eq!(d.twist, small);
     }

@@ -38,22 +38,35 @@
 //! 3. watchdog;
 //! 4. target twist of the mode (world frame); trajectory: `v = v_ref + K·(p_ref − p)`;
 //! 5. desaturation at the current heading/steer → slew (acceleration, jerk) → inverse
-//!    kinematics → wheel-acceleration limit → final rate clamp;
+//!    kinematics → motor-acceleration limit → final rate clamp (→ the steer-angle loop of a
+//!    swerve);
 //! 6. motors.
+//!
+//! Every kind runs the same loop through the uniform [`crate::Robot`] API: the per-wheel
+//! arrays hold [`crate::MAX_WHEELS`] entries of which the robot's
+//! [`crate::Robot::wheels`] are used. How the steer motors are driven (rate-driven caster,
+//! set-point swerve with its angle loop) is in the docs of the shaping step, `shape.rs`:
+//! the steer motor of a swerve module is commanded the inverse's feed-forward steer rate plus
+//! [`Config::k_steer`] × the wrapped angle error, within [`limits::RateLimits::steer`] and
+//! [`Config::steer_accel`], and its wheel rate is scaled by the cosine of that error.
+//!
+//! Files: `controller.rs` (the [`Runtime`] and its cycle as named steps), `command.rs`,
+//! `config.rs`, `status.rs` (the types), `plan.rs` (plan buffer, trajectory following),
+//! `shape.rs` (command shaping and steering).
 //!
 //! ```
 //! use omnikin::runtime::{Config, Runtime, Command, Frame, Mode, hal::*};
 //! use omnikin::sphere::{SphereOmni, SphereParams};
-//! use omnikin::{Pose2, Robot, Twist2};
+//! use omnikin::{MAX_WHEELS, Pose2, Robot, Twist2};
 //!
 //! // A board whose motors turn exactly as commanded (omnikin_sim::sil adds motor models and
 //! // disturbances). Encoders are read into `Enc` first so the board can be the motor output.
-//! struct Board { angles: [f32; 3], rates: [f32; 3] }
-//! struct Enc([f32; 3]);
+//! struct Board { angles: [f32; MAX_WHEELS], rates: [f32; MAX_WHEELS] }
+//! struct Enc([f32; MAX_WHEELS]);
 //! impl Encoders<f32> for Enc {
 //!     type Error = ();
 //!     fn read(&mut self) -> Result<EncoderAngles<f32>, ()> {
-//!         Ok(EncoderAngles { wheel: self.0, steer: [0.0; 3] })
+//!         Ok(EncoderAngles { wheel: self.0, steer: [0.0; MAX_WHEELS] })
 //!     }
 //! }
 //! impl MotorOutputs<f32> for Board {
@@ -65,7 +78,7 @@
 //! }
 //! let robot = Robot::Sphere(SphereOmni::new(SphereParams::preset())?);
 //! let mut rt = Runtime::<f32, 64>::new(robot, Config::new(100.0), Pose2::default())?;
-//! let mut board = Board { angles: [0.0; 3], rates: [0.0; 3] };
+//! let mut board = Board { angles: [0.0; MAX_WHEELS], rates: [0.0; MAX_WHEELS] };
 //! rt.handle(Command::Velocity { twist: Twist2::new(0.1, 0.0, 0.0), frame: Frame::Robot }, 0)
 //!     .unwrap();
 //! for k in 0..100u64 {
@@ -82,10 +95,14 @@
 pub mod hal;
 pub mod limits;
 
+mod command;
+mod config;
 mod controller;
+mod plan;
+mod shape;
+mod status;
 
-pub use controller::RATE_HZ_RANGE;
-pub use controller::{
-    Command, CommandError, Config, ConfigError, Faults, Frame, Mode, PlanPoint, PlanStatus,
-    Runtime, Status,
-};
+pub use command::{Command, CommandError, Frame, PlanPoint};
+pub use config::{Config, ConfigError, RATE_HZ_RANGE};
+pub use controller::Runtime;
+pub use status::{Faults, Mode, PlanStatus, Status};
