@@ -1,6 +1,6 @@
 //! Wheel odometry for every robot kind: cumulative encoder angles in, world pose out, one
 //! fixed-size step per encoder sample (no allocation, no panic). The increments go through the
-//! uniform [`crate::Robot::displacement`], so a kind added in `drive/robot.rs` has odometry.
+//! uniform [`crate::Robot::displacement`], so a kind added in `drive/robot/` has odometry.
 //!
 //! Each [`Odometry::update`] takes the encoder increments since the previous sample, turns them
 //! into the robot-frame displacement of the step by the robot's forward kinematics (the maps are
