@@ -156,7 +156,8 @@ pub(crate) fn caster<T: Real>(m: &Caster3<T>, out: &mut dyn Write) -> fmt::Resul
         "steering axes F_i and wheel centres O_i at γ = 0 (body frame, paper 003 §2):"
     )?;
     for i in 0..3 {
-        let (s, c) = p.mount_angles[i].to_f64().sin_cos();
+        let (s, c) = p.mount_angles[i].sin_cos();
+        let (s, c) = (s.to_f64(), c.to_f64());
         writeln!(
             out,
             "  wheel {}: F ({:>8.4}, {:>8.4}) m   O ({:>8.4}, {:>8.4}) m",
@@ -175,7 +176,7 @@ pub(crate) fn caster<T: Real>(m: &Caster3<T>, out: &mut dyn Write) -> fmt::Resul
     writeln!(
         out,
         "turn in place is singular where cos γ_1 = −d/D, i.e. γ_1 = ±{:.3}°",
-        (-d / big_d).acos().to_degrees()
+        deg((-p.eccentricity / p.mount_radius).acos())
     )
 }
 
@@ -211,7 +212,7 @@ pub(crate) fn omni<T: Real, const N: usize>(m: &Omni<T, N>, out: &mut dyn Write)
             i + 1,
             w.position[0].to_f64(),
             w.position[1].to_f64(),
-            w.drive[1].to_f64().atan2(w.drive[0].to_f64()).to_degrees(),
+            deg(w.drive[1].atan2(w.drive[0])),
             deg(w.roller_angle),
             w.radius.to_f64()
         )?;

@@ -390,8 +390,8 @@ impl<T: Real> Robot<T> {
         };
         let mut speed = [0.0; 8];
         for (v, d) in speed.iter_mut().zip(REACH_DIRECTIONS_DEG) {
-            let (s, c) = d.to_radians().sin_cos();
-            *v = max_wheel_rate / peak(Twist2::new(T::of(c), T::of(s), T::zero()));
+            let r = Rot2::from_angle(T::of(d.to_radians()));
+            *v = max_wheel_rate / peak(Twist2::new(r.cos, r.sin, T::zero()));
         }
         Some(Reach {
             speed,
