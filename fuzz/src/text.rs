@@ -96,7 +96,7 @@ pub fn robot_toml(data: &[u8]) {
                 assert_names_file(&e.to_string());
             }
             match RobotModel::from_description(&d) {
-                Ok(m) => assert_eq!(m.is_caster(), d.kind() == "caster3"),
+                Ok(m) => assert_eq!(m.model.kind(), d.robot_kind()),
                 Err(e) => assert!(!e.to_string().is_empty()),
             }
         }
