@@ -167,6 +167,7 @@ impl RobotModel {
     /// [`RobotModel::actuators`] with the heading's `(cos ψ, sin ψ)` given (the planner has
     /// them from the path tangent), so no `sin_cos(ψ)` is evaluated (paper 000, eq. 5.4). A
     /// non-finite input is reported through the robot-frame twist it produces.
+    #[inline]
     pub(crate) fn actuators_cs(
         &self,
         cs: [f64; 2],

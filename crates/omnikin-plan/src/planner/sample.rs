@@ -78,13 +78,14 @@ pub(super) fn sample(ctx: &Ctx, moves: &[Move], rate: f64) -> Result<Plan, Plann
             robot.actuators_cs(c.cs, twist, zero, &Actuators::at_steer(&gamma))?
         };
         let angles = if ctx.set_point { a.steer_angles } else { gamma };
-        samples.push(Sample::new(
+        // The actuators' entries past `n` are zero, as a sample's must be.
+        samples.push(Sample {
             t,
-            c.pose,
+            pose: c.pose,
             twist,
-            &a.wheel_rates[..n],
-            steerable.then_some((&angles[..n], &a.steer_rates[..n])),
-        ));
+            wheel_rates: a.wheel_rates,
+            steer: steerable.then_some((angles, a.steer_rates)),
+        });
     }
     Ok(Plan { wheels: n, samples })
 }

@@ -41,49 +41,20 @@ pub struct RateLimits<T> {
 
 /// The factor `s ∈ (0, 1]` that brings every motor rate of `cmd` within `limits`
 /// (`s = min(1, limit / max|rate|)`), or 1 when nothing exceeds.
+#[inline]
 pub fn saturation_scale<T: Real>(cmd: &MotorCommand<T>, limits: &RateLimits<T>) -> T {
+    // The largest magnitude of each group, then one division: a branch-free fold the compiler
+    // vectorises (NaN entries are skipped by `max`, as by the comparison they replace).
+    let peak = |rates: &[T; MAX_WHEELS]| rates.iter().fold(T::zero(), |m, r| m.max(r.abs()));
     let mut s = T::one();
-    let mut apply = |rates: &[T; MAX_WHEELS], lim: Option<T>| {
+    for (rates, lim) in [(&cmd.wheel, limits.wheel), (&cmd.steer, limits.steer)] {
         if let Some(lim) = lim {
-            for &r in rates {
-                let a = r.abs();
-                if a > lim && a > T::zero() {
-                    let k = lim / a;
-                    if k < s {
-                        s = k;
-                    }
-                }
+            let a = peak(rates);
+            if a > lim && a > T::zero() {
+                s = s.min(lim / a);
             }
         }
-    };
-    apply(&cmd.wheel, limits.wheel);
-    apply(&cmd.steer, limits.steer);
-    s
-}
-
-/// [`saturation_scale`] over the first `n` motors of each kind (the robot's wheels).
-#[inline(always)]
-pub(super) fn saturation_scale_of<T: Real>(
-    cmd: &MotorCommand<T>,
-    limits: &RateLimits<T>,
-    n: usize,
-) -> T {
-    let mut s = T::one();
-    let mut apply = |rates: &[T; MAX_WHEELS], lim: Option<T>| {
-        if let Some(lim) = lim {
-            for &r in rates.iter().take(n) {
-                let a = r.abs();
-                if a > lim && a > T::zero() {
-                    let k = lim / a;
-                    if k < s {
-                        s = k;
-                    }
-                }
-            }
-        }
-    };
-    apply(&cmd.wheel, limits.wheel);
-    apply(&cmd.steer, limits.steer);
+    }
     s
 }
 

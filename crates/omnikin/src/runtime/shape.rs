@@ -30,7 +30,7 @@ use crate::{Actuators, MAX_WHEELS, Real, Twist2, wrap_angle};
 
 use super::controller::Runtime;
 use super::hal::MotorCommand;
-use super::limits::{motor_rates, saturation_scale_of};
+use super::limits::{motor_rates, saturation_scale};
 use super::status::Faults;
 
 impl<T: Real, const N: usize> Runtime<T, N> {
@@ -57,10 +57,9 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         };
         // Desaturation (limits::desaturate without scaling the rates, which are not used).
         let mut want = to_robot(target_world);
-        let scale = saturation_scale_of(
+        let scale = saturation_scale(
             &motor_rates(&self.robot, want, steer).map_err(|_| ())?,
             &cfg.rate_limits,
-            n,
         );
         if scale < T::one() {
             faults.insert(Faults::LIMIT);
@@ -100,7 +99,9 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         let mut limit = |new: &[T; MAX_WHEELS], old: &[T; MAX_WHEELS], a: Option<T>| {
             if let Some(a) = a {
                 let step = a * dt;
-                for (x, o) in new.iter().zip(old).take(n) {
+                // Unused entries are 0 on both sides: the loop runs over the whole capacity,
+                // which the compiler unrolls (a count known only at run time it does not).
+                for (x, o) in new.iter().zip(old) {
                     let dlt = (*x - *o).abs();
                     if dlt > step && dlt > T::zero() {
                         s = s.min(step / dlt);
@@ -130,7 +131,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             );
             self.slew.set_velocity(to_world(v));
         }
-        let k = saturation_scale_of(&rates, &cfg.rate_limits, n);
+        let k = saturation_scale(&rates, &cfg.rate_limits);
         if k < T::one() {
             faults.insert(Faults::LIMIT);
             for x in rates.wheel.iter_mut().chain(rates.steer.iter_mut()) {
@@ -142,9 +143,13 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         if let Some(a) = set_points {
             rates.steer = self.steer_rates(&a, dt);
         }
-        let finite = rates.wheel.iter().take(n).all(|x| x.is_finite())
-            && rates.steer.iter().take(n).all(|x| x.is_finite());
-        if !finite {
+        // One test of the sum (0 × a non-finite value is NaN; unused entries are 0).
+        let zero = rates
+            .wheel
+            .iter()
+            .chain(&rates.steer)
+            .fold(T::zero(), |acc, x| acc + *x * T::zero());
+        if zero != T::zero() {
             return Err(());
         }
         Ok((rates, v))
