@@ -161,7 +161,7 @@ impl RobotModel {
         current: &Actuators<f64>,
     ) -> Result<Actuators<f64>, PlanningError> {
         let (s, c) = heading.sin_cos();
-        self.actuators_cs([c, s], twist_world, twist_rate, current)
+        Ok(self.actuators_cs([c, s], twist_world, twist_rate, current)?)
     }
 
     /// [`RobotModel::actuators`] with the heading's `(cos ψ, sin ψ)` given (the planner has
@@ -174,13 +174,13 @@ impl RobotModel {
         twist_world: Twist2<f64>,
         twist_rate: Twist2<f64>,
         current: &Actuators<f64>,
-    ) -> Result<Actuators<f64>, PlanningError> {
+    ) -> Result<Actuators<f64>, omnikin::InputError> {
         // World → robot frame: the rotation by −ψ, whose (cos, sin) is (cos ψ, −sin ψ).
         let body = twist_world.rotated_by(omnikin::drive::Rot2 {
             cos: cs[0],
             sin: -cs[1],
         });
-        Ok(self.model.inverse_accel(body, twist_rate, current)?)
+        self.model.inverse_accel(body, twist_rate, current)
     }
 }
 

@@ -237,8 +237,9 @@ impl Ctx<'_> {
         let mut gamma = Vec::with_capacity(sig.len());
         let mut hint = Hint::angle(psi_start);
         let mut g = gamma0;
+        let steered = self.robot.steerable();
         for (k, &sigma) in sig.iter().enumerate() {
-            if k > 0 {
+            if k > 0 && steered {
                 let h = sigma - sig[k - 1];
                 g = self.steer_step(kind, len, sig[k - 1], g, h, hint)?;
             }
@@ -268,8 +269,9 @@ impl Ctx<'_> {
             cs: Some(mv.cs[k]),
         };
         let c = self.config(&mv.kind, mv.len, sigma, hint);
-        if self.set_point {
-            // Set-points come from the inverse at each sample (see `sample`).
+        if self.set_point || !self.robot.steerable() {
+            // Set-points come from the inverse at each sample (see `sample`); kinds without
+            // steering keep their (zero) angles.
             return Ok((c, mv.gamma[k]));
         }
         let g = self.steer_step(

@@ -215,7 +215,7 @@ impl<T: Real> Robot<T> {
     ///
     /// # Errors
     /// [`InputError`] for a non-finite input or an overflowing result.
-    #[inline]
+    #[inline(always)]
     pub fn inverse(
         &self,
         twist: Twist2<T>,
@@ -228,7 +228,7 @@ impl<T: Real> Robot<T> {
     ///
     /// # Errors
     /// As [`Robot::inverse`].
-    #[inline]
+    #[inline(always)]
     pub fn inverse_accel(
         &self,
         twist: Twist2<T>,
