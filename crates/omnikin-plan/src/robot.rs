@@ -137,9 +137,14 @@ impl RobotModel {
     pub fn channel_values(&self, a: &Actuators<f64>) -> [f64; MAX_CHANNELS] {
         let n = self.wheels();
         let mut out = [0.0; MAX_CHANNELS];
-        out[..n].copy_from_slice(&a.wheel_rates[..n]);
+        // Whole arrays and element loops: a slice copy of run-time length is a `memcpy` call.
+        // The actuators' entries past `n` are 0, so the wheel rates fill 0..MAX_WHEELS.
+        out[..MAX_WHEELS].copy_from_slice(&a.wheel_rates);
         if self.steerable() {
-            out[n..2 * n].copy_from_slice(&a.steer_rates[..n]);
+            #[allow(clippy::manual_memcpy)] // the slice copy is the memcpy call avoided here
+            for i in 0..n {
+                out[n + i] = a.steer_rates[i];
+            }
         }
         out
     }

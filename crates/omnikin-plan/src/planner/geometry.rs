@@ -46,6 +46,14 @@ pub(super) struct Ctx<'a> {
 /// steering).
 pub(super) type Steer = [f64; MAX_WHEELS];
 
+/// The actuators at rest with the steering at 0: the `current` state of kinds without
+/// steering, whose inverse does not read it.
+pub(super) static AT_REST: Actuators<f64> = Actuators {
+    wheel_rates: [0.0; MAX_WHEELS],
+    steer_angles: [0.0; MAX_WHEELS],
+    steer_rates: [0.0; MAX_WHEELS],
+};
+
 /// An unwrapped heading `ψ` (rad) near the one sought, with `(cos ψ, sin ψ)` when known.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Hint {
@@ -152,12 +160,16 @@ impl Ctx<'_> {
         } else {
             Twist2::new(0.0, 0.0, 0.0)
         };
-        let a = self.robot.actuators_cs(
-            c.cs,
-            Twist2::new(c.dq[0], c.dq[1], c.dq[2]),
-            rate,
-            &Actuators::at_steer(gamma),
-        )?;
+        let steer;
+        let current = if self.robot.steerable() {
+            steer = Actuators::at_steer(gamma);
+            &steer
+        } else {
+            &AT_REST
+        };
+        let a =
+            self.robot
+                .actuators_cs(c.cs, Twist2::new(c.dq[0], c.dq[1], c.dq[2]), rate, current)?;
         Ok(self.robot.channel_values(&a))
     }
 

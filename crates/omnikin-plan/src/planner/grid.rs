@@ -393,8 +393,11 @@ fn derivative(
     n: &[usize],
 ) -> (Vec<[f64; MAX_CHANNELS]>, Vec<[f64; MAX_CHANNELS]>) {
     let m = a.len();
-    let mut b_in = vec![[0.0; MAX_CHANNELS]; m];
-    let mut b_out = vec![[0.0; MAX_CHANNELS]; m];
+    // Filled in node order (no zeroed buffers): a node is the end of one cell of some stretch
+    // (`b_in`, nodes 1…m−1) and the start of one (`b_out`, nodes 0…m−2).
+    let mut b_in = Vec::with_capacity(m);
+    let mut b_out = Vec::with_capacity(m);
+    b_in.push([0.0; MAX_CHANNELS]);
     let mut first = 0;
     for &c in n {
         let last = first + c;
@@ -414,16 +417,17 @@ fn derivative(
                 })
             };
             if k > first {
-                b_in[k] = d;
+                b_in.push(d);
             }
             if k < last {
-                b_out[k] = d;
+                b_out.push(d);
             }
         }
         first = last;
     }
+    debug_assert_eq!((b_in.len(), b_out.len() + 1), (m, m));
     // The first node has no incoming cell and the last no outgoing one.
     b_in[0] = b_out[0];
-    b_out[m - 1] = b_in[m - 1];
+    b_out.push(b_in[m - 1]);
     (b_in, b_out)
 }

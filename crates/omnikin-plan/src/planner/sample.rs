@@ -9,7 +9,7 @@ use crate::PlanningError;
 use crate::limits::MAX_PLAN_SAMPLES;
 use crate::plan::{Plan, Sample};
 
-use super::geometry::{Ctx, body_per_speed};
+use super::geometry::{AT_REST, Ctx, body_per_speed};
 use super::grid::Move;
 
 /// Samples the timed moves at `rate` Hz (plus the exact end time).
@@ -75,7 +75,14 @@ pub(super) fn sample(ctx: &Ctx, moves: &[Move], rate: f64) -> Result<Plan, Plann
             a
         } else {
             let zero = Twist2::new(0.0, 0.0, 0.0);
-            robot.actuators_cs(c.cs, twist, zero, &Actuators::at_steer(&gamma))?
+            let at_steer;
+            let current = if steerable {
+                at_steer = Actuators::at_steer(&gamma);
+                &at_steer
+            } else {
+                &AT_REST
+            };
+            robot.actuators_cs(c.cs, twist, zero, current)?
         };
         let angles = if ctx.set_point { a.steer_angles } else { gamma };
         // The actuators' entries past `n` are zero, as a sample's must be.
