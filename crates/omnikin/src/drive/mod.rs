@@ -168,7 +168,7 @@ pub mod sphere;
 pub mod swerve;
 
 pub use robot::{
-    Actuators, EncoderAngles, Kind, KindModel, MAX_WHEELS, Motion, Robot, TorqueSpace,
+    Actuators, EncoderAngles, Kind, KindModel, KindVisitor, MAX_WHEELS, Motion, Robot, TorqueSpace,
 };
 
 use core::fmt::Debug;

@@ -244,6 +244,7 @@ impl<T: Real> Odometry<T> {
     /// [`OdometryError::NonMonotonicTime`] when `reading.t` does not exceed the previous
     /// sample's time; [`OdometryError::Kinematics`] when the forward kinematics fail. On error
     /// the state is unchanged.
+    #[inline]
     pub fn update(
         &mut self,
         reading: &EncoderReading<T>,
@@ -261,27 +262,25 @@ impl<T: Real> Odometry<T> {
             });
         }
         let (start, end) = (prev.angles(), reading.angles());
-        let inc = self.robot.displacement(&start, &end)?;
+        // One dispatch on the kind for the whole kinematic step (see `KindStep`).
+        let KindStepOut {
+            inc,
+            wheel_heading,
+            dtheta,
+            measured,
+            delta,
+            pose,
+        } = self.robot.visit(KindStep {
+            start: &start,
+            end: &end,
+            pose: self.pose,
+            heading,
+            spin_step: self.assumed_spin * dt,
+            dt,
+            last_gyro: self.last_gyro,
+            last_yaw: self.last_yaw,
+        })?;
         let spins = self.robot.kind().has_vertical_spin();
-        let wheel_heading = if spins {
-            inc.twist.yaw_rate + self.assumed_spin * dt
-        } else {
-            inc.twist.yaw_rate
-        };
-        // The heading change of the step and whether it was measured.
-        let (dtheta, measured) = match heading {
-            HeadingInput::Wheels => (wheel_heading, false),
-            HeadingInput::GyroRate(g) => {
-                let g0 = self.last_gyro.unwrap_or(g);
-                ((g0 + g) * T::of(0.5) * dt, true)
-            }
-            HeadingInput::Absolute(y) => match self.last_yaw {
-                Some(y0) => (wrap_angle(y - y0), true),
-                None => (wheel_heading, false),
-            },
-        };
-        let body = Twist2::new(inc.twist.vx, inc.twist.vy, dtheta);
-        let (delta, pose) = self.robot.step_pose(self.pose, body, &start, &end)?;
         let inv_dt = T::one() / dt;
         // Sphere/ballbot: the spin the measured heading reveals, `Ω3 = (ω̃Δ_z + Δψ)/Δt` with
         // `ω̃Δ_z = −(wheel heading change at zero spin)`.
@@ -413,6 +412,66 @@ impl<T: Real> Odometry<T> {
             }
         }
         Ok(())
+    }
+}
+
+/// The kinematic part of [`Odometry::update`], run on the concrete model
+/// ([`crate::Robot::visit`]): displacement, heading change of the step, pose step.
+struct KindStep<'a, T> {
+    start: &'a EncoderAngles<T>,
+    end: &'a EncoderAngles<T>,
+    pose: Pose2<T>,
+    heading: HeadingInput<T>,
+    /// The assumed vertical spin's heading change over the step (sphere, ballbot), rad.
+    spin_step: T,
+    dt: T,
+    last_gyro: Option<T>,
+    last_yaw: Option<T>,
+}
+
+/// What [`KindStep`] returns.
+struct KindStepOut<T> {
+    inc: crate::Motion<T>,
+    wheel_heading: T,
+    dtheta: T,
+    measured: bool,
+    delta: Pose2<T>,
+    pose: Pose2<T>,
+}
+
+impl<T: Real> crate::drive::KindVisitor<T> for KindStep<'_, T> {
+    type Output = Result<KindStepOut<T>, crate::InputError>;
+
+    #[inline(always)]
+    fn visit<M: crate::drive::KindModel<T>>(self, m: &M) -> Self::Output {
+        let inc = m.displacement(self.start, self.end)?;
+        let wheel_heading = if M::KIND.has_vertical_spin() {
+            inc.twist.yaw_rate + self.spin_step
+        } else {
+            inc.twist.yaw_rate
+        };
+        // The heading change of the step and whether it was measured.
+        let (dtheta, measured) = match self.heading {
+            HeadingInput::Wheels => (wheel_heading, false),
+            HeadingInput::GyroRate(g) => {
+                let g0 = self.last_gyro.unwrap_or(g);
+                ((g0 + g) * T::of(0.5) * self.dt, true)
+            }
+            HeadingInput::Absolute(y) => match self.last_yaw {
+                Some(y0) => (wrap_angle(y - y0), true),
+                None => (wheel_heading, false),
+            },
+        };
+        let body = Twist2::new(inc.twist.vx, inc.twist.vy, dtheta);
+        let (delta, pose) = m.step_pose(self.pose, body, self.start, self.end)?;
+        Ok(KindStepOut {
+            inc,
+            wheel_heading,
+            dtheta,
+            measured,
+            delta,
+            pose,
+        })
     }
 }
 

@@ -71,6 +71,7 @@ impl<T: Real> KindModel<T> for SphereOmni<T> {
         Ok(rigid(self.body_twist(head(&a.wheel_rates), spin)?))
     }
 
+    #[inline]
     fn displacement(
         &self,
         start: &EncoderAngles<T>,
@@ -118,6 +119,7 @@ impl<T: Real> KindModel<T> for Ballbot<T> {
         Ok(rigid(self.body_twist(head(&a.wheel_rates), spin)?))
     }
 
+    #[inline]
     fn displacement(
         &self,
         start: &EncoderAngles<T>,
@@ -127,6 +129,7 @@ impl<T: Real> KindModel<T> for Ballbot<T> {
     }
 
     /// Paper 001's odometry step: the world ball displacement between the two yaws.
+    #[inline]
     fn step_pose(
         &self,
         pose: Pose2<T>,
@@ -252,6 +255,7 @@ impl<T: Real> KindModel<T> for Caster3<T> {
     }
 
     /// The six increments (roll, wrapped steer) fitted at the step's mid steer angles.
+    #[inline]
     fn displacement(
         &self,
         start: &EncoderAngles<T>,
@@ -304,6 +308,7 @@ impl<T: Real, const N: usize> KindModel<T> for Omni<T, N> {
         })
     }
 
+    #[inline]
     fn displacement(
         &self,
         start: &EncoderAngles<T>,
@@ -423,6 +428,7 @@ impl<T: Real, const N: usize> KindModel<T> for Swerve<T, N> {
     }
 
     /// WPILib's `ToTwist2d`: wheel increments with the steering of the end reading.
+    #[inline]
     fn displacement(
         &self,
         start: &EncoderAngles<T>,

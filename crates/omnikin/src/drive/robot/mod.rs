@@ -74,6 +74,7 @@ mod model;
 mod values;
 
 pub use model::KindModel;
+
 pub use values::{Actuators, EncoderAngles, Kind, MAX_WHEELS, Motion, TorqueSpace};
 
 /// Any robot a robot file can describe: the concrete models behind one type. The number of
@@ -125,6 +126,17 @@ macro_rules! dispatch {
             Robot::Swerve6($m) => $body,
         }
     };
+}
+
+/// Generic code run on a robot's concrete model by [`Robot::visit`]: the body is compiled once
+/// per kind, so the kind's methods inline into it and its values stay in registers — for hot
+/// paths (the odometry step, the control cycle's inverse) that would otherwise dispatch on the
+/// kind for every call and pass the fixed-capacity values through memory.
+pub trait KindVisitor<T: Real> {
+    /// What the visit returns.
+    type Output;
+    /// Runs on the concrete model.
+    fn visit<M: KindModel<T>>(self, model: &M) -> Self::Output;
 }
 
 /// `KIND` of a model value (a helper for the dispatch).
@@ -180,6 +192,12 @@ impl<T: Real> Robot<T> {
                 });
             }
         })
+    }
+
+    /// Runs `visitor` on the concrete model (the one dispatch; see [`KindVisitor`]).
+    #[inline(always)]
+    pub fn visit<V: KindVisitor<T>>(&self, visitor: V) -> V::Output {
+        dispatch!(self, m => visitor.visit(m))
     }
 
     /// The kind.

@@ -105,6 +105,7 @@ pub trait KindModel<T: Real> {
     ///
     /// # Errors
     /// [`InputError`] from the kind's own step.
+    #[inline]
     fn step_pose(
         &self,
         pose: Pose2<T>,
