@@ -1,0 +1,260 @@
+//! An outsider's attack on the layouts of issue 13 (`omni` and `swerve` robot files, the
+//! presets kiwi, x-drive, mecanum, swerve4, and every command over them). Each test is one
+//! finding: the input that was accepted, misreported or quietly wrong before, and the rule the
+//! edge now enforces (an error naming the file, the line or field, and the rule; exit code
+//! non-zero; no output written from bad input).
+
+use std::path::{Path, PathBuf};
+
+use assert_cmd::Command;
+
+fn omnikin() -> Command {
+    Command::cargo_bin("omnikin").unwrap()
+}
+
+/// A fresh directory for one test's files.
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("omnikin-attack-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn path(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Runs the command, which must fail; returns its stderr.
+fn error_of(args: &[&str]) -> String {
+    let out = omnikin().args(args).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "{args:?} should fail; stderr: {err}");
+    assert!(!err.contains("panicked"), "{args:?}: {err}");
+    err
+}
+
+/// Runs the command, which must succeed; returns (stdout, stderr).
+fn ok_of(args: &[&str]) -> (String, String) {
+    let out = omnikin().args(args).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{args:?} failed: {err}");
+    (String::from_utf8_lossy(&out.stdout).into_owned(), err)
+}
+
+/// An omni robot file: one `[[geometry.wheels]]` table per `(x, y, drive_deg, roller_deg,
+/// radius)`, each value written as given (so `nan`, `1e308` reach the parser).
+fn omni_file(wheels: &[[&str; 5]]) -> String {
+    let mut s = String::from("kind = \"omni\"\n");
+    for w in wheels {
+        s += &format!(
+            "\n[[geometry.wheels]]\nposition = [{}, {}]\ndrive_angle_deg = {}\nroller_angle_deg = {}\nradius = {}\n",
+            w[0], w[1], w[2], w[3], w[4]
+        );
+    }
+    s
+}
+
+/// The kiwi preset's wheels as strings, with wheel `i`'s field `f` replaced by `v`.
+fn kiwi_with(i: usize, f: usize, v: &'static str) -> Vec<[&'static str; 5]> {
+    let mut w = vec![
+        ["0.15", "0.0", "90.0", "0.0", "0.05"],
+        ["-0.075", "0.1299038105676658", "210.0", "0.0", "0.05"],
+        ["-0.075", "-0.1299038105676658", "330.0", "0.0", "0.05"],
+    ];
+    w[i][f] = v;
+    w
+}
+
+fn swerve_file(modules: &[[&str; 3]]) -> String {
+    let mut s = String::from("kind = \"swerve\"\n");
+    for m in modules {
+        s += &format!(
+            "\n[[geometry.modules]]\nposition = [{}, {}]\nwheel_radius = {}\n",
+            m[0], m[1], m[2]
+        );
+    }
+    s
+}
+
+/// Finding: implausible wheel values were only caught by the model's rank test, so a
+/// 1e308 m radius read "omni torque map JᵀJ (wheel radii too different) is singular", a wheel
+/// 1e308 m away "the lines … meet in one point", a roller at 720° (the documented rule is
+/// |ρ| < 90°) was accepted, and a drive angle of 1e20° (no precision left) read "all roller
+/// axes are parallel". Now each is refused by name, with the wheel's line, before any model
+/// is built.
+#[test]
+fn omni_wheel_values_are_checked_by_name_and_line_before_the_model() {
+    let d = tmp("omni-values");
+    // (wheel, field, value, key in the message, rule fragment)
+    let cases: &[(usize, usize, &str, &str, &str)] = &[
+        (
+            0,
+            4,
+            "1e308",
+            "geometry.wheels[0].radius",
+            "plausible range",
+        ),
+        (
+            1,
+            4,
+            "1e-300",
+            "geometry.wheels[1].radius",
+            "plausible range",
+        ),
+        (2, 4, "nan", "geometry.wheels[2].radius", "finite"),
+        (1, 4, "-0.05", "geometry.wheels[1].radius", "> 0"),
+        (
+            0,
+            0,
+            "1e308",
+            "geometry.wheels[0].position",
+            "plausible range",
+        ),
+        (2, 1, "nan", "geometry.wheels[2].position", "finite"),
+        (
+            1,
+            3,
+            "720.0",
+            "geometry.wheels[1].roller_angle_deg",
+            "(-90, 90)",
+        ),
+        (
+            0,
+            3,
+            "90.0",
+            "geometry.wheels[0].roller_angle_deg",
+            "(-90, 90)",
+        ),
+        (
+            2,
+            3,
+            "-90.0",
+            "geometry.wheels[2].roller_angle_deg",
+            "(-90, 90)",
+        ),
+        (
+            1,
+            3,
+            "inf",
+            "geometry.wheels[1].roller_angle_deg",
+            "(-90, 90)",
+        ),
+        (
+            0,
+            2,
+            "1e20",
+            "geometry.wheels[0].drive_angle_deg",
+            "[-720, 720]",
+        ),
+        (
+            2,
+            2,
+            "nan",
+            "geometry.wheels[2].drive_angle_deg",
+            "[-720, 720]",
+        ),
+    ];
+    for &(i, f, v, key, rule) in cases {
+        let file = d.join(format!("w{i}-{f}-{v}.toml"));
+        std::fs::write(&file, omni_file(&kiwi_with(i, f, v))).unwrap();
+        let err = error_of(&["check", path(&file)]);
+        // Wheel i's table starts on line 3 + 6 i.
+        let line = format!(".toml:{}: {key}: ", 3 + 6 * i);
+        assert!(err.contains(&line), "{v} in wheel {i}: {err}");
+        assert!(err.contains(rule), "{v} in wheel {i}: {err}");
+        assert!(!err.contains("singular"), "{v} in wheel {i}: {err}");
+    }
+    // Within the rules: a roller at 89° and a drive angle of 398° (θ + 90° for θ = 308°) load.
+    for (f, v) in [(3, "89.0"), (2, "398.0")] {
+        let file = d.join(format!("ok-{f}.toml"));
+        std::fs::write(&file, omni_file(&kiwi_with(0, f, v))).unwrap();
+        ok_of(&["check", path(&file)]);
+    }
+}
+
+/// Finding: two swerve modules at the same point (a table copied without editing it) were
+/// accepted as a valid swerve4, and a layout 2 nm across loaded with condition number 1 (the
+/// rank test is scale-free) and then turned wheel rates 1,2,3,4 into a yaw rate of
+/// −2.5·10⁷ rad/s. Contact points must now be at least 0.1 mm apart; the error names both.
+#[test]
+fn coincident_or_microscopic_layouts_are_refused_naming_both_wheels() {
+    let d = tmp("coincident");
+    let dup = d.join("dup.toml");
+    std::fs::write(
+        &dup,
+        swerve_file(&[
+            ["0.3", "0.3", "0.05"],
+            ["0.3", "0.3", "0.05"],
+            ["-0.3", "-0.3", "0.05"],
+            ["-0.3", "0.3", "0.05"],
+        ]),
+    )
+    .unwrap();
+    let err = error_of(&["check", path(&dup)]);
+    assert!(
+        err.contains("dup.toml:7: geometry.modules[1].position: is 0 m from geometry.modules[0].position (line 3)"),
+        "{err}"
+    );
+    let tiny = d.join("tiny.toml");
+    std::fs::write(
+        &tiny,
+        swerve_file(&[
+            ["1e-9", "1e-9", "0.05"],
+            ["1e-9", "-1e-9", "0.05"],
+            ["-1e-9", "1e-9", "0.05"],
+            ["-1e-9", "-1e-9", "0.05"],
+        ]),
+    )
+    .unwrap();
+    let err = error_of(&["forward", path(&tiny), "--wheel-rates", "1,2,3,4", "--json"]);
+    assert!(err.contains("geometry.modules[1].position"), "{err}");
+    assert!(err.contains("at least 1e-4 m apart"), "{err}");
+    // An omni layout with three wheels on one spot (distinct drive directions).
+    let one = d.join("one-spot.toml");
+    std::fs::write(
+        &one,
+        omni_file(&[
+            ["0.1", "0.0", "0.0", "0.0", "0.05"],
+            ["0.1", "0.0", "120.0", "0.0", "0.05"],
+            ["0.1", "0.0", "240.0", "0.0", "0.05"],
+        ]),
+    )
+    .unwrap();
+    let err = error_of(&["check", path(&one)]);
+    assert!(err.contains("geometry.wheels[1].position"), "{err}");
+}
+
+/// Finding: a rank-deficient layout's message ended with the paper robots' "(wheels nearly
+/// coplanar or parallel)" after a run-on sentence; it now says "rank-deficient layout" and
+/// which rule. And a file of 1000 wheels is refused by its count before any per-wheel work.
+#[test]
+fn rank_and_count_errors_say_what_the_layout_breaks() {
+    let d = tmp("rank");
+    let parallel = d.join("parallel.toml");
+    std::fs::write(
+        &parallel,
+        omni_file(&[
+            ["0.2", "0.0", "0.0", "0.0", "0.05"],
+            ["0.0", "0.2", "0.0", "0.0", "0.05"],
+            ["-0.2", "0.0", "0.0", "0.0", "0.05"],
+            ["0.0", "-0.2", "0.0", "0.0", "0.05"],
+        ]),
+    )
+    .unwrap();
+    let err = error_of(&["check", path(&parallel)]);
+    assert!(
+        err.contains("geometry.wheels: rank-deficient layout") && err.contains("parallel"),
+        "{err}"
+    );
+    assert!(!err.contains("coplanar"), "{err}");
+    let many = d.join("many.toml");
+    let wheels: Vec<[&str; 5]> = (0..1000)
+        .map(|_| ["0.1", "0.0", "1e20", "720.0", "nan"])
+        .collect();
+    std::fs::write(&many, omni_file(&wheels)).unwrap();
+    let err = error_of(&["check", path(&many)]);
+    assert!(
+        err.contains("geometry.wheels: wheels: 1000 given, this kind supports 3 to 6"),
+        "{err}"
+    );
+}
