@@ -19,6 +19,7 @@ mod plan;
 mod plot;
 mod robot;
 mod sim;
+mod steer_steps;
 mod teleop;
 
 use args::{List, Triple, finite_f64};

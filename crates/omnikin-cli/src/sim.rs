@@ -261,6 +261,15 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     if let Some(why) = omnikin_sim::plan_mismatch(&robot, &plan) {
         crate::errln!("warning: {}: {why}", a.plan.display());
     }
+    if let Some(step) = crate::steer_steps::unexplained_steer_step(&plan) {
+        anyhow::bail!(
+            "{}: {step}: the simulator turns the steer motors by the sd columns, so it would \
+             not follow this plan (a plan from `omnikin plan` re-steers a swerve's modules at \
+             each stop without planning the turn; plan a path without stops: `plan circle`, or \
+             `plan waypoints --corners fillet` under the constant heading law)",
+            a.plan.display()
+        );
+    }
     let sensors = if a.emit_sensors {
         Some(sensor_profile(a.sensors.as_deref())?)
     } else {

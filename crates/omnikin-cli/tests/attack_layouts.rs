@@ -258,3 +258,74 @@ fn rank_and_count_errors_say_what_the_layout_breaks() {
         "{err}"
     );
 }
+
+/// Finding: `plan square --robot swerve4` re-steers the modules at each corner between two
+/// samples with `sd = 0` (and reports "peak steer rate 0.000 rad/s"); the simulator turns the
+/// steer motors by `sd`, so on the ideal plant the robot never turned and the square ended
+/// 1.6 m from its end point (max deviation 75 % of the path), exit code 0. `plan` now warns
+/// and `simulate` refuses such a plan, naming the module, the times and the rate it would
+/// need; a swerve plan without stops still simulates to the millimetre.
+#[test]
+fn a_swerve_plan_that_re_steers_between_two_samples_is_not_simulated_as_if_it_did_not() {
+    let d = tmp("steer-step");
+    let square = d.join("square.csv");
+    let (_, err) = ok_of(&[
+        "plan",
+        "square",
+        "--robot",
+        "swerve4",
+        "--out",
+        path(&square),
+    ]);
+    assert!(
+        err.contains("warning: s1 steps by -1.5708 rad between t = 4.2 s and t = 4.21 s"),
+        "{err}"
+    );
+    let out = d.join("sim");
+    let err = error_of(&[
+        "simulate",
+        path(&square),
+        "--robot",
+        "swerve4",
+        "--trials",
+        "1",
+        "--out",
+        path(&out),
+    ]);
+    assert!(
+        err.contains("square.csv: s1 steps by -1.5708 rad") && err.contains("sd1"),
+        "{err}"
+    );
+    assert!(!out.join("metrics.json").exists());
+    // The same square with filleted corners has no stop: simulated, it follows the plan.
+    let wp = d.join("square-wp.csv");
+    std::fs::write(&wp, "0,0\n0.4,0\n0.4,0.4\n0,0.4\n0,0\n").unwrap();
+    let fillet = d.join("fillet.csv");
+    let (_, err) = ok_of(&[
+        "plan",
+        "waypoints",
+        path(&wp),
+        "--corners",
+        "fillet",
+        "--robot",
+        "swerve4",
+        "--out",
+        path(&fillet),
+    ]);
+    assert!(!err.contains("warning"), "{err}");
+    let out = d.join("sim-fillet");
+    ok_of(&[
+        "simulate",
+        path(&fillet),
+        "--robot",
+        "swerve4",
+        "--trials",
+        "1",
+        "--out",
+        path(&out),
+    ]);
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    let dev = m["max_deviation_m"].as_f64().unwrap();
+    assert!(dev < 0.01, "max deviation {dev} m");
+}
