@@ -45,11 +45,21 @@ fn warn_limits(what: &str, rates: &[f64], limit: Option<f64>, key: &str) {
     if let Some(max) = limit {
         for (i, r) in rates.iter().enumerate() {
             if r.abs() > max {
-                crate::errln!(
-                    "warning: {what} {} = {r:.6} rad/s exceeds limits.{key} = {max} rad/s (by {:.1} %)",
-                    i + 1,
-                    (r.abs() / max - 1.0) * 100.0
-                );
+                let excess = (r.abs() / max - 1.0) * 100.0;
+                if r.abs() < 1e9 {
+                    crate::errln!(
+                        "warning: {what} {} = {r:.6} rad/s exceeds limits.{key} = {max} rad/s (by {excess:.1} %)",
+                        i + 1,
+                    );
+                } else {
+                    // A 1e200 rad/s rate is not printed as 200 digits.
+                    crate::errln!(
+                        "warning: {what} {} = {} rad/s exceeds limits.{key} = {max} rad/s (by {} %)",
+                        i + 1,
+                        crate::args::num(*r),
+                        crate::args::num(excess)
+                    );
+                }
             }
         }
     }

@@ -329,3 +329,150 @@ fn a_swerve_plan_that_re_steers_between_two_samples_is_not_simulated_as_if_it_di
     let dev = m["max_deviation_m"].as_f64().unwrap();
     assert!(dev < 0.01, "max deviation {dev} m");
 }
+
+/// Finding: a plan CSV's values only had to be finite: a steer rate `sd2 = 1e308` rad/s, a
+/// steer angle `s2 = 1e308` rad or a heading of 1e308 rad were simulated without a word (exit
+/// 0, metrics of nonsense), and a wheel rate of 1e308 rad/s ended in an overflow error that
+/// quoted a 309-digit number. Each column is now held to the bound of what it means, and the
+/// error names the file, the line, the column and the limit.
+#[test]
+fn plan_columns_are_held_to_plausible_bounds() {
+    let d = tmp("plan-bounds");
+    let plan = d.join("square.csv");
+    ok_of(&["plan", "square", "--robot", "swerve4", "--out", path(&plan)]);
+    let text = std::fs::read_to_string(&plan).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    for (column, value, rule) in [
+        ("sd2", "1e308", "[-1e5, 1e5] rad/s (the limit MAX_PLAN_RATE"),
+        ("w4", "-2e5", "[-1e5, 1e5] rad/s (the limit MAX_PLAN_RATE"),
+        ("s2", "1e308", "[-1e6, 1e6] rad (the limit MAX_HEADING"),
+        ("heading", "1e300", "[-1e6, 1e6] rad (the limit MAX_HEADING"),
+        ("x", "-1e9", "[-1e6, 1e6] m (the limit MAX_COORDINATE"),
+        ("vy", "1e200", "[-1e6, 1e6] m/s (the limit MAX_COORDINATE"),
+    ] {
+        let k = header.iter().position(|h| *h == column).unwrap();
+        // Row 11 of the file (the 10th sample) gets the value.
+        let bad: Vec<String> = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| {
+                if i != 10 {
+                    return l.to_string();
+                }
+                let mut f: Vec<&str> = l.split(',').collect();
+                f[k] = value;
+                f.join(",")
+            })
+            .collect();
+        let file = d.join(format!("bad-{column}.csv"));
+        std::fs::write(&file, bad.join("\n") + "\n").unwrap();
+        let out = d.join(format!("out-{column}"));
+        let err = error_of(&[
+            "simulate",
+            path(&file),
+            "--robot",
+            "swerve4",
+            "--trials",
+            "1",
+            "--out",
+            path(&out),
+        ]);
+        assert!(
+            err.contains(&format!("bad-{column}.csv:11: column {column}: {value} ")),
+            "{column}: {err}"
+        );
+        assert!(err.contains(rule), "{column}: {err}");
+        assert!(!out.exists());
+    }
+}
+
+/// Finding: `odometry --robot mecanum` over a swerve4 encoder log (q1..q4 and s1..s4) ignored
+/// the steer angles and wrote a 2.8 m path for a closed circle, exit 0; a kiwi over a 4-wheel
+/// log ignored q4; a steer angle of 1e308 rad was used as is. The log of another robot is now
+/// refused at its header, and steer angles and yaw are held to the plan file's bounds, naming
+/// the line and column.
+#[test]
+fn odometry_refuses_the_log_of_another_robot_and_meaningless_angles() {
+    let d = tmp("odometry");
+    let swerve_log = d.join("swerve.csv");
+    std::fs::write(
+        &swerve_log,
+        "t,q1,q2,q3,q4,s1,s2,s3,s4,gyro_z\n0,0,0,0,0,1,1,1,1,0\n0.1,1,1,1,1,1,1,1,1,0\n",
+    )
+    .unwrap();
+    let poses = d.join("poses.csv");
+    for (robot, col, what) in [
+        (
+            "mecanum",
+            "s1",
+            "mecanum (omni) has 4 wheels and no steering, but the log has s1",
+        ),
+        (
+            "kiwi",
+            "q4",
+            "kiwi (omni) has 3 wheels and no steering, but the log has q4",
+        ),
+    ] {
+        let err = error_of(&[
+            "odometry",
+            path(&swerve_log),
+            "--robot",
+            robot,
+            "--out",
+            path(&poses),
+        ]);
+        assert!(
+            err.contains(&format!("swerve.csv:1: column {col}: {what}")),
+            "{robot}: {err}"
+        );
+        assert!(!poses.exists());
+    }
+    // The right robot reads it.
+    ok_of(&[
+        "odometry",
+        path(&swerve_log),
+        "--robot",
+        "swerve4",
+        "--out",
+        path(&poses),
+    ]);
+    let bad = d.join("bad-steer.csv");
+    std::fs::write(
+        &bad,
+        "t,q1,q2,q3,q4,s1,s2,s3,s4,yaw\n0,0,0,0,0,1,1,1,1,0\n0.1,1,1,1,1,1,1e308,1,1,0\n",
+    )
+    .unwrap();
+    let out = d.join("out.csv");
+    let err = error_of(&[
+        "odometry",
+        path(&bad),
+        "--robot",
+        "swerve4",
+        "--out",
+        path(&out),
+    ]);
+    assert!(
+        err.contains("bad-steer.csv:3: column s2: 1e308 rad is outside the plausible range"),
+        "{err}"
+    );
+    let yaw = d.join("bad-yaw.csv");
+    std::fs::write(
+        &yaw,
+        "t,q1,q2,q3,q4,s1,s2,s3,s4,yaw\n0,0,0,0,0,1,1,1,1,-1e300\n0.1,1,1,1,1,1,1,1,1,0\n",
+    )
+    .unwrap();
+    let err = error_of(&[
+        "odometry",
+        path(&yaw),
+        "--robot",
+        "swerve4",
+        "--imu",
+        "--out",
+        path(&out),
+    ]);
+    assert!(
+        err.contains("bad-yaw.csv:2: column yaw: -1e300 rad"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
