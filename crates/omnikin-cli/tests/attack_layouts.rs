@@ -476,3 +476,69 @@ fn odometry_refuses_the_log_of_another_robot_and_meaningless_angles() {
     );
     assert!(!out.exists());
 }
+
+/// Finding: `robot --sim --log` wrote `w1,w2,w3` for every kind: a mecanum's or swerve's
+/// fourth wheel and every steer motor command were not recorded. The log now has one `w` per
+/// wheel and, for kinds with steering, one `sd` per module.
+#[test]
+fn the_robot_log_records_every_wheel_and_steer_motor() {
+    let d = tmp("robot-log");
+    let log = d.join("robot.csv");
+    let addr = format!(
+        "127.0.0.1:{}",
+        std::net::UdpSocket::bind("127.0.0.1:0")
+            .unwrap()
+            .local_addr()
+            .unwrap()
+            .port()
+    );
+    let mut robot = std::process::Command::new(env!("CARGO_BIN_EXE_omnikin"))
+        .args(["robot", "--sim", "--robot", "swerve4", "--listen", &addr])
+        .args(["--time-scale", "4", "--max-time", "12", "--log", path(&log)])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    let drive = omnikin()
+        .args(["drive", "--connect", &addr, "velocity"])
+        .args([
+            "--vx",
+            "0.2",
+            "--vy",
+            "0.1",
+            "--yaw-rate",
+            "0.3",
+            "--for",
+            "0.5",
+        ])
+        .output()
+        .unwrap();
+    let status = robot.wait().unwrap();
+    assert!(
+        drive.status.success(),
+        "{}",
+        String::from_utf8_lossy(&drive.stderr)
+    );
+    assert!(status.success());
+    let text = std::fs::read_to_string(&log).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| *h == name)
+            .unwrap_or_else(|| panic!("no {name} in {header:?}"))
+    };
+    let (w4, sd1) = (col("w4"), col("sd1"));
+    col("sd4");
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            assert_eq!(f.len(), header.len(), "{l}");
+            vec![f[w4].parse().unwrap(), f[sd1].parse().unwrap()]
+        })
+        .collect();
+    assert!(rows.iter().any(|r| r[0].abs() > 0.1), "w4 never moved");
+    assert!(rows.iter().any(|r| r[1].abs() > 1e-3), "sd1 never moved");
+}
