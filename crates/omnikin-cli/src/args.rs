@@ -81,7 +81,8 @@ pub fn duration(what: &str, secs: f64) -> anyhow::Result<std::time::Duration> {
     })
 }
 
-/// Three finite numbers given as `A,B,C` (one per wheel).
+/// Three finite numbers given as `A,B,C` (the components of one quantity: model torques, a
+/// body wrench, a pose; the flag's value name says which).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Triple(pub [f64; 3]);
 
@@ -91,7 +92,7 @@ impl FromStr for Triple {
         let parts: Vec<&str> = s.split(',').collect();
         if parts.len() != 3 {
             return Err(format!(
-                "expected three comma-separated numbers like 1.2,-0.5,3 (one per wheel), got {} in \"{s}\"",
+                "expected three comma-separated numbers like 1.2,-0.5,3, got {} in \"{s}\"",
                 parts.len()
             ));
         }

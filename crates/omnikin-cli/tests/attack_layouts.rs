@@ -542,3 +542,28 @@ fn the_robot_log_records_every_wheel_and_steer_motor() {
     assert!(rows.iter().any(|r| r[0].abs() > 0.1), "w4 never moved");
     assert!(rows.iter().any(|r| r[1].abs() > 1e-3), "sd1 never moved");
 }
+
+/// Finding: `torques kiwi --wrench 1,2` answered "expected three comma-separated numbers …
+/// (one per wheel)" — a wrench is three components whatever the wheel count, and so are
+/// `--model` and `--initial-pose`; and `omnikin --help` still described "three-wheeled"
+/// robots and presets without the layouts, `odometry` a log of `t,q1,q2,q3`.
+#[test]
+fn three_component_flags_and_help_do_not_speak_of_three_wheels() {
+    for args in [
+        &["torques", "kiwi", "--wrench", "1,2"][..],
+        &["torques", "mecanum", "--wrench", "1,2,3,4"][..],
+        &["torques", "ballbot", "--model", "1"][..],
+    ] {
+        let err = error_of(args);
+        assert!(
+            err.contains("expected three comma-separated numbers"),
+            "{err}"
+        );
+        assert!(!err.contains("one per wheel"), "{args:?}: {err}");
+    }
+    let (help, _) = ok_of(&["--help"]);
+    assert!(!help.contains("three-wheeled"), "{help}");
+    for word in ["kiwi", "x-drive", "mecanum", "swerve4", "t,q1..qN"] {
+        assert!(help.contains(word), "{word} not in {help}");
+    }
+}
