@@ -93,6 +93,16 @@ fn steer_of(robot: &Robot<f64>, steer: &Option<List>, name: &str) -> Result<[f64
             ));
         }
         out[..robot.wheels()].copy_from_slice(l.exactly(robot.wheels(), "--steer", name)?);
+        // As `plan --initial-steer`: an angle of 1e308 rad has no direction left in it.
+        let max = omnikin_plan::limits::MAX_HEADING;
+        if let Some((i, g)) = out.iter().enumerate().find(|(_, g)| g.abs() > max) {
+            anyhow::bail!(
+                "--steer: item {}: {} rad is outside the plausible range [-{max:e}, {max:e}] rad \
+                 (omnikin_plan::limits)",
+                i + 1,
+                crate::args::num(*g)
+            );
+        }
     }
     Ok(out)
 }

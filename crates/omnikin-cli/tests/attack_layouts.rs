@@ -567,3 +567,52 @@ fn three_component_flags_and_help_do_not_speak_of_three_wheels() {
         assert!(help.contains(word), "{word} not in {help}");
     }
 }
+
+/// Finding: `inverse/forward/torques swerve4 --steer 0,0,1e308,0` were accepted (1e308 rad
+/// wrapped to an arbitrary direction) while `plan --initial-steer` refused the same value.
+/// Now every `--steer` list is held to the same bound, naming the item.
+#[test]
+fn steer_lists_are_held_to_the_plan_bound() {
+    for args in [
+        &[
+            "inverse",
+            "swerve4",
+            "--vx",
+            "0.1",
+            "--steer",
+            "0,0,1e308,0",
+        ][..],
+        &[
+            "forward",
+            "swerve4",
+            "--wheel-rates",
+            "1,1,1,1",
+            "--steer",
+            "0,0,1e308,0",
+        ][..],
+        &[
+            "torques",
+            "swerve4",
+            "--wheels",
+            "1,1,1,1",
+            "--steer",
+            "0,0,1e308,0",
+        ][..],
+    ] {
+        let err = error_of(args);
+        assert!(
+            err.contains("--steer: item 3: 1e308 rad is outside the plausible range"),
+            "{args:?}: {err}"
+        );
+    }
+    // Angles near ±π are ordinary.
+    ok_of(&[
+        "forward",
+        "swerve4",
+        "--wheel-rates",
+        "1,1,1,1",
+        "--steer",
+        "3.14159265,-3.14159265,3.1416,-3.1416",
+        "--json",
+    ]);
+}
