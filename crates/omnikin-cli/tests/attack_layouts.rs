@@ -616,3 +616,38 @@ fn steer_lists_are_held_to_the_plan_bound() {
         "--json",
     ]);
 }
+
+/// Finding: `position = [0.15, 0.0, 7.0]` (a z, or a typo) loaded as (0.15, 0.0): the
+/// fixed-size array dropped the third value without a word, for wheels and modules alike.
+#[test]
+fn a_position_has_exactly_two_values() {
+    let d = tmp("position");
+    let kiwi = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../robots/kiwi.toml"
+    ))
+    .unwrap()
+    .replacen("position = [0.15, 0.0]", "position = [0.15, 0.0, 7.0]", 1);
+    let file = d.join("kiwi3.toml");
+    std::fs::write(&file, kiwi).unwrap();
+    let err = error_of(&["check", path(&file)]);
+    assert!(
+        err.contains("kiwi3.toml:9: geometry.wheels[0].position: expected 2 values [x, y] (m, robot frame), got 3"),
+        "{err}"
+    );
+    let file = d.join("swerve1.toml");
+    std::fs::write(
+        &file,
+        swerve_file(&[["0.3", "0.3", "0.05"], ["-0.3", "-0.3", "0.05"]]).replacen(
+            "position = [-0.3, -0.3]",
+            "position = [-0.3]",
+            1,
+        ),
+    )
+    .unwrap();
+    let err = error_of(&["check", path(&file)]);
+    assert!(
+        err.contains("swerve1.toml:8: geometry.modules[1].position: expected 2 values [x, y] (m, robot frame), got 1"),
+        "{err}"
+    );
+}

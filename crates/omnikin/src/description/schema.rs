@@ -90,7 +90,8 @@ struct OmniGeometry {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct OmniWheelFile {
-    position: [f64; 2],
+    /// A list, not `[f64; 2]`: a fixed-size array silently dropped a third value.
+    position: List,
     drive_angle_deg: f64,
     roller_angle_deg: f64,
     radius: f64,
@@ -107,7 +108,8 @@ struct SwerveGeometry {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SwerveModuleFile {
-    position: [f64; 2],
+    /// A list, checked to hold two values (see `OmniWheelFile::position`).
+    position: List,
     wheel_radius: f64,
 }
 
@@ -132,6 +134,17 @@ pub(super) fn parse(
                 Some(line_of(l.span().start)),
                 field,
                 format!("expected 3 values (one per wheel), got {}", v.len()),
+            )),
+        }
+    };
+    // A position: exactly [x, y].
+    let two = |l: &List, field: &str| -> Result<[f64; 2], DescriptionError> {
+        match l.get_ref().as_slice() {
+            &[x, y] => Ok([x, y]),
+            v => Err(err(
+                Some(line_of(l.span().start)),
+                field,
+                format!("expected 2 values [x, y] (m, robot frame), got {}", v.len()),
             )),
         }
     };
@@ -207,9 +220,12 @@ pub(super) fn parse(
                 .map(|w| line_of(w.span().start))
                 .collect();
             count(lines.len(), 3, "wheels", source_name, "omni")?;
+            let mut positions = std::vec::Vec::with_capacity(lines.len());
             for (i, w) in f.geometry.wheels.iter().enumerate() {
                 let w = w.get_ref();
                 let at = |key: &str| format!("geometry.wheels[{i}].{key}");
+                let position = two(&w.position, &at("position"))?;
+                positions.push(position);
                 angle_in(
                     w.roller_angle_deg,
                     90.0,
@@ -225,24 +241,19 @@ pub(super) fn parse(
                     "a direction from robot +x, counter-clockwise, within two turns",
                 )
                 .map_err(|rule| err(Some(lines[i]), &at("drive_angle_deg"), rule))?;
-                wheel_lengths(w.position, w.radius, "radius")
+                wheel_lengths(position, w.radius, "radius")
                     .map_err(|(key, rule)| err(Some(lines[i]), &at(key), rule))?;
             }
-            let positions: std::vec::Vec<[f64; 2]> = f
-                .geometry
-                .wheels
-                .iter()
-                .map(|w| w.get_ref().position)
-                .collect();
             distinct(&positions, "wheels", &lines, err)?;
             let wheels: std::vec::Vec<OmniWheel<f64>> = f
                 .geometry
                 .wheels
                 .iter()
-                .map(|w| {
+                .zip(&positions)
+                .map(|(w, &position)| {
                     let w = w.get_ref();
                     OmniWheel::at_angle(
-                        w.position,
+                        position,
                         w.drive_angle_deg.to_radians(),
                         w.roller_angle_deg.to_radians(),
                         w.radius,
@@ -262,27 +273,18 @@ pub(super) fn parse(
                 .map(|m| line_of(m.span().start))
                 .collect();
             count(lines.len(), 2, "modules", source_name, "swerve")?;
+            let mut modules = std::vec::Vec::with_capacity(lines.len());
             for (i, m) in f.geometry.modules.iter().enumerate() {
                 let m = m.get_ref();
-                wheel_lengths(m.position, m.wheel_radius, "wheel_radius").map_err(
-                    |(key, rule)| {
-                        err(
-                            Some(lines[i]),
-                            &format!("geometry.modules[{i}].{key}"),
-                            rule,
-                        )
-                    },
-                )?;
+                let at = |key: &str| format!("geometry.modules[{i}].{key}");
+                let position = two(&m.position, &at("position"))?;
+                wheel_lengths(position, m.wheel_radius, "wheel_radius")
+                    .map_err(|(key, rule)| err(Some(lines[i]), &at(key), rule))?;
+                modules.push(SwerveModule {
+                    position,
+                    wheel_radius: m.wheel_radius,
+                });
             }
-            let modules: std::vec::Vec<SwerveModule<f64>> = f
-                .geometry
-                .modules
-                .iter()
-                .map(|m| SwerveModule {
-                    position: m.get_ref().position,
-                    wheel_radius: m.get_ref().wheel_radius,
-                })
-                .collect();
             let positions: std::vec::Vec<[f64; 2]> = modules.iter().map(|m| m.position).collect();
             distinct(&positions, "modules", &lines, err)?;
             let optimize = f.geometry.optimize_steering;
