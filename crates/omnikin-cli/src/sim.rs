@@ -261,13 +261,22 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     if let Some(why) = omnikin_sim::plan_mismatch(&robot, &plan) {
         crate::errln!("warning: {}: {why}", a.plan.display());
     }
-    if let Some(step) = crate::steer_steps::unexplained_steer_step(&plan) {
+    use crate::steer_steps::{
+        MAX_SIMULATED_STEER_STEP, MAX_UNEXPLAINED_STEER_STEP, unexplained_steer_step,
+    };
+    if let Some(step) = unexplained_steer_step(&plan, MAX_SIMULATED_STEER_STEP) {
         anyhow::bail!(
             "{}: {step}: the simulator turns the steer motors by the sd columns, so it would \
-             not follow this plan (a plan from `omnikin plan` re-steers a swerve's modules at \
-             each stop without planning the turn; plan a path without stops: `plan circle`, or \
-             `plan waypoints --corners fillet` under the constant heading law)",
-            a.plan.display()
+             not follow this plan: {}",
+            a.plan.display(),
+            step.cause()
+        );
+    } else if let Some(step) = unexplained_steer_step(&plan, MAX_UNEXPLAINED_STEER_STEP) {
+        crate::errln!(
+            "warning: {}: {step}: the simulated steering will differ from the plan's by about \
+             that much: {}",
+            a.plan.display(),
+            step.cause()
         );
     }
     let sensors = if a.emit_sensors {

@@ -278,7 +278,7 @@ fn a_swerve_plan_that_re_steers_between_two_samples_is_not_simulated_as_if_it_di
         path(&square),
     ]);
     assert!(
-        err.contains("warning: s1 steps by -1.5708 rad between t = 4.2 s and t = 4.21 s"),
+        err.contains("warning: s1 steps by -1.5708 rad between t = 4.2 s and t = 4.21 s, but its steer rate sd1 accounts for 0.0000 to 0.0000 rad"),
         "{err}"
     );
     let out = d.join("sim");
@@ -328,6 +328,41 @@ fn a_swerve_plan_that_re_steers_between_two_samples_is_not_simulated_as_if_it_di
         serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
     let dev = m["max_deviation_m"].as_f64().unwrap();
     assert!(dev < 0.01, "max deviation {dev} m");
+    // A kink of the steer rate between two samples (a spline waypoint under the tangent law,
+    // a module near the centre of rotation: sd1 −2.5 → +2.9 rad/s in 10 ms) is not a re-steer.
+    let two = d.join("two.toml");
+    std::fs::write(
+        &two,
+        swerve_file(&[["0.2866", "0.0887", "0.05"], ["-0.2866", "-0.0887", "0.05"]]),
+    )
+    .unwrap();
+    let spline = d.join("spline.csv");
+    let (_, err) = ok_of(&[
+        "plan",
+        "waypoints",
+        path(&wp),
+        "--path",
+        "spline",
+        "--heading-law",
+        "tangent",
+        "--robot",
+        path(&two),
+        "--out",
+        path(&spline),
+    ]);
+    assert!(!err.contains("warning"), "{err}");
+    let out = d.join("sim-spline");
+    let (_, err) = ok_of(&[
+        "simulate",
+        path(&spline),
+        "--robot",
+        path(&two),
+        "--trials",
+        "1",
+        "--out",
+        path(&out),
+    ]);
+    assert!(!err.contains("warning"), "{err}");
 }
 
 /// Finding: a plan CSV's values only had to be finite: a steer rate `sd2 = 1e308` rad/s, a

@@ -38,12 +38,14 @@ pub(super) fn finish(
         plan_figure("--plot", svg, &title, plan, robot)?;
     }
     summary(c, d, robot, what, planned);
-    if let Some(step) = crate::steer_steps::unexplained_steer_step(plan) {
+    if let Some(step) = crate::steer_steps::unexplained_steer_step(
+        plan,
+        crate::steer_steps::MAX_UNEXPLAINED_STEER_STEP,
+    ) {
         crate::errln!(
-            "warning: {step}: the modules are re-steered at a stop without a planned turn, so \
-             the steer-rate peak above and the limits do not cover it, and `omnikin simulate` \
-             refuses this plan (a path without stops avoids it: a circle, or waypoints with `--corners fillet` under \
-             the constant heading law)"
+            "warning: {step}: the steer-rate peak above and the limits do not cover it, and \
+             `omnikin simulate` may refuse this plan: {}",
+            step.cause()
         );
     }
     Ok(())
