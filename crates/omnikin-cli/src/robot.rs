@@ -160,6 +160,12 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     let robot: Robot<f64> = desc.build()?;
     let cfg = config(a, &desc)?;
     let prof = profile(a.disturbances.as_deref())?;
+    // A profile file that does not fit the robot (the built-in ones are for every kind).
+    if let Some(file) = a.disturbances.as_deref()
+        && !["ideal", "hardware", "spin-slip"].contains(&file)
+    {
+        crate::sim::warn_unused_sections(&prof, &robot, file);
+    }
     let key = a.key.as_deref().map(load_key).transpose()?;
     let addr = parse_address(&a.listen, "--listen")?;
     if key.is_none()

@@ -686,3 +686,41 @@ fn a_position_has_exactly_two_values() {
         "{err}"
     );
 }
+
+/// Finding: a disturbance profile's `[shell_spin]` on a mecanum, or `[steer_motor]` on a
+/// kiwi, was ignored without a word (the kiwi "with steer-motor lag" ran as the ideal plant).
+/// `simulate` now says which section the robot's kind does not simulate.
+#[test]
+fn profile_sections_the_kind_does_not_simulate_are_named() {
+    let d = tmp("profile");
+    let plan = d.join("kiwi.csv");
+    ok_of(&["plan", "square", "--robot", "kiwi", "--out", path(&plan)]);
+    let profile = d.join("p.toml");
+    std::fs::write(
+        &profile,
+        "[shell_spin]\nstd = 0.5\n[steer_motor]\nlag_time_constant = 0.05\n[floor]\nrel_std = 0.01\n",
+    )
+    .unwrap();
+    let out = d.join("sim");
+    let (_, err) = ok_of(&[
+        "simulate",
+        path(&plan),
+        "--robot",
+        "kiwi",
+        "--disturbances",
+        path(&profile),
+        "--trials",
+        "1",
+        "--out",
+        path(&out),
+    ]);
+    assert!(
+        err.contains("p.toml: [shell_spin] applies to sphere-omni and ballbot only; robot kind omni ignores it"),
+        "{err}"
+    );
+    assert!(
+        err.contains("p.toml: [steer_motor] applies to kinds with steering"),
+        "{err}"
+    );
+    assert!(!err.contains(": [floor] applies"), "{err}");
+}
