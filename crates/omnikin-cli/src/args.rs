@@ -16,6 +16,22 @@ pub fn finite_f64(s: &str) -> Result<f64, String> {
     }
 }
 
+/// An angle flag (`--heading`, `--yaw`), rad: finite and within
+/// ±[`omnikin_plan::limits::MAX_HEADING`] (a heading of 1e308 rad has no direction left in
+/// it, and was used as one).
+pub fn angle_rad(s: &str) -> Result<f64, String> {
+    let v = finite_f64(s)?;
+    let max = omnikin_plan::limits::MAX_HEADING;
+    if v.abs() <= max {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{} rad is outside the plausible range [-{max:e}, {max:e}] rad",
+            num(v)
+        ))
+    }
+}
+
 /// A finite number within `[min, max]` (`unit` in the message): the edge check of every
 /// duration, rate and count-like float flag whose value becomes a wait or a schedule.
 pub fn in_range(s: &str, min: f64, max: f64, unit: &str) -> Result<f64, String> {

@@ -105,7 +105,7 @@ pub struct InverseArgs {
     #[arg(long)]
     pub world: bool,
     /// Heading (yaw of the robot frame in the world frame), rad.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = args::angle_rad)]
     pub heading: f64,
     /// Spin of the shell (sphere-omni) or ball (ballbot) about the vertical, rad/s.
     #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
@@ -142,7 +142,7 @@ pub struct ForwardArgs {
     #[arg(long, allow_hyphen_values = true, value_name = "S1,S2,S3")]
     pub steer_rates: Option<List>,
     /// Heading, rad: report the twist in the world frame (default: robot frame).
-    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+    #[arg(long, allow_hyphen_values = true, value_parser = args::angle_rad)]
     pub heading: Option<f64>,
     /// Assumed spin of the shell (sphere-omni) or ball (ballbot) about the vertical, rad/s
     /// (default 0: not observable from the wheels).
@@ -170,7 +170,7 @@ pub struct TorquesArgs {
     #[arg(long, allow_hyphen_values = true, value_name = "T1,…,TN")]
     pub wheels: Option<List>,
     /// ballbot: body yaw, rad: model torques are in the frame rotated by it (0: body frame).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = args::angle_rad)]
     pub yaw: f64,
     /// swerve only: steer angles G1,…,GN, rad (default 0).
     #[arg(long, allow_hyphen_values = true, value_name = "G1,…,GN")]

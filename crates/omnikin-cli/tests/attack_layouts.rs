@@ -724,3 +724,43 @@ fn profile_sections_the_kind_does_not_simulate_are_named() {
     );
     assert!(!err.contains(": [floor] applies"), "{err}");
 }
+
+/// Finding: `forward swerve4 --heading 1e308` and `inverse kiwi --world --heading 1e308`
+/// rotated the twist by an angle with no direction left in it (finite output, exit 0), and
+/// `inverse kiwi --vx 1e200` warned about "wheel 1 = 300000…(200 digits)…000 rad/s". Angle
+/// flags are now held to ±1e6 rad and huge numbers are quoted as 3e200.
+#[test]
+fn angle_flags_are_bounded_and_huge_numbers_are_quoted_short() {
+    for args in [
+        &[
+            "forward",
+            "swerve4",
+            "--wheel-rates",
+            "1,1,1,1",
+            "--heading",
+            "1e308",
+        ][..],
+        &[
+            "inverse",
+            "kiwi",
+            "--vx",
+            "1",
+            "--world",
+            "--heading",
+            "-1e308",
+        ][..],
+        &["torques", "ballbot", "--model", "1,2,3", "--yaw", "1e300"][..],
+    ] {
+        let err = error_of(args);
+        assert!(
+            err.contains("rad is outside the plausible range [-1e6, 1e6] rad"),
+            "{args:?}: {err}"
+        );
+    }
+    let (_, err) = ok_of(&["inverse", "kiwi", "--vx", "1e200", "--json"]);
+    assert!(
+        err.contains("wheel 2 = -1.7320508075688772e201 rad/s exceeds"),
+        "{err}"
+    );
+    assert!(err.lines().all(|l| l.len() < 200), "{err}");
+}
