@@ -384,10 +384,27 @@ pub fn frame_decoder() -> Vec<Seed> {
     out
 }
 
-const ROBOTS: [(&str, &str); 3] = [
+const ROBOTS: [(&str, &str); 7] = [
     ("sphere-omni", include_str!("../../robots/sphere-omni.toml")),
     ("ballbot", include_str!("../../robots/ballbot.toml")),
     ("caster3", include_str!("../../robots/caster3.toml")),
+    ("kiwi", include_str!("../../robots/kiwi.toml")),
+    ("x-drive", include_str!("../../robots/x-drive.toml")),
+    ("mecanum", include_str!("../../robots/mecanum.toml")),
+    ("swerve4", include_str!("../../robots/swerve4.toml")),
+];
+
+/// Layouts beyond the presets (issue 13): the most wheels of an omni base, mixed rollers and
+/// radii, and the smallest swerve with steering optimisation and steer limits.
+const LAYOUTS: [(&str, &str); 2] = [
+    (
+        "omni6-mixed",
+        "kind = \"omni\"\nname = \"hex\"\n\n[[geometry.wheels]]\nposition = [0.2, 0.0]\ndrive_angle_deg = 90.0\nroller_angle_deg = 0.0\nradius = 0.05\n\n[[geometry.wheels]]\nposition = [0.1, 0.17]\ndrive_angle_deg = 150.0\nroller_angle_deg = 45.0\nradius = 0.04\n\n[[geometry.wheels]]\nposition = [-0.1, 0.17]\ndrive_angle_deg = 210.0\nroller_angle_deg = -45.0\nradius = 0.05\n\n[[geometry.wheels]]\nposition = [-0.2, 0.0]\ndrive_angle_deg = 270.0\nroller_angle_deg = 10.0\nradius = 0.06\n\n[[geometry.wheels]]\nposition = [-0.1, -0.17]\ndrive_angle_deg = 330.0\nroller_angle_deg = 0.0\nradius = 0.05\n\n[[geometry.wheels]]\nposition = [0.1, -0.17]\ndrive_angle_deg = -330.0\nroller_angle_deg = 0.0\nradius = 0.05\n\n[limits]\nmax_wheel_rate = 30.0\n",
+    ),
+    (
+        "swerve2-optimized",
+        "kind = \"swerve\"\n\n[geometry]\noptimize_steering = true\n\n[[geometry.modules]]\nposition = [0.25, 0.0]\nwheel_radius = 0.05\n\n[[geometry.modules]]\nposition = [-0.25, 0.0]\nwheel_radius = 0.04\n\n[limits]\nmax_wheel_rate = 50.0\nmax_steer_rate = 10.0\nmax_steer_accel = 50.0\n",
+    ),
 ];
 
 fn text(target: &'static str, name: &str, t: &str) -> Seed {
@@ -408,6 +425,9 @@ pub fn robot_toml() -> Vec<Seed> {
             .map(|l| format!("{l}\n"))
             .collect();
         out.push(text("robot_toml", &format!("{name}-bare"), &bare));
+    }
+    for (name, t) in LAYOUTS {
+        out.push(text("robot_toml", name, t));
     }
     out
 }
@@ -541,7 +561,7 @@ fn planned_csv(robot: &str, rows: usize) -> Vec<u8> {
     out
 }
 
-/// CSV tables: plans (sphere, caster) from the planner, a tracked run, encoder logs and
+/// CSV tables: plans (sphere, caster, mecanum, swerve4) from the planner, a tracked run, encoder logs and
 /// camera fixes.
 pub fn csv_tables() -> Vec<Seed> {
     let mut out = vec![
@@ -554,6 +574,16 @@ pub fn csv_tables() -> Vec<Seed> {
             "csv_tables",
             "seed-plan-caster".into(),
             planned_csv("caster3", 12),
+        ),
+        (
+            "csv_tables",
+            "seed-plan-mecanum".into(),
+            planned_csv("mecanum", 12),
+        ),
+        (
+            "csv_tables",
+            "seed-plan-swerve4".into(),
+            planned_csv("swerve4", 12),
         ),
     ];
     out.push(text(
@@ -575,6 +605,11 @@ pub fn csv_tables() -> Vec<Seed> {
         "csv_tables",
         "encoder-log-caster",
         "t,q1,q2,q3,s1,s2,s3\n0,0,0,0,0,0,0\n0.01,0.02,0.02,0.02,0.001,0.001,0.001\n",
+    ));
+    out.push(text(
+        "csv_tables",
+        "encoder-log-swerve4",
+        "t,q1,q2,q3,q4,s1,s2,s3,s4,gyro_z\n0,0,0,0,0,2.11,1.03,-2.82,-0.32,1.0\n0.01,0.117,0.117,0.063,0.063,2.12,1.04,-2.81,-0.31,1.0\n",
     ));
     out.push(text(
         "csv_tables",

@@ -16,6 +16,22 @@ pub fn finite_f64(s: &str) -> Result<f64, String> {
     }
 }
 
+/// An angle flag (`--heading`, `--yaw`), rad: finite and within
+/// ±[`omnikin_plan::limits::MAX_HEADING`] (a heading of 1e308 rad has no direction left in
+/// it, and was used as one).
+pub fn angle_rad(s: &str) -> Result<f64, String> {
+    let v = finite_f64(s)?;
+    let max = omnikin_plan::limits::MAX_HEADING;
+    if v.abs() <= max {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{} rad is outside the plausible range [-{max:e}, {max:e}] rad",
+            num(v)
+        ))
+    }
+}
+
 /// A finite number within `[min, max]` (`unit` in the message): the edge check of every
 /// duration, rate and count-like float flag whose value becomes a wait or a schedule.
 pub fn in_range(s: &str, min: f64, max: f64, unit: &str) -> Result<f64, String> {
@@ -81,7 +97,8 @@ pub fn duration(what: &str, secs: f64) -> anyhow::Result<std::time::Duration> {
     })
 }
 
-/// Three finite numbers given as `A,B,C` (one per wheel).
+/// Three finite numbers given as `A,B,C` (the components of one quantity: model torques, a
+/// body wrench, a pose; the flag's value name says which).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Triple(pub [f64; 3]);
 
@@ -91,7 +108,7 @@ impl FromStr for Triple {
         let parts: Vec<&str> = s.split(',').collect();
         if parts.len() != 3 {
             return Err(format!(
-                "expected three comma-separated numbers like 1.2,-0.5,3 (one per wheel), got {} in \"{s}\"",
+                "expected three comma-separated numbers like 1.2,-0.5,3, got {} in \"{s}\"",
                 parts.len()
             ));
         }
@@ -138,6 +155,17 @@ impl List {
                 self.0.len()
             )
         }
+    }
+}
+
+/// A number for a message: plain, or `1e300` style when tiny or huge, so that a bad value of
+/// 1e308 is not quoted as a 309-digit number.
+pub fn num(v: f64) -> String {
+    let a = v.abs();
+    if a != 0.0 && a.is_finite() && !(1e-4..1e9).contains(&a) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
     }
 }
 

@@ -45,11 +45,21 @@ fn warn_limits(what: &str, rates: &[f64], limit: Option<f64>, key: &str) {
     if let Some(max) = limit {
         for (i, r) in rates.iter().enumerate() {
             if r.abs() > max {
-                crate::errln!(
-                    "warning: {what} {} = {r:.6} rad/s exceeds limits.{key} = {max} rad/s (by {:.1} %)",
-                    i + 1,
-                    (r.abs() / max - 1.0) * 100.0
-                );
+                let excess = (r.abs() / max - 1.0) * 100.0;
+                if r.abs() < 1e9 {
+                    crate::errln!(
+                        "warning: {what} {} = {r:.6} rad/s exceeds limits.{key} = {max} rad/s (by {excess:.1} %)",
+                        i + 1,
+                    );
+                } else {
+                    // A 1e200 rad/s rate is not printed as 200 digits.
+                    crate::errln!(
+                        "warning: {what} {} = {} rad/s exceeds limits.{key} = {max} rad/s (by {} %)",
+                        i + 1,
+                        crate::args::num(*r),
+                        crate::args::num(excess)
+                    );
+                }
             }
         }
     }
@@ -83,6 +93,16 @@ fn steer_of(robot: &Robot<f64>, steer: &Option<List>, name: &str) -> Result<[f64
             ));
         }
         out[..robot.wheels()].copy_from_slice(l.exactly(robot.wheels(), "--steer", name)?);
+        // As `plan --initial-steer`: an angle of 1e308 rad has no direction left in it.
+        let max = omnikin_plan::limits::MAX_HEADING;
+        if let Some((i, g)) = out.iter().enumerate().find(|(_, g)| g.abs() > max) {
+            anyhow::bail!(
+                "--steer: item {}: {} rad is outside the plausible range [-{max:e}, {max:e}] rad \
+                 (omnikin_plan::limits)",
+                i + 1,
+                crate::args::num(*g)
+            );
+        }
     }
     Ok(out)
 }

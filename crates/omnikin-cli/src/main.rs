@@ -1,4 +1,4 @@
-//! `omnikin`: kinematics of three-wheeled omnidirectional robots from the terminal.
+//! `omnikin`: kinematics of omnidirectional wheeled robots from the terminal.
 //!
 //! Thin glue over the `omnikin` library: argument parsing and validation here, physics there.
 //! The command-line contract (command names, flags, JSON keys) is fixed by the project's
@@ -19,16 +19,18 @@ mod plan;
 mod plot;
 mod robot;
 mod sim;
+mod steer_steps;
 mod teleop;
 
 use args::{List, Triple, finite_f64};
 
-/// Kinematics of three-wheeled omnidirectional robots: a sphere rolled by an internal
-/// omni-wheel platform (sphere-omni), a ball-balancing robot (ballbot) and a base on three
-/// off-centred steerable wheels (caster3).
+/// Kinematics of omnidirectional wheeled robots: a sphere rolled by an internal omni-wheel
+/// platform (sphere-omni), a ball-balancing robot (ballbot), a base on three off-centred
+/// steerable wheels (caster3), N omni or mecanum wheels (omni: kiwi, x-drive, mecanum) and N
+/// centred swerve modules (swerve: swerve4).
 ///
-/// ROBOT is a preset name (sphere-omni, ballbot, caster3) or the path of a TOML robot
-/// description (see robots/*.toml). Units are SI: m, s, rad, rad/s, N·m. Frames: x forward,
+/// ROBOT is a preset name (sphere-omni, ballbot, caster3, kiwi, x-drive, mecanum, swerve4) or
+/// the path of a TOML robot description (see robots/*.toml). Units are SI: m, s, rad, rad/s, N·m. Frames: x forward,
 /// y left, z up, angles counter-clockwise.
 #[derive(Parser, Debug)]
 #[command(name = "omnikin", version, about, long_about)]
@@ -47,15 +49,18 @@ enum Command {
     ///
     /// sphere-omni: shell-centre velocity and platform yaw rate (paper 000, eqs. 5.6-5.7).
     /// ballbot: ball-centre velocity and body yaw rate (paper 001). caster3: roll and steer
-    /// rates for the given steer angles (paper 003, eq. 2).
+    /// rates for the given steer angles (paper 003, eq. 2). omni: one rate per wheel. swerve:
+    /// wheel rates (≥ 0 unless the file optimises steering) and steer angles per module.
     Inverse(InverseArgs),
     /// Body motion produced by wheel (and steer) rates (forward kinematics).
     ///
-    /// caster3 needs all six motor rates and fits the motion by least squares; the slip
+    /// caster3 needs all six motor rates, omni bases with more than three wheels and swerve
+    /// drives are over-determined too: the motion is the least-squares fit, and the slip
     /// residual (m/s) says how inconsistent the rates are.
     Forward(ForwardArgs),
-    /// Ballbot torque maps: model torques (Tx, Ty, Tz) <-> wheel torques (T1, T2, T3)
-    /// (paper 001, corrected per errata E2-E3).
+    /// Torque maps: the ballbot's model torques (Tx, Ty, Tz) <-> wheel torques (T1, T2, T3)
+    /// (paper 001, corrected per errata E2-E3), or an omni/swerve base's body wrench
+    /// (Fx, Fy, Mz) <-> wheel torques (T1, …, TN).
     Torques(TorquesArgs),
     /// Validate a robot description and print its derived geometry, conditioning and limits.
     Check(CheckArgs),
@@ -70,7 +75,7 @@ enum Command {
     /// Re-run a paper's whole experiment design in simulation and tabulate our figures next
     /// to the paper's (sphere-2019: paper 000's squares and circles at four speeds).
     Reproduce(sim::ReproduceArgs),
-    /// Wheel odometry over an encoder log (t,q1,q2,q3[,s1,s2,s3][,gyro_z][,yaw]), optionally
+    /// Wheel odometry over an encoder log (t,q1..qN[,s1..sN][,gyro_z][,yaw]), optionally
     /// with the IMU heading and fused with camera fixes; writes t,x,y,heading.
     Odometry(odometry::OdometryArgs),
     /// Run the robot side of the link: the fixed-rate control loop (limits, watchdog, e-stop)
@@ -100,7 +105,7 @@ pub struct InverseArgs {
     #[arg(long)]
     pub world: bool,
     /// Heading (yaw of the robot frame in the world frame), rad.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = args::angle_rad)]
     pub heading: f64,
     /// Spin of the shell (sphere-omni) or ball (ballbot) about the vertical, rad/s.
     #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
@@ -137,7 +142,7 @@ pub struct ForwardArgs {
     #[arg(long, allow_hyphen_values = true, value_name = "S1,S2,S3")]
     pub steer_rates: Option<List>,
     /// Heading, rad: report the twist in the world frame (default: robot frame).
-    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+    #[arg(long, allow_hyphen_values = true, value_parser = args::angle_rad)]
     pub heading: Option<f64>,
     /// Assumed spin of the shell (sphere-omni) or ball (ballbot) about the vertical, rad/s
     /// (default 0: not observable from the wheels).
@@ -165,7 +170,7 @@ pub struct TorquesArgs {
     #[arg(long, allow_hyphen_values = true, value_name = "T1,…,TN")]
     pub wheels: Option<List>,
     /// ballbot: body yaw, rad: model torques are in the frame rotated by it (0: body frame).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = args::angle_rad)]
     pub yaw: f64,
     /// swerve only: steer angles G1,…,GN, rad (default 0).
     #[arg(long, allow_hyphen_values = true, value_name = "G1,…,GN")]

@@ -116,6 +116,30 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     } else {
         Vec::new()
     };
+    // A log of another robot: more wheel columns, or steer angles the robot does not have,
+    // were ignored and the odometry of the wrong robot written without a word.
+    let extra = if steerable {
+        format!("s{}", n + 1)
+    } else {
+        "s1".to_string()
+    };
+    for col in [format!("q{}", n + 1), extra] {
+        if log.col(&col).is_some() {
+            bail!(
+                "{}:1: column {col}: {} ({}) has {n} wheels{}, but the log has {col}: is it \
+                 the log of another robot? (header: {})",
+                log.file,
+                description.name,
+                description.kind(),
+                if steerable {
+                    " with steering"
+                } else {
+                    " and no steering"
+                },
+                omnikin::description::excerpt(&log.header.join(","))
+            );
+        }
+    }
     enum Source {
         Wheels,
         Gyro(usize),
@@ -172,6 +196,33 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         }
         for (i, &c) in s.iter().enumerate() {
             reading.steer_angles[i] = at(c) * scale;
+        }
+        // Finite but meaningless angles and rates (a steer angle of 1e308 rad was used as
+        // is): held to the plan file's bounds, naming the line and column.
+        let bounded = |col: usize, max: f64, unit: &str| -> Result<()> {
+            if at(col).abs() > max {
+                bail!(
+                    "{}:{line}: column {}: {} {unit} is outside the plausible range [-{max:e}, \
+                     {max:e}] {unit} (omnikin_plan::limits)",
+                    log.file,
+                    log.header[col],
+                    crate::args::num(at(col))
+                );
+            }
+            Ok(())
+        };
+        for &c in &s {
+            let unit = if args.counts_per_rev.is_some() {
+                "counts"
+            } else {
+                "rad"
+            };
+            bounded(c, omnikin_plan::limits::MAX_HEADING / scale.min(1.0), unit)?;
+        }
+        match source {
+            Source::Wheels => {}
+            Source::Gyro(g) => bounded(g, omnikin_plan::limits::MAX_PLAN_RATE, "rad/s")?,
+            Source::Yaw(y) => bounded(y, omnikin_plan::limits::MAX_HEADING, "rad")?,
         }
         let heading = match source {
             Source::Wheels => HeadingInput::Wheels,
@@ -249,9 +300,13 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     // Kinds fitted by least squares (more motors than the twist has components) report slip.
     if robot.motors() > 3 {
         crate::errln!(
-            "largest slip residual {:.4} m/s at t = {} s",
-            max_slip.0,
-            max_slip.1
+            "largest slip residual {} m/s at t = {} s",
+            if max_slip.0 < 1e9 {
+                format!("{:.4}", max_slip.0)
+            } else {
+                crate::args::num(max_slip.0)
+            },
+            crate::args::num(max_slip.1)
         );
     }
     if spin_sum.1 > 0 {

@@ -133,7 +133,21 @@ pub fn config(a: &RobotArgs, desc: &RobotDescription) -> Result<Config<f64>> {
     Ok(c)
 }
 
-const LOG_HEADER: &str = "t,x,y,heading,true_x,true_y,true_heading,cmd_vx,cmd_vy,cmd_yaw_rate,w1,w2,w3,mode,faults,plan_time,ref_x,ref_y,ref_heading,last_command_t,rejected,rx_ok,rx_dropped";
+/// The `--log` header: one wheel-rate command `w1..wN` per wheel, and for kinds with steering
+/// one steer-rate command `sd1..sdN` per module (the log had `w1,w2,w3` for every kind, so a
+/// four-wheel robot's fourth wheel and every steer motor were not recorded).
+fn log_header(wheels: usize, steer: bool) -> String {
+    let mut h = String::from("t,x,y,heading,true_x,true_y,true_heading,cmd_vx,cmd_vy,cmd_yaw_rate");
+    for i in 1..=wheels {
+        h += &format!(",w{i}");
+    }
+    if steer {
+        for i in 1..=wheels {
+            h += &format!(",sd{i}");
+        }
+    }
+    h + ",mode,faults,plan_time,ref_x,ref_y,ref_heading,last_command_t,rejected,rx_ok,rx_dropped"
+}
 
 /// Runs the simulated robot until `--max-time` (or forever).
 pub fn run(a: &RobotArgs) -> Result<()> {
@@ -146,6 +160,12 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     let robot: Robot<f64> = desc.build()?;
     let cfg = config(a, &desc)?;
     let prof = profile(a.disturbances.as_deref())?;
+    // A profile file that does not fit the robot (the built-in ones are for every kind).
+    if let Some(file) = a.disturbances.as_deref()
+        && !["ideal", "hardware", "spin-slip"].contains(&file)
+    {
+        crate::sim::warn_unused_sections(&prof, &robot, file);
+    }
     let key = a.key.as_deref().map(load_key).transpose()?;
     let addr = parse_address(&a.listen, "--listen")?;
     if key.is_none()
@@ -169,7 +189,8 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     let mut log = match &a.log {
         Some(p) => {
             let mut w = crate::output::OutFile::log("--log", p)?;
-            writeln!(w, "{LOG_HEADER}").context("--log: cannot write")?;
+            writeln!(w, "{}", log_header(robot.wheels(), robot.steerable()))
+                .context("--log: cannot write")?;
             Some(w)
         }
         None => None,
@@ -301,9 +322,19 @@ pub fn run(a: &RobotArgs) -> Result<()> {
             let s = &status;
             let tp = plant.true_pose();
             let c = robot_link.counters();
+            let n = robot.wheels();
+            let mut motors = String::new();
+            for r in &s.motors.wheel[..n] {
+                motors += &format!("{r:.6},");
+            }
+            if robot.steerable() {
+                for r in &s.motors.steer[..n] {
+                    motors += &format!("{r:.6},");
+                }
+            }
             writeln!(
                 w,
-                "{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{}",
+                "{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{motors}{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{}",
                 s.time_us as f64 * 1e-6,
                 s.pose.x,
                 s.pose.y,
@@ -314,9 +345,6 @@ pub fn run(a: &RobotArgs) -> Result<()> {
                 s.command.vx,
                 s.command.vy,
                 s.command.yaw_rate,
-                s.motors.wheel[0],
-                s.motors.wheel[1],
-                s.motors.wheel[2],
                 s.mode,
                 s.faults,
                 s.plan_time,

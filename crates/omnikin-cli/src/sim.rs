@@ -250,6 +250,25 @@ pub fn print_summary(m: &Metrics) {
     }
 }
 
+/// Warns about the sections of a disturbance profile that `robot`'s kind does not simulate: a
+/// `[shell_spin]` without a shell or ball, a `[steer_motor]` without steering (they were
+/// ignored without a word, so a mecanum "with spin slip" ran as if ideal).
+pub fn warn_unused_sections(profile: &Profile, robot: &omnikin::Robot<f64>, file: &str) {
+    let kind = robot.kind().name();
+    if !robot.kind().has_vertical_spin() && profile.shell_spin != Default::default() {
+        crate::errln!(
+            "warning: {file}: [shell_spin] applies to sphere-omni and ballbot only; robot kind \
+             {kind} ignores it (for slip on the floor use [floor])"
+        );
+    }
+    if !robot.steerable() && profile.steer_motor != Default::default() {
+        crate::errln!(
+            "warning: {file}: [steer_motor] applies to kinds with steering (caster3, swerve) \
+             only; robot kind {kind} ignores it"
+        );
+    }
+}
+
 pub fn simulate(a: &SimulateArgs) -> Result<()> {
     let d = RobotDescription::resolve(&a.robot)?;
     let robot = d.build::<f64>()?;
@@ -258,8 +277,29 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
         Some(p) => Profile::load(p)?,
         None => Profile::default(),
     };
+    if let Some(file) = &a.disturbances {
+        warn_unused_sections(&profile, &robot, &file.display().to_string());
+    }
     if let Some(why) = omnikin_sim::plan_mismatch(&robot, &plan) {
         crate::errln!("warning: {}: {why}", a.plan.display());
+    }
+    use crate::steer_steps::{
+        MAX_SIMULATED_STEER_STEP, MAX_UNEXPLAINED_STEER_STEP, unexplained_steer_step,
+    };
+    if let Some(step) = unexplained_steer_step(&plan, MAX_SIMULATED_STEER_STEP) {
+        anyhow::bail!(
+            "{}: {step}: the simulator turns the steer motors by the sd columns, so it would \
+             not follow this plan: {}",
+            a.plan.display(),
+            step.cause()
+        );
+    } else if let Some(step) = unexplained_steer_step(&plan, MAX_UNEXPLAINED_STEER_STEP) {
+        crate::errln!(
+            "warning: {}: {step}: the simulated steering will differ from the plan's by about \
+             that much: {}",
+            a.plan.display(),
+            step.cause()
+        );
     }
     let sensors = if a.emit_sensors {
         Some(sensor_profile(a.sensors.as_deref())?)

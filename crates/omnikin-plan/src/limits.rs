@@ -113,6 +113,12 @@ pub const MAX_COORDINATE: f64 = 1e6;
 /// Largest heading magnitude (waypoint headings, constant headings, offsets; unwrapped), rad.
 pub const MAX_HEADING: f64 = 1e6;
 
+/// Largest magnitude of a rate in a plan file (`yaw_rate`, wheel rates `w1…`, steer rates
+/// `sd1…`), rad/s: the largest motor rate a robot file may allow
+/// ([`omnikin::description::MOTOR_RATE_RANGE`]). A plan's positions and velocities are held to
+/// [`MAX_COORDINATE`] (m, m/s), its headings and steer angles to [`MAX_HEADING`].
+pub const MAX_PLAN_RATE: f64 = omnikin::description::MOTOR_RATE_RANGE.1;
+
 /// Largest spin while translating (heading change per metre of path), rad/m.
 pub const MAX_SPIN: f64 = 1e3;
 

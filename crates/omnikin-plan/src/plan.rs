@@ -321,11 +321,23 @@ impl Plan {
                         ),
                     )
                 })?;
-                if v.is_finite() {
-                    Ok(v)
-                } else {
-                    Err(err(Some(line), format!("column {name}: {s} is not finite")))
+                if !v.is_finite() {
+                    return Err(err(Some(line), format!("column {name}: {s} is not finite")));
                 }
+                // Finite but implausible values (a steer rate of 1e308 rad/s was simulated
+                // without a word): each column is held to the bound of what it means.
+                let (max, unit, limit) = column_bound(name);
+                if v.abs() > max {
+                    return Err(err(
+                        Some(line),
+                        format!(
+                            "column {name}: {} {unit} is outside the plausible range [-{max:e}, \
+                             {max:e}] {unit} (the limit {limit} of omnikin_plan::limits)",
+                            omnikin::description::excerpt(s)
+                        ),
+                    ));
+                }
+                Ok(v)
             };
             let mut v = [0.0; 7];
             for c in 0..7 {
@@ -368,6 +380,24 @@ impl Plan {
             return Err(err(None, "no samples after the header".into()));
         }
         Ok(Self { wheels, samples })
+    }
+}
+
+/// The magnitude bound of a plan column, its unit and the constant's name: positions and
+/// velocities [`crate::limits::MAX_COORDINATE`], headings and steer angles
+/// [`crate::limits::MAX_HEADING`], rates [`crate::limits::MAX_PLAN_RATE`]; `t` is unbounded
+/// here (the simulator bounds the work a duration needs).
+fn column_bound(name: &str) -> (f64, &'static str, &'static str) {
+    use crate::limits::{MAX_COORDINATE, MAX_HEADING, MAX_PLAN_RATE};
+    match name {
+        "t" => (f64::INFINITY, "s", "none"),
+        "x" | "y" => (MAX_COORDINATE, "m", "MAX_COORDINATE"),
+        "vx" | "vy" => (MAX_COORDINATE, "m/s", "MAX_COORDINATE"),
+        "heading" => (MAX_HEADING, "rad", "MAX_HEADING"),
+        n if n.starts_with("sd") || n.starts_with('w') || n == "yaw_rate" => {
+            (MAX_PLAN_RATE, "rad/s", "MAX_PLAN_RATE")
+        }
+        _ => (MAX_HEADING, "rad", "MAX_HEADING"),
     }
 }
 

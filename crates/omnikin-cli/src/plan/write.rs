@@ -38,6 +38,16 @@ pub(super) fn finish(
         plan_figure("--plot", svg, &title, plan, robot)?;
     }
     summary(c, d, robot, what, planned);
+    if let Some(step) = crate::steer_steps::unexplained_steer_step(
+        plan,
+        crate::steer_steps::MAX_UNEXPLAINED_STEER_STEP,
+    ) {
+        crate::errln!(
+            "warning: {step}: the steer-rate peak above and the limits do not cover it, and \
+             `omnikin simulate` may refuse this plan: {}",
+            step.cause()
+        );
+    }
     Ok(())
 }
 

@@ -84,13 +84,14 @@ struct CasterGeometry {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct OmniGeometry {
-    wheels: std::vec::Vec<OmniWheelFile>,
+    wheels: std::vec::Vec<toml::Spanned<OmniWheelFile>>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct OmniWheelFile {
-    position: [f64; 2],
+    /// A list, not `[f64; 2]`: a fixed-size array silently dropped a third value.
+    position: List,
     drive_angle_deg: f64,
     roller_angle_deg: f64,
     radius: f64,
@@ -101,13 +102,14 @@ struct OmniWheelFile {
 struct SwerveGeometry {
     #[serde(default)]
     optimize_steering: bool,
-    modules: std::vec::Vec<SwerveModuleFile>,
+    modules: std::vec::Vec<toml::Spanned<SwerveModuleFile>>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SwerveModuleFile {
-    position: [f64; 2],
+    /// A list, checked to hold two values (see `OmniWheelFile::position`).
+    position: List,
     wheel_radius: f64,
 }
 
@@ -132,6 +134,17 @@ pub(super) fn parse(
                 Some(line_of(l.span().start)),
                 field,
                 format!("expected 3 values (one per wheel), got {}", v.len()),
+            )),
+        }
+    };
+    // A position: exactly [x, y].
+    let two = |l: &List, field: &str| -> Result<[f64; 2], DescriptionError> {
+        match l.get_ref().as_slice() {
+            &[x, y] => Ok([x, y]),
+            v => Err(err(
+                Some(line_of(l.span().start)),
+                field,
+                format!("expected 2 values [x, y] (m, robot frame), got {}", v.len()),
             )),
         }
     };
@@ -200,36 +213,83 @@ pub(super) fn parse(
         }
         "omni" => {
             let f: File<OmniGeometry> = toml::from_str(text).map_err(de_err)?;
+            let lines: std::vec::Vec<usize> = f
+                .geometry
+                .wheels
+                .iter()
+                .map(|w| line_of(w.span().start))
+                .collect();
+            count(lines.len(), 3, "wheels", source_name, "omni")?;
+            let mut positions = std::vec::Vec::with_capacity(lines.len());
+            for (i, w) in f.geometry.wheels.iter().enumerate() {
+                let w = w.get_ref();
+                let at = |key: &str| format!("geometry.wheels[{i}].{key}");
+                let position = two(&w.position, &at("position"))?;
+                positions.push(position);
+                angle_in(
+                    w.roller_angle_deg,
+                    90.0,
+                    false,
+                    "0 for omni wheels, ±45 for mecanum: rollers across the drive direction \
+                     cannot push",
+                )
+                .map_err(|rule| err(Some(lines[i]), &at("roller_angle_deg"), rule))?;
+                angle_in(
+                    w.drive_angle_deg,
+                    720.0,
+                    true,
+                    "a direction from robot +x, counter-clockwise, within two turns",
+                )
+                .map_err(|rule| err(Some(lines[i]), &at("drive_angle_deg"), rule))?;
+                wheel_lengths(position, w.radius, "radius")
+                    .map_err(|(key, rule)| err(Some(lines[i]), &at(key), rule))?;
+            }
+            distinct(&positions, "wheels", &lines, err)?;
             let wheels: std::vec::Vec<OmniWheel<f64>> = f
                 .geometry
                 .wheels
                 .iter()
-                .map(|w| {
+                .zip(&positions)
+                .map(|(w, &position)| {
+                    let w = w.get_ref();
                     OmniWheel::at_angle(
-                        w.position,
+                        position,
                         w.drive_angle_deg.to_radians(),
                         w.roller_angle_deg.to_radians(),
                         w.radius,
                     )
                 })
                 .collect();
-            Robot::<f64>::omni(&wheels).map_err(|e| geometry_error(e, source_name, "omni"))?;
+            Robot::<f64>::omni(&wheels)
+                .map_err(|e| with_line(geometry_error(e, source_name, "omni"), &lines))?;
             (f.name, Geometry::Omni(wheels), f.limits)
         }
         "swerve" => {
             let f: File<SwerveGeometry> = toml::from_str(text).map_err(de_err)?;
-            let modules: std::vec::Vec<SwerveModule<f64>> = f
+            let lines: std::vec::Vec<usize> = f
                 .geometry
                 .modules
                 .iter()
-                .map(|m| SwerveModule {
-                    position: m.position,
-                    wheel_radius: m.wheel_radius,
-                })
+                .map(|m| line_of(m.span().start))
                 .collect();
+            count(lines.len(), 2, "modules", source_name, "swerve")?;
+            let mut modules = std::vec::Vec::with_capacity(lines.len());
+            for (i, m) in f.geometry.modules.iter().enumerate() {
+                let m = m.get_ref();
+                let at = |key: &str| format!("geometry.modules[{i}].{key}");
+                let position = two(&m.position, &at("position"))?;
+                wheel_lengths(position, m.wheel_radius, "wheel_radius")
+                    .map_err(|(key, rule)| err(Some(lines[i]), &at(key), rule))?;
+                modules.push(SwerveModule {
+                    position,
+                    wheel_radius: m.wheel_radius,
+                });
+            }
+            let positions: std::vec::Vec<[f64; 2]> = modules.iter().map(|m| m.position).collect();
+            distinct(&positions, "modules", &lines, err)?;
             let optimize = f.geometry.optimize_steering;
             Robot::<f64>::swerve(&modules, optimize)
-                .map_err(|e| geometry_error(e, source_name, "swerve"))?;
+                .map_err(|e| with_line(geometry_error(e, source_name, "swerve"), &lines))?;
             (f.name, Geometry::Swerve { modules, optimize }, f.limits)
         }
         other => {
@@ -240,6 +300,137 @@ pub(super) fn parse(
             ));
         }
     })
+}
+
+/// Checks an angle in degrees from a robot file: finite and within `±max` (inclusive when
+/// `inclusive`); the rule quotes `what` the angle is.
+fn angle_in(v: f64, max: f64, inclusive: bool, what: &str) -> Result<(), String> {
+    let ok = v.is_finite()
+        && if inclusive {
+            v.abs() <= max
+        } else {
+            v.abs() < max
+        };
+    if ok {
+        return Ok(());
+    }
+    let (open, close) = if inclusive { ("[", "]") } else { ("(", ")") };
+    Err(format!(
+        "{} degrees is outside {open}-{max}, {max}{close} ({what})",
+        num(v)
+    ))
+}
+
+/// Checks one wheel's (module's) position and radius against [`LENGTH_RANGE`] before any
+/// model is built, so that a 1e308 m radius is reported as implausible rather than as the
+/// ill-conditioned matrix it makes: `Err((key, rule))`.
+fn wheel_lengths(
+    position: [f64; 2],
+    radius: f64,
+    radius_key: &'static str,
+) -> Result<(), (&'static str, String)> {
+    let (min, max) = LENGTH_RANGE;
+    if !(position[0].is_finite() && position[1].is_finite()) {
+        return Err((
+            "position",
+            format!("must be finite (got [{}, {}])", position[0], position[1]),
+        ));
+    }
+    let p = position[0].hypot(position[1]);
+    if p > max {
+        return Err((
+            "position",
+            format!(
+                "is {} m from the robot origin, outside the plausible range [0, {}] m \
+                 (omnikin::description)",
+                num(p),
+                num(max)
+            ),
+        ));
+    }
+    if !radius.is_finite() {
+        return Err((radius_key, format!("must be finite (got {radius})")));
+    }
+    if radius <= 0.0 {
+        return Err((radius_key, format!("must be > 0 (got {})", num(radius))));
+    }
+    if !(min..=max).contains(&radius) {
+        return Err((
+            radius_key,
+            format!(
+                "{} m is outside the plausible range [{}, {}] m (omnikin::description)",
+                num(radius),
+                num(min),
+                num(max)
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Refuses two wheels (modules) whose contact points are closer than the smallest plausible
+/// length ([`LENGTH_RANGE`], 0.1 mm): two wheels cannot touch the floor at one point (a table
+/// copied without editing it), and a layout that small turns encoder noise into huge yaw rates.
+fn distinct(
+    positions: &[[f64; 2]],
+    list: &str,
+    lines: &[usize],
+    err: Err<'_>,
+) -> Result<(), DescriptionError> {
+    for j in 1..positions.len() {
+        for i in 0..j {
+            let d = (positions[j][0] - positions[i][0]).hypot(positions[j][1] - positions[i][1]);
+            if d < LENGTH_RANGE.0 {
+                return Err(err(
+                    Some(lines[j]),
+                    &format!("geometry.{list}[{j}].position"),
+                    format!(
+                        "is {} m from geometry.{list}[{i}].position (line {}): contact points \
+                         must be at least {} m apart (two {list} cannot touch the floor at one \
+                         point; omnikin::description)",
+                        num(d),
+                        lines[i],
+                        num(LENGTH_RANGE.0)
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Refuses a wheel (module) count outside `min..=MAX_WHEELS` before any per-wheel check (a
+/// 1 MiB file of 15 000 wheels is not compared pairwise): the model's own count error.
+fn count(
+    n: usize,
+    min: usize,
+    field: &'static str,
+    source_name: &str,
+    kind: &str,
+) -> Result<(), DescriptionError> {
+    if (min..=crate::MAX_WHEELS).contains(&n) {
+        return Ok(());
+    }
+    let e = GeometryError::WheelCount {
+        field,
+        got: n,
+        min,
+        max: crate::MAX_WHEELS,
+    };
+    Err(geometry_error(e, source_name, kind))
+}
+
+/// Adds the line of the wheel (module) a model error names (`geometry.wheels[i]…`).
+fn with_line(mut e: DescriptionError, lines: &[usize]) -> DescriptionError {
+    let index = e
+        .field
+        .split_once('[')
+        .and_then(|(_, rest)| rest.split_once(']'))
+        .and_then(|(i, _)| i.parse::<usize>().ok());
+    if let Some(&line) = index.and_then(|i| lines.get(i)) {
+        e.line = Some(line);
+    }
+    e
 }
 
 /// Checks every length of `geometry` against [`LENGTH_RANGE`] (`range` reports one).
@@ -400,11 +591,25 @@ fn geometry_error(e: GeometryError, source_name: &str, kind: &str) -> Descriptio
         GeometryError::WheelCount { field, .. } => field,
     };
     if kind == "omni" || kind == "swerve" {
+        // The core's generic "(wheels nearly coplanar or parallel)" is about the paper robots'
+        // 3-D wheel axes; for a floor layout say what the rank test found.
+        let rule = match e {
+            GeometryError::IllConditioned {
+                what,
+                condition,
+                max,
+            } => format!(
+                "rank-deficient layout: {what} (condition number {} exceeds {})",
+                num(condition),
+                num(max)
+            ),
+            _ => e.to_string(),
+        };
         return DescriptionError {
             source_name: source_name.to_string(),
             line: None,
             field: drive_key(&e, core_field, kind),
-            rule: e.to_string(),
+            rule,
         };
     }
     let base = core_field.split('[').next().unwrap_or(core_field);

@@ -1,0 +1,85 @@
+//! A plan's steer angles against its steer rates. The simulator (and any steer motor driven by
+//! rate) moves a module by the plan's `sd` columns; a plan whose `s` columns step between two
+//! samples by more than those rates account for cannot be followed: a swerve plan re-steering
+//! its modules at a stop (the planner keeps a stopped module's angle and points it along the
+//! next motion at the first sample of that motion, with `sd = 0`) simulated as if the modules
+//! never turned — an ideal-plant square ended 1.6 m from its end point, with exit code 0.
+
+use omnikin_plan::Plan;
+
+/// Largest accepted distance of a steer-angle step from the range the steer rates allow over
+/// its interval, rad (0.57°), on top of that range's own width. The range is `dt` times the
+/// rates between the two samples' rates; widened by its width again, it covers a kink of the
+/// steer rate between two samples (a spline waypoint) and a coarse plan (5 Hz) whose rates
+/// vary within an interval, but not a re-steer at rest (both rates 0: width 0).
+pub const MAX_UNEXPLAINED_STEER_STEP: f64 = 1e-2;
+
+/// The unexplained steer step, rad (5.7°), beyond which `simulate` refuses a plan rather than
+/// warning: the simulated modules would point elsewhere than planned for the rest of the run.
+pub const MAX_SIMULATED_STEER_STEP: f64 = 0.1;
+
+/// A steer step that the plan's steer rates do not explain.
+pub struct SteerStep {
+    /// 1-based module.
+    pub module: usize,
+    /// The two sample times, s.
+    pub t: (f64, f64),
+    /// The step of the angle (wrapped to (−π, π]), rad.
+    pub step: f64,
+    /// The step the steer rates allow over the interval: `dt` times the two samples' rates,
+    /// rad (the step may lie anywhere between them).
+    pub by_rates: (f64, f64),
+}
+
+impl SteerStep {
+    /// Why the plan steps: a re-steer at rest (both samples' steer rates 0), or samples too
+    /// far apart for the steering.
+    pub fn cause(&self) -> &'static str {
+        if self.by_rates == (0.0, 0.0) {
+            "the modules are re-steered at a stop without a planned turn (`omnikin plan` does \
+             not yet time a re-steer in place; a path without stops avoids it: a circle, or \
+             waypoints with `--corners fillet` under the constant heading law)"
+        } else {
+            "the samples are too far apart for the steering (plan it at a higher --rate)"
+        }
+    }
+}
+
+impl std::fmt::Display for SteerStep {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let i = self.module;
+        write!(
+            f,
+            "s{i} steps by {:.4} rad between t = {} s and t = {} s, but its steer rate sd{i} \
+             accounts for {:.4} to {:.4} rad ({:.0} rad/s would be needed)",
+            self.step,
+            self.t.0,
+            self.t.1,
+            self.by_rates.0,
+            self.by_rates.1,
+            self.step.abs() / (self.t.1 - self.t.0)
+        )
+    }
+}
+
+/// The first interval of `plan` whose steer-angle step lies more than `tolerance` (rad,
+/// [`MAX_UNEXPLAINED_STEER_STEP`] or [`MAX_SIMULATED_STEER_STEP`]) plus the range's width
+/// outside what its steer rates allow; `None` for a consistent plan or one without steering.
+pub fn unexplained_steer_step(plan: &Plan, tolerance: f64) -> Option<SteerStep> {
+    let n = plan.wheels;
+    plan.samples.windows(2).find_map(|w| {
+        let ((ga, gda), (gb, gdb)) = (w[0].steer?, w[1].steer?);
+        let dt = w[1].t - w[0].t;
+        (0..n).find_map(|i| {
+            let step = omnikin::wrap_angle(gb[i] - ga[i]);
+            let (lo, hi) = (gda[i].min(gdb[i]) * dt, gda[i].max(gdb[i]) * dt);
+            let off = (lo - step).max(step - hi).max(0.0);
+            (off > tolerance + (hi - lo)).then_some(SteerStep {
+                module: i + 1,
+                t: (w[0].t, w[1].t),
+                step,
+                by_rates: (lo, hi),
+            })
+        })
+    })
+}
