@@ -100,6 +100,20 @@
 //! `m_p g h sin θ = a (M R − m_p h cos θ + I_s/R)`, i.e.
 //! `m_p h sin θ = (a/g)(M z_cm + I_s/R)` with `z_cm = R − m_p h cos θ / M`.
 //!
+//! **The lean grows a circle** (an emergent result; the seed digest's first-order note has the
+//! opposite sign). In a circle of radius `r` at speed `v` (`ω0 = v/r`) the centre of mass,
+//! `h` *below* the shell centre, must move *inward* by the lean `θ` above, so the platform's
+//! z axis (its top) tilts *outward*. The wheels impose `ω̃ = (0, v/R, −ω0)` about the tilted
+//! platform axes: in the world that is a roll `(v/R) cos θ + ω0 sin θ` about the horizontal
+//! and `(v/R) sin θ − ω0 cos θ` about the vertical. With the shell's spin held by the pivot
+//! friction (`Ω3 ≈ 0`) the shell rolls at `v cos θ + R ω0 sin θ` and the platform turns at
+//! `ω0 cos θ − (v/R) sin θ`: the radius becomes
+//! `r (cos θ + (R/r) sin θ)/(cos θ − (r/R) sin θ) ≈ r (1 + (R/r + r/R) θ)`. For the paper's
+//! 0.2 m circle with the default parameters: 1.018 at 0.1 m/s, 1.07 at 0.2 m/s, ≈ 1.35 at
+//! 0.4 m/s and ≈ 1.6 at 0.5 m/s from the quasi-static lean alone (a test checks the
+//! simulated 0.1 and 0.2 m/s smooth circles against it). A top tilted *inward* would shrink
+//! the circle; that is the digest's `v cos θ − R ω0 sin θ`, which inverts the pendulum.
+//!
 //! **Integration.** State `(q, ω, Ω, x_C, y_C, χ)`; classical RK4 at fixed sub-steps
 //! (≤ [`SphereDynamics::max_substep`]) with the motor modes frozen inside a sub-step and the
 //! command ramped linearly over each [`SphereSim::step`]; after each sub-step `q` is normalised
