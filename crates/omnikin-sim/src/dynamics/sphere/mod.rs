@@ -4,6 +4,7 @@
 //! * [`params`]: [`SphereDynamics`], the physical parameters with their sources.
 //! * `equations`: mass matrix, generalised forces, constraint rows, accelerations, projection.
 //! * [`sim`]: [`SphereSim`], the constraint-keeping RK4 integrator and what each step reports.
+//! * [`trial`]: [`simulate_plan`], a plan through the model recorded as a [`crate::Trial`].
 //!
 //! # Derivation
 //!
@@ -130,6 +131,8 @@
 mod equations;
 pub mod params;
 pub mod sim;
+pub mod trial;
 
 pub use params::{DynamicsError, SphereDynamics};
 pub use sim::{Residuals, SphereSim, SphereState, SphereStep};
+pub use trial::{DynamicTrial, simulate_plan};

@@ -1,6 +1,7 @@
 //! The physical parameters of the sphere's dynamic model ([`SphereDynamics`]), their defaults
 //! for paper 000's robot with where each value comes from, and their validation.
 
+use omnikin::description::{Geometry, RobotDescription, SphereDynamicsSpec};
 use omnikin::sphere::SphereParams;
 
 /// A parameter of [`SphereDynamics`] that cannot describe a physical robot, naming the field.
@@ -19,6 +20,9 @@ pub enum DynamicsError {
     /// The wheel geometry is rejected by the kinematic model.
     #[error("dynamics.geometry: {0}")]
     Geometry(#[from] omnikin::GeometryError),
+    /// The robot description is not of kind `sphere-omni`.
+    #[error("the shell + platform dynamics need a sphere-omni robot, not \"{0}\"")]
+    Kind(&'static str),
     /// A step input is not usable.
     #[error("{what} = {value}: {rule}")]
     Input {
@@ -119,6 +123,58 @@ impl SphereDynamics {
             tracked_height: 0.12,
             max_substep: 1.0e-3,
         }
+    }
+
+    /// The parameters of a `sphere-omni` description: its geometry, and its `[dynamics]`
+    /// table's values over [`SphereDynamics::paper_000`]'s (an absent `shell_inertia` is
+    /// `⅔ m_s R²` of the file's shell).
+    ///
+    /// # Errors
+    /// [`DynamicsError::Kind`] for another kind; [`DynamicsError::Parameter`] naming the
+    /// field of a combination that is not physical.
+    pub fn from_description(robot: &RobotDescription) -> Result<Self, DynamicsError> {
+        let Geometry::Sphere(geometry) = robot.geometry else {
+            return Err(DynamicsError::Kind(robot.kind()));
+        };
+        Self::from_spec(geometry, robot.sphere_dynamics.as_ref())
+    }
+
+    /// [`SphereDynamics::paper_000`] with `geometry` and the given values of `spec` (see
+    /// [`SphereDynamics::from_description`]).
+    ///
+    /// # Errors
+    /// [`DynamicsError`] naming the first invalid field.
+    pub fn from_spec(
+        geometry: SphereParams<f64>,
+        spec: Option<&SphereDynamicsSpec>,
+    ) -> Result<Self, DynamicsError> {
+        let mut p = Self::paper_000();
+        p.geometry = geometry;
+        let r = geometry.shell_radius;
+        if let Some(s) = spec {
+            let set = |dst: &mut f64, v: Option<f64>| {
+                if let Some(v) = v {
+                    *dst = v;
+                }
+            };
+            set(&mut p.shell_mass, s.shell_mass);
+            p.shell_inertia = s.shell_inertia.unwrap_or(2.0 / 3.0 * p.shell_mass * r * r);
+            set(&mut p.platform_mass, s.platform_mass);
+            if let Some([a, b, c]) = s.platform_moments() {
+                p.platform_inertia = [[a, 0.0, 0.0], [0.0, b, 0.0], [0.0, 0.0, c]];
+            }
+            set(&mut p.com_depth, s.com_depth);
+            set(&mut p.pull_out_torque, s.pull_out_torque);
+            set(&mut p.pivot_friction, s.pivot_friction);
+            set(&mut p.pivot_velocity_scale, s.pivot_velocity_scale);
+            set(&mut p.rolling_resistance, s.rolling_resistance);
+            set(&mut p.rolling_velocity_scale, s.rolling_velocity_scale);
+            set(&mut p.tracked_height, s.tracked_height);
+        } else {
+            p.shell_inertia = 2.0 / 3.0 * p.shell_mass * r * r;
+        }
+        p.validate()?;
+        Ok(p)
     }
 
     /// The same robot with every dissipation off (no pivot friction, no rolling resistance)
