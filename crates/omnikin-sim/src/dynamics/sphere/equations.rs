@@ -15,8 +15,9 @@ pub(crate) enum Drive {
     /// The motor imposes the commanded wheel rate (holonomic/rheonomic constraint); its torque
     /// is whatever that takes.
     Locked,
-    /// The motor delivers a given constraint force `λ` (N·m per rad/s of the lever, see
-    /// [`Model::kappa`]): 0 unpowered (wheel free), `± pull-out / |κ|` while slipping.
+    /// The motor delivers a given constraint force `λ`, N (`λ_i = f_i R/(R − R_i)` for a roller
+    /// force `f_i`; the motor torque is `κ_i λ_i`, see [`Model::kappa`]): 0 unpowered (wheel
+    /// free), `± pull-out / |κ|` while slipping.
     Force(f64),
 }
 
