@@ -45,6 +45,20 @@ pub struct SimulateArgs {
     /// see omnikin_sim::sensors). Default: 4096-count encoders, a gyro, camera fixes at 10 Hz.
     #[arg(long, value_name = "SENSORS.toml", requires = "emit_sensors")]
     pub sensors: Option<PathBuf>,
+    /// Plant: `kinematic` (the motors' motion through the forward kinematics, with the
+    /// disturbance profile) or `dynamic` (sphere-omni only: shell + platform dynamics with the
+    /// robot file's [dynamics]; deterministic, one trial, no disturbance profile yet).
+    #[arg(long, value_enum, default_value_t = PlantKind::Kinematic)]
+    pub plant: PlantKind,
+}
+
+/// The plant `omnikin simulate` runs a plan through.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlantKind {
+    /// Forward kinematics with the disturbance profile (omnikin_sim::plant_step).
+    Kinematic,
+    /// The sphere's shell + platform dynamics (omnikin_sim::dynamics::sphere).
+    Dynamic,
 }
 
 /// The sensor profile of `--emit-sensors`.
@@ -89,6 +103,82 @@ fn emit_sensors(
     if !s.imu.is_empty() {
         write_file(&d.join("imu.csv"), |w| write_imu(&s.imu, w))?;
     }
+    Ok(())
+}
+
+/// `omnikin simulate --plant dynamic`: the plan once through the sphere's dynamic model
+/// (deterministic), with the same files as the kinematic plant and the dynamics' own figures
+/// (largest tilt, pull-out events, peak motor torques) in `metrics.json`'s `simulation`.
+fn simulate_dynamic(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<()> {
+    use omnikin_sim::dynamics::sphere::{SphereDynamics, simulate_plan};
+    if d.robot_kind() != omnikin::Kind::Sphere {
+        bail!(
+            "--plant dynamic: only kind sphere-omni has a dynamic model so far (robot {} is {})",
+            d.name,
+            d.kind()
+        );
+    }
+    if a.disturbances.is_some() || a.emit_sensors {
+        bail!("--plant dynamic does not take --disturbances or --emit-sensors yet");
+    }
+    if a.trials > 1 {
+        crate::errln!("note: --plant dynamic is deterministic without disturbances: one trial");
+    }
+    let p = SphereDynamics::from_description(d)?;
+    create_dir_for(
+        &a.out,
+        &["metrics.json", "trials.csv", "mean.csv", "figure.svg"],
+    )?;
+    let run = simulate_plan(p, plan)?;
+    let trial = &run.trial;
+    let trials_path = a.out.join("trials.csv");
+    let mut trials_csv = crate::output::OutFile::create("--out", &trials_path)?;
+    writeln!(trials_csv, "{}", trials_header(3))
+        .and_then(|_| write_trial(&mut trials_csv, 0, trial))
+        .with_context(|| format!("cannot write {}", trials_path.display()))?;
+    trials_csv.commit()?;
+    let runs = [omnikin_sim::metrics::Run {
+        xy: trial.tracked.clone(),
+        heading: Some(trial.pose.iter().map(|q| q.heading).collect()),
+    }];
+    let e = evaluate(plan, &runs)?;
+    let (metrics, mean) = (e.metrics, e.mean);
+    finite(&metrics)?;
+    let meta = json!({
+        "robot": d.name, "kind": d.kind(), "plan": a.plan.display().to_string(),
+        "plant": "dynamic", "trials": 1, "max_substep_s": p.max_substep,
+        "max_tilt_rad": run.max_tilt, "pull_outs": run.pull_outs,
+        "peak_motor_torque_nm": run.peak_torque,
+        "min_shell_spin_rad_s": run.shell_spin.iter().cloned().fold(0.0, f64::min),
+    });
+    let mut j = serde_json::to_value(&metrics)?;
+    j["simulation"] = meta;
+    write_file(&a.out.join("metrics.json"), |w| {
+        writeln!(
+            w,
+            "{}",
+            serde_json::to_string_pretty(&j).unwrap_or_default()
+        )
+    })?;
+    write_mean(&a.out.join("mean.csv"), plan, &mean)?;
+    crate::figures::trajectory_figure(
+        "--out",
+        &a.out.join("figure.svg"),
+        &format!("{} — dynamic plant, {}", d.name, a.plan.display()),
+        plan,
+        &runs,
+        &mean,
+    )?;
+    print_summary(&metrics);
+    crate::errln!(
+        "dynamic plant: largest tilt {:.3} rad, pull-out events {:?}",
+        run.max_tilt,
+        run.pull_outs
+    );
+    crate::errln!(
+        "wrote {}/{{metrics.json, trials.csv, mean.csv, figure.svg}}",
+        a.out.display().to_string().trim_end_matches('/')
+    );
     Ok(())
 }
 
@@ -273,6 +363,9 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     let d = RobotDescription::resolve(&a.robot)?;
     let robot = d.build::<f64>()?;
     let plan = Plan::load_csv(&a.plan)?;
+    if a.plant == PlantKind::Dynamic {
+        return simulate_dynamic(a, &d, &plan);
+    }
     let profile = match &a.disturbances {
         Some(p) => Profile::load(p)?,
         None => Profile::default(),

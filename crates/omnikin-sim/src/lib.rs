@@ -19,6 +19,7 @@
 //! * [`metrics`]: deviation from the planned path (m and % of path), end-point and heading
 //!   errors, mean trajectory with a Student-t 95 % band, fitted circle and radius ratio,
 //!   repeatability.
+//! * [`dynamics`]: dynamic plants (the sphere's shell + platform with floor friction).
 //! * [`limits`]: the stated limits — most plant steps per trial, rows of a track file — and the plausible range of every profile parameter.
 //! * [`reproduce`]: paper 000's whole experiment design re-run under three profiles, with a
 //!   table of our figures next to the paper's.
@@ -26,6 +27,7 @@
 //!   and resampled onto its time grid, so the same metrics apply to hardware experiments.
 #![warn(missing_docs)]
 
+pub mod dynamics;
 pub mod limits;
 pub mod metrics;
 mod monte_carlo;

@@ -16,6 +16,9 @@
 //! [limits]                        # optional, every key optional
 //! max_wheel_rate = 12.0           # rad/s
 //! max_wheel_accel = 60.0          # rad/s²
+//!
+//! [dynamics]                      # optional, sphere-omni only: see SphereDynamicsSpec
+//! platform_mass = 2.0             # kg
 //! ```
 //!
 //! Loading validates everything and reports the first problem as a [`DescriptionError`] that
@@ -38,7 +41,10 @@ use crate::drive::swerve::SwerveModule;
 use crate::sphere::SphereParams;
 use crate::{Kind, Real, Robot};
 
+mod dynamics;
 mod schema;
+
+pub use dynamics::SphereDynamicsSpec;
 
 use schema::{Header, KINDS};
 
@@ -196,6 +202,8 @@ pub struct RobotDescription {
     pub geometry: Geometry,
     /// Motor limits.
     pub limits: Limits,
+    /// The `[dynamics]` table of a `sphere-omni` file (see [`SphereDynamicsSpec`]), if any.
+    pub sphere_dynamics: Option<SphereDynamicsSpec>,
 }
 
 impl RobotDescription {
@@ -265,6 +273,11 @@ impl RobotDescription {
             .kind
             .ok_or_else(|| err(None, "kind", format!("missing; must be {KINDS}")))?;
         let (name, geometry, limits) = schema::parse(text, source_name, &kind, &err, &de_err)?;
+        let shell_radius = match &geometry {
+            Geometry::Sphere(p) => Some(p.shell_radius),
+            _ => None,
+        };
+        let sphere_dynamics = dynamics::parse(text, &kind, shell_radius, &err, &de_err)?;
         for (field, value) in [
             ("limits.max_wheel_rate", limits.max_wheel_rate),
             ("limits.max_wheel_accel", limits.max_wheel_accel),
@@ -348,6 +361,7 @@ impl RobotDescription {
             source_name: source_name.to_string(),
             geometry,
             limits,
+            sphere_dynamics,
         })
     }
 

@@ -36,6 +36,9 @@ struct File<G> {
     geometry: G,
     #[serde(default)]
     limits: Limits,
+    /// Parsed and checked per kind by `super::dynamics`.
+    #[allow(dead_code)]
+    dynamics: Option<toml::Value>,
 }
 
 /// One value for all three wheels, or one per wheel (a list, whose length is checked after

@@ -1,0 +1,106 @@
+//! `omnikin simulate --plant dynamic`: the sphere's shell + platform dynamics behind the same
+//! command and files as the kinematic plant.
+
+use std::path::PathBuf;
+
+use assert_cmd::Command;
+use predicates::prelude::*;
+use serde_json::Value;
+
+fn omnikin() -> Command {
+    Command::cargo_bin("omnikin").unwrap()
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("omnikin-dyn-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn circle(dir: &std::path::Path, omega: &str) -> PathBuf {
+    let path = dir.join(format!("circle-{omega}.csv"));
+    omnikin()
+        .args([
+            "plan",
+            "circle",
+            "--robot",
+            "sphere-omni",
+            "--radius",
+            "0.2",
+            "--omega",
+            omega,
+            "--rate",
+            "100",
+            "--out",
+        ])
+        .arg(&path)
+        .assert()
+        .success();
+    path
+}
+
+fn metrics(dir: &std::path::Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("metrics.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn the_dynamic_plant_writes_the_same_files_and_grows_the_fast_circle() {
+    let d = tmp("circles");
+    let mut ratios = Vec::new();
+    for omega in ["0.5", "2"] {
+        let plan = circle(&d, omega);
+        let out = d.join(format!("out-{omega}"));
+        omnikin()
+            .args(["simulate"])
+            .arg(&plan)
+            .args(["--robot", "sphere-omni", "--plant", "dynamic", "--out"])
+            .arg(&out)
+            .assert()
+            .success()
+            .stderr(predicate::str::contains("dynamic plant: largest tilt"));
+        for f in ["metrics.json", "trials.csv", "mean.csv", "figure.svg"] {
+            assert!(out.join(f).exists(), "{f} missing");
+        }
+        let m = metrics(&out);
+        assert_eq!(m["simulation"]["plant"], "dynamic");
+        assert_eq!(m["runs"], 1);
+        assert!(m["simulation"]["max_tilt_rad"].as_f64().unwrap() > 0.0);
+        ratios.push(m["radius_ratio"].as_f64().unwrap());
+    }
+    // The kinematic plant gives 1.000 for both; the dynamics grow the fast circle much more.
+    assert!(ratios[0] > 1.0 && ratios[0] < 1.05, "{ratios:?}");
+    assert!(ratios[1] > ratios[0] + 0.2, "{ratios:?}");
+}
+
+#[test]
+fn the_dynamic_plant_is_refused_where_it_does_not_exist() {
+    let d = tmp("refused");
+    let plan = circle(&d, "0.5");
+    omnikin()
+        .args(["simulate"])
+        .arg(&plan)
+        .args(["--robot", "ballbot", "--plant", "dynamic", "--out"])
+        .arg(d.join("o1"))
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("only kind sphere-omni"));
+    let profile = d.join("p.toml");
+    std::fs::write(&profile, "").unwrap();
+    omnikin()
+        .args(["simulate"])
+        .arg(&plan)
+        .args([
+            "--robot",
+            "sphere-omni",
+            "--plant",
+            "dynamic",
+            "--disturbances",
+        ])
+        .arg(&profile)
+        .arg("--out")
+        .arg(d.join("o2"))
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("--disturbances"));
+}

@@ -1,0 +1,300 @@
+//! The equations of motion of the shell + platform (the [module](super) doc derives them): the
+//! constrained mass matrix in the generalised speeds `u = (ω, Ω)`, the generalised forces
+//! (gravity, floor pivot friction and rolling resistance, velocity terms), the wheel
+//! constraint rows and the solve for accelerations and wheel constraint forces; the
+//! M-metric projection onto the wheel constraints; the energy.
+
+use omnikin::nalgebra::{Matrix3, Matrix6, Quaternion, UnitQuaternion, Vector2, Vector3, Vector6};
+use omnikin::sphere::SphereOmni;
+
+use super::params::{DynamicsError, SphereDynamics};
+
+/// How a wheel's motor acts during one sub-step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Drive {
+    /// The motor imposes the commanded wheel rate (holonomic/rheonomic constraint); its torque
+    /// is whatever that takes.
+    Locked,
+    /// The motor delivers a given constraint force `λ`, N (`λ_i = f_i R/(R − R_i)` for a roller
+    /// force `f_i`; the motor torque is `κ_i λ_i`, see [`Model::kappa`]): 0 unpowered (wheel
+    /// free), `± pull-out / |κ|` while slipping.
+    Force(f64),
+}
+
+/// The integrated state in one flat form for the Runge–Kutta stages.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Y {
+    /// Platform → world rotation (not normalised inside a step's stages).
+    pub q: Quaternion<f64>,
+    /// Platform angular velocity `ω`, world frame, rad/s.
+    pub w: Vector3<f64>,
+    /// Shell angular velocity `Ω`, world frame, rad/s.
+    pub big_w: Vector3<f64>,
+    /// Shell centre `(x, y)`, world frame, m.
+    pub p: Vector2<f64>,
+    /// Wheel angles relative to the platform, rad.
+    pub chi: Vector3<f64>,
+}
+
+impl Y {
+    /// `self + h · d`.
+    pub fn add(&self, d: &Y, h: f64) -> Y {
+        Y {
+            q: self.q + d.q * h,
+            w: self.w + d.w * h,
+            big_w: self.big_w + d.big_w * h,
+            p: self.p + d.p * h,
+            chi: self.chi + d.chi * h,
+        }
+    }
+
+    /// The generalised speeds `u = (ω, Ω)`.
+    pub fn u(&self) -> Vector6<f64> {
+        Vector6::new(
+            self.w.x,
+            self.w.y,
+            self.w.z,
+            self.big_w.x,
+            self.big_w.y,
+            self.big_w.z,
+        )
+    }
+
+    /// Sets `(ω, Ω)` from `u`.
+    pub fn set_u(&mut self, u: &Vector6<f64>) {
+        self.w = Vector3::new(u[0], u[1], u[2]);
+        self.big_w = Vector3::new(u[3], u[4], u[5]);
+    }
+}
+
+/// Everything configuration-dependent that the derivative, the projection and the reports
+/// share, computed once per state.
+pub(crate) struct Frame {
+    /// Platform → world rotation matrix.
+    pub rot: Matrix3<f64>,
+    /// Constrained mass matrix `M(q)`, 6 × 6.
+    pub mass: Matrix6<f64>,
+    /// Constraint rows `C_i = (−σ_i, σ_i)`, `σ_i = Q s_i`.
+    pub rows: [Vector6<f64>; 3],
+}
+
+/// The model's constants, precomputed from [`SphereDynamics`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Model {
+    pub r: f64,
+    pub ms: f64,
+    pub mp: f64,
+    pub is: f64,
+    pub h: f64,
+    pub g: f64,
+    pub jp: Matrix3<f64>,
+    /// `s_i = r_i × α_i`, platform frame, m.
+    pub s: [Vector3<f64>; 3],
+    /// `κ_i = (R_i/R)(s_i·n_i)`, m: `σ_i·(Ω − ω) = κ_i χ̇_i`, motor torque `κ_i λ_i`.
+    pub kappa: [f64; 3],
+    /// `(R − R_i)`, m (roller-contact residual in m/s).
+    pub lever: [f64; 3],
+    pub pivot: f64,
+    pub pivot_eps: f64,
+    /// Rolling-resistance torque `C_rr M g R`, N·m.
+    pub rolling: f64,
+    pub rolling_eps: f64,
+    /// Tracked point along the platform's z axis from the shell centre, m.
+    pub z_track: f64,
+}
+
+/// A matrix of the solve was singular (only for a state that is no longer finite).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Singular(pub &'static str);
+
+const GAMMA: Vector3<f64> = Vector3::new(0.0, 0.0, 1.0);
+
+impl Model {
+    pub fn new(p: &SphereDynamics) -> Result<(Self, SphereOmni<f64>), DynamicsError> {
+        p.validate()?;
+        let kin = SphereOmni::new(p.geometry)?;
+        let r = p.geometry.shell_radius;
+        let sn = kin.s_dot_n();
+        let m = Model {
+            r,
+            ms: p.shell_mass,
+            mp: p.platform_mass,
+            is: p.shell_inertia,
+            h: p.com_depth,
+            g: p.gravity,
+            jp: Matrix3::from_fn(|a, b| p.platform_inertia[a][b]),
+            s: *kin.levers(),
+            kappa: core::array::from_fn(|i| p.geometry.wheel_radius[i] / r * sn[i]),
+            lever: core::array::from_fn(|i| r - p.geometry.wheel_radius[i]),
+            pivot: p.pivot_friction,
+            pivot_eps: p.pivot_velocity_scale,
+            rolling: p.rolling_resistance * p.total_mass() * p.gravity * r,
+            rolling_eps: p.rolling_velocity_scale,
+            z_track: p.tracked_height - r,
+        };
+        Ok((m, kin))
+    }
+
+    /// Mass matrix and constraint rows at orientation `q`.
+    pub fn frame(&self, q: &Quaternion<f64>) -> Frame {
+        let rot = UnitQuaternion::from_quaternion(*q)
+            .to_rotation_matrix()
+            .into_inner();
+        let k = rot.column(2).into_owned();
+        let jw = rot * self.jp * rot.transpose();
+        let eye = Matrix3::identity();
+        // M_ωω = m_p h² (I − k kᵀ) + J_w; M_ωΩ = m_p h R [k]×[γ]× = m_p h R (γ kᵀ − (k·γ) I);
+        // M_ΩΩ = M R² (I − γ γᵀ) + I_s I.
+        let mww = (eye - k * k.transpose()) * (self.mp * self.h * self.h) + jw;
+        let mwo = (GAMMA * k.transpose() - eye * k.dot(&GAMMA)) * (self.mp * self.h * self.r);
+        let moo = (eye - GAMMA * GAMMA.transpose()) * ((self.ms + self.mp) * self.r * self.r)
+            + eye * self.is;
+        let mut mass = Matrix6::zeros();
+        mass.fixed_view_mut::<3, 3>(0, 0).copy_from(&mww);
+        mass.fixed_view_mut::<3, 3>(0, 3).copy_from(&mwo);
+        mass.fixed_view_mut::<3, 3>(3, 0)
+            .copy_from(&mwo.transpose());
+        mass.fixed_view_mut::<3, 3>(3, 3).copy_from(&moo);
+        let rows = core::array::from_fn(|i| {
+            let sg = rot * self.s[i];
+            Vector6::new(-sg.x, -sg.y, -sg.z, sg.x, sg.y, sg.z)
+        });
+        Frame { rot, mass, rows }
+    }
+
+    /// Floor torque on the shell, world frame, N·m: pivot friction `−τ_p tanh(Ω3/ε_p) γ` and
+    /// rolling resistance `−C_rr M g R Ω_h / √(|Ω_h|² + ε_r²)`.
+    pub fn floor_torque(&self, big_w: &Vector3<f64>) -> Vector3<f64> {
+        let mut t = Vector3::zeros();
+        if self.pivot > 0.0 {
+            t.z = -self.pivot * (big_w.z / self.pivot_eps).tanh();
+        }
+        if self.rolling > 0.0 {
+            let n = (big_w.x * big_w.x + big_w.y * big_w.y + self.rolling_eps * self.rolling_eps)
+                .sqrt();
+            t.x = -self.rolling * big_w.x / n;
+            t.y = -self.rolling * big_w.y / n;
+        }
+        t
+    }
+
+    /// The time derivative of `y` with the motors in `drive` and the locked wheels'
+    /// commanded wheel accelerations `chi_dd` (rad/s²), and the wheel constraint forces `λ`
+    /// (the motor torques are `κ_i λ_i`).
+    pub fn derivative(
+        &self,
+        y: &Y,
+        drive: &[Drive; 3],
+        chi_dd: &[f64; 3],
+    ) -> Result<(Y, [f64; 3]), Singular> {
+        let f = self.frame(&y.q);
+        let (w, big_w) = (y.w, y.big_w);
+        let k = f.rot.column(2).into_owned();
+        let jw = f.rot * self.jp * f.rot.transpose();
+        // Ḃω = h (ω × k) × ω: the platform centre of mass's velocity-dependent acceleration.
+        let wb = w.cross(&k).cross(&w) * self.h;
+        let rhs_w = k.cross(&GAMMA) * (self.mp * self.g * self.h)
+            + k.cross(&wb) * (self.mp * self.h)
+            - w.cross(&(jw * w));
+        let rhs_o = self.floor_torque(&big_w) - GAMMA.cross(&wb) * (self.mp * self.r);
+        let rhs = Vector6::new(rhs_w.x, rhs_w.y, rhs_w.z, rhs_o.x, rhs_o.y, rhs_o.z);
+        let chol = f.mass.cholesky().ok_or(Singular("mass matrix"))?;
+        let u0 = chol.solve(&rhs);
+        let yc: [Vector6<f64>; 3] = core::array::from_fn(|i| chol.solve(&f.rows[i]));
+        let rel = big_w - w;
+        let mut s = Matrix3::zeros();
+        let mut b = Vector3::zeros();
+        let mut any_locked = false;
+        for i in 0..3 {
+            match drive[i] {
+                Drive::Locked => {
+                    any_locked = true;
+                    for j in 0..3 {
+                        s[(i, j)] = f.rows[i].dot(&yc[j]);
+                    }
+                    let sg = f.rot * self.s[i];
+                    // C_i u̇ = κ_i χ̈_i − Ċ_i u, Ċ_i u = (ω × σ_i)·(Ω − ω).
+                    b[i] = self.kappa[i] * chi_dd[i] - w.cross(&sg).dot(&rel) - f.rows[i].dot(&u0);
+                }
+                Drive::Force(l) => {
+                    s[(i, i)] = 1.0;
+                    b[i] = l;
+                }
+            }
+        }
+        let lambda = if any_locked {
+            s.lu()
+                .solve(&b)
+                .ok_or(Singular("wheel constraint matrix"))?
+        } else {
+            b
+        };
+        let ud = u0 + yc[0] * lambda[0] + yc[1] * lambda[1] + yc[2] * lambda[2];
+        let u = y.u();
+        let wq = Quaternion::new(0.0, w.x, w.y, w.z);
+        let d = Y {
+            q: wq * y.q * 0.5,
+            w: Vector3::new(ud[0], ud[1], ud[2]),
+            big_w: Vector3::new(ud[3], ud[4], ud[5]),
+            p: self.centre_velocity(&big_w),
+            chi: Vector3::from_fn(|i, _| f.rows[i].dot(&u) / self.kappa[i]),
+        };
+        Ok((d, lambda.into()))
+    }
+
+    /// Shell centre velocity from rolling without slip, `v = R Ω × γ`, world `(x, y)`, m/s.
+    pub fn centre_velocity(&self, big_w: &Vector3<f64>) -> Vector2<f64> {
+        Vector2::new(self.r * big_w.y, -self.r * big_w.x)
+    }
+
+    /// Projects `(ω, Ω)` onto the locked wheels' constraints `σ_i·(Ω − ω) = κ_i χ̇_i` in the
+    /// metric of the mass matrix (the smallest kinetic-energy correction).
+    pub fn project(&self, y: &mut Y, drive: &[Drive; 3], chi_d: &[f64; 3]) -> Result<(), Singular> {
+        if !drive.contains(&Drive::Locked) {
+            return Ok(());
+        }
+        let f = self.frame(&y.q);
+        let chol = f.mass.cholesky().ok_or(Singular("mass matrix"))?;
+        let yc: [Vector6<f64>; 3] = core::array::from_fn(|i| chol.solve(&f.rows[i]));
+        let u = y.u();
+        let mut s = Matrix3::zeros();
+        let mut e = Vector3::zeros();
+        for i in 0..3 {
+            if drive[i] == Drive::Locked {
+                for j in 0..3 {
+                    s[(i, j)] = if drive[j] == Drive::Locked {
+                        f.rows[i].dot(&yc[j])
+                    } else {
+                        0.0
+                    };
+                }
+                e[i] = f.rows[i].dot(&u) - self.kappa[i] * chi_d[i];
+            } else {
+                s[(i, i)] = 1.0;
+            }
+        }
+        let mu = s
+            .lu()
+            .solve(&e)
+            .ok_or(Singular("wheel constraint matrix"))?;
+        let u = u - yc[0] * mu[0] - yc[1] * mu[1] - yc[2] * mu[2];
+        y.set_u(&u);
+        Ok(())
+    }
+
+    /// Actual wheel rates `χ̇_i = σ_i·(Ω − ω)/κ_i`, rad/s.
+    pub fn wheel_rates(&self, y: &Y) -> [f64; 3] {
+        let f = self.frame(&y.q);
+        let u = y.u();
+        core::array::from_fn(|i| f.rows[i].dot(&u) / self.kappa[i])
+    }
+
+    /// Total mechanical energy `½ uᵀ M u − m_p g h (k·γ)`, J (zero of potential at the
+    /// shell centre's height).
+    pub fn energy(&self, y: &Y) -> f64 {
+        let f = self.frame(&y.q);
+        let u = y.u();
+        let k = f.rot.column(2).into_owned();
+        0.5 * u.dot(&(f.mass * u)) - self.mp * self.g * self.h * k.dot(&GAMMA)
+    }
+}

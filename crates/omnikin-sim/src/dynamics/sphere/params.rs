@@ -1,0 +1,339 @@
+//! The physical parameters of the sphere's dynamic model ([`SphereDynamics`]), their defaults
+//! for paper 000's robot with where each value comes from, and their validation.
+
+use omnikin::description::{Geometry, RobotDescription, SphereDynamicsSpec};
+use omnikin::sphere::SphereParams;
+
+/// A parameter of [`SphereDynamics`] that cannot describe a physical robot, naming the field.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum DynamicsError {
+    /// A field is out of its physical range.
+    #[error("dynamics.{field} = {value}: {rule}")]
+    Parameter {
+        /// The field's name.
+        field: &'static str,
+        /// Its value.
+        value: f64,
+        /// What it must satisfy.
+        rule: &'static str,
+    },
+    /// The wheel geometry is rejected by the kinematic model.
+    #[error("dynamics.geometry: {0}")]
+    Geometry(#[from] omnikin::GeometryError),
+    /// The robot description is not of kind `sphere-omni`.
+    #[error("the shell + platform dynamics need a sphere-omni robot, not \"{0}\"")]
+    Kind(&'static str),
+    /// A step input is not usable.
+    #[error("{what} = {value}: {rule}")]
+    Input {
+        /// The input's name.
+        what: &'static str,
+        /// Its value.
+        value: f64,
+        /// What it must satisfy.
+        rule: &'static str,
+    },
+}
+
+/// Parameters of the shell + internal platform model (see the [module](super) doc for the
+/// equations). SI units; the platform frame is paper 000's `Cxyz` (origin at the shell centre,
+/// z up when the platform is level).
+///
+/// [`SphereDynamics::paper_000`] (also [`Default`]) holds estimates for the robot of paper 000
+/// §6; the paper gives only the geometry, so every mass, inertia and friction value is an
+/// estimate, stated with its source on the field.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SphereDynamics {
+    /// Shell radius and wheel geometry (paper 000 §4, §6; the `sphere-omni` preset).
+    pub geometry: SphereParams<f64>,
+    /// Shell mass `m_s`, kg. Default 0.5 kg: a 0.3 m polycarbonate/acrylic sphere
+    /// (area 4πR² = 0.283 m²) about 1.5 mm thick at 1200 kg/m³.
+    pub shell_mass: f64,
+    /// Shell moment of inertia `I_s` about its centre (any axis; the shell is taken as
+    /// spherically symmetric), kg·m². Default `⅔ m_s R²` = 0.0075 kg·m² (thin shell).
+    pub shell_inertia: f64,
+    /// Platform mass `m_p`, kg (wheels, motors, electronics, battery, frame). Default 2.0 kg:
+    /// three NEMA-17 steppers ≈ 3 × 0.35 kg, three 70 mm omni-wheels ≈ 3 × 0.1 kg, battery
+    /// ≈ 0.3 kg, board and frame ≈ 0.35 kg.
+    pub platform_mass: f64,
+    /// Platform inertia tensor about its centre of mass, platform frame, kg·m² (symmetric,
+    /// positive definite). Default diag(0.004, 0.004, 0.006): motors and wheels (1.35 kg) at
+    /// ≈ 55 mm from the axis (the wheel centres are at `(R − R_w) sin δ` = 57 mm) give
+    /// 0.0041 about z, the rest as a 80 mm disc 0.0021; about x and y half of that plus a
+    /// ±20 mm vertical spread.
+    pub platform_inertia: [[f64; 3]; 3],
+    /// Depth `h` of the platform's centre of mass below the shell centre along the platform's
+    /// −z axis, m (the pendulum length). Default 0.08 m: the wheel centres sit
+    /// `(R − R_w) cos δ` = 57 mm below the centre, the battery and motors lower; the digest's
+    /// plausible value, giving a rocking frequency near 1 Hz.
+    pub com_depth: f64,
+    /// Stepper pull-out torque, N·m, per motor: beyond it the motor slips (loses steps) and
+    /// delivers this torque until its rotor is back at the commanded rate. Default 0.3 N·m (a
+    /// 42 mm stepper's pull-out torque at low step rates). `f64::INFINITY` = ideal rate source.
+    pub pull_out_torque: f64,
+    /// Coulomb pivot (spin) friction torque at the floor contact, about the vertical, N·m.
+    /// Default 0.005 N·m: `(3π/16) μ N a` for a Hertz-like contact patch of radius a ≈ 0.7 mm,
+    /// μ = 0.5, N = M g ≈ 24.5 N (the "a few mN·m"). The one parameter to fit.
+    pub pivot_friction: f64,
+    /// Velocity scale of the pivot friction's regularisation `τ tanh(Ω3/ε)`, rad/s. Default
+    /// 0.005 rad/s (stiffness τ/ε well inside the 1 ms RK4 step's stability region).
+    pub pivot_velocity_scale: f64,
+    /// Rolling-resistance coefficient `C_rr` (dimensionless; torque `C_rr M g R` opposing the
+    /// rolling). Default 0.005 (hard plastic on a hard floor, 0.002–0.01).
+    pub rolling_resistance: f64,
+    /// Velocity scale of the rolling resistance's regularisation, rad/s (of the shell's
+    /// horizontal angular velocity). Default 0.01 rad/s.
+    pub rolling_velocity_scale: f64,
+    /// Gravitational acceleration, m/s². Default 9.81.
+    pub gravity: f64,
+    /// Height of the tracked point (top of the platform) above the floor contact with the
+    /// platform level, m: paper 000 §6 tracked the platform top, 120 mm above the floor.
+    /// Default 0.12 m, i.e. `0.12 − R` = −0.03 m along the platform's z axis from the centre.
+    pub tracked_height: f64,
+    /// Largest integration sub-step, s; each [`super::SphereSim::step`] is split into equal
+    /// sub-steps no longer than this. Default 1 ms (10 per step of a 100 Hz plan).
+    pub max_substep: f64,
+}
+
+impl Default for SphereDynamics {
+    fn default() -> Self {
+        Self::paper_000()
+    }
+}
+
+impl SphereDynamics {
+    /// Estimates for the robot of paper 000 §6 (0.3 m shell); see each field.
+    pub fn paper_000() -> Self {
+        let geometry = SphereParams::preset();
+        let r = geometry.shell_radius;
+        let shell_mass = 0.5;
+        Self {
+            geometry,
+            shell_mass,
+            shell_inertia: 2.0 / 3.0 * shell_mass * r * r,
+            platform_mass: 2.0,
+            platform_inertia: [[0.004, 0.0, 0.0], [0.0, 0.004, 0.0], [0.0, 0.0, 0.006]],
+            com_depth: 0.08,
+            pull_out_torque: 0.3,
+            pivot_friction: 0.005,
+            pivot_velocity_scale: 0.005,
+            rolling_resistance: 0.005,
+            rolling_velocity_scale: 0.01,
+            gravity: 9.81,
+            tracked_height: 0.12,
+            max_substep: 1.0e-3,
+        }
+    }
+
+    /// The parameters of a `sphere-omni` description: its geometry, and its `[dynamics]`
+    /// table's values over [`SphereDynamics::paper_000`]'s (an absent `shell_inertia` is
+    /// `⅔ m_s R²` of the file's shell).
+    ///
+    /// # Errors
+    /// [`DynamicsError::Kind`] for another kind; [`DynamicsError::Parameter`] naming the
+    /// field of a combination that is not physical.
+    pub fn from_description(robot: &RobotDescription) -> Result<Self, DynamicsError> {
+        let Geometry::Sphere(geometry) = robot.geometry else {
+            return Err(DynamicsError::Kind(robot.kind()));
+        };
+        Self::from_spec(geometry, robot.sphere_dynamics.as_ref())
+    }
+
+    /// [`SphereDynamics::paper_000`] with `geometry` and the given values of `spec` (see
+    /// [`SphereDynamics::from_description`]).
+    ///
+    /// # Errors
+    /// [`DynamicsError`] naming the first invalid field.
+    pub fn from_spec(
+        geometry: SphereParams<f64>,
+        spec: Option<&SphereDynamicsSpec>,
+    ) -> Result<Self, DynamicsError> {
+        let mut p = Self::paper_000();
+        p.geometry = geometry;
+        let r = geometry.shell_radius;
+        if let Some(s) = spec {
+            let set = |dst: &mut f64, v: Option<f64>| {
+                if let Some(v) = v {
+                    *dst = v;
+                }
+            };
+            set(&mut p.shell_mass, s.shell_mass);
+            p.shell_inertia = s.shell_inertia.unwrap_or(2.0 / 3.0 * p.shell_mass * r * r);
+            set(&mut p.platform_mass, s.platform_mass);
+            if let Some([a, b, c]) = s.platform_moments() {
+                p.platform_inertia = [[a, 0.0, 0.0], [0.0, b, 0.0], [0.0, 0.0, c]];
+            }
+            set(&mut p.com_depth, s.com_depth);
+            set(&mut p.pull_out_torque, s.pull_out_torque);
+            set(&mut p.pivot_friction, s.pivot_friction);
+            set(&mut p.pivot_velocity_scale, s.pivot_velocity_scale);
+            set(&mut p.rolling_resistance, s.rolling_resistance);
+            set(&mut p.rolling_velocity_scale, s.rolling_velocity_scale);
+            set(&mut p.tracked_height, s.tracked_height);
+        } else {
+            p.shell_inertia = 2.0 / 3.0 * p.shell_mass * r * r;
+        }
+        p.validate()?;
+        Ok(p)
+    }
+
+    /// The same robot with every dissipation off (no pivot friction, no rolling resistance)
+    /// and ideal motors (infinite pull-out torque): the conservative model the tests check.
+    pub fn frictionless(mut self) -> Self {
+        self.pivot_friction = 0.0;
+        self.rolling_resistance = 0.0;
+        self.pull_out_torque = f64::INFINITY;
+        self
+    }
+
+    /// Total mass `M = m_s + m_p`, kg.
+    pub fn total_mass(&self) -> f64 {
+        self.shell_mass + self.platform_mass
+    }
+
+    /// Small-oscillation (rocking) angular frequency about the floor contact with the wheels
+    /// held (shell and platform one rigid body), rad/s, for a rocking axis `axis` (0 = x,
+    /// 1 = y of the platform):
+    /// `ω² = m_p g h / (I_s + m_s R² + I_p + m_p (R − h)²)`.
+    pub fn rocking_frequency(&self, axis: usize) -> f64 {
+        let r = self.geometry.shell_radius;
+        let (mp, h) = (self.platform_mass, self.com_depth);
+        let ip = self.platform_inertia[axis][axis];
+        let den = self.shell_inertia + self.shell_mass * r * r + ip + mp * (r - h) * (r - h);
+        (mp * self.gravity * h / den).sqrt()
+    }
+
+    /// Checks every field, naming the first bad one.
+    ///
+    /// # Errors
+    /// [`DynamicsError::Parameter`] for a non-finite, negative or non-physical value (a
+    /// centre of mass outside the shell, an inertia tensor that is not symmetric positive
+    /// definite or violates the triangle inequality, a tracked point outside the shell).
+    pub fn validate(&self) -> Result<(), DynamicsError> {
+        let r = self.geometry.shell_radius;
+        positive("shell_mass", self.shell_mass)?;
+        positive("shell_inertia", self.shell_inertia)?;
+        if self.shell_inertia > self.shell_mass * r * r * (1.0 + 1e-12) {
+            return Err(bad(
+                "shell_inertia",
+                self.shell_inertia,
+                "at most m_s R² (all mass on the shell's surface: a thin shell has ⅔ m_s R²)",
+            ));
+        }
+        positive("platform_mass", self.platform_mass)?;
+        let j = &self.platform_inertia;
+        const NAMES: [[&str; 3]; 3] = [
+            [
+                "platform_inertia[0][0]",
+                "platform_inertia[0][1]",
+                "platform_inertia[0][2]",
+            ],
+            [
+                "platform_inertia[1][0]",
+                "platform_inertia[1][1]",
+                "platform_inertia[1][2]",
+            ],
+            [
+                "platform_inertia[2][0]",
+                "platform_inertia[2][1]",
+                "platform_inertia[2][2]",
+            ],
+        ];
+        for a in 0..3 {
+            for b in 0..3 {
+                finite(NAMES[a][b], j[a][b])?;
+                if (j[a][b] - j[b][a]).abs() > 1e-12 * (1.0 + j[a][b].abs()) {
+                    return Err(bad(
+                        NAMES[a][b],
+                        j[a][b],
+                        "the inertia tensor must be symmetric",
+                    ));
+                }
+            }
+            positive(NAMES[a][a], j[a][a])?;
+        }
+        let m = omnikin::nalgebra::Matrix3::from_fn(|a, b| j[a][b]);
+        let eig = m.symmetric_eigenvalues();
+        let (e0, e1, e2) = (eig[0], eig[1], eig[2]);
+        if eig.min() <= 0.0 {
+            return Err(bad(
+                "platform_inertia",
+                eig.min(),
+                "must be positive definite (smallest eigenvalue shown)",
+            ));
+        }
+        let tol = 1e-12 * (e0 + e1 + e2);
+        if e0 > e1 + e2 + tol || e1 > e0 + e2 + tol || e2 > e0 + e1 + tol {
+            return Err(bad(
+                "platform_inertia",
+                eig.max(),
+                "principal moments must satisfy the triangle inequality (largest shown)",
+            ));
+        }
+        nonneg("com_depth", self.com_depth)?;
+        if self.com_depth >= r {
+            return Err(bad(
+                "com_depth",
+                self.com_depth,
+                "the platform's centre of mass must lie inside the shell (h < R)",
+            ));
+        }
+        if self.pull_out_torque.is_nan() || self.pull_out_torque <= 0.0 {
+            return Err(bad(
+                "pull_out_torque",
+                self.pull_out_torque,
+                "must be positive (f64::INFINITY for an ideal rate source)",
+            ));
+        }
+        nonneg("pivot_friction", self.pivot_friction)?;
+        positive("pivot_velocity_scale", self.pivot_velocity_scale)?;
+        nonneg("rolling_resistance", self.rolling_resistance)?;
+        positive("rolling_velocity_scale", self.rolling_velocity_scale)?;
+        positive("gravity", self.gravity)?;
+        finite("tracked_height", self.tracked_height)?;
+        if !(0.0..=2.0 * r).contains(&self.tracked_height) {
+            return Err(bad(
+                "tracked_height",
+                self.tracked_height,
+                "must lie inside the shell (0 ≤ height ≤ 2R above the floor contact)",
+            ));
+        }
+        positive("max_substep", self.max_substep)?;
+        if self.max_substep > 0.01 {
+            return Err(bad(
+                "max_substep",
+                self.max_substep,
+                "at most 0.01 s (the friction regularisation and the rocking need a fine step)",
+            ));
+        }
+        Ok(())
+    }
+}
+
+fn bad(field: &'static str, value: f64, rule: &'static str) -> DynamicsError {
+    DynamicsError::Parameter { field, value, rule }
+}
+
+fn finite(field: &'static str, v: f64) -> Result<f64, DynamicsError> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(bad(field, v, "must be finite"))
+    }
+}
+
+fn positive(field: &'static str, v: f64) -> Result<f64, DynamicsError> {
+    if finite(field, v)? > 0.0 {
+        Ok(v)
+    } else {
+        Err(bad(field, v, "must be positive"))
+    }
+}
+
+fn nonneg(field: &'static str, v: f64) -> Result<f64, DynamicsError> {
+    if finite(field, v)? >= 0.0 {
+        Ok(v)
+    } else {
+        Err(bad(field, v, "must be non-negative"))
+    }
+}

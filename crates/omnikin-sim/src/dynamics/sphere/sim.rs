@@ -1,0 +1,421 @@
+//! The integrator: [`SphereSim`] advances the shell + platform by fixed RK4 sub-steps with the
+//! motors' commanded rates ramped linearly over each step, projects the velocities back onto
+//! the wheel constraints after every sub-step, switches a motor to slipping when its torque
+//! would exceed the pull-out torque (and back when it has caught up), and reports what a
+//! tracker, the IMU and the motors would see ([`SphereStep`]).
+
+use omnikin::nalgebra::{UnitQuaternion, Vector2, Vector3};
+use omnikin::sphere::SphereOmni;
+use omnikin::wrap_angle;
+
+use super::equations::{Drive, Model, Singular, Y};
+use super::params::{DynamicsError, SphereDynamics};
+
+/// The physical state of the robot.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SphereState {
+    /// Time, s.
+    pub t: f64,
+    /// Platform orientation: rotation from the platform frame to the world frame.
+    pub orientation: UnitQuaternion<f64>,
+    /// Platform angular velocity `ω`, world frame, rad/s.
+    pub platform_rate: Vector3<f64>,
+    /// Shell angular velocity `Ω`, world frame, rad/s (`Ω_z` = the shell spin `Ω3`).
+    pub shell_rate: Vector3<f64>,
+    /// Shell centre `(x, y)` on the floor, world frame, m (its height is `R`).
+    pub centre: [f64; 2],
+    /// Wheel angles relative to the platform (what an encoder on each motor shaft reads), rad.
+    pub wheel_angles: [f64; 3],
+}
+
+impl SphereState {
+    /// At rest, platform level, shell centre at `(x, y)` (m), platform heading `heading` (rad).
+    pub fn at_rest(x: f64, y: f64, heading: f64) -> Self {
+        Self {
+            t: 0.0,
+            orientation: UnitQuaternion::from_euler_angles(0.0, 0.0, heading),
+            platform_rate: Vector3::zeros(),
+            shell_rate: Vector3::zeros(),
+            centre: [x, y],
+            wheel_angles: [0.0; 3],
+        }
+    }
+
+    /// The platform's z axis in the world frame.
+    pub fn platform_z(&self) -> Vector3<f64> {
+        self.orientation * Vector3::z()
+    }
+
+    /// Platform tilt: angle between its z axis and the world vertical, rad.
+    pub fn tilt(&self) -> f64 {
+        let k = self.platform_z();
+        k.x.hypot(k.y).atan2(k.z)
+    }
+
+    /// Platform yaw (heading ψ): the z–y–x yaw of its orientation, rad in (−π, π].
+    pub fn yaw(&self) -> f64 {
+        let m = self.orientation.to_rotation_matrix();
+        m[(1, 0)].atan2(m[(0, 0)])
+    }
+}
+
+/// What one [`SphereSim::step`] reports, at the end of the step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SphereStep {
+    /// Time, s.
+    pub t: f64,
+    /// Shell centre (= floor contact) `(x, y)`, world frame, m.
+    pub centre: [f64; 2],
+    /// The tracked point (top of the platform, [`SphereDynamics::tracked_height`] above the
+    /// floor contact when level) projected on the floor, world frame, m: what a video tracker
+    /// above the robot sees.
+    pub tracked: [f64; 2],
+    /// Platform heading ψ, unwrapped (continuous), rad.
+    pub heading: f64,
+    /// Platform yaw rate `ω_z` (world vertical component), rad/s: what the gyro's z axis reads
+    /// with the platform level.
+    pub yaw_rate: f64,
+    /// Platform tilt from the vertical, rad.
+    pub tilt: f64,
+    /// The platform's z axis in the world frame (the direction of the tilt).
+    pub platform_z: [f64; 3],
+    /// Shell spin about the vertical `Ω3 = Ω·γ`, rad/s.
+    pub shell_spin: f64,
+    /// Actual wheel rates relative to the platform, rad/s.
+    pub wheel_rates: [f64; 3],
+    /// Motor torques at the last sub-step, N·m (right-handed about each wheel axis `n_i`).
+    pub wheel_torques: [f64; 3],
+    /// Largest |motor torque| over the step's sub-steps, N·m.
+    pub peak_torque: [f64; 3],
+    /// The motor reached its pull-out torque during this step (started slipping).
+    pub pull_out: [bool; 3],
+    /// The motor is slipping at the end of the step (not at its commanded rate).
+    pub slipping: [bool; 3],
+}
+
+/// Constraint residuals of the current state (see [`SphereSim::residuals`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Residuals {
+    /// |velocity of the shell's floor-contact point| `|v + Ω × (−R γ)|`, m/s.
+    pub floor: f64,
+    /// Per wheel, with its motor holding the commanded rate: the velocity mismatch along the
+    /// roller axis `α_i` between the wheel's and the shell's material at the contact
+    /// (paper 000 eq. 4.4 times `1/(R − R_i)`), m/s; 0 for a slipping or free wheel.
+    pub rollers: [f64; 3],
+}
+
+/// The shell + platform dynamic model, stepped in time. Deterministic (a fixed sequence of
+/// floating-point operations per call, no threads) and allocation-free per step.
+#[derive(Clone, Debug)]
+pub struct SphereSim {
+    params: SphereDynamics,
+    model: Model,
+    kin: SphereOmni<f64>,
+    y: Y,
+    t: f64,
+    /// Commanded wheel rates in force now (the end of the last ramp), rad/s.
+    command: [f64; 3],
+    drive: [Drive; 3],
+    heading: f64,
+    pull_outs: [u64; 3],
+}
+
+impl SphereSim {
+    /// The robot at rest at the origin, platform level, heading 0, motors holding 0 rad/s.
+    ///
+    /// # Errors
+    /// [`DynamicsError`] naming the first invalid parameter.
+    pub fn new(params: SphereDynamics) -> Result<Self, DynamicsError> {
+        Self::with_state(params, SphereState::at_rest(0.0, 0.0, 0.0))
+    }
+
+    /// The robot in `state`, motors powered and holding the wheel rates that state implies.
+    ///
+    /// # Errors
+    /// [`DynamicsError`] naming the first invalid parameter or a non-finite state value.
+    pub fn with_state(params: SphereDynamics, state: SphereState) -> Result<Self, DynamicsError> {
+        let (model, kin) = Model::new(&params)?;
+        let q = state.orientation.into_inner();
+        let vals = [
+            ("state.t", state.t),
+            ("state.orientation", q.norm()),
+            ("state.platform_rate", state.platform_rate.norm()),
+            ("state.shell_rate", state.shell_rate.norm()),
+            ("state.centre[0]", state.centre[0]),
+            ("state.centre[1]", state.centre[1]),
+        ];
+        for (what, value) in vals {
+            if !value.is_finite() {
+                return Err(DynamicsError::Input {
+                    what,
+                    value,
+                    rule: "must be finite",
+                });
+            }
+        }
+        let y = Y {
+            q,
+            w: state.platform_rate,
+            big_w: state.shell_rate,
+            p: Vector2::from(state.centre),
+            chi: Vector3::from(state.wheel_angles),
+        };
+        let mut sim = Self {
+            params,
+            model,
+            kin,
+            y,
+            t: state.t,
+            command: [0.0; 3],
+            drive: [Drive::Locked; 3],
+            heading: state.yaw(),
+            pull_outs: [0; 3],
+        };
+        sim.command = sim.model.wheel_rates(&sim.y);
+        Ok(sim)
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &SphereDynamics {
+        &self.params
+    }
+
+    /// The kinematic model of the same geometry (paper 000 §4–5).
+    pub fn kinematics(&self) -> &SphereOmni<f64> {
+        &self.kin
+    }
+
+    /// The current state.
+    pub fn state(&self) -> SphereState {
+        SphereState {
+            t: self.t,
+            orientation: UnitQuaternion::from_quaternion(self.y.q),
+            platform_rate: self.y.w,
+            shell_rate: self.y.big_w,
+            centre: self.y.p.into(),
+            wheel_angles: self.y.chi.into(),
+        }
+    }
+
+    /// Total mechanical energy (kinetic + the platform's potential, zero at the shell centre's
+    /// height), J.
+    pub fn energy(&self) -> f64 {
+        self.model.energy(&self.y)
+    }
+
+    /// Pull-out events so far per motor (times it started slipping).
+    pub fn pull_outs(&self) -> [u64; 3] {
+        self.pull_outs
+    }
+
+    /// The commanded wheel rates in force now, rad/s.
+    pub fn command(&self) -> [f64; 3] {
+        self.command
+    }
+
+    /// The constraint residuals of the current state.
+    pub fn residuals(&self) -> Residuals {
+        let m = &self.model;
+        let big_w = self.y.big_w;
+        let v = m.centre_velocity(&big_w);
+        let contact = Vector3::new(v.x, v.y, 0.0) + big_w.cross(&Vector3::new(0.0, 0.0, -m.r));
+        let f = m.frame(&self.y.q);
+        let u = self.y.u();
+        let rollers = core::array::from_fn(|i| {
+            if self.drive[i] == Drive::Locked {
+                m.r * (m.kappa[i] * self.command[i] - f.rows[i].dot(&u)) / m.lever[i]
+            } else {
+                0.0
+            }
+        });
+        Residuals {
+            floor: contact.norm(),
+            rollers,
+        }
+    }
+
+    /// Advances by `dt` (s) with the motors commanded to reach the wheel rates `wheel_rates`
+    /// (rad/s, right-handed about `n_i`, paper 000 §4) at the end of the step, ramping
+    /// linearly from the rates in force (first-order hold, like the kinematic plant's
+    /// interpolation between plan samples). A motor whose torque would exceed the pull-out
+    /// torque slips (delivers the pull-out torque) until its rotor is back at the commanded
+    /// rate.
+    ///
+    /// # Errors
+    /// [`DynamicsError::Input`] for a non-positive or non-finite `dt` or a non-finite rate, or
+    /// when the state stops being finite.
+    pub fn step(&mut self, dt: f64, wheel_rates: [f64; 3]) -> Result<SphereStep, DynamicsError> {
+        check_dt(dt)?;
+        const NAMES: [&str; 3] = ["wheel_rates[0]", "wheel_rates[1]", "wheel_rates[2]"];
+        for i in 0..3 {
+            if !wheel_rates[i].is_finite() {
+                return Err(DynamicsError::Input {
+                    what: NAMES[i],
+                    value: wheel_rates[i],
+                    rule: "must be finite",
+                });
+            }
+        }
+        self.integrate(dt, Some(wheel_rates))
+    }
+
+    /// Advances by `dt` (s) with the motors unpowered: every wheel turns freely, the platform
+    /// and the shell exchange no torque (the wheel contacts' normal forces pass through the
+    /// shell centre). The next [`SphereSim::step`] ramps from the wheel rates at the end.
+    ///
+    /// # Errors
+    /// As [`SphereSim::step`].
+    pub fn coast(&mut self, dt: f64) -> Result<SphereStep, DynamicsError> {
+        check_dt(dt)?;
+        self.integrate(dt, None)
+    }
+
+    fn integrate(
+        &mut self,
+        dt: f64,
+        target: Option<[f64; 3]>,
+    ) -> Result<SphereStep, DynamicsError> {
+        let n = (dt / self.params.max_substep).ceil().max(1.0);
+        let h = dt / n;
+        let start = self.command;
+        let slope: [f64; 3] = match target {
+            Some(r) => core::array::from_fn(|i| (r[i] - start[i]) / dt),
+            None => [0.0; 3],
+        };
+        if target.is_none() {
+            self.drive = [Drive::Force(0.0); 3];
+        }
+        let tau_max = self.params.pull_out_torque;
+        let kappa = self.model.kappa;
+        let mut pull_out = [false; 3];
+        let mut peak = [0.0f64; 3];
+        let mut torque = [0.0f64; 3];
+        let diverged = |_: Singular| DynamicsError::Input {
+            what: "state",
+            value: f64::NAN,
+            rule: "the simulation diverged (state no longer finite)",
+        };
+        for j in 0..n as u64 {
+            let t_end = (j + 1) as f64 * h;
+            let (mut k1, mut lambda) = self
+                .model
+                .derivative(&self.y, &self.drive, &slope)
+                .map_err(diverged)?;
+            if target.is_some() {
+                // A locked motor whose torque would exceed the pull-out torque slips.
+                for _ in 0..3 {
+                    let mut changed = false;
+                    for i in 0..3 {
+                        if self.drive[i] == Drive::Locked && (kappa[i] * lambda[i]).abs() > tau_max
+                        {
+                            self.drive[i] =
+                                Drive::Force(lambda[i].signum() * tau_max / kappa[i].abs());
+                            pull_out[i] = true;
+                            self.pull_outs[i] += 1;
+                            changed = true;
+                        }
+                    }
+                    if !changed {
+                        break;
+                    }
+                    (k1, lambda) = self
+                        .model
+                        .derivative(&self.y, &self.drive, &slope)
+                        .map_err(diverged)?;
+                }
+            }
+            for i in 0..3 {
+                torque[i] = kappa[i] * lambda[i];
+                peak[i] = peak[i].max(torque[i].abs());
+            }
+            let d = &self.drive;
+            let (k2, _) = self
+                .model
+                .derivative(&self.y.add(&k1, 0.5 * h), d, &slope)
+                .map_err(diverged)?;
+            let (k3, _) = self
+                .model
+                .derivative(&self.y.add(&k2, 0.5 * h), d, &slope)
+                .map_err(diverged)?;
+            let (k4, _) = self
+                .model
+                .derivative(&self.y.add(&k3, h), d, &slope)
+                .map_err(diverged)?;
+            let mut y = self.y.add(&k1, h / 6.0);
+            y = y.add(&k2, h / 3.0);
+            y = y.add(&k3, h / 3.0);
+            y = y.add(&k4, h / 6.0);
+            y.q = y.q.normalize();
+            if !(y
+                .q
+                .coords
+                .iter()
+                .chain(y.w.iter())
+                .chain(y.big_w.iter())
+                .chain(y.p.iter()))
+            .all(|v| v.is_finite())
+            {
+                return Err(diverged(Singular("state")));
+            }
+            let cmd: [f64; 3] = match target {
+                Some(_) => core::array::from_fn(|i| start[i] + slope[i] * t_end),
+                None => self.model.wheel_rates(&y),
+            };
+            if target.is_some() {
+                // A slipping motor locks again once its rotor has caught up with the command.
+                let actual = self.model.wheel_rates(&y);
+                for i in 0..3 {
+                    if let Drive::Force(l) = self.drive[i]
+                        && (actual[i] - cmd[i]) * kappa[i] * l.signum() >= 0.0
+                    {
+                        self.drive[i] = Drive::Locked;
+                    }
+                }
+                self.model
+                    .project(&mut y, &self.drive, &cmd)
+                    .map_err(diverged)?;
+            }
+            self.y = y;
+            self.command = cmd;
+        }
+        if target.is_none() {
+            self.drive = [Drive::Locked; 3];
+            self.command = self.model.wheel_rates(&self.y);
+        } else if let Some(r) = target {
+            // Exactly the commanded rates (the ramp's end, without rounding of the sum).
+            self.command = r;
+        }
+        self.t += dt;
+        let st = self.state();
+        self.heading += wrap_angle(st.yaw() - wrap_angle(self.heading));
+        let k = st.platform_z();
+        let zt = self.model.z_track;
+        Ok(SphereStep {
+            t: self.t,
+            centre: st.centre,
+            tracked: [st.centre[0] + zt * k.x, st.centre[1] + zt * k.y],
+            heading: self.heading,
+            yaw_rate: self.y.w.z,
+            tilt: st.tilt(),
+            platform_z: k.into(),
+            shell_spin: self.y.big_w.z,
+            wheel_rates: self.model.wheel_rates(&self.y),
+            wheel_torques: torque,
+            peak_torque: peak,
+            pull_out,
+            slipping: core::array::from_fn(|i| self.drive[i] != Drive::Locked),
+        })
+    }
+}
+
+fn check_dt(dt: f64) -> Result<(), DynamicsError> {
+    if dt.is_finite() && dt > 0.0 && dt <= 1.0 {
+        Ok(())
+    } else {
+        Err(DynamicsError::Input {
+            what: "dt",
+            value: dt,
+            rule: "must be in (0, 1] s",
+        })
+    }
+}

@@ -1,0 +1,132 @@
+//! A plan through the dynamic model: [`simulate_plan`] steps [`SphereSim`] with the plan's
+//! wheel rates and records a [`Trial`] at the plan's sample times (the same record the
+//! kinematic simulator makes, so the metrics and files apply unchanged), with what only the
+//! dynamics know (tilt, shell spin, pull-out events) beside it.
+
+use omnikin::{MAX_WHEELS, Pose2};
+use omnikin_plan::Plan;
+
+use super::params::{DynamicsError, SphereDynamics};
+use super::sim::{SphereSim, SphereState};
+use crate::Trial;
+
+/// One plan run through the dynamic model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DynamicTrial {
+    /// The run, at the plan's sample times: shell-centre pose with the platform's heading,
+    /// the tracked point ([`SphereDynamics::tracked_height`]), the wheel angles (encoders
+    /// read them exactly), and in `slip_residual` the largest roller-contact residual of the
+    /// step (m/s, rounding level).
+    pub trial: Trial,
+    /// Platform tilt at each sample, rad.
+    pub tilt: Vec<f64>,
+    /// Shell spin `Ω3` at each sample, rad/s.
+    pub shell_spin: Vec<f64>,
+    /// Largest tilt over the run, rad.
+    pub max_tilt: f64,
+    /// Pull-out events per motor over the run.
+    pub pull_outs: [u64; 3],
+    /// Largest |motor torque| per motor over the run, N·m.
+    pub peak_torque: [f64; 3],
+}
+
+/// Runs `plan` (a three-wheel `sphere-omni` plan) through the dynamic model with `params`.
+/// The robot starts at rest at the plan's first pose, level; over each plan interval the
+/// motors ramp linearly to the next sample's wheel rates (so a full-speed start is a ramp over
+/// the first interval, as fast as the pull-out torque allows). Deterministic.
+///
+/// # Errors
+/// [`DynamicsError::Parameter`] for invalid parameters; [`DynamicsError::Input`] for a plan
+/// that is not for three wheels, whose sample times do not increase by at most 1 s, or when
+/// the state diverges.
+pub fn simulate_plan(params: SphereDynamics, plan: &Plan) -> Result<DynamicTrial, DynamicsError> {
+    if plan.wheels != 3 || plan.samples.is_empty() {
+        return Err(DynamicsError::Input {
+            what: "plan.wheels",
+            value: plan.wheels as f64,
+            rule: "the sphere's dynamic model needs a non-empty plan for its three wheels",
+        });
+    }
+    let s0 = &plan.samples[0];
+    let start = SphereState {
+        t: s0.t,
+        ..SphereState::at_rest(s0.pose.x, s0.pose.y, s0.pose.heading)
+    };
+    let mut sim = SphereSim::with_state(params, start)?;
+    let n = plan.samples.len();
+    let mut trial = Trial {
+        wheels: 3,
+        t: Vec::with_capacity(n),
+        pose: Vec::with_capacity(n),
+        tracked: Vec::with_capacity(n),
+        slip_residual: Vec::with_capacity(n),
+        wheel_angles: Vec::with_capacity(n),
+        encoder_angles: Vec::with_capacity(n),
+        steer_angles: Vec::with_capacity(n),
+    };
+    let mut tilt = Vec::with_capacity(n);
+    let mut shell_spin = Vec::with_capacity(n);
+    let mut peak_torque = [0.0f64; 3];
+    let mut heading = s0.pose.heading;
+    let record =
+        |trial: &mut Trial, t: f64, centre: [f64; 2], tracked, heading, angles: [f64; 3], res| {
+            let mut w = [0.0; MAX_WHEELS];
+            w[..3].copy_from_slice(&angles);
+            trial.t.push(t);
+            trial.pose.push(Pose2::new(centre[0], centre[1], heading));
+            trial.tracked.push(tracked);
+            trial.slip_residual.push(res);
+            trial.wheel_angles.push(w);
+            trial.encoder_angles.push(w);
+            trial.steer_angles.push([0.0; MAX_WHEELS]);
+        };
+    let st = sim.state();
+    // The simulator unwraps from its wrapped start yaw; the plan's heading may start anywhere.
+    let h_off = s0.pose.heading - st.yaw();
+    let k = st.platform_z();
+    let zt = params.tracked_height - params.geometry.shell_radius;
+    record(
+        &mut trial,
+        s0.t,
+        st.centre,
+        [st.centre[0] + zt * k.x, st.centre[1] + zt * k.y],
+        heading,
+        st.wheel_angles,
+        0.0,
+    );
+    tilt.push(st.tilt());
+    shell_spin.push(st.shell_rate.z);
+    for w in plan.samples.windows(2) {
+        let r = w[1].wheel_rates;
+        let step = sim.step(w[1].t - w[0].t, [r[0], r[1], r[2]])?;
+        heading = step.heading + h_off;
+        for i in 0..3 {
+            peak_torque[i] = peak_torque[i].max(step.peak_torque[i]);
+        }
+        let res = sim
+            .residuals()
+            .rollers
+            .iter()
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        record(
+            &mut trial,
+            w[1].t,
+            step.centre,
+            step.tracked,
+            heading,
+            sim.state().wheel_angles,
+            res,
+        );
+        tilt.push(step.tilt);
+        shell_spin.push(step.shell_spin);
+    }
+    let max_tilt = tilt.iter().cloned().fold(0.0, f64::max);
+    Ok(DynamicTrial {
+        trial,
+        tilt,
+        shell_spin,
+        max_tilt,
+        pull_outs: sim.pull_outs(),
+        peak_torque,
+    })
+}

@@ -1,0 +1,213 @@
+//! The optional `[dynamics]` table of a `sphere-omni` robot file: the masses, inertias, motor
+//! and floor-friction parameters of the shell + platform dynamic model (`omnikin-sim`'s
+//! `dynamics::sphere`), every key optional (absent = that model's documented default), SI
+//! units:
+//!
+//! ```toml
+//! [dynamics]
+//! shell_mass = 0.5                          # m_s [kg]
+//! shell_inertia = 0.0075                    # I_s about the centre [kg m^2] (default 2/3 m_s R^2)
+//! platform_mass = 2.0                       # m_p [kg]
+//! platform_inertia = [0.004, 0.004, 0.006]  # principal moments about platform x, y, z [kg m^2]
+//! com_depth = 0.08                          # h, platform centre of mass below the centre [m]
+//! pull_out_torque = 0.3                     # stepper pull-out torque [N m] (inf = ideal)
+//! pivot_friction = 0.005                    # Coulomb spin friction at the floor [N m]
+//! pivot_velocity_scale = 0.005              # its tanh regularisation [rad/s]
+//! rolling_resistance = 0.005                # C_rr (torque C_rr M g R)
+//! rolling_velocity_scale = 0.01             # its regularisation [rad/s]
+//! tracked_height = 0.12                     # tracked point above the floor contact [m]
+//! max_tilt_deg = 20.0                       # platform tilt a plan should not exceed [deg]
+//! ```
+//!
+//! Parsing checks each value on its own (finite, sign, inside the shell, the inertia triangle
+//! inequality) and names the field; the dynamic model checks the combination again when it is
+//! built.
+
+use std::format;
+use std::string::{String, ToString};
+
+use serde::Deserialize;
+
+use super::DescriptionError;
+
+/// The `[dynamics]` table of a `sphere-omni` robot file, as given: `None` = the dynamic model's
+/// default for paper 000's robot.
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SphereDynamicsSpec {
+    /// Shell mass `m_s`, kg.
+    pub shell_mass: Option<f64>,
+    /// Shell moment of inertia about its centre, kg·m².
+    pub shell_inertia: Option<f64>,
+    /// Platform mass `m_p`, kg.
+    pub platform_mass: Option<f64>,
+    /// Principal moments of the platform's inertia about its centre of mass, about the
+    /// platform's x, y, z axes, kg·m².
+    pub platform_inertia: Option<std::vec::Vec<f64>>,
+    /// Depth `h` of the platform's centre of mass below the shell centre, m.
+    pub com_depth: Option<f64>,
+    /// Stepper pull-out torque, N·m (`inf` for an ideal rate source).
+    pub pull_out_torque: Option<f64>,
+    /// Coulomb pivot (spin) friction torque at the floor contact, N·m.
+    pub pivot_friction: Option<f64>,
+    /// Velocity scale of the pivot friction's regularisation, rad/s.
+    pub pivot_velocity_scale: Option<f64>,
+    /// Rolling-resistance coefficient `C_rr` (dimensionless).
+    pub rolling_resistance: Option<f64>,
+    /// Velocity scale of the rolling resistance's regularisation, rad/s.
+    pub rolling_velocity_scale: Option<f64>,
+    /// Height of the tracked point above the floor contact with the platform level, m.
+    pub tracked_height: Option<f64>,
+    /// Largest platform tilt a plan should cause, degrees.
+    pub max_tilt_deg: Option<f64>,
+}
+
+impl SphereDynamicsSpec {
+    /// The platform's principal moments, kg·m², when given (checked to be three by parsing).
+    pub fn platform_moments(&self) -> Option<[f64; 3]> {
+        match self.platform_inertia.as_deref() {
+            Some(&[a, b, c]) => Some([a, b, c]),
+            _ => None,
+        }
+    }
+
+    /// Checks every given value; `shell_radius` (m) bounds the depths and heights. Returns the
+    /// field (TOML key path) and the rule of the first bad one.
+    pub fn check(&self, shell_radius: f64) -> Result<(), (&'static str, String)> {
+        let positive = |field: &'static str, v: Option<f64>| match v {
+            Some(x) if !(x.is_finite() && x > 0.0) => {
+                Err((field, format!("must be a finite number > 0 (got {x})")))
+            }
+            _ => Ok(()),
+        };
+        let nonneg = |field: &'static str, v: Option<f64>| match v {
+            Some(x) if !(x.is_finite() && x >= 0.0) => {
+                Err((field, format!("must be a finite number ≥ 0 (got {x})")))
+            }
+            _ => Ok(()),
+        };
+        positive("dynamics.shell_mass", self.shell_mass)?;
+        positive("dynamics.shell_inertia", self.shell_inertia)?;
+        if let (Some(m), Some(i)) = (self.shell_mass, self.shell_inertia)
+            && i > m * shell_radius * shell_radius * (1.0 + 1e-12)
+        {
+            return Err((
+                "dynamics.shell_inertia",
+                format!(
+                    "{i} kg m^2 exceeds m_s R^2 = {} kg m^2 (all the mass on the shell's \
+                     surface; a thin shell has 2/3 m_s R^2)",
+                    m * shell_radius * shell_radius
+                ),
+            ));
+        }
+        positive("dynamics.platform_mass", self.platform_mass)?;
+        if let Some(v) = &self.platform_inertia {
+            let &[a, b, c] = v.as_slice() else {
+                return Err((
+                    "dynamics.platform_inertia",
+                    format!(
+                        "expected 3 principal moments (about platform x, y, z), got {} values",
+                        v.len()
+                    ),
+                ));
+            };
+            for x in [a, b, c] {
+                positive("dynamics.platform_inertia", Some(x))?;
+            }
+            let tol = 1e-12 * (a + b + c);
+            if a > b + c + tol || b > a + c + tol || c > a + b + tol {
+                return Err((
+                    "dynamics.platform_inertia",
+                    format!(
+                        "principal moments [{a}, {b}, {c}] violate the triangle inequality \
+                         (each at most the sum of the other two)"
+                    ),
+                ));
+            }
+        }
+        nonneg("dynamics.com_depth", self.com_depth)?;
+        if let Some(h) = self.com_depth
+            && h >= shell_radius
+        {
+            return Err((
+                "dynamics.com_depth",
+                format!(
+                    "{h} m puts the platform's centre of mass outside the shell (R = \
+                     {shell_radius} m)"
+                ),
+            ));
+        }
+        if let Some(t) = self.pull_out_torque
+            && (t.is_nan() || t <= 0.0)
+        {
+            return Err((
+                "dynamics.pull_out_torque",
+                format!("must be > 0 N m, or inf for an ideal motor (got {t})"),
+            ));
+        }
+        nonneg("dynamics.pivot_friction", self.pivot_friction)?;
+        positive("dynamics.pivot_velocity_scale", self.pivot_velocity_scale)?;
+        nonneg("dynamics.rolling_resistance", self.rolling_resistance)?;
+        positive(
+            "dynamics.rolling_velocity_scale",
+            self.rolling_velocity_scale,
+        )?;
+        nonneg("dynamics.tracked_height", self.tracked_height)?;
+        if let Some(z) = self.tracked_height
+            && z > 2.0 * shell_radius
+        {
+            return Err((
+                "dynamics.tracked_height",
+                format!(
+                    "{z} m is above the shell's top (2R = {} m)",
+                    2.0 * shell_radius
+                ),
+            ));
+        }
+        if let Some(d) = self.max_tilt_deg
+            && !(d > 0.0 && d < 90.0)
+        {
+            return Err((
+                "dynamics.max_tilt_deg",
+                format!("must be strictly between 0 and 90 degrees (got {d})"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[derive(Deserialize)]
+struct Only {
+    dynamics: Option<toml::Spanned<SphereDynamicsSpec>>,
+}
+
+/// Parses and checks the `[dynamics]` table of a file of kind `kind`: `None` when absent. Only
+/// `sphere-omni` has one so far.
+pub(super) fn parse(
+    text: &str,
+    kind: &str,
+    shell_radius: Option<f64>,
+    err: &dyn Fn(Option<usize>, &str, String) -> DescriptionError,
+    de_err: &dyn Fn(toml::de::Error) -> DescriptionError,
+) -> Result<Option<SphereDynamicsSpec>, DescriptionError> {
+    let only: Only = toml::from_str(text).map_err(de_err)?;
+    let Some(spec) = only.dynamics else {
+        return Ok(None);
+    };
+    let line = Some(
+        1 + text[..spec.span().start.min(text.len())]
+            .matches('\n')
+            .count(),
+    );
+    let (Some(r), "sphere-omni") = (shell_radius, kind) else {
+        return Err(err(
+            line,
+            "dynamics",
+            format!("a [dynamics] table is read only for kind \"sphere-omni\", not \"{kind}\""),
+        ));
+    };
+    let spec = spec.into_inner();
+    spec.check(r)
+        .map_err(|(field, rule)| err(line, field, rule.to_string()))?;
+    Ok(Some(spec))
+}

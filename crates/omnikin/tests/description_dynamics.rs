@@ -1,0 +1,88 @@
+//! The `[dynamics]` table of a `sphere-omni` robot file: parsed values, absent keys, and errors
+//! that name the field.
+
+use omnikin::description::RobotDescription;
+
+const BASE: &str = r#"
+kind = "sphere-omni"
+[geometry]
+shell_radius = 0.15
+wheel_radius = 0.07
+tilt_deg = 45.0
+roller_angle_deg = 45.0
+azimuths_deg = [0.0, 120.0, 240.0]
+"#;
+
+fn with(dynamics: &str) -> Result<RobotDescription, omnikin::description::DescriptionError> {
+    RobotDescription::from_toml_str(&format!("{BASE}\n[dynamics]\n{dynamics}\n"), "test.toml")
+}
+
+#[test]
+fn the_table_is_optional_and_its_values_are_kept() {
+    let d = RobotDescription::from_toml_str(BASE, "test.toml").unwrap();
+    assert_eq!(d.sphere_dynamics, None);
+    let d = with("platform_mass = 2.5\ncom_depth = 0.07\nplatform_inertia = [0.003, 0.004, 0.006]\npull_out_torque = inf")
+        .unwrap();
+    let s = d.sphere_dynamics.unwrap();
+    assert_eq!(s.platform_mass, Some(2.5));
+    assert_eq!(s.com_depth, Some(0.07));
+    assert_eq!(s.platform_moments(), Some([0.003, 0.004, 0.006]));
+    assert_eq!(s.pull_out_torque, Some(f64::INFINITY));
+    assert_eq!(s.shell_mass, None);
+}
+
+#[test]
+fn the_sphere_preset_carries_its_dynamics() {
+    let d = RobotDescription::preset("sphere-omni").unwrap();
+    let s = d
+        .sphere_dynamics
+        .expect("the preset has a [dynamics] table");
+    assert!(s.platform_mass.is_some() && s.com_depth.is_some());
+}
+
+#[test]
+fn bad_values_name_their_field() {
+    for (text, field) in [
+        ("shell_mass = -0.5", "dynamics.shell_mass"),
+        ("platform_mass = nan", "dynamics.platform_mass"),
+        ("com_depth = 0.15", "dynamics.com_depth"),
+        (
+            "platform_inertia = [0.004, 0.004]",
+            "dynamics.platform_inertia",
+        ),
+        (
+            "platform_inertia = [0.001, 0.001, 0.006]",
+            "dynamics.platform_inertia",
+        ),
+        (
+            "shell_mass = 0.5\nshell_inertia = 0.02",
+            "dynamics.shell_inertia",
+        ),
+        ("pull_out_torque = 0.0", "dynamics.pull_out_torque"),
+        ("pivot_friction = -0.001", "dynamics.pivot_friction"),
+        ("tracked_height = 0.4", "dynamics.tracked_height"),
+        ("max_tilt_deg = 90.0", "dynamics.max_tilt_deg"),
+    ] {
+        let e = with(text).unwrap_err();
+        assert_eq!(e.field, field, "{text}: {e}");
+        assert!(e.line.is_some(), "{text}: {e}");
+    }
+    let e = with("platform_mas = 2.0").unwrap_err();
+    assert!(e.to_string().contains("platform_mas"), "{e}");
+}
+
+#[test]
+fn other_kinds_reject_the_table() {
+    let text = r#"
+kind = "caster3"
+[geometry]
+mount_radius = 0.2
+eccentricity = 0.03
+wheel_radius = 0.04
+mount_angles_deg = [0.0, -120.0, 120.0]
+[dynamics]
+platform_mass = 2.0
+"#;
+    let e = RobotDescription::from_toml_str(text, "c.toml").unwrap_err();
+    assert_eq!(e.field, "dynamics", "{e}");
+}
