@@ -1,9 +1,9 @@
 //! A plan's steer angles against its steer rates. The simulator (and any steer motor driven by
 //! rate) moves a module by the plan's `sd` columns; a plan whose `s` columns step between two
 //! samples by more than those rates account for cannot be followed: a swerve plan re-steering
-//! its modules at a stop (the planner keeps a stopped module's angle and points it along the
-//! next motion at the first sample of that motion, with `sd = 0`) simulated as if the modules
-//! never turned — an ideal-plant square ended 1.6 m from its end point, with exit code 0.
+//! its modules at a stop between two samples (as `omnikin plan` did before it timed a re-steer
+//! at rest, or a plan from elsewhere) simulated as if the modules never turned — an
+//! ideal-plant square ended 1.6 m from its end point, with exit code 0.
 
 use omnikin_plan::Plan;
 
@@ -36,9 +36,8 @@ impl SteerStep {
     /// far apart for the steering.
     pub fn cause(&self) -> &'static str {
         if self.by_rates == (0.0, 0.0) {
-            "the modules are re-steered at a stop without a planned turn (`omnikin plan` does \
-             not yet time a re-steer in place; a path without stops avoids it: a circle, or \
-             waypoints with `--corners fillet` under the constant heading law)"
+            "the modules are re-steered at a stop without a planned turn (`omnikin plan` \
+             times a re-steer at rest before each motion: re-plan the file with it)"
         } else {
             "the samples are too far apart for the steering (plan it at a higher --rate)"
         }

@@ -124,6 +124,11 @@ fn every_kind_plans_rates_equal_to_the_core_inverse_within_its_limits() {
                 }
                 assert!(s.wheel_rates[n..].iter().all(|&w| w == 0.0));
                 match s.steer {
+                    // At rest a swerve's modules follow the planner's re-steer (see the
+                    // test below), which the inverse at zero twist (hold the angle) is not.
+                    Some((_, sd)) if set_point && body == omnikin::Twist2::new(0.0, 0.0, 0.0) => {
+                        assert!(sd[n..].iter().all(|&r| r == 0.0));
+                    }
                     Some((g, sd)) if set_point => {
                         for i in 0..n {
                             let d = wrap_angle(g[i] - want.steer_angles[i]);
@@ -306,6 +311,70 @@ fn given_initial_steer_angles_start_every_steerable_plan() {
                 assert!(
                     (gi - std::f64::consts::FRAC_PI_2).abs() < 1e-12,
                     "{name}: {gi}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn swerve_modules_turn_only_as_fast_as_their_steer_rates_say_even_at_stops() {
+    // Squares stop at their corners and turn the modules at rest (a re-steer move); a
+    // tangent-law polyline also turns in place. Between any two samples each module's angle
+    // changes by no more than its steer rates allow, and every re-steer stays within the
+    // steer-rate limit.
+    for optimize in [false, true] {
+        let mut d = RobotDescription::preset("swerve4").unwrap();
+        if let omnikin::description::Geometry::Swerve { optimize: o, .. } = &mut d.geometry {
+            *o = optimize;
+        }
+        let robot = RobotModel::from_description(&d).unwrap();
+        let dt = 1e-3;
+        let mut all = plans(&robot, 1.0 / dt);
+        let wps = [[0.0, 0.0], [0.5, 0.0], [0.5, 0.5], [-0.2, 0.1]];
+        let stop = PlanOptions {
+            timing: Timing::Profile {
+                kind: ProfileKind::Trapezoid,
+                limits: MotionLimits::default(),
+            },
+            on_limit: OnLimit::Retime,
+            rate: 1.0 / dt,
+            initial_steer: InitialSteer::Given(per_wheel(&[0.3, -2.0, 3.0, 0.0])),
+        };
+        let p = plan(
+            &Path::polyline(&wps, Corners::Stop).unwrap(),
+            &HeadingLaw::Tangent { offset: 0.0 },
+            &robot,
+            &stop,
+        )
+        .unwrap();
+        all.push(("tangent polyline", p.plan));
+        let limit = robot.limits.max_steer_rate;
+        for (what, p) in &all {
+            let mut largest = 0.0_f64;
+            for w in p.samples.windows(2) {
+                let (g0, sd0) = w[0].steer.unwrap();
+                let (g1, sd1) = w[1].steer.unwrap();
+                let h = w[1].t - w[0].t;
+                for i in 0..4 {
+                    let step = wrap_angle(g1[i] - g0[i]).abs();
+                    let allowed = sd0[i].abs().max(sd1[i].abs()) * h;
+                    // A step is a quarter turn or so; the slack covers the change of the
+                    // steer rate within a sample interval on curved paths.
+                    assert!(
+                        step <= 1.1 * allowed + 1e-4,
+                        "{what} (optimize {optimize}) t {}: module {} turns {step} rad, its \
+                         steer rates allow {allowed}",
+                        w[0].t,
+                        i + 1
+                    );
+                    largest = largest.max(sd0[i].abs());
+                }
+            }
+            if let Some(l) = limit {
+                assert!(
+                    largest <= l * (1.0 + 1e-9),
+                    "{what}: steer rate {largest} > {l}"
                 );
             }
         }

@@ -79,18 +79,23 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
             Format::Json => "json",
         }
     );
-    let turns = r
-        .moves
-        .iter()
-        .filter(|m| matches!(m.kind, MoveKind::Turn { .. }))
-        .count();
+    let count = |f: fn(&MoveKind) -> bool| r.moves.iter().filter(|m| f(&m.kind)).count();
+    let turns = count(|k| matches!(k, MoveKind::Turn { .. }));
+    let resteers = count(|k| matches!(k, MoveKind::Resteer { .. }));
+    let mut extra = Vec::new();
+    if turns > 0 {
+        extra.push(format!("{turns} turn(s) in place"));
+    }
+    if resteers > 0 {
+        extra.push(format!("{resteers} re-steer(s) at rest"));
+    }
     crate::errln!(
         "duration {:.3} s, path length {:.3} m, {} move(s){}",
         r.duration,
         r.path_length,
         r.moves.len(),
-        if turns > 0 {
-            format!(" incl. {turns} turn(s) in place")
+        if !extra.is_empty() {
+            format!(" incl. {}", extra.join(" and "))
         } else {
             String::new()
         }
@@ -165,6 +170,9 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
             match m.kind {
                 MoveKind::Travel { s0, s1 } => format!("s = {s0:.3}..{s1:.3} m"),
                 MoveKind::Turn { angle } => format!("turn in place by {angle:.3} rad"),
+                MoveKind::Resteer { angle } => {
+                    format!("re-steer at rest (largest module turn {angle:.3} rad)")
+                }
             },
             100.0 * rt.factor,
             rt.limiter

@@ -27,8 +27,45 @@ pub(super) struct Config {
 
 #[derive(Clone, Debug)]
 pub(super) enum Kind {
-    Travel { s0: f64, s1: f64 },
-    Turn { x: f64, y: f64, psi0: f64, dir: f64 },
+    Travel {
+        s0: f64,
+        s1: f64,
+    },
+    Turn {
+        x: f64,
+        y: f64,
+        psi0: f64,
+        dir: f64,
+    },
+    /// A re-steer at rest (set-point steering, swerve): the modules turn from `from` by
+    /// `delta` (rad each, shortest way) while the robot stands at `(x, y, ψ)`; `σ` is the
+    /// largest module's turned angle (rad), so `len = max_i |Δ_i|` and `γ(σ) = from + Δ σ/len`.
+    Resteer {
+        x: f64,
+        y: f64,
+        psi: f64,
+        from: Steer,
+        delta: Steer,
+    },
+}
+
+impl Kind {
+    /// The steer angles of a re-steer at `sigma` of a move of length `len` (wrapped into
+    /// `(−π, π]`), and the steer rates per unit `σ̇`; `None` for the other kinds.
+    pub(super) fn resteer_at(&self, len: f64, sigma: f64) -> Option<(Steer, Steer)> {
+        let Kind::Resteer { from, delta, .. } = self else {
+            return None;
+        };
+        let f = (sigma / len).clamp(0.0, 1.0);
+        let angles = core::array::from_fn(|i| {
+            if delta[i] == 0.0 && from[i] == 0.0 {
+                0.0
+            } else {
+                wrap_angle(from[i] + delta[i] * f)
+            }
+        });
+        Some((angles, core::array::from_fn(|i| delta[i] / len)))
+    }
 }
 
 pub(super) struct Ctx<'a> {
@@ -139,6 +176,14 @@ impl Ctx<'_> {
                     dq: [0.0, 0.0, dir],
                 }
             }
+            Kind::Resteer { x, y, psi, .. } => {
+                let (s, c) = psi.sin_cos();
+                Config {
+                    pose: Pose2::new(x, y, psi),
+                    cs: [c, s],
+                    dq: [0.0, 0.0, 0.0],
+                }
+            }
         }
     }
 
@@ -155,6 +200,13 @@ impl Ctx<'_> {
         c: &Config,
         gamma: &Steer,
     ) -> Result<[f64; MAX_CHANNELS], PlanningError> {
+        if let Some((_, per_speed)) = kind.resteer_at(len, sigma) {
+            // At rest: no wheel motion, the steer motors at `Δ_i / len` per unit `σ̇`.
+            let n = self.robot.wheels();
+            let mut out = [0.0; MAX_CHANNELS];
+            out[n..2 * n].copy_from_slice(&per_speed[..n]);
+            return Ok(out);
+        }
         let rate = if self.set_point {
             self.twist_rate_per_speed(kind, len, sigma, c)
         } else {

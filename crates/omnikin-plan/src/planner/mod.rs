@@ -10,7 +10,12 @@
 //!    tangent or the heading rate `dψ/ds` jumps — e.g. where a fillet meets a leg under the
 //!    tangent heading law); a jump in wheel rate at non-zero speed would need infinite wheel
 //!    acceleration. Under the tangent law (paper 000, eq. 5.5) a stop where the direction
-//!    changes gets a **turn in place** from the old to the new direction.
+//!    changes gets a **turn in place** from the old to the new direction. For set-point
+//!    steering (swerve) a move whose start needs other module directions than the previous
+//!    move ended with (a square's corner, a turn in place, given initial angles) is preceded
+//!    by a **re-steer at rest**: the modules turn the shortest way (or flip, if the robot
+//!    optimises its steering) at a rate timed like a turn in place, the robot standing still,
+//!    so no module is asked to turn between two samples.
 //! 2. **Geometry along a move.** Each move has a parameter `σ` (arc length `s` in m, or the
 //!    turned angle in rad for a turn in place) and a configuration `q(σ) = (x, y, ψ)`. Because
 //!    every robot's motor rates are linear in the world twist `q̇ = q'(σ) σ̇`, they are
@@ -63,7 +68,7 @@
 //! | file | what |
 //! |---|---|
 //! | `options.rs` | the request: [`MotionLimits`], [`Timing`], [`OnLimit`], [`InitialSteer`], [`PlanOptions`] |
-//! | `moves.rs` | step 1: cutting the path into moves (stops, jumps of `q'`, turns in place) |
+//! | `moves.rs` | step 1: cutting the path into moves (stops, jumps of `q'`, turns in place, re-steers at rest) |
 //! | `geometry.rs` | step 2: a move's configuration `q(σ)`, `q'(σ)` and `A(σ)`, and the heading unwrap |
 //! | `grid.rs` | step 2: the adaptive grid of a move and the cell lookup |
 //! | `steer.rs` | step 2: the steer state along a move (caster: RK4 of paper 003, eq. 5; swerve: set-points), aligned start, grid step |

@@ -5,9 +5,9 @@
 use crate::PlanningError;
 use crate::heading::{HeadingLaw, Side};
 use crate::limits::MAX_PLAN_GRID_CELLS;
-use omnikin::{MAX_WHEELS, wrap_angle};
+use omnikin::{Actuators, MAX_WHEELS, wrap_angle};
 
-use super::geometry::{Ctx, Hint, Kind};
+use super::geometry::{Config, Ctx, Hint, Kind, Steer, body_per_speed};
 use super::grid::{MIN_CELLS, Move};
 use super::options::{InitialSteer, PlanOptions};
 use super::steer::{aligned_steer, grid_step};
@@ -111,6 +111,13 @@ pub(super) fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, Pl
                     psi0: psi,
                     dir: delta.signum(),
                 };
+                if ctx.set_point {
+                    let c = ctx.config(&kind, delta.abs(), 0.0, Hint::angle(psi));
+                    if let Some(mv) = resteer(ctx, &c, gamma, step)? {
+                        gamma = *mv.gamma.last().unwrap_or(&gamma);
+                        moves.push(mv);
+                    }
+                }
                 let mv = ctx.build_move(kind, delta.abs(), psi, gamma, step, &[])?;
                 psi += delta;
                 gamma = *mv.gamma.last().unwrap_or(&gamma);
@@ -125,6 +132,13 @@ pub(super) fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, Pl
             .filter(|&&k| k > s0 && k < s1)
             .map(|k| k - s0)
             .collect();
+        if ctx.set_point {
+            let c = ctx.config(&kind, s1 - s0, 0.0, Hint::angle(psi));
+            if let Some(mv) = resteer(ctx, &c, gamma, step)? {
+                gamma = *mv.gamma.last().unwrap_or(&gamma);
+                moves.push(mv);
+            }
+        }
         let mv = ctx.build_move(kind, s1 - s0, psi, gamma, step, &kinks)?;
         psi = *mv.psi.last().unwrap_or(&psi);
         gamma = *mv.gamma.last().unwrap_or(&gamma);
@@ -136,6 +150,47 @@ pub(super) fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, Pl
     }
     Ok(moves)
 }
+
+/// For set-point steering (swerve): the re-steer at rest that turns the modules from `gamma`
+/// to the directions the motion starting at configuration `c` needs (the inverse's set-points
+/// at `gamma`, so the steering optimisation, if on, picks the shorter of turning and
+/// reversing), or `None` when no module turns by more than `RESTEER_MIN`. Without it the
+/// modules would be asked to turn between two samples at the start of the motion.
+fn resteer(ctx: &Ctx, c: &Config, gamma: Steer, step: f64) -> Result<Option<Move>, PlanningError> {
+    let n = ctx.robot.wheels();
+    let want = ctx
+        .robot
+        .model
+        .inverse(body_per_speed(c), &Actuators::at_steer(&gamma))?
+        .steer_angles;
+    let mut delta = [0.0; MAX_WHEELS];
+    for i in 0..n {
+        delta[i] = wrap_angle(want[i] - gamma[i]);
+    }
+    let len = delta.iter().fold(0.0_f64, |m, d| m.max(d.abs()));
+    if len <= RESTEER_MIN {
+        return Ok(None);
+    }
+    let kind = Kind::Resteer {
+        x: c.pose.x,
+        y: c.pose.y,
+        psi: c.pose.heading,
+        from: gamma,
+        delta,
+    };
+    Ok(Some(ctx.build_move(
+        kind,
+        len,
+        c.pose.heading,
+        gamma,
+        step,
+        &[],
+    )?))
+}
+
+/// The smallest module turn (rad) that gets a re-steer move of its own; below it the first
+/// samples of the motion turn the modules (well within any steer-rate limit at 1 kHz).
+const RESTEER_MIN: f64 = 1e-6;
 
 /// `true` when two derivative vectors `q'` differ (a jump in the wheel rates per unit speed).
 fn jumps(a: [f64; 3], b: [f64; 3]) -> bool {

@@ -94,6 +94,12 @@ pub enum MoveKind {
         /// Signed angle, rad.
         angle: f64,
     },
+    /// Re-steer at rest (set-point steering, swerve): the modules turn to the next motion's
+    /// directions, the largest by `angle` rad.
+    Resteer {
+        /// The largest module's turn, rad (≥ 0).
+        angle: f64,
+    },
 }
 
 /// One move of a plan: what it does, when, and how fast.
@@ -105,7 +111,8 @@ pub struct MoveSummary {
     pub t0: f64,
     /// Duration, s.
     pub duration: f64,
-    /// Peak speed along the path (m/s) or yaw rate of a turn (rad/s).
+    /// Peak speed along the path (m/s), yaw rate of a turn (rad/s) or steer rate of the
+    /// fastest module in a re-steer (rad/s).
     pub peak_speed: f64,
 }
 
@@ -235,6 +242,7 @@ pub(super) fn report(
                 kind: match m.kind {
                     Kind::Travel { s0, s1 } => MoveKind::Travel { s0, s1 },
                     Kind::Turn { dir, .. } => MoveKind::Turn { angle: dir * m.len },
+                    Kind::Resteer { .. } => MoveKind::Resteer { angle: m.len },
                 },
                 t0: m.t0,
                 duration: dur,

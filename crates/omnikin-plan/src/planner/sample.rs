@@ -60,7 +60,16 @@ pub(super) fn sample(ctx: &Ctx, moves: &[Move], rate: f64) -> Result<Plan, Plann
         let (sigma, v, acc) = mv.timing.eval(t - mv.t0, mv.len, &mv.sig, &mut from_t);
         let (c, gamma) = ctx.state(mv, sigma, &mut from_s)?;
         let twist = Twist2::new(c.dq[0] * v, c.dq[1] * v, c.dq[2] * v);
-        let a = if ctx.set_point {
+        let a = if let Some((angles, per_speed)) = mv.kind.resteer_at(mv.len, sigma) {
+            // A re-steer at rest: the modules' angles along the move, turning at `Δ/len · σ̇`.
+            let mut a = Actuators::zero();
+            a.steer_angles = angles;
+            for (r, k) in a.steer_rates.iter_mut().zip(per_speed) {
+                *r = k * v;
+            }
+            current = a;
+            a
+        } else if ctx.set_point {
             // Robot-frame twist rate b' σ̇² + b σ̈ for the steer rates.
             let b1 = ctx.twist_rate_per_speed(&mv.kind, mv.len, sigma, &c);
             let b = body_per_speed(&c);

@@ -30,6 +30,9 @@ impl Ctx<'_> {
         if !self.robot.steerable() || step == 0.0 {
             return Ok(gamma);
         }
+        if let Some((angles, _)) = kind.resteer_at(len, sigma + step) {
+            return Ok(angles);
+        }
         if self.set_point {
             let c = self.config(kind, len, sigma + step, hint);
             let a = self

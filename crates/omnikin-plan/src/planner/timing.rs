@@ -137,7 +137,9 @@ pub(super) fn user_limits(opts: &PlanOptions, kind: &Kind) -> (f64, f64, (Limite
             limits.max_accel,
             (Limiter::MaxSpeed, Limiter::MaxAccel),
         ),
-        Kind::Turn { .. } => (
+        // A re-steer is timed like a turn in place: the fastest module's steer angle within
+        // the request's yaw-rate and yaw-acceleration limits (and the steer motors' own).
+        Kind::Turn { .. } | Kind::Resteer { .. } => (
             limits.max_yaw_rate,
             limits.max_yaw_accel,
             (Limiter::MaxYawRate, Limiter::MaxYawAccel),
@@ -170,7 +172,7 @@ pub(super) fn initial_timing(
         Timing::Profile { kind, limits } => {
             let (v, a, j) = match mv.kind {
                 Kind::Travel { .. } => (limits.max_speed, limits.max_accel, limits.max_jerk),
-                Kind::Turn { .. } => (
+                Kind::Turn { .. } | Kind::Resteer { .. } => (
                     limits.max_yaw_rate,
                     limits.max_yaw_accel,
                     limits.max_yaw_accel * limits.max_jerk / limits.max_accel,
@@ -189,7 +191,7 @@ pub(super) fn initial_timing(
     let user_label = match (&opts.timing, &mv.kind) {
         (Timing::ConstantSpeed { .. }, _) => Limiter::RequestedSpeed,
         (_, Kind::Travel { .. }) => Limiter::MaxSpeed,
-        (_, Kind::Turn { .. }) => Limiter::MaxYawRate,
+        (_, Kind::Turn { .. } | Kind::Resteer { .. }) => Limiter::MaxYawRate,
     };
     if rr <= 1.0 && ra <= 1.0 {
         return Ok((timing, vec![(user_label, dur)]));
