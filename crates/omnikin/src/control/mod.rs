@@ -1,0 +1,21 @@
+//! Feedback control on the microcontroller: the ballbot's balance controller (paper 001's
+//! purpose).
+//!
+//! * [`planar`]: the three planar models of paper 001 (two vertical planes, yaw), linearised
+//!   about upright in closed form, and the physical parameters they need.
+//! * [`lqr`]: zero-order-hold discretisation and a bounded discrete Riccati iteration.
+//! * [`balance`]: the balance controller — LQR per planar model, an outer loop following a
+//!   plan's velocities with a feed-forward lean, the wheel-torque map, saturation and fall
+//!   detection.
+//!
+//! `no_std`, no allocation, generic over `f32` and `f64`.
+
+pub mod balance;
+pub mod lqr;
+pub mod planar;
+
+pub use balance::{
+    BalanceConfig, BalanceController, BalanceError, BalanceOutput, Command, Lean, Measurement,
+    PlaneDesign, Status, Weights,
+};
+pub use planar::{PlanarModel, Plane, PlantParams};
