@@ -52,6 +52,13 @@ pub enum LqrError {
         /// Which matrix.
         what: &'static str,
     },
+    /// The Riccati iteration overflowed: there is no stabilising solution (an unstable mode
+    /// that the input cannot reach, i.e. the pair `(A, B)` is not stabilisable).
+    #[error("Riccati iteration diverged after {iterations} iterations: (A, B) is not stabilisable")]
+    Diverged {
+        /// Iterations run before the overflow.
+        iterations: usize,
+    },
     /// The Riccati iteration did not settle within its iteration bound.
     #[error(
         "Riccati iteration did not converge in {iterations} iterations (last relative change {change:e}, tolerance {tolerance:e})"
@@ -162,7 +169,7 @@ pub struct Lqr<T: Real, const N: usize, const M: usize> {
 ///
 /// # Errors
 /// [`LqrError::NonFinite`], [`LqrError::BadWeight`], [`LqrError::Singular`],
-/// [`LqrError::NotConverged`], [`LqrError::NotStabilising`].
+/// [`LqrError::Diverged`], [`LqrError::NotConverged`], [`LqrError::NotStabilising`].
 pub fn dare<T: Real, const N: usize, const M: usize>(
     a: &SMatrix<T, N, N>,
     b: &SMatrix<T, N, M>,
@@ -208,7 +215,9 @@ pub fn dare<T: Real, const N: usize, const M: usize>(
         let a_next = ak * wa;
         let g_next = gk + ak * w * gk * ak.transpose();
         let h_next = hk + ak.transpose() * hk * wa;
-        check_finite(&h_next, "Q")?;
+        if !h_next.iter().all(|v| v.is_finite()) {
+            return Err(LqrError::Diverged { iterations: it });
+        }
         let scale = h_next.amax();
         change = if scale > T::zero() {
             ((h_next - hk).amax() / scale).to_f64()
