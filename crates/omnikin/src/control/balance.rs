@@ -36,8 +36,12 @@
 //! odometry gives them (corrected for the body's tilt: the wheel encoders measure the ball's
 //! rotation relative to the body).
 //!
-//! No allocation, no panic: a cycle is a few dozen multiply-adds, one wheel-torque map and a
-//! handful of `sin`/`cos`/`atan`.
+//! No allocation, no panic. **Cost of one cycle** (callgrind, `bench/instructions.sh balance
+//! balance-f64`: [`Measurement::from_attitude`] from the AHRS quaternion and gyro, then
+//! [`BalanceController::step`], with the `libm` math of a `no_std` build): ≈ 1 510 x86-64
+//! instructions in `f32`, ≈ 1 680 in `f64` — a few dozen multiply-adds for the three laws and
+//! the wheel-torque map; most of the rest is the trigonometry (Euler yaw, tilt `atan2`s, the
+//! tilt angle's `tan`/`atan`, the heading rotation's `sin_cos`).
 
 use nalgebra::{Matrix2, Matrix4, UnitQuaternion, Vector2, Vector3, Vector4};
 
