@@ -243,6 +243,34 @@ pub struct Lean<T> {
     pub accel: [T; 2],
 }
 
+/// The ball's velocity (world frame, m/s) from the wheel rates, corrected for the body's own
+/// rotation: the encoders measure the ball's rotation *relative to the body*,
+/// `ω_rel = (k B)⁻¹ ψ̇` (body frame, [`Ballbot::relative_rate_from_wheels`]); the ball's
+/// absolute rate is `Ω = R_B (ω_rel + ω_gyro)` and it rolls at `v = R (Ω_y, −Ω_x)`. Without
+/// the gyro term a leaning body would read as a rolling ball (`R θ̇`, the Rezero/Kugle
+/// correction).
+///
+/// `q` is the orientation (body → world, from the AHRS), `gyro` the bias-corrected gyro (body
+/// frame, rad/s), `wheel_rates` in rad/s.
+///
+/// # Errors
+/// [`InputError::NonFinite`] for a non-finite rate.
+pub fn ball_velocity_from_wheels<T: Real>(
+    robot: &Ballbot<T>,
+    wheel_rates: [T; 3],
+    q: &UnitQuaternion<T>,
+    gyro: [T; 3],
+) -> Result<[T; 2], InputError> {
+    let rel = robot.relative_rate_from_wheels(wheel_rates)?;
+    let g = Vector3::from(crate::real::finite3(
+        gyro,
+        ["gyro[0]", "gyro[1]", "gyro[2]"],
+    )?);
+    let om = q * (rel + g);
+    let r = robot.params().ball_radius;
+    finite_out([r * om.y, -r * om.x], "ball velocity")
+}
+
 /// The motion to follow, one control cycle (a plan sample).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Command<T> {

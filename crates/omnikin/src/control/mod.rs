@@ -16,6 +16,6 @@ pub mod planar;
 
 pub use balance::{
     BalanceConfig, BalanceController, BalanceError, BalanceOutput, Command, Lean, Measurement,
-    PlaneDesign, Status, Weights,
+    PlaneDesign, Status, Weights, ball_velocity_from_wheels,
 };
 pub use planar::{PlanarModel, Plane, PlantParams};

@@ -2,7 +2,7 @@
 //! wheel torques held (zero-order hold) over RK4 sub-steps of the 3D model, pushes as impulses
 //! on the body's centre of mass.
 
-use omnikin::control::{BalanceController, BalanceOutput, Command};
+use omnikin::control::{BalanceController, BalanceOutput, Command, Measurement};
 use omnikin::nalgebra::Vector3;
 
 use super::model::BallbotPlant;
@@ -55,8 +55,34 @@ pub struct RunOptions<'a> {
 pub fn run(
     plant: &BallbotPlant,
     controller: &mut BalanceController<f64>,
+    state: BallbotState,
+    opts: &RunOptions<'_>,
+    command: impl FnMut(f64) -> Command<f64>,
+    record: impl FnMut(&CycleRecord),
+) -> Result<BallbotState, omnikin::InputError> {
+    run_with(
+        plant,
+        controller,
+        state,
+        opts,
+        |_, s| Ok(plant.measurement(s)),
+        command,
+        record,
+    )
+}
+
+/// [`run`] with the controller's measurement made by `measure(t, state)` (e.g. dead reckoning
+/// from the wheel encoders, or with sensor noise) instead of the noise-free
+/// [`BallbotPlant::measurement`].
+///
+/// # Errors
+/// The first error of `measure` or of the controller.
+pub fn run_with(
+    plant: &BallbotPlant,
+    controller: &mut BalanceController<f64>,
     mut state: BallbotState,
     opts: &RunOptions<'_>,
+    mut measure: impl FnMut(f64, &BallbotState) -> Result<Measurement<f64>, omnikin::InputError>,
     mut command: impl FnMut(f64) -> Command<f64>,
     mut record: impl FnMut(&CycleRecord),
 ) -> Result<BallbotState, omnikin::InputError> {
@@ -74,7 +100,7 @@ pub fn run(
             }
         }
         let cmd = command(t);
-        let out = controller.step(&plant.measurement(&state), &cmd)?;
+        let out = controller.step(&measure(t, &state)?, &cmd)?;
         record(&CycleRecord {
             t,
             state,
