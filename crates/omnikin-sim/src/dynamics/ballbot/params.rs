@@ -1,7 +1,7 @@
 //! The ballbot's physical parameters ([`BallbotDynamics`]) and the preset's defaults.
 
 use omnikin::ballbot::BallbotParams;
-use omnikin::control::{PlantParams, balance::validate_plant};
+use omnikin::control::{PlantParams, validate_plant};
 
 /// Physical parameters of a ballbot (SI units). The wheel geometry (ball radius `R`, wheel
 /// radius `r_w`, contact zenith `α`, azimuths) is [`BallbotDynamics::geometry`].
@@ -43,7 +43,7 @@ pub struct BallbotDynamics {
 
 impl BallbotDynamics {
     /// The `ballbot` preset's values (see the type doc; the numbers are the core's
-    /// [`PlantParams::preset`] and [`omnikin::control::balance::PRESET_TORQUE_LIMIT`]).
+    /// [`PlantParams::preset`] and [`omnikin::control::PRESET_TORQUE_LIMIT`]).
     pub fn preset() -> Self {
         let p = PlantParams::<f64>::preset();
         Self {
@@ -53,7 +53,7 @@ impl BallbotDynamics {
             body_mass: p.body_mass,
             body_inertia: p.body_inertia,
             com_height: p.com_height,
-            torque_limit: omnikin::control::balance::PRESET_TORQUE_LIMIT,
+            torque_limit: omnikin::control::PRESET_TORQUE_LIMIT,
             floor_damping: p.floor_damping,
             relative_damping: p.relative_damping,
             gravity: p.gravity,
