@@ -90,10 +90,10 @@ pub fn run_with(
     let n = opts.substeps.max(1);
     let pushes = opts.pushes;
     let h = dt / n as f64;
-    let mut pushed = [false; 16];
+    let mut pushed = vec![false; pushes.len()];
     for k in 0..opts.cycles {
         let t = k as f64 * dt;
-        for (i, p) in pushes.iter().enumerate().take(pushed.len()) {
+        for (i, p) in pushes.iter().enumerate() {
             if !pushed[i] && t >= p.time {
                 plant.apply_impulse(&mut state, Vector3::new(p.impulse[0], p.impulse[1], 0.0));
                 pushed[i] = true;
