@@ -25,9 +25,9 @@
 //! and an optional force `F` on the body's centre of mass:
 //!
 //! ```text
-//! [ m P ᵀP + I_b 1     −m_B Pᵀ[r]×          ] [Ω̇]   [ τ − m_B Pᵀc − c_f Ω − c_r(Ω−ω) + PᵀF            ]
-//! [ m_B [r]× P         J_w − m_B [r]×[r]×    ] [ω̇] = [ −m_B g r × e_z − m_B r × c − τ − ω × J_w ω
-//!                                                        + c_r(Ω−ω) + r × F                          ]
+//! (m PᵀP + I_b 1) Ω̇ − m_B Pᵀ[r]× ω̇   = τ − m_B Pᵀc − c_f Ω − c_r (Ω − ω) + Pᵀ F
+//! m_B [r]× P Ω̇ + (J_w − m_B [r]×[r]×) ω̇ = −m_B g r × e_z − m_B r × c − τ − ω × J_w ω
+//!                                          + c_r (Ω − ω) + r × F
 //! ```
 //!
 //! (`m = m_b + m_B`; the floor's normal force and gravity on the ball do no virtual work).
@@ -53,7 +53,12 @@
 //! compare it with a numerical Jacobian of this 3D model. What the decomposition neglects is
 //! listed there.
 //!
-//! Files: [`closed_loop`] (the balance controller on this model), [`params`] (the parameters and the preset's values), [`model`] (equations, energy,
+//! **Not modelled**: the wheels' own inertia (massless wheels), roller and floor slip, Coulomb
+//! friction, products of inertia of the body, motor dynamics (torques are applied as
+//! commanded, held over the control period), and the body hitting the floor after a fall.
+//!
+//! Files: [`closed_loop`] (the balance controller on this model), [`preview`] (a previewed
+//! lean a plan can be followed with), [`params`] (the parameters and the preset's values), [`model`] (equations, energy,
 //! wheels, pushes, measurements), [`state`] (state and integration).
 
 pub mod closed_loop;
