@@ -8,6 +8,7 @@
 #   bench/instructions.sh --std-math      # the same with the platform libm (glibc) sin/cos
 #   bench/instructions.sh caster caster-inverse   # only these targets
 #   bench/instructions.sh link-open link-keyed    # link codec: one command + one telemetry frame
+#   bench/instructions.sh balance balance-f64     # ballbot balance controller, one cycle (f32, f64)
 #
 # Needs valgrind. Builds the driver (crate bench/rust-harness) in release mode with --locked.
 set -euo pipefail

@@ -392,6 +392,9 @@ pub fn check(a: &CheckArgs) -> Result<()> {
         );
         j["max_yaw_rate_rad_per_s"] = json!(reach.yaw_rate);
     }
+    if let Robot::Ballbot(b) = &robot {
+        crate::balance_check::report(b, &mut text, &mut j)?;
+    }
     j["limits"] = json!({
         "max_wheel_rate": d.limits.max_wheel_rate, "max_wheel_accel": d.limits.max_wheel_accel,
         "max_steer_rate": d.limits.max_steer_rate, "max_steer_accel": d.limits.max_steer_accel,

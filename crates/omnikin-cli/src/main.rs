@@ -9,6 +9,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod args;
+mod balance_check;
 mod drive;
 mod figures;
 mod kinematics;

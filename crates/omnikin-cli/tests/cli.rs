@@ -217,6 +217,38 @@ fn torques_round_trip_and_keys() {
 }
 
 #[test]
+fn check_ballbot_prints_the_balance_design_and_says_it_is_stable() {
+    omnikin()
+        .args(["check", "ballbot"])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains(
+            "balance controller (LQR per planar model",
+        ))
+        .stdout(predicate::str::contains("y (sagittal): K (φ, θ, φ̇, θ̇) = ["))
+        .stdout(predicate::str::contains("closed loop: stable"));
+    let j = json_of(&["check", "ballbot", "--json"]);
+    let planes = j["balance"]["planes"].as_array().unwrap();
+    assert_eq!(planes.len(), 3);
+    for p in planes {
+        let poles = p["poles"].as_array().unwrap();
+        assert!(poles.len() == 4 || poles.len() == 2);
+        for z in poles {
+            let (re, im) = (z[0].as_f64().unwrap(), z[1].as_f64().unwrap());
+            assert!(re.hypot(im) < 1.0, "{p}");
+        }
+        assert_eq!(p["stable"], true);
+    }
+    assert_eq!(j["balance"]["stable"], true);
+    // Other kinds have no balance controller.
+    assert!(
+        json_of(&["check", "kiwi", "--json"])
+            .get("balance")
+            .is_none()
+    );
+}
+
+#[test]
 fn check_every_preset_and_a_file() {
     for robot in ["sphere-omni", "ballbot", "caster3"] {
         omnikin()

@@ -13,6 +13,8 @@
 //!   shared by the simulator and software in the loop.
 //! * [`simulate_trial`]: the open-loop simulator — a plan's motor set-points through the motor
 //!   models and the plant step.
+//! * [`dynamics`]: rigid-body models for closed-loop simulation — the 3D ballbot, its planar
+//!   models and the balance controller on it (issue 15).
 //! * [`sil`]: software in the loop — the same plant as a board for the robot runtime.
 //! * [`run_trials`]: seeded parallel Monte Carlo; trial `i` draws from its own ChaCha8 stream,
 //!   so results do not depend on the number of threads.

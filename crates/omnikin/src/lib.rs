@@ -61,6 +61,7 @@ mod error;
 mod real;
 mod types;
 
+pub mod control;
 pub mod drive;
 pub mod estimate;
 pub mod link;

@@ -94,3 +94,37 @@ fn kinematics_calls_allocate_nothing() {
     });
     assert_eq!(n, 0, "kinematics allocated {n} times");
 }
+
+#[test]
+fn balance_controller_allocates_nothing() {
+    use omnikin::control::{BalanceConfig, BalanceController, Command, Measurement};
+    let (n, _) = allocations(|| {
+        // Construction (ZOH discretisation, three Riccati iterations) and cycles, f32 and f64.
+        let mut c = BalanceController::<f32>::new(BalanceConfig::preset()).unwrap();
+        let mut c64 = BalanceController::<f64>::new(BalanceConfig::preset()).unwrap();
+        let mut acc = 0.0f64;
+        for k in 0..10 {
+            let t = k as f32 * 0.005;
+            let m = Measurement {
+                tilt: [0.02 * t, -0.01],
+                tilt_rate: [0.1, 0.0],
+                yaw: t,
+                yaw_rate: 0.2,
+                ball_position: [t, 0.0],
+                ball_velocity: [0.1, 0.0],
+            };
+            acc += c.step(&m, &Command::hold()).unwrap().wheel_torques[0] as f64;
+        }
+        let bad = Measurement {
+            tilt: [f64::NAN, 0.0],
+            tilt_rate: [0.0; 2],
+            yaw: 0.0,
+            yaw_rate: 0.0,
+            ball_position: [0.0; 2],
+            ball_velocity: [0.0; 2],
+        };
+        acc += c64.step(&bad, &Command::hold()).is_err() as u8 as f64;
+        acc
+    });
+    assert_eq!(n, 0, "the balance controller allocated {n} times");
+}

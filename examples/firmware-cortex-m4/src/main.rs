@@ -8,7 +8,8 @@
 //! [`FrameReader`] and [`RobotLink`] — the code path a UART or radio interrupt would feed.
 //! QEMU's `mps2-an386` has no TRNG: the nonces come from [`TestOnlyEntropy`], a labelled
 //! stand-in that a real board replaces with its hardware RNG. Per robot: upload a 4 s plan in chunks, follow it, then drive at
-//! 0.2 m/s and cut the link. The results go out over semihosting; the exit code says whether
+//! 0.2 m/s and cut the link. Then the ballbot's balance controller ([`balance`]) balances its
+//! linearised planar models from a 5° lean. The results go out over semihosting; the exit code says whether
 //! every check passed.
 #![no_std]
 #![no_main]
@@ -29,6 +30,8 @@ use omnikin::runtime::{Config, Frame, Mode, PlanPoint, Runtime};
 use omnikin::sphere::{SphereOmni, SphereParams};
 use omnikin::{MAX_WHEELS, Pose2, Robot, Twist2, se2};
 use panic_semihosting as _;
+
+mod balance;
 
 const DT: f32 = 0.01;
 const DT_US: u64 = 10_000;
@@ -451,6 +454,23 @@ fn main() -> ! {
                 hprintln!("{}: run failed", name);
                 all = false;
             }
+        }
+    }
+    match balance::run() {
+        Some(b) => {
+            let pass = b.settle_s <= 3.0 && b.final_tilt_deg < 0.1 && !b.fell;
+            all &= pass;
+            hprintln!(
+                "ballbot balance controller (f32, 200 Hz, linearised plant): 5° -> below 0.5° from {:.2} s on, {:.4}° at 5 s, {} saturated cycles: {}",
+                b.settle_s,
+                b.final_tilt_deg,
+                b.saturated,
+                if pass { "PASS" } else { "FAIL" }
+            );
+        }
+        None => {
+            hprintln!("ballbot balance controller: design or cycle failed");
+            all = false;
         }
     }
     hprintln!(

@@ -24,7 +24,8 @@ use omnikin_bench::{Inputs, K, Loop, robot};
 fn usage() -> ! {
     eprintln!(
         "usage: omnikin-cycle-driver WHAT N\n  WHAT: sphere|ballbot|caster (control cycle), \
-         or ROBOT-inverse|ROBOT-forward|ROBOT-odometry"
+         or ROBOT-inverse|ROBOT-forward|ROBOT-odometry, or balance|balance-f64 (ballbot \
+         balance controller)"
     );
     std::process::exit(2);
 }
@@ -55,6 +56,14 @@ fn main() {
             _ => usage(),
         };
         link_frames(keyed, n);
+        return;
+    }
+    if what == "balance" || what == "balance-f64" {
+        if what == "balance" {
+            balance_cycles::<f32>(n);
+        } else {
+            balance_cycles::<f64>(n);
+        }
         return;
     }
     let (name, kernel) = what.split_once('-').unwrap_or((what.as_str(), "cycle"));
@@ -147,6 +156,38 @@ fn main() {
             }
         }
         _ => usage(),
+    }
+}
+
+/// `n` cycles of the ballbot's balance controller (issue 15): the AHRS quaternion and gyro
+/// turned into heading-frame tilts ([`Measurement::from_attitude`]), then one controller step
+/// (two 4-state LQR laws with feed-forward, the yaw law, the wheel-torque map, saturation).
+fn balance_cycles<T: omnikin::Real>(n: u64) {
+    use omnikin::control::{BalanceConfig, BalanceController, Command, Measurement};
+    use omnikin::nalgebra::{UnitQuaternion, Vector3};
+    let mut c = BalanceController::<T>::new(BalanceConfig::preset()).unwrap();
+    let cmd = Command {
+        velocity: [T::of(0.1), T::of(0.0)],
+        acceleration: [T::of(0.0), T::of(0.05)],
+        yaw_rate: T::of(0.1),
+        lean: None,
+    };
+    // Orientations prepared outside the loop (set-up, not the cycle).
+    let qs: Vec<UnitQuaternion<T>> = (0..1024)
+        .map(|i| {
+            let t = T::of(i as f64 * 1e-4);
+            UnitQuaternion::from_scaled_axis(Vector3::new(t, -t, t))
+        })
+        .collect();
+    for i in 0..n {
+        let t = T::of((i & 1023) as f64 * 1e-4);
+        let m = Measurement::from_attitude(
+            black_box(&qs[(i & 1023) as usize]),
+            black_box([t, T::of(0.01), T::of(0.1)]),
+            black_box([t, T::of(0.0)]),
+            black_box([T::of(0.1), t]),
+        );
+        black_box(c.step(&m, black_box(&cmd)).unwrap());
     }
 }
 
