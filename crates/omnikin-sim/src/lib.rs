@@ -13,15 +13,14 @@
 //!   shared by the simulator and software in the loop.
 //! * [`simulate_trial`]: the open-loop simulator — a plan's motor set-points through the motor
 //!   models and the plant step.
-//! * [`dynamics`]: rigid-body models for closed-loop simulation — the 3D ballbot, its planar
-//!   models and the balance controller on it (issue 15).
+//! * [`dynamics`]: dynamic plants — the sphere's shell + platform with floor friction, and the
+//!   3D ballbot with its planar models and the balance controller on it.
 //! * [`sil`]: software in the loop — the same plant as a board for the robot runtime.
 //! * [`run_trials`]: seeded parallel Monte Carlo; trial `i` draws from its own ChaCha8 stream,
 //!   so results do not depend on the number of threads.
 //! * [`metrics`]: deviation from the planned path (m and % of path), end-point and heading
 //!   errors, mean trajectory with a Student-t 95 % band, fitted circle and radius ratio,
 //!   repeatability.
-//! * [`dynamics`]: dynamic plants (the sphere's shell + platform with floor friction).
 //! * [`limits`]: the stated limits — most plant steps per trial, rows of a track file — and the plausible range of every profile parameter.
 //! * [`reproduce`]: paper 000's whole experiment design re-run under three profiles, with a
 //!   table of our figures next to the paper's.
