@@ -349,6 +349,20 @@ fn swerve_modules_turn_only_as_fast_as_their_steer_rates_say_even_at_stops() {
         )
         .unwrap();
         all.push(("tangent polyline", p.plan));
+        let optimal = PlanOptions {
+            timing: Timing::TimeOptimal {
+                limits: MotionLimits::default(),
+            },
+            ..stop
+        };
+        let p = plan(
+            &Path::polyline(&wps, Corners::Stop).unwrap(),
+            &HeadingLaw::Constant(0.3),
+            &robot,
+            &optimal,
+        )
+        .unwrap();
+        all.push(("time-optimal polyline", p.plan));
         let limit = robot.limits.max_steer_rate;
         for (what, p) in &all {
             let mut largest = 0.0_f64;

@@ -280,7 +280,7 @@ fn slow_down(
         }
         MoveTiming::Grid { .. } => {
             mv.limit_scale *= 0.995 / ratio;
-            let (v_user, a_user, user) = user_limits(opts, &mv.kind);
+            let (v_user, a_user, user) = user_limits(robot, opts, &mv.kind);
             let (timing, _) = time_optimal(robot, mv, v_user, a_user, user)?;
             mv.timing = timing;
         }

@@ -85,7 +85,7 @@ fn time_optimal_timing_is_the_same_with_stored_and_rebuilt_cells() {
         };
         let moves = build_moves(&ctx, &opts).expect("moves");
         for mv in &moves {
-            let (v, a, user) = user_limits(&opts, &mv.kind);
+            let (v, a, user) = user_limits(&robot, &opts, &mv.kind);
             let (kept, who_kept) =
                 time_optimal_storing(&robot, mv, v, a, user, usize::MAX).expect("timing");
             let (rebuilt, who_rebuilt) =

@@ -6,7 +6,7 @@
 use crate::PlanningError;
 use crate::error::Violation;
 use crate::profile::Profile1D;
-use crate::robot::RobotModel;
+use crate::robot::{Quantity, RobotModel};
 
 use super::geometry::Kind;
 use super::grid::{Move, cell_from};
@@ -123,7 +123,11 @@ fn move_peaks(robot: &RobotModel, mv: &Move, timing: &MoveTiming) -> MovePeaks {
 }
 
 /// The requested speed/acceleration for a move's kind, and their limiter labels.
-pub(super) fn user_limits(opts: &PlanOptions, kind: &Kind) -> (f64, f64, (Limiter, Limiter)) {
+pub(super) fn user_limits(
+    robot: &RobotModel,
+    opts: &PlanOptions,
+    kind: &Kind,
+) -> (f64, f64, (Limiter, Limiter)) {
     let limits = match opts.timing {
         Timing::Profile { limits, .. } | Timing::TimeOptimal { limits } => limits,
         Timing::ConstantSpeed { speed } => MotionLimits {
@@ -137,13 +141,33 @@ pub(super) fn user_limits(opts: &PlanOptions, kind: &Kind) -> (f64, f64, (Limite
             limits.max_accel,
             (Limiter::MaxSpeed, Limiter::MaxAccel),
         ),
-        // A re-steer is timed like a turn in place: the fastest module's steer angle within
-        // the request's yaw-rate and yaw-acceleration limits (and the steer motors' own).
-        Kind::Turn { .. } | Kind::Resteer { .. } => (
+        Kind::Turn { .. } => (
             limits.max_yaw_rate,
             limits.max_yaw_accel,
             (Limiter::MaxYawRate, Limiter::MaxYawAccel),
         ),
+        // A re-steer at rest turns only the modules: the fastest one's steer angle within the
+        // steer motors' limits of the robot file; a robot file without them gets the request's
+        // turn-in-place limits instead.
+        Kind::Resteer { .. } => {
+            let steer = |q: Quantity| Limiter::Motor {
+                quantity: q,
+                motor: 1,
+            };
+            let (v, lv) = robot
+                .limits
+                .max_steer_rate
+                .map_or((limits.max_yaw_rate, Limiter::MaxYawRate), |l| {
+                    (l, steer(Quantity::SteerRate))
+                });
+            let (a, la) = robot
+                .limits
+                .max_steer_accel
+                .map_or((limits.max_yaw_accel, Limiter::MaxYawAccel), |l| {
+                    (l, steer(Quantity::SteerAccel))
+                });
+            (v * MARGIN, a * MARGIN, (lv, la))
+        }
     }
 }
 
@@ -157,7 +181,7 @@ pub(super) fn initial_timing(
 ) -> Result<(MoveTiming, Vec<(Limiter, f64)>), PlanningError> {
     let timing = match opts.timing {
         Timing::TimeOptimal { .. } => {
-            let (v_user, a_user, user) = user_limits(opts, &mv.kind);
+            let (v_user, a_user, user) = user_limits(robot, opts, &mv.kind);
             let (timing, who) = time_optimal(robot, mv, v_user, a_user, user)?;
             let MoveTiming::Grid { t, .. } = &timing else {
                 unreachable!("time_optimal returns a grid timing")
@@ -172,7 +196,11 @@ pub(super) fn initial_timing(
         Timing::Profile { kind, limits } => {
             let (v, a, j) = match mv.kind {
                 Kind::Travel { .. } => (limits.max_speed, limits.max_accel, limits.max_jerk),
-                Kind::Turn { .. } | Kind::Resteer { .. } => (
+                Kind::Resteer { .. } => {
+                    let (v, a, _) = user_limits(robot, opts, &mv.kind);
+                    (v, a, a * limits.max_jerk / limits.max_accel)
+                }
+                Kind::Turn { .. } => (
                     limits.max_yaw_rate,
                     limits.max_yaw_accel,
                     limits.max_yaw_accel * limits.max_jerk / limits.max_accel,
@@ -191,7 +219,8 @@ pub(super) fn initial_timing(
     let user_label = match (&opts.timing, &mv.kind) {
         (Timing::ConstantSpeed { .. }, _) => Limiter::RequestedSpeed,
         (_, Kind::Travel { .. }) => Limiter::MaxSpeed,
-        (_, Kind::Turn { .. } | Kind::Resteer { .. }) => Limiter::MaxYawRate,
+        (_, Kind::Turn { .. }) => Limiter::MaxYawRate,
+        (_, Kind::Resteer { .. }) => user_limits(robot, opts, &mv.kind).2.0,
     };
     if rr <= 1.0 && ra <= 1.0 {
         return Ok((timing, vec![(user_label, dur)]));
