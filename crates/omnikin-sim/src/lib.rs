@@ -43,7 +43,7 @@ pub mod table;
 pub mod track;
 
 pub use monte_carlo::{
-    FIGURE_RUNS, MonteCarlo, MonteCarloError, RETAIN_LIMIT_BYTES, run_trials,
+    FIGURE_RUNS, MonteCarlo, MonteCarloError, RETAIN_LIMIT_BYTES, evaluate_trials, run_trials,
     second_pass_resimulates, simulate_and_evaluate, trial_rng,
 };
 pub use plant::{SimError, Trial, plan_mismatch, simulate_trial};
