@@ -630,3 +630,65 @@ fn simulate_draws_a_bounded_number_of_runs() {
     assert_eq!(trials.lines().count(), 1 + 60 * 315);
     assert!(trials.lines().last().unwrap().starts_with("59,"));
 }
+
+#[test]
+fn robot_sim_runs_the_dynamic_plant_for_the_sphere_only() {
+    let assert = omnikin()
+        .args([
+            "robot",
+            "--sim",
+            "--robot",
+            "sphere-omni",
+            "--plant",
+            "dynamic",
+            "--listen",
+            "127.0.0.1:0",
+            "--time-scale",
+            "10",
+            "--max-time",
+            "0.3",
+        ])
+        .assert()
+        .success()
+        .stderr(predicate::str::contains("dynamic plant (shell + platform)"));
+    let out = String::from_utf8_lossy(&assert.get_output().stdout).to_string();
+    let j: Value = serde_json::from_str(out.trim()).unwrap();
+    assert!(j["time_s"].as_f64().unwrap() >= 0.3, "{j}");
+    // At rest without commands: level, no pull-out.
+    assert_eq!(j["dynamics"]["max_tilt_rad"].as_f64(), Some(0.0), "{j}");
+    assert_eq!(j["dynamics"]["pull_outs"], serde_json::json!([0, 0, 0]));
+    omnikin()
+        .args([
+            "robot",
+            "--sim",
+            "--robot",
+            "kiwi",
+            "--plant",
+            "dynamic",
+            "--listen",
+            "127.0.0.1:0",
+            "--max-time",
+            "0.1",
+        ])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("sphere-omni"));
+    omnikin()
+        .args([
+            "robot",
+            "--sim",
+            "--robot",
+            "sphere-omni",
+            "--plant",
+            "dynamic",
+            "--disturbances",
+            "hardware",
+            "--listen",
+            "127.0.0.1:0",
+            "--max-time",
+            "0.1",
+        ])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("no --disturbances"));
+}
