@@ -21,7 +21,7 @@
 //!   repeatability.
 //! * [`dynamics`]: dynamic plants (the sphere's shell + platform with floor friction).
 //! * [`limits`]: the stated limits — most plant steps per trial, rows of a track file — and the plausible range of every profile parameter.
-//! * [`reproduce`]: paper 000's whole experiment design re-run under three profiles, with a
+//! * [`reproduce`]: paper 000's whole experiment design re-run under three kinematic profiles and the dynamic one, with a
 //!   table of our figures next to the paper's.
 //! * [`track`]: real tracked runs (`t,x,y[,heading]` CSV), aligned to a plan's start of motion
 //!   and resampled onto its time grid, so the same metrics apply to hardware experiments.

@@ -7,7 +7,7 @@
 //! and 0.5 m/s the fitted radius is 1.4× and 1.6× the planned one; runs deviated from their mean
 //! by up to 110 mm (acceleration/braking oscillations of the platform).
 //!
-//! Each series is planned with the `sphere-omni` preset and simulated under three disturbance
+//! Each series is planned with the `sphere-omni` preset and simulated under four
 //! profiles:
 //!
 //! * `ideal` — the kinematic plant alone: must reproduce the plan (a self-check).
