@@ -93,6 +93,11 @@ pub struct RobotArgs {
     /// Seed of the disturbance draws.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Plant: `kinematic` (the motors' motion through the forward kinematics, with
+    /// --disturbances) or `dynamic` (sphere-omni only: the shell + platform dynamics with the
+    /// robot file's [dynamics]; deterministic, no --disturbances).
+    #[arg(long, value_enum, default_value_t = crate::sim::PlantKind::Kinematic)]
+    pub plant: crate::sim::PlantKind,
 }
 
 fn profile(name: Option<&str>) -> Result<Profile> {
@@ -183,7 +188,20 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     let mut rt: Box<Runtime<f64, SIM_PLAN_CAPACITY>> =
         Box::new(Runtime::new(robot, cfg, Pose2::default()).map_err(|e| anyhow::anyhow!("{e}"))?);
     let info = robot_info(&*rt, auth);
-    let mut plant = SilPlant::new(robot, prof, a.seed, Pose2::default());
+    let mut plant = match a.plant {
+        crate::sim::PlantKind::Kinematic => SilPlant::new(robot, prof, a.seed, Pose2::default()),
+        crate::sim::PlantKind::Dynamic => {
+            if a.disturbances.is_some() {
+                bail!(
+                    "--plant dynamic takes no --disturbances (the dynamic plant is deterministic)"
+                );
+            }
+            let params = omnikin_sim::dynamics::sphere::SphereDynamics::from_description(&desc)
+                .with_context(|| format!("--plant dynamic: robot {}", desc.name))?;
+            SilPlant::dynamic(robot, params, Pose2::default())
+                .with_context(|| format!("--plant dynamic: robot {}", desc.name))?
+        }
+    };
     // The log is kept on every exit path: errors drop it (renamed into place with what it
     // has), SIGINT/SIGTERM end the loop below (see crate::output).
     let mut log = match &a.log {
@@ -197,14 +215,21 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     };
     crate::output::catch_signals()?;
     crate::errln!(
-        "robot: {} ({}) simulated, {} Hz control, listening on {} (protocol v{}, {}), disturbances {}",
+        "robot: {} ({}) simulated, {} Hz control, listening on {} (protocol v{}, {}), {}",
         desc.name,
         desc.kind(),
         a.rate,
         a.listen,
         omnikin::link::PROTOCOL_VERSION,
         if auth { "authenticated" } else { "no key" },
-        a.disturbances.as_deref().unwrap_or("ideal"),
+        if plant.is_dynamic() {
+            "dynamic plant (shell + platform)".to_string()
+        } else {
+            format!(
+                "disturbances {}",
+                a.disturbances.as_deref().unwrap_or("ideal")
+            )
+        },
     );
     if !auth {
         crate::errln!(
@@ -234,6 +259,8 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     // Robot time of the active session's newest frame: telemetry stops after
     // `TELEMETRY_IDLE_S` of silence (nobody is listening, or the address changed hands).
     let mut last_heard_us = 0u64;
+    // The dynamic plant's largest platform tilt, rad (for the summary).
+    let mut max_tilt = 0.0f64;
     loop {
         let now = plant.time_us();
         // Frames that arrived since the last cycle (the newest valid command wins).
@@ -359,6 +386,9 @@ pub fn run(a: &RobotArgs) -> Result<()> {
             .context("--log: cannot write")?;
         }
         plant.advance(period)?;
+        if let Some(d) = plant.dynamics() {
+            max_tilt = max_tilt.max(d.state().tilt());
+        }
         k += 1;
         if a.max_time
             .is_some_and(|m| plant.time_us() as f64 * 1e-6 >= m)
@@ -387,10 +417,13 @@ pub fn run(a: &RobotArgs) -> Result<()> {
         "time_s": plant.time_us() as f64 * 1e-6,
         "mode": status.mode.name(),
         "pose": [status.pose.x, status.pose.y, status.pose.heading],
-        "true_pose": [tp.x, tp.y, tp.heading],
+    "true_pose": [tp.x, tp.y, tp.heading],
         "fault_history": status.fault_history.to_string(),
         "rejected": status.rejected,
         "plan": {"id": status.plan.id, "received": status.plan.received, "len": status.plan.len, "done": status.plan.done},
+        "dynamics": plant.dynamics().map(|d| serde_json::json!({
+            "max_tilt_rad": max_tilt, "pull_outs": d.pull_outs(),
+        })),
         "link": {"ok": c.ok, "framing": c.framing, "crc": c.crc, "version": c.version, "auth": c.auth, "replay": c.replay, "malformed": c.malformed, "session": c.session, "entropy": c.entropy, "dropped": c.dropped(), "sessions": sessions, "takeovers": takeovers},
     });
     crate::outln!("{summary}")?;

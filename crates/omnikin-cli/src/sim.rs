@@ -599,6 +599,10 @@ pub struct ReproduceArgs {
     /// Monte-Carlo trials per series and disturbance profile (the paper ran 3).
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u64).range(1..=10_000))]
     pub trials: u64,
+    /// Trials per series of the dynamic profile (shell + platform dynamics, one parameter
+    /// fitted on the 0.4 m/s circle); 0 leaves the dynamic profile out.
+    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u64).range(0..=10_000))]
+    pub dynamic_trials: u64,
     /// Random seed.
     #[arg(long, default_value_t = 2019)]
     pub seed: u64,
@@ -625,13 +629,33 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
         .num_threads(a.threads.unwrap_or(0))
         .build()
         .context("cannot start worker threads")?;
-    let total = series.len() as u64 * rp::profiles().len() as u64 * a.trials;
+    // The one fitted parameter of the dynamic profile, on the 0.4 m/s circle only.
+    let fit = if a.dynamic_trials > 0 {
+        Some(
+            rp::dynamic_fit(&series)
+                .context("dynamic profile: fitting the centre-of-mass depth")?,
+        )
+    } else {
+        None
+    };
+    let dynamic = fit.as_ref().map(rp::dynamic_profile);
+    let dyn_trials = a.dynamic_trials as usize;
+    let total = series.len() as u64 * (rp::profiles().len() as u64 * a.trials + a.dynamic_trials);
     let pb = progress_bar(total, "reproducing paper 000");
     let mut rows = Vec::new();
     let mut all = serde_json::Map::new();
+    let mut figures = 0;
     for s in &series {
-        let outcomes =
-            pool.install(|| rp::run_series(&robot, s, a.trials as usize, a.seed, &|| pb.inc(1)))?;
+        let outcomes = pool.install(|| {
+            rp::run_series(
+                &robot,
+                s,
+                a.trials as usize,
+                a.seed,
+                dynamic.as_ref().map(|d| (d, dyn_trials)),
+                &|| pb.inc(1),
+            )
+        })?;
         for o in &outcomes {
             if o.profile == "ideal" {
                 continue;
@@ -657,6 +681,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
                 &o.runs,
                 &o.mean,
             )?;
+            figures += 1;
         }
         all.insert(
             s.name.clone(),
@@ -670,13 +695,30 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
         rows.push(rp::row(s, &outcomes));
     }
     pb.finish_and_clear();
-    let md = rp::table_markdown(&rows, a.trials as usize, a.seed);
+    let md = rp::table_markdown(
+        &rows,
+        a.trials as usize,
+        a.seed,
+        fit.as_ref().map(|f| (f, dyn_trials)),
+    );
     write_file(&a.out.join("table.md"), |w| w.write_all(md.as_bytes()))?;
     write_file(&a.out.join("table.csv"), |w| {
         w.write_all(rp::table_csv(&rows).as_bytes())
     })?;
     let (g, p) = rp::spin_slip_fit();
-    let meta = json!({ "trials": a.trials, "seed": a.seed, "plan_rate_hz": a.rate, "spin_slip_gain": g, "spin_slip_exponent": p, "series": all });
+    let meta = json!({
+        "trials": a.trials, "dynamic_trials": a.dynamic_trials, "seed": a.seed,
+        "plan_rate_hz": a.rate,
+        "spin_slip_gain": g, "spin_slip_exponent": p,
+        "spin_slip_fit": { "fitted_on": ["circle-0.4", "circle-0.5"], "parameters": ["spin_slip_gain", "spin_slip_exponent"] },
+        "dynamic_fit": fit.as_ref().map(|f| json!({
+            "name": f.name, "value": f.value, "unit": "m", "fitted_on": f.fitted_on,
+            "target_radius_ratio": f.target_radius_ratio,
+            "achieved_radius_ratio": f.achieved_radius_ratio, "method": f.method,
+            "assumed": { "pivot_friction": rp::DYNAMIC_PIVOT_FRICTION },
+        })),
+        "series": all,
+    });
     write_file(&a.out.join("metrics.json"), |w| {
         writeln!(
             w,
@@ -689,7 +731,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
         "wrote {dir}/table.md, {dir}/table.csv, {dir}/metrics.json and {n} figures in {:.1} s",
         start.elapsed().as_secs_f64(),
         dir = a.out.display(),
-        n = 2 * series.len()
+        n = figures
     );
     Ok(())
 }

@@ -258,6 +258,8 @@ fn reproduce_sphere_2019_writes_the_table_and_figures() {
             "sphere-2019",
             "--trials",
             "2",
+            "--dynamic-trials",
+            "2",
             "--out",
             out.to_str().unwrap(),
         ])
@@ -265,7 +267,9 @@ fn reproduce_sphere_2019_writes_the_table_and_figures() {
         .success();
     let stdout = String::from_utf8_lossy(&assert.get_output().stdout).to_string();
     assert!(
-        stdout.contains("| circle-0.5 |") && stdout.contains("What the kinematic plant explains")
+        stdout.contains("| circle-0.5 |")
+            && stdout.contains("What the kinematic plant explains")
+            && stdout.contains("The dynamic profile")
     );
     let csv = std::fs::read_to_string(out.join("table.csv")).unwrap();
     let mut rows = csv::Reader::from_reader(csv.as_bytes());
@@ -288,8 +292,34 @@ fn reproduce_sphere_2019_writes_the_table_and_figures() {
             let hw: f64 = r[col("hardware_radius_ratio")].parse().unwrap();
             assert!((hw - 1.0).abs() < 0.03, "{}: {hw}", &r[0]);
         }
+        if &r[0] == "circle-0.4" {
+            // The dynamic profile's one parameter is fitted here (deterministic model: 1.4;
+            // two jittered trials stay near it).
+            let got: f64 = r[col("dynamic_radius_ratio")].parse().unwrap();
+            assert!((got - 1.4).abs() < 0.1, "dynamic circle-0.4: {got}");
+        }
+        if &r[0] == "circle-0.1" {
+            let got: f64 = r[col("dynamic_radius_ratio")].parse().unwrap();
+            assert!((got - 1.0).abs() < 0.05, "dynamic circle-0.1: {got}");
+        }
+        let d: f64 = r[col("dynamic_max_deviation_from_mean_m")].parse().unwrap();
+        assert!(d > 0.0, "{}: the dynamic trials must scatter", &r[0]);
     }
     assert_eq!(n, 8);
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    let fit = &j["dynamic_fit"];
+    assert_eq!(fit["name"], "com_depth");
+    assert_eq!(fit["fitted_on"], "circle-0.4");
+    let h = fit["value"].as_f64().unwrap();
+    assert!(h > 0.04 && h < 0.135, "{fit}");
+    for s in ["square-0.5", "circle-0.5"] {
+        for k in ["max_deviation_pct_of_path", "max_deviation_from_mean_m"] {
+            assert!(j["series"][s]["dynamic"][k].is_f64(), "{s}.dynamic.{k}");
+        }
+    }
+    assert!(j["series"]["circle-0.5"]["dynamic"]["radius_ratio"].is_f64());
+    assert!(out.join("circle-0.5-dynamic.svg").exists());
     for s in ["square-0.1", "square-0.5", "circle-0.1", "circle-0.5"] {
         assert!(out.join(format!("{s}-hardware.svg")).exists(), "{s}");
     }
@@ -599,4 +629,66 @@ fn simulate_draws_a_bounded_number_of_runs() {
     let trials = std::fs::read_to_string(out.join("trials.csv")).unwrap();
     assert_eq!(trials.lines().count(), 1 + 60 * 315);
     assert!(trials.lines().last().unwrap().starts_with("59,"));
+}
+
+#[test]
+fn robot_sim_runs_the_dynamic_plant_for_the_sphere_only() {
+    let assert = omnikin()
+        .args([
+            "robot",
+            "--sim",
+            "--robot",
+            "sphere-omni",
+            "--plant",
+            "dynamic",
+            "--listen",
+            "127.0.0.1:0",
+            "--time-scale",
+            "10",
+            "--max-time",
+            "0.3",
+        ])
+        .assert()
+        .success()
+        .stderr(predicate::str::contains("dynamic plant (shell + platform)"));
+    let out = String::from_utf8_lossy(&assert.get_output().stdout).to_string();
+    let j: Value = serde_json::from_str(out.trim()).unwrap();
+    assert!(j["time_s"].as_f64().unwrap() >= 0.3, "{j}");
+    // At rest without commands: level, no pull-out.
+    assert_eq!(j["dynamics"]["max_tilt_rad"].as_f64(), Some(0.0), "{j}");
+    assert_eq!(j["dynamics"]["pull_outs"], serde_json::json!([0, 0, 0]));
+    omnikin()
+        .args([
+            "robot",
+            "--sim",
+            "--robot",
+            "kiwi",
+            "--plant",
+            "dynamic",
+            "--listen",
+            "127.0.0.1:0",
+            "--max-time",
+            "0.1",
+        ])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("sphere-omni"));
+    omnikin()
+        .args([
+            "robot",
+            "--sim",
+            "--robot",
+            "sphere-omni",
+            "--plant",
+            "dynamic",
+            "--disturbances",
+            "hardware",
+            "--listen",
+            "127.0.0.1:0",
+            "--max-time",
+            "0.1",
+        ])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("no --disturbances"));
 }

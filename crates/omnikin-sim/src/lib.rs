@@ -22,7 +22,7 @@
 //!   errors, mean trajectory with a Student-t 95 % band, fitted circle and radius ratio,
 //!   repeatability.
 //! * [`limits`]: the stated limits — most plant steps per trial, rows of a track file — and the plausible range of every profile parameter.
-//! * [`reproduce`]: paper 000's whole experiment design re-run under three profiles, with a
+//! * [`reproduce`]: paper 000's whole experiment design re-run under three kinematic profiles and the dynamic one, with a
 //!   table of our figures next to the paper's.
 //! * [`track`]: real tracked runs (`t,x,y[,heading]` CSV), aligned to a plan's start of motion
 //!   and resampled onto its time grid, so the same metrics apply to hardware experiments.
@@ -44,7 +44,7 @@ pub mod table;
 pub mod track;
 
 pub use monte_carlo::{
-    FIGURE_RUNS, MonteCarlo, MonteCarloError, RETAIN_LIMIT_BYTES, run_trials,
+    FIGURE_RUNS, MonteCarlo, MonteCarloError, RETAIN_LIMIT_BYTES, evaluate_trials, run_trials,
     second_pass_resimulates, simulate_and_evaluate, trial_rng,
 };
 pub use plant::{SimError, Trial, plan_mismatch, simulate_trial};

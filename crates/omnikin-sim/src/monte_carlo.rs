@@ -91,14 +91,11 @@ fn batch_size() -> usize {
     (8 * rayon::current_num_threads()).clamp(16, 256)
 }
 
-/// Simulates batches of trials `range` in parallel, computes `prepare(state, trial)` in the
-/// same workers, and hands both to `each(state, …)` in trial order.
-#[allow(clippy::too_many_arguments)]
+/// Simulates batches of trials `range` in parallel (`simulate(i)` = trial `i`), computes
+/// `prepare(state, trial)` in the same workers, and hands both to `each(state, …)` in trial
+/// order.
 fn for_each_trial<S: Sync, P: Send, E>(
-    robot: &Robot<f64>,
-    plan: &Plan,
-    profile: &Profile,
-    seed: u64,
+    simulate: &(dyn Fn(usize) -> Result<Trial, SimError> + Sync),
     range: core::ops::Range<usize>,
     progress: &(dyn Fn() + Sync),
     state: &mut S,
@@ -113,7 +110,7 @@ fn for_each_trial<S: Sync, P: Send, E>(
         let trials: Vec<(Trial, P)> = (start..end)
             .into_par_iter()
             .map(|i| {
-                let r = simulate_trial(robot, plan, profile, &mut trial_rng(seed, i)).map(|t| {
+                let r = simulate(i).map(|t| {
                     let p = prepare(shared, &t);
                     (t, p)
                 });
@@ -150,35 +147,58 @@ pub fn simulate_and_evaluate<E>(
     progress: &(dyn Fn() + Sync),
     visit: impl FnMut(usize, &Trial) -> Result<(), E>,
 ) -> Result<MonteCarlo, MonteCarloError<E>> {
-    let limit = RETAIN_LIMIT_BYTES;
+    let simulate = |i: usize| simulate_trial(robot, plan, profile, &mut trial_rng(seed, i));
     stream(
-        robot, plan, reference, profile, trials, seed, progress, visit, limit,
+        &simulate,
+        plan.samples.len(),
+        reference,
+        trials,
+        progress,
+        visit,
+        RETAIN_LIMIT_BYTES,
     )
 }
 
-/// [`simulate_and_evaluate`] with the bound on kept positions as a parameter.
-#[allow(clippy::too_many_arguments)]
-fn stream<E>(
-    robot: &Robot<f64>,
-    plan: &Plan,
+/// [`simulate_and_evaluate`] for any plant: `simulate(i)` runs trial `i` on the plan's time
+/// grid (`samples` samples) and must depend only on `i` (e.g. draw from [`trial_rng`]`(seed,
+/// i)`), so the result is bit-identical for any number of threads. Used by the dynamic plant
+/// ([`crate::dynamics::sphere::DynamicProfile`]).
+pub fn evaluate_trials<E>(
+    simulate: &(dyn Fn(usize) -> Result<Trial, SimError> + Sync),
+    samples: usize,
     reference: &Plan,
-    profile: &Profile,
     trials: usize,
-    seed: u64,
+    progress: &(dyn Fn() + Sync),
+    visit: impl FnMut(usize, &Trial) -> Result<(), E>,
+) -> Result<MonteCarlo, MonteCarloError<E>> {
+    stream(
+        simulate,
+        samples,
+        reference,
+        trials,
+        progress,
+        visit,
+        RETAIN_LIMIT_BYTES,
+    )
+}
+
+/// [`evaluate_trials`] with the bound on kept positions as a parameter.
+fn stream<E>(
+    simulate: &(dyn Fn(usize) -> Result<Trial, SimError> + Sync),
+    samples: usize,
+    reference: &Plan,
+    trials: usize,
     progress: &(dyn Fn() + Sync),
     mut visit: impl FnMut(usize, &Trial) -> Result<(), E>,
     retain_limit: usize,
 ) -> Result<MonteCarlo, MonteCarloError<E>> {
-    let resimulate = resimulates(trials, plan.samples.len(), retain_limit);
+    let resimulate = resimulates(trials, samples, retain_limit);
     let mut first = Evaluator::new(reference);
     let mut figure_runs = Vec::new();
     let mut kept: Vec<Vec<[f64; 2]>> = Vec::new();
     // The nearest-segment queries run in the workers; the sums in trial order.
     for_each_trial(
-        robot,
-        plan,
-        profile,
-        seed,
+        simulate,
         0..trials,
         progress,
         &mut first,
@@ -205,10 +225,7 @@ fn stream<E>(
     let mut second = first.second_pass();
     if resimulate {
         for_each_trial(
-            robot,
-            plan,
-            profile,
-            seed,
+            simulate,
             0..trials,
             progress,
             &mut second,
@@ -274,12 +291,10 @@ mod tests {
             let mc = pool(threads)
                 .install(|| {
                     stream(
-                        &robot,
-                        &plan,
+                        &|i| simulate_trial(&robot, &plan, &profile, &mut trial_rng(9, i)),
+                        plan.samples.len(),
                         &reference,
-                        &profile,
                         trials,
-                        9,
                         &|| {},
                         |i, t: &Trial| {
                             visited.lock().unwrap().push((i, t.tracked[1]));

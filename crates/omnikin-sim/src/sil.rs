@@ -12,6 +12,13 @@
 //! them), the gyro reads the true yaw rate. Stepping is explicit ([`SilPlant::advance`]), so
 //! the same plant runs in real time (the `omnikin robot --sim` command sleeps between steps),
 //! faster than real time in tests, or in lock-step.
+//!
+//! [`SilPlant::dynamic`] puts the sphere's shell + platform dynamics
+//! ([`crate::dynamics::sphere::SphereSim`]) on the board instead (sphere-omni only): the
+//! set-points are ramped over each [`SilPlant::advance`] into the stepper motors of the model,
+//! the encoders read the model's wheel angles, the gyro reads the platform's angular velocity
+//! in the platform frame (a tilted platform's gyro z is not the world yaw rate), and the true
+//! pose is the shell centre with the platform's heading.
 
 use omnikin::runtime::hal::{
     Clock, EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOutputs,
@@ -21,6 +28,7 @@ use omnikin::{MAX_WHEELS, Pose2, Robot, Twist2};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
+use crate::dynamics::sphere::{DynamicsError, SphereDynamics, SphereSim, SphereState};
 use crate::plant::SimError;
 use crate::plant_step::{Motors, Plant};
 use crate::profile::Profile;
@@ -37,6 +45,47 @@ pub struct SilPlant {
     time_us: u64,
     /// Sub-step remainder, s (advance() may be called with any dt).
     carry: f64,
+    /// The dynamic plant, when it replaces the kinematic one ([`SilPlant::dynamic`]).
+    dynamic: Option<Box<DynamicBoard>>,
+}
+
+/// The sphere's dynamic model on the board, with what its last step reported.
+#[derive(Clone, Debug)]
+struct DynamicBoard {
+    sim: SphereSim,
+    /// Plan heading minus the simulator's (it unwraps from its own wrapped start yaw), rad.
+    heading_offset: f64,
+    /// True pose at the end of the last step.
+    pose: Pose2<f64>,
+    /// True robot-frame twist (shell centre velocity, platform yaw rate) of the last step.
+    twist: Twist2<f64>,
+}
+
+impl DynamicBoard {
+    fn new(params: SphereDynamics, pose: Pose2<f64>) -> Result<Self, DynamicsError> {
+        let sim =
+            SphereSim::with_state(params, SphereState::at_rest(pose.x, pose.y, pose.heading))?;
+        let heading_offset = pose.heading - sim.state().yaw();
+        Ok(Self {
+            sim,
+            heading_offset,
+            pose,
+            twist: Twist2::new(0.0, 0.0, 0.0),
+        })
+    }
+
+    fn step(&mut self, dt: f64, wheel: &[f64; MAX_WHEELS]) -> Result<(), DynamicsError> {
+        let st = self.sim.step(dt, [wheel[0], wheel[1], wheel[2]])?;
+        let heading = st.heading + self.heading_offset;
+        self.pose = Pose2::new(st.centre[0], st.centre[1], heading);
+        // Rolling without slip: v_C = R Ω × γ.
+        let om = self.sim.state().shell_rate;
+        let r = self.sim.params().geometry.shell_radius;
+        let (vx, vy) = (r * om.y, -r * om.x);
+        let (sn, cs) = heading.sin_cos();
+        self.twist = Twist2::new(cs * vx + sn * vy, -sn * vx + cs * vy, st.yaw_rate);
+        Ok(())
+    }
 }
 
 impl SilPlant {
@@ -55,20 +104,58 @@ impl SilPlant {
             command: MotorCommand::zero(),
             time_us: 0,
             carry: 0.0,
+            dynamic: None,
         }
+    }
+
+    /// A board for the sphere `robot` (kind `sphere-omni`) whose plant is the shell + platform
+    /// dynamic model with `params`, at rest and level at the true pose `pose`. Deterministic.
+    ///
+    /// # Errors
+    /// [`DynamicsError::Kind`] for another kind; [`DynamicsError`] for invalid parameters.
+    pub fn dynamic(
+        robot: Robot<f64>,
+        params: SphereDynamics,
+        pose: Pose2<f64>,
+    ) -> Result<Self, DynamicsError> {
+        if robot.kind() != omnikin::Kind::Sphere {
+            return Err(DynamicsError::Kind(robot.kind().name()));
+        }
+        let board = DynamicBoard::new(params, pose)?;
+        let mut s = Self::new(robot, Profile::default(), 0, pose);
+        s.dynamic = Some(Box::new(board));
+        Ok(s)
+    }
+
+    /// Whether the plant is the dynamic model ([`SilPlant::dynamic`]).
+    pub fn is_dynamic(&self) -> bool {
+        self.dynamic.is_some()
+    }
+
+    /// The dynamic model's state and counters, with the dynamic plant.
+    pub fn dynamics(&self) -> Option<&SphereSim> {
+        self.dynamic.as_deref().map(|d| &d.sim)
     }
 
     /// The true pose (world; m, m, rad unwrapped).
     pub fn true_pose(&self) -> Pose2<f64> {
-        self.plant.pose()
+        match &self.dynamic {
+            Some(d) => d.pose,
+            None => self.plant.pose(),
+        }
     }
 
     /// The true robot-frame twist of the last plant step.
     pub fn true_twist(&self) -> Twist2<f64> {
-        self.plant.twist()
+        match &self.dynamic {
+            Some(d) => d.twist,
+            None => self.plant.twist(),
+        }
     }
 
-    /// The true plant: pose, twist, steer angles, slip residual.
+    /// The true kinematic plant: pose, twist, steer angles, slip residual. With the dynamic
+    /// plant this is the kinematic plant at its start pose, not stepped (see
+    /// [`SilPlant::dynamics`]).
     pub fn plant(&self) -> &Plant {
         &self.plant
     }
@@ -100,17 +187,41 @@ impl SilPlant {
     }
 
     /// Pushes the robot: adds `delta` (world frame, m, m, rad) to the true pose (a kick the
-    /// odometry cannot see).
+    /// odometry cannot see). With the dynamic plant the robot is set down at rest, level, at
+    /// the pushed pose, its motors holding 0 rad/s until the next command.
     pub fn push(&mut self, delta: Pose2<f64>) {
         self.plant.push(delta);
+        if let Some(d) = &mut self.dynamic {
+            let p = d.pose;
+            let to = Pose2::new(p.x + delta.x, p.y + delta.y, p.heading + delta.heading);
+            let mut state = SphereState::at_rest(to.x, to.y, to.heading);
+            state.t = d.sim.state().t;
+            state.wheel_angles = d.sim.state().wheel_angles;
+            if let Ok(sim) = SphereSim::with_state(*d.sim.params(), state) {
+                d.heading_offset = to.heading - sim.state().yaw();
+                d.sim = sim;
+                d.pose = to;
+                d.twist = Twist2::new(0.0, 0.0, 0.0);
+            }
+        }
     }
 
     /// Advances the plant by `dt` seconds under the current motor command, in sub-steps of
     /// the profile's plant rate (1 kHz by default).
     ///
     /// # Errors
-    /// [`SimError::Kinematics`] if the forward kinematics reject a state (diverged motion).
+    /// [`SimError::Kinematics`] if the forward kinematics reject a state (diverged motion);
+    /// [`SimError::Mismatch`] with the dynamic model's error (a diverging state).
     pub fn advance(&mut self, dt: f64) -> Result<(), SimError> {
+        if let Some(d) = &mut self.dynamic {
+            // The model ramps to the set-points over the step in ≤ 1 ms sub-steps of its own.
+            if dt > 0.0 {
+                d.step(dt, &self.command.wheel)
+                    .map_err(|e| SimError::Mismatch(format!("dynamic plant: {e}")))?;
+            }
+            self.time_us += (dt * 1e6).round() as u64;
+            return Ok(());
+        }
         let h = 1.0 / self.profile.rate_hz();
         self.carry += dt;
         let start_us = self.time_us;
@@ -156,6 +267,14 @@ impl Imu<f64> for Held<Option<ImuSample<f64>>> {
 impl Encoders<f64> for SilPlant {
     type Error = core::convert::Infallible;
     fn read(&mut self) -> Result<EncoderAngles<f64>, Self::Error> {
+        if let Some(d) = &self.dynamic {
+            let mut wheel = [0.0; MAX_WHEELS];
+            wheel[..3].copy_from_slice(&d.sim.state().wheel_angles);
+            return Ok(EncoderAngles {
+                wheel,
+                steer: [0.0; MAX_WHEELS],
+            });
+        }
         Ok(EncoderAngles {
             wheel: self.motors.wheel_angles(),
             steer: self.plant.steer_angles(),
@@ -166,6 +285,15 @@ impl Encoders<f64> for SilPlant {
 impl Imu<f64> for SilPlant {
     type Error = core::convert::Infallible;
     fn read(&mut self) -> Result<Option<ImuSample<f64>>, Self::Error> {
+        if let Some(d) = &self.dynamic {
+            let st = d.sim.state();
+            let w = st.orientation.inverse() * st.platform_rate;
+            let g = st.orientation.inverse() * omnikin::nalgebra::Vector3::new(0.0, 0.0, 9.81);
+            return Ok(Some(ImuSample {
+                gyro: [w.x, w.y, w.z],
+                accel: [g.x, g.y, g.z],
+            }));
+        }
         Ok(Some(ImuSample {
             gyro: [0.0, 0.0, self.plant.twist().yaw_rate],
             accel: [0.0, 0.0, 9.81],
@@ -220,5 +348,57 @@ mod tests {
         );
         assert!(truth.x > 0.02);
         assert_eq!(plant.time_us(), 400_000);
+    }
+
+    /// The runtime drives the dynamic sphere: it moves as commanded, the odometry (wheel
+    /// angles through the kinematic model) stays near the truth at a slow speed, the
+    /// platform leans while accelerating, and other kinds are refused.
+    #[test]
+    fn runtime_drives_the_dynamic_sphere() {
+        let robot = Robot::Sphere(SphereOmni::new(SphereParams::preset()).unwrap());
+        let params = SphereDynamics::paper_000();
+        let mut plant = SilPlant::dynamic(robot, params, Pose2::default()).unwrap();
+        assert!(plant.is_dynamic());
+        let mut rt = Runtime::<f64, 16>::new(robot, Config::new(100.0), Pose2::default()).unwrap();
+        rt.handle(
+            Command::Velocity {
+                twist: Twist2::new(0.05, 0.0, 0.0),
+                frame: Frame::Robot,
+            },
+            0,
+        )
+        .unwrap();
+        let mut tilt = 0.0f64;
+        for _ in 0..200 {
+            rt.handle(Command::Heartbeat, plant.now_us()).unwrap();
+            plant.run_cycle(&mut rt);
+            plant.advance(0.01).unwrap();
+            tilt = tilt.max(plant.dynamics().unwrap().state().tilt());
+        }
+        let est = plant.run_cycle(&mut rt).pose;
+        let truth = plant.true_pose();
+        assert_eq!(plant.time_us(), 2_000_000);
+        assert!(truth.x > 0.07 && truth.x < 0.11, "{truth:?}");
+        let err = (est.x - truth.x).hypot(est.y - truth.y);
+        assert!(
+            err < 0.02 * truth.x.max(0.5) + 0.005,
+            "{est:?} vs {truth:?}"
+        );
+        assert!(
+            tilt > 1e-3,
+            "the platform must lean while accelerating: {tilt}"
+        );
+        // The shell rolls forward, rocking about the commanded speed; no turn, no side slip.
+        let tw = plant.true_twist();
+        assert!(tw.vx > 0.0 && tw.vx < 0.1, "{tw:?}");
+        assert!(tw.vy.abs() < 1e-9 && tw.yaw_rate.abs() < 1e-9, "{tw:?}");
+        let kiwi = omnikin::description::RobotDescription::preset("kiwi")
+            .unwrap()
+            .build::<f64>()
+            .unwrap();
+        assert!(matches!(
+            SilPlant::dynamic(kiwi, params, Pose2::default()),
+            Err(DynamicsError::Kind(_))
+        ));
     }
 }

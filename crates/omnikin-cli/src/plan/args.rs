@@ -116,6 +116,10 @@ pub struct Common {
     /// caster's wheels trailing their steering axes, a swerve's modules along their velocity).
     #[arg(long, allow_hyphen_values = true, value_name = "G1,G2,...")]
     pub initial_steer: Option<List>,
+    /// sphere-omni: slow the moves whose quasi-static platform tilt would exceed DEG degrees
+    /// (a uniform time dilation of each such move; see omnikin_plan::tilt).
+    #[arg(long, allow_hyphen_values = true, value_name = "DEG", value_parser = finite_f64)]
+    pub max_tilt: Option<f64>,
 }
 
 /// `omnikin plan square`.

@@ -20,6 +20,8 @@ pub(super) fn finish(
     what: &str,
     planned: &Planned,
 ) -> Result<()> {
+    let (slowed, tilt_lines) = super::tilt::apply(d, c.max_tilt, planned)?;
+    let planned = slowed.as_ref().unwrap_or(planned);
     let plan = &planned.plan;
     match &c.out {
         Some(path) => {
@@ -38,6 +40,9 @@ pub(super) fn finish(
         plan_figure("--plot", svg, &title, plan, robot)?;
     }
     summary(c, d, robot, what, planned);
+    for line in tilt_lines {
+        crate::errln!("{line}");
+    }
     if let Some(step) = crate::steer_steps::unexplained_steer_step(
         plan,
         crate::steer_steps::MAX_UNEXPLAINED_STEER_STEP,

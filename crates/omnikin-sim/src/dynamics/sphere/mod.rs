@@ -5,6 +5,8 @@
 //! * `equations`: mass matrix, generalised forces, constraint rows, accelerations, projection.
 //! * [`sim`]: [`SphereSim`], the constraint-keeping RK4 integrator and what each step reports.
 //! * [`trial`]: [`simulate_plan`], a plan through the model recorded as a [`crate::Trial`].
+//! * [`monte_carlo`]: [`DynamicProfile`], seeded trial-to-trial variation for Monte Carlo, and
+//!   [`fit_com_depth`], the one-parameter fit to a circle's radius ratio.
 //!
 //! # Derivation
 //!
@@ -129,10 +131,12 @@
 //! "Dynamics notes".
 
 mod equations;
+pub mod monte_carlo;
 pub mod params;
 pub mod sim;
 pub mod trial;
 
+pub use monte_carlo::{DynamicFit, DynamicProfile, fit_com_depth, radius_ratio};
 pub use params::{DynamicsError, SphereDynamics};
 pub use sim::{Residuals, SphereSim, SphereState, SphereStep};
 pub use trial::{DynamicTrial, simulate_plan};

@@ -1,0 +1,111 @@
+//! The dynamic plant in Monte Carlo (`omnikin_sim::dynamics::sphere::DynamicProfile`) and its
+//! one-parameter fit: identical results for any thread count, a real scatter between trials,
+//! the exact profile equal to the deterministic run, and a fit that meets its target.
+
+use omnikin::description::RobotDescription;
+use omnikin_plan::generators::Circle;
+use omnikin_plan::{Plan, RobotModel};
+use omnikin_sim::dynamics::sphere::{
+    DynamicProfile, SphereDynamics, fit_com_depth, radius_ratio, simulate_plan,
+};
+use omnikin_sim::metrics::tracked_reference;
+use omnikin_sim::{MonteCarlo, evaluate_trials, trial_rng};
+
+fn circle(k: f64) -> Plan {
+    let d = RobotDescription::preset("sphere-omni").unwrap();
+    let model = RobotModel::from_description(&d).unwrap();
+    let c = Circle::paper(k);
+    omnikin_plan::planner::plan(&c.path().unwrap(), &c.heading(), &model, &c.options(100.0))
+        .unwrap()
+        .plan
+}
+
+fn run(profile: &DynamicProfile, plan: &Plan, trials: usize, threads: usize) -> MonteCarlo {
+    let reference = tracked_reference(plan, [0.0; 2]);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        evaluate_trials(
+            &|i| profile.trial(plan, &mut trial_rng(7, i)),
+            plan.samples.len(),
+            &reference,
+            trials,
+            &|| {},
+            |_, _| Ok::<(), ()>(()),
+        )
+    })
+    .unwrap()
+}
+
+#[test]
+fn dynamic_trials_scatter_and_do_not_depend_on_the_thread_count() {
+    let plan = circle(4.0);
+    let profile = DynamicProfile::hardware(SphereDynamics::paper_000());
+    let one = run(&profile, &plan, 5, 1);
+    let three = run(&profile, &plan, 5, 3);
+    assert_eq!(one.evaluation, three.evaluation);
+    let bits = |mc: &MonteCarlo| {
+        mc.evaluation
+            .metrics
+            .values()
+            .into_iter()
+            .map(|(_, v)| v.to_bits())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(bits(&one), bits(&three));
+    assert_eq!(one.figure_runs, three.figure_runs);
+    // The trials differ: the per-trial draws move the runs apart by more than the 2 mm
+    // tracking noise.
+    let m = &one.evaluation.metrics;
+    assert!(m.max_deviation_from_mean_m > 0.01, "{m:?}");
+    let (a, b) = (&one.figure_runs[0].xy, &one.figure_runs[1].xy);
+    let gap = a
+        .iter()
+        .zip(b)
+        .map(|(p, q)| (p[0] - q[0]).hypot(p[1] - q[1]))
+        .fold(0.0, f64::max);
+    assert!(gap > 0.01, "runs 0 and 1 differ by only {gap} m");
+}
+
+#[test]
+fn the_exact_profile_is_the_deterministic_run() {
+    let plan = circle(4.0);
+    let p = SphereDynamics::paper_000();
+    let t = DynamicProfile::exact(p)
+        .trial(&plan, &mut trial_rng(1, 0))
+        .unwrap();
+    assert_eq!(t, simulate_plan(p, &plan).unwrap().trial);
+}
+
+#[test]
+fn the_fit_meets_its_target_inside_its_bracket() {
+    let plan = circle(4.0);
+    let base = SphereDynamics {
+        pivot_friction: 0.05,
+        ..SphereDynamics::paper_000()
+    };
+    let fit = fit_com_depth(base, &plan, "circle-0.4", 1.4).unwrap();
+    assert_eq!(
+        (fit.name, fit.fitted_on.as_str()),
+        ("com_depth", "circle-0.4")
+    );
+    let (lo, hi) = omnikin_sim::dynamics::sphere::monte_carlo::COM_DEPTH_BRACKET;
+    assert!(fit.value > lo && fit.value < hi, "{fit:?}");
+    assert!((fit.achieved_radius_ratio - 1.4).abs() < 2e-3, "{fit:?}");
+    // The reported ratio is the model's at the fitted depth, and a shallower centre of mass
+    // leans more and grows the circle more.
+    let at = |h: f64| {
+        radius_ratio(
+            SphereDynamics {
+                com_depth: h,
+                ..base
+            },
+            &plan,
+        )
+        .unwrap()
+    };
+    assert_eq!(at(fit.value), fit.achieved_radius_ratio);
+    assert!(at(fit.value - 0.01) > 1.4 && at(fit.value + 0.01) < 1.4);
+}
