@@ -112,9 +112,13 @@
 //! friction (`Ω3 ≈ 0`) the shell rolls at `v cos θ + R ω0 sin θ` and the platform turns at
 //! `ω0 cos θ − (v/R) sin θ`: the radius becomes
 //! `r (cos θ + (R/r) sin θ)/(cos θ − (r/R) sin θ) ≈ r (1 + (R/r + r/R) θ)`. For the paper's
-//! 0.2 m circle with the default parameters: 1.018 at 0.1 m/s, 1.07 at 0.2 m/s, ≈ 1.35 at
-//! 0.4 m/s and ≈ 1.6 at 0.5 m/s from the quasi-static lean alone (a test checks the
-//! simulated 0.1 and 0.2 m/s smooth circles against it). A top tilted *inward* would shrink
+//! 0.2 m circle with the default parameters: 1.018 at 0.1 m/s and 1.07 at 0.2 m/s from the
+//! quasi-static lean alone (a test checks the simulated 0.1 and 0.2 m/s smooth circles against
+//! it). At 0.4 and 0.5 m/s the lean taken from the planned `a = v²/r` (≈ 1.35 and ≈ 1.65)
+//! overstates it: the larger circle lowers the actual centripetal acceleration `v′ω′`, and the
+//! self-consistent steady state (an independent derivation, with the platform's own precession
+//! terms) gives ≈ 1.30 and ≈ 1.48 — the steady lean alone does not reach the paper's 1.4 and
+//! 1.6; the full-speed start's transient does the rest in the simulation. A top tilted *inward* would shrink
 //! the circle; that is the digest's `v cos θ − R ω0 sin θ`, which inverts the pendulum.
 //!
 //! **Integration.** State `(q, ω, Ω, x_C, y_C, χ)`; classical RK4 at fixed sub-steps
