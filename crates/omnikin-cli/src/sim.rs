@@ -603,6 +603,15 @@ pub struct ReproduceArgs {
     /// fitted on the 0.4 m/s circle); 0 leaves the dynamic profile out.
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u64).range(0..=10_000))]
     pub dynamic_trials: u64,
+    /// Which profiles run, comma-separated, in any order: `ideal`, `hardware`, `spin-slip`
+    /// (kinematic), `dynamic` (default: all four). A profile left out leaves its columns
+    /// empty (`—`).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "ideal,hardware,spin-slip,dynamic"
+    )]
+    pub profiles: Vec<ReproduceProfile>,
     /// Random seed.
     #[arg(long, default_value_t = 2019)]
     pub seed: u64,
@@ -614,11 +623,48 @@ pub struct ReproduceArgs {
     pub threads: Option<usize>,
 }
 
+/// A profile of `omnikin reproduce` (`--profiles`).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReproduceProfile {
+    /// The ideal kinematic plant.
+    Ideal,
+    /// Plausible hardware imperfections (kinematic).
+    Hardware,
+    /// The fitted speed-dependent shell spin (kinematic).
+    SpinSlip,
+    /// The shell + platform dynamics (one parameter fitted on the 0.4 m/s circle).
+    Dynamic,
+}
+
+impl ReproduceProfile {
+    /// The profile's name in [`omnikin_sim::reproduce::profiles`] (the kinematic ones).
+    fn kinematic_name(self) -> Option<&'static str> {
+        match self {
+            ReproduceProfile::Ideal => Some("ideal"),
+            ReproduceProfile::Hardware => Some("hardware"),
+            ReproduceProfile::SpinSlip => Some("spin-slip"),
+            ReproduceProfile::Dynamic => None,
+        }
+    }
+}
+
 pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
     use omnikin_sim::reproduce as rp;
     let Experiment::Sphere2019 = a.experiment;
     if !(a.rate.is_finite() && a.rate > 0.0) {
         bail!("--rate must be a finite number > 0 (got {})", a.rate);
+    }
+    let kinematic: Vec<&str> = a
+        .profiles
+        .iter()
+        .filter_map(|p| p.kinematic_name())
+        .collect();
+    let run_dynamic = a.profiles.contains(&ReproduceProfile::Dynamic) && a.dynamic_trials > 0;
+    if kinematic.is_empty() && !run_dynamic {
+        bail!(
+            "--profiles: nothing to run (the dynamic profile needs --dynamic-trials > 0; the \
+             kinematic ones are ideal, hardware, spin-slip)"
+        );
     }
     let start = std::time::Instant::now();
     let d = RobotDescription::preset("sphere-omni").context("the sphere-omni preset is missing")?;
@@ -630,7 +676,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
         .build()
         .context("cannot start worker threads")?;
     // The one fitted parameter of the dynamic profile, on the 0.4 m/s circle only.
-    let fit = if a.dynamic_trials > 0 {
+    let fit = if run_dynamic {
         Some(
             rp::dynamic_fit(&series)
                 .context("dynamic profile: fitting the centre-of-mass depth")?,
@@ -639,8 +685,12 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
         None
     };
     let dynamic = fit.as_ref().map(rp::dynamic_profile);
-    let dyn_trials = a.dynamic_trials as usize;
-    let total = series.len() as u64 * (rp::profiles().len() as u64 * a.trials + a.dynamic_trials);
+    let dyn_trials = if run_dynamic {
+        a.dynamic_trials as usize
+    } else {
+        0
+    };
+    let total = series.len() as u64 * (kinematic.len() as u64 * a.trials + dyn_trials as u64);
     let pb = progress_bar(total, "reproducing paper 000");
     let mut rows = Vec::new();
     let mut all = serde_json::Map::new();
@@ -652,6 +702,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
                 s,
                 a.trials as usize,
                 a.seed,
+                &kinematic,
                 dynamic.as_ref().map(|d| (d, dyn_trials)),
                 &|| pb.inc(1),
             )
@@ -707,7 +758,8 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
     })?;
     let (g, p) = rp::spin_slip_fit();
     let meta = json!({
-        "trials": a.trials, "dynamic_trials": a.dynamic_trials, "seed": a.seed,
+        "trials": a.trials, "dynamic_trials": dyn_trials, "seed": a.seed,
+        "profiles": kinematic.iter().copied().chain(run_dynamic.then_some("dynamic")).collect::<Vec<_>>(),
         "plan_rate_hz": a.rate,
         "spin_slip_gain": g, "spin_slip_exponent": p,
         "spin_slip_fit": { "fitted_on": ["circle-0.4", "circle-0.5"], "parameters": ["spin_slip_gain", "spin_slip_exponent"] },

@@ -327,6 +327,69 @@ fn reproduce_sphere_2019_writes_the_table_and_figures() {
 }
 
 #[test]
+fn reproduce_profiles_selects_what_runs_without_changing_its_numbers() {
+    let d = tmp("repro-profiles");
+    let run = |name: &str, profiles: Option<&str>| {
+        let out = d.join(name);
+        let mut args = vec![
+            "reproduce",
+            "sphere-2019",
+            "--trials",
+            "2",
+            "--dynamic-trials",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        if let Some(p) = profiles {
+            args.extend(["--profiles", p]);
+        }
+        omnikin().args(&args).assert().success();
+        let csv = std::fs::read_to_string(out.join("table.csv")).unwrap();
+        let mut r = csv::Reader::from_reader(csv.as_bytes());
+        let header: Vec<String> = r.headers().unwrap().iter().map(str::to_string).collect();
+        let rows: Vec<Vec<String>> = r
+            .records()
+            .map(|x| x.unwrap().iter().map(str::to_string).collect())
+            .collect();
+        let m: Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap())
+                .unwrap();
+        (header, rows, m)
+    };
+    let (header, all, _) = run("all", None);
+    let (_, some, m) = run("some", Some("dynamic,hardware"));
+    assert_eq!(m["profiles"], serde_json::json!(["hardware", "dynamic"]));
+    assert!(m["series"]["circle-0.4"].get("ideal").is_none());
+    for (a, b) in all.iter().zip(&some) {
+        for (k, h) in header.iter().enumerate() {
+            if h.starts_with("hardware_") || h.starts_with("dynamic_") {
+                assert_eq!(a[k], b[k], "{} {h}: same seed, same number", a[0]);
+            } else if h.starts_with("ideal_") || h.starts_with("spin_slip_") {
+                assert_eq!(b[k], "", "{} {h}: a profile left out has no value", a[0]);
+            }
+        }
+    }
+    omnikin()
+        .args([
+            "reproduce",
+            "sphere-2019",
+            "--profiles",
+            "dynamic",
+            "--dynamic-trials",
+            "0",
+        ])
+        .args(["--out", d.join("none").to_str().unwrap()])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("--profiles: nothing to run"));
+    assert!(
+        !d.join("none").exists(),
+        "refused before anything is written"
+    );
+}
+
+#[test]
 fn evaluate_with_marker_offset_and_wrapped_heading() {
     let d = tmp("marker");
     let plan_path = circle_plan(&d);

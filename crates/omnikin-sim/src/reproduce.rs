@@ -274,7 +274,8 @@ pub struct Outcome {
     pub runs: Vec<Run>,
 }
 
-/// Simulates `series` under every profile of [`profiles`] with `trials` trials each, then,
+/// Simulates `series` under the profiles of [`profiles`] named in `kinematic` (in that
+/// table's order) with `trials` trials each, then,
 /// with `dynamic` given, under the dynamic profile with `dynamic.1` trials, streaming the
 /// trials into the metrics ([`simulate_and_evaluate`], [`crate::evaluate_trials`]: memory does
 /// not grow with `trials`). Trial `i` of every profile draws from [`crate::trial_rng`]`(seed,
@@ -287,11 +288,15 @@ pub fn run_series(
     series: &Series,
     trials: usize,
     seed: u64,
+    kinematic: &[&str],
     dynamic: Option<(&DynamicProfile, usize)>,
     progress: &(dyn Fn() + Sync),
 ) -> Result<Vec<Outcome>, SimError> {
     let mut out = Vec::new();
     for (name, profile) in profiles() {
+        if !kinematic.contains(&name) {
+            continue;
+        }
         let reference = crate::metrics::tracked_reference(
             &series.plan,
             profile.tracking.offset.unwrap_or([0.0; 2]),
@@ -362,16 +367,16 @@ pub struct Row {
     pub paper_max_deviation_pct_of_path: Option<f64>,
     /// The paper's fitted/planned radius (the 0.4 and 0.5 m/s circles only).
     pub paper_radius_ratio: Option<f64>,
-    /// Ideal plant: max deviation, % of path.
-    pub ideal_max_deviation_pct_of_path: f64,
-    /// Hardware profile: max deviation, % of path.
-    pub hardware_max_deviation_pct_of_path: f64,
-    /// Hardware profile: max deviation of a run from the mean, m.
-    pub hardware_max_deviation_from_mean_m: f64,
+    /// Ideal plant: max deviation, % of path (absent when the profile did not run).
+    pub ideal_max_deviation_pct_of_path: Option<f64>,
+    /// Hardware profile: max deviation, % of path (absent when the profile did not run).
+    pub hardware_max_deviation_pct_of_path: Option<f64>,
+    /// Hardware profile: max deviation of a run from the mean, m (absent when the profile did not run).
+    pub hardware_max_deviation_from_mean_m: Option<f64>,
     /// Hardware profile: fitted/planned radius (circles).
     pub hardware_radius_ratio: Option<f64>,
-    /// Spin-slip profile: max deviation, % of path.
-    pub spin_slip_max_deviation_pct_of_path: f64,
+    /// Spin-slip profile: max deviation, % of path (absent when the profile did not run).
+    pub spin_slip_max_deviation_pct_of_path: Option<f64>,
     /// Spin-slip profile: fitted/planned radius (circles).
     pub spin_slip_radius_ratio: Option<f64>,
     /// Dynamic profile: max deviation, % of path (absent without the dynamic profile).
@@ -404,11 +409,11 @@ pub fn row(series: &Series, outcomes: &[Outcome]) -> Row {
                 .map(|(_, r)| *r),
             Experiment::Square => None,
         },
-        ideal_max_deviation_pct_of_path: i.map_or(f64::NAN, |m| m.max_deviation_pct_of_path),
-        hardware_max_deviation_pct_of_path: h.map_or(f64::NAN, |m| m.max_deviation_pct_of_path),
-        hardware_max_deviation_from_mean_m: h.map_or(f64::NAN, |m| m.max_deviation_from_mean_m),
+        ideal_max_deviation_pct_of_path: i.map(|m| m.max_deviation_pct_of_path),
+        hardware_max_deviation_pct_of_path: h.map(|m| m.max_deviation_pct_of_path),
+        hardware_max_deviation_from_mean_m: h.map(|m| m.max_deviation_from_mean_m),
         hardware_radius_ratio: h.and_then(|m| m.radius_ratio),
-        spin_slip_max_deviation_pct_of_path: s.map_or(f64::NAN, |m| m.max_deviation_pct_of_path),
+        spin_slip_max_deviation_pct_of_path: s.map(|m| m.max_deviation_pct_of_path),
         spin_slip_radius_ratio: s.and_then(|m| m.radius_ratio),
         dynamic_max_deviation_pct_of_path: d.map(|m| m.max_deviation_pct_of_path),
         dynamic_max_deviation_from_mean_m: d.map(|m| m.max_deviation_from_mean_m),
@@ -436,15 +441,15 @@ pub fn table_markdown(
     );
     for r in rows {
         s.push_str(&format!(
-            "| {} | {:.1} | {} | {:.4} | {:.2} | {:.1} | {} | {:.2} | {} | {} | {} | {} |\n",
+            "| {} | {:.1} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             r.series,
             r.speed_m_per_s,
             r.paper,
-            r.ideal_max_deviation_pct_of_path,
-            r.hardware_max_deviation_pct_of_path,
-            1000.0 * r.hardware_max_deviation_from_mean_m,
+            fmt_opt(r.ideal_max_deviation_pct_of_path, 4),
+            fmt_opt(r.hardware_max_deviation_pct_of_path, 2),
+            fmt_opt(r.hardware_max_deviation_from_mean_m.map(|m| 1000.0 * m), 1),
             fmt_opt(r.hardware_radius_ratio, 3),
-            r.spin_slip_max_deviation_pct_of_path,
+            fmt_opt(r.spin_slip_max_deviation_pct_of_path, 2),
             fmt_opt(r.spin_slip_radius_ratio, 3),
             fmt_opt(r.dynamic_max_deviation_pct_of_path, 2),
             fmt_opt(r.dynamic_max_deviation_from_mean_m.map(|m| 1000.0 * m), 1),
