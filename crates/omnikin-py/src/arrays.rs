@@ -106,12 +106,7 @@ pub fn matching<'py>(
 }
 
 /// Row `i` of an optional broadcast argument.
-pub fn row(
-    values: Option<&[f64]>,
-    width: usize,
-    single: bool,
-    i: usize,
-) -> Option<&[f64]> {
+pub fn row(values: Option<&[f64]>, width: usize, single: bool, i: usize) -> Option<&[f64]> {
     values.map(|v| {
         let k = if single { 0 } else { i };
         &v[k * width..(k + 1) * width]
