@@ -9,7 +9,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::arrays::{Rows, matching, row, rows, to_array, value_error};
-use crate::kernels::{map_rows, split};
+use crate::kernels::{map_rows, map_rows2};
 
 /// A robot: a preset name (`sphere-omni`, `ballbot`, `caster3`, `kiwi`, `x-drive`,
 /// `mecanum`, `swerve4`) or the path of a TOML robot file.
@@ -201,13 +201,13 @@ impl PyRobot {
         let kind = self.model.kind();
         let steered = self.model.steerable();
         let set_point = kind.steer_is_set_point();
-        let width = if steered { 2 * k } else { k };
+        let sw = if steered { k } else { 0 };
         let (tv, sv) = (tw.values()?, st.as_ref().map(|s| s.values()).transpose()?);
         let s_single = st.as_ref().is_some_and(|s| s.single);
         let model = &self.model;
         let n = tw.rows;
         let out = py.detach(|| {
-            map_rows(n, width, |i, o| {
+            map_rows2(n, k, sw, |i, w, s| {
                 let t = &tv[3 * i..3 * i + 3];
                 let mut act = Actuators::zero();
                 if let Some(g) = row(sv, k, s_single, i) {
@@ -216,31 +216,28 @@ impl PyRobot {
                 let r = model
                     .inverse_spin(Twist2::new(t[0], t[1], t[2]), spin, &act)
                     .map_err(|e| e.to_string())?;
-                o[..k].copy_from_slice(&r.wheel_rates[..k]);
+                w.copy_from_slice(&r.wheel_rates[..k]);
                 if steered {
-                    let s = if set_point {
+                    let g = if set_point {
                         &r.steer_angles
                     } else {
                         &r.steer_rates
                     };
-                    o[k..].copy_from_slice(&s[..k]);
+                    s.copy_from_slice(&g[..k]);
                 }
                 Ok(())
             })
         });
-        let out = out.map_err(|(i, e)| value_error(format!("twists row {i}: {e}")))?;
+        let (w, s) = out.map_err(|(i, e)| value_error(format!("twists row {i}: {e}")))?;
         let d = PyDict::new(py);
+        d.set_item("wheel_rates", to_array(py, w, n, k, tw.single)?)?;
         if steered {
-            let (w, s) = split(&out, k, k);
-            d.set_item("wheel_rates", to_array(py, w, n, k, tw.single)?)?;
             let key = if set_point {
                 "steer_angles"
             } else {
                 "steer_rates"
             };
             d.set_item(key, to_array(py, s, n, k, tw.single)?)?;
-        } else {
-            d.set_item("wheel_rates", to_array(py, out, n, k, tw.single)?)?;
         }
         Ok(d)
     }
@@ -311,7 +308,7 @@ impl PyRobot {
         );
         let model = &self.model;
         let out = py.detach(|| {
-            map_rows(n, 4, |i, o| {
+            map_rows2(n, 3, 1, |i, o, res| {
                 let mut act = Actuators::from_wheel_rates(&wv[k * i..k * (i + 1)]);
                 if let Some(g) = row(sv, k, s1, i) {
                     act.steer_angles[..k].copy_from_slice(g);
@@ -320,12 +317,12 @@ impl PyRobot {
                     act.steer_rates[..k].copy_from_slice(g);
                 }
                 let m = model.forward_spin(&act, spin).map_err(|e| e.to_string())?;
-                o.copy_from_slice(&[m.twist.vx, m.twist.vy, m.twist.yaw_rate, m.slip_residual]);
+                o.copy_from_slice(&[m.twist.vx, m.twist.vy, m.twist.yaw_rate]);
+                res[0] = m.slip_residual;
                 Ok(())
             })
         });
-        let out = out.map_err(|(i, e)| value_error(format!("wheel_rates row {i}: {e}")))?;
-        let (tw, res) = split(&out, 3, 1);
+        let (tw, res) = out.map_err(|(i, e)| value_error(format!("wheel_rates row {i}: {e}")))?;
         let tw = to_array(py, tw, n, 3, wr.single)?;
         if slip {
             let res = if wr.single {
