@@ -1,0 +1,119 @@
+"""omnikin: kinematics, planning and simulation of omnidirectional wheeled robots.
+
+Units are SI (m, s, rad, rad/s, N·m). Twists ``(vx, vy, yaw_rate)`` are in the robot frame
+(x forward, y left, z up, counter-clockwise positive) unless a name says world; plan and
+trajectory positions are in the world frame. Tables come back as dicts of 1-D numpy arrays
+keyed by the CSV files' column names (``pandas.DataFrame(result)`` makes a frame of one).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Dict, Optional, Sequence, Union
+
+import numpy as np
+
+from omnikin import _native
+from omnikin._native import Robot, __version__
+
+__all__ = ["Robot", "plan", "simulate", "evaluate", "__version__"]
+
+Table = Dict[str, np.ndarray]
+PlanLike = Union[Table, str, "os.PathLike[str]"]
+
+
+def _table(native: tuple) -> Table:
+    columns, values = native
+    return {c: values[i] for i, c in enumerate(columns)}
+
+
+def _robot(robot: Union[Robot, str, "os.PathLike[str]"]) -> Robot:
+    return robot if isinstance(robot, Robot) else Robot(os.fspath(robot))
+
+
+def _plan_args(plan_: PlanLike) -> dict:
+    if isinstance(plan_, dict):
+        columns = list(plan_)
+        values = np.array([np.asarray(plan_[c], dtype=np.float64) for c in columns])
+        if values.ndim != 2:
+            raise ValueError("plan: every column must be a 1-D array of the same length")
+        return {"plan_columns": (columns, values)}
+    return {"plan_path": os.fspath(plan_)}
+
+
+def plan(robot: Union[Robot, str], kind: str, **options: Any) -> Table:
+    """Plans ``kind`` ("square", "circle" or "waypoints") for ``robot`` within its motor limits,
+    with the options of ``omnikin plan KIND`` (flag names with ``_`` for ``-``, same defaults):
+
+    - every kind: ``rate`` (Hz, 100), ``initial_steer`` (steerable kinds: one angle per wheel,
+      rad; default aligned with the first motion);
+    - square: ``side`` (m, 0.4), ``speed`` (m/s, 0.1), ``ramp_fraction`` (0.05), ``profile``
+      ("trapezoid" | "s-curve"), ``no_retime``;
+    - circle: ``omega`` (rad/s, required), ``radius`` (m, 0.2), ``turns`` (1), ``ramp`` (s),
+      ``face_motion``;
+    - waypoints: ``file`` (CSV ``x,y[,heading]`` or TOML, required), ``path`` ("polyline" |
+      "spline"), ``corners`` ("stop" | "fillet"), ``fillet_radius``, ``heading_law``
+      ("constant" | "tangent" | "waypoints"), ``heading``, ``spin`` (rad/m),
+      ``heading_offset``, ``max_speed``, ``max_accel``, ``max_jerk``, ``max_yaw_rate``,
+      ``max_yaw_accel``, ``profile``, ``time_optimal``, ``no_retime``.
+
+    Returns the plan CSV's columns ``t, x, y, heading, vx, vy, yaw_rate, w1..wN`` (world frame;
+    s, m, rad, m/s, rad/s) and, for steerable kinds, ``s1..sN, sd1..sdN`` (rad, rad/s).
+    """
+    return _table(_native.plan_columns(_robot(robot), kind, **options))
+
+
+def simulate(
+    robot: Union[Robot, str],
+    plan: PlanLike,
+    *,
+    disturbances: Optional[Union[str, "os.PathLike[str]"]] = None,
+    trials: int = 10,
+    seed: int = 1,
+    threads: Optional[int] = None,
+) -> Dict[str, Any]:
+    """Runs ``plan`` (a dict from :func:`plan`, or a plan CSV path) through the kinematic plant
+    ``trials`` times, as ``omnikin simulate`` does (same seed, same numbers, on any number of
+    ``threads``; default all cores), with the disturbance profile TOML ``disturbances``
+    (default: the ideal plant).
+
+    Returns ``{"trials": ..., "mean": ..., "metrics": ...}``: the columns of ``trials.csv``
+    (``trial, t, x, y, heading, tracked_x, tracked_y, slip_residual, q1..qN``; world frame) and
+    ``mean.csv`` (``t, x, y, x_ci95, y_ci95, plan_x, plan_y``), and ``metrics.json`` as a dict.
+    """
+    trials_, mean, metrics = _native.simulate_native(
+        _robot(robot),
+        disturbances=None if disturbances is None else os.fspath(disturbances),
+        trials=trials,
+        seed=seed,
+        threads=threads,
+        **_plan_args(plan),
+    )
+    return {"trials": _table(trials_), "mean": _table(mean), "metrics": json.loads(metrics)}
+
+
+def evaluate(
+    plan: PlanLike,
+    tracks: Sequence[Union[str, "os.PathLike[str]"]],
+    *,
+    motion_threshold: float = 0.005,
+    align_position: bool = True,
+    tracking_offset: Optional[Sequence[float]] = None,
+) -> Dict[str, Any]:
+    """The metrics of tracked runs (CSV files ``t,x,y[,heading]``, world frame, m) against
+    ``plan``, as ``omnikin evaluate``: ``motion_threshold`` (m) marks the start of motion,
+    ``align_position`` translates each run to start at the plan's start, ``tracking_offset``
+    is the marker's position ``(x, y)`` in the robot frame (m).
+
+    Returns ``{"runs": ..., "mean": ..., "metrics": ...}``: the columns of ``runs.csv``
+    (``run, t, x, y``) and ``mean.csv``, and ``metrics.json`` as a dict.
+    """
+    runs, mean, metrics = _native.evaluate_native(
+        [os.fspath(t) for t in tracks],
+        motion_threshold=motion_threshold,
+        align_position=align_position,
+        tracking_offset=None if tracking_offset is None else tuple(tracking_offset),
+        **_plan_args(plan),
+    )
+    return {"runs": _table(runs), "mean": _table(mean), "metrics": json.loads(metrics)}

@@ -1,0 +1,111 @@
+"""Type stubs of omnikin (units SI; twists in the robot frame, positions in the world frame)."""
+
+import os
+from typing import Any, Dict, Optional, Sequence, Tuple, Union, overload, Literal
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+Table = Dict[str, npt.NDArray[np.float64]]
+PlanLike = Union[Table, str, os.PathLike[str]]
+ArrayLike = npt.ArrayLike
+
+class Robot:
+    """A robot: a preset name (sphere-omni, ballbot, caster3, kiwi, x-drive, mecanum, swerve4)
+    or the path of a TOML robot file. Invalid files raise ``ValueError`` (the CLI's message)."""
+
+    def __init__(self, name_or_path: str) -> None: ...
+    @property
+    def kind(self) -> str:
+        """``sphere-omni``, ``ballbot``, ``caster3``, ``omni`` or ``swerve``."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def source(self) -> str:
+        """A file path or ``preset <name>``."""
+    @property
+    def wheels(self) -> int:
+        """Number of wheels (swerve: modules), ``k``."""
+    @property
+    def motors(self) -> int: ...
+    @property
+    def steerable(self) -> bool: ...
+    @property
+    def limits(self) -> Dict[str, Optional[float]]:
+        """``max_wheel_rate`` (rad/s), ``max_wheel_accel`` (rad/s²), ``max_steer_rate``,
+        ``max_steer_accel``; ``None`` = unlimited."""
+    @property
+    def description(self) -> Dict[str, Any]:
+        """The robot file (TOML) as a dict."""
+    @property
+    def toml(self) -> str: ...
+    def inverse(
+        self,
+        twists: ArrayLike,
+        steer: Optional[ArrayLike] = None,
+        shell_spin: Optional[float] = None,
+    ) -> Dict[str, npt.NDArray[np.float64]]:
+        """``twists`` ``(N, 3)`` or ``(3,)``: vx, vy (m/s), yaw_rate (rad/s), robot frame.
+        Returns ``wheel_rates`` ``(N, k)`` rad/s, plus ``steer_rates`` (caster3, rad/s) or
+        ``steer_angles`` (swerve, rad) — the keys of ``omnikin inverse --json``."""
+    @overload
+    def forward(
+        self,
+        wheel_rates: ArrayLike,
+        steer: Optional[ArrayLike] = None,
+        steer_rates: Optional[ArrayLike] = None,
+        shell_spin: Optional[float] = None,
+        slip: Literal[False] = False,
+    ) -> npt.NDArray[np.float64]:
+        """Robot-frame twists ``(N, 3)`` (vx, vy m/s; yaw_rate rad/s) of ``wheel_rates``
+        ``(N, k)`` rad/s at ``steer`` angles (rad) and ``steer_rates`` (rad/s, caster3)."""
+    @overload
+    def forward(
+        self,
+        wheel_rates: ArrayLike,
+        steer: Optional[ArrayLike] = None,
+        steer_rates: Optional[ArrayLike] = None,
+        shell_spin: Optional[float] = None,
+        slip: Literal[True] = ...,
+    ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def torques(
+        self,
+        model: Optional[ArrayLike] = None,
+        wrench: Optional[ArrayLike] = None,
+        wheels: Optional[ArrayLike] = None,
+        yaw: float = 0.0,
+        steer: Optional[ArrayLike] = None,
+    ) -> Dict[str, npt.NDArray[np.float64]]:
+        """Ballbot ``model`` torques (N·m, at body yaw ``yaw`` rad) or omni/swerve body
+        ``wrench`` (fx, fy N; mz N·m; robot frame) → ``wheel_torques`` ``(N, k)`` N·m; or
+        ``wheels`` ``(N, k)`` → ``model_torques`` / ``wrench``."""
+
+def plan(robot: Union[Robot, str], kind: str, **options: Any) -> Table:
+    """A plan's CSV columns (``t, x, y, heading, vx, vy, yaw_rate, w1..wN[, s1..sN, sd1..sdN]``;
+    world frame) for kind ``square``, ``circle`` or ``waypoints`` with ``omnikin plan``'s
+    options."""
+
+def simulate(
+    robot: Union[Robot, str],
+    plan: PlanLike,
+    *,
+    disturbances: Optional[Union[str, os.PathLike[str]]] = None,
+    trials: int = 10,
+    seed: int = 1,
+    threads: Optional[int] = None,
+) -> Dict[str, Any]:
+    """``{"trials": Table, "mean": Table, "metrics": dict}`` as ``omnikin simulate``'s
+    ``trials.csv``, ``mean.csv`` and ``metrics.json``."""
+
+def evaluate(
+    plan: PlanLike,
+    tracks: Sequence[Union[str, os.PathLike[str]]],
+    *,
+    motion_threshold: float = 0.005,
+    align_position: bool = True,
+    tracking_offset: Optional[Sequence[float]] = None,
+) -> Dict[str, Any]:
+    """``{"runs": Table, "mean": Table, "metrics": dict}`` as ``omnikin evaluate``'s
+    ``runs.csv``, ``mean.csv`` and ``metrics.json``."""

@@ -1,0 +1,27 @@
+//! The `omnikin` Python package's native module (`omnikin._native`): PyO3 classes and
+//! functions over the Rust crates, numpy arrays in and out. The pure-Python layer in
+//! `python/omnikin/` re-exports it and turns column tables into dicts.
+//!
+//! `robot` holds `omnikin.Robot` and its kinematics, `arrays` the argument checks,
+//! `kernels` the row-parallel loops, `options` the keyword options, `plan` `omnikin.plan`,
+//! `sim` `omnikin.simulate` and `omnikin.evaluate`.
+
+mod arrays;
+mod kernels;
+mod options;
+mod plan;
+mod robot;
+mod sim;
+
+use pyo3::prelude::*;
+
+/// The native module.
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<robot::PyRobot>()?;
+    m.add_function(wrap_pyfunction!(plan::plan_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(sim::simulate_native, m)?)?;
+    m.add_function(wrap_pyfunction!(sim::evaluate_native, m)?)?;
+    Ok(())
+}

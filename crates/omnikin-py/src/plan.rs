@@ -1,0 +1,278 @@
+//! `omnikin.plan(robot, "square" | "circle" | "waypoints", **options)`: the requests of
+//! `omnikin plan` (crates/omnikin-cli/src/plan/request.rs) with the same options, defaults and
+//! checks, planned by [`omnikin_plan::planner::plan`] without the GIL; the plan comes back as
+//! its CSV columns.
+
+use numpy::ndarray::Array2;
+use numpy::prelude::IntoPyArray;
+use omnikin_plan::generators::{Circle, Square};
+use omnikin_plan::heading::{HeadingLaw, HeadingProfile};
+use omnikin_plan::path::{Corners, Path};
+use omnikin_plan::planner::{InitialSteer, MotionLimits, OnLimit, PlanOptions, Timing, plan};
+use omnikin_plan::profile::ProfileKind;
+use omnikin_plan::waypoints::Waypoints;
+use omnikin_plan::{Plan, PlanningError, RobotModel};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::arrays::value_error;
+use crate::options::Options;
+use crate::robot::PyRobot;
+
+/// A planning error as the CLI words it: a parameter out of range starts with the option
+/// that set it; a motor limit says which request was too fast for which robot.
+fn planning_error(e: PlanningError, context: impl FnOnce() -> String) -> PyErr {
+    match &e {
+        PlanningError::OutOfRange { name, .. } => {
+            value_error(format!("{}: {e}", name.replace(' ', "_")))
+        }
+        PlanningError::LimitExceeded(_) | PlanningError::Infeasible(_) => {
+            value_error(format!("{}: {e}", context()))
+        }
+        _ => value_error(e.to_string()),
+    }
+}
+
+fn profile(o: &mut Options) -> PyResult<ProfileKind> {
+    Ok(match o.choice("profile", &["trapezoid", "s-curve"])? {
+        Some("s-curve") => ProfileKind::SCurve,
+        _ => ProfileKind::Trapezoid,
+    })
+}
+
+fn on_limit(o: &mut Options) -> PyResult<OnLimit> {
+    Ok(if o.flag("no_retime")? {
+        OnLimit::Reject
+    } else {
+        OnLimit::Retime
+    })
+}
+
+fn initial_steer(o: &mut Options, robot: &RobotModel) -> PyResult<InitialSteer> {
+    match o.list("initial_steer")? {
+        Some(g) if !robot.steerable() => Err(value_error(format!(
+            "initial_steer {g:?} applies only to robot kinds with steering (caster3, swerve), not {}",
+            robot.model.kind().name()
+        ))),
+        Some(g) if g.len() != robot.wheels() => Err(value_error(format!(
+            "initial_steer: {} has {} wheels, got {} values",
+            robot.name,
+            robot.wheels(),
+            g.len()
+        ))),
+        Some(g) => Ok(InitialSteer::Given(omnikin_plan::per_wheel(&g))),
+        None => Ok(InitialSteer::Aligned),
+    }
+}
+
+/// The heading law of a waypoint plan (the CLI's `waypoint_heading`).
+fn waypoint_heading(
+    o: &mut Options,
+    wp: &Waypoints,
+    path: &Path,
+    file: &str,
+) -> PyResult<HeadingLaw> {
+    let law = o.choice("heading_law", &["constant", "tangent", "waypoints"])?;
+    let heading = o.f64("heading", 0.0)?;
+    let spin = o.f64("spin", 0.0)?;
+    let offset = o.f64("heading_offset", 0.0)?;
+    let law = law.unwrap_or(if wp.headings.is_some() {
+        "waypoints"
+    } else {
+        "constant"
+    });
+    let err = |e: PlanningError| planning_error(e, String::new);
+    Ok(match law {
+        "constant" if spin == 0.0 => HeadingLaw::Constant(heading),
+        "constant" => {
+            omnikin_plan::limits::check_magnitude(
+                "spin",
+                spin,
+                omnikin_plan::limits::MAX_SPIN,
+                "rad/m",
+            )
+            .map_err(err)?;
+            let l = path.length();
+            HeadingLaw::Profile(
+                HeadingProfile::new(&[(0.0, heading), (l, heading + spin * l)]).map_err(err)?,
+            )
+        }
+        "tangent" => HeadingLaw::Tangent { offset },
+        _ => {
+            let Some(h) = &wp.headings else {
+                return Err(value_error(format!(
+                    "{file}: heading_law waypoints needs a heading column (x,y,heading)"
+                )));
+            };
+            let pts: Vec<(f64, f64)> = path
+                .waypoint_arc_lengths()
+                .iter()
+                .copied()
+                .zip(h.iter().copied())
+                .collect();
+            HeadingLaw::Profile(HeadingProfile::new(&pts).map_err(err)?)
+        }
+    })
+}
+
+/// The path, heading law and options of a request, and the context of a "too fast" error.
+type Request = (Path, HeadingLaw, PlanOptions, String);
+
+fn square(o: &mut Options, d: &PyRobot, robot: &RobotModel) -> PyResult<Request> {
+    let sq = Square {
+        side: o.positive("side", 0.4)?,
+        speed: o.positive("speed", 0.1)?,
+        ramp_fraction: o.positive("ramp_fraction", 0.05)?,
+        profile: profile(o)?,
+    };
+    let mut opts = sq.options(o.positive("rate", 100.0)?, on_limit(o)?);
+    opts.initial_steer = initial_steer(o, robot)?;
+    let path = sq.path().map_err(|e| planning_error(e, String::new))?;
+    let ctx = format!("square at {} m/s is too fast for {}", sq.speed, d.desc.name);
+    Ok((path, sq.heading(), opts, ctx))
+}
+
+fn circle(o: &mut Options, d: &PyRobot, robot: &RobotModel) -> PyResult<Request> {
+    let radius = o.positive("radius", 0.2)?;
+    let Some(omega) = o.opt_f64("omega")? else {
+        return Err(value_error(
+            "circle needs omega (rad/s about the centre; negative: clockwise)",
+        ));
+    };
+    let c = Circle {
+        radius,
+        omega,
+        turns: o.positive("turns", 1.0)?,
+        ramp: o.opt_positive("ramp")?,
+        face_motion: o.flag("face_motion")?,
+    };
+    let mut opts = c.options(o.positive("rate", 100.0)?);
+    opts.initial_steer = initial_steer(o, robot)?;
+    let path = c.path().map_err(|e| planning_error(e, String::new))?;
+    let ctx = format!(
+        "circle with omega {} rad/s (radius {} m) is too fast for {}",
+        omega, radius, d.desc.name
+    );
+    Ok((path, c.heading(), opts, ctx))
+}
+
+fn waypoints(o: &mut Options, d: &PyRobot, robot: &RobotModel) -> PyResult<Request> {
+    let Some(file) = o.opt_str("file")? else {
+        return Err(value_error(
+            "waypoints needs file (CSV x,y[,heading] or TOML [[waypoint]])",
+        ));
+    };
+    let wp =
+        Waypoints::load(std::path::Path::new(&file)).map_err(|e| value_error(e.to_string()))?;
+    let shape = o
+        .choice("path", &["polyline", "spline"])?
+        .unwrap_or("polyline");
+    let corners = o.choice("corners", &["stop", "fillet"])?.unwrap_or("stop");
+    let fillet_radius = o.positive("fillet_radius", 0.1)?;
+    let path = match (shape, corners) {
+        ("spline", _) => Path::spline(&wp.points),
+        (_, "stop") => Path::polyline(&wp.points, Corners::Stop),
+        _ => Path::polyline(
+            &wp.points,
+            Corners::Fillet {
+                radius: fillet_radius,
+            },
+        ),
+    }
+    .map_err(|e| value_error(wp.locate(&file, e).to_string()))?;
+    let heading = waypoint_heading(o, &wp, &path, &file)?;
+    let time_optimal = o.flag("time_optimal")?;
+    for c in ["max_jerk", "profile", "no_retime"] {
+        if time_optimal && o.given(c)? {
+            return Err(value_error(format!("{c} cannot be used with time_optimal")));
+        }
+    }
+    let limits = MotionLimits {
+        max_speed: o.positive("max_speed", 0.2)?,
+        max_accel: o.positive("max_accel", 0.5)?,
+        max_jerk: o.positive("max_jerk", 5.0)?,
+        max_yaw_rate: o.positive("max_yaw_rate", 1.0)?,
+        max_yaw_accel: o.positive("max_yaw_accel", 2.0)?,
+    };
+    let timing = if time_optimal {
+        Timing::TimeOptimal { limits }
+    } else {
+        Timing::Profile {
+            kind: profile(o)?,
+            limits,
+        }
+    };
+    let opts = PlanOptions {
+        timing,
+        on_limit: on_limit(o)?,
+        rate: o.positive("rate", 100.0)?,
+        initial_steer: initial_steer(o, robot)?,
+    };
+    let ctx = format!(
+        "{file}: the requested timing is too fast for {}",
+        d.desc.name
+    );
+    Ok((path, heading, opts, ctx))
+}
+
+/// The plan's columns (its CSV header) and values, one row per column (`(columns, samples)`).
+pub fn columns<'py>(py: Python<'py>, p: &Plan) -> PyResult<(Vec<String>, Bound<'py, PyAny>)> {
+    let cols = p.columns();
+    let (n, c, k) = (p.samples.len(), cols.len(), p.wheels);
+    let steer = p.steerable();
+    let mut a = Array2::<f64>::zeros((c, n));
+    for (j, s) in p.samples.iter().enumerate() {
+        let mut v = vec![
+            s.t,
+            s.pose.x,
+            s.pose.y,
+            s.pose.heading,
+            s.twist.vx,
+            s.twist.vy,
+            s.twist.yaw_rate,
+        ];
+        v.extend(&s.wheel_rates[..k]);
+        if steer {
+            let (g, gd) = s.steer.unwrap_or((
+                [f64::NAN; omnikin::MAX_WHEELS],
+                [f64::NAN; omnikin::MAX_WHEELS],
+            ));
+            v.extend(&g[..k]);
+            v.extend(&gd[..k]);
+        }
+        for (i, x) in v.into_iter().enumerate() {
+            a[[i, j]] = x;
+        }
+    }
+    Ok((cols, a.into_pyarray(py).into_any()))
+}
+
+/// `omnikin.plan`: the plan's CSV columns and their values (`(columns, values)` with
+/// `values[i]` the column `columns[i]`).
+#[pyfunction]
+#[pyo3(signature = (robot, kind, **options))]
+pub fn plan_columns<'py>(
+    py: Python<'py>,
+    robot: &PyRobot,
+    kind: &str,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<(Vec<String>, Bound<'py, PyAny>)> {
+    let model =
+        RobotModel::from_description(&robot.desc).map_err(|e| planning_error(e, String::new))?;
+    let mut o = Options::new(options);
+    let (path, heading, opts, ctx) = match kind {
+        "square" => square(&mut o, robot, &model)?,
+        "circle" => circle(&mut o, robot, &model)?,
+        "waypoints" => waypoints(&mut o, robot, &model)?,
+        k => {
+            return Err(value_error(format!(
+                "kind {k:?}: plan square, circle or waypoints"
+            )));
+        }
+    };
+    o.finish(&format!("plan {kind}"))?;
+    let planned = py
+        .detach(|| plan(&path, &heading, &model, &opts))
+        .map_err(|e| planning_error(e, || ctx))?;
+    columns(py, &planned.plan)
+}

@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# The Python package's tests (crates/omnikin-py): a fresh virtual environment in a temporary
+# directory, `pip install ./crates/omnikin-py` (pip fetches maturin from PyPI into its build
+# isolation; maturin builds the extension in release mode with the workspace's Cargo.lock), the
+# CLI built by cargo, then pytest, which compares every method with the CLI.
+#
+# Needs python3 (>= 3.10) with venv, and PyPI. PYTHON=python3.12 picks another interpreter;
+# PYTHON_SKIP_UNAVAILABLE=1 skips loudly (exit 0) when there is no interpreter or no PyPI.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$(pwd)
+
+PY=${PYTHON:-python3}
+skip() {
+  if [ "${PYTHON_SKIP_UNAVAILABLE:-0}" = 1 ]; then
+    echo "SKIPPED python tests: $*" >&2
+    exit 0
+  fi
+  echo "python tests: $*" >&2
+  exit 1
+}
+command -v "$PY" >/dev/null 2>&1 || skip "$PY not found"
+"$PY" -c 'import sys; sys.exit(sys.version_info < (3, 10))' || skip "$PY is older than 3.10"
+
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+"$PY" -m venv "$tmp/venv" || skip "$PY -m venv failed (install python3-venv)"
+pip=("$tmp/venv/bin/pip" --disable-pip-version-check --quiet)
+"${pip[@]}" install pytest matplotlib || skip "cannot install pytest and matplotlib from PyPI"
+# --locked: the extension builds against the committed Cargo.lock, like every other crate.
+MATURIN_PEP517_ARGS="--locked" "${pip[@]}" install ./crates/omnikin-py
+cargo build -p omnikin-cli --locked --quiet
+# From another directory: the tests import the installed package, not the source tree.
+cd "$tmp"
+OMNIKIN_BIN="$root/target/debug/omnikin" MPLBACKEND=Agg \
+  "$tmp/venv/bin/python" -m pytest -q -p no:cacheprovider "$root/crates/omnikin-py/tests"
