@@ -11,6 +11,14 @@ cd "$(dirname "$0")/.."
 root=$(pwd)
 
 PY=${PYTHON:-python3}
+# A clean Debian/Ubuntu machine may lack python3 or its venv module: install them when we can.
+if ! { command -v "$PY" >/dev/null 2>&1 && "$PY" -m venv --help >/dev/null 2>&1; } \
+  && command -v apt-get >/dev/null 2>&1; then
+  sudo=""
+  [ "$(id -u)" -ne 0 ] && command -v sudo >/dev/null && sudo="sudo -n"
+  ($sudo apt-get update -qq && DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq \
+    python3 python3-venv python3-pip) >/dev/null 2>&1 || true
+fi
 skip() {
   if [ "${PYTHON_SKIP_UNAVAILABLE:-0}" = 1 ]; then
     echo "SKIPPED python tests: $*" >&2
