@@ -84,7 +84,9 @@ fn the_dynamic_plant_is_refused_where_it_does_not_exist() {
         .arg(d.join("o1"))
         .assert()
         .failure()
-        .stderr(predicate::str::contains("only kinds sphere-omni and ballbot"));
+        .stderr(predicate::str::contains(
+            "only kinds sphere-omni and ballbot",
+        ));
     let profile = d.join("p.toml");
     std::fs::write(&profile, "").unwrap();
     omnikin()

@@ -3,10 +3,12 @@
 //! an optional SVG figure and a human summary on stderr.
 //!
 //! `args` holds the command line, `request` turns each kind into a planner call, `write`
-//! writes the plan and the summary, `figure` draws the `--plot` SVG.
+//! writes the plan and the summary, `figure` draws the `--plot` SVG, `lean` limits a ballbot's
+//! acceleration to its lean limit.
 
 mod args;
 mod figure;
+mod lean;
 mod request;
 mod write;
 
