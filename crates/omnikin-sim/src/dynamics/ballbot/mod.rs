@@ -59,7 +59,7 @@
 //!
 //! Files: [`closed_loop`] (the balance controller on this model), [`plan_run`] (a plan
 //! through the balancing robot, with noise and pushes: `simulate --plant dynamic`), [`preview`] (a previewed
-//! lean a plan can be followed with), [`params`] (the parameters and the preset's values), [`model`] (equations, energy,
+//! lean a plan can be followed with), [`sil`] (the model as a board for the runtime's balance mode), [`params`] (the parameters and the preset's values), [`model`] (equations, energy,
 //! wheels, pushes, measurements), [`state`] (state and integration).
 
 pub mod closed_loop;
@@ -67,6 +67,7 @@ pub mod model;
 pub mod params;
 pub mod plan_run;
 pub mod preview;
+pub mod sil;
 pub mod state;
 
 pub use model::BallbotPlant;
