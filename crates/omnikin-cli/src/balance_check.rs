@@ -2,8 +2,8 @@
 //! poles of each planar model (paper 001), and whether every loop is stable.
 
 use anyhow::{Context, Result};
-use omnikin::ballbot::Ballbot;
-use omnikin::control::{BalanceConfig, BalanceController, PlantParams};
+use omnikin::control::{BalanceConfig, BalanceController};
+use omnikin::description::RobotDescription;
 use omnikin::nalgebra::{Complex, Matrix2, Matrix4};
 use serde_json::{Value, json};
 
@@ -18,25 +18,17 @@ fn poles(d: &omnikin::control::PlaneDesign) -> Vec<Complex<f64>> {
     }
 }
 
-/// Appends the balance design of a ballbot with geometry `b` to `text` and `j["balance"]`.
-/// The robot file has no `[dynamics]` yet: masses, inertias and the torque limit are the
-/// preset's (Kugle V1 class, [`PlantParams::preset`]) with the file's ball and wheel radii.
-pub fn report(b: &Ballbot<f64>, text: &mut String, j: &mut Value) -> Result<()> {
-    let geometry = *b.params();
-    let preset = BalanceConfig::<f64>::preset();
-    let config = BalanceConfig {
-        geometry,
-        plant: PlantParams {
-            ball_radius: geometry.ball_radius,
-            wheel_radius: geometry.wheel_radius,
-            ..preset.plant
-        },
-        ..preset
-    };
+/// Appends the balance design of the ballbot description `d` to `text` and `j["balance"]`:
+/// its `[dynamics]` (masses, inertias, torque limit, rate, weights; the preset's values where
+/// absent, [`RobotDescription::balance_config`]).
+pub fn report(d: &RobotDescription, text: &mut String, j: &mut Value) -> Result<()> {
+    let config: BalanceConfig<f64> = d
+        .balance_config()
+        .context("the balance controller needs a ballbot")?;
     let c = BalanceController::new(config).context("designing the balance controller")?;
     let p = &config.plant;
     *text += &format!(
-        "balance controller (LQR per planar model, {} Hz; preset dynamics: ball {:.3} kg, body {:.3} kg, centre of mass {:.3} m above the ball centre, wheel torque limit {:.3} N·m):\n",
+        "balance controller (LQR per planar model, {} Hz; [dynamics]: ball {:.3} kg, body {:.3} kg, centre of mass {:.3} m above the ball centre, wheel torque limit {:.3} N·m):\n",
         config.rate_hz, p.ball_mass, p.body_mass, p.com_height, config.torque_limit
     );
     let mut planes = Vec::new();

@@ -392,8 +392,8 @@ pub fn check(a: &CheckArgs) -> Result<()> {
         );
         j["max_yaw_rate_rad_per_s"] = json!(reach.yaw_rate);
     }
-    if let Robot::Ballbot(b) = &robot {
-        crate::balance_check::report(b, &mut text, &mut j)?;
+    if let Robot::Ballbot(_) = &robot {
+        crate::balance_check::report(&d, &mut text, &mut j)?;
     }
     j["limits"] = json!({
         "max_wheel_rate": d.limits.max_wheel_rate, "max_wheel_accel": d.limits.max_wheel_accel,

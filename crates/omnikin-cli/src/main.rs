@@ -20,6 +20,7 @@ mod plan;
 mod plot;
 mod robot;
 mod sim;
+mod sim_ballbot;
 mod steer_steps;
 mod teleop;
 

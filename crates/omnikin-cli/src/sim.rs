@@ -46,10 +46,19 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "SENSORS.toml", requires = "emit_sensors")]
     pub sensors: Option<PathBuf>,
     /// Plant: `kinematic` (the motors' motion through the forward kinematics, with the
-    /// disturbance profile) or `dynamic` (sphere-omni only: shell + platform dynamics with the
-    /// robot file's [dynamics]; deterministic, one trial, no disturbance profile yet).
+    /// disturbance profile) or `dynamic` (the robot file's [dynamics]: sphere-omni's shell +
+    /// platform, deterministic; ballbot's balance controller on its 3D model with seeded
+    /// sensor noise; one trial, no disturbance profile yet).
     #[arg(long, value_enum, default_value_t = PlantKind::Kinematic)]
     pub plant: PlantKind,
+    /// Ballbot, --plant dynamic: start with the body leaning this many degrees toward +x.
+    #[arg(long, allow_hyphen_values = true, value_name = "DEG", value_parser = crate::sim_ballbot::parse_tilt)]
+    pub initial_tilt_deg: Option<f64>,
+    /// Ballbot, --plant dynamic: a horizontal impulse on the body's centre of mass, N_S@T
+    /// (N·s along +x at time T s from the start of the 1 s lead-in) or N_S@T@DEG (direction,
+    /// degrees from +x); repeatable. A fall is reported in metrics.json ("fallen", exit 0).
+    #[arg(long, allow_hyphen_values = true, value_name = "N_S@T[@DEG]", value_parser = crate::sim_ballbot::parse_push)]
+    pub push: Vec<crate::sim_ballbot::PushArg>,
 }
 
 /// The plant `omnikin simulate` runs a plan through.
@@ -113,7 +122,7 @@ fn simulate_dynamic(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Resu
     use omnikin_sim::dynamics::sphere::{SphereDynamics, simulate_plan};
     if d.robot_kind() != omnikin::Kind::Sphere {
         bail!(
-            "--plant dynamic: only kind sphere-omni has a dynamic model so far (robot {} is {})",
+            "--plant dynamic: only kinds sphere-omni and ballbot have a dynamic model so far (robot {} is {})",
             d.name,
             d.kind()
         );
@@ -230,7 +239,7 @@ fn create_dir(dir: &Path) -> Result<()> {
 /// any is written: with `--force`, an input under one of these names used to be refused only
 /// when its turn came, after the files before it had been replaced (a failed command leaving
 /// new `metrics.json`/`trials.csv` beside the old figure).
-fn create_dir_for(dir: &Path, names: &[&str]) -> Result<()> {
+pub(crate) fn create_dir_for(dir: &Path, names: &[&str]) -> Result<()> {
     create_dir(dir)?;
     for n in names {
         crate::output::check_file("--out", &dir.join(n))?;
@@ -239,7 +248,7 @@ fn create_dir_for(dir: &Path, names: &[&str]) -> Result<()> {
 }
 
 /// Writes one file of the output directory (temporary file, then rename).
-fn write_file(
+pub(crate) fn write_file(
     path: &Path,
     write: impl FnOnce(&mut crate::output::OutFile) -> std::io::Result<()>,
 ) -> Result<()> {
@@ -263,7 +272,7 @@ pub fn write_mean(path: &Path, plan: &Plan, mean: &MeanTrajectory) -> Result<()>
 }
 
 /// Header of `trials.csv` for a robot of `wheels` wheels: one encoder column `q1..qN` per wheel.
-fn trials_header(wheels: usize) -> String {
+pub(crate) fn trials_header(wheels: usize) -> String {
     let mut h = String::from("trial,t,x,y,heading,tracked_x,tracked_y,slip_residual");
     for i in 1..=wheels {
         h.push_str(&format!(",q{i}"));
@@ -272,7 +281,7 @@ fn trials_header(wheels: usize) -> String {
 }
 
 /// Writes trial `i`'s rows of `trials.csv`.
-fn write_trial(w: &mut impl Write, i: usize, tr: &Trial) -> std::io::Result<()> {
+pub(crate) fn write_trial(w: &mut impl Write, i: usize, tr: &Trial) -> std::io::Result<()> {
     let wheels = tr.wheels.min(omnikin::MAX_WHEELS);
     for k in 0..tr.t.len() {
         let (p, q) = (tr.pose[k], tr.tracked[k]);
@@ -291,7 +300,7 @@ fn write_trial(w: &mut impl Write, i: usize, tr: &Trial) -> std::io::Result<()> 
 
 /// The metrics as they are written: every one a finite number, or an error naming the first
 /// that is not (JSON would write NaN as `null`, read as "no value").
-fn finite(m: &Metrics) -> Result<()> {
+pub(crate) fn finite(m: &Metrics) -> Result<()> {
     m.check_finite()
         .context("the metrics cannot be computed for these inputs")
 }
@@ -363,6 +372,13 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     let d = RobotDescription::resolve(&a.robot)?;
     let robot = d.build::<f64>()?;
     let plan = Plan::load_csv(&a.plan)?;
+    let ballbot_dynamic = a.plant == PlantKind::Dynamic && d.robot_kind() == omnikin::Kind::Ballbot;
+    if !ballbot_dynamic && (a.initial_tilt_deg.is_some() || !a.push.is_empty()) {
+        bail!("--initial-tilt-deg and --push need --robot ballbot (kind ballbot) --plant dynamic");
+    }
+    if ballbot_dynamic {
+        return crate::sim_ballbot::simulate(a, &d, &plan);
+    }
     if a.plant == PlantKind::Dynamic {
         return simulate_dynamic(a, &d, &plan);
     }

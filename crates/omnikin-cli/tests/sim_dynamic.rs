@@ -80,11 +80,13 @@ fn the_dynamic_plant_is_refused_where_it_does_not_exist() {
     omnikin()
         .args(["simulate"])
         .arg(&plan)
-        .args(["--robot", "ballbot", "--plant", "dynamic", "--out"])
+        .args(["--robot", "kiwi", "--plant", "dynamic", "--out"])
         .arg(d.join("o1"))
         .assert()
         .failure()
-        .stderr(predicate::str::contains("only kind sphere-omni"));
+        .stderr(predicate::str::contains(
+            "only kinds sphere-omni and ballbot",
+        ));
     let profile = d.join("p.toml");
     std::fs::write(&profile, "").unwrap();
     omnikin()

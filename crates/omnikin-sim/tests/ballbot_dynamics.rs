@@ -518,3 +518,22 @@ fn balances_with_sensor_noise() {
     );
     assert!(late_max < 0.5 * DEG, "{}", late_max / DEG);
 }
+
+/// The robot file's `[dynamics]` gives the preset's model.
+#[test]
+fn the_robot_file_gives_the_preset_dynamics() {
+    let d = omnikin::description::RobotDescription::preset("ballbot").unwrap();
+    let m = BallbotDynamics::from_config(&d.balance_config().unwrap());
+    let p = BallbotDynamics::preset();
+    m.validate().unwrap();
+    assert_eq!(m.geometry, p.geometry);
+    for (a, b) in [
+        (m.ball_inertia, p.ball_inertia),
+        (m.body_mass, p.body_mass),
+        (m.com_height, p.com_height),
+        (m.torque_limit, p.torque_limit),
+        (m.body_inertia[1], p.body_inertia[1]),
+    ] {
+        assert!((a - b).abs() < 1e-12 * b, "{a} vs {b}");
+    }
+}

@@ -3,11 +3,13 @@
 //! an optional SVG figure and a human summary on stderr.
 //!
 //! `args` holds the command line, `request` turns each kind into a planner call, `write`
-//! writes the plan and the summary, `figure` draws the `--plot` SVG, `tilt` reports a sphere's platform tilt and applies
-//! `--max-tilt`.
+//! writes the plan and the summary, `figure` draws the `--plot` SVG, `tilt` reports a sphere's
+//! platform tilt and applies `--max-tilt`, `lean` limits a ballbot's acceleration to its lean
+//! limit.
 
 mod args;
 mod figure;
+mod lean;
 mod request;
 mod tilt;
 mod write;

@@ -31,6 +31,7 @@ pub(super) fn square(a: &SquareArgs) -> Result<()> {
     };
     let mut opts = sq.options(a.common.rate, on_limit);
     opts.initial_steer = initial_steer(&a.common, &robot)?;
+    let lean = super::lean::apply(&d, &mut opts);
     let what = format!(
         "square (paper 000, eq. 6.1): side {} m, speed {} m/s, ramps {} % of the leg time ({:.3} s), heading 0",
         a.side,
@@ -43,7 +44,7 @@ pub(super) fn square(a: &SquareArgs) -> Result<()> {
             format!("square at {} m/s is too fast for {}", a.speed, d.name)
         })
     })?;
-    finish(&a.common, &d, &robot, &what, &planned)
+    finish_leaning(&a.common, &d, &robot, &what, &planned, lean)
 }
 
 pub(super) fn circle(a: &CircleArgs) -> Result<()> {
@@ -57,6 +58,7 @@ pub(super) fn circle(a: &CircleArgs) -> Result<()> {
     };
     let mut opts = c.options(a.common.rate);
     opts.initial_steer = initial_steer(&a.common, &robot)?;
+    let lean = super::lean::apply(&d, &mut opts);
     let what = format!(
         "circle (paper 000, eq. 6.3): radius {} m, omega {} rad/s ({:.3} m/s), {} turn(s), heading = {}, {}",
         a.radius,
@@ -81,7 +83,7 @@ pub(super) fn circle(a: &CircleArgs) -> Result<()> {
             )
         })
     })?;
-    finish(&a.common, &d, &robot, &what, &planned)
+    finish_leaning(&a.common, &d, &robot, &what, &planned, lean)
 }
 
 pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
@@ -115,7 +117,7 @@ pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
             limits,
         }
     };
-    let opts = PlanOptions {
+    let mut opts = PlanOptions {
         timing,
         on_limit: if a.no_retime {
             OnLimit::Reject
@@ -156,12 +158,13 @@ pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
             )
         }
     );
+    let lean = super::lean::apply(&d, &mut opts);
     let planned = plan(&path, &heading, &robot, &opts).map_err(|e| {
         too_fast(e, || {
             format!("{file}: the requested timing is too fast for {}", d.name)
         })
     })?;
-    finish(&a.common, &d, &robot, &what, &planned)
+    finish_leaning(&a.common, &d, &robot, &what, &planned, lean)
 }
 
 /// The heading law of `omnikin plan waypoints` and its description: `--heading-law` (by
@@ -225,6 +228,22 @@ fn waypoint_heading(
             )
         }
     })
+}
+
+/// [`finish`], then a ballbot's lean-limit line.
+fn finish_leaning(
+    c: &Common,
+    d: &RobotDescription,
+    robot: &RobotModel,
+    what: &str,
+    planned: &omnikin_plan::planner::Planned,
+    lean: Option<super::lean::LeanLimit>,
+) -> Result<()> {
+    finish(c, d, robot, what, planned)?;
+    if let Some(l) = &lean {
+        super::lean::report(l, &planned.plan);
+    }
+    Ok(())
 }
 
 fn load_robot(robot: &str) -> Result<(RobotDescription, RobotModel)> {

@@ -98,6 +98,22 @@ impl<T: Real> PlantParams<T> {
     }
 }
 
+impl<T: Real> PlantParams<T> {
+    /// The ball acceleration (m/s²) the vertical planar model holds at a constant lean
+    /// `tilt` (rad, < 90°) without damping: adding its two rows eliminates the torque,
+    /// `(a + b) φ̈ = G θ` at `θ̈ = 0`, so `ẍ = R φ̈ = R m_body g l / (m R² + I_b + m_body l R) · θ`
+    /// (module doc), with `tan θ` for `θ` (the body's weight against its lean). For a light
+    /// ball this is ≈ `g tan θ` scaled by `m_body l R / (m R² + I_b + m_body l R)` (0.74 for the
+    /// preset): the ball's own inertia costs lean. A plan's acceleration limit for a ballbot.
+    pub fn acceleration_for_lean(&self, tilt: T) -> T {
+        let r = self.ball_radius;
+        let m = self.ball_mass + self.body_mass;
+        let b = self.body_mass * self.com_height * r;
+        let a = m * r * r + self.ball_inertia;
+        r * self.body_mass * self.gravity * self.com_height / (a + b) * tilt.tan()
+    }
+}
+
 /// One of the three planar models of paper 001.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Plane {

@@ -1,4 +1,5 @@
-//! The optional `[dynamics]` table of a `sphere-omni` robot file: the masses, inertias, motor
+//! The optional `[dynamics]` table of a robot file, dispatched by kind (a `ballbot`'s is
+//! [`super::BallbotDynamicsSpec`]); here the `sphere-omni` one: the masses, inertias, motor
 //! and floor-friction parameters of the shell + platform dynamic model (`omnikin-sim`'s
 //! `dynamics::sphere`), every key optional (absent = that model's documented default), SI
 //! units:
@@ -29,6 +30,7 @@ use std::string::{String, ToString};
 use serde::Deserialize;
 
 use super::DescriptionError;
+use super::ballbot_dynamics::BallbotDynamicsSpec;
 
 /// The `[dynamics]` table of a `sphere-omni` robot file, as given: `None` = the dynamic model's
 /// default for paper 000's robot.
@@ -177,37 +179,93 @@ impl SphereDynamicsSpec {
 }
 
 #[derive(Deserialize)]
-struct Only {
-    dynamics: Option<toml::Spanned<SphereDynamicsSpec>>,
+struct Only<S> {
+    dynamics: Option<toml::Spanned<S>>,
 }
 
-/// Parses and checks the `[dynamics]` table of a file of kind `kind`: `None` when absent. Only
-/// `sphere-omni` has one so far.
+/// The `[dynamics]` table of a description, by kind.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum Parsed {
+    /// None given.
+    None,
+    /// A `sphere-omni` table.
+    Sphere(SphereDynamicsSpec),
+    /// A `ballbot` table.
+    Ballbot(BallbotDynamicsSpec),
+}
+
+/// The 1-based line of `key = …` inside the section `[section]` of `text` (or of the section
+/// header when the key is not found there), for error messages.
+fn key_line(text: &str, section: &str, key: &str) -> Option<usize> {
+    let header = format!("[{section}]");
+    let lines: std::vec::Vec<&str> = text.lines().collect();
+    let start = lines
+        .iter()
+        .position(|l| l.trim_start().starts_with(&header))?;
+    for (i, l) in lines.iter().enumerate().skip(start + 1) {
+        let t = l.trim_start();
+        if t.starts_with('[') {
+            break;
+        }
+        if let Some(rest) = t.strip_prefix(key)
+            && rest.trim_start().starts_with('=')
+        {
+            return Some(i + 1);
+        }
+    }
+    Some(start + 1)
+}
+
+/// Parses and checks the `[dynamics]` table of a file of kind `kind`: `sphere-omni` (needs
+/// the `shell_radius`) and `ballbot` (needs the `ball_radius`) have one.
 pub(super) fn parse(
     text: &str,
     kind: &str,
-    shell_radius: Option<f64>,
+    radius: Option<f64>,
     err: &dyn Fn(Option<usize>, &str, String) -> DescriptionError,
     de_err: &dyn Fn(toml::de::Error) -> DescriptionError,
-) -> Result<Option<SphereDynamicsSpec>, DescriptionError> {
-    let only: Only = toml::from_str(text).map_err(de_err)?;
-    let Some(spec) = only.dynamics else {
-        return Ok(None);
-    };
-    let line = Some(
-        1 + text[..spec.span().start.min(text.len())]
-            .matches('\n')
-            .count(),
-    );
-    let (Some(r), "sphere-omni") = (shell_radius, kind) else {
-        return Err(err(
-            line,
-            "dynamics",
-            format!("a [dynamics] table is read only for kind \"sphere-omni\", not \"{kind}\""),
-        ));
-    };
-    let spec = spec.into_inner();
-    spec.check(r)
-        .map_err(|(field, rule)| err(line, field, rule.to_string()))?;
-    Ok(Some(spec))
+) -> Result<Parsed, DescriptionError> {
+    let table_line = |start: usize| Some(1 + text[..start.min(text.len())].matches('\n').count());
+    match (kind, radius) {
+        ("sphere-omni", Some(r)) => {
+            let only: Only<SphereDynamicsSpec> = toml::from_str(text).map_err(de_err)?;
+            let Some(spec) = only.dynamics else {
+                return Ok(Parsed::None);
+            };
+            let line = table_line(spec.span().start);
+            let spec = spec.into_inner();
+            spec.check(r)
+                .map_err(|(field, rule)| err(line, field, rule.to_string()))?;
+            Ok(Parsed::Sphere(spec))
+        }
+        ("ballbot", Some(r)) => {
+            let only: Only<BallbotDynamicsSpec> = toml::from_str(text).map_err(de_err)?;
+            let Some(spec) = only.dynamics else {
+                return Ok(Parsed::None);
+            };
+            let spec = spec.into_inner();
+            spec.check(r).map_err(|(field, rule)| {
+                let path = field.strip_prefix("dynamics.").unwrap_or(&field);
+                let (section, key) = match path.rsplit_once('.') {
+                    Some((sub, key)) => (format!("dynamics.{sub}"), key),
+                    None => ("dynamics".to_string(), path),
+                };
+                err(key_line(text, &section, key), &field, rule)
+            })?;
+            Ok(Parsed::Ballbot(spec))
+        }
+        _ => {
+            let only: Only<toml::Value> = toml::from_str(text).map_err(de_err)?;
+            match only.dynamics {
+                None => Ok(Parsed::None),
+                Some(spec) => Err(err(
+                    table_line(spec.span().start),
+                    "dynamics",
+                    format!(
+                        "a [dynamics] table is read only for kinds \"sphere-omni\" and \"ballbot\", not \"{kind}\""
+                    ),
+                )),
+            }
+        }
+    }
 }

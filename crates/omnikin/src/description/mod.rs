@@ -17,7 +17,8 @@
 //! max_wheel_rate = 12.0           # rad/s
 //! max_wheel_accel = 60.0          # rad/s²
 //!
-//! [dynamics]                      # optional, sphere-omni only: see SphereDynamicsSpec
+//! [dynamics]                      # optional, sphere-omni and ballbot: see SphereDynamicsSpec,
+//!                                 # BallbotDynamicsSpec
 //! platform_mass = 2.0             # kg
 //! ```
 //!
@@ -41,9 +42,13 @@ use crate::drive::swerve::SwerveModule;
 use crate::sphere::SphereParams;
 use crate::{Kind, Real, Robot};
 
+mod ballbot_dynamics;
 mod dynamics;
 mod schema;
 
+pub use ballbot_dynamics::{
+    BallbotDynamicsSpec, DEFAULT_LEAN_MARGIN, DEFAULT_MAX_TILT_DEG, WeightsSpec,
+};
 pub use dynamics::SphereDynamicsSpec;
 
 use schema::{Header, KINDS};
@@ -204,6 +209,8 @@ pub struct RobotDescription {
     pub limits: Limits,
     /// The `[dynamics]` table of a `sphere-omni` file (see [`SphereDynamicsSpec`]), if any.
     pub sphere_dynamics: Option<SphereDynamicsSpec>,
+    /// The `[dynamics]` table of a `ballbot` file (see [`BallbotDynamicsSpec`]), if any.
+    pub ballbot_dynamics: Option<BallbotDynamicsSpec>,
 }
 
 impl RobotDescription {
@@ -273,11 +280,17 @@ impl RobotDescription {
             .kind
             .ok_or_else(|| err(None, "kind", format!("missing; must be {KINDS}")))?;
         let (name, geometry, limits) = schema::parse(text, source_name, &kind, &err, &de_err)?;
-        let shell_radius = match &geometry {
+        let radius = match &geometry {
             Geometry::Sphere(p) => Some(p.shell_radius),
+            Geometry::Ballbot(p) => Some(p.ball_radius),
             _ => None,
         };
-        let sphere_dynamics = dynamics::parse(text, &kind, shell_radius, &err, &de_err)?;
+        let (sphere_dynamics, ballbot_dynamics) =
+            match dynamics::parse(text, &kind, radius, &err, &de_err)? {
+                dynamics::Parsed::None => (None, None),
+                dynamics::Parsed::Sphere(s) => (Some(s), None),
+                dynamics::Parsed::Ballbot(b) => (None, Some(b)),
+            };
         for (field, value) in [
             ("limits.max_wheel_rate", limits.max_wheel_rate),
             ("limits.max_wheel_accel", limits.max_wheel_accel),
@@ -362,6 +375,7 @@ impl RobotDescription {
             geometry,
             limits,
             sphere_dynamics,
+            ballbot_dynamics,
         })
     }
 

@@ -168,6 +168,14 @@ impl<T: Real> Mahony<T> {
         }
     }
 
+    /// Sets the yaw (rad, world, counter-clockwise from +x), keeping roll and pitch (a pose
+    /// reset; without a magnetometer the yaw is otherwise only integrated).
+    pub fn set_yaw(&mut self, yaw: T) {
+        let (_, _, old) = self.q.euler_angles();
+        let turn = UnitQuaternion::from_axis_angle(&nalgebra::Vector3::z_axis(), yaw - old);
+        self.q = turn * self.q;
+    }
+
     /// The gyro-bias estimate (body frame), rad/s.
     pub fn gyro_bias(&self) -> [T; 3] {
         self.bias.into()

@@ -15,7 +15,8 @@
 //! * [`Imu`]: an SPI/I²C gyro and accelerometer, converted to rad/s and m/s²;
 //! * [`MotorOutputs`]: PWM/velocity set-points of the motor drivers, **or** [`StepOutputs`] for
 //!   stepper drivers (step/dir pins driven by timers), wrapped in [`Steppers`] which converts
-//!   rad/s to step frequencies;
+//!   rad/s to step frequencies; or [`MotorTorques`] for a balancing robot (torque set-points,
+//!   [`super::balance`]);
 //! * [`Entropy`]: unpredictable bytes for the link's handshake nonces ([`crate::link`]): the
 //!   MCU's TRNG (e.g. the STM32 `RNG` peripheral), or the OS on a PC.
 //!
@@ -112,6 +113,33 @@ pub trait MotorOutputs<T> {
     type Error: core::fmt::Debug;
     /// Applies the set-points; they hold until the next call. Called exactly once per cycle.
     fn set_rates(&mut self, command: &MotorCommand<T>) -> Result<(), Self::Error>;
+}
+
+/// Wheel torque set-points of one cycle, N·m at the wheel, in the robot file's wheel order
+/// (the torque interface of a balancing robot; entries past the wheel count are zero).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TorqueCommand<T> {
+    /// Wheel torques, N·m, about each wheel's axis (right-hand rule).
+    pub wheel: [T; MAX_WHEELS],
+}
+
+impl<T: Real> TorqueCommand<T> {
+    /// All motors off (zero torque).
+    pub fn zero() -> Self {
+        Self {
+            wheel: [T::zero(); MAX_WHEELS],
+        }
+    }
+}
+
+/// Motors driven by torque (current) set-points, alongside the rate interface
+/// [`MotorOutputs`]: what a balancing robot needs (a ballbot, [`super::balance`]), e.g. the
+/// current loops of field-oriented motor drivers with `torque = gear · k_t · current`.
+pub trait MotorTorques<T> {
+    /// The board's error.
+    type Error: core::fmt::Debug;
+    /// Applies the torques; they hold until the next call. Called exactly once per cycle.
+    fn set_torques(&mut self, command: &TorqueCommand<T>) -> Result<(), Self::Error>;
 }
 
 /// Stepper drivers driven by step frequencies (step/dir interface).

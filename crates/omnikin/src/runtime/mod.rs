@@ -50,6 +50,10 @@
 //! [`Config::k_steer`] × the wrapped angle error, within [`limits::RateLimits::steer`] and
 //! [`Config::steer_accel`], and its wheel rate is scaled by the cosine of that error.
 //!
+//! **Balancing** ([`balance`]): a ballbot cannot follow rate set-points without falling; its
+//! [`BalanceRuntime`] runs the balance controller at the control rate on the torque interface
+//! [`hal::MotorTorques`], driven by the same velocity commands.
+//!
 //! Files: `controller.rs` (the [`Runtime`] and its cycle as named steps), `command.rs`,
 //! `config.rs`, `status.rs` (the types), `plan.rs` (plan buffer, trajectory following),
 //! `shape.rs` (command shaping and steering).
@@ -92,6 +96,7 @@
 //! assert!((rt.pose().x - 0.094).abs() < 1e-3, "{}", rt.pose().x);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+pub mod balance;
 pub mod hal;
 pub mod limits;
 
@@ -102,6 +107,7 @@ mod plan;
 mod shape;
 mod status;
 
+pub use balance::{BalanceRuntime, BalanceRuntimeConfig, BalanceStatus};
 pub use command::{Command, CommandError, Frame, PlanPoint};
 pub use config::{Config, ConfigError, RATE_HZ_RANGE};
 pub use controller::Runtime;

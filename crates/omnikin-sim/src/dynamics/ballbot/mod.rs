@@ -57,14 +57,17 @@
 //! friction, products of inertia of the body, motor dynamics (torques are applied as
 //! commanded, held over the control period), and the body hitting the floor after a fall.
 //!
-//! Files: [`closed_loop`] (the balance controller on this model), [`preview`] (a previewed
-//! lean a plan can be followed with), [`params`] (the parameters and the preset's values), [`model`] (equations, energy,
+//! Files: [`closed_loop`] (the balance controller on this model), [`plan_run`] (a plan
+//! through the balancing robot, with noise and pushes: `simulate --plant dynamic`), [`preview`] (a previewed
+//! lean a plan can be followed with), [`sil`] (the model as a board for the runtime's balance mode), [`params`] (the parameters and the preset's values), [`model`] (equations, energy,
 //! wheels, pushes, measurements), [`state`] (state and integration).
 
 pub mod closed_loop;
 pub mod model;
 pub mod params;
+pub mod plan_run;
 pub mod preview;
+pub mod sil;
 pub mod state;
 
 pub use model::BallbotPlant;

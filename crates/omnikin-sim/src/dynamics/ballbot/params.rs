@@ -60,6 +60,25 @@ impl BallbotDynamics {
         }
     }
 
+    /// The robot a balance controller configuration describes (its geometry, plant
+    /// parameters and torque limit), e.g. a robot file's
+    /// [`omnikin::description::RobotDescription::balance_config`].
+    pub fn from_config(c: &omnikin::control::BalanceConfig<f64>) -> Self {
+        let p = c.plant;
+        Self {
+            geometry: c.geometry,
+            ball_mass: p.ball_mass,
+            ball_inertia: p.ball_inertia,
+            body_mass: p.body_mass,
+            body_inertia: p.body_inertia,
+            com_height: p.com_height,
+            torque_limit: c.torque_limit,
+            floor_damping: p.floor_damping,
+            relative_damping: p.relative_damping,
+            gravity: p.gravity,
+        }
+    }
+
     /// The same robot without friction (energy is conserved when the motors are off).
     pub fn frictionless(self) -> Self {
         Self {

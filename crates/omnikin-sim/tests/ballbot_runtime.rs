@@ -1,0 +1,111 @@
+//! The runtime's balance mode on the simulated ballbot (software in the loop): it balances on
+//! its own sensors (AHRS from the noisy IMU, wheel odometry from quantised encoders) through
+//! the torque interface while velocity commands drive it, brakes when the watchdog expires,
+//! and an e-stop turns the motors off.
+
+use omnikin::Pose2;
+use omnikin::Twist2;
+use omnikin::description::RobotDescription;
+use omnikin::runtime::{BalanceRuntime, BalanceRuntimeConfig, Command, Frame};
+use omnikin_sim::dynamics::ballbot::sil::BallbotSil;
+use omnikin_sim::dynamics::ballbot::{BallbotDynamics, BallbotPlant};
+
+fn setup() -> (BalanceRuntime<f64>, BallbotSil, f64) {
+    let d = RobotDescription::preset("ballbot").unwrap();
+    let c = d.balance_config::<f64>().unwrap();
+    let (a_max, ..) = d.lean_acceleration_limit().unwrap();
+    let plant = BallbotPlant::new(BallbotDynamics::from_config(&c)).unwrap();
+    let s0 = plant.upright(0.0);
+    let rt = BalanceRuntime::new(BalanceRuntimeConfig::new(c, a_max), Pose2::default()).unwrap();
+    let dt = 1.0 / c.rate_hz;
+    (rt, BallbotSil::new(plant, s0, 3), dt)
+}
+
+/// Runs `seconds`, sending `cmd(t)` (if any) every cycle; returns the max true tilt (rad).
+fn drive(
+    rt: &mut BalanceRuntime<f64>,
+    b: &mut BallbotSil,
+    dt: f64,
+    seconds: f64,
+    mut cmd: impl FnMut(f64) -> Option<Command<'static, f64>>,
+) -> f64 {
+    let mut max_tilt = 0.0f64;
+    for _ in 0..(seconds / dt).round() as usize {
+        let now = b.time_us();
+        if let Some(c) = cmd(now as f64 * 1e-6) {
+            rt.handle(now, &c).unwrap();
+        }
+        let (mut e, mut i) = (b.clone(), b.clone());
+        let st = rt.cycle(now, &mut e, &mut i, b);
+        assert!(!st.hardware_fault);
+        b.advance(dt);
+        max_tilt = max_tilt.max(b.tilt());
+    }
+    max_tilt
+}
+
+#[test]
+fn balances_while_driven_and_brakes_when_the_watchdog_expires() {
+    let (mut rt, mut b, dt) = setup();
+    let go = Command::Velocity {
+        twist: Twist2::new(0.2, 0.0, 0.0),
+        frame: Frame::World,
+    };
+    // Stand 1 s, drive at 0.2 m/s along +x for 4 s, then stop talking: the watchdog brakes.
+    let tilt_stand = drive(&mut rt, &mut b, dt, 1.0, |_| Some(Command::Heartbeat));
+    let tilt_drive = drive(&mut rt, &mut b, dt, 4.0, |_| Some(go));
+    let v = b.plant().ball_velocity(b.state());
+    let x_moving = b.state().position[0];
+    let tilt_brake = drive(&mut rt, &mut b, dt, 4.0, |_| None);
+    let v_end = b.plant().ball_velocity(b.state());
+    eprintln!(
+        "balance runtime: max tilt standing {:.2}°, driving {:.2}°, braking {:.2}°; speed {:.3} m/s at 5 s, x {:.3} m, {:.4} m/s at 9 s, final tilt {:.3}°",
+        tilt_stand.to_degrees(),
+        tilt_drive.to_degrees(),
+        tilt_brake.to_degrees(),
+        v.x,
+        x_moving,
+        v_end.norm(),
+        b.tilt().to_degrees()
+    );
+    assert!(tilt_stand < 1.0f64.to_radians());
+    assert!((v.x - 0.2).abs() < 0.05 && v.y.abs() < 0.03, "{v:?}");
+    assert!(x_moving > 0.6 && x_moving < 0.9, "{x_moving}");
+    assert!(tilt_drive < 8.0f64.to_radians() && tilt_brake < 8.0f64.to_radians());
+    assert!(v_end.norm() < 0.03, "{v_end:?}");
+    // The AHRS learns a gyro bias from the accelerometer during the accelerations (tens of
+    // seconds to unlearn): the body stands within about a degree of the vertical.
+    assert!(b.tilt() < 2.0f64.to_radians());
+}
+
+#[test]
+fn an_estop_turns_the_motors_off_and_plans_are_refused() {
+    let (mut rt, mut b, dt) = setup();
+    drive(&mut rt, &mut b, dt, 1.0, |_| Some(Command::Heartbeat));
+    assert!(rt.handle(0, &Command::PlanStart { id: 1 }).is_err());
+    rt.handle(b.time_us(), &Command::EStop).unwrap();
+    let (mut e, mut i) = (b.clone(), b.clone());
+    let st = rt.cycle(b.time_us(), &mut e, &mut i, &mut b);
+    assert!(st.estop && st.torques == [0.0; 3]);
+    assert!(
+        rt.handle(
+            0,
+            &Command::Velocity {
+                twist: Twist2::new(0.1, 0.0, 0.0),
+                frame: Frame::Robot
+            }
+        )
+        .is_err()
+    );
+    // Motors off: a ballbot falls, and the controller says so.
+    let mut fallen = false;
+    for _ in 0..600 {
+        let now = b.time_us();
+        let (mut e, mut i) = (b.clone(), b.clone());
+        let st = rt.cycle(now, &mut e, &mut i, &mut b);
+        assert_eq!(st.torques, [0.0; 3]);
+        fallen |= st.fallen;
+        b.advance(dt);
+    }
+    assert!(fallen && b.tilt() > 20.0f64.to_radians());
+}
