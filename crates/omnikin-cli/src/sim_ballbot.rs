@@ -49,12 +49,16 @@ pub fn parse_push(s: &str) -> Result<PushArg, String> {
     let impulse = crate::args::finite_f64(parts[0]).map_err(|e| format!("impulse: {e}"))?;
     if !(impulse > 0.0 && impulse <= MAX_PUSH) {
         return Err(format!(
-            "impulse {impulse} N·s must be in (0, {MAX_PUSH}] (the direction gives its sign)"
+            "impulse {} N·s must be in (0, {MAX_PUSH}] (the direction gives its sign)",
+            crate::args::num(impulse)
         ));
     }
     let time = crate::args::finite_f64(parts[1]).map_err(|e| format!("time: {e}"))?;
     if !(0.0..=3600.0).contains(&time) {
-        return Err(format!("time {time} s must be in [0, 3600]"));
+        return Err(format!(
+            "time {} s must be in [0, 3600]",
+            crate::args::num(time)
+        ));
     }
     let direction_deg = match parts.get(2) {
         Some(d) => crate::args::finite_f64(d).map_err(|e| format!("direction: {e}"))?,
@@ -71,7 +75,7 @@ pub fn parse_push(s: &str) -> Result<PushArg, String> {
 pub fn parse_tilt(s: &str) -> Result<f64, String> {
     let v = crate::args::finite_f64(s)?;
     if v.abs() >= 60.0 {
-        return Err(format!("{v}° must be within ±60°"));
+        return Err(format!("{}° must be within ±60°", crate::args::num(v)));
     }
     Ok(v)
 }
