@@ -622,6 +622,9 @@ fn follow_plan(s: &mut Session, path: &Path, set_pose: bool) -> Result<()> {
         bail!("plan {}: needs at least 2 samples", path.display());
     }
     let info = s.hello()?;
+    if info.plan_capacity == 0 {
+        return stream_plan(s, &plan, set_pose);
+    }
     let pts = plan_points(&plan, info.plan_capacity as usize);
     let n = pts.len() as u16;
     let id = (epoch_seq() & 0xffff) as u16;
@@ -722,6 +725,98 @@ fn follow_plan(s: &mut Session, path: &Path, set_pose: bool) -> Result<()> {
         end[0],
         end[1],
         end[2]
+    )?;
+    s.print_status()?;
+    Ok(())
+}
+
+/// `drive plan` for a robot that takes no plans (plan capacity 0: a balancing ballbot follows
+/// velocity commands): the plan's world twist at the robot's time since the start, sent as a
+/// world-frame velocity command every heartbeat, then a stop. The robot's own limits (the
+/// ballbot's lean-limited slew) shape it; nothing closes the loop on the plan's poses, so the
+/// end pose shows the drift of the robot's velocity tracking.
+fn stream_plan(s: &mut Session, plan: &Plan, set_pose: bool) -> Result<()> {
+    crate::outln!(
+        "the robot takes no plans (plan capacity 0): streaming the plan's {} s of world twists as velocity commands",
+        plan.duration()
+    )?;
+    let first = plan.samples[0].pose;
+    if set_pose {
+        let m = Message::SetPose {
+            x: first.x as f32,
+            y: first.y as f32,
+            heading: first.heading as f32,
+        };
+        s.until(&m, "set-pose", |s| {
+            s.latest.is_some_and(|t| {
+                (t.pose[0] as f64 - first.x).abs() < 1e-4
+                    && (t.pose[1] as f64 - first.y).abs() < 1e-4
+            })
+        })?;
+    }
+    s.until(&Message::Heartbeat, "the session", |s| s.latest.is_some())?;
+    let t0 = s.latest.context("no telemetry")?.time_us;
+    let end = plan.duration();
+    let (mut max_dev, mut max_path_dev) = (0.0f64, 0.0f64);
+    loop {
+        let t = s.latest.context("no telemetry")?;
+        let now = t.time_us.saturating_sub(t0) as f64 * 1e-6;
+        if now > end {
+            break;
+        }
+        let i = plan
+            .samples
+            .partition_point(|p| p.t <= now)
+            .saturating_sub(1);
+        let p = &plan.samples[i];
+        if set_pose {
+            let (x, y) = (t.pose[0] as f64, t.pose[1] as f64);
+            max_dev = max_dev.max((x - p.pose.x).hypot(y - p.pose.y));
+            // Distance to the path, whenever it is passed (the lag along it left out).
+            let d = plan
+                .samples
+                .iter()
+                .map(|q| (x - q.pose.x).hypot(y - q.pose.y))
+                .fold(f64::INFINITY, f64::min);
+            max_path_dev = max_path_dev.max(d);
+        }
+        s.send(&Message::SetVelocity {
+            frame: Frame::World,
+            vx: p.twist.vx as f32,
+            vy: p.twist.vy as f32,
+            yaw_rate: p.twist.yaw_rate as f32,
+        })?;
+        s.pump(s.heartbeat)?;
+        s.alive()?;
+        if let Some(t) = s.latest
+            && t.mode == Mode::EStop
+        {
+            s.print_status()?;
+            bail!(
+                "the robot stopped following (mode {}, faults {})",
+                t.mode,
+                t.fault_history
+            );
+        }
+    }
+    stop(s)?;
+    let t = s.latest.context("no telemetry")?;
+    let last = plan.samples[plan.samples.len() - 1].pose;
+    crate::outln!(
+        "plan streamed: {}end pose ({:.4}, {:.4}, {:.4}), plan end ({:.4}, {:.4}, {:.4})",
+        if set_pose {
+            format!(
+                "max |pose - plan pose| {max_dev:.4} m (lag included), max distance to the path {max_path_dev:.4} m while streaming; "
+            )
+        } else {
+            String::new()
+        },
+        t.pose[0],
+        t.pose[1],
+        t.pose[2],
+        last.x,
+        last.y,
+        last.heading
     )?;
     s.print_status()?;
     Ok(())

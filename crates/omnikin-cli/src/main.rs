@@ -21,6 +21,7 @@ mod plot;
 mod robot;
 mod sim;
 mod sim_ballbot;
+mod sim_robot;
 mod steer_steps;
 mod teleop;
 

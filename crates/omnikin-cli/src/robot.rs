@@ -10,17 +10,15 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use omnikin::description::RobotDescription;
 use omnikin::link::{
-    DropReason, MAX_FRAME, Message, PENDING_SLOTS, RobotEvent, RobotLink, parse_frame, robot_info,
-    serve,
+    DropReason, MAX_FRAME, Message, PENDING_SLOTS, RobotEvent, RobotLink, parse_frame,
 };
-use omnikin::runtime::{Config, Runtime};
-use omnikin::{Pose2, Robot};
+use omnikin::runtime::Config;
 use omnikin_sim::profile::Profile;
 use omnikin_sim::reproduce::{hardware_profile, spin_slip_profile};
-use omnikin_sim::sil::SilPlant;
 
 use crate::args::finite_f64;
 use crate::link_io::{Link, OsEntropy, Transport, load_key, parse_address};
+use crate::sim_robot::SimRobot;
 
 /// Plan buffer capacity of the simulated robot, points (a firmware picks its own).
 pub const SIM_PLAN_CAPACITY: usize = 4096;
@@ -54,9 +52,10 @@ pub struct RobotArgs {
     /// network can then drive the robot).
     #[arg(long)]
     pub insecure: bool,
-    /// Control rate, Hz.
-    #[arg(long, default_value_t = 100.0, allow_hyphen_values = true, value_parser = crate::args::control_rate_hz)]
-    pub rate: f64,
+    /// Control rate, Hz [default: 100; ballbot --plant dynamic: the robot file's
+    /// [dynamics] control_rate_hz, 200 for the preset].
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::args::control_rate_hz)]
+    pub rate: Option<f64>,
     /// Telemetry rate, Hz (robot time).
     #[arg(long, default_value_t = 20.0, allow_hyphen_values = true, value_parser = crate::args::message_rate_hz)]
     pub telemetry_rate: f64,
@@ -94,13 +93,19 @@ pub struct RobotArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Plant: `kinematic` (the motors' motion through the forward kinematics, with
-    /// --disturbances) or `dynamic` (sphere-omni only: the shell + platform dynamics with the
-    /// robot file's [dynamics]; deterministic, no --disturbances).
+    /// --disturbances) or `dynamic` (the robot file's [dynamics], no --disturbances):
+    /// sphere-omni's shell + platform dynamics, or the ballbot's 3D model balanced by the
+    /// balance runtime (LQR on the torque interface, seeded IMU and encoder noise; plans are
+    /// refused, drive it with velocity commands; it falls if e-stopped).
     #[arg(long, value_enum, default_value_t = crate::sim::PlantKind::Kinematic)]
     pub plant: crate::sim::PlantKind,
 }
 
-fn profile(name: Option<&str>) -> Result<Profile> {
+/// Control rate when `--rate` is not given (the rate runtime), Hz.
+pub const DEFAULT_RATE_HZ: f64 = 100.0;
+
+/// The disturbance profile `--disturbances` names.
+pub(crate) fn profile(name: Option<&str>) -> Result<Profile> {
     Ok(match name {
         None | Some("ideal") => Profile::default(),
         Some("hardware") => hardware_profile(),
@@ -113,7 +118,8 @@ fn profile(name: Option<&str>) -> Result<Profile> {
 
 /// Runtime configuration from the arguments and the description's limits.
 pub fn config(a: &RobotArgs, desc: &RobotDescription) -> Result<Config<f64>> {
-    let mut c = Config::new(a.rate);
+    let rate = a.rate.unwrap_or(DEFAULT_RATE_HZ);
+    let mut c = Config::new(rate);
     c.rate_limits.wheel = desc.limits.max_wheel_rate;
     c.rate_limits.steer = desc.limits.max_steer_rate;
     c.wheel_accel = desc.limits.max_wheel_accel;
@@ -127,7 +133,7 @@ pub fn config(a: &RobotArgs, desc: &RobotDescription) -> Result<Config<f64>> {
     c.heading_from_gyro = a.gyro_heading;
     c.validate().map_err(|e| {
         let flag = match e.field {
-            "rate_hz" => format!("rate {}", a.rate),
+            "rate_hz" => format!("rate {rate}"),
             "max_wheel_rate" | "max_steer_rate" | "max_wheel_accel" | "max_steer_accel" => {
                 format!("{} limits.{}", a.robot, e.field)
             }
@@ -138,22 +144,6 @@ pub fn config(a: &RobotArgs, desc: &RobotDescription) -> Result<Config<f64>> {
     Ok(c)
 }
 
-/// The `--log` header: one wheel-rate command `w1..wN` per wheel, and for kinds with steering
-/// one steer-rate command `sd1..sdN` per module (the log had `w1,w2,w3` for every kind, so a
-/// four-wheel robot's fourth wheel and every steer motor were not recorded).
-fn log_header(wheels: usize, steer: bool) -> String {
-    let mut h = String::from("t,x,y,heading,true_x,true_y,true_heading,cmd_vx,cmd_vy,cmd_yaw_rate");
-    for i in 1..=wheels {
-        h += &format!(",w{i}");
-    }
-    if steer {
-        for i in 1..=wheels {
-            h += &format!(",sd{i}");
-        }
-    }
-    h + ",mode,faults,plan_time,ref_x,ref_y,ref_heading,last_command_t,rejected,rx_ok,rx_dropped"
-}
-
 /// Runs the simulated robot until `--max-time` (or forever).
 pub fn run(a: &RobotArgs) -> Result<()> {
     if !a.sim {
@@ -162,15 +152,7 @@ pub fn run(a: &RobotArgs) -> Result<()> {
         );
     }
     let desc = RobotDescription::resolve(&a.robot)?;
-    let robot: Robot<f64> = desc.build()?;
-    let cfg = config(a, &desc)?;
-    let prof = profile(a.disturbances.as_deref())?;
-    // A profile file that does not fit the robot (the built-in ones are for every kind).
-    if let Some(file) = a.disturbances.as_deref()
-        && !["ideal", "hardware", "spin-slip"].contains(&file)
-    {
-        crate::sim::warn_unused_sections(&prof, &robot, file);
-    }
+    let mut sim = SimRobot::new(a, &desc)?;
     let key = a.key.as_deref().map(load_key).transpose()?;
     let addr = parse_address(&a.listen, "--listen")?;
     if key.is_none()
@@ -185,30 +167,13 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     let mut link = Link::new(Transport::open(&addr, true)?);
     let auth = key.is_some();
     let mut robot_link = RobotLink::new(key);
-    let mut rt: Box<Runtime<f64, SIM_PLAN_CAPACITY>> =
-        Box::new(Runtime::new(robot, cfg, Pose2::default()).map_err(|e| anyhow::anyhow!("{e}"))?);
-    let info = robot_info(&*rt, auth);
-    let mut plant = match a.plant {
-        crate::sim::PlantKind::Kinematic => SilPlant::new(robot, prof, a.seed, Pose2::default()),
-        crate::sim::PlantKind::Dynamic => {
-            if a.disturbances.is_some() {
-                bail!(
-                    "--plant dynamic takes no --disturbances (the dynamic plant is deterministic)"
-                );
-            }
-            let params = omnikin_sim::dynamics::sphere::SphereDynamics::from_description(&desc)
-                .with_context(|| format!("--plant dynamic: robot {}", desc.name))?;
-            SilPlant::dynamic(robot, params, Pose2::default())
-                .with_context(|| format!("--plant dynamic: robot {}", desc.name))?
-        }
-    };
+    let info = sim.info(auth);
     // The log is kept on every exit path: errors drop it (renamed into place with what it
     // has), SIGINT/SIGTERM end the loop below (see crate::output).
     let mut log = match &a.log {
         Some(p) => {
             let mut w = crate::output::OutFile::log("--log", p)?;
-            writeln!(w, "{}", log_header(robot.wheels(), robot.steerable()))
-                .context("--log: cannot write")?;
+            writeln!(w, "{}", sim.log_header()).context("--log: cannot write")?;
             Some(w)
         }
         None => None,
@@ -218,18 +183,11 @@ pub fn run(a: &RobotArgs) -> Result<()> {
         "robot: {} ({}) simulated, {} Hz control, listening on {} (protocol v{}, {}), {}",
         desc.name,
         desc.kind(),
-        a.rate,
+        sim.rate_hz(),
         a.listen,
         omnikin::link::PROTOCOL_VERSION,
         if auth { "authenticated" } else { "no key" },
-        if plant.is_dynamic() {
-            "dynamic plant (shell + platform)".to_string()
-        } else {
-            format!(
-                "disturbances {}",
-                a.disturbances.as_deref().unwrap_or("ideal")
-            )
-        },
+        sim.plant_name(a.disturbances.as_deref()),
     );
     if !auth {
         crate::errln!(
@@ -238,11 +196,11 @@ pub fn run(a: &RobotArgs) -> Result<()> {
         );
     }
 
-    let period = 1.0 / a.rate;
-    let tele_every = ((a.rate / a.telemetry_rate).round() as u64).max(1);
+    let rate = sim.rate_hz();
+    let period = 1.0 / rate;
+    let tele_every = ((rate / a.telemetry_rate).round() as u64).max(1);
     let start = Instant::now();
     let mut k: u64 = 0;
-    let mut status;
     let mut stopped_by = None;
     // Where telemetry goes: the address the active session's HelloAck was sent to — the one
     // that proved it receives the robot's answers by confirming the id it was sent. Not the
@@ -259,10 +217,8 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     // Robot time of the active session's newest frame: telemetry stops after
     // `TELEMETRY_IDLE_S` of silence (nobody is listening, or the address changed hands).
     let mut last_heard_us = 0u64;
-    // The dynamic plant's largest platform tilt, rad (for the summary).
-    let mut max_tilt = 0.0f64;
     loop {
-        let now = plant.time_us();
+        let now = sim.time_us();
         // Frames that arrived since the last cycle (the newest valid command wins).
         let mut ack = false;
         for f in link.poll(Duration::ZERO)? {
@@ -314,7 +270,7 @@ pub fn run(a: &RobotArgs) -> Result<()> {
                         );
                     }
                     last_heard_us = now;
-                    serve(&mut rt, &mut robot_link, seq, &msg, now);
+                    sim.serve(&mut robot_link, seq, &msg, now);
                     ack |= matches!(
                         msg,
                         Message::PlanBegin { .. }
@@ -333,66 +289,26 @@ pub fn run(a: &RobotArgs) -> Result<()> {
                 Err(_) => {}
             }
         }
-        status = plant.run_cycle(&mut rt);
-        let heard = plant.time_us().saturating_sub(last_heard_us) as f64 * 1e-6;
+        sim.cycle();
+        let heard = sim.time_us().saturating_sub(last_heard_us) as f64 * 1e-6;
         if robot_link.session_id().is_some()
             && heard <= TELEMETRY_IDLE_S.max(4.0 * a.watchdog)
             && (ack || k.is_multiple_of(tele_every))
+            && let Some(t) = sim.telemetry(&robot_link)
         {
-            let t = robot_link.telemetry(&status);
             let mut buf = [0u8; MAX_FRAME];
             if let Ok(n) = robot_link.encode(&Message::Telemetry(t), &mut buf) {
                 link.transport.send_to(&buf[..n], active)?;
             }
         }
-        if let Some(w) = log.as_mut() {
-            let s = &status;
-            let tp = plant.true_pose();
-            let c = robot_link.counters();
-            let n = robot.wheels();
-            let mut motors = String::new();
-            for r in &s.motors.wheel[..n] {
-                motors += &format!("{r:.6},");
-            }
-            if robot.steerable() {
-                for r in &s.motors.steer[..n] {
-                    motors += &format!("{r:.6},");
-                }
-            }
-            writeln!(
-                w,
-                "{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{motors}{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{}",
-                s.time_us as f64 * 1e-6,
-                s.pose.x,
-                s.pose.y,
-                s.pose.heading,
-                tp.x,
-                tp.y,
-                tp.heading,
-                s.command.vx,
-                s.command.vy,
-                s.command.yaw_rate,
-                s.mode,
-                s.faults,
-                s.plan_time,
-                s.reference.x,
-                s.reference.y,
-                s.reference.heading,
-                s.last_command_us as f64 * 1e-6,
-                s.rejected,
-                c.ok,
-                c.dropped(),
-            )
-            .context("--log: cannot write")?;
-        }
-        plant.advance(period)?;
-        if let Some(d) = plant.dynamics() {
-            max_tilt = max_tilt.max(d.state().tilt());
-        }
-        k += 1;
-        if a.max_time
-            .is_some_and(|m| plant.time_us() as f64 * 1e-6 >= m)
+        if let Some(w) = log.as_mut()
+            && let Some(row) = sim.log_row(robot_link.counters())
         {
+            writeln!(w, "{row}").context("--log: cannot write")?;
+        }
+        sim.advance(period)?;
+        k += 1;
+        if a.max_time.is_some_and(|m| sim.time_us() as f64 * 1e-6 >= m) {
             break;
         }
         if let Some(sig) = crate::output::interrupted() {
@@ -412,20 +328,13 @@ pub fn run(a: &RobotArgs) -> Result<()> {
         w.commit()?;
     }
     let c = robot_link.counters();
-    let tp = plant.true_pose();
-    let summary = serde_json::json!({
-        "time_s": plant.time_us() as f64 * 1e-6,
-        "mode": status.mode.name(),
-        "pose": [status.pose.x, status.pose.y, status.pose.heading],
-    "true_pose": [tp.x, tp.y, tp.heading],
-        "fault_history": status.fault_history.to_string(),
-        "rejected": status.rejected,
-        "plan": {"id": status.plan.id, "received": status.plan.received, "len": status.plan.len, "done": status.plan.done},
-        "dynamics": plant.dynamics().map(|d| serde_json::json!({
-            "max_tilt_rad": max_tilt, "pull_outs": d.pull_outs(),
-        })),
+    let mut summary = serde_json::json!({
+        "time_s": sim.time_us() as f64 * 1e-6,
         "link": {"ok": c.ok, "framing": c.framing, "crc": c.crc, "version": c.version, "auth": c.auth, "replay": c.replay, "malformed": c.malformed, "session": c.session, "entropy": c.entropy, "dropped": c.dropped(), "sessions": sessions, "takeovers": takeovers},
     });
+    if let (Some(o), serde_json::Value::Object(r)) = (summary.as_object_mut(), sim.summary()) {
+        o.extend(r);
+    }
     crate::outln!("{summary}")?;
     match stopped_by {
         Some(sig) => Err(sig.into()),

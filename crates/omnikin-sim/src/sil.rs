@@ -248,7 +248,7 @@ impl SilPlant {
 
 /// A sensor reading taken before the cycle (so the plant can be the motor board at the same
 /// time).
-struct Held<R>(R);
+pub(crate) struct Held<R>(pub(crate) R);
 
 impl Encoders<f64> for Held<EncoderAngles<f64>> {
     type Error = core::convert::Infallible;

@@ -21,27 +21,28 @@ fn setup() -> (BalanceRuntime<f64>, BallbotSil, f64) {
     (rt, BallbotSil::new(plant, s0, 3), dt)
 }
 
-/// Runs `seconds`, sending `cmd(t)` (if any) every cycle; returns the max true tilt (rad).
+/// Runs `seconds`, sending `cmd(t)` (if any) every cycle; returns the max true tilt (rad) and
+/// the max true ball speed (m/s).
 fn drive(
     rt: &mut BalanceRuntime<f64>,
     b: &mut BallbotSil,
     dt: f64,
     seconds: f64,
     mut cmd: impl FnMut(f64) -> Option<Command<'static, f64>>,
-) -> f64 {
-    let mut max_tilt = 0.0f64;
+) -> (f64, f64) {
+    let (mut max_tilt, mut max_speed) = (0.0f64, 0.0f64);
     for _ in 0..(seconds / dt).round() as usize {
         let now = b.time_us();
         if let Some(c) = cmd(now as f64 * 1e-6) {
-            rt.handle(now, &c).unwrap();
+            rt.handle(c, now).unwrap();
         }
-        let (mut e, mut i) = (b.clone(), b.clone());
-        let st = rt.cycle(now, &mut e, &mut i, b);
+        let st = b.run_cycle(rt);
         assert!(!st.hardware_fault);
         b.advance(dt);
         max_tilt = max_tilt.max(b.tilt());
+        max_speed = max_speed.max(b.plant().ball_velocity(b.state()).norm());
     }
-    max_tilt
+    (max_tilt, max_speed)
 }
 
 #[test]
@@ -52,18 +53,19 @@ fn balances_while_driven_and_brakes_when_the_watchdog_expires() {
         frame: Frame::World,
     };
     // Stand 1 s, drive at 0.2 m/s along +x for 4 s, then stop talking: the watchdog brakes.
-    let tilt_stand = drive(&mut rt, &mut b, dt, 1.0, |_| Some(Command::Heartbeat));
-    let tilt_drive = drive(&mut rt, &mut b, dt, 4.0, |_| Some(go));
+    let (tilt_stand, _) = drive(&mut rt, &mut b, dt, 1.0, |_| Some(Command::Heartbeat));
+    let (tilt_drive, speed_drive) = drive(&mut rt, &mut b, dt, 4.0, |_| Some(go));
     let v = b.plant().ball_velocity(b.state());
     let x_moving = b.state().position[0];
-    let tilt_brake = drive(&mut rt, &mut b, dt, 4.0, |_| None);
+    let (tilt_brake, _) = drive(&mut rt, &mut b, dt, 4.0, |_| None);
     let v_end = b.plant().ball_velocity(b.state());
     eprintln!(
-        "balance runtime: max tilt standing {:.2}°, driving {:.2}°, braking {:.2}°; speed {:.3} m/s at 5 s, x {:.3} m, {:.4} m/s at 9 s, final tilt {:.3}°",
+        "balance runtime: max tilt standing {:.2}°, driving {:.2}°, braking {:.2}°; speed {:.3} m/s at 5 s (peak {:.3}), x {:.3} m, {:.4} m/s at 9 s, final tilt {:.3}°",
         tilt_stand.to_degrees(),
         tilt_drive.to_degrees(),
         tilt_brake.to_degrees(),
         v.x,
+        speed_drive,
         x_moving,
         v_end.norm(),
         b.tilt().to_degrees()
@@ -71,38 +73,42 @@ fn balances_while_driven_and_brakes_when_the_watchdog_expires() {
     assert!(tilt_stand < 1.0f64.to_radians());
     assert!((v.x - 0.2).abs() < 0.05 && v.y.abs() < 0.03, "{v:?}");
     assert!(x_moving > 0.6 && x_moving < 0.9, "{x_moving}");
-    assert!(tilt_drive < 8.0f64.to_radians() && tilt_brake < 8.0f64.to_radians());
+    assert!(tilt_drive < 4.0f64.to_radians() && tilt_brake < 4.0f64.to_radians());
+    // Velocity tracking without overshoot (with the static feed-forward lean the 0.2 m/s
+    // command peaked at 0.59 m/s).
+    assert!(speed_drive < 0.25, "peak speed {speed_drive}");
     assert!(v_end.norm() < 0.03, "{v_end:?}");
-    // The AHRS learns a gyro bias from the accelerometer during the accelerations (tens of
-    // seconds to unlearn): the body stands within about a degree of the vertical.
-    assert!(b.tilt() < 2.0f64.to_radians());
+    // The accelerometer is corrected by the ball's acceleration: the AHRS does not learn the
+    // leans as the vertical, and after driving the body stands upright again (uncorrected it
+    // stood 0.94° off, the gyro bias learnt wrong during the accelerations).
+    assert!(b.tilt() < 0.3f64.to_radians(), "{}", b.tilt().to_degrees());
 }
 
 #[test]
 fn an_estop_turns_the_motors_off_and_plans_are_refused() {
     let (mut rt, mut b, dt) = setup();
     drive(&mut rt, &mut b, dt, 1.0, |_| Some(Command::Heartbeat));
-    assert!(rt.handle(0, &Command::PlanStart { id: 1 }).is_err());
-    rt.handle(b.time_us(), &Command::EStop).unwrap();
-    let (mut e, mut i) = (b.clone(), b.clone());
-    let st = rt.cycle(b.time_us(), &mut e, &mut i, &mut b);
+    assert!(matches!(
+        rt.handle(Command::PlanStart { id: 1 }, 0),
+        Err(omnikin::runtime::CommandError::NotSupported { what: "plans", .. })
+    ));
+    rt.handle(Command::EStop, b.time_us()).unwrap();
+    let st = b.run_cycle(&mut rt);
     assert!(st.estop && st.torques == [0.0; 3]);
     assert!(
         rt.handle(
-            0,
-            &Command::Velocity {
+            Command::Velocity {
                 twist: Twist2::new(0.1, 0.0, 0.0),
                 frame: Frame::Robot
-            }
+            },
+            0
         )
         .is_err()
     );
     // Motors off: a ballbot falls, and the controller says so.
     let mut fallen = false;
     for _ in 0..600 {
-        let now = b.time_us();
-        let (mut e, mut i) = (b.clone(), b.clone());
-        let st = rt.cycle(now, &mut e, &mut i, &mut b);
+        let st = b.run_cycle(&mut rt);
         assert_eq!(st.torques, [0.0; 3]);
         fallen |= st.fallen;
         b.advance(dt);

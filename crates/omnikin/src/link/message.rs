@@ -6,7 +6,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{CHUNK_POINTS, LinkCounters, NONCE_LEN};
-use crate::runtime::{Command, Faults, Frame, Mode, PlanPoint, PlanStatus, Status};
+use crate::runtime::{BalanceStatus, Command, Faults, Frame, Mode, PlanPoint, PlanStatus, Status};
 use crate::{MAX_WHEELS, Pose2, Real, Twist2};
 
 /// One plan point on the wire (world frame, SI, `f32`).
@@ -117,7 +117,8 @@ pub struct Telemetry {
     /// The robot's wheel (module) count: the used length of the four per-wheel arrays.
     pub wheels: u8,
     /// Commanded wheel rates, rad/s, in the robot file's wheel order (entries past the wheel
-    /// count 0; postcard writes the [`MAX_WHEELS`] floats without a length).
+    /// count 0; postcard writes the [`MAX_WHEELS`] floats without a length). A balancing
+    /// ballbot commands torques, not rates: zeros ([`Telemetry::from_balance`]).
     pub wheel_rates: [f32; MAX_WHEELS],
     /// Commanded steer rates, rad/s (kinds with steer motors; zeros otherwise).
     pub steer_rates: [f32; MAX_WHEELS],
@@ -186,6 +187,64 @@ impl Telemetry {
             ack_seq: 0,
             estop_seq: 0,
         }
+    }
+
+    /// Telemetry from the balance runtime's status ([`crate::runtime::BalanceRuntime`]): the
+    /// world velocity and command turned into the robot frame with the estimated yaw, three
+    /// wheels, zero wheel-rate commands (it commands torques), no plan (the reference is the
+    /// estimated pose).
+    pub fn from_balance<T: Real>(s: &BalanceStatus<T>, link: &LinkCounters) -> Self {
+        let f = |x: T| x.to_f64() as f32;
+        let (sn, c) = s.pose.heading.sin_cos();
+        let robot = |v: [T; 2], w: T| [f(c * v[0] + sn * v[1]), f(-sn * v[0] + c * v[1]), f(w)];
+        let mut wheel_angles = [0.0; MAX_WHEELS];
+        for (o, a) in wheel_angles.iter_mut().zip(s.wheel_angles) {
+            *o = f(a);
+        }
+        let pose = [f(s.pose.x), f(s.pose.y), f(s.pose.heading)];
+        Self {
+            time_us: s.time_us,
+            mode: s.mode,
+            faults: s.faults,
+            fault_history: s.fault_history,
+            pose,
+            twist: robot(s.velocity, s.yaw_rate),
+            command: robot(s.command, s.command_yaw_rate),
+            wheels: 3,
+            wheel_rates: [0.0; MAX_WHEELS],
+            steer_rates: [0.0; MAX_WHEELS],
+            wheel_angles,
+            steer_angles: [0.0; MAX_WHEELS],
+            gyro: s.imu.0.map(f),
+            accel: s.imu.1.map(f),
+            plan: PlanStatus::default(),
+            plan_time: 0.0,
+            reference: pose,
+            slip_residual: 0.0,
+            rejected: s.rejected,
+            last_command_us: s.last_command_us,
+            link: *link,
+            ack_seq: 0,
+            estop_seq: 0,
+        }
+    }
+}
+
+/// A runtime status the link turns into [`Telemetry`] ([`super::RobotLink::telemetry`]).
+pub trait TelemetrySource {
+    /// The telemetry of this status with the link's counters (`ack_seq`, `estop_seq` zero).
+    fn telemetry(&self, link: &LinkCounters) -> Telemetry;
+}
+
+impl<T: Real> TelemetrySource for Status<T> {
+    fn telemetry(&self, link: &LinkCounters) -> Telemetry {
+        Telemetry::new(self, link)
+    }
+}
+
+impl<T: Real> TelemetrySource for BalanceStatus<T> {
+    fn telemetry(&self, link: &LinkCounters) -> Telemetry {
+        Telemetry::from_balance(self, link)
     }
 }
 

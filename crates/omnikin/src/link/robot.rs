@@ -1,16 +1,16 @@
 //! The robot's end of the link ([`RobotLink`]): answers Hellos, keeps pending handshakes,
 //! confirms and switches the active session; and [`serve`], which hands a session's messages
-//! to the [`Runtime`].
+//! to the runtime (either kind, [`Operated`]).
 
 use super::session::{Pending, Session};
 use super::{
     CHUNK_POINTS, DropReason, EncodeError, EndReason, HelloAck, Key, Kind, LinkCounters, Message,
-    NONCE_LEN, PROTOCOL_VERSION, RobotInfo, RobotKind, Telemetry, decode_hello, encode_frame_with,
-    parse_frame, postcard_body, v1,
+    NONCE_LEN, PROTOCOL_VERSION, RobotInfo, RobotKind, Telemetry, TelemetrySource, decode_hello,
+    encode_frame_with, parse_frame, postcard_body, v1,
 };
 use crate::Real;
 use crate::runtime::hal::Entropy;
-use crate::runtime::{Mode, PlanPoint, Runtime, Status};
+use crate::runtime::{Mode, Operated, PlanPoint};
 
 /// What [`RobotLink::receive`] got.
 // No heap in the core: the large variant is a value, not a Box.
@@ -264,10 +264,10 @@ impl RobotLink {
 
     /// Telemetry for the active session: the status, the counters, `ack_seq` and `estop_seq`
     /// (the latter 0 unless the runtime is in e-stop).
-    pub fn telemetry<T: Real>(&self, s: &Status<T>) -> Telemetry {
-        let mut t = Telemetry::new(s, &self.counters);
+    pub fn telemetry<S: TelemetrySource>(&self, s: &S) -> Telemetry {
+        let mut t = s.telemetry(&self.counters);
         t.ack_seq = self.ack_seq;
-        t.estop_seq = if s.mode == Mode::EStop {
+        t.estop_seq = if t.mode == Mode::EStop {
             self.estop_seq
         } else {
             0
@@ -319,24 +319,21 @@ pub enum Served {
 }
 
 /// Who this runtime is, for the HelloAck.
-pub fn robot_info<T: Real, const N: usize>(
-    runtime: &Runtime<T, N>,
-    authenticated: bool,
-) -> RobotInfo {
+pub fn robot_info<T: Real, R: Operated<T>>(runtime: &R, authenticated: bool) -> RobotInfo {
     RobotInfo {
         protocol: PROTOCOL_VERSION,
-        kind: RobotKind::of(runtime.robot().kind()),
-        plan_capacity: N.min(u16::MAX as usize) as u16,
-        rate_hz: runtime.config().rate_hz.to_f64() as f32,
-        watchdog: runtime.config().watchdog.to_f64() as f32,
+        kind: RobotKind::of(runtime.kind()),
+        plan_capacity: runtime.plan_capacity().min(u16::MAX as usize) as u16,
+        rate_hz: runtime.rate_hz().to_f64() as f32,
+        watchdog: runtime.watchdog().to_f64() as f32,
         authenticated,
     }
 }
 
 /// Robot side: hands message `seq` of the active session (from [`RobotEvent::Message`]) to the
 /// runtime at clock time `now_us`, and records the outcome in `link` (e-stop confirmation).
-pub fn serve<T: Real, const N: usize>(
-    runtime: &mut Runtime<T, N>,
+pub fn serve<T: Real, R: Operated<T>>(
+    runtime: &mut R,
     link: &mut RobotLink,
     seq: u64,
     msg: &Message,

@@ -5,15 +5,25 @@
 //!
 //! **Cycle** ([`BalanceRuntime::cycle`]):
 //! 1. clock → `dt` (the nominal period on the first cycle; clamped to twice it);
-//! 2. IMU → AHRS ([`crate::estimate::ahrs::Mahony`], gyro and accelerometer; the yaw drifts
-//!    with the gyro bias, as without a magnetometer it must); encoders → wheel rates by
+//! 2. IMU → AHRS ([`crate::estimate::ahrs::Mahony`], gyro and accelerometer, the latter
+//!    corrected by the ball's acceleration from the odometry, low-passed over
+//!    [`ACCEL_FILTER_S`]: a ballbot accelerates by leaning, and the raw specific force then
+//!    points along the leaning body; the yaw drifts with the gyro bias, as without a
+//!    magnetometer it must); encoders → wheel rates by
 //!    differences → the ball's velocity corrected for the body's rotation
 //!    ([`crate::control::ball_velocity_from_wheels`]), integrated into its position;
 //! 3. watchdog: no command or heartbeat for [`BalanceRuntimeConfig::watchdog`] s → the target
 //!    velocity is 0 (the robot brakes, leaning, and keeps balancing);
 //! 4. the target velocity (a robot-frame command turned into the world with the AHRS yaw) is
 //!    slewed at [`BalanceRuntimeConfig::max_accel`] (the lean limit's acceleration: a ballbot
-//!    accelerates by leaning), which gives the controller's feed-forward acceleration;
+//!    accelerates by leaning). The controller follows it by feedback alone: while the command
+//!    is not zero its reference position is the measured one (velocity tracking; it does not
+//!    catch up on the distance it lagged while leaning into the motion), and it gets no
+//!    feed-forward lean (without a preview of the next commands a lean step makes the ball
+//!    roll back first, then overshoot: on the preset a 0.2 m/s step peaked at 0.59 m/s with
+//!    the slew's acceleration fed forward, at 0.206 m/s and 2.3° tilt without). Once the
+//!    command is zero it holds the position the reference integrates to. Plans, known ahead,
+//!    are followed with the lean preview offline (`omnikin simulate --plant dynamic`);
 //! 5. [`crate::control::BalanceController::step`] → wheel torques; zero when e-stopped, fallen
 //!    (latched by the controller) or after a hardware error;
 //! 6. motors.
@@ -22,21 +32,27 @@
 //! falls — a ballbot has no safe motors-off state), `Clear` (clears the e-stop and resets the
 //! controller's fall latch; the reference restarts at the measured position), `SetPose`
 //! (position and yaw reference), `Hello`/`Heartbeat` (watchdog). Plans are refused
-//! ([`BalanceCommandError::NotSupported`]): follow one with velocity commands.
+//! ([`CommandError::NotSupported`]): follow one with velocity commands. Refusals are the rate
+//! runtime's errors ([`CommandError`]), checked by the same function.
+//!
+//! The operator link drives it like the rate runtime, through [`Operated`]; its status becomes
+//! the link's telemetry ([`crate::link::Telemetry::from_balance`]).
 //!
 //! No allocation, no panic.
 
 use nalgebra::UnitQuaternion;
 
-use super::command::{Command, Frame};
+use super::Operated;
+use super::command::{Command, CommandError, Frame, check_twist};
 use super::hal::{Encoders, Imu, MotorTorques, TorqueCommand};
+use super::status::{Faults, Mode};
 use crate::ballbot::Ballbot;
 use crate::control::{
     BalanceConfig, BalanceController, BalanceError, Measurement, Status as BalanceState,
     ball_velocity_from_wheels,
 };
 use crate::estimate::ahrs::{Mahony, MahonyGains};
-use crate::{Pose2, Real, Twist2};
+use crate::{Kind, Pose2, Real, Twist2};
 
 /// What the balance runtime is built from.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -71,42 +87,36 @@ impl<T: Real> BalanceRuntimeConfig<T> {
     }
 }
 
-/// Why the balance runtime refused a command.
-#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
-pub enum BalanceCommandError {
-    /// A value is NaN or infinite.
-    #[error("{field} must be finite")]
-    NonFinite {
-        /// The field.
-        field: &'static str,
-    },
-    /// A speed or yaw rate above the accepted bound.
-    #[error("{field} = {value} exceeds the accepted bound {limit}")]
-    OverLimit {
-        /// `"speed"` or `"yaw_rate"`.
-        field: &'static str,
-        /// The value.
-        value: f64,
-        /// The bound.
-        limit: f64,
-    },
-    /// The e-stop is latched: send `Clear` first.
-    #[error("emergency stop is latched; send clear first")]
-    EStopLatched,
-    /// Plans are not followed in balance mode.
-    #[error("plans are not supported in balance mode: send velocity commands")]
-    NotSupported,
-}
-
 /// One cycle's status.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BalanceStatus<T> {
+    /// Clock of the cycle, µs.
+    pub time_us: u64,
+    /// [`Mode::EStop`] when the e-stop is latched or the robot fell (motors off),
+    /// [`Mode::Velocity`] while a command is followed, [`Mode::Stopping`] while braking to the
+    /// zero target (stop, watchdog), [`Mode::Idle`] at rest (no command, the ball slower than
+    /// 2 cm/s).
+    pub mode: Mode,
+    /// This cycle's faults: `LIMIT` (torque saturation), `LINK_LOST` (watchdog), `ESTOP`,
+    /// `REJECTED` (a command refused since the last cycle), `HARDWARE`, `FALLEN`.
+    pub faults: Faults,
+    /// Faults since the last `Clear`.
+    pub fault_history: Faults,
     /// Estimated ball position and body yaw (world; m, m, rad).
     pub pose: Pose2<T>,
     /// Estimated ball velocity (world, m/s).
     pub velocity: [T; 2],
+    /// Body yaw rate from the bias-corrected gyro, rad/s (world vertical).
+    pub yaw_rate: T,
     /// Commanded (slewed) world velocity, m/s.
     pub command: [T; 2],
+    /// Commanded yaw rate, rad/s.
+    pub command_yaw_rate: T,
+    /// Encoder wheel angles, rad (paper 001's wheel order).
+    pub wheel_angles: [T; 3],
+    /// The IMU's gyro (rad/s) and accelerometer (m/s²) this cycle, body frame (zeros without a
+    /// sample).
+    pub imu: ([T; 3], [T; 3]),
     /// Estimated tilt from the vertical, rad.
     pub tilt: T,
     /// The wheel torques applied, N·m.
@@ -123,6 +133,8 @@ pub struct BalanceStatus<T> {
     pub hardware_fault: bool,
     /// Commands refused so far.
     pub rejected: u32,
+    /// Clock of the newest accepted command, µs (0: none).
+    pub last_command_us: u64,
 }
 
 /// The balance runtime (module doc). `Copy`-free but fixed size, no allocation.
@@ -141,7 +153,15 @@ pub struct BalanceRuntime<T: Real> {
     last_wheels: Option<[T; 3]>,
     position: [T; 2],
     rejected: u32,
+    rejected_seen: u32,
+    fault_history: Faults,
+    last_velocity: [T; 2],
+    ball_accel: [T; 2],
 }
+
+/// Time constant of the low-pass on the odometry's ball acceleration that corrects the
+/// accelerometer, s.
+pub const ACCEL_FILTER_S: f64 = 0.05;
 
 impl<T: Real> BalanceRuntime<T> {
     /// A balance runtime at `pose` (ball position and yaw, world).
@@ -184,7 +204,16 @@ impl<T: Real> BalanceRuntime<T> {
             last_wheels: None,
             position: [pose.x, pose.y],
             rejected: 0,
+            rejected_seen: 0,
+            fault_history: Faults::NONE,
+            last_velocity: [z; 2],
+            ball_accel: [z; 2],
         })
+    }
+
+    /// What it was built from.
+    pub fn config(&self) -> &BalanceRuntimeConfig<T> {
+        &self.config
     }
 
     /// The balance controller (its gains, designs, period).
@@ -192,16 +221,16 @@ impl<T: Real> BalanceRuntime<T> {
         &self.controller
     }
 
-    /// Takes an operator command received at `now_us` (the newest valid one wins).
+    /// Takes an operator command received at `now_us` (the newest valid one wins), as
+    /// [`super::Runtime::handle`] does.
     ///
     /// # Errors
-    /// [`BalanceCommandError`]; a refused command changes nothing and is counted.
-    pub fn handle(
-        &mut self,
-        now_us: u64,
-        command: &Command<'_, T>,
-    ) -> Result<(), BalanceCommandError> {
-        let r = self.apply(command);
+    /// [`CommandError`]: `NonFinite`/`OverLimit` (the rate runtime's check,
+    /// [`BalanceRuntimeConfig::max_speed`], [`BalanceRuntimeConfig::max_yaw_rate`]),
+    /// `EStopLatched`, `NotSupported` for plans. A refused command changes nothing and is
+    /// counted.
+    pub fn handle(&mut self, command: Command<'_, T>, now_us: u64) -> Result<(), CommandError> {
+        let r = self.apply(&command);
         match r {
             Ok(()) => self.last_rx_us = Some(now_us),
             Err(_) => self.rejected = self.rejected.saturating_add(1),
@@ -209,38 +238,20 @@ impl<T: Real> BalanceRuntime<T> {
         r
     }
 
-    fn apply(&mut self, command: &Command<'_, T>) -> Result<(), BalanceCommandError> {
+    fn apply(&mut self, command: &Command<'_, T>) -> Result<(), CommandError> {
         let z = T::zero();
         match *command {
             Command::Hello | Command::Heartbeat => Ok(()),
             Command::Velocity { twist, frame } => {
                 if self.estop {
-                    return Err(BalanceCommandError::EStopLatched);
+                    return Err(CommandError::EStopLatched);
                 }
-                for (field, v) in [
-                    ("vx", twist.vx),
-                    ("vy", twist.vy),
-                    ("yaw_rate", twist.yaw_rate),
-                ] {
-                    if !v.is_finite() {
-                        return Err(BalanceCommandError::NonFinite { field });
-                    }
-                }
-                let speed = (twist.vx * twist.vx + twist.vy * twist.vy).sqrt();
-                if speed > self.config.max_speed {
-                    return Err(BalanceCommandError::OverLimit {
-                        field: "speed",
-                        value: speed.to_f64(),
-                        limit: self.config.max_speed.to_f64(),
-                    });
-                }
-                if twist.yaw_rate.abs() > self.config.max_yaw_rate {
-                    return Err(BalanceCommandError::OverLimit {
-                        field: "yaw_rate",
-                        value: twist.yaw_rate.to_f64(),
-                        limit: self.config.max_yaw_rate.to_f64(),
-                    });
-                }
+                check_twist(
+                    twist,
+                    false,
+                    self.config.max_speed,
+                    self.config.max_yaw_rate,
+                )?;
                 self.target = (twist, frame);
                 Ok(())
             }
@@ -257,11 +268,12 @@ impl<T: Real> BalanceRuntime<T> {
                 self.estop = false;
                 self.controller.reset();
                 self.command = [z; 2];
+                self.fault_history = Faults::NONE;
                 Ok(())
             }
             Command::SetPose(p) => {
                 if !(p.x.is_finite() && p.y.is_finite() && p.heading.is_finite()) {
-                    return Err(BalanceCommandError::NonFinite { field: "pose" });
+                    return Err(CommandError::NonFinite { field: "pose" });
                 }
                 self.position = [p.x, p.y];
                 self.ahrs.set_yaw(p.heading);
@@ -269,7 +281,10 @@ impl<T: Real> BalanceRuntime<T> {
                 Ok(())
             }
             Command::PlanBegin { .. } | Command::PlanChunk { .. } | Command::PlanStart { .. } => {
-                Err(BalanceCommandError::NotSupported)
+                Err(CommandError::NotSupported {
+                    what: "plans",
+                    instead: "a balancing robot follows velocity commands (send the plan's twists)",
+                })
             }
         }
     }
@@ -302,10 +317,20 @@ impl<T: Real> BalanceRuntime<T> {
         };
         self.last_us = Some(now_us);
         let mut fault = false;
+        let mut sample = ([z; 3], [z; 3]);
         // IMU → attitude.
         match imu.read() {
             Ok(Some(s)) => {
-                if self.ahrs.update(dt, s.gyro, s.accel, None).is_err() {
+                sample = (s.gyro, s.accel);
+                // The accelerometer at the ball centre reads gravity plus the ball's
+                // acceleration; a ballbot accelerates by leaning, so uncorrected it reads
+                // "upright" along every lean (the specific force follows the body axis) and the
+                // AHRS would learn the lean as the vertical. Subtract the ball's acceleration
+                // from the odometry (low-passed), turned into the body frame.
+                let a = self.ahrs.quaternion().inverse()
+                    * nalgebra::Vector3::new(self.ball_accel[0], self.ball_accel[1], z);
+                let f = [s.accel[0] - a.x, s.accel[1] - a.y, s.accel[2] - a.z];
+                if self.ahrs.update(dt, s.gyro, f, None).is_err() {
                     fault = true;
                 } else {
                     let b = self.ahrs.gyro_bias();
@@ -318,9 +343,11 @@ impl<T: Real> BalanceRuntime<T> {
         let q: UnitQuaternion<T> = self.ahrs.quaternion();
         // Encoders → ball velocity and position.
         let mut velocity = [z; 2];
+        let mut wheel_angles = [z; 3];
         match encoders.read() {
             Ok(e) => {
                 let w = [e.wheel[0], e.wheel[1], e.wheel[2]];
+                wheel_angles = w;
                 if let Some(l) = self.last_wheels {
                     let rates = [(w[0] - l[0]) / dt, (w[1] - l[1]) / dt, (w[2] - l[2]) / dt];
                     match ball_velocity_from_wheels(&self.robot, rates, &q, self.gyro) {
@@ -336,6 +363,14 @@ impl<T: Real> BalanceRuntime<T> {
             self.position[0] + velocity[0] * dt,
             self.position[1] + velocity[1] * dt,
         ];
+        // The ball's acceleration for the next cycle's accelerometer correction: velocity
+        // differences through a first-order low-pass of time constant `ACCEL_FILTER_S`.
+        let k = dt / (dt + T::of(ACCEL_FILTER_S));
+        for i in 0..2 {
+            let raw = (velocity[i] - self.last_velocity[i]) / dt;
+            self.ball_accel[i] = self.ball_accel[i] + k * (raw - self.ball_accel[i]);
+        }
+        self.last_velocity = velocity;
         let m = Measurement::from_attitude(&q, self.gyro, self.position, velocity);
         // Watchdog and target.
         let watchdog = match self.last_rx_us {
@@ -363,12 +398,24 @@ impl<T: Real> BalanceRuntime<T> {
         self.command = [self.command[0] + d[0], self.command[1] + d[1]];
         let cmd = crate::control::Command {
             velocity: self.command,
-            acceleration: [d[0] / dt, d[1] / dt],
+            // No feed-forward lean: without a preview of the commands a lean step makes the
+            // ball roll back first and then overshoot (a 0.2 m/s command peaked at 0.59 m/s
+            // with the slew's acceleration fed forward, at 0.206 m/s without; module doc).
+            acceleration: [z, z],
             yaw_rate: tw.yaw_rate,
             lean: None,
         };
         let (mut torques, mut saturated, mut fallen, mut tilt) =
             ([z; 3], false, false, m.tilt_angle());
+        // Following a velocity command, the reference position is the measured one: the robot
+        // tracks the commanded velocity without catching up on the distance it lagged behind
+        // while leaning into it (which would overshoot the commanded speed); once the command
+        // is zero it holds the position the reference then integrates to.
+        if (self.command[0] != z || self.command[1] != z)
+            && let Some((_, yaw_ref)) = self.controller.reference()
+        {
+            self.controller.set_reference(m.ball_position, yaw_ref);
+        }
         match self.controller.step(&m, &cmd) {
             Ok(out) => {
                 torques = out.wheel_torques;
@@ -386,10 +433,49 @@ impl<T: Real> BalanceRuntime<T> {
         if motors.set_torques(&tc).is_err() {
             fault = true;
         }
+        let mut faults = Faults::NONE;
+        for (on, flag) in [
+            (saturated, Faults::LIMIT),
+            (watchdog, Faults::LINK_LOST),
+            (self.estop, Faults::ESTOP),
+            (self.rejected != self.rejected_seen, Faults::REJECTED),
+            (fault, Faults::HARDWARE),
+            (fallen, Faults::FALLEN),
+        ] {
+            if on {
+                faults.insert(flag);
+            }
+        }
+        self.rejected_seen = self.rejected;
+        self.fault_history.insert(faults);
+        // At rest: no velocity commanded and the ball slower than 2 cm/s.
+        let rest = T::of(0.02);
+        let moving = self.command[0] != z
+            || self.command[1] != z
+            || velocity[0] * velocity[0] + velocity[1] * velocity[1] > rest * rest;
+        let mode = if self.estop || fallen {
+            Mode::EStop
+        } else if !watchdog && (tw.vx != z || tw.vy != z || tw.yaw_rate != z) {
+            Mode::Velocity
+        } else if moving {
+            Mode::Stopping
+        } else {
+            Mode::Idle
+        };
+        // The yaw rate about the world vertical: the bias-corrected gyro in the world frame.
+        let yaw_rate = (q * nalgebra::Vector3::new(self.gyro[0], self.gyro[1], self.gyro[2])).z;
         BalanceStatus {
+            time_us: now_us,
+            mode,
+            faults,
+            fault_history: self.fault_history,
             pose: Pose2::new(self.position[0], self.position[1], m.yaw),
             velocity,
+            yaw_rate,
             command: self.command,
+            command_yaw_rate: tw.yaw_rate,
+            wheel_angles,
+            imu: sample,
             tilt,
             torques,
             saturated,
@@ -398,6 +484,25 @@ impl<T: Real> BalanceRuntime<T> {
             watchdog,
             hardware_fault: fault,
             rejected: self.rejected,
+            last_command_us: self.last_rx_us.unwrap_or(0),
         }
+    }
+}
+
+impl<T: Real> Operated<T> for BalanceRuntime<T> {
+    fn handle(&mut self, command: Command<'_, T>, now_us: u64) -> Result<(), CommandError> {
+        BalanceRuntime::handle(self, command, now_us)
+    }
+    fn kind(&self) -> Kind {
+        Kind::Ballbot
+    }
+    fn plan_capacity(&self) -> usize {
+        0
+    }
+    fn rate_hz(&self) -> T {
+        self.config.balance.rate_hz
+    }
+    fn watchdog(&self) -> T {
+        self.config.watchdog
     }
 }

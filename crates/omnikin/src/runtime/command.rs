@@ -156,6 +156,15 @@ pub enum CommandError {
     /// A new plan upload was begun while a plan is running.
     #[error("a plan is running; stop it first")]
     Busy,
+    /// The runtime does not take this kind of command (the balance runtime follows velocity
+    /// commands, not plans).
+    #[error("{what} are not supported by this runtime: {instead}")]
+    NotSupported {
+        /// What was sent, e.g. `"plans"`.
+        what: &'static str,
+        /// What to send instead.
+        instead: &'static str,
+    },
 }
 
 /// Checks a commanded (or planned, `plan`) twist: finite, linear speed within
@@ -164,6 +173,17 @@ pub(super) fn check_motion<T: Real>(
     twist: Twist2<T>,
     plan: bool,
     cfg: &Config<T>,
+) -> Result<(), CommandError> {
+    check_twist(twist, plan, cfg.max_speed, cfg.max_yaw_rate)
+}
+
+/// [`check_motion`] against explicit bounds (m/s, rad/s): every runtime's one check of a
+/// commanded twist.
+pub(super) fn check_twist<T: Real>(
+    twist: Twist2<T>,
+    plan: bool,
+    max_speed: T,
+    max_yaw_rate: T,
 ) -> Result<(), CommandError> {
     let f = |x: T, field| {
         if x.is_finite() {
@@ -187,18 +207,18 @@ pub(super) fn check_motion<T: Real>(
     f(twist.vy, fy)?;
     f(twist.yaw_rate, fw)?;
     let speed = (twist.vx * twist.vx + twist.vy * twist.vy).sqrt();
-    if speed > cfg.max_speed {
+    if speed > max_speed {
         return Err(CommandError::OverLimit {
             field: fs,
             value: speed.to_f64(),
-            limit: cfg.max_speed.to_f64(),
+            limit: max_speed.to_f64(),
         });
     }
-    if twist.yaw_rate.abs() > cfg.max_yaw_rate {
+    if twist.yaw_rate.abs() > max_yaw_rate {
         return Err(CommandError::OverLimit {
             field: fyr,
             value: twist.yaw_rate.to_f64(),
-            limit: cfg.max_yaw_rate.to_f64(),
+            limit: max_yaw_rate.to_f64(),
         });
     }
     Ok(())

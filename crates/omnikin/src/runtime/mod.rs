@@ -107,8 +107,46 @@ mod plan;
 mod shape;
 mod status;
 
+use crate::Real;
 pub use balance::{BalanceRuntime, BalanceRuntimeConfig, BalanceStatus};
 pub use command::{Command, CommandError, Frame, PlanPoint};
 pub use config::{Config, ConfigError, RATE_HZ_RANGE};
 pub use controller::Runtime;
 pub use status::{Faults, Mode, PlanStatus, Status};
+
+/// A runtime the operator link drives ([`crate::link::serve`], [`crate::link::robot_info`]):
+/// the rate runtime ([`Runtime`]) and the balance runtime ([`BalanceRuntime`]). One command
+/// language and one error type for both, so one robot end serves either.
+pub trait Operated<T: Real> {
+    /// Takes an operator command received at clock time `now_us`, µs.
+    ///
+    /// # Errors
+    /// [`CommandError`]: the command is refused, changes nothing, and is counted.
+    fn handle(&mut self, command: Command<'_, T>, now_us: u64) -> Result<(), CommandError>;
+    /// The robot kind it controls.
+    fn kind(&self) -> crate::Kind;
+    /// Plan buffer capacity, points (0: plans are refused).
+    fn plan_capacity(&self) -> usize;
+    /// Control rate, Hz.
+    fn rate_hz(&self) -> T;
+    /// Watchdog timeout, s.
+    fn watchdog(&self) -> T;
+}
+
+impl<T: Real, const N: usize> Operated<T> for Runtime<T, N> {
+    fn handle(&mut self, command: Command<'_, T>, now_us: u64) -> Result<(), CommandError> {
+        Runtime::handle(self, command, now_us)
+    }
+    fn kind(&self) -> crate::Kind {
+        self.robot().kind()
+    }
+    fn plan_capacity(&self) -> usize {
+        N
+    }
+    fn rate_hz(&self) -> T {
+        self.config().rate_hz
+    }
+    fn watchdog(&self) -> T {
+        self.config().watchdog
+    }
+}

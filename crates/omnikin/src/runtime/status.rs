@@ -71,6 +71,9 @@ impl Faults {
     pub const HARDWARE: Faults = Faults(1 << 5);
     /// A cycle came more than twice the nominal period after the previous one.
     pub const OVERRUN: Faults = Faults(1 << 6);
+    /// A balancing robot fell: its tilt passed the controller's fall threshold, the motors are
+    /// off (latched until [`Command::Clear`](super::Command::Clear)).
+    pub const FALLEN: Faults = Faults(1 << 7);
 
     /// `true` when every bit of `other` is set.
     pub const fn contains(self, other: Faults) -> bool {
@@ -86,7 +89,7 @@ impl Faults {
     }
 
     /// Every flag with its name, in bit order.
-    pub const ALL: [(Faults, &'static str); 7] = [
+    pub const ALL: [(Faults, &'static str); 8] = [
         (Faults::LIMIT, "limit"),
         (Faults::SLIP, "slip"),
         (Faults::LINK_LOST, "link_lost"),
@@ -94,6 +97,7 @@ impl Faults {
         (Faults::REJECTED, "rejected"),
         (Faults::HARDWARE, "hardware"),
         (Faults::OVERRUN, "overrun"),
+        (Faults::FALLEN, "fallen"),
     ];
 }
 

@@ -11,6 +11,7 @@
 use omnikin::MAX_WHEELS;
 use omnikin::nalgebra::Vector3;
 use omnikin::runtime::hal::{EncoderAngles, Encoders, Imu, ImuSample, MotorTorques, TorqueCommand};
+use omnikin::runtime::{BalanceRuntime, BalanceStatus};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
@@ -61,6 +62,28 @@ impl BallbotSil {
     /// Simulated time, µs.
     pub fn time_us(&self) -> u64 {
         self.time_us
+    }
+
+    /// One control cycle of `runtime` on this board at the board's clock: reads the encoders
+    /// and the IMU (each once: the IMU's noise is drawn from the board's one generator), runs
+    /// [`BalanceRuntime::cycle`], holds its torques. Does not advance time (call
+    /// [`BallbotSil::advance`] with the control period).
+    pub fn run_cycle(&mut self, runtime: &mut BalanceRuntime<f64>) -> BalanceStatus<f64> {
+        let enc = match Encoders::read(self) {
+            Ok(e) => e,
+            Err(e) => match e {},
+        };
+        let imu = match Imu::read(self) {
+            Ok(i) => i,
+            Err(e) => match e {},
+        };
+        let now = self.time_us;
+        runtime.cycle(
+            now,
+            &mut crate::sil::Held(enc),
+            &mut crate::sil::Held(imu),
+            self,
+        )
     }
 
     /// A horizontal impulse on the body's centre of mass (world, N·s).
