@@ -5,6 +5,7 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
+use omnikin::control::BalanceConfig;
 use omnikin::description::RobotDescription;
 use omnikin::link::{
     CHUNK_POINTS, FrameReader, Key, MAX_FRAME, Message, OperatorLink, RobotEvent, RobotInfo,
@@ -13,7 +14,11 @@ use omnikin::link::{
 use omnikin::runtime::hal::{
     EncoderAngles, Encoders, Entropy, EntropyError, MotorCommand, MotorOutputs, NoImu,
 };
-use omnikin::runtime::{Command, Config, Frame, Mode, PlanPoint, Runtime};
+use omnikin::runtime::hal::{Imu, ImuSample, MotorTorques, TorqueCommand};
+use omnikin::runtime::{
+    BalanceRuntime, BalanceRuntimeConfig, Command, Config, Frame, Mode, Operated, PlanPoint,
+    Runtime,
+};
 use omnikin::sphere::{SphereOmni, SphereParams};
 use omnikin::{MAX_WHEELS, Pose2, Robot, Twist2};
 
@@ -88,7 +93,7 @@ struct Wire {
 
 impl Wire {
     /// Bytes through the robot's receive path: reader → decode → session → serve.
-    fn deliver(&mut self, len: usize, rt: &mut Runtime<f32, 128>, now: u64) -> usize {
+    fn deliver<R: Operated<f32>>(&mut self, len: usize, rt: &mut R, now: u64) -> usize {
         let (robot, info, rng, reply) =
             (&mut self.robot, &self.info, &mut self.rng, &mut self.reply);
         let mut answer = 0;
@@ -105,7 +110,7 @@ impl Wire {
         answer
     }
     /// The handshake, both ways.
-    fn connect(&mut self, rt: &mut Runtime<f32, 128>, now: u64) {
+    fn connect<R: Operated<f32>>(&mut self, rt: &mut R, now: u64) {
         let len = self.op.hello(&mut self.rng, &mut self.frame).unwrap();
         let n = self.deliver(len, rt, now);
         assert!(n > 0);
@@ -115,7 +120,7 @@ impl Wire {
         assert!(self.robot.session_id().is_some());
     }
     /// A command through the full link path: encode → bytes → reader → decode → serve.
-    fn send(&mut self, msg: &Message, rt: &mut Runtime<f32, 128>, now: u64) {
+    fn send<R: Operated<f32>>(&mut self, msg: &Message, rt: &mut R, now: u64) {
         let len = self.op.encode(msg, &mut self.frame).unwrap();
         self.deliver(len, rt, now);
     }
@@ -277,4 +282,129 @@ fn session_allocates_nothing(robot: Robot<f32>) {
     assert_eq!(rt.mode(), Mode::EStop);
     assert_eq!(rt.rejected(), 2);
     assert_eq!(w.robot.counters().crc, 1);
+}
+
+/// A ballbot board at rest: the IMU reads gravity, the encoders the wheels' angles, the torques
+/// are kept.
+struct BallbotBoard {
+    wheel: [f32; 3],
+    torques: [f32; 3],
+}
+impl Encoders<f32> for BallbotBoard {
+    type Error = ();
+    fn read(&mut self) -> Result<EncoderAngles<f32>, ()> {
+        let mut a = EncoderAngles::zero();
+        a.wheel[..3].copy_from_slice(&self.wheel);
+        Ok(a)
+    }
+}
+impl Imu<f32> for BallbotBoard {
+    type Error = ();
+    fn read(&mut self) -> Result<Option<ImuSample<f32>>, ()> {
+        Ok(Some(ImuSample {
+            gyro: [0.001, -0.002, 0.0005],
+            accel: [0.05, -0.03, 9.81],
+        }))
+    }
+}
+impl MotorTorques<f32> for BallbotBoard {
+    type Error = ();
+    fn set_torques(&mut self, c: &TorqueCommand<f32>) -> Result<(), ()> {
+        self.torques.copy_from_slice(&c.wheel[..3]);
+        Ok(())
+    }
+}
+
+/// The balance runtime over a keyed session (velocity, rejected and refused commands, a
+/// corrupt frame, e-stop, clear, telemetry encoding) makes no allocation either.
+#[test]
+fn balance_runtime_and_link_allocate_nothing() {
+    let cfg = BalanceRuntimeConfig::new(BalanceConfig::<f32>::preset(), 0.9);
+    let (n0, rt) = allocations(|| BalanceRuntime::new(cfg, Pose2::default()));
+    assert_eq!(n0, 0);
+    let mut rt = rt.unwrap();
+    let key = Key::new(b"0123456789abcdef").unwrap();
+    let mut w = Wire {
+        op: OperatorLink::new(Some(key.clone())),
+        robot: RobotLink::new(Some(key)),
+        info: robot_info(&rt, true),
+        rng: Counter(1),
+        reader: FrameReader::new(),
+        frame: [0u8; MAX_FRAME],
+        reply: [0u8; MAX_FRAME],
+    };
+    assert_eq!(w.info.plan_capacity, 0);
+    let mut board = BallbotBoard {
+        wheel: [0.0; 3],
+        torques: [0.0; 3],
+    };
+    let mut now = 0u64;
+    let mut modes = [false; 5];
+    let (n, ()) = allocations(|| {
+        let mut cycle = |rt: &mut BalanceRuntime<f32>, w: &mut Wire, now: &mut u64| {
+            let mut e = BallbotBoard { ..board };
+            let mut i = BallbotBoard { ..board };
+            let st = rt.cycle(*now, &mut e, &mut i, &mut board);
+            for (k, t) in board.torques.iter().enumerate() {
+                board.wheel[k] += t * 0.01;
+            }
+            *now += 5_000;
+            let tm = w.robot.telemetry(&st);
+            let mut buf = [0u8; MAX_FRAME];
+            let _ = w.robot.encode(&Message::Telemetry(tm), &mut buf);
+            modes[st.mode as usize] = true;
+        };
+        w.connect(&mut rt, now);
+        w.send(
+            &Message::SetVelocity {
+                frame: Frame::Robot,
+                vx: 0.2,
+                vy: 0.0,
+                yaw_rate: 0.3,
+            },
+            &mut rt,
+            now,
+        );
+        for _ in 0..100 {
+            w.send(&Message::Heartbeat, &mut rt, now);
+            cycle(&mut rt, &mut w, &mut now);
+        }
+        w.send(
+            &Message::SetVelocity {
+                frame: Frame::World,
+                vx: f32::NAN,
+                vy: 0.0,
+                yaw_rate: 0.0,
+            },
+            &mut rt,
+            now,
+        );
+        let _ = rt.handle(
+            Command::Velocity {
+                twist: Twist2::new(9.0, 0.0, 0.0),
+                frame: Frame::Robot,
+            },
+            now,
+        );
+        w.send(&Message::PlanBegin { id: 1, len: 40 }, &mut rt, now);
+        w.send(&Message::PlanStart { id: 1 }, &mut rt, now);
+        let len = w.op.encode(&Message::Heartbeat, &mut w.frame).unwrap();
+        w.frame[3] ^= 0x55;
+        w.deliver(len, &mut rt, now);
+        w.send(&Message::Stop, &mut rt, now);
+        for _ in 0..50 {
+            w.send(&Message::Heartbeat, &mut rt, now);
+            cycle(&mut rt, &mut w, &mut now);
+        }
+        w.send(&Message::EStop, &mut rt, now);
+        cycle(&mut rt, &mut w, &mut now);
+        w.send(&Message::Clear, &mut rt, now);
+        // The watchdog expires.
+        for _ in 0..150 {
+            cycle(&mut rt, &mut w, &mut now);
+        }
+    });
+    assert_eq!(n, 0, "{n} allocations in the balance runtime's session");
+    // The refused commands were counted, and the session went through velocity and e-stop.
+    assert!(modes[Mode::Velocity as usize] && modes[Mode::EStop as usize]);
 }
