@@ -737,7 +737,7 @@ fn follow_plan(s: &mut Session, path: &Path, set_pose: bool) -> Result<()> {
 /// end pose shows the drift of the robot's velocity tracking.
 fn stream_plan(s: &mut Session, plan: &Plan, set_pose: bool) -> Result<()> {
     crate::outln!(
-        "the robot takes no plans (plan capacity 0): streaming the plan's {} s of world twists as velocity commands",
+        "the robot takes no plans (plan capacity 0): streaming the plan's {:.2} s of world twists as velocity commands",
         plan.duration()
     )?;
     let first = plan.samples[0].pose;

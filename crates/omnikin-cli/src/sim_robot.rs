@@ -60,6 +60,8 @@ pub enum SimRobot {
 pub struct TiltRecord {
     /// Largest true tilt, rad.
     pub max: f64,
+    /// Largest true tilt while balancing: the motors on (not e-stopped, no fall latched), rad.
+    pub max_balancing: f64,
     /// Largest estimated tilt, rad.
     pub max_estimated: f64,
     /// Robot time of the first cycle the controller reported a fall, s.
@@ -248,9 +250,17 @@ impl SimRobot {
                     *max_tilt = max_tilt.max(d.state().tilt());
                 }
             }
-            SimRobot::Balance { board, tilt, .. } => {
+            SimRobot::Balance {
+                board,
+                tilt,
+                status,
+                ..
+            } => {
                 board.advance(dt);
                 tilt.max = tilt.max.max(board.tilt());
+                if status.is_some_and(|s| !s.estop && !s.fallen) {
+                    tilt.max_balancing = tilt.max_balancing.max(board.tilt());
+                }
             }
         }
         Ok(())
@@ -404,6 +414,7 @@ impl SimRobot {
                     "plan": Value::Null,
                     "dynamics": {
                         "max_tilt_deg": tilt.max.to_degrees(),
+                        "max_tilt_balancing_deg": tilt.max_balancing.to_degrees(),
                         "final_tilt_deg": board.tilt().to_degrees(),
                         "max_estimated_tilt_deg": tilt.max_estimated.to_degrees(),
                         "fallen": tilt.fall_time.is_some(),

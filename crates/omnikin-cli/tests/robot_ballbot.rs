@@ -140,6 +140,8 @@ fn balances_while_driven_streams_a_square_and_falls_after_an_estop() {
     // Before the e-stop it stood and drove within a few degrees (the fall itself is past the
     // controller's 20° threshold).
     assert!(d["max_tilt_deg"].as_f64().unwrap() > 20.0);
+    let balancing = d["max_tilt_balancing_deg"].as_f64().unwrap();
+    assert!(balancing < 5.0, "max tilt before the fall {balancing}°");
     assert!(d["final_tilt_deg"].as_f64().unwrap() > 20.0);
     assert_eq!(sum["mode"], "estop");
     assert!(sum["fault_history"].as_str().unwrap().contains("fallen"));
@@ -172,6 +174,7 @@ fn stands_and_reports_its_tilt_when_left_alone() {
     assert_eq!(d["fallen"], false, "{sum}");
     assert!(d["fall_time_s"].is_null());
     assert!(d["max_tilt_deg"].as_f64().unwrap() < 0.5, "{sum}");
+    assert_eq!(d["max_tilt_deg"], d["max_tilt_balancing_deg"]);
     assert!(d["final_tilt_deg"].as_f64().unwrap() < 0.5, "{sum}");
     assert!(d["max_estimated_tilt_deg"].as_f64().unwrap() < 1.0, "{sum}");
     assert_eq!(sum["mode"], "idle");
