@@ -208,7 +208,8 @@ pub fn time_ns(t: f64) -> Option<u64> {
 
 /// Log time `ns` as seconds (the CSV logs' `t`).
 pub fn seconds(ns: u64) -> f64 {
-    ns as f64 * 1e-9
+    // A division, not a product with 1e-9: 30 ms is written 0.03, not 0.030000000000000002.
+    ns as f64 / 1e9
 }
 
 /// Foxglove's `time` object `{sec, nsec}` for `ns` nanoseconds.
