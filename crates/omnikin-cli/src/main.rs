@@ -14,6 +14,7 @@ mod drive;
 mod figures;
 mod kinematics;
 mod link_io;
+mod mcap_log;
 mod odometry;
 mod output;
 mod plan;
@@ -87,6 +88,9 @@ enum Command {
     /// Drive a robot over the link from the PC: hello, velocity, plan upload, stop, e-stop,
     /// clear, telemetry and keyboard teleop.
     Drive(drive::DriveArgs),
+    /// Convert an MCAP log (--mcap of simulate, odometry, robot, drive) to one CSV file per
+    /// channel, or CSV logs back to MCAP.
+    Convert(mcap_log::convert::ConvertArgs),
 }
 
 /// `omnikin inverse`.
@@ -232,6 +236,7 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             inputs.extend(a.disturbances.as_deref().map(|p| ("--disturbances", p)));
             inputs.extend(a.sensors.as_deref().map(|p| ("--sensors", p)));
             dirs.push(("--out", &a.out));
+            files.extend(a.mcap.as_deref().map(|p| ("--mcap", p)));
         }
         Command::Evaluate(a) => {
             inputs.push(("--plan", &a.plan));
@@ -245,6 +250,7 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             inputs.extend(a.fixes.as_deref().map(|p| ("--fixes", p)));
             files.push(("--out", &a.out));
             files.extend(a.plot.as_deref().map(|p| ("--plot", p)));
+            files.extend(a.mcap.as_deref().map(|p| ("--mcap", p)));
         }
         Command::Robot(a) => {
             inputs.extend(robot(&a.robot));
@@ -256,9 +262,11 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             );
             inputs.extend(a.key.as_deref().map(|p| ("--key", p)));
             files.extend(a.log.as_deref().map(|p| ("--log", p)));
+            files.extend(a.mcap.as_deref().map(|p| ("--mcap", p)));
         }
         Command::Drive(a) => {
             inputs.extend(a.key.as_deref().map(|p| ("--key", p)));
+            files.extend(a.mcap.as_deref().map(|p| ("--mcap", p)));
             match &a.action {
                 drive::DriveAction::Velocity { out, .. } => {
                     files.extend(out.as_deref().map(|p| ("--out", p)));
@@ -269,6 +277,13 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
                 }
                 drive::DriveAction::Telemetry { out, .. } => files.push(("--out", out)),
                 _ => {}
+            }
+        }
+        Command::Convert(a) => {
+            inputs.push(("IN", &a.input));
+            files.extend(a.mcap.as_deref().map(|p| ("--mcap", p)));
+            if let Some(d) = a.csv.as_deref().filter(|d| output::is_file_like(d)) {
+                output::check_dir("--csv", d)?;
             }
         }
     }
@@ -302,6 +317,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Odometry(a) => odometry::run(&a),
         Command::Robot(a) => robot::run(&a),
         Command::Drive(a) => drive::run(&a),
+        Command::Convert(a) => mcap_log::convert::run(&a),
     }?;
     output::flush_stdout()
 }

@@ -89,6 +89,10 @@ pub struct RobotArgs {
     /// Write one CSV row per control cycle: estimate, true pose, mode, faults, counters.
     #[arg(long, value_name = "FILE")]
     pub log: Option<PathBuf>,
+    /// Also write the log as MCAP with Foxglove schemas (/pose, /truth, /tf, /reference,
+    /// /wheels, /link, /events; docs/seeing-the-robot.md), kept like --log on every exit.
+    #[arg(long, value_name = "FILE")]
+    pub mcap: Option<PathBuf>,
     /// Seed of the disturbance draws.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -178,6 +182,7 @@ pub fn run(a: &RobotArgs) -> Result<()> {
         }
         None => None,
     };
+    let mut mcap = crate::mcap_log::McapLog::for_flag(a.mcap.as_deref(), "omnikin robot", true)?;
     crate::output::catch_signals()?;
     crate::errln!(
         "robot: {} ({}) simulated, {} Hz control, listening on {} (protocol v{}, {}), {}",
@@ -306,6 +311,9 @@ pub fn run(a: &RobotArgs) -> Result<()> {
         {
             writeln!(w, "{row}").context("--log: cannot write")?;
         }
+        if let Some(m) = mcap.as_mut() {
+            sim.mcap_cycle(m, robot_link.counters())?;
+        }
         sim.advance(period)?;
         k += 1;
         if a.max_time.is_some_and(|m| sim.time_us() as f64 * 1e-6 >= m) {
@@ -326,6 +334,9 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     }
     if let Some(w) = log {
         w.commit()?;
+    }
+    if let Some(m) = mcap {
+        m.finish()?;
     }
     let c = robot_link.counters();
     let mut summary = serde_json::json!({

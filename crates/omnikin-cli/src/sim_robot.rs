@@ -287,6 +287,28 @@ impl SimRobot {
         }
     }
 
+    /// The last cycle into the `--mcap` log (nothing before the first cycle): the rate
+    /// runtime's status, or the balance runtime's as its telemetry (zero wheel-rate commands:
+    /// it commands torques), with the true pose on `/truth`.
+    pub fn mcap_cycle(&self, m: &mut crate::mcap_log::McapLog, c: &LinkCounters) -> Result<()> {
+        let truth = self.true_pose();
+        match self {
+            SimRobot::Rate {
+                status: Some(s),
+                robot,
+                ..
+            } => crate::mcap_log::runtime_cycle(m, s, truth, c, robot.steerable()),
+            SimRobot::Balance {
+                status: Some(s), ..
+            } => {
+                let mut sample = crate::mcap_log::telemetry_sample(&Telemetry::from_balance(s, c));
+                sample.truth = Some(truth);
+                m.sample(&sample)
+            }
+            _ => Ok(()),
+        }
+    }
+
     /// The `--log` header (module doc of [`crate::robot`]).
     pub fn log_header(&self) -> String {
         match self {
