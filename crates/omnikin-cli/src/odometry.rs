@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Result;
 use omnikin::Pose2;
 use omnikin::description::RobotDescription;
+use omnikin::estimate::fusion::Recovery;
 use omnikin_sim::odometry::{FixResult, OdometryOptions, OdometryRun};
 // The log and fixes parser lives in the library so that it can be fuzzed (fuzz/).
 use omnikin_sim::table::NumericTable as Table;
@@ -61,6 +62,23 @@ pub struct OdometryArgs {
     /// Gyro bias to subtract from gyro_z, rad/s.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = finite_f64)]
     pub gyro_bias: f64,
+    /// Oldest fix still fused at the time it was taken, s before the latest encoder sample
+    /// (whatever the encoder rate); older fixes are counted as too late.
+    #[arg(long, default_value_t = 1.0, value_parser = positive_f64, value_name = "S")]
+    pub max_latency: f64,
+    /// Do not estimate the remaining gyro bias (with --imu on gyro_z).
+    #[arg(long)]
+    pub no_gyro_bias_state: bool,
+    /// Do not estimate the common wheel-scale factor.
+    #[arg(long)]
+    pub no_wheel_scale_state: bool,
+    /// Rejected fixes in a row that trigger a recovery (re-initialisation when they agree
+    /// within --recovery-spread, covariance inflation otherwise).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=16), value_name = "N")]
+    pub recovery_count: u32,
+    /// Spread of the rejected fixes' innovations within which they count as agreeing, m.
+    #[arg(long, default_value_t = 0.05, value_parser = positive_f64, value_name = "M")]
+    pub recovery_spread: f64,
 }
 
 fn positive_f64(s: &str) -> std::result::Result<f64, String> {
@@ -84,6 +102,11 @@ impl OdometryArgs {
             fix_std: self.fix_std,
             fix_heading_std: self.fix_heading_std,
             gyro_bias: self.gyro_bias,
+            max_latency: self.max_latency,
+            estimate_gyro_bias: !self.no_gyro_bias_state,
+            estimate_wheel_scale: !self.no_wheel_scale_state,
+            recovery_count: self.recovery_count,
+            recovery_spread: self.recovery_spread,
         }
     }
 }
@@ -99,13 +122,30 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     let r = omnikin_sim::odometry::run(&description, &log, fixes.as_ref(), &args.options())?;
     if let Some(table) = &fixes {
         for f in &r.fixes {
-            if let FixResult::Rejected { mahalanobis2, gate } = f.result {
-                crate::errln!(
+            match f.result {
+                FixResult::Rejected { mahalanobis2, gate } => crate::errln!(
                     "warning: {}:{}: fix at t = {} s rejected as an outlier (d² = {mahalanobis2:.1} > {gate:.1})",
                     table.file,
                     f.line,
                     f.t
-                );
+                ),
+                FixResult::Recovered { recovery, rejected } => crate::errln!(
+                    "event: {}:{}: fix at t = {} s ends {rejected} rejections in a row: {}",
+                    table.file,
+                    f.line,
+                    f.t,
+                    match recovery {
+                        Recovery::Reinitialised => "they agree, pose re-initialised at it",
+                        Recovery::Inflated => "they disagree, covariance inflated and fused",
+                    }
+                ),
+                FixResult::Initialised => crate::errln!(
+                    "event: {}:{}: fix at t = {} s sets the initial pose (no --initial-pose)",
+                    table.file,
+                    f.line,
+                    f.t
+                ),
+                _ => {}
             }
         }
     }
@@ -155,13 +195,24 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     }
     if let Some(f) = &sum.fixes {
         crate::errln!(
-            "fixes: {} fused, {} rejected as outliers, {} older than the history, {} after the log; fused end differs from pure odometry by {:.4} m",
+            "fixes: {} fused, {} rejected as outliers, {} arrived too late (> --max-latency), {} after the log; fused end differs from pure odometry by {:.4} m",
             f.accepted,
             f.rejected,
             f.too_late,
             f.after_log,
             f.fused_minus_odometry
         );
+        crate::errln!(
+            "recoveries: {} re-initialised, {} inflated",
+            f.reinitialised,
+            f.inflated
+        );
+        if let Some((b, sb)) = f.gyro_bias {
+            crate::errln!("estimated gyro bias {b:.6} ± {sb:.6} rad/s (1σ)");
+        }
+        if let Some((k, sk)) = f.wheel_scale {
+            crate::errln!("estimated wheel scale {k:.5} ± {sk:.5} (1σ; true/measured travel)");
+        }
     }
     crate::errln!("wrote {}", args.out.display());
     if let Some(svg) = &args.plot {

@@ -16,14 +16,18 @@
 //! Errors name the table, the line and the column ([`OdometryError`]).
 
 use omnikin::description::RobotDescription;
-use omnikin::estimate::estimator::{EstimatorError, Fix, FixOutcome, PoseEstimator, ProcessNoise};
+use omnikin::estimate::estimator::Fix;
+use omnikin::estimate::fusion::{
+    FusionConfig, FusionError, FusionOutcome, PoseFusion, Recovery, StepHeading,
+};
 use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::nalgebra::{Matrix3, Vector3};
 use omnikin::{MAX_WHEELS, Pose2};
 
 use crate::table::{NumericTable, TableError};
 
-/// Odometry-step history kept for late camera fixes (at 100 Hz: 2.5 s).
+/// Entries of the filter's history (sized by time: half of them cover
+/// [`OdometryOptions::max_latency`] whatever the encoder rate).
 pub const HISTORY: usize = 256;
 
 /// How to run the pipeline. [`Default`] gives the command line's defaults.
@@ -43,6 +47,18 @@ pub struct OdometryOptions {
     pub fix_heading_std: f64,
     /// Gyro bias subtracted from `gyro_z`, rad/s. Default 0.
     pub gyro_bias: f64,
+    /// Oldest fix still fused at its time, s before the latest encoder sample (> 0); older
+    /// fixes are counted as too late. Default 1.
+    pub max_latency: f64,
+    /// Estimate the (remaining) gyro bias when the heading comes from `gyro_z`. Default `true`.
+    pub estimate_gyro_bias: bool,
+    /// Estimate a common wheel-scale factor (true / measured travel). Default `true`.
+    pub estimate_wheel_scale: bool,
+    /// Rejected fixes in a row that trigger a recovery (1..=16). Default 5.
+    pub recovery_count: u32,
+    /// Spread within which a run of rejected fixes counts as agreeing (re-initialise, else
+    /// inflate the covariance), m (> 0). Default 0.05.
+    pub recovery_spread: f64,
 }
 
 impl Default for OdometryOptions {
@@ -54,6 +70,11 @@ impl Default for OdometryOptions {
             fix_std: 0.01,
             fix_heading_std: 0.05,
             gyro_bias: 0.0,
+            max_latency: 1.0,
+            estimate_gyro_bias: true,
+            estimate_wheel_scale: true,
+            recovery_count: 5,
+            recovery_spread: 0.05,
         }
     }
 }
@@ -91,6 +112,12 @@ pub struct OdometryColumns {
     pub y: Vec<f64>,
     /// Estimated heading, rad, unwrapped (as `x`).
     pub heading: Vec<f64>,
+    /// 1-σ of the estimated x, m (0 without fixes: the odometry has no covariance here).
+    pub std_x: Vec<f64>,
+    /// 1-σ of the estimated y, m.
+    pub std_y: Vec<f64>,
+    /// 1-σ of the estimated heading, rad.
+    pub std_heading: Vec<f64>,
     /// Pure odometry x, m (no fixes).
     pub odometry_x: Vec<f64>,
     /// Pure odometry y, m.
@@ -128,11 +155,14 @@ impl OdometryColumns {
         ))
     }
 
-    fn push(&mut self, t: f64, estimate: Pose2<f64>, odometry: Pose2<f64>) {
+    fn push(&mut self, t: f64, estimate: Pose2<f64>, std: [f64; 3], odometry: Pose2<f64>) {
         self.t.push(t);
         self.x.push(estimate.x);
         self.y.push(estimate.y);
         self.heading.push(estimate.heading);
+        self.std_x.push(std[0]);
+        self.std_y.push(std[1]);
+        self.std_heading.push(std[2]);
         self.odometry_x.push(odometry.x);
         self.odometry_y.push(odometry.y);
         self.odometry_heading.push(odometry.heading);
@@ -158,6 +188,16 @@ pub enum FixResult {
     TooLate,
     /// Arrived after the last log sample: never handed to the filter.
     AfterLog,
+    /// The first fix without [`OdometryOptions::initial_pose`]: it set the pose.
+    Initialised,
+    /// Ended a run of `rejected` rejections by a recovery (re-initialisation or covariance
+    /// inflation), then fused: an event.
+    Recovered {
+        /// Re-initialised or inflated.
+        recovery: Recovery,
+        /// Rejections before it.
+        rejected: u32,
+    },
 }
 
 /// One fix of the input and what became of it.
@@ -192,6 +232,18 @@ pub struct FixSummary {
     pub after_log: usize,
     /// Distance between the fused and the pure-odometry end positions, m.
     pub fused_minus_odometry: f64,
+    /// Recoveries by re-initialisation (a run of agreeing rejected fixes).
+    pub reinitialised: usize,
+    /// Recoveries by covariance inflation.
+    pub inflated: usize,
+    /// Time the first fix set the pose, s (no initial pose given).
+    pub initialised_at: Option<f64>,
+    /// Estimated gyro bias, rad/s (the given `gyro_bias` plus the filter's), and its 1-σ;
+    /// `None` unless the heading comes from `gyro_z` and the state is on.
+    pub gyro_bias: Option<(f64, f64)>,
+    /// Estimated common wheel-scale factor (true / measured travel) and its 1-σ; `None` when
+    /// the state is off.
+    pub wheel_scale: Option<(f64, f64)>,
 }
 
 /// What the run produced besides the rows.
@@ -288,6 +340,24 @@ fn check_options(o: &OdometryOptions) -> Result<(), OdometryError> {
         if !(v.is_finite() && v > 0.0) {
             return bad(name, format!("must be a finite number > 0, got {v}"));
         }
+    }
+    if !(o.max_latency.is_finite() && o.max_latency > 0.0) {
+        return bad(
+            "max_latency",
+            format!("must be a finite number > 0, got {}", o.max_latency),
+        );
+    }
+    if !(o.recovery_spread.is_finite() && o.recovery_spread > 0.0) {
+        return bad(
+            "recovery_spread",
+            format!("must be a finite number > 0, got {}", o.recovery_spread),
+        );
+    }
+    if !(1..=omnikin::estimate::fusion::MAX_RECOVERY_COUNT).contains(&o.recovery_count) {
+        return bad(
+            "recovery_count",
+            format!("must be in 1..=16, got {}", o.recovery_count),
+        );
     }
     if !o.gyro_bias.is_finite() {
         return bad("gyro_bias", format!("must be finite, got {}", o.gyro_bias));
@@ -443,14 +513,40 @@ pub fn run(
     };
     let t0 = log.rows[0].1[q[0]];
     let estimator_error =
-        |file: &str, line: usize, e: EstimatorError| input(file, Some(line), e.to_string());
-    let mut est = PoseEstimator::<f64, HISTORY>::new(
-        t0,
-        start,
-        Matrix3::from_diagonal(&Vector3::new(1e-4, 1e-4, 1e-4)),
-        ProcessNoise::wheel_odometry(),
-    )
-    .map_err(|e| estimator_error(&log.file, log.rows[0].0, e))?;
+        |file: &str, line: usize, e: FusionError| input(file, Some(line), e.to_string());
+    let step_heading = match source {
+        Source::Wheels => StepHeading::Wheels,
+        Source::Gyro(_) => StepHeading::Gyro,
+        Source::Yaw(_) => StepHeading::Absolute,
+    };
+    let defaults = FusionConfig::<f64>::default();
+    let config = FusionConfig {
+        gyro_bias_std: if options.estimate_gyro_bias && step_heading == StepHeading::Gyro {
+            defaults.gyro_bias_std
+        } else {
+            0.0
+        },
+        scale_std: if options.estimate_wheel_scale {
+            defaults.scale_std
+        } else {
+            0.0
+        },
+        max_latency: options.max_latency,
+        recovery_count: options.recovery_count,
+        recovery_spread: options.recovery_spread,
+        ..defaults
+    };
+    let est = match options.initial_pose {
+        Some(p) => PoseFusion::<f64, HISTORY>::new(
+            t0,
+            p,
+            Matrix3::from_diagonal(&Vector3::new(1e-4, 1e-4, 1e-4)),
+            config,
+        ),
+        None => PoseFusion::awaiting_fix(t0, 0.0, config),
+    };
+    // About 100 kB: on the heap.
+    let mut est = Box::new(est.map_err(|e| estimator_error(&log.file, log.rows[0].0, e))?);
     let mut odo = Odometry::new(robot, start);
     let mut columns = OdometryColumns::default();
     let mut counts = FixSummary::default();
@@ -515,7 +611,7 @@ pub fn run(
             spin_sum = (spin_sum.0 + x, spin_sum.1 + 1);
         }
         if step.dt > 0.0 {
-            est.predict(t, step.delta)
+            est.predict(t, step.delta, step_heading)
                 .map_err(|e| estimator_error(&log.file, line, e))?;
         }
         if let Some(list) = fix_list.as_mut() {
@@ -531,15 +627,28 @@ pub fn run(
                     std_heading: options.fix_heading_std,
                 };
                 rec.result = match est.add_fix(&fix) {
-                    Ok(FixOutcome::Accepted { mahalanobis2 }) => {
+                    Ok(FusionOutcome::Accepted { mahalanobis2 }) => {
                         counts.accepted += 1;
                         FixResult::Accepted { mahalanobis2 }
                     }
-                    Ok(FixOutcome::Rejected { mahalanobis2, gate }) => {
+                    Ok(FusionOutcome::Rejected { mahalanobis2, gate }) => {
                         counts.rejected += 1;
                         FixResult::Rejected { mahalanobis2, gate }
                     }
-                    Err(EstimatorError::FixTooOld { .. }) => {
+                    Ok(FusionOutcome::Initialised) => {
+                        counts.accepted += 1;
+                        counts.initialised_at = Some(rec.t);
+                        FixResult::Initialised
+                    }
+                    Ok(FusionOutcome::Recovered { recovery, rejected }) => {
+                        counts.accepted += 1;
+                        match recovery {
+                            Recovery::Reinitialised => counts.reinitialised += 1,
+                            Recovery::Inflated => counts.inflated += 1,
+                        }
+                        FixResult::Recovered { recovery, rejected }
+                    }
+                    Err(FusionError::TooLate { .. }) => {
                         counts.too_late += 1;
                         FixResult::TooLate
                     }
@@ -547,12 +656,14 @@ pub fn run(
                 };
             }
         }
-        let estimate = if fix_list.is_some() {
-            est.pose()
+        let (estimate, std) = if fix_list.is_some() {
+            let p = est.pose_covariance();
+            let sd = |i: usize| p[(i, i)].max(0.0).sqrt();
+            (est.pose(), [sd(0), sd(1), sd(2)])
         } else {
-            step.pose
+            (step.pose, [0.0; 3])
         };
-        columns.push(t, estimate, step.pose);
+        columns.push(t, estimate, std, step.pose);
     }
 
     let end = columns.pose(columns.len() - 1).unwrap_or(start);
@@ -560,9 +671,12 @@ pub fn run(
     let fixes_out = fix_list.unwrap_or_default();
     let fix_summary = fixes.map(|_| {
         let p = odo.pose();
+        let (b, sb) = est.gyro_bias();
         FixSummary {
             after_log: fixes_out.len() - next_fix,
             fused_minus_odometry: (p.x - end.x).hypot(p.y - end.y),
+            gyro_bias: (config.gyro_bias_std > 0.0).then_some((options.gyro_bias + b, sb)),
+            wheel_scale: (config.scale_std > 0.0).then(|| est.wheel_scale()),
             ..counts
         }
     });
