@@ -609,7 +609,7 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
                 z - s.x[i]
             };
             let sv = s.p[(i, i)] + r;
-            if !(sv > T::zero()) {
+            if sv.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
                 continue;
             }
             let k: Vec5<T> = s.p.column(i) / sv;
