@@ -17,7 +17,7 @@ use anyhow::Result;
 use omnikin::Pose2;
 use omnikin::description::RobotDescription;
 use omnikin::estimate::fusion::Recovery;
-use omnikin_sim::odometry::{FixResult, OdometryOptions, OdometryRun};
+use omnikin_sim::odometry::{EventThresholds, FixResult, OdometryOptions, OdometryRun};
 // The log and fixes parser lives in the library so that it can be fuzzed (fuzz/).
 use omnikin_sim::table::NumericTable as Table;
 
@@ -79,6 +79,19 @@ pub struct OdometryArgs {
     /// Spread of the rejected fixes' innovations within which they count as agreeing, m.
     #[arg(long, default_value_t = 0.05, value_parser = positive_f64, value_name = "M")]
     pub recovery_spread: f64,
+    /// Also write the slip and collision events to this CSV: kind,start,end,peak.
+    #[arg(long, value_name = "events.csv")]
+    pub events: Option<PathBuf>,
+    /// Yaw-rate disagreement between the wheels and the IMU heading that counts as slip, rad/s.
+    #[arg(long, default_value_t = 0.3, value_parser = positive_f64, value_name = "RAD_S")]
+    pub slip_yaw_rate: f64,
+    /// Least-squares slip residual that counts as slip (kinds with more motors than twist
+    /// components), m/s.
+    #[arg(long, default_value_t = 0.05, value_parser = positive_f64, value_name = "M_S")]
+    pub slip_residual: f64,
+    /// Deceleration of the wheel speed (over 50 ms) that counts as a collision, m/s².
+    #[arg(long, default_value_t = 3.0, value_parser = positive_f64, value_name = "M_S2")]
+    pub collision_decel: f64,
 }
 
 fn positive_f64(s: &str) -> std::result::Result<f64, String> {
@@ -107,6 +120,12 @@ impl OdometryArgs {
             estimate_wheel_scale: !self.no_wheel_scale_state,
             recovery_count: self.recovery_count,
             recovery_spread: self.recovery_spread,
+            events: EventThresholds {
+                slip_yaw_rate: self.slip_yaw_rate,
+                slip_residual: self.slip_residual,
+                collision_decel: self.collision_decel,
+                ..EventThresholds::default()
+            },
         }
     }
 }
@@ -214,7 +233,30 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
             crate::errln!("estimated wheel scale {k:.5} ± {sk:.5} (1σ; true/measured travel)");
         }
     }
+    for e in &r.events {
+        crate::errln!(
+            "event: {} from t = {} s to {} s (peak {:.3} {})",
+            e.kind.name(),
+            e.start,
+            e.end,
+            e.peak,
+            match e.kind {
+                omnikin_sim::odometry::EventKind::Collision => "m/s² deceleration",
+                omnikin_sim::odometry::EventKind::Slip => "rad/s or m/s",
+            }
+        );
+    }
     crate::errln!("wrote {}", args.out.display());
+    if let Some(path) = &args.events {
+        let mut text = String::from("kind,start,end,peak\n");
+        for e in &r.events {
+            let _ = writeln!(text, "{},{},{},{}", e.kind.name(), e.start, e.end, e.peak);
+        }
+        crate::output::write_file("--events", path, |w| {
+            std::io::Write::write_all(w, text.as_bytes())
+        })?;
+        crate::errln!("wrote {}", path.display());
+    }
     if let Some(svg) = &args.plot {
         let fix_points: Vec<(f64, f64)> = r.fixes.iter().map(|f| (f.x, f.y)).collect();
         figure("--plot", svg, &r, &fix_points, fixes.is_some())?;

@@ -5,7 +5,8 @@
 //! * after a 10 s camera outage in a 40 s run the estimate is back within a few fixes;
 //! * a start far from the origin without an initial pose converges;
 //! * with a 3 % wheel-scale error and a gyro bias, the drift over a 10 s outage after 20 s of
-//!   fixes is less than half of the uncorrected drift.
+//!   fixes is less than half of the uncorrected drift;
+//! * an injected wheel spin and a sudden stop each produce exactly one event at their time.
 //!
 //! The truth is integrated here independently (100 sub-steps per encoder sample, exact SE(2)
 //! steps of the analytic twist); the log is what ideal encoders scaled by the wheel-scale error
@@ -13,7 +14,7 @@
 
 use omnikin::description::RobotDescription;
 use omnikin::{Actuators, Pose2, Twist2, se2};
-use omnikin_sim::odometry::{FixResult, OdometryOptions, OdometryRun, run};
+use omnikin_sim::odometry::{EventKind, FixResult, OdometryOptions, OdometryRun, run};
 use omnikin_sim::table::NumericTable;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -35,6 +36,20 @@ struct World {
 /// A kiwi log at `rate` Hz over `duration` s from `start`: wheel angles divided by `scale`
 /// (true travel / measured = `scale`), gyro_z = true rate + `gyro_bias` + white noise.
 fn world(duration: f64, rate: f64, start: Pose2<f64>, scale: f64, gyro_bias: f64) -> World {
+    world_with(duration, rate, start, scale, gyro_bias, twist, |_, _| 0.0)
+}
+
+/// [`world`] with another motion `twist` and an extra wheel rate `spin(wheel, t)` (rad/s) that
+/// does not move the robot (a wheel spinning on the spot).
+fn world_with(
+    duration: f64,
+    rate: f64,
+    start: Pose2<f64>,
+    scale: f64,
+    gyro_bias: f64,
+    twist: impl Fn(f64) -> Twist2<f64>,
+    spin: impl Fn(usize, f64) -> f64,
+) -> World {
     let description = RobotDescription::preset("kiwi").unwrap();
     let robot = description.build::<f64>().unwrap();
     let n = robot.wheels();
@@ -57,7 +72,7 @@ fn world(duration: f64, rate: f64, start: Pose2<f64>, scale: f64, gyro_bias: f64
                 pose = se2::compose(pose, se2::twist_exp(tw, h));
                 let a = robot.inverse(tw, &Actuators::zero()).unwrap();
                 for (i, qi) in q.iter_mut().enumerate() {
-                    *qi += a.wheel_rates[i] * h;
+                    *qi += (a.wheel_rates[i] + spin(i, tm)) * h;
                 }
             }
         }
@@ -288,4 +303,56 @@ fn bias_and_scale_states_halve_the_drift_of_an_outage() {
     assert!((b - 0.01).abs() < 3.0 * sb + 1e-3, "{b} ± {sb}");
     let (k, sk) = s.wheel_scale.unwrap();
     assert!((k - 1.03).abs() < 3.0 * sk + 2e-3, "{k} ± {sk}");
+}
+
+#[test]
+fn a_wheel_spin_and_a_sudden_stop_are_one_event_each() {
+    // 4096-count encoders at 1 kHz (quantised angles), the gyro heading: wheel 1 spins 15 rad/s
+    // faster from 5.0 to 5.3 s without moving the robot; at 8.0 s the robot stops dead.
+    let rate = 1000.0;
+    let stop = |t: f64| {
+        if t < 8.0 {
+            twist(t)
+        } else {
+            Twist2::new(0.0, 0.0, 0.0)
+        }
+    };
+    let spin = |i: usize, t: f64| {
+        if i == 0 && (5.0..5.3).contains(&t) {
+            15.0
+        } else {
+            0.0
+        }
+    };
+    let quantised = |mut w: World| {
+        let step = std::f64::consts::TAU / 4096.0;
+        for (_, row) in &mut w.log.rows {
+            for q in &mut row[1..4] {
+                *q = (*q / step).round() * step;
+            }
+        }
+        w
+    };
+    let w = quantised(world_with(
+        10.0,
+        rate,
+        Pose2::new(0.0, 0.0, 0.0),
+        1.0,
+        0.0,
+        stop,
+        spin,
+    ));
+    let r = run(&w.description, &w.log, None, &options(&w, true)).unwrap();
+    println!("events: {:?}", r.events);
+    assert_eq!(r.events.len(), 2, "{:?}", r.events);
+    let (slip, hit) = (r.events[0], r.events[1]);
+    assert_eq!(slip.kind, EventKind::Slip);
+    assert!((5.0..5.03).contains(&slip.start), "{slip:?}");
+    assert!((5.28..5.35).contains(&slip.end), "{slip:?}");
+    assert_eq!(hit.kind, EventKind::Collision);
+    assert!((8.0..8.03).contains(&hit.start), "{hit:?}");
+    // Without the spin and the stop: no event at all (quantisation is no slip).
+    let calm = quantised(world(10.0, rate, Pose2::new(0.0, 0.0, 0.0), 1.0, 0.0));
+    let r = run(&calm.description, &calm.log, None, &options(&calm, true)).unwrap();
+    assert!(r.events.is_empty(), "{:?}", r.events);
 }

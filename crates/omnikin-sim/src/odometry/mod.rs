@@ -26,6 +26,9 @@ use omnikin::{MAX_WHEELS, Pose2};
 
 use crate::table::{NumericTable, TableError};
 
+pub mod events;
+pub use events::{EventKind, EventThresholds, OdometryEvent};
+
 /// Entries of the filter's history (sized by time: half of them cover
 /// [`OdometryOptions::max_latency`] whatever the encoder rate).
 pub const HISTORY: usize = 256;
@@ -59,6 +62,8 @@ pub struct OdometryOptions {
     /// Spread within which a run of rejected fixes counts as agreeing (re-initialise, else
     /// inflate the covariance), m (> 0). Default 0.05.
     pub recovery_spread: f64,
+    /// Slip and collision thresholds. Default [`EventThresholds::default`].
+    pub events: EventThresholds,
 }
 
 impl Default for OdometryOptions {
@@ -75,6 +80,7 @@ impl Default for OdometryOptions {
             estimate_wheel_scale: true,
             recovery_count: 5,
             recovery_spread: 0.05,
+            events: EventThresholds::default(),
         }
     }
 }
@@ -282,6 +288,8 @@ pub struct OdometryRun {
     pub fixes: Vec<FixRecord>,
     /// Counters and end pose.
     pub summary: OdometrySummary,
+    /// Slip and collision events, by start time.
+    pub events: Vec<OdometryEvent>,
 }
 
 /// Why the pipeline stopped: a malformed or inconsistent input, named by file, line and column.
@@ -357,6 +365,12 @@ fn check_options(o: &OdometryOptions) -> Result<(), OdometryError> {
         return bad(
             "recovery_count",
             format!("must be in 1..=16, got {}", o.recovery_count),
+        );
+    }
+    if let Err((name, v)) = o.events.check() {
+        return bad(
+            "events",
+            format!("{name} must be a finite number > 0, got {v}"),
         );
     }
     if !o.gyro_bias.is_finite() {
@@ -554,6 +568,11 @@ pub fn run(
     let mut max_slip = (0.0f64, t0);
     let mut spin_sum = (0.0f64, 0usize);
     let mut path = 0.0;
+    let mut detector = events::Detector::new(
+        options.events,
+        !matches!(source, Source::Wheels),
+        odo.robot().motors() > 3,
+    );
     for (line, v) in &log.rows {
         let line = *line;
         let at = |i: usize| v[i];
@@ -604,6 +623,7 @@ pub fn run(
             .update(&reading, heading)
             .map_err(|e| input(&log.file, Some(line), e.to_string()))?;
         path += step.delta.x.hypot(step.delta.y);
+        detector.step(&step);
         if step.slip_residual > max_slip.0 {
             max_slip = (step.slip_residual, t);
         }
@@ -700,5 +720,6 @@ pub fn run(
         columns,
         fixes: fixes_out,
         summary,
+        events: detector.finish(),
     })
 }
