@@ -256,3 +256,52 @@ fn bad_inputs_are_refused() {
         })
     ));
 }
+
+proptest! {
+    /// Any interleaving of steps (irregular rates) and fixes (any latency, duplicates, far
+    /// outliers, with and without heading) in a tiny 8-entry history: no panic, a finite state
+    /// with a symmetric covariance of non-negative diagonal, and the only refusals are the
+    /// documented ones.
+    #[test]
+    fn any_sequence_keeps_a_sane_state(
+        ops in prop::collection::vec(
+            (0u8..3, 1e-4f64..0.2, -1.5f64..0.1, -3.0f64..3.0, -3.0f64..3.0, any::<bool>()),
+            1..200,
+        ),
+        awaiting in any::<bool>(),
+    ) {
+        let config = FusionConfig { max_latency: 0.5, ..FusionConfig::default() };
+        let mut f = if awaiting {
+            PoseFusion::<f64, 8>::awaiting_fix(0.0, 0.0, config).unwrap()
+        } else {
+            PoseFusion::<f64, 8>::new(0.0, Pose2::new(0.0, 0.0, 0.0), Matrix3::identity() * 1e-4, config)
+                .unwrap()
+        };
+        let mut t = 0.0;
+        for (op, dt, age, x, y, with_heading) in ops {
+            if op < 2 {
+                t += dt;
+                let d = se2::twist_exp(Twist2::new(x * 0.1, y * 0.1, x * 0.3), dt);
+                let kind = if op == 0 { StepHeading::Gyro } else { StepHeading::Wheels };
+                f.predict(t, d, kind).unwrap();
+            } else {
+                let mut fx = Fix::position((t + age).min(t), x, y, 0.01);
+                if with_heading {
+                    fx.heading = Some(x * 2.0);
+                    fx.std_heading = 0.05;
+                }
+                match f.add_fix(&fx) {
+                    Ok(_) => {}
+                    Err(FusionError::TooLate { t: ft, oldest }) => prop_assert!(ft < oldest),
+                    Err(e) => prop_assert!(false, "{e}"),
+                }
+            }
+            let (x, p) = f.state();
+            prop_assert!(x.iter().all(|v| v.is_finite()));
+            prop_assert!(p.iter().all(|v| v.is_finite()));
+            prop_assert!((p - p.transpose()).abs().max() <= 1e-9 * (1.0 + p.abs().max()));
+            prop_assert!((0..5).all(|i| p[(i, i)] >= -1e-12));
+            prop_assert!(f.oldest_time() <= t);
+        }
+    }
+}

@@ -733,6 +733,10 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
                 latest: latest.to_f64(),
             });
         }
+        // A fix may add an entry: make room first (the fix may then be too late).
+        if self.len == N {
+            self.evict();
+        }
         if fix.t < self.base.t {
             return Err(FusionError::TooLate {
                 t: fix.t.to_f64(),
@@ -836,7 +840,7 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         (k, Split::Inside(first, second))
     }
 
-    fn insert(&mut self, mut k: usize, split: Split<T>, fix: &Fix<T>, action: Action<T>) {
+    fn insert(&mut self, k: usize, split: Split<T>, fix: &Fix<T>, action: Action<T>) {
         match split {
             Split::Base => {
                 // Applied to the base itself (its own event is not kept: the base is a state).
@@ -847,11 +851,8 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
                 let i = self.index(k);
                 let e = self.buf[i];
                 if e.event.is_some() {
-                    // Split off a zero-length entry so that both events survive replays.
-                    if self.len == N {
-                        self.evict();
-                        k -= 1;
-                    }
+                    // Split off a zero-length entry so that both events survive replays (there
+                    // is room: add_fix keeps len < N).
                     self.shift_from(k + 1);
                     let j = self.index(k + 1);
                     self.buf[j] = Entry {
@@ -871,10 +872,6 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
                 }
             }
             Split::Inside(mut first, second) => {
-                if self.len == N {
-                    self.evict();
-                    k = k.saturating_sub(1);
-                }
                 self.shift_from(k);
                 first.event = Some((*fix, action));
                 let (i0, i1) = (self.index(k), self.index(k + 1));
