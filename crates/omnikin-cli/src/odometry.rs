@@ -212,6 +212,21 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
             "mean shell/ball spin about the vertical (from wheels + IMU heading): {spin:.4} rad/s"
         );
     }
+    if let Some(s) = sum.shell_spin {
+        crate::errln!(
+            "shell/ball spin Ω3 {:.4} ± {:.4} rad/s (1σ; corrected for the gyro bias and wheel scale {}; platform tilt not compensated)",
+            s.mean,
+            s.std,
+            if s.from_fixes {
+                "estimated from the fixes"
+            } else {
+                "within their priors, no fixes"
+            }
+        );
+    }
+    if let Some(why) = sum.shell_spin_unobservable {
+        crate::errln!("shell/ball spin Ω3 not observable: {why}");
+    }
     if let Some(f) = &sum.fixes {
         crate::errln!(
             "fixes: {} fused, {} rejected as outliers, {} arrived too late (> --max-latency), {} after the log; fused end differs from pure odometry by {:.4} m",

@@ -275,8 +275,33 @@ pub struct OdometrySummary {
     /// Mean shell/ball spin about the vertical from wheels + IMU heading, rad/s (sphere and
     /// ballbot with `imu`); `None` otherwise.
     pub mean_shell_spin: Option<f64>,
+    /// The mean shell/ball spin `Ω3` with its 1-σ bound, corrected for the estimated gyro bias
+    /// and wheel scale when the filter has them (sphere and ballbot with `imu`).
+    pub shell_spin: Option<ShellSpin>,
+    /// Why `Ω3` is not measured, for the sphere and the ballbot without `imu`.
+    pub shell_spin_unobservable: Option<&'static str>,
     /// Fix counters, when fixes were given.
     pub fixes: Option<FixSummary>,
+}
+
+/// The mean shell (sphere) or ball (ballbot) spin about the vertical over the log,
+/// `Ω3 = (Δψ − k·w)/Δt − b` with `Δψ` the IMU heading change, `w` the wheels' heading change
+/// at zero spin (paper 000, eq. 5.6), `b` the gyro bias and `k` the wheel scale.
+///
+/// The 1-σ bound combines the scatter of the per-second means, the gyro-bias and wheel-scale
+/// uncertainty (the filter's, or its priors 0.02 rad/s and 0.05 without fixes) and their
+/// correlation. Platform tilt is not compensated: on a tilted platform the gyro's z axis is not
+/// vertical and `Ω3` is biased by about `ψ̇·(1 − cos tilt)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShellSpin {
+    /// Mean `Ω3`, rad/s, corrected.
+    pub mean: f64,
+    /// Its 1-σ bound, rad/s.
+    pub std: f64,
+    /// The mean before the bias and scale correction, rad/s.
+    pub uncorrected: f64,
+    /// Whether the filter's bias and scale estimates (from fixes) were used, not their priors.
+    pub from_fixes: bool,
 }
 
 /// The result of [`run`].
@@ -567,6 +592,10 @@ pub fn run(
     let mut next_fix = 0;
     let mut max_slip = (0.0f64, t0);
     let mut spin_sum = (0.0f64, 0usize);
+    // Mean wheel heading rate at zero spin, and per-second means of Ω3 (their scatter).
+    let mut wheel_rate_sum = 0.0f64;
+    let mut blocks: Vec<f64> = Vec::new();
+    let mut block = (0.0f64, 0usize, t0);
     let mut path = 0.0;
     let mut detector = events::Detector::new(
         options.events,
@@ -629,6 +658,12 @@ pub fn run(
         }
         if let Some(x) = step.shell_spin {
             spin_sum = (spin_sum.0 + x, spin_sum.1 + 1);
+            wheel_rate_sum += step.twist.yaw_rate - x;
+            block = (block.0 + x, block.1 + 1, block.2);
+            if t - block.2 >= 1.0 {
+                blocks.push(block.0 / block.1 as f64);
+                block = (0.0, 0, t);
+            }
         }
         if step.dt > 0.0 {
             est.predict(t, step.delta, step_heading)
@@ -714,6 +749,60 @@ pub fn run(
         end,
         max_slip: (odo.robot().motors() > 3).then_some(max_slip),
         mean_shell_spin: (spin_sum.1 > 0).then(|| spin_sum.0 / spin_sum.1 as f64),
+        shell_spin: (spin_sum.1 > 0).then(|| {
+            let n = spin_sum.1 as f64;
+            let (raw, w) = (spin_sum.0 / n, wheel_rate_sum / n);
+            // Scatter of the per-second means (the samples themselves are correlated).
+            let scatter = if blocks.len() >= 2 {
+                let m = blocks.iter().sum::<f64>() / blocks.len() as f64;
+                let var = blocks.iter().map(|b| (b - m).powi(2)).sum::<f64>()
+                    / (blocks.len() - 1) as f64;
+                (var / blocks.len() as f64).sqrt()
+            } else {
+                0.0
+            };
+            let gyro = step_heading == StepHeading::Gyro;
+            let from_fixes = fixes.is_some() && est.initialised();
+            let (xs, p) = est.state();
+            let (b, k, vb, vk, cbk) = if from_fixes {
+                (
+                    if gyro { xs[3] } else { 0.0 },
+                    xs[4],
+                    if gyro { p[(3, 3)] } else { 0.0 },
+                    p[(4, 4)],
+                    if gyro { p[(3, 4)] } else { 0.0 },
+                )
+            } else {
+                let d = FusionConfig::<f64>::default();
+                let vb = if gyro { d.gyro_bias_std.powi(2) } else { 0.0 };
+                (0.0, 1.0, vb, d.scale_std.powi(2), 0.0)
+            };
+            // A state switched off has no variance: its prior is the honest bound.
+            let d = FusionConfig::<f64>::default();
+            let vb = if gyro && config.gyro_bias_std == 0.0 {
+                d.gyro_bias_std.powi(2)
+            } else {
+                vb
+            };
+            let vk = if config.scale_std == 0.0 {
+                d.scale_std.powi(2)
+            } else {
+                vk
+            };
+            // Ω3 = raw − b − (k − 1)·w;  ∂/∂b = −1, ∂/∂k = −w.
+            let var = vb + w * w * vk + 2.0 * w * cbk + scatter * scatter;
+            ShellSpin {
+                mean: raw - b - (k - 1.0) * w,
+                std: var.max(0.0).sqrt(),
+                uncorrected: raw,
+                from_fixes,
+            }
+        }),
+        shell_spin_unobservable: (odo.robot().kind().has_vertical_spin()
+            && matches!(source, Source::Wheels))
+        .then_some(
+            "the heading comes from the wheels, so the spin is assumed (0), not measured: use --imu",
+        ),
         fixes: fix_summary,
     };
     Ok(OdometryRun {
