@@ -3,8 +3,9 @@
 //! The pipeline behind `omnikin odometry`, as a library so that the command line and the Python
 //! bindings run the same code on in-memory tables (no files): a parsed encoder log
 //! ([`NumericTable`], conventions.md "Encoder log CSV for odometry") and optional camera fixes
-//! go through the core's [`Odometry`] and [`PoseEstimator`]; the result is one row per log
-//! sample ([`OdometryColumns`]) and a [`OdometrySummary`].
+//! go through the core's [`Odometry`] and [`PoseFusion`] (pose, gyro bias, wheel scale); the
+//! result is one row per log sample ([`OdometryColumns`]), every fix's fate ([`FixRecord`]),
+//! the slip and collision events ([`events`]) and an [`OdometrySummary`].
 //!
 //! * Log: `t,q1..qN` cumulative wheel angles (rad, or counts with
 //!   [`OdometryOptions::counts_per_rev`]), one per wheel of the robot; `s1..sN` steer angles for
