@@ -351,3 +351,82 @@ fn bad_logs_name_the_file_line_and_column() {
             .stderr(predicate::str::contains(*message));
     }
 }
+
+#[test]
+fn fusion_summary_events_file_and_bad_flags() {
+    // The sphere circle with fixes but no --initial-pose: the first fix sets the pose, the
+    // summary names the counters, the recoveries and the wheel scale, --events writes its CSV.
+    let dir = scratch("fusion-flags");
+    let zoh = Profile::from_toml_str("hold = \"zoh\"", "zoh").unwrap();
+    let (robot, trial) = sphere_trial(&zoh, 3);
+    let sensors = SensorProfile {
+        camera: Some(CameraProfile {
+            period: 0.1,
+            latency: 0.3,
+            noise_std: 0.002,
+            heading_noise_std: None,
+            outlier_probability: 0.0,
+            outlier_distance: 0.5,
+        }),
+        ..SensorProfile::default()
+    };
+    let s = emit(&robot, &trial, &sensors, &mut trial_rng(3, 1));
+    let (log, fixes) = (dir.join("log.csv"), dir.join("fixes.csv"));
+    write_encoder_log(&s.encoder, std::fs::File::create(&log).unwrap()).unwrap();
+    write_fixes(&s.fixes, std::fs::File::create(&fixes).unwrap()).unwrap();
+    let (out, events) = (dir.join("p.csv"), dir.join("events.csv"));
+    omnikin()
+        .args([
+            "odometry",
+            log.to_str().unwrap(),
+            "--robot",
+            "sphere-omni",
+            "--out",
+        ])
+        .arg(&out)
+        .arg("--fixes")
+        .arg(&fixes)
+        .arg("--events")
+        .arg(&events)
+        .assert()
+        .success()
+        .stderr(predicate::str::contains(
+            "fix at t = 0 s sets the initial pose (no --initial-pose)",
+        ))
+        .stderr(predicate::str::contains(
+            "0 arrived too late (> --max-latency)",
+        ))
+        .stderr(predicate::str::contains(
+            "recoveries: 0 re-initialised, 0 inflated",
+        ))
+        .stderr(predicate::str::contains("estimated wheel scale"));
+    assert_eq!(
+        std::fs::read_to_string(&events).unwrap(),
+        "kind,start,end,peak\n"
+    );
+    // The fused path ends on the truth although it started at the origin.
+    let poses = read_poses(&out);
+    let (p, q) = (poses.last().unwrap(), trial.pose.last().unwrap());
+    let end = (p[1] - q.x).hypot(p[2] - q.y);
+    assert!(end < 0.01, "{end}");
+    for (flag, value, message) in [
+        ("--max-latency", "0", "must be > 0"),
+        ("--recovery-count", "0", "0 is not in 1..=16"),
+        ("--collision-decel=-1", "", "must be > 0"),
+    ] {
+        omnikin()
+            .args([
+                "odometry",
+                log.to_str().unwrap(),
+                "--robot",
+                "sphere-omni",
+                "--out",
+            ])
+            .arg(dir.join("q.csv"))
+            .arg(flag)
+            .args((!value.is_empty()).then_some(value))
+            .assert()
+            .failure()
+            .stderr(predicate::str::contains(message));
+    }
+}

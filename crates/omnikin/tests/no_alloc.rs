@@ -128,3 +128,35 @@ fn balance_controller_allocates_nothing() {
     });
     assert_eq!(n, 0, "the balance controller allocated {n} times");
 }
+
+#[test]
+fn fusion_filter_step_allocates_nothing() {
+    use omnikin::estimate::estimator::Fix;
+    use omnikin::estimate::fusion::{FusionConfig, PoseFusion, StepHeading};
+    use omnikin::nalgebra::Matrix3;
+    let (n, pose) = allocations(|| {
+        // Construction, predictions at 1 kHz, late fixes with replay, a rejected run that
+        // recovers, and an error path: all fixed-size.
+        let mut f = PoseFusion::<f64, 64>::new(
+            0.0,
+            Pose2::new(0.0, 0.0, 0.0),
+            Matrix3::identity() * 1e-4,
+            FusionConfig::default(),
+        )
+        .unwrap();
+        let delta = se2::twist_exp(Twist2::new(0.3, 0.0, 0.2), 1e-3);
+        for k in 1..=3000 {
+            let t = k as f64 * 1e-3;
+            f.predict(t, delta, StepHeading::Gyro).unwrap();
+            if k % 100 == 0 {
+                let off = if k > 2000 { 3.0 } else { 0.0 };
+                let p = f.pose();
+                let _ = f.add_fix(&Fix::position(t - 0.3, p.x + off, p.y, 0.01));
+            }
+        }
+        let _ = f.add_fix(&Fix::position(f64::NAN, 0.0, 0.0, 0.01));
+        f.pose()
+    });
+    assert!(pose.x.is_finite());
+    assert_eq!(n, 0, "PoseFusion allocated {n} times");
+}

@@ -129,7 +129,7 @@ impl<T: Real> ProcessNoise<T> {
     }
 
     /// Robot-frame variances `(σ²_xy, σ²_θ)` of a step.
-    fn variances(&self, delta: Pose2<T>, dt: T) -> (T, T) {
+    pub(crate) fn variances(&self, delta: Pose2<T>, dt: T) -> (T, T) {
         let s = delta.x.hypot(delta.y);
         let sq = |x: T| x * x;
         (
@@ -700,7 +700,7 @@ impl<T: Real, const N: usize> PoseEstimator<T, N> {
 
 /// The SE(2) logarithm: the robot-frame "unit-time" twist `ξ` with `twist_exp(ξ, 1) = delta`.
 /// Uses `twist_exp((1, 0, θ), 1) = (sinθ/θ, (1−cosθ)/θ, θ)` for the entries of `V(θ)`.
-fn se2_log<T: Real>(delta: Pose2<T>) -> Twist2<T> {
+pub(crate) fn se2_log<T: Real>(delta: Pose2<T>) -> Twist2<T> {
     let v = se2::twist_exp(Twist2::new(T::one(), T::zero(), delta.heading), T::one());
     let (a, b) = (v.x, v.y);
     let det = a * a + b * b;

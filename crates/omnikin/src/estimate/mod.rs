@@ -7,10 +7,12 @@
 //! | [`odometry`] | cumulative encoder angles (+ gyro or yaw) | world pose by exact SE(2) steps; caster slip residual, sphere shell spin |
 //! | [`ahrs`] | gyro + accelerometer + magnetometer | attitude and gyro bias (Mahony's complementary filter) |
 //! | [`estimator`] | odometry steps + delayed external position fixes | filtered pose and covariance (EKF with replay and a χ² gate) |
+//! | [`fusion`] | odometry steps (+ heading source) + delayed fixes | pose, gyro bias, wheel scale and covariance; history sized by time, gate recovery, start from the first fix |
 //!
 //! The runtime ([`crate::runtime`]) runs odometry every cycle; the AHRS and the pose filter
 //! are for hosts and firmware that have those sensors.
 
 pub mod ahrs;
 pub mod estimator;
+pub mod fusion;
 pub mod odometry;

@@ -1,0 +1,105 @@
+//! Cost of one estimation step next to one odometry step, `f64` and `f32`:
+//!
+//! * `estimate/odometry/<type>`: [`Odometry::update`] of the sphere with an absolute yaw (as in
+//!   `cycle`).
+//! * `estimate/fusion_predict/<type>`: [`PoseFusion::predict`], one 1 kHz odometry step into a
+//!   256-entry history (5 states: pose, gyro bias, wheel scale).
+//! * `estimate/fusion_step/<type>`: one filter step as a 10 Hz camera sees it: 100 predictions
+//!   and one fix taken 0.3 s earlier (gated, fused at its time, the later entries replayed),
+//!   reported per prediction + update cycle of 100 steps.
+//! * `estimate/pose_estimator_step/<type>`: the older 3-state [`PoseEstimator`] on the same
+//!   input (history of 256 steps, a fix 50 ms late), for comparison.
+//!
+//! `cargo bench -p omnikin --bench estimate` (or `-- --test` for one quick run of each).
+
+use std::hint::black_box;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use omnikin::estimate::estimator::{Fix, PoseEstimator, ProcessNoise};
+use omnikin::estimate::fusion::{FusionConfig, PoseFusion, StepHeading};
+use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
+use omnikin::nalgebra::Matrix3;
+use omnikin::sphere::{SphereOmni, SphereParams};
+use omnikin::{Pose2, Real, Robot, Twist2, se2};
+
+fn odometry<T: Real>(c: &mut Criterion, name: &str) {
+    let mut odo = Odometry::new(
+        Robot::Sphere(SphereOmni::<T>::new(SphereParams::preset()).unwrap()),
+        Pose2::new(T::zero(), T::zero(), T::zero()),
+    );
+    let mut k = 0u32;
+    c.bench_function(&format!("estimate/odometry/{name}"), |b| {
+        b.iter(|| {
+            k = k.wrapping_add(1);
+            let t = T::of(k as f64 * 1e-3);
+            let a = T::of(k as f64 * 1e-3);
+            let r = EncoderReading::new(t, [a, a * T::of(0.5), -a]);
+            black_box(odo.update(black_box(&r), HeadingInput::Absolute(t * T::of(0.1))))
+        })
+    });
+}
+
+fn fusion<T: Real>(c: &mut Criterion, name: &str) {
+    let delta = se2::twist_exp(Twist2::new(T::of(0.3), T::zero(), T::of(0.2)), T::of(1e-3));
+    let new = || {
+        PoseFusion::<T, 256>::new(
+            T::zero(),
+            Pose2::new(T::zero(), T::zero(), T::zero()),
+            Matrix3::identity() * T::of(1e-4),
+            FusionConfig::default(),
+        )
+        .unwrap()
+    };
+    let mut f = Box::new(new());
+    let mut k = 0u64;
+    c.bench_function(&format!("estimate/fusion_predict/{name}"), |b| {
+        b.iter(|| {
+            k += 1;
+            black_box(f.predict(T::of(k as f64 * 1e-3), delta, StepHeading::Gyro))
+        })
+    });
+    let mut f = Box::new(new());
+    let mut k = 0u64;
+    c.bench_function(&format!("estimate/fusion_step/{name}"), |b| {
+        b.iter(|| {
+            for _ in 0..100 {
+                k += 1;
+                let _ = f.predict(T::of(k as f64 * 1e-3), delta, StepHeading::Gyro);
+            }
+            let p = f.pose();
+            let t = T::of(k as f64 * 1e-3 - 0.3);
+            black_box(f.add_fix(&Fix::position(t, p.x, p.y, T::of(0.01))))
+        })
+    });
+    let mut e = Box::new(
+        PoseEstimator::<T, 256>::new(
+            T::zero(),
+            Pose2::new(T::zero(), T::zero(), T::zero()),
+            Matrix3::identity() * T::of(1e-4),
+            ProcessNoise::wheel_odometry(),
+        )
+        .unwrap(),
+    );
+    let mut k = 0u64;
+    c.bench_function(&format!("estimate/pose_estimator_step/{name}"), |b| {
+        b.iter(|| {
+            for _ in 0..100 {
+                k += 1;
+                let _ = e.predict(T::of(k as f64 * 1e-3), delta);
+            }
+            let p = e.pose();
+            let t = T::of(k as f64 * 1e-3 - 0.05);
+            black_box(e.add_fix(&Fix::position(t, p.x, p.y, T::of(0.01))))
+        })
+    });
+}
+
+fn benches(c: &mut Criterion) {
+    odometry::<f64>(c, "f64");
+    odometry::<f32>(c, "f32");
+    fusion::<f64>(c, "f64");
+    fusion::<f32>(c, "f32");
+}
+
+criterion_group!(estimate, benches);
+criterion_main!(estimate);
