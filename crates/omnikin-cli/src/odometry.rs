@@ -182,7 +182,10 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         std::io::Write::write_all(w, csv.as_bytes())
     })?;
     if let Some(p) = &args.mcap {
-        crate::mcap_log::poses("--mcap", p, &out.t, &out.estimate)?;
+        let estimate: Vec<omnikin::Pose2<f64>> = (0..c.len())
+            .map(|i| omnikin::Pose2::new(c.x[i], c.y[i], c.heading[i]))
+            .collect();
+        crate::mcap_log::poses("--mcap", p, &c.t, &estimate)?;
     }
 
     let sum = &r.summary;
