@@ -10,6 +10,7 @@ use clap::{Parser, Subcommand};
 
 mod args;
 mod balance_check;
+mod data_dir;
 mod drive;
 mod figures;
 mod kinematics;
@@ -237,7 +238,7 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             inputs.extend(a.tracks.iter().map(|t| ("TRACK", t.as_path())));
             dirs.push(("--out", &a.out));
         }
-        Command::Reproduce(a) => dirs.push(("--out", &a.out)),
+        Command::Reproduce(a) => dirs.extend(a.out.as_deref().map(|p| ("--out", p))),
         Command::Odometry(a) => {
             inputs.extend(robot(&a.robot));
             inputs.push(("LOG", &a.log));
