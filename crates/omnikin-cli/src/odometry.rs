@@ -378,6 +378,12 @@ fn draw(root: &crate::plot::Area, out: &Output, fixes: &[(f64, f64)], fused: boo
     use crate::plot::{PALETTE, Series, draw_err, time_panel, xy_panel};
     use plotters::prelude::*;
     root.fill(&WHITE).map_err(draw_err)?;
+    let title = if fused {
+        "odometry fused with camera fixes"
+    } else {
+        "wheel odometry"
+    };
+    let root = root.titled(title, ("sans-serif", 22)).map_err(draw_err)?;
     let (left, right) = root.split_horizontally(700);
     let xy = |p: &[Pose2<f64>]| p.iter().map(|p| (p.x, p.y)).collect::<Vec<_>>();
     let th = |p: &[Pose2<f64>]| {
@@ -409,7 +415,7 @@ fn draw(root: &crate::plot::Area, out: &Output, fixes: &[(f64, f64)], fused: boo
             PALETTE[1],
         ));
         if !fixes.is_empty() {
-            paths.push(Series::dashed("camera fixes", fixes.to_vec(), PALETTE[3]));
+            paths.push(Series::markers("camera fixes", fixes.to_vec(), PALETTE[3]));
         }
     }
     xy_panel(
