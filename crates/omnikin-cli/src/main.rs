@@ -20,6 +20,7 @@ mod output;
 mod plan;
 mod plot;
 mod robot;
+mod shell;
 mod sim;
 mod sim_ballbot;
 mod steer_steps;
@@ -87,6 +88,10 @@ enum Command {
     /// Drive a robot over the link from the PC: hello, velocity, plan upload, stop, e-stop,
     /// clear, telemetry and keyboard teleop.
     Drive(drive::DriveArgs),
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    Completions(shell::CompletionsArgs),
+    /// Print the man page, or write one page per command with `--out DIR`.
+    Man(shell::ManArgs),
 }
 
 /// `omnikin inverse`.
@@ -239,6 +244,8 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             dirs.push(("--out", &a.out));
         }
         Command::Reproduce(a) => dirs.extend(a.out.as_deref().map(|p| ("--out", p))),
+        Command::Man(a) => dirs.extend(a.out.as_deref().map(|p| ("--out", p))),
+        Command::Completions(_) => {}
         Command::Odometry(a) => {
             inputs.extend(robot(&a.robot));
             inputs.push(("LOG", &a.log));
@@ -302,6 +309,8 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Odometry(a) => odometry::run(&a),
         Command::Robot(a) => robot::run(&a),
         Command::Drive(a) => drive::run(&a),
+        Command::Completions(a) => shell::completions(&a),
+        Command::Man(a) => shell::man(&a),
     }?;
     output::flush_stdout()
 }

@@ -535,3 +535,86 @@ fn mask_replaces_every_number() {
     assert_eq!(mask("t 5.950 s, -0.3 m, 1e-5, v2"), "t N s, N m, N, vN");
     assert_eq!(mask("85 frames ok"), "N frames ok");
 }
+
+/// `omnikin ARGS --help`.
+fn help(args: &[&str]) -> String {
+    let o = Command::new(BIN).args(args).arg("--help").output().unwrap();
+    assert!(o.status.success(), "omnikin {args:?} --help failed");
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// The subcommands listed under `Commands:` in a help text (without `help`).
+fn subcommands(help: &str) -> Vec<String> {
+    help.lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| l.split_whitespace().next())
+        .filter(|c| *c != "help")
+        .map(str::to_string)
+        .collect()
+}
+
+fn flags(text: &str) -> Vec<String> {
+    let mut v = Vec::new();
+    let b = text.as_bytes();
+    let mut i = 0;
+    while let Some(k) = text[i..].find("--") {
+        let s = i + k;
+        let mut e = s + 2;
+        while e < b.len() && (b[e].is_ascii_lowercase() || b[e].is_ascii_digit() || b[e] == b'-') {
+            e += 1;
+        }
+        let before_ok = s == 0 || !(b[s - 1].is_ascii_alphanumeric() || b[s - 1] == b'-');
+        if before_ok && e > s + 2 && b[s + 2].is_ascii_lowercase() {
+            v.push(text[s..e].trim_end_matches('-').to_string());
+        }
+        i = e.max(s + 2);
+    }
+    v
+}
+
+#[test]
+fn the_readme_flag_lists_match_help() {
+    // Every flag a paragraph of "The commands" names must be a flag of the command(s) it
+    // documents (their `--help`, subcommands included): the README may leave flags out (it
+    // points to `--help` and `omnikin man` for the complete reference) but never invent one.
+    let text = fs::read_to_string(Path::new(ROOT).join("README.md")).unwrap();
+    let start = text
+        .find("\n## The commands")
+        .expect("no \"The commands\" section");
+    let end = start + 1 + text[start + 1..].find("\n## ").unwrap();
+    let mut checked = 0;
+    let mut wrong = Vec::new();
+    for para in text[start..end].split("\n\n") {
+        if !para.starts_with("**`") {
+            continue;
+        }
+        // The commands a paragraph documents: the first word of each **`…`** heading.
+        let mut helps = String::new();
+        for head in para.split("**`").skip(1).step_by(1) {
+            let head = head.split("`**").next().unwrap_or("");
+            let first = head.split_whitespace().next().unwrap_or("");
+            if first.starts_with('-') || first.is_empty() {
+                continue;
+            }
+            let top = help(&[first]);
+            for sub in subcommands(&top) {
+                helps.push_str(&help(&[first, &sub]));
+            }
+            helps.push_str(&top);
+        }
+        let known: std::collections::HashSet<String> = flags(&helps).into_iter().collect();
+        for f in flags(para) {
+            checked += 1;
+            if !known.contains(&f) {
+                wrong.push(format!("{f} (in: {})", para.lines().next().unwrap_or("")));
+            }
+        }
+    }
+    assert!(checked > 50, "only {checked} flags found in The commands");
+    assert!(
+        wrong.is_empty(),
+        "README flags that --help does not know: {wrong:#?}"
+    );
+}
