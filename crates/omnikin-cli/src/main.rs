@@ -10,6 +10,7 @@ use clap::{Parser, Subcommand};
 
 mod args;
 mod balance_check;
+mod data_dir;
 mod drive;
 mod figures;
 mod kinematics;
@@ -20,6 +21,7 @@ mod output;
 mod plan;
 mod plot;
 mod robot;
+mod shell;
 mod sim;
 mod sim_ballbot;
 mod sim_robot;
@@ -91,6 +93,10 @@ enum Command {
     /// Convert an MCAP log (--mcap of simulate, odometry, robot, drive) to one CSV file per
     /// channel, or CSV logs back to MCAP.
     Convert(mcap_log::convert::ConvertArgs),
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    Completions(shell::CompletionsArgs),
+    /// Print the man page, or write one page per command with `--out DIR`.
+    Man(shell::ManArgs),
 }
 
 /// `omnikin inverse`.
@@ -243,7 +249,9 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             inputs.extend(a.tracks.iter().map(|t| ("TRACK", t.as_path())));
             dirs.push(("--out", &a.out));
         }
-        Command::Reproduce(a) => dirs.push(("--out", &a.out)),
+        Command::Reproduce(a) => dirs.extend(a.out.as_deref().map(|p| ("--out", p))),
+        Command::Man(a) => dirs.extend(a.out.as_deref().map(|p| ("--out", p))),
+        Command::Completions(_) => {}
         Command::Odometry(a) => {
             inputs.extend(robot(&a.robot));
             inputs.push(("LOG", &a.log));
@@ -318,6 +326,8 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Robot(a) => robot::run(&a),
         Command::Drive(a) => drive::run(&a),
         Command::Convert(a) => mcap_log::convert::run(&a),
+        Command::Completions(a) => shell::completions(&a),
+        Command::Man(a) => shell::man(&a),
     }?;
     output::flush_stdout()
 }

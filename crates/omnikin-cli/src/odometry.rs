@@ -309,6 +309,12 @@ fn draw(
     use crate::plot::{PALETTE, Series, draw_err, time_panel, xy_panel};
     use plotters::prelude::*;
     root.fill(&WHITE).map_err(draw_err)?;
+    let title = if fused {
+        "odometry fused with camera fixes"
+    } else {
+        "wheel odometry"
+    };
+    let root = root.titled(title, ("sans-serif", 22)).map_err(draw_err)?;
     let (left, right) = root.split_horizontally(700);
     let c = &out.columns;
     let xy = |x: &[f64], y: &[f64]| x.iter().copied().zip(y.iter().copied()).collect::<Vec<_>>();
@@ -340,7 +346,7 @@ fn draw(
             PALETTE[1],
         ));
         if !fixes.is_empty() {
-            paths.push(Series::dashed("camera fixes", fixes.to_vec(), PALETTE[3]));
+            paths.push(Series::markers("camera fixes", fixes.to_vec(), PALETTE[3]));
         }
     }
     xy_panel(

@@ -34,6 +34,279 @@ pub fn svg_text(s: &str) -> String {
 /// Font of titles, axis labels and legends.
 const FONT: &str = "sans-serif";
 
+/// Data drawn with sub-pixel coordinates. plotters maps every data point to whole pixels
+/// (`BackendCoord` is `(i32, i32)`), which draws a 0.2 m circle as a staircase; so while
+/// [`svg_file`] draws a figure, the panels compute the pixel position of each point in `f64`
+/// themselves and collect the lines, bands and arrows here as SVG elements (clipped to their
+/// panel), which [`svg_file`] appends to the document. Outside [`svg_file`] (no collector) the
+/// panels draw through plotters as before.
+mod overlay {
+    use std::cell::RefCell;
+    use std::fmt::Write;
+
+    thread_local! {
+        static ELEMENTS: RefCell<Option<Vec<String>>> = const { RefCell::new(None) };
+    }
+
+    /// Starts collecting (a figure begins).
+    pub fn start() {
+        ELEMENTS.with(|e| *e.borrow_mut() = Some(Vec::new()));
+    }
+
+    /// Stops collecting and returns what was collected.
+    pub fn finish() -> Vec<String> {
+        ELEMENTS.with(|e| e.borrow_mut().take()).unwrap_or_default()
+    }
+
+    /// Whether a figure is collecting.
+    pub fn active() -> bool {
+        ELEMENTS.with(|e| e.borrow().is_some())
+    }
+
+    /// Adds one element.
+    pub fn push(element: String) {
+        ELEMENTS.with(|e| {
+            if let Some(v) = e.borrow_mut().as_mut() {
+                v.push(element);
+            }
+        });
+    }
+
+    /// A clip path for a panel's plotting area (pixels); returns its id.
+    pub fn clip(x: f64, y: f64, w: f64, h: f64) -> String {
+        let id = ELEMENTS.with(|e| e.borrow().as_ref().map_or(0, Vec::len));
+        let id = format!("omnikin-clip-{id}");
+        push(format!(
+            r#"<clipPath id="{id}"><rect x="{x}" y="{y}" width="{w}" height="{h}"/></clipPath>"#
+        ));
+        id
+    }
+
+    /// `x,y x,y …` with two decimals (a hundredth of a pixel).
+    pub fn points(p: &[(f64, f64)]) -> String {
+        let mut s = String::with_capacity(p.len() * 16);
+        for (i, (x, y)) in p.iter().enumerate() {
+            let _ = write!(s, "{}{x:.2},{y:.2}", if i == 0 { "" } else { " " });
+        }
+        s
+    }
+}
+
+/// `#rrggbb` of a colour.
+fn hex(c: RGBColor) -> String {
+    format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2)
+}
+
+/// Maps data coordinates of a chart to `f64` pixels, exactly where plotters puts the ends of
+/// both axes (it floors each point to a whole pixel in between).
+struct PixelMap {
+    x: (f64, f64, f64, f64),
+    y: (f64, f64, f64, f64),
+    clip: String,
+}
+
+impl PixelMap {
+    fn new(chart: &Chart<'_, '_>, (x0, x1): (f64, f64), (y0, y1): (f64, f64)) -> Self {
+        let (a, b) = (
+            chart.backend_coord(&(x0, y0)),
+            chart.backend_coord(&(x1, y1)),
+        );
+        let (px0, px1, py0, py1) = (a.0 as f64, b.0 as f64, a.1 as f64, b.1 as f64);
+        let clip = overlay::clip(
+            px0.min(px1),
+            py0.min(py1),
+            (px1 - px0).abs(),
+            (py1 - py0).abs(),
+        );
+        Self {
+            x: (x0, x1, px0, px1),
+            y: (y0, y1, py0, py1),
+            clip,
+        }
+    }
+
+    fn map(&self, p: (f64, f64)) -> (f64, f64) {
+        let f = |v: f64, (a, b, pa, pb): (f64, f64, f64, f64)| pa + (v - a) / (b - a) * (pb - pa);
+        (f(p.0, self.x), f(p.1, self.y))
+    }
+
+    fn line(&self, points: &[(f64, f64)], color: RGBColor, width: f64, dashed: bool) {
+        let px: Vec<(f64, f64)> = points.iter().map(|&p| self.map(p)).collect();
+        if px.len() < 2 {
+            return;
+        }
+        overlay::push(format!(
+            r#"<polyline fill="none" stroke="{}" stroke-width="{width}" stroke-linejoin="round" stroke-linecap="round"{} clip-path="url(#{})" points="{}"/>"#,
+            hex(color),
+            if dashed {
+                r#" stroke-dasharray="8 5""#
+            } else {
+                ""
+            },
+            self.clip,
+            overlay::points(&px)
+        ));
+    }
+
+    fn dots(&self, points: &[(f64, f64)], color: RGBColor) {
+        let mut d = String::new();
+        for &p in points {
+            let (x, y) = self.map(p);
+            d.push_str(&format!(
+                "M{:.2},{:.2}m-3,0a3,3 0 1,0 6,0a3,3 0 1,0 -6,0",
+                x, y
+            ));
+        }
+        overlay::push(format!(
+            r#"<path fill="{}" stroke="none" clip-path="url(#{})" d="{d}"/>"#,
+            hex(color),
+            self.clip
+        ));
+    }
+
+    fn polygon(&self, points: &[(f64, f64)], color: RGBColor) {
+        let px: Vec<(f64, f64)> = points.iter().map(|&p| self.map(p)).collect();
+        if px.len() < 3 {
+            return;
+        }
+        overlay::push(format!(
+            r#"<polygon fill="{}" fill-opacity="0.25" stroke="none" clip-path="url(#{})" points="{}"/>"#,
+            hex(color),
+            self.clip,
+            overlay::points(&px)
+        ));
+    }
+}
+
+/// One legend entry: a line sample (solid or dashed) or a filled box (a band).
+struct LegendEntry {
+    label: String,
+    color: RGBColor,
+    kind: LegendKind,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum LegendKind {
+    Solid,
+    Dashed,
+    Dots,
+    Fill,
+}
+
+/// Height of one legend row, px; entries are laid out left to right and wrap.
+const LEGEND_ROW: u32 = 20;
+
+/// Approximate width of a legend entry, px (sample, gap, text at 14 px).
+fn legend_width(e: &LegendEntry) -> u32 {
+    26 + (e.label.chars().count() as u32) * 15 / 2 + 18
+}
+
+fn legend_rows(entries: &[LegendEntry], width: u32) -> u32 {
+    let (mut rows, mut x) = (0, u32::MAX);
+    for e in entries {
+        let w = legend_width(e);
+        if x.saturating_add(w) > width {
+            rows += 1;
+            x = 0;
+        }
+        x += w;
+    }
+    rows
+}
+
+/// Splits `area` into the panel and a legend strip under it (outside the data area), sized for
+/// `entries`.
+fn split_legend<'a>(area: &Area<'a>, entries: &[LegendEntry]) -> (Area<'a>, Option<Area<'a>>) {
+    let (w, h) = area.dim_in_pixel();
+    let rows = legend_rows(entries, w.saturating_sub(70));
+    if rows == 0 || h < 200 {
+        return (area.clone(), None);
+    }
+    let strip = rows * LEGEND_ROW + 8;
+    let (top, bottom) = area.split_vertically(h - strip);
+    (top, Some(bottom))
+}
+
+fn draw_legend(area: &Area, entries: &[LegendEntry]) -> Result<()> {
+    let (w, _) = area.dim_in_pixel();
+    let (mut x, mut y) = (i32::MAX, -(LEGEND_ROW as i32) + 2);
+    let left = 60;
+    for e in entries {
+        let ew = legend_width(e) as i32;
+        if x.saturating_add(ew) > w as i32 - 10 {
+            x = left;
+            y += LEGEND_ROW as i32;
+        }
+        let cy = y + LEGEND_ROW as i32 / 2;
+        match e.kind {
+            LegendKind::Fill => area
+                .draw(&Rectangle::new(
+                    [(x, cy - 6), (x + 20, cy + 6)],
+                    e.color.mix(0.25).filled(),
+                ))
+                .map_err(draw_err)?,
+            LegendKind::Solid => area
+                .draw(&PathElement::new(
+                    vec![(x, cy), (x + 20, cy)],
+                    e.color.stroke_width(2),
+                ))
+                .map_err(draw_err)?,
+            LegendKind::Dots => {
+                for k in 0..2 {
+                    area.draw(&Circle::new((x + 4 + k * 12, cy), 3, e.color.filled()))
+                        .map_err(draw_err)?;
+                }
+            }
+            LegendKind::Dashed => {
+                for k in 0..2 {
+                    area.draw(&PathElement::new(
+                        vec![(x + k * 12, cy), (x + k * 12 + 7, cy)],
+                        e.color.stroke_width(2),
+                    ))
+                    .map_err(draw_err)?;
+                }
+            }
+        }
+        area.draw(&Text::new(
+            svg_text(&e.label),
+            (x + 26, cy - 7),
+            (FONT, 14).into_font(),
+        ))
+        .map_err(draw_err)?;
+        x += ew;
+    }
+    Ok(())
+}
+
+fn legend_of(series: &[Series], bands: &[Band]) -> Vec<LegendEntry> {
+    let mut v: Vec<LegendEntry> = series
+        .iter()
+        .filter(|s| !s.label.is_empty())
+        .map(|s| LegendEntry {
+            label: s.label.clone(),
+            color: s.color,
+            kind: if s.markers {
+                LegendKind::Dots
+            } else if s.dashed {
+                LegendKind::Dashed
+            } else {
+                LegendKind::Solid
+            },
+        })
+        .collect();
+    v.extend(
+        bands
+            .iter()
+            .filter(|b| !b.label.is_empty())
+            .map(|b| LegendEntry {
+                label: b.label.clone(),
+                color: b.color,
+                kind: LegendKind::Fill,
+            }),
+    );
+    v
+}
+
 /// A drawing error as an `anyhow` error.
 pub fn draw_err<E: std::fmt::Display>(e: E) -> anyhow::Error {
     anyhow!("drawing the figure failed: {e}")
@@ -52,6 +325,9 @@ pub struct Series {
     pub dashed: bool,
     /// Line width, px.
     pub width: u32,
+    /// Points as dots, not joined (e.g. camera fixes, where a line would join an outlier to
+    /// its neighbours).
+    pub markers: bool,
 }
 
 impl Series {
@@ -63,6 +339,15 @@ impl Series {
             color,
             dashed: false,
             width: 2,
+            markers: false,
+        }
+    }
+
+    /// Unjoined dots of 3 px radius.
+    pub fn markers(label: impl Into<String>, points: Vec<(f64, f64)>, color: RGBColor) -> Self {
+        Self {
+            markers: true,
+            ..Self::solid(label, points, color)
         }
     }
 
@@ -211,33 +496,57 @@ pub fn decimate(points: &[(f64, f64)]) -> std::borrow::Cow<'_, [(f64, f64)]> {
 /// The chart type of the panels.
 type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
-fn draw_lines<'a>(chart: &mut Chart<'a, 'a>, series: &[Series]) -> Result<()> {
+/// Draws `series` on `chart`: with sub-pixel coordinates through `map` inside [`svg_file`],
+/// through plotters otherwise.
+fn draw_lines<'a>(
+    chart: &mut Chart<'a, 'a>,
+    map: Option<&PixelMap>,
+    series: &[Series],
+) -> Result<()> {
     for s in series {
+        let points = finite_points(&decimate(&s.points));
+        if let Some(m) = map {
+            if s.markers {
+                m.dots(&points, s.color);
+            } else {
+                m.line(&points, s.color, s.width as f64, s.dashed);
+            }
+            continue;
+        }
         let style = s.color.stroke_width(s.width);
-        let color = s.color;
-        let anno = if s.dashed {
+        if s.markers {
             chart
-                .draw_series(DashedLineSeries::new(
-                    finite_points(&decimate(&s.points)),
-                    8,
-                    5,
-                    style,
-                ))
-                .map_err(draw_err)?
+                .draw_series(
+                    points
+                        .into_iter()
+                        .map(|p| Circle::new(p, 3, s.color.filled())),
+                )
+                .map_err(draw_err)?;
+        } else if s.dashed {
+            chart
+                .draw_series(DashedLineSeries::new(points, 8, 5, style))
+                .map_err(draw_err)?;
         } else {
             chart
-                .draw_series(LineSeries::new(finite_points(&decimate(&s.points)), style))
-                .map_err(draw_err)?
-        };
-        if !s.label.is_empty() {
-            let dashed = s.dashed;
-            anno.label(svg_text(&s.label)).legend(move |(x, y)| {
-                if dashed {
-                    PathElement::new(vec![(x, y), (x + 7, y)], color.stroke_width(2)).into_dyn()
-                } else {
-                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)).into_dyn()
-                }
-            });
+                .draw_series(LineSeries::new(points, style))
+                .map_err(draw_err)?;
+        }
+    }
+    Ok(())
+}
+
+fn draw_bands<'a>(chart: &mut Chart<'a, 'a>, map: Option<&PixelMap>, bands: &[Band]) -> Result<()> {
+    for b in bands {
+        let points = finite_points(&decimate(&b.polygon));
+        if let Some(m) = map {
+            m.polygon(&points, b.color);
+        } else {
+            chart
+                .draw_series(std::iter::once(Polygon::new(
+                    points,
+                    b.color.mix(0.25).filled(),
+                )))
+                .map_err(draw_err)?;
         }
     }
     Ok(())
@@ -245,7 +554,7 @@ fn draw_lines<'a>(chart: &mut Chart<'a, 'a>, series: &[Series]) -> Result<()> {
 
 /// Draws an XY panel with **equal scales** on both axes (a circle looks round): `bands`
 /// first, then `series` (solid or dashed), then `arrows`; axis labels `x_label`, `y_label`
-/// (with units), a title, and a legend.
+/// (with units), a title, and a legend under the plotting area (never over the data).
 pub fn xy_panel(
     area: &Area,
     title: &str,
@@ -255,6 +564,8 @@ pub fn xy_panel(
     bands: &[Band],
     arrows: &[Arrow],
 ) -> Result<()> {
+    let entries = legend_of(series, bands);
+    let (area, legend) = split_legend(area, &entries);
     let xs = series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
     let xb = bands.iter().flat_map(|b| b.polygon.iter().map(|p| p.0));
     let (mut x0, mut x1) = range(xs.chain(xb), 0.08, 1e-3, &format!("panel \"{title}\", x"))?;
@@ -274,7 +585,7 @@ pub fn xy_panel(
         x0 -= extra;
         x1 += extra;
     }
-    let mut chart = ChartBuilder::on(area)
+    let mut chart = ChartBuilder::on(&area)
         .caption(svg_text(title), (FONT, 20))
         .margin(12)
         .x_label_area_size(40)
@@ -290,21 +601,9 @@ pub fn xy_panel(
         .light_line_style(WHITE.mix(0.0))
         .draw()
         .map_err(draw_err)?;
-    for b in bands {
-        let color = b.color;
-        let anno = chart
-            .draw_series(std::iter::once(Polygon::new(
-                finite_points(&decimate(&b.polygon)),
-                color.mix(0.25).filled(),
-            )))
-            .map_err(draw_err)?;
-        if !b.label.is_empty() {
-            anno.label(svg_text(&b.label)).legend(move |(x, y)| {
-                Rectangle::new([(x, y - 5), (x + 18, y + 5)], color.mix(0.25).filled())
-            });
-        }
-    }
-    draw_lines(&mut chart, series)?;
+    let map = overlay::active().then(|| PixelMap::new(&chart, (x0, x1), (y0, y1)));
+    draw_bands(&mut chart, map.as_ref(), bands)?;
+    draw_lines(&mut chart, map.as_ref(), series)?;
     // Arrows: a shaft and two barbs, sized in data units (the scales are equal).
     let size = 0.045 * (x1 - x0).min(y1 - y0);
     for a in arrows {
@@ -320,28 +619,21 @@ pub fn xy_panel(
             let (bx, by) = (-(ux * c - uy * s), -(ux * s + uy * c));
             (tip.0 + 0.5 * size * bx, tip.1 + 0.5 * size * by)
         };
-        let style = a.color.stroke_width(2);
-        chart
-            .draw_series([
-                PathElement::new(vec![tail, tip], style),
-                PathElement::new(vec![barb(1.0), tip, barb(-1.0)], style),
-            ])
-            .map_err(draw_err)?;
+        let parts = [
+            Series::solid("", vec![tail, tip], a.color),
+            Series::solid("", vec![barb(1.0), tip, barb(-1.0)], a.color),
+        ];
+        draw_lines(&mut chart, map.as_ref(), &parts)?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font((FONT, 14))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.5))
-        .draw()
-        .map_err(draw_err)?;
+    if let Some(l) = legend {
+        draw_legend(&l, &entries)?;
+    }
     Ok(())
 }
 
 /// Draws a time-series panel: `series` against time (s) with the y label `y_label` (with
 /// units), optional `bands` underneath and dashed horizontal `limits` lines (e.g. `±max_rate`,
-/// labelled once), a title and a legend.
+/// labelled once), a title and a legend under the plotting area.
 pub fn time_panel(
     area: &Area,
     title: &str,
@@ -366,7 +658,20 @@ pub fn time_panel(
         1e-6,
         &format!("panel \"{title}\", {y_label}"),
     )?;
-    let mut chart = ChartBuilder::on(area)
+    let mut lines = Vec::new();
+    if let Some((l, label)) = limits {
+        lines = vec![
+            Series::dashed(label, vec![(t0, l), (t1, l)], BLACK),
+            Series::dashed("", vec![(t0, -l), (t1, -l)], BLACK),
+        ];
+        for s in &mut lines {
+            s.width = 1;
+        }
+    }
+    let mut entries = legend_of(series, bands);
+    entries.extend(legend_of(&lines, &[]));
+    let (area, legend) = split_legend(area, &entries);
+    let mut chart = ChartBuilder::on(&area)
         .caption(svg_text(title), (FONT, 18))
         .margin(12)
         .x_label_area_size(40)
@@ -382,39 +687,13 @@ pub fn time_panel(
         .light_line_style(WHITE.mix(0.0))
         .draw()
         .map_err(draw_err)?;
-    for b in bands {
-        let color = b.color;
-        let anno = chart
-            .draw_series(std::iter::once(Polygon::new(
-                finite_points(&decimate(&b.polygon)),
-                color.mix(0.25).filled(),
-            )))
-            .map_err(draw_err)?;
-        if !b.label.is_empty() {
-            anno.label(svg_text(&b.label)).legend(move |(x, y)| {
-                Rectangle::new([(x, y - 5), (x + 18, y + 5)], color.mix(0.25).filled())
-            });
-        }
+    let map = overlay::active().then(|| PixelMap::new(&chart, (t0, t1), (y0, y1)));
+    draw_bands(&mut chart, map.as_ref(), bands)?;
+    draw_lines(&mut chart, map.as_ref(), &lines)?;
+    draw_lines(&mut chart, map.as_ref(), series)?;
+    if let Some(l) = legend {
+        draw_legend(&l, &entries)?;
     }
-    if let Some((l, label)) = limits {
-        let mut lines = vec![
-            Series::dashed(label, vec![(t0, l), (t1, l)], BLACK),
-            Series::dashed("", vec![(t0, -l), (t1, -l)], BLACK),
-        ];
-        for s in &mut lines {
-            s.width = 1;
-        }
-        draw_lines(&mut chart, &lines)?;
-    }
-    draw_lines(&mut chart, series)?;
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font((FONT, 14))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.5))
-        .draw()
-        .map_err(draw_err)?;
     Ok(())
 }
 
@@ -430,8 +709,17 @@ pub fn svg_file(
     let mut text = String::new();
     {
         let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
-        draw(&root).with_context(|| format!("{flag} {}", path.display()))?;
+        overlay::start();
+        let drawn = draw(&root).with_context(|| format!("{flag} {}", path.display()));
+        let extra = overlay::finish();
+        drawn?;
         root.present().map_err(draw_err)?;
+        drop(root);
+        // The sub-pixel data elements go last (on top of the axes; the legends are outside
+        // the plotting areas, so nothing of them is covered).
+        if let Some(end) = text.rfind("</svg>") {
+            text.insert_str(end, &(extra.join("\n") + "\n"));
+        }
     }
     // Text in a figure comes from files (a robot's name): a control character would make the
     // SVG invalid XML (plotters escapes only <, > and &), so it is shown as U+FFFD.

@@ -632,8 +632,10 @@ pub struct ReproduceArgs {
     /// Which paper's experiments to re-run.
     pub experiment: Experiment,
     /// Output directory (created): table.md, table.csv, metrics.json, one figure per series.
-    #[arg(long, default_value = "reproduce-sphere-2019")]
-    pub out: PathBuf,
+    /// Default: the per-user data directory, `$XDG_DATA_HOME/omnikin/reproduce-sphere-2019`
+    /// (`~/.local/share/omnikin/…` on Linux), never the current directory.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
     /// Monte-Carlo trials per series and disturbance profile (the paper ran 3).
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u64).range(1..=10_000))]
     pub trials: u64,
@@ -705,10 +707,14 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
         );
     }
     let start = std::time::Instant::now();
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| crate::data_dir::reproduce_default("sphere-2019"));
     let d = RobotDescription::preset("sphere-omni").context("the sphere-omni preset is missing")?;
     let robot = d.build::<f64>()?;
     let series = rp::sphere_2019_series(&d, a.rate)?;
-    create_dir_for(&a.out, &["table.md", "table.csv", "metrics.json"])?;
+    create_dir_for(&out, &["table.md", "table.csv", "metrics.json"])?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads.unwrap_or(0))
         .build()
@@ -764,7 +770,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
             );
             crate::figures::trajectory_figure(
                 "--out",
-                &a.out.join(format!("{}-{}.svg", s.name, o.profile)),
+                &out.join(format!("{}-{}.svg", s.name, o.profile)),
                 &title,
                 &s.plan,
                 &o.runs,
@@ -790,8 +796,8 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
         a.seed,
         fit.as_ref().map(|f| (f, dyn_trials)),
     );
-    write_file(&a.out.join("table.md"), |w| w.write_all(md.as_bytes()))?;
-    write_file(&a.out.join("table.csv"), |w| {
+    write_file(&out.join("table.md"), |w| w.write_all(md.as_bytes()))?;
+    write_file(&out.join("table.csv"), |w| {
         w.write_all(rp::table_csv(&rows).as_bytes())
     })?;
     let (g, p) = rp::spin_slip_fit();
@@ -809,7 +815,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
         })),
         "series": all,
     });
-    write_file(&a.out.join("metrics.json"), |w| {
+    write_file(&out.join("metrics.json"), |w| {
         writeln!(
             w,
             "{}",
@@ -820,7 +826,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
     crate::errln!(
         "wrote {dir}/table.md, {dir}/table.csv, {dir}/metrics.json and {n} figures in {:.1} s",
         start.elapsed().as_secs_f64(),
-        dir = a.out.display(),
+        dir = out.display(),
         n = figures
     );
     Ok(())
