@@ -52,14 +52,17 @@ def plan(robot: Union[Robot, str], kind: str, **options: Any) -> Table:
       ("trapezoid" | "s-curve"), ``no_retime``;
     - circle: ``omega`` (rad/s, required), ``radius`` (m, 0.2), ``turns`` (1), ``ramp`` (s),
       ``face_motion``;
-    - waypoints: ``file`` (CSV ``x,y[,heading]`` or TOML, required), ``path`` ("polyline" |
+    - waypoints: ``file`` (CSV ``x,y[,heading]`` or TOML) or ``points`` (an ``(N, 2)`` array
+      of ``x, y`` or ``(N, 3)`` of ``x, y, heading``; m, rad, world frame), ``path`` ("polyline" |
       "spline"), ``corners`` ("stop" | "fillet"), ``fillet_radius``, ``heading_law``
       ("constant" | "tangent" | "waypoints"), ``heading``, ``spin`` (rad/m),
       ``heading_offset``, ``max_speed``, ``max_accel``, ``max_jerk``, ``max_yaw_rate``,
       ``max_yaw_accel``, ``profile``, ``time_optimal``, ``no_retime``.
 
     Returns the plan CSV's columns ``t, x, y, heading, vx, vy, yaw_rate, w1..wN`` (world frame;
-    s, m, rad, m/s, rad/s) and, for steerable kinds, ``s1..sN, sd1..sdN`` (rad, rad/s).
+    s, m, rad, m/s, rad/s) and, for steerable kinds, ``s1..sN, sd1..sdN`` (rad, rad/s). A
+    steer step that the steer rates do not explain is a ``UserWarning``, as ``omnikin plan``
+    warns (``simulate`` refuses a step over 0.1 rad).
     """
     return _table(_native.plan_columns(_robot(robot), kind, **options))
 
@@ -72,25 +75,60 @@ def simulate(
     trials: int = 10,
     seed: int = 1,
     threads: Optional[int] = None,
+    plant: str = "kinematic",
+    initial_tilt_deg: Optional[float] = None,
+    push: Optional[Sequence[Sequence[float]]] = None,
+    emit_sensors: bool = False,
+    sensors: Optional[Union[str, "os.PathLike[str]"]] = None,
 ) -> Dict[str, Any]:
-    """Runs ``plan`` (a dict from :func:`plan`, or a plan CSV path) through the kinematic plant
-    ``trials`` times, as ``omnikin simulate`` does (same seed, same numbers, on any number of
-    ``threads``; default all cores), with the disturbance profile TOML ``disturbances``
-    (default: the ideal plant).
+    """Runs ``plan`` (a dict from :func:`plan`, or a plan CSV path) through a plant, as
+    ``omnikin simulate`` does.
+
+    ``plant="kinematic"`` (default): the motors' motion through the forward kinematics,
+    ``trials`` times with the disturbance profile TOML ``disturbances`` (default: the ideal
+    plant); the same seed gives the same numbers on any number of ``threads`` (default: all
+    cores). ``emit_sensors=True`` also returns what each trial's sensors recorded (the CLI's
+    ``--emit-sensors``; ``sensors``: a sensor profile TOML, default 4096-count encoders, a
+    gyro, camera fixes at 10 Hz).
+
+    ``plant="dynamic"``: the robot file's dynamics, one trial — sphere-omni's shell +
+    platform (deterministic), or the ballbot balanced by its controller on the 3D model
+    (sensor noise seeded by ``seed``), starting ``initial_tilt_deg`` degrees toward +x and
+    pushed by ``push``: a list of ``(impulse N·s, time s[, direction deg from +x])``, time from
+    the start of the 1 s lead-in. A fall is a result: ``metrics["fallen"]``.
 
     Returns ``{"trials": ..., "mean": ..., "metrics": ...}``: the columns of ``trials.csv``
     (``trial, t, x, y, heading, tracked_x, tracked_y, slip_residual, q1..qN``; world frame) and
-    ``mean.csv`` (``t, x, y, x_ci95, y_ci95, plan_x, plan_y``), and ``metrics.json`` as a dict.
+    ``mean.csv`` (``t, x, y, x_ci95, y_ci95, plan_x, plan_y``), and ``metrics.json`` as a dict;
+    with ``emit_sensors``, ``"sensors"``: one dict per trial of ``encoders``, ``truth`` and,
+    when recorded, ``fixes`` and ``imu`` tables (the files under ``sensors/trial-NNN/``); for
+    the dynamic plant also ``"dynamics"`` (sphere: ``t, tilt, shell_spin`` at the plan's
+    samples; rad, rad/s) or ``"cycles"`` (ballbot: ``t, tilt, x, y`` per control cycle,
+    closed-loop time from the start of the lead-in; s, rad, m).
     """
-    trials_, mean, metrics = _native.simulate_native(
+    trials_, mean, metrics, extras, sensor_logs = _native.simulate_native(
         _robot(robot),
         disturbances=None if disturbances is None else os.fspath(disturbances),
         trials=trials,
         seed=seed,
         threads=threads,
+        plant=plant,
+        initial_tilt_deg=initial_tilt_deg,
+        push=None if push is None else [[float(v) for v in p] for p in push],
+        emit_sensors=emit_sensors,
+        sensors=None if sensors is None else os.fspath(sensors),
         **_plan_args(plan),
     )
-    return {"trials": _table(trials_), "mean": _table(mean), "metrics": json.loads(metrics)}
+    out: Dict[str, Any] = {
+        "trials": _table(trials_),
+        "mean": _table(mean),
+        "metrics": json.loads(metrics),
+    }
+    for name, t in extras:
+        out[name] = _table(t)
+    if emit_sensors:
+        out["sensors"] = [{name: _table(t) for name, t in logs} for logs in sensor_logs]
+    return out
 
 
 def evaluate(

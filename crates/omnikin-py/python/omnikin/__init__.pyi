@@ -95,9 +95,17 @@ def simulate(
     trials: int = 10,
     seed: int = 1,
     threads: Optional[int] = None,
+    plant: Literal["kinematic", "dynamic"] = "kinematic",
+    initial_tilt_deg: Optional[float] = None,
+    push: Optional[Sequence[Sequence[float]]] = None,
+    emit_sensors: bool = False,
+    sensors: Optional[Union[str, os.PathLike[str]]] = None,
 ) -> Dict[str, Any]:
     """``{"trials": Table, "mean": Table, "metrics": dict}`` as ``omnikin simulate``'s
-    ``trials.csv``, ``mean.csv`` and ``metrics.json``."""
+    ``trials.csv``, ``mean.csv`` and ``metrics.json``; ``plant="dynamic"`` (sphere-omni,
+    ballbot: one trial; ballbot ``initial_tilt_deg`` toward +x, ``push`` of ``(N·s, s[, deg])``)
+    adds ``"dynamics"`` or ``"cycles"``; ``emit_sensors`` adds ``"sensors"`` (per trial:
+    ``encoders``, ``truth``[, ``fixes``, ``imu``] tables)."""
 
 def evaluate(
     plan: PlanLike,
