@@ -23,6 +23,8 @@
 //! * [`metrics`]: deviation from the planned path (m and % of path), end-point and heading
 //!   errors, mean trajectory with a Student-t 95 % band, fitted circle and radius ratio,
 //!   repeatability.
+//! * [`odometry`]: wheel odometry over a recorded encoder log, fused with delayed camera fixes
+//!   (the pipeline of `omnikin odometry`, on in-memory tables).
 //! * [`limits`]: the stated limits — most plant steps per trial, rows of a track file — and the plausible range of every profile parameter.
 //! * [`reproduce`]: paper 000's whole experiment design re-run under three kinematic profiles and the dynamic one, with a
 //!   table of our figures next to the paper's.
@@ -36,6 +38,7 @@ pub mod limits;
 pub mod metrics;
 mod monte_carlo;
 mod motor;
+pub mod odometry;
 mod path_index;
 mod plant;
 pub mod plant_step;
