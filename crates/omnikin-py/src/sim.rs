@@ -24,9 +24,13 @@ use crate::arrays::value_error;
 use crate::robot::PyRobot;
 
 /// Columns and values (one row per column), as `plan_columns` returns them.
-type Table<'py> = (Vec<String>, Bound<'py, PyAny>);
+pub(crate) type Table<'py> = (Vec<String>, Bound<'py, PyAny>);
 
-fn table<'py>(py: Python<'py>, cols: Vec<String>, values: Vec<Vec<f64>>) -> PyResult<Table<'py>> {
+pub(crate) fn table<'py>(
+    py: Python<'py>,
+    cols: Vec<String>,
+    values: Vec<Vec<f64>>,
+) -> PyResult<Table<'py>> {
     let n = values.first().map_or(0, Vec::len);
     let mut a = Array2::<f64>::zeros((cols.len(), n));
     for (i, v) in values.iter().enumerate() {
@@ -226,7 +230,7 @@ fn trial_columns(k: usize) -> Vec<String> {
 }
 
 /// A user warning with `msg`.
-fn warn(py: Python<'_>, msg: &str) -> PyResult<()> {
+pub(crate) fn warn(py: Python<'_>, msg: &str) -> PyResult<()> {
     PyErr::warn(
         py,
         &py.get_type::<pyo3::exceptions::PyUserWarning>(),

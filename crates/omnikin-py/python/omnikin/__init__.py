@@ -17,7 +17,7 @@ import numpy as np
 from omnikin import _native
 from omnikin._native import Robot, __version__
 
-__all__ = ["Robot", "plan", "simulate", "evaluate", "__version__"]
+__all__ = ["Robot", "plan", "simulate", "evaluate", "odometry", "__version__"]
 
 Table = Dict[str, np.ndarray]
 PlanLike = Union[Table, str, "os.PathLike[str]"]
@@ -30,6 +30,22 @@ def _table(native: tuple) -> Table:
 
 def _robot(robot: Union[Robot, str, "os.PathLike[str]"]) -> Robot:
     return robot if isinstance(robot, Robot) else Robot(os.fspath(robot))
+
+
+def _columns(name: str, table: Table) -> tuple:
+    columns = list(table)
+    cols = [np.asarray(table[c], dtype=np.float64) for c in columns]
+    if any(c.ndim != 1 for c in cols) or len({len(c) for c in cols}) > 1:
+        raise ValueError(f"{name}: every column must be a 1-D array of the same length")
+    return columns, np.array(cols).reshape(len(cols), -1)
+
+
+def _table_args(name: str, table: Union[Table, str, "os.PathLike[str]", None]) -> dict:
+    if table is None:
+        return {}
+    if isinstance(table, dict):
+        return {f"{name}_columns": _columns(name, table)}
+    return {f"{name}_path": os.fspath(table)}
 
 
 def _plan_args(plan_: PlanLike) -> dict:
@@ -155,3 +171,55 @@ def evaluate(
         **_plan_args(plan),
     )
     return {"runs": _table(runs), "mean": _table(mean), "metrics": json.loads(metrics)}
+
+
+def odometry(
+    robot: Union[Robot, str],
+    log: Union[Table, str, "os.PathLike[str]"],
+    *,
+    fixes: Optional[Union[Table, str, "os.PathLike[str]"]] = None,
+    imu: bool = False,
+    counts_per_rev: Optional[int] = None,
+    initial_pose: Optional[Sequence[float]] = None,
+    fix_std: float = 0.01,
+    fix_heading_std: float = 0.05,
+    gyro_bias: float = 0.0,
+) -> Dict[str, Any]:
+    """Wheel odometry over an encoder log, fused with camera ``fixes`` when given, as
+    ``omnikin odometry`` (the same pipeline, ``omnikin_sim::odometry``).
+
+    ``log``: a dict of columns or a CSV path — ``t, q1..qN`` cumulative wheel angles (rad, or
+    counts with ``counts_per_rev``), ``s1..sN`` steer angles for caster3/swerve, optional
+    ``gyro_z`` (rad/s) and ``yaw`` (rad); e.g. ``simulate(..., emit_sensors=True)
+    ["sensors"][0]["encoders"]``. ``fixes``: ``t, x, y`` (s, m; world frame) with optional
+    ``heading`` (rad) and ``arrival`` (s). ``imu``: heading from ``yaw`` (or integrated
+    ``gyro_z`` minus ``gyro_bias``) instead of the wheels. ``initial_pose``: ``(x, y, heading)``
+    (m, rad); ``fix_std`` / ``fix_heading_std``: a fix's standard deviations (m, rad). For a
+    dict, an error's line is the row + 1 (line 1 is the header).
+
+    Returns ``{"poses": ..., "odometry": ..., "fixes": [...], "summary": {...}}``: ``poses``
+    the columns of the CLI's ``--out`` CSV (``t, x, y, heading``; fused when there are fixes),
+    ``odometry`` the pure wheel odometry (same columns), ``fixes`` each fix in arrival order
+    with its ``result`` (``accepted``, ``rejected``, ``too_late``, ``after_log``) and
+    ``mahalanobis2``, and the summary the CLI prints (``heading_source``, ``samples``,
+    ``duration_s``, ``path_length_m``, ``end``, ``max_slip_m_s``/``max_slip_t_s``,
+    ``mean_shell_spin_rad_s``, ``fixes`` counters) as a dict. A fix rejected as an outlier
+    is also a ``UserWarning``, as the CLI warns.
+    """
+    r = _native.odometry_native(
+        _robot(robot),
+        imu=imu,
+        counts_per_rev=counts_per_rev,
+        initial_pose=None if initial_pose is None else tuple(float(v) for v in initial_pose),
+        fix_std=fix_std,
+        fix_heading_std=fix_heading_std,
+        gyro_bias=gyro_bias,
+        **_table_args("log", log),
+        **_table_args("fixes", fixes),
+    )
+    return {
+        "poses": _table(r["poses"]),
+        "odometry": _table(r["odometry"]),
+        "fixes": json.loads(r["fixes"]),
+        "summary": json.loads(r["summary"]),
+    }

@@ -117,3 +117,19 @@ def evaluate(
 ) -> Dict[str, Any]:
     """``{"runs": Table, "mean": Table, "metrics": dict}`` as ``omnikin evaluate``'s
     ``runs.csv``, ``mean.csv`` and ``metrics.json``."""
+
+def odometry(
+    robot: Union[Robot, str],
+    log: Union[Table, str, os.PathLike[str]],
+    *,
+    fixes: Optional[Union[Table, str, os.PathLike[str]]] = None,
+    imu: bool = False,
+    counts_per_rev: Optional[int] = None,
+    initial_pose: Optional[Sequence[float]] = None,
+    fix_std: float = 0.01,
+    fix_heading_std: float = 0.05,
+    gyro_bias: float = 0.0,
+) -> Dict[str, Any]:
+    """``{"poses": Table, "odometry": Table, "fixes": list, "summary": dict}`` as ``omnikin
+    odometry``: ``poses`` the ``--out`` CSV's ``t, x, y, heading`` (world frame; s, m, rad),
+    ``odometry`` the pure wheel odometry; ``log`` / ``fixes`` dicts of columns or CSV paths."""
