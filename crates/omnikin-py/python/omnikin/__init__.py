@@ -88,7 +88,7 @@ def simulate(
     plan: PlanLike,
     *,
     disturbances: Optional[Union[str, "os.PathLike[str]"]] = None,
-    trials: int = 10,
+    trials: Optional[int] = None,
     seed: int = 1,
     threads: Optional[int] = None,
     plant: str = "kinematic",
@@ -101,13 +101,14 @@ def simulate(
     ``omnikin simulate`` does.
 
     ``plant="kinematic"`` (default): the motors' motion through the forward kinematics,
-    ``trials`` times with the disturbance profile TOML ``disturbances`` (default: the ideal
+    ``trials`` times (default 10) with the disturbance profile TOML ``disturbances`` (default: the ideal
     plant); the same seed gives the same numbers on any number of ``threads`` (default: all
     cores). ``emit_sensors=True`` also returns what each trial's sensors recorded (the CLI's
     ``--emit-sensors``; ``sensors``: a sensor profile TOML, default 4096-count encoders, a
     gyro, camera fixes at 10 Hz).
 
-    ``plant="dynamic"``: the robot file's dynamics, one trial — sphere-omni's shell +
+    ``plant="dynamic"``: the robot file's dynamics, one trial (``trials`` > 1 warns, as the
+    CLI notes) — sphere-omni's shell +
     platform (deterministic), or the ballbot balanced by its controller on the 3D model
     (sensor noise seeded by ``seed``), starting ``initial_tilt_deg`` degrees toward +x and
     pushed by ``push``: a list of ``(impulse N·s, time s[, direction deg from +x])``, time from
@@ -122,6 +123,8 @@ def simulate(
     samples; rad, rad/s) or ``"cycles"`` (ballbot: ``t, tilt, x, y`` per control cycle,
     closed-loop time from the start of the lead-in; s, rad, m).
     """
+    if trials is None:
+        trials = 10 if plant == "kinematic" else 1
     trials_, mean, metrics, extras, sensor_logs = _native.simulate_native(
         _robot(robot),
         disturbances=None if disturbances is None else os.fspath(disturbances),

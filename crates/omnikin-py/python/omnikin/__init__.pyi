@@ -92,7 +92,7 @@ def simulate(
     plan: PlanLike,
     *,
     disturbances: Optional[Union[str, os.PathLike[str]]] = None,
-    trials: int = 10,
+    trials: Optional[int] = None,
     seed: int = 1,
     threads: Optional[int] = None,
     plant: Literal["kinematic", "dynamic"] = "kinematic",
