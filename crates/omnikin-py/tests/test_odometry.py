@@ -3,6 +3,7 @@
 CLI's errors; the log and fixes as CSV paths and as dicts of columns."""
 
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -48,9 +49,19 @@ def test_odometry_matches_cli(cli, tmp_path, logs, robot, flags, kw):
     p = cli.run("odometry", log, "--robot", robot, *args, "--out", out)
     want = read_csv(out)
     fx = fixes if "--fixes" in flags else None
-    for log_arg, fixes_arg in [(log, fx), (read_csv(log), None if fx is None else read_csv(fx))]:
-        got = omnikin.odometry(robot, log_arg, fixes=fixes_arg, **kw)
+    cli_warnings = [l[len("warning: "):] for l in p.stderr.splitlines() if l.startswith("warning: ")]
+    as_dicts = (read_csv(log), None if fx is None else read_csv(fx))
+    for files, (log_arg, fixes_arg) in [(True, (str(log), fx and str(fx))), (False, as_dicts)]:
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            got = omnikin.odometry(robot, log_arg, fixes=fixes_arg, **kw)
         assert_table(got["poses"], want)
+        # Fixes rejected as outliers warn as the CLI warns (a dict names its table "fixes").
+        msgs = [str(x.message) for x in w]
+        if files:
+            assert msgs == cli_warnings
+        else:
+            assert len(msgs) == len(cli_warnings)
     s = got["summary"]
     printed = p.stderr
     assert f"{s['samples']} samples over {s['duration_s']:.3f} s" in printed
