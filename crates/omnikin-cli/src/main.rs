@@ -25,10 +25,11 @@ mod shell;
 mod sim;
 mod sim_ballbot;
 mod sim_robot;
-mod steer_steps;
 mod teleop;
 
 use args::{List, Triple, finite_f64};
+// The steer-step check lives in omnikin-plan (the Python package applies it too).
+use omnikin_plan::steer_steps;
 
 /// Kinematics of omnidirectional wheeled robots: a sphere rolled by an internal omni-wheel
 /// platform (sphere-omni), a ball-balancing robot (ballbot), a base on three off-centred

@@ -104,10 +104,10 @@ fn emit_sensors(
     profile: &omnikin_sim::sensors::SensorProfile,
     seed: u64,
 ) -> Result<()> {
-    use omnikin_sim::sensors::{emit, write_encoder_log, write_fixes, write_imu, write_truth};
-    // A stream of its own, so sensor noise does not change the plant's numbers.
-    let mut rng = omnikin_sim::trial_rng(seed ^ 0x5E45_0125_5E45_0125, i);
-    let s = emit(robot, trial, profile, &mut rng);
+    use omnikin_sim::sensors::{
+        emit_trial, write_encoder_log, write_fixes, write_imu, write_truth,
+    };
+    let s = emit_trial(robot, i, trial, profile, seed);
     let d = dir.join("sensors").join(format!("trial-{i:03}"));
     crate::output::create_subdir("--out", &d)?;
     write_file(&d.join("encoders.csv"), |w| {
@@ -125,79 +125,69 @@ fn emit_sensors(
 
 /// `omnikin simulate --plant dynamic`: the plan once through the sphere's dynamic model
 /// (deterministic), with the same files as the kinematic plant and the dynamics' own figures
-/// (largest tilt, pull-out events, peak motor torques) in `metrics.json`'s `simulation`.
+/// (largest tilt, pull-out events, peak motor torques) in `metrics.json`'s `simulation`
+/// ([`omnikin_sim::dynamic_run`]).
 fn simulate_dynamic(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<()> {
-    use omnikin_sim::dynamics::sphere::{SphereDynamics, simulate_plan};
-    if d.robot_kind() != omnikin::Kind::Sphere {
-        bail!(
-            "--plant dynamic: only kinds sphere-omni and ballbot have a dynamic model so far (robot {} is {})",
-            d.name,
-            d.kind()
-        );
-    }
+    use omnikin_sim::dynamic_run::{DynamicOptions, DynamicPlant, check_kind, one_trial_note};
+    check_kind(d)?;
     if a.disturbances.is_some() || a.emit_sensors {
         bail!("--plant dynamic does not take --disturbances or --emit-sensors yet");
     }
     if a.trials > 1 {
-        crate::errln!("note: --plant dynamic is deterministic without disturbances: one trial");
+        crate::errln!("note: {}", one_trial_note(d));
     }
-    let p = SphereDynamics::from_description(d)?;
+    let opts = DynamicOptions {
+        plan_name: a.plan.display().to_string(),
+        seed: a.seed,
+        ..DynamicOptions::default()
+    };
+    let plant = DynamicPlant::new(d, plan, &opts)?;
     create_dir_for(
         &a.out,
         &["metrics.json", "trials.csv", "mean.csv", "figure.svg"],
     )?;
-    let run = simulate_plan(p, plan)?;
-    let trial = &run.trial;
-    let trials_path = a.out.join("trials.csv");
-    let mut trials_csv = crate::output::OutFile::create("--out", &trials_path)?;
-    writeln!(trials_csv, "{}", trials_header(3))
-        .and_then(|_| write_trial(&mut trials_csv, 0, trial))
-        .with_context(|| format!("cannot write {}", trials_path.display()))?;
-    trials_csv.commit()?;
-    crate::mcap_log::one_trial(a.mcap.as_deref(), plan, trial)?;
-    let runs = [omnikin_sim::metrics::Run {
-        xy: trial.tracked.clone(),
-        heading: Some(trial.pose.iter().map(|q| q.heading).collect()),
-    }];
-    let e = evaluate(plan, &runs)?;
-    let (metrics, mean) = (e.metrics, e.mean);
-    finite(&metrics)?;
-    let meta = json!({
-        "robot": d.name, "kind": d.kind(), "plan": a.plan.display().to_string(),
-        "plant": "dynamic", "trials": 1, "max_substep_s": p.max_substep,
-        "max_tilt_rad": run.max_tilt, "pull_outs": run.pull_outs,
-        "peak_motor_torque_nm": run.peak_torque,
-        "min_shell_spin_rad_s": run.shell_spin.iter().cloned().fold(0.0, f64::min),
-    });
-    let mut j = serde_json::to_value(&metrics)?;
-    j["simulation"] = meta;
-    write_file(&a.out.join("metrics.json"), |w| {
-        writeln!(
-            w,
-            "{}",
-            serde_json::to_string_pretty(&j).unwrap_or_default()
-        )
-    })?;
-    write_mean(&a.out.join("mean.csv"), plan, &mean)?;
+    let sim = plant.run(d, plan, &opts)?;
+    write_dynamic_run(&a.out, plan, &sim)?;
+    crate::mcap_log::one_trial(a.mcap.as_deref(), plan, sim.trial())?;
     crate::figures::trajectory_figure(
         "--out",
         &a.out.join("figure.svg"),
         &format!("{} — dynamic plant, {}", d.name, a.plan.display()),
         plan,
-        &runs,
-        &mean,
+        &sim.runs,
+        &sim.evaluation.mean,
     )?;
-    print_summary(&metrics);
-    crate::errln!(
-        "dynamic plant: largest tilt {:.3} rad, pull-out events {:?}",
-        run.max_tilt,
-        run.pull_outs
-    );
+    print_summary(&sim.evaluation.metrics);
+    for line in sim.summary_lines(&plant) {
+        crate::errln!("{line}");
+    }
     crate::errln!(
         "wrote {}/{{metrics.json, trials.csv, mean.csv, figure.svg}}",
         a.out.display().to_string().trim_end_matches('/')
     );
     Ok(())
+}
+
+/// Writes a dynamic run's `trials.csv`, `metrics.json` and `mean.csv` into `out`.
+pub(crate) fn write_dynamic_run(
+    out: &Path,
+    plan: &Plan,
+    sim: &omnikin_sim::dynamic_run::DynamicSimulation,
+) -> Result<()> {
+    let trials_path = out.join("trials.csv");
+    let mut trials_csv = crate::output::OutFile::create("--out", &trials_path)?;
+    writeln!(trials_csv, "{}", trials_header(3))
+        .and_then(|_| write_trial(&mut trials_csv, 0, sim.trial()))
+        .with_context(|| format!("cannot write {}", trials_path.display()))?;
+    trials_csv.commit()?;
+    write_file(&out.join("metrics.json"), |w| {
+        writeln!(
+            w,
+            "{}",
+            serde_json::to_string_pretty(&sim.metrics_json).unwrap_or_default()
+        )
+    })?;
+    write_mean(&out.join("mean.csv"), plan, &sim.evaluation.mean)
 }
 
 /// `omnikin evaluate`.

@@ -14,6 +14,7 @@
 //! | [`planner`] | timing under motor limits (re-timing, time-optimal forward–backward pass) and sampling |
 //! | [`generators`] | paper 000's experiments: the square (eq. 6.1) and the circle (eq. 6.3) |
 //! | [`limits`] | the stated limits: most samples, grid cells and waypoints, and the plausible range of every physical parameter |
+//! | [`steer_steps`] | a plan's steer-angle steps that its steer rates do not explain (a re-steer at rest between two samples) |
 //! | [`tilt`] | a sphere's quasi-static platform tilt along a plan, and slowing the moves that exceed a limit |
 //! | [`waypoints`] | waypoint files (CSV or TOML) with `file:line` errors |
 //! | [`Plan`] / [`Sample`] | the sampled plan and its CSV/JSON format (conventions.md: `t,x,y,heading,vx,vy,yaw_rate,w1..wN`, steerable kinds adding `s1..sN,sd1..sdN`) |
@@ -45,6 +46,7 @@ pub mod path;
 pub mod planner;
 pub mod profile;
 pub mod robot;
+pub mod steer_steps;
 pub mod tilt;
 pub mod waypoints;
 

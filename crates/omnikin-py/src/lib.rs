@@ -4,10 +4,11 @@
 //!
 //! `robot` holds `omnikin.Robot` and its kinematics, `arrays` the argument checks,
 //! `kernels` the row-parallel loops, `options` the keyword options, `plan` `omnikin.plan`,
-//! `sim` `omnikin.simulate` and `omnikin.evaluate`.
+//! `sim` `omnikin.simulate` and `omnikin.evaluate`, `odometry` `omnikin.odometry`.
 
 mod arrays;
 mod kernels;
+mod odometry;
 mod options;
 mod plan;
 mod robot;
@@ -23,5 +24,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(plan::plan_columns, m)?)?;
     m.add_function(wrap_pyfunction!(sim::simulate_native, m)?)?;
     m.add_function(wrap_pyfunction!(sim::evaluate_native, m)?)?;
+    m.add_function(wrap_pyfunction!(odometry::odometry_native, m)?)?;
     Ok(())
 }

@@ -10,6 +10,7 @@ use omnikin_plan::heading::{HeadingLaw, HeadingProfile};
 use omnikin_plan::path::{Corners, Path};
 use omnikin_plan::planner::{InitialSteer, MotionLimits, OnLimit, PlanOptions, Timing, plan};
 use omnikin_plan::profile::ProfileKind;
+use omnikin_plan::steer_steps::{MAX_UNEXPLAINED_STEER_STEP, unexplained_steer_step};
 use omnikin_plan::waypoints::Waypoints;
 use omnikin_plan::{Plan, PlanningError, RobotModel};
 use pyo3::prelude::*;
@@ -115,6 +116,31 @@ fn waypoint_heading(
     })
 }
 
+/// Waypoints from an `(N, 2)` (`x, y`) or `(N, 3)` (`x, y, heading`) array: written as a
+/// waypoint CSV (each value exactly, no header) and read with the file's checks, so an error
+/// names the row as `points:ROW` (1-based).
+fn points_waypoints(points: &Bound<'_, PyAny>) -> PyResult<Waypoints> {
+    let what = "waypoints (x, y[, heading]; m, rad)";
+    let r = match crate::arrays::rows(points, "points", 2, what) {
+        Ok(r) if !r.single => (r, 2),
+        _ => (crate::arrays::rows(points, "points", 3, what)?, 3),
+    };
+    let (rows, width) = r;
+    if rows.single {
+        return Err(value_error(
+            "points: expected shape (N, 2) or (N, 3) with N >= 2, got one row",
+        ));
+    }
+    let v = rows.values()?;
+    let mut text = String::new();
+    for row in v.chunks(width) {
+        let cells: Vec<String> = row.iter().map(|x| format!("{x}")).collect();
+        text.push_str(&cells.join(","));
+        text.push('\n');
+    }
+    Waypoints::from_csv(&text, "points").map_err(|e| value_error(e.to_string()))
+}
+
 /// The path, heading law and options of a request, and the context of a "too fast" error.
 type Request = (Path, HeadingLaw, PlanOptions, String);
 
@@ -157,13 +183,22 @@ fn circle(o: &mut Options, d: &PyRobot, robot: &RobotModel) -> PyResult<Request>
 }
 
 fn waypoints(o: &mut Options, d: &PyRobot, robot: &RobotModel) -> PyResult<Request> {
-    let Some(file) = o.opt_str("file")? else {
-        return Err(value_error(
-            "waypoints needs file (CSV x,y[,heading] or TOML [[waypoint]])",
-        ));
+    let (wp, file) = match (o.opt_str("file")?, o.any("points")?) {
+        (Some(file), None) => (
+            Waypoints::load(std::path::Path::new(&file)).map_err(|e| value_error(e.to_string()))?,
+            file,
+        ),
+        (None, Some(points)) => (points_waypoints(&points)?, "points".to_string()),
+        (Some(_), Some(_)) => {
+            return Err(value_error("waypoints: give file or points, not both"));
+        }
+        (None, None) => {
+            return Err(value_error(
+                "waypoints needs file (CSV x,y[,heading] or TOML [[waypoint]]) or points \
+                 (an (N, 2) array of x, y or (N, 3) of x, y, heading; m, rad, world frame)",
+            ));
+        }
     };
-    let wp =
-        Waypoints::load(std::path::Path::new(&file)).map_err(|e| value_error(e.to_string()))?;
     let shape = o
         .choice("path", &["polyline", "spline"])?
         .unwrap_or("polyline");
@@ -274,5 +309,20 @@ pub fn plan_columns<'py>(
     let planned = py
         .detach(|| plan(&path, &heading, &model, &opts))
         .map_err(|e| planning_error(e, || ctx))?;
+    // As `omnikin plan` (crates/omnikin-cli/src/plan/write.rs): a steer step the plan's
+    // steer rates do not explain is a warning (omnikin.simulate may refuse the plan).
+    if let Some(step) = unexplained_steer_step(&planned.plan, MAX_UNEXPLAINED_STEER_STEP) {
+        PyErr::warn(
+            py,
+            &py.get_type::<pyo3::exceptions::PyUserWarning>(),
+            &std::ffi::CString::new(format!(
+                "{step}: the steer-rate peak and the limits do not cover it, and \
+                 omnikin.simulate may refuse this plan: {}",
+                step.cause()
+            ))
+            .unwrap_or_default(),
+            1,
+        )?;
+    }
     columns(py, &planned.plan)
 }

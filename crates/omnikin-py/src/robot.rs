@@ -3,13 +3,13 @@
 //! vectorised kinematics verbs `inverse`, `forward` and `torques` of the CLI contract.
 
 use omnikin::description::{PRESETS, RobotDescription};
-use omnikin::drive::TorqueSpace;
+use omnikin::drive::{KindModel, KindVisitor, TorqueSpace};
 use omnikin::{Actuators, MAX_WHEELS, Robot, Twist2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::arrays::{Rows, matching, row, rows, to_array, value_error};
-use crate::kernels::{map_rows, map_rows2};
+use crate::kernels::{RowError, map_chunks2, map_rows, map_rows2};
 
 /// A robot: a preset name (`sphere-omni`, `ballbot`, `caster3`, `kiwi`, `x-drive`,
 /// `mecanum`, `swerve4`) or the path of a TOML robot file.
@@ -206,26 +206,55 @@ impl PyRobot {
         let s_single = st.as_ref().is_some_and(|s| s.single);
         let model = &self.model;
         let n = tw.rows;
+        // caster3 with one steer state for every row (none given: zeros): the trigonometry
+        // of that state once (Caster3::robot_frame_inverse, equal to the per-row inverse
+        // exactly), then three dot products per rate. A non-finite steer row takes the
+        // per-row path, whose error names it.
+        if let Robot::Caster(c) = model
+            && (sv.is_none() || s_single)
+        {
+            let mut g = [0.0; 3];
+            if let Some(v) = sv {
+                g.copy_from_slice(&v[..3]);
+            }
+            if let Ok(inv) = c.robot_frame_inverse(g) {
+                let out = py.detach(|| {
+                    map_chunks2(n, 3, 3, |start, w, s| {
+                        let rows = w.len() / 3;
+                        let tws = tv[3 * start..3 * (start + rows)].chunks_exact(3);
+                        let outs = w.chunks_exact_mut(3).zip(s.chunks_exact_mut(3));
+                        for (j, (t, (w, s))) in tws.zip(outs).enumerate() {
+                            let r = inv
+                                .motor_rates(Twist2::new(t[0], t[1], t[2]))
+                                .map_err(|e| (start + j, e.to_string()))?;
+                            w.copy_from_slice(&r.roll);
+                            s.copy_from_slice(&r.steer);
+                        }
+                        Ok(())
+                    })
+                });
+                let (w, s) = out.map_err(|(i, e)| value_error(format!("twists row {i}: {e}")))?;
+                let d = PyDict::new(py);
+                d.set_item("wheel_rates", to_array(py, w, n, k, tw.single)?)?;
+                d.set_item("steer_rates", to_array(py, s, n, k, tw.single)?)?;
+                return Ok(d);
+            }
+        }
         let out = py.detach(|| {
-            map_rows2(n, k, sw, |i, w, s| {
-                let t = &tv[3 * i..3 * i + 3];
-                let mut act = Actuators::zero();
-                if let Some(g) = row(sv, k, s_single, i) {
-                    act.steer_angles[..k].copy_from_slice(g);
-                }
-                let r = model
-                    .inverse_spin(Twist2::new(t[0], t[1], t[2]), spin, &act)
-                    .map_err(|e| e.to_string())?;
-                w.copy_from_slice(&r.wheel_rates[..k]);
-                if steered {
-                    let g = if set_point {
-                        &r.steer_angles
-                    } else {
-                        &r.steer_rates
-                    };
-                    s.copy_from_slice(&g[..k]);
-                }
-                Ok(())
+            // Once per chunk into the robot's concrete kind (Robot::visit), so the kind's
+            // inverse inlines into the row loop instead of dispatching on the kind per row.
+            map_chunks2(n, k, sw, |start, w, s| {
+                model.visit(InverseChunk {
+                    start,
+                    twists: &tv[3 * start..3 * start + 3 * (w.len() / k)],
+                    steer: sv,
+                    steer_single: s_single,
+                    spin,
+                    wheels: k,
+                    steer_out: steered.then_some(set_point),
+                    wheel_rates: w,
+                    steer_values: s,
+                })
             })
         });
         let (w, s) = out.map_err(|(i, e)| value_error(format!("twists row {i}: {e}")))?;
@@ -467,5 +496,58 @@ impl PyRobot {
             }
         }
         Ok(d)
+    }
+}
+
+/// A chunk of `robot.inverse`: the rows `start..` of the twists through the concrete kind's
+/// [`KindModel::inverse_spin`] (the same call as [`Robot::inverse_spin`], without its per-row
+/// dispatch), written into the chunk's outputs.
+struct InverseChunk<'a> {
+    /// First row of the chunk (for errors and the steer rows).
+    start: usize,
+    /// The chunk's twists, 3 per row.
+    twists: &'a [f64],
+    /// All steer rows (`k` per row), if given.
+    steer: Option<&'a [f64]>,
+    /// One steer row for every twist.
+    steer_single: bool,
+    /// Shell/ball spin, rad/s.
+    spin: f64,
+    /// `k`.
+    wheels: usize,
+    /// Steerable: `Some(true)` writes the steer angles (swerve set-points), `Some(false)` the
+    /// steer rates (caster3).
+    steer_out: Option<bool>,
+    /// The chunk's wheel rates, `k` per row.
+    wheel_rates: &'a mut [f64],
+    /// The chunk's steer values, `k` per row (empty when not steerable).
+    steer_values: &'a mut [f64],
+}
+
+impl KindVisitor<f64> for InverseChunk<'_> {
+    type Output = Result<(), RowError>;
+
+    fn visit<M: KindModel<f64>>(self, m: &M) -> Self::Output {
+        let k = self.wheels;
+        let mut act = Actuators::zero();
+        for (j, t) in self.twists.chunks_exact(3).enumerate() {
+            let i = self.start + j;
+            if let Some(g) = row(self.steer, k, self.steer_single, i) {
+                act.steer_angles[..k].copy_from_slice(g);
+            }
+            let r = m
+                .inverse_spin(Twist2::new(t[0], t[1], t[2]), self.spin, &act)
+                .map_err(|e| (i, e.to_string()))?;
+            self.wheel_rates[j * k..(j + 1) * k].copy_from_slice(&r.wheel_rates[..k]);
+            if let Some(set_point) = self.steer_out {
+                let g = if set_point {
+                    &r.steer_angles
+                } else {
+                    &r.steer_rates
+                };
+                self.steer_values[j * k..(j + 1) * k].copy_from_slice(&g[..k]);
+            }
+        }
+        Ok(())
     }
 }

@@ -7,7 +7,14 @@ use numpy::ndarray::Array2;
 use numpy::prelude::IntoPyArray;
 use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
 use omnikin_plan::Plan;
+use omnikin_plan::steer_steps::{
+    MAX_SIMULATED_STEER_STEP, MAX_UNEXPLAINED_STEER_STEP, unexplained_steer_step,
+};
+use omnikin_sim::dynamic_run::{
+    self, DynamicError, DynamicOptions, DynamicOutcome, DynamicPlant, PushSpec,
+};
 use omnikin_sim::metrics::{MeanTrajectory, evaluate, tracked_reference};
+use omnikin_sim::sensors::SensorProfile;
 use omnikin_sim::track::{Alignment, Track};
 use omnikin_sim::{Profile, Trial};
 use pyo3::prelude::*;
@@ -17,9 +24,13 @@ use crate::arrays::value_error;
 use crate::robot::PyRobot;
 
 /// Columns and values (one row per column), as `plan_columns` returns them.
-type Table<'py> = (Vec<String>, Bound<'py, PyAny>);
+pub(crate) type Table<'py> = (Vec<String>, Bound<'py, PyAny>);
 
-fn table<'py>(py: Python<'py>, cols: Vec<String>, values: Vec<Vec<f64>>) -> PyResult<Table<'py>> {
+pub(crate) fn table<'py>(
+    py: Python<'py>,
+    cols: Vec<String>,
+    values: Vec<Vec<f64>>,
+) -> PyResult<Table<'py>> {
     let n = values.first().map_or(0, Vec::len);
     let mut a = Array2::<f64>::zeros((cols.len(), n));
     for (i, v) in values.iter().enumerate() {
@@ -108,47 +119,99 @@ fn add_trial(v: &mut [Vec<f64>], i: usize, tr: &Trial) {
 }
 
 /// `omnikin.simulate`: `(trials, mean, metrics_json)`.
-#[pyfunction]
-#[pyo3(signature = (robot, plan_path=None, plan_columns=None, disturbances=None, trials=10, seed=1, threads=None))]
-#[allow(clippy::too_many_arguments, clippy::type_complexity)]
-pub fn simulate_native<'py>(
-    py: Python<'py>,
-    robot: &PyRobot,
-    plan_path: Option<&str>,
-    plan_columns: Option<(Vec<String>, PyReadonlyArray2<'py, f64>)>,
-    disturbances: Option<&str>,
-    trials: u64,
-    seed: u64,
-    threads: Option<usize>,
-) -> PyResult<(Table<'py>, Table<'py>, String)> {
-    if !(1..=100_000).contains(&trials) {
-        return Err(value_error(format!(
-            "trials: must be in 1..=100000, got {trials}"
-        )));
-    }
-    if let Some(t) = threads
-        && !(1..=256).contains(&t)
-    {
-        return Err(value_error(format!("threads: must be in 1..=256, got {t}")));
-    }
-    let (plan, plan_name) = load_plan(plan_path, plan_columns)?;
-    let model = &robot.model;
-    let profile = match disturbances {
-        Some(p) => {
-            Profile::load(std::path::Path::new(p)).map_err(|e| value_error(e.to_string()))?
+/// Named tables beside the main ones (`extras` of a dynamic run, one trial's sensor logs).
+type Named<'py> = Vec<(String, Table<'py>)>;
+
+/// What `simulate_native` returns: `(trials, mean, metrics_json, extras, sensors)`.
+type Simulated<'py> = (Table<'py>, Table<'py>, String, Named<'py>, Vec<Named<'py>>);
+
+/// A CSV text of numbers (as the library's writers write it, every value read back exactly)
+/// as columns.
+fn csv_table<'py>(py: Python<'py>, text: &[u8], what: &str) -> PyResult<Table<'py>> {
+    let text = std::str::from_utf8(text).map_err(|e| value_error(format!("{what}: {e}")))?;
+    let mut lines = text.lines();
+    let cols: Vec<String> = lines
+        .next()
+        .unwrap_or_default()
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let mut v = vec![Vec::new(); cols.len()];
+    for (n, line) in lines.enumerate() {
+        for (c, cell) in line.split(',').enumerate() {
+            let x: f64 = cell.parse().map_err(|_| {
+                value_error(format!("{what}: line {}: not a number: {cell:?}", n + 2))
+            })?;
+            match v.get_mut(c) {
+                Some(col) => col.push(x),
+                None => {
+                    return Err(value_error(format!(
+                        "{what}: line {}: too many cells",
+                        n + 2
+                    )));
+                }
+            }
         }
-        None => Profile::default(),
-    };
-    if let Some(why) = omnikin_sim::plan_mismatch(model, &plan) {
-        PyErr::warn(
-            py,
-            &py.get_type::<pyo3::exceptions::PyUserWarning>(),
-            &std::ffi::CString::new(format!("{plan_name}: {why}")).unwrap_or_default(),
-            1,
-        )?;
     }
-    let reference = tracked_reference(&plan, profile.tracking.offset.unwrap_or([0.0; 2]));
-    let k = model.wheels();
+    table(py, cols, v)
+}
+
+/// The sensor profile of `emit_sensors` (a TOML file, or the typical one), read as the CLI
+/// reads `--sensors`.
+fn sensor_profile(path: Option<&str>) -> PyResult<SensorProfile> {
+    Ok(match path {
+        Some(p) => {
+            let text = omnikin::description::read_text_limited(
+                std::path::Path::new(p),
+                omnikin::description::MAX_TOML_BYTES,
+                "MAX_TOML_BYTES of omnikin::description",
+            )
+            .map_err(|e| value_error(format!("cannot read sensor profile {p}: {e}")))?;
+            SensorProfile::from_toml_str(&text, p).map_err(|e| value_error(e.to_string()))?
+        }
+        None => SensorProfile::typical(),
+    })
+}
+
+/// The sensor logs of one trial, as the CLI writes them under `sensors/trial-NNN/` (the
+/// library's writers, read back): `encoders`, `truth`, and `fixes` and `imu` when recorded.
+fn sensor_tables<'py>(py: Python<'py>, logs: &[(String, Vec<u8>)]) -> PyResult<Named<'py>> {
+    logs.iter()
+        .map(|(name, text)| Ok((name.clone(), csv_table(py, text, &format!("{name}.csv"))?)))
+        .collect()
+}
+
+/// The CSV texts of trial `i`'s sensor logs.
+fn emit_logs(
+    robot: &omnikin::Robot<f64>,
+    i: usize,
+    trial: &Trial,
+    profile: &SensorProfile,
+    seed: u64,
+) -> std::io::Result<Vec<(String, Vec<u8>)>> {
+    use omnikin_sim::sensors::{
+        emit_trial, write_encoder_log, write_fixes, write_imu, write_truth,
+    };
+    let s = emit_trial(robot, i, trial, profile, seed);
+    let mut out = Vec::new();
+    let mut w = Vec::new();
+    write_encoder_log(&s.encoder, &mut w)?;
+    out.push(("encoders".to_string(), std::mem::take(&mut w)));
+    if !s.fixes.is_empty() {
+        write_fixes(&s.fixes, &mut w)?;
+        out.push(("fixes".to_string(), std::mem::take(&mut w)));
+    }
+    if !s.imu.is_empty() {
+        write_imu(&s.imu, &mut w)?;
+        out.push(("imu".to_string(), std::mem::take(&mut w)));
+    }
+    write_truth(trial, &mut w)?;
+    out.push(("truth".to_string(), w));
+    Ok(out)
+}
+
+/// The trials' columns (`trials.csv`) for `k` wheels.
+fn trial_columns(k: usize) -> Vec<String> {
     let mut cols: Vec<String> = [
         "trial",
         "t",
@@ -163,6 +226,207 @@ pub fn simulate_native<'py>(
     .map(|s| s.to_string())
     .collect();
     cols.extend((1..=k).map(|i| format!("q{i}")));
+    cols
+}
+
+/// A user warning with `msg`.
+pub(crate) fn warn(py: Python<'_>, msg: &str) -> PyResult<()> {
+    PyErr::warn(
+        py,
+        &py.get_type::<pyo3::exceptions::PyUserWarning>(),
+        &std::ffi::CString::new(msg).unwrap_or_default(),
+        1,
+    )
+}
+
+/// `omnikin.simulate(..., plant="dynamic")`: the plan once through the robot's dynamic plant
+/// ([`omnikin_sim::dynamic_run`], as `omnikin simulate --plant dynamic`).
+#[allow(clippy::too_many_arguments)]
+fn simulate_dynamic<'py>(
+    py: Python<'py>,
+    robot: &PyRobot,
+    plan: Plan,
+    plan_name: String,
+    disturbances: Option<&str>,
+    emit_sensors: bool,
+    trials: u64,
+    seed: u64,
+    initial_tilt_deg: Option<f64>,
+    pushes: Vec<PushSpec>,
+) -> PyResult<Simulated<'py>> {
+    let d = &robot.desc;
+    let err = |e: DynamicError| value_error(e.to_string());
+    dynamic_run::check_kind(d).map_err(err)?;
+    if disturbances.is_some() || emit_sensors {
+        return Err(value_error(
+            "plant=\"dynamic\" does not take disturbances or emit_sensors yet",
+        ));
+    }
+    if trials > 1 {
+        warn(py, &format!("note: {}", dynamic_run::one_trial_note(d)))?;
+    }
+    let opts = DynamicOptions {
+        plan_name,
+        seed,
+        initial_tilt_deg,
+        pushes,
+    };
+    let plant = DynamicPlant::new(d, &plan, &opts).map_err(err)?;
+    let sim = py.detach(|| plant.run(d, &plan, &opts)).map_err(err)?;
+    let mut v = vec![Vec::new(); 8 + 3];
+    add_trial(&mut v, 0, sim.trial());
+    let extras = match &sim.outcome {
+        DynamicOutcome::Sphere(r) => {
+            let cols = ["t", "tilt", "shell_spin"].map(String::from).to_vec();
+            vec![(
+                "dynamics".to_string(),
+                table(
+                    py,
+                    cols,
+                    vec![r.trial.t.clone(), r.tilt.clone(), r.shell_spin.clone()],
+                )?,
+            )]
+        }
+        DynamicOutcome::Ballbot(r) => {
+            let cols = ["t", "tilt", "x", "y"].map(String::from).to_vec();
+            let x = r.position.iter().map(|p| p[0]).collect();
+            let y = r.position.iter().map(|p| p[1]).collect();
+            vec![(
+                "cycles".to_string(),
+                table(py, cols, vec![r.t.clone(), r.tilt.clone(), x, y])?,
+            )]
+        }
+    };
+    Ok((
+        table(py, trial_columns(3), v)?,
+        mean_table(py, &plan, &sim.evaluation.mean)?,
+        sim.metrics_json.to_string(),
+        extras,
+        Vec::new(),
+    ))
+}
+
+/// `omnikin.simulate`: `(trials, mean, metrics_json, extras, sensors)`.
+#[pyfunction]
+#[pyo3(signature = (robot, plan_path=None, plan_columns=None, disturbances=None, trials=10, seed=1, threads=None, plant="kinematic", initial_tilt_deg=None, push=None, emit_sensors=false, sensors=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn simulate_native<'py>(
+    py: Python<'py>,
+    robot: &PyRobot,
+    plan_path: Option<&str>,
+    plan_columns: Option<(Vec<String>, PyReadonlyArray2<'py, f64>)>,
+    disturbances: Option<&str>,
+    trials: u64,
+    seed: u64,
+    threads: Option<usize>,
+    plant: &str,
+    initial_tilt_deg: Option<f64>,
+    push: Option<Vec<Vec<f64>>>,
+    emit_sensors: bool,
+    sensors: Option<&str>,
+) -> PyResult<Simulated<'py>> {
+    if !(1..=100_000).contains(&trials) {
+        return Err(value_error(format!(
+            "trials: must be in 1..=100000, got {trials}"
+        )));
+    }
+    if let Some(t) = threads
+        && !(1..=256).contains(&t)
+    {
+        return Err(value_error(format!("threads: must be in 1..=256, got {t}")));
+    }
+    let dynamic = match plant {
+        "kinematic" => false,
+        "dynamic" => true,
+        p => {
+            return Err(value_error(format!(
+                "plant: {p:?} is not one of kinematic, dynamic"
+            )));
+        }
+    };
+    if sensors.is_some() && !emit_sensors {
+        return Err(value_error("sensors: needs emit_sensors=True"));
+    }
+    let initial_tilt_deg = initial_tilt_deg
+        .map(|v| {
+            dynamic_run::check_initial_tilt_deg(v)
+                .map_err(|e| value_error(format!("initial_tilt_deg: {e}")))
+        })
+        .transpose()?;
+    let pushes = push
+        .unwrap_or_default()
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            match p[..] {
+                [j, t] => PushSpec::new(j, t, 0.0),
+                [j, t, deg] => PushSpec::new(j, t, deg),
+                _ => Err(format!(
+                    "expected (impulse N·s, time s[, direction deg]), got {} values",
+                    p.len()
+                )),
+            }
+            .map_err(|e| value_error(format!("push {}: {e}", i + 1)))
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    let (plan, plan_name) = load_plan(plan_path, plan_columns)?;
+    let ballbot_dynamic = dynamic && robot.desc.robot_kind() == omnikin::Kind::Ballbot;
+    if !ballbot_dynamic && (initial_tilt_deg.is_some() || !pushes.is_empty()) {
+        return Err(value_error(
+            "initial_tilt_deg and push need a ballbot (kind ballbot) and plant=\"dynamic\"",
+        ));
+    }
+    if dynamic {
+        return simulate_dynamic(
+            py,
+            robot,
+            plan,
+            plan_name,
+            disturbances,
+            emit_sensors,
+            trials,
+            seed,
+            initial_tilt_deg,
+            pushes,
+        );
+    }
+    let model = &robot.model;
+    let profile = match disturbances {
+        Some(p) => {
+            Profile::load(std::path::Path::new(p)).map_err(|e| value_error(e.to_string()))?
+        }
+        None => Profile::default(),
+    };
+    if let Some(why) = omnikin_sim::plan_mismatch(model, &plan) {
+        warn(py, &format!("{plan_name}: {why}"))?;
+    }
+    // As `omnikin simulate` (crates/omnikin-cli/src/sim.rs): a steer step the sd columns do
+    // not explain is refused beyond MAX_SIMULATED_STEER_STEP, warned about beyond
+    // MAX_UNEXPLAINED_STEER_STEP.
+    if let Some(step) = unexplained_steer_step(&plan, MAX_SIMULATED_STEER_STEP) {
+        return Err(value_error(format!(
+            "{plan_name}: {step}: the simulator turns the steer motors by the sd columns, so it \
+             would not follow this plan: {}",
+            step.cause()
+        )));
+    } else if let Some(step) = unexplained_steer_step(&plan, MAX_UNEXPLAINED_STEER_STEP) {
+        warn(
+            py,
+            &format!(
+                "{plan_name}: {step}: the simulated steering will differ from the plan's by \
+                 about that much: {}",
+                step.cause()
+            ),
+        )?;
+    }
+    let sensor_profile = if emit_sensors {
+        Some(sensor_profile(sensors)?)
+    } else {
+        None
+    };
+    let mut logs: Vec<Vec<(String, Vec<u8>)>> = Vec::new();
+    let reference = tracked_reference(&plan, profile.tracking.offset.unwrap_or([0.0; 2]));
+    let cols = trial_columns(model.wheels());
     let mut v = vec![Vec::new(); cols.len()];
     let n = trials as usize;
     let mc = py.detach(|| {
@@ -181,6 +445,12 @@ pub fn simulate_native<'py>(
                 &|| {},
                 |i, trial| -> Result<(), String> {
                     add_trial(&mut v, i, trial);
+                    if let Some(sp) = &sensor_profile {
+                        logs.push(
+                            emit_logs(model, i, trial, sp, seed)
+                                .map_err(|e| format!("sensor logs of trial {i}: {e}"))?,
+                        );
+                    }
                     Ok(())
                 },
             )
@@ -200,10 +470,16 @@ pub fn simulate_native<'py>(
         "disturbances": disturbances, "trials": trials, "seed": seed,
         "plant_rate_hz": profile.rate_hz(),
     });
+    let sensor_logs = logs
+        .iter()
+        .map(|l| sensor_tables(py, l))
+        .collect::<PyResult<Vec<_>>>()?;
     Ok((
         table(py, cols, v)?,
         mean_table(py, &reference, &mean)?,
         j.to_string(),
+        Vec::new(),
+        sensor_logs,
     ))
 }
 

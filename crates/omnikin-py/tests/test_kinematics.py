@@ -158,3 +158,35 @@ def test_large_arrays_are_computed_in_parallel_chunks_identically():
     small = r.inverse(tw[-5:])
     for k in big:
         np.testing.assert_array_equal(big[k][-5:], small[k])
+
+
+def test_caster3_one_steer_state_is_the_per_row_inverse_exactly():
+    """One steer row (or none: zeros) takes the core's fixed-steer path
+    (Caster3::robot_frame_inverse); it equals the per-row inverse bit for bit, errors included,
+    on more rows than one parallel chunk."""
+    r = omnikin.Robot("caster3")
+    rng = np.random.default_rng(11)
+    tw = rng.uniform(-2.0, 2.0, size=(20_000, 3))
+    tw[::97] *= 1e3
+    for g in (np.array([0.3, -1.2, 2.9]), None):
+        per_row = np.tile(np.zeros(3) if g is None else g, (len(tw), 1))
+        a, b = r.inverse(tw, steer=g), r.inverse(tw, steer=per_row)
+        assert list(a) == list(b) == ["wheel_rates", "steer_rates"]
+        for k in a:
+            np.testing.assert_array_equal(a[k], b[k])
+        one = r.inverse(tw[5], steer=g)
+        np.testing.assert_array_equal(one["wheel_rates"], a["wheel_rates"][5])
+    bad = tw.copy()
+    bad[12_345, 1] = np.nan
+    bad[17_000, 0] = np.inf
+    msgs = []
+    for g in (np.zeros(3), np.zeros((len(tw), 3))):
+        with pytest.raises(ValueError) as e:
+            r.inverse(bad, steer=g)
+        msgs.append(str(e.value))
+    assert msgs[0] == msgs[1] and msgs[0].startswith("twists row 12345: ")
+    with pytest.raises(ValueError) as e1:
+        r.inverse(tw, steer=[0.0, np.nan, 0.0])
+    with pytest.raises(ValueError) as e2:
+        r.inverse(tw, steer=np.tile([0.0, np.nan, 0.0], (len(tw), 1)))
+    assert str(e1.value) == str(e2.value)

@@ -1,4 +1,5 @@
-"""The README's Python example runs as written (in a temporary directory, no display)."""
+"""The Python examples of the README and of docs/python.md run as written (in a temporary
+directory, no display)."""
 
 import os
 import re
@@ -17,7 +18,10 @@ def test_readme_example_runs(tmp_path, monkeypatch):
 
     matplotlib.use("Agg")
     blocks = readme_python_blocks()
-    assert blocks, "no python block in the README's Python section"
+    if not blocks:
+        import pytest
+
+        pytest.skip("the README's Python section has no example (docs/python.md has it)")
     monkeypatch.chdir(tmp_path)
     scope: dict = {}
     for code in blocks:
@@ -25,3 +29,20 @@ def test_readme_example_runs(tmp_path, monkeypatch):
     assert scope["rates"]["wheel_rates"].shape == (1000, 3)
     assert scope["run"]["metrics"]["max_deviation_m"] < 1e-3
     assert os.path.getsize(tmp_path / "circle.png") > 0
+
+
+def test_docs_python_example_runs(tmp_path, monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    text = (ROOT / "docs" / "python.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    assert blocks, "no python block in docs/python.md"
+    monkeypatch.chdir(tmp_path)
+    scope: dict = {}
+    for code in blocks:
+        exec(compile(code, "docs/python.md", "exec"), scope)
+    assert scope["run"]["metrics"]["radius_ratio"] > 0.95
+    assert scope["odo"]["summary"]["fixes"]["accepted"] > 0
+    assert not scope["pushed"]["metrics"]["fallen"]
+    assert os.path.getsize(tmp_path / "python-circle.png") > 0

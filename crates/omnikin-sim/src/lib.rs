@@ -15,6 +15,8 @@
 //!   models and the plant step.
 //! * [`dynamics`]: dynamic plants — the sphere's shell + platform with floor friction, and the
 //!   3D ballbot with its planar models and the balance controller on it.
+//! * [`dynamic_run`]: one plan through the dynamic plant of a sphere or a ballbot, evaluated,
+//!   with `metrics.json` (`simulate --plant dynamic`).
 //! * [`sil`]: software in the loop — the same plant as a board for the robot runtime.
 //! * [`run_trials`]: seeded parallel Monte Carlo; trial `i` draws from its own ChaCha8 stream,
 //!   so results do not depend on the number of threads.
@@ -30,6 +32,7 @@
 //!   and resampled onto its time grid, so the same metrics apply to hardware experiments.
 #![warn(missing_docs)]
 
+pub mod dynamic_run;
 pub mod dynamics;
 pub mod limits;
 pub mod metrics;

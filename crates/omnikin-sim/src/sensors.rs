@@ -351,6 +351,21 @@ fn second_derivative(t: &[f64], k: usize, f: impl Fn(usize) -> f64) -> f64 {
     2.0 * (h0 * f(k + 1) - (h0 + h1) * f(k) + h1 * f(k - 1)) / (h0 * h1 * (h0 + h1))
 }
 
+/// The sensor logs of Monte-Carlo trial `index` of a run seeded `seed` (`omnikin simulate
+/// --emit-sensors`): [`emit`] on a random stream of its own (seed salted, one per trial), so
+/// the sensor noise does not change the plant's numbers and the logs do not depend on the
+/// thread count.
+pub fn emit_trial(
+    robot: &Robot<f64>,
+    index: usize,
+    trial: &Trial,
+    profile: &SensorProfile,
+    seed: u64,
+) -> Sensors {
+    let mut rng = crate::trial_rng(seed ^ 0x5E45_0125_5E45_0125, index);
+    emit(robot, trial, profile, &mut rng)
+}
+
 /// The sensor logs a robot running `trial` would have recorded (see the module docs). `robot`
 /// decides how many wheel columns there are and whether steer angles are written (steerable
 /// kinds). All randomness comes from `rng`.

@@ -17,7 +17,7 @@ import numpy as np
 from omnikin import _native
 from omnikin._native import Robot, __version__
 
-__all__ = ["Robot", "plan", "simulate", "evaluate", "__version__"]
+__all__ = ["Robot", "plan", "simulate", "evaluate", "odometry", "__version__"]
 
 Table = Dict[str, np.ndarray]
 PlanLike = Union[Table, str, "os.PathLike[str]"]
@@ -30,6 +30,22 @@ def _table(native: tuple) -> Table:
 
 def _robot(robot: Union[Robot, str, "os.PathLike[str]"]) -> Robot:
     return robot if isinstance(robot, Robot) else Robot(os.fspath(robot))
+
+
+def _columns(name: str, table: Table) -> tuple:
+    columns = list(table)
+    cols = [np.asarray(table[c], dtype=np.float64) for c in columns]
+    if any(c.ndim != 1 for c in cols) or len({len(c) for c in cols}) > 1:
+        raise ValueError(f"{name}: every column must be a 1-D array of the same length")
+    return columns, np.array(cols).reshape(len(cols), -1)
+
+
+def _table_args(name: str, table: Union[Table, str, "os.PathLike[str]", None]) -> dict:
+    if table is None:
+        return {}
+    if isinstance(table, dict):
+        return {f"{name}_columns": _columns(name, table)}
+    return {f"{name}_path": os.fspath(table)}
 
 
 def _plan_args(plan_: PlanLike) -> dict:
@@ -52,14 +68,17 @@ def plan(robot: Union[Robot, str], kind: str, **options: Any) -> Table:
       ("trapezoid" | "s-curve"), ``no_retime``;
     - circle: ``omega`` (rad/s, required), ``radius`` (m, 0.2), ``turns`` (1), ``ramp`` (s),
       ``face_motion``;
-    - waypoints: ``file`` (CSV ``x,y[,heading]`` or TOML, required), ``path`` ("polyline" |
+    - waypoints: ``file`` (CSV ``x,y[,heading]`` or TOML) or ``points`` (an ``(N, 2)`` array
+      of ``x, y`` or ``(N, 3)`` of ``x, y, heading``; m, rad, world frame), ``path`` ("polyline" |
       "spline"), ``corners`` ("stop" | "fillet"), ``fillet_radius``, ``heading_law``
       ("constant" | "tangent" | "waypoints"), ``heading``, ``spin`` (rad/m),
       ``heading_offset``, ``max_speed``, ``max_accel``, ``max_jerk``, ``max_yaw_rate``,
       ``max_yaw_accel``, ``profile``, ``time_optimal``, ``no_retime``.
 
     Returns the plan CSV's columns ``t, x, y, heading, vx, vy, yaw_rate, w1..wN`` (world frame;
-    s, m, rad, m/s, rad/s) and, for steerable kinds, ``s1..sN, sd1..sdN`` (rad, rad/s).
+    s, m, rad, m/s, rad/s) and, for steerable kinds, ``s1..sN, sd1..sdN`` (rad, rad/s). A
+    steer step that the steer rates do not explain is a ``UserWarning``, as ``omnikin plan``
+    warns (``simulate`` refuses a step over 0.1 rad).
     """
     return _table(_native.plan_columns(_robot(robot), kind, **options))
 
@@ -69,28 +88,66 @@ def simulate(
     plan: PlanLike,
     *,
     disturbances: Optional[Union[str, "os.PathLike[str]"]] = None,
-    trials: int = 10,
+    trials: Optional[int] = None,
     seed: int = 1,
     threads: Optional[int] = None,
+    plant: str = "kinematic",
+    initial_tilt_deg: Optional[float] = None,
+    push: Optional[Sequence[Sequence[float]]] = None,
+    emit_sensors: bool = False,
+    sensors: Optional[Union[str, "os.PathLike[str]"]] = None,
 ) -> Dict[str, Any]:
-    """Runs ``plan`` (a dict from :func:`plan`, or a plan CSV path) through the kinematic plant
-    ``trials`` times, as ``omnikin simulate`` does (same seed, same numbers, on any number of
-    ``threads``; default all cores), with the disturbance profile TOML ``disturbances``
-    (default: the ideal plant).
+    """Runs ``plan`` (a dict from :func:`plan`, or a plan CSV path) through a plant, as
+    ``omnikin simulate`` does.
+
+    ``plant="kinematic"`` (default): the motors' motion through the forward kinematics,
+    ``trials`` times (default 10) with the disturbance profile TOML ``disturbances`` (default: the ideal
+    plant); the same seed gives the same numbers on any number of ``threads`` (default: all
+    cores). ``emit_sensors=True`` also returns what each trial's sensors recorded (the CLI's
+    ``--emit-sensors``; ``sensors``: a sensor profile TOML, default 4096-count encoders, a
+    gyro, camera fixes at 10 Hz).
+
+    ``plant="dynamic"``: the robot file's dynamics, one trial (``trials`` > 1 warns, as the
+    CLI notes) — sphere-omni's shell +
+    platform (deterministic), or the ballbot balanced by its controller on the 3D model
+    (sensor noise seeded by ``seed``), starting ``initial_tilt_deg`` degrees toward +x and
+    pushed by ``push``: a list of ``(impulse N·s, time s[, direction deg from +x])``, time from
+    the start of the 1 s lead-in. A fall is a result: ``metrics["fallen"]``.
 
     Returns ``{"trials": ..., "mean": ..., "metrics": ...}``: the columns of ``trials.csv``
     (``trial, t, x, y, heading, tracked_x, tracked_y, slip_residual, q1..qN``; world frame) and
-    ``mean.csv`` (``t, x, y, x_ci95, y_ci95, plan_x, plan_y``), and ``metrics.json`` as a dict.
+    ``mean.csv`` (``t, x, y, x_ci95, y_ci95, plan_x, plan_y``), and ``metrics.json`` as a dict;
+    with ``emit_sensors``, ``"sensors"``: one dict per trial of ``encoders``, ``truth`` and,
+    when recorded, ``fixes`` and ``imu`` tables (the files under ``sensors/trial-NNN/``); for
+    the dynamic plant also ``"dynamics"`` (sphere: ``t, tilt, shell_spin`` at the plan's
+    samples; rad, rad/s) or ``"cycles"`` (ballbot: ``t, tilt, x, y`` per control cycle,
+    closed-loop time from the start of the lead-in; s, rad, m).
     """
-    trials_, mean, metrics = _native.simulate_native(
+    if trials is None:
+        trials = 10 if plant == "kinematic" else 1
+    trials_, mean, metrics, extras, sensor_logs = _native.simulate_native(
         _robot(robot),
         disturbances=None if disturbances is None else os.fspath(disturbances),
         trials=trials,
         seed=seed,
         threads=threads,
+        plant=plant,
+        initial_tilt_deg=initial_tilt_deg,
+        push=None if push is None else [[float(v) for v in p] for p in push],
+        emit_sensors=emit_sensors,
+        sensors=None if sensors is None else os.fspath(sensors),
         **_plan_args(plan),
     )
-    return {"trials": _table(trials_), "mean": _table(mean), "metrics": json.loads(metrics)}
+    out: Dict[str, Any] = {
+        "trials": _table(trials_),
+        "mean": _table(mean),
+        "metrics": json.loads(metrics),
+    }
+    for name, t in extras:
+        out[name] = _table(t)
+    if emit_sensors:
+        out["sensors"] = [{name: _table(t) for name, t in logs} for logs in sensor_logs]
+    return out
 
 
 def evaluate(
@@ -117,3 +174,55 @@ def evaluate(
         **_plan_args(plan),
     )
     return {"runs": _table(runs), "mean": _table(mean), "metrics": json.loads(metrics)}
+
+
+def odometry(
+    robot: Union[Robot, str],
+    log: Union[Table, str, "os.PathLike[str]"],
+    *,
+    fixes: Optional[Union[Table, str, "os.PathLike[str]"]] = None,
+    imu: bool = False,
+    counts_per_rev: Optional[int] = None,
+    initial_pose: Optional[Sequence[float]] = None,
+    fix_std: float = 0.01,
+    fix_heading_std: float = 0.05,
+    gyro_bias: float = 0.0,
+) -> Dict[str, Any]:
+    """Wheel odometry over an encoder log, fused with camera ``fixes`` when given, as
+    ``omnikin odometry`` (the same pipeline, ``omnikin_sim::odometry``).
+
+    ``log``: a dict of columns or a CSV path — ``t, q1..qN`` cumulative wheel angles (rad, or
+    counts with ``counts_per_rev``), ``s1..sN`` steer angles for caster3/swerve, optional
+    ``gyro_z`` (rad/s) and ``yaw`` (rad); e.g. ``simulate(..., emit_sensors=True)
+    ["sensors"][0]["encoders"]``. ``fixes``: ``t, x, y`` (s, m; world frame) with optional
+    ``heading`` (rad) and ``arrival`` (s). ``imu``: heading from ``yaw`` (or integrated
+    ``gyro_z`` minus ``gyro_bias``) instead of the wheels. ``initial_pose``: ``(x, y, heading)``
+    (m, rad); ``fix_std`` / ``fix_heading_std``: a fix's standard deviations (m, rad). For a
+    dict, an error's line is the row + 1 (line 1 is the header).
+
+    Returns ``{"poses": ..., "odometry": ..., "fixes": [...], "summary": {...}}``: ``poses``
+    the columns of the CLI's ``--out`` CSV (``t, x, y, heading``; fused when there are fixes),
+    ``odometry`` the pure wheel odometry (same columns), ``fixes`` each fix in arrival order
+    with its ``result`` (``accepted``, ``rejected``, ``too_late``, ``after_log``) and
+    ``mahalanobis2``, and the summary the CLI prints (``heading_source``, ``samples``,
+    ``duration_s``, ``path_length_m``, ``end``, ``max_slip_m_s``/``max_slip_t_s``,
+    ``mean_shell_spin_rad_s``, ``fixes`` counters) as a dict. A fix rejected as an outlier
+    is also a ``UserWarning``, as the CLI warns.
+    """
+    r = _native.odometry_native(
+        _robot(robot),
+        imu=imu,
+        counts_per_rev=counts_per_rev,
+        initial_pose=None if initial_pose is None else tuple(float(v) for v in initial_pose),
+        fix_std=fix_std,
+        fix_heading_std=fix_heading_std,
+        gyro_bias=gyro_bias,
+        **_table_args("log", log),
+        **_table_args("fixes", fixes),
+    )
+    return {
+        "poses": _table(r["poses"]),
+        "odometry": _table(r["odometry"]),
+        "fixes": json.loads(r["fixes"]),
+        "summary": json.loads(r["summary"]),
+    }

@@ -92,12 +92,20 @@ def simulate(
     plan: PlanLike,
     *,
     disturbances: Optional[Union[str, os.PathLike[str]]] = None,
-    trials: int = 10,
+    trials: Optional[int] = None,
     seed: int = 1,
     threads: Optional[int] = None,
+    plant: Literal["kinematic", "dynamic"] = "kinematic",
+    initial_tilt_deg: Optional[float] = None,
+    push: Optional[Sequence[Sequence[float]]] = None,
+    emit_sensors: bool = False,
+    sensors: Optional[Union[str, os.PathLike[str]]] = None,
 ) -> Dict[str, Any]:
     """``{"trials": Table, "mean": Table, "metrics": dict}`` as ``omnikin simulate``'s
-    ``trials.csv``, ``mean.csv`` and ``metrics.json``."""
+    ``trials.csv``, ``mean.csv`` and ``metrics.json``; ``plant="dynamic"`` (sphere-omni,
+    ballbot: one trial; ballbot ``initial_tilt_deg`` toward +x, ``push`` of ``(N·s, s[, deg])``)
+    adds ``"dynamics"`` or ``"cycles"``; ``emit_sensors`` adds ``"sensors"`` (per trial:
+    ``encoders``, ``truth``[, ``fixes``, ``imu``] tables)."""
 
 def evaluate(
     plan: PlanLike,
@@ -109,3 +117,19 @@ def evaluate(
 ) -> Dict[str, Any]:
     """``{"runs": Table, "mean": Table, "metrics": dict}`` as ``omnikin evaluate``'s
     ``runs.csv``, ``mean.csv`` and ``metrics.json``."""
+
+def odometry(
+    robot: Union[Robot, str],
+    log: Union[Table, str, os.PathLike[str]],
+    *,
+    fixes: Optional[Union[Table, str, os.PathLike[str]]] = None,
+    imu: bool = False,
+    counts_per_rev: Optional[int] = None,
+    initial_pose: Optional[Sequence[float]] = None,
+    fix_std: float = 0.01,
+    fix_heading_std: float = 0.05,
+    gyro_bias: float = 0.0,
+) -> Dict[str, Any]:
+    """``{"poses": Table, "odometry": Table, "fixes": list, "summary": dict}`` as ``omnikin
+    odometry``: ``poses`` the ``--out`` CSV's ``t, x, y, heading`` (world frame; s, m, rad),
+    ``odometry`` the pure wheel odometry; ``log`` / ``fixes`` dicts of columns or CSV paths."""

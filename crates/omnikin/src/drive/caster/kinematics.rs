@@ -2,9 +2,7 @@
 //! (paper 003, eqs. (2), (4), (5)) and the least-squares twist, with its slip residuals,
 //! from six motor rates.
 
-use super::{
-    Caster3, CasterForward, CasterRates, ROLL_RATES, STEER, STEER_RATES, WheelTrig, cs, zero_rates,
-};
+use super::{Caster3, CasterForward, CasterRates, ROLL_RATES, STEER, STEER_RATES, WheelTrig, cs};
 use crate::drive::Rot2;
 use crate::real::{finite, finite3};
 use crate::{InputError, Real, Twist2};
@@ -41,29 +39,7 @@ impl<T: Real> Caster3<T> {
         rot: Rot2<T>,
         steer: [T; 3],
     ) -> Result<CasterRates<T>, InputError> {
-        let q = twist_world.to_array();
-        let trig = self.wheel_trig(rot, steer);
-        let mut out = zero_rates();
-        let wheel = |w: &WheelTrig<T>| {
-            // Rows i of J1 and J2 (see `j1_row`, `j2_row`).
-            let a = [
-                -w.cb * self.inv_r,
-                -w.sb * self.inv_r,
-                -self.big_d_over_r * w.sg,
-            ];
-            let b = [
-                w.sb * self.inv_d,
-                -w.cb * self.inv_d,
-                -self.big_d_over_d * w.cg - T::one(),
-            ];
-            (
-                a[0] * q[0] + a[1] * q[1] + a[2] * q[2],
-                b[0] * q[0] + b[1] * q[1] + b[2] * q[2],
-            )
-        };
-        (out.roll[0], out.steer[0]) = wheel(&trig[0]);
-        (out.roll[1], out.steer[1]) = wheel(&trig[1]);
-        (out.roll[2], out.steer[2]) = wheel(&trig[2]);
+        let out = self.inverse_rows(rot, steer).rates_unchecked(twist_world);
         // A non-finite input makes every rate of its rows non-finite (`sin_cos` of a non-finite
         // angle is NaN, and each rate has every twist component times a finite coefficient), so
         // one test of the six rates covers the usual call; only a failure pays for naming the
@@ -78,6 +54,45 @@ impl<T: Real> Caster3<T> {
             crate::real::finite_out(out.steer, "steer rates")?;
         }
         Ok(out)
+    }
+
+    /// The rows of `J1` and `J2` (paper 003, eq. (2); see `j1_row`, `j2_row`) at the heading's
+    /// rotation `rot` and steer angles `steer` (rad): what [`Caster3::motor_rates`] computes
+    /// before applying them to the twist, kept to apply to many twists at one steer state.
+    #[inline]
+    pub(crate) fn inverse_rows(&self, rot: Rot2<T>, steer: [T; 3]) -> CasterInverseRows<T> {
+        let trig = self.wheel_trig(rot, steer);
+        let wheel = |w: &WheelTrig<T>| {
+            (
+                [
+                    -w.cb * self.inv_r,
+                    -w.sb * self.inv_r,
+                    -self.big_d_over_r * w.sg,
+                ],
+                [
+                    w.sb * self.inv_d,
+                    -w.cb * self.inv_d,
+                    -self.big_d_over_d * w.cg - T::one(),
+                ],
+            )
+        };
+        let (r0, r1, r2) = (wheel(&trig[0]), wheel(&trig[1]), wheel(&trig[2]));
+        CasterInverseRows {
+            roll: [r0.0, r1.0, r2.0],
+            steer: [r0.1, r1.1, r2.1],
+        }
+    }
+
+    /// The inverse kinematics in the **robot frame** at fixed steer angles `steer` (rad): the
+    /// six rates of many twists at one steer state (a vectorised `inverse` with one steer row)
+    /// for the trigonometry of one. [`CasterInverseRows::motor_rates`] of a twist equals
+    /// [`Caster3::motor_rates`]`(twist, 0, steer)` exactly.
+    ///
+    /// # Errors
+    /// [`InputError::NonFinite`] naming `"steer[i]"`.
+    pub fn robot_frame_inverse(&self, steer: [T; 3]) -> Result<CasterInverseRows<T>, InputError> {
+        finite3(steer, STEER)?;
+        Ok(self.inverse_rows(Rot2::from_angle(T::zero()), steer))
     }
 
     /// Forward kinematics: the **world-frame** twist `(ẋ, ẏ, θ̇)` (m/s, m/s, rad/s) that best
@@ -266,5 +281,90 @@ impl<T: Real> Caster3<T> {
             slip_residual: total.sqrt(),
             wheel_slip,
         })
+    }
+}
+
+/// The inverse kinematics of a [`Caster3`] at one heading and steer state: row `i` of `J1`
+/// (`roll[i]`, × `1/r`) and of `J2` (`steer[i]`), paper 003, eq. (2). From
+/// [`Caster3::robot_frame_inverse`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CasterInverseRows<T> {
+    roll: [[T; 3]; 3],
+    steer: [[T; 3]; 3],
+}
+
+impl<T: Real> CasterInverseRows<T> {
+    /// The six rates of `twist` without the finiteness check.
+    #[inline(always)]
+    fn rates_unchecked(&self, twist: Twist2<T>) -> CasterRates<T> {
+        let q = twist.to_array();
+        let dot = |a: &[T; 3]| a[0] * q[0] + a[1] * q[1] + a[2] * q[2];
+        CasterRates {
+            roll: [dot(&self.roll[0]), dot(&self.roll[1]), dot(&self.roll[2])],
+            steer: [
+                dot(&self.steer[0]),
+                dot(&self.steer[1]),
+                dot(&self.steer[2]),
+            ],
+        }
+    }
+
+    /// Roll and steer rates (rad/s) of the twist `twist` (m/s, m/s, rad/s; the frame the rows
+    /// were made for), as [`Caster3::motor_rates`].
+    ///
+    /// # Errors
+    /// [`InputError::NonFinite`] naming `"vx"`, `"vy"` or `"yaw_rate"`;
+    /// [`InputError::Overflow`] when finite inputs give non-finite rates.
+    #[inline]
+    pub fn motor_rates(&self, twist: Twist2<T>) -> Result<CasterRates<T>, InputError> {
+        let out = self.rates_unchecked(twist);
+        let sum =
+            out.roll[0] + out.roll[1] + out.roll[2] + out.steer[0] + out.steer[1] + out.steer[2];
+        if !sum.is_finite() {
+            twist.check_finite()?;
+            crate::real::finite_out(out.roll, "roll rates")?;
+            crate::real::finite_out(out.steer, "steer rates")?;
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod rows_tests {
+    use super::*;
+
+    #[test]
+    fn the_fixed_steer_inverse_is_motor_rates_exactly() {
+        let c = Caster3::<f64>::new(super::super::CasterParams::preset()).unwrap();
+        // A small LCG: many twists and steer states, including large and tiny values.
+        let mut s = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            s = s.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            ((s >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        };
+        for k in 0..2000 {
+            let scale = if k % 7 == 0 { 1e3 } else { 1.0 };
+            let steer = [4.0 * next(), 4.0 * next(), 4.0 * next()];
+            let rows = c.robot_frame_inverse(steer).unwrap();
+            for _ in 0..5 {
+                let tw = Twist2::new(scale * next(), scale * next(), scale * next());
+                let want = c.motor_rates(tw, 0.0, steer).unwrap();
+                let got = rows.motor_rates(tw).unwrap();
+                assert_eq!(got.roll, want.roll);
+                assert_eq!(got.steer, want.steer);
+            }
+        }
+        let rows = c.robot_frame_inverse([0.0; 3]).unwrap();
+        let bad = Twist2::new(0.0, f64::NAN, 0.0);
+        assert_eq!(
+            rows.motor_rates(bad).unwrap_err(),
+            c.motor_rates(bad, 0.0, [0.0; 3]).unwrap_err()
+        );
+        let huge = Twist2::new(f64::MAX, f64::MAX, 0.0);
+        assert_eq!(
+            rows.motor_rates(huge).unwrap_err(),
+            c.motor_rates(huge, 0.0, [0.0; 3]).unwrap_err()
+        );
+        assert!(c.robot_frame_inverse([0.0, f64::INFINITY, 0.0]).is_err());
     }
 }

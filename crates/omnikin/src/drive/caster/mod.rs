@@ -74,15 +74,6 @@ struct WheelTrig<T> {
     sg: T,
 }
 
-/// All six rates zero (`CasterRates::default()` needs `T: Default`, which `Real` does not imply).
-#[inline]
-fn zero_rates<T: Real>() -> CasterRates<T> {
-    CasterRates {
-        roll: [T::zero(); 3],
-        steer: [T::zero(); 3],
-    }
-}
-
 /// Geometry of a three-caster base (paper 003, §2; SI units).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CasterParams<T> {
@@ -170,6 +161,7 @@ mod model;
 mod motion;
 pub mod slip;
 
+pub use kinematics::CasterInverseRows;
 pub use motion::{FixedSteerMotion, SpinInPlace};
 
 #[cfg(test)]

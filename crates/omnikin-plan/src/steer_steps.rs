@@ -5,7 +5,7 @@
 //! at rest, or a plan from elsewhere) simulated as if the modules never turned — an
 //! ideal-plant square ended 1.6 m from its end point, with exit code 0.
 
-use omnikin_plan::Plan;
+use crate::Plan;
 
 /// Largest accepted distance of a steer-angle step from the range the steer rates allow over
 /// its interval, rad (0.57°), on top of that range's own width. The range is `dt` times the
@@ -81,4 +81,56 @@ pub fn unexplained_steer_step(plan: &Plan, tolerance: f64) -> Option<SteerStep> 
             })
         })
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Sample;
+    use omnikin::{MAX_WHEELS, Pose2, Twist2};
+
+    /// A two-module plan at 10 Hz whose module 2 steers at `rate` rad/s while its angle
+    /// advances by `step` rad per sample.
+    fn plan(rate: f64, step: f64) -> Plan {
+        let samples = (0..5)
+            .map(|k| {
+                let mut g = [0.0; MAX_WHEELS];
+                let mut gd = [0.0; MAX_WHEELS];
+                g[1] = step * k as f64;
+                gd[1] = rate;
+                Sample {
+                    t: 0.1 * k as f64,
+                    pose: Pose2::new(0.0, 0.0, 0.0),
+                    twist: Twist2::new(0.0, 0.0, 0.0),
+                    wheel_rates: [0.0; MAX_WHEELS],
+                    steer: Some((g, gd)),
+                }
+            })
+            .collect();
+        Plan { wheels: 2, samples }
+    }
+
+    #[test]
+    fn steps_the_rates_explain_pass_and_a_resteer_at_rest_is_found() {
+        // 1 rad/s over 0.1 s: a step of 0.1 rad is what the rates allow.
+        assert!(unexplained_steer_step(&plan(1.0, 0.1), MAX_UNEXPLAINED_STEER_STEP).is_none());
+        // Within the tolerance.
+        assert!(unexplained_steer_step(&plan(1.0, 0.105), MAX_UNEXPLAINED_STEER_STEP).is_none());
+        // A re-steer at rest: 0.5 rad per sample with zero rates.
+        let s = unexplained_steer_step(&plan(0.0, 0.5), MAX_UNEXPLAINED_STEER_STEP).unwrap();
+        assert_eq!(s.module, 2);
+        assert_eq!(s.t, (0.0, 0.1));
+        assert!((s.step - 0.5).abs() < 1e-15);
+        assert_eq!(s.by_rates, (0.0, 0.0));
+        assert!(s.cause().contains("re-steered at a stop"));
+        assert!(s.to_string().contains("s2 steps by 0.5000 rad"));
+        // Rates too small for the step: the samples are too far apart.
+        let s = unexplained_steer_step(&plan(1.0, 0.3), MAX_SIMULATED_STEER_STEP).unwrap();
+        assert!(s.cause().contains("higher --rate"));
+        // Wrapped: a step of 2π − 0.1 is a step of −0.1 (explained by −1 rad/s).
+        let two_pi = 2.0 * std::f64::consts::PI;
+        assert!(
+            unexplained_steer_step(&plan(-1.0, two_pi - 0.1), MAX_UNEXPLAINED_STEER_STEP).is_none()
+        );
+    }
 }
