@@ -400,7 +400,20 @@ impl SimRobot {
     /// named as `simulate --plant dynamic`'s `metrics.json`).
     pub fn summary(&self) -> Value {
         let tp = self.true_pose();
-        match self {
+        // The fields both runtimes report, from whichever status the last cycle left.
+        let common = |mode: Option<&str>,
+                      pose: Option<Pose2<f64>>,
+                      history: Option<String>,
+                      rejected: Option<u32>| {
+            json!({
+                "mode": mode,
+                "pose": pose.map(|p| [p.x, p.y, p.heading]),
+                "true_pose": [tp.x, tp.y, tp.heading],
+                "fault_history": history,
+                "rejected": rejected,
+            })
+        };
+        let (mut out, plan, dynamics) = match self {
             SimRobot::Rate {
                 status,
                 plant,
@@ -408,17 +421,18 @@ impl SimRobot {
                 ..
             } => {
                 let s = status.as_ref();
-                json!({
-                    "mode": s.map(|s| s.mode.name()),
-                    "pose": s.map(|s| [s.pose.x, s.pose.y, s.pose.heading]),
-                    "true_pose": [tp.x, tp.y, tp.heading],
-                    "fault_history": s.map(|s| s.fault_history.to_string()),
-                    "rejected": s.map(|s| s.rejected),
-                    "plan": s.map(|s| json!({"id": s.plan.id, "received": s.plan.received, "len": s.plan.len, "done": s.plan.done})),
-                    "dynamics": plant.dynamics().map(|d| json!({
+                (
+                    common(
+                        s.map(|s| s.mode.name()),
+                        s.map(|s| s.pose),
+                        s.map(|s| s.fault_history.to_string()),
+                        s.map(|s| s.rejected),
+                    ),
+                    s.map_or(Value::Null, |s| json!({"id": s.plan.id, "received": s.plan.received, "len": s.plan.len, "done": s.plan.done})),
+                    plant.dynamics().map_or(Value::Null, |d| json!({
                         "max_tilt_rad": max_tilt, "pull_outs": d.pull_outs(),
                     })),
-                })
+                )
             }
             SimRobot::Balance {
                 status,
@@ -427,14 +441,15 @@ impl SimRobot {
                 ..
             } => {
                 let s = status.as_ref();
-                json!({
-                    "mode": s.map(|s| s.mode.name()),
-                    "pose": s.map(|s| [s.pose.x, s.pose.y, s.pose.heading]),
-                    "true_pose": [tp.x, tp.y, tp.heading],
-                    "fault_history": s.map(|s| s.fault_history.to_string()),
-                    "rejected": s.map(|s| s.rejected),
-                    "plan": Value::Null,
-                    "dynamics": {
+                (
+                    common(
+                        s.map(|s| s.mode.name()),
+                        s.map(|s| s.pose),
+                        s.map(|s| s.fault_history.to_string()),
+                        s.map(|s| s.rejected),
+                    ),
+                    Value::Null,
+                    json!({
                         "max_tilt_deg": tilt.max.to_degrees(),
                         "max_tilt_balancing_deg": tilt.max_balancing.to_degrees(),
                         "final_tilt_deg": board.tilt().to_degrees(),
@@ -442,10 +457,13 @@ impl SimRobot {
                         "fallen": tilt.fall_time.is_some(),
                         "fall_time_s": tilt.fall_time,
                         "saturated_cycles": tilt.saturated_cycles,
-                    },
-                })
+                    }),
+                )
             }
-        }
+        };
+        out["plan"] = plan;
+        out["dynamics"] = dynamics;
+        out
     }
 }
 
