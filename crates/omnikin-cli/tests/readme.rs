@@ -17,8 +17,8 @@
 //!   --workspace --locked` is skipped (it is the command that runs this test). The reproduce
 //!   table that follows it, between `<!-- readme-test: reproduce-table -->` and
 //!   `<!-- /readme-test -->`, must equal the printed table. The full default run takes ~18 s
-//!   with the test profile's binary (`opt-level = 1`) on the two-core machine, 3.9 s in a
-//!   release build, ~95 s unoptimised (the dynamic profile's fit); `OMNIKIN_README_QUICK=1`
+//!   with the test profile's binary (`opt-level = 1`) on the two-core machine, 2.2–4.2 s in
+//!   a release build, ~95 s unoptimised (the dynamic profile's fit); `OMNIKIN_README_QUICK=1`
 //!   shortens it to `--profiles ideal,hardware,spin-slip --trials 2` and compares only the
 //!   table's header and series.
 //!
