@@ -67,6 +67,7 @@ pub trait KindModel<T: Real> {
     /// # Errors
     /// As [`KindModel::inverse`]; [`InputError::Singular`] for a non-zero spin of a kind
     /// without one.
+    #[inline]
     fn inverse_spin(
         &self,
         twist: Twist2<T>,
