@@ -10,6 +10,7 @@ use clap::{Parser, Subcommand};
 
 mod args;
 mod balance_check;
+mod console;
 mod drive;
 mod figures;
 mod kinematics;
@@ -86,6 +87,10 @@ enum Command {
     /// Drive a robot over the link from the PC: hello, velocity, plan upload, stop, e-stop,
     /// clear, telemetry and keyboard teleop.
     Drive(drive::DriveArgs),
+    /// A local web page that shows the robot (map, plan, pose, wheel rates, link, events)
+    /// and drives it (dead-man teleop by keyboard or gamepad, e-stop, plan upload), relayed
+    /// over the same link as `drive`. Prints the URL to open, with its per-start token.
+    Console(console::ConsoleArgs),
 }
 
 /// `omnikin inverse`.
@@ -270,6 +275,7 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
                 _ => {}
             }
         }
+        Command::Console(a) => inputs.extend(a.key.as_deref().map(|p| ("--key", p))),
     }
     for (flag, p) in inputs {
         output::input(flag, p);
@@ -301,6 +307,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Odometry(a) => odometry::run(&a),
         Command::Robot(a) => robot::run(&a),
         Command::Drive(a) => drive::run(&a),
+        Command::Console(a) => console::run(&a),
     }?;
     output::flush_stdout()
 }
