@@ -187,7 +187,12 @@ pub fn route(r: &Request, p: &Policy) -> Result<Route, Refusal> {
             "forbidden: this console answers only to 127.0.0.1, localhost or [::1] on its port",
         ));
     }
-    let token_ok = r.query.split('&').filter(|kv| kv.starts_with("token=")).count() == 1
+    let token_ok = r
+        .query
+        .split('&')
+        .filter(|kv| kv.starts_with("token="))
+        .count()
+        == 1
         && r.query_param("token")
             .is_some_and(|t| ct_eq(t.as_bytes(), p.token.as_bytes()));
     if !token_ok {
@@ -292,7 +297,9 @@ mod tests {
     const T: &str = "0123456789abcdef0123456789abcdef";
 
     fn ws_req(host: &str, origin: Option<&str>, token: &str) -> Request {
-        let o = origin.map(|o| format!("Origin: {o}\r\n")).unwrap_or_default();
+        let o = origin
+            .map(|o| format!("Origin: {o}\r\n"))
+            .unwrap_or_default();
         req(&format!(
             "GET /ws?token={token} HTTP/1.1\r\nHost: {host}\r\n{o}Upgrade: websocket\r\nConnection: keep-alive, Upgrade\r\nSec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n"
         ))
@@ -302,8 +309,16 @@ mod tests {
     fn token_is_required_on_every_path() {
         let p = policy();
         for path in ["/", "/app.js", "/style.css", "/ws", "/nothing"] {
-            for q in ["", "?token=", "?token=0123", "?tok=x", &format!("?token={T}x")] {
-                let r = req(&format!("GET {path}{q} HTTP/1.1\r\nHost: 127.0.0.1:8090\r\n\r\n"));
+            for q in [
+                "",
+                "?token=",
+                "?token=0123",
+                "?tok=x",
+                &format!("?token={T}x"),
+            ] {
+                let r = req(&format!(
+                    "GET {path}{q} HTTP/1.1\r\nHost: 127.0.0.1:8090\r\n\r\n"
+                ));
                 assert_eq!(route(&r, &p).unwrap_err().0, 403, "{path}{q}");
             }
         }
@@ -312,16 +327,25 @@ mod tests {
             "GET /?token=x&token={T} HTTP/1.1\r\nHost: 127.0.0.1:8090\r\n\r\n"
         ));
         assert_eq!(route(&r, &p).unwrap_err().0, 403);
-        let r = req(&format!("GET /?token={T} HTTP/1.1\r\nHost: localhost:8090\r\n\r\n"));
+        let r = req(&format!(
+            "GET /?token={T} HTTP/1.1\r\nHost: localhost:8090\r\n\r\n"
+        ));
         assert_eq!(route(&r, &p), Ok(Route::Page));
-        let r = req(&format!("GET /app.js?x=1&token={T} HTTP/1.1\r\nHost: [::1]:8090\r\n\r\n"));
+        let r = req(&format!(
+            "GET /app.js?x=1&token={T} HTTP/1.1\r\nHost: [::1]:8090\r\n\r\n"
+        ));
         assert!(matches!(route(&r, &p), Ok(Route::Asset(..))));
     }
 
     #[test]
     fn host_must_be_loopback_when_bound_to_loopback() {
         let p = policy();
-        for host in ["evil.example:8090", "127.0.0.1:8091", "127.0.0.1", "attacker.test"] {
+        for host in [
+            "evil.example:8090",
+            "127.0.0.1:8091",
+            "127.0.0.1",
+            "attacker.test",
+        ] {
             let r = req(&format!("GET /?token={T} HTTP/1.1\r\nHost: {host}\r\n\r\n"));
             assert_eq!(route(&r, &p).unwrap_err().0, 403, "{host}");
         }
@@ -336,7 +360,9 @@ mod tests {
             loopback: false,
             ..policy()
         };
-        let r = req(&format!("GET /?token={T} HTTP/1.1\r\nHost: robot-pc.lan:8090\r\n\r\n"));
+        let r = req(&format!(
+            "GET /?token={T} HTTP/1.1\r\nHost: robot-pc.lan:8090\r\n\r\n"
+        ));
         assert_eq!(route(&r, &open), Ok(Route::Page));
         let r = req("GET / HTTP/1.1\r\nHost: robot-pc.lan:8090\r\n\r\n");
         assert_eq!(route(&r, &open).unwrap_err().0, 403);
@@ -346,7 +372,10 @@ mod tests {
     fn websocket_origin_must_be_the_page() {
         let p = policy();
         assert_eq!(
-            route(&ws_req("127.0.0.1:8090", Some("http://127.0.0.1:8090"), T), &p),
+            route(
+                &ws_req("127.0.0.1:8090", Some("http://127.0.0.1:8090"), T),
+                &p
+            ),
             Ok(Route::WebSocket("dGhlIHNhbXBsZSBub25jZQ==".into()))
         );
         for o in [
@@ -401,7 +430,9 @@ mod tests {
     #[test]
     fn accept_key_matches_rfc6455() {
         // RFC 6455 §1.3's example.
-        assert!(upgrade_response("dGhlIHNhbXBsZSBub25jZQ==").contains("s3pPLMBiTxaQ9kYGzzhZRbK+xOo="));
+        assert!(
+            upgrade_response("dGhlIHNhbXBsZSBub25jZQ==").contains("s3pPLMBiTxaQ9kYGzzhZRbK+xOo=")
+        );
     }
 
     #[test]

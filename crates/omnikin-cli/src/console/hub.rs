@@ -162,8 +162,7 @@ impl Hub {
     /// Handles one text message of a page; `Err` is the answer for that page alone (never
     /// a crash: every field is checked, a plan is parsed here, outside the relay's loop).
     pub fn handle(&self, text: &str) -> Result<(), String> {
-        let m: PageMessage =
-            serde_json::from_str(text).map_err(|e| format!("bad message: {e}"))?;
+        let m: PageMessage = serde_json::from_str(text).map_err(|e| format!("bad message: {e}"))?;
         let cmd = match m {
             PageMessage::Estop => {
                 self.estop.store(true, Ordering::SeqCst);
@@ -247,7 +246,11 @@ mod tests {
         for _ in 0..QUEUE {
             hub.handle(r#"{"type":"stop"}"#).unwrap();
         }
-        assert!(hub.handle(r#"{"type":"stop"}"#).unwrap_err().contains("busy"));
+        assert!(
+            hub.handle(r#"{"type":"stop"}"#)
+                .unwrap_err()
+                .contains("busy")
+        );
         hub.handle(r#"{"type":"estop"}"#).unwrap();
         assert!(hub.estop.load(Ordering::SeqCst));
     }
@@ -255,7 +258,10 @@ mod tests {
     #[test]
     fn ring_is_bounded_and_sticky_kept() {
         let (hub, _rx) = Hub::new();
-        hub.publish(&serde_json::json!({"type": "link", "state": "connected"}), Some("link"));
+        hub.publish(
+            &serde_json::json!({"type": "link", "state": "connected"}),
+            Some("link"),
+        );
         for i in 0..(RING + 10) {
             hub.publish(&serde_json::json!({"type": "telemetry", "i": i}), None);
         }

@@ -77,9 +77,11 @@ pub fn token() -> Result<String> {
 struct Slot(Arc<AtomicUsize>);
 impl Slot {
     fn take(c: &Arc<AtomicUsize>, max: usize) -> Option<Self> {
-        c.fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| (n < max).then_some(n + 1))
-            .ok()
-            .map(|_| Slot(c.clone()))
+        c.fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| {
+            (n < max).then_some(n + 1)
+        })
+        .ok()
+        .map(|_| Slot(c.clone()))
     }
 }
 impl Drop for Slot {
@@ -91,10 +93,14 @@ impl Drop for Slot {
 /// Runs the console until Ctrl-C or `--for`.
 pub fn run(a: &ConsoleArgs) -> Result<()> {
     let listen: SocketAddr = a.listen.parse().with_context(|| {
-        format!("--listen: expected HOST:PORT (e.g. 127.0.0.1:8090), got \"{}\"", a.listen)
+        format!(
+            "--listen: expected HOST:PORT (e.g. 127.0.0.1:8090), got \"{}\"",
+            a.listen
+        )
     })?;
     // Address and key are checked before anything is served (the same errors as `drive`).
-    let first = crate::drive::ConsoleOperator::open(&a.connect, a.key.as_deref(), a.heartbeat, a.timeout)?;
+    let first =
+        crate::drive::ConsoleOperator::open(&a.connect, a.key.as_deref(), a.heartbeat, a.timeout)?;
     let listener =
         TcpListener::bind(listen).with_context(|| format!("--listen {listen}: cannot bind"))?;
     let local = listener.local_addr()?;
@@ -119,7 +125,10 @@ pub fn run(a: &ConsoleArgs) -> Result<()> {
     };
     crate::outln!("console: open http://{shown}/?token={token}")?;
     crate::output::flush_stdout()?;
-    crate::errln!("console: relaying to the robot at {} (Ctrl-C stops)", a.connect);
+    crate::errln!(
+        "console: relaying to the robot at {} (Ctrl-C stops)",
+        a.connect
+    );
 
     let (hub, rx) = Hub::new();
     hub.publish(
@@ -194,7 +203,9 @@ fn exchange(
     pages: &Arc<AtomicUsize>,
 ) {
     if stream.set_nonblocking(false).is_err()
-        || stream.set_read_timeout(Some(Duration::from_millis(250))).is_err()
+        || stream
+            .set_read_timeout(Some(Duration::from_millis(250)))
+            .is_err()
         || stream.set_write_timeout(Some(ws::WRITE_TIMEOUT)).is_err()
     {
         return;
@@ -217,7 +228,12 @@ fn exchange(
     };
     match http::route(&req, policy) {
         Err((status, why)) => {
-            let _ = http::respond(&mut stream, status, "text/plain; charset=utf-8", format!("{why}\n").as_bytes());
+            let _ = http::respond(
+                &mut stream,
+                status,
+                "text/plain; charset=utf-8",
+                format!("{why}\n").as_bytes(),
+            );
         }
         Ok(http::Route::Page) => {
             let _ = http::respond(

@@ -15,7 +15,9 @@ use std::sync::mpsc::{Receiver, TryRecvError};
 use std::time::{Duration, Instant};
 
 use anyhow::Result;
-use omnikin::link::{CHUNK_POINTS, LinkCounters, Message, RobotInfo, RobotKind, Telemetry, WirePoint};
+use omnikin::link::{
+    CHUNK_POINTS, LinkCounters, Message, RobotInfo, RobotKind, Telemetry, WirePoint,
+};
 use omnikin::runtime::{Faults, Frame, Mode};
 use omnikin_plan::Plan;
 use serde_json::{Value, json};
@@ -132,7 +134,11 @@ pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: Consol
                 }
             },
         };
-        r.link_state("connecting", &format!("handshake with {}", r.cfg.connect), None);
+        r.link_state(
+            "connecting",
+            &format!("handshake with {}", r.cfg.connect),
+            None,
+        );
         let info = match o.hello() {
             Ok(i) => i,
             Err(e) => {
@@ -174,7 +180,10 @@ impl Relay {
             while let Ok(c) = rx.try_recv() {
                 match c {
                     Command::Plan { name, plan } => self.preview(name, *plan),
-                    Command::Teleop { .. } | Command::Stop | Command::Clear | Command::PlanRun { .. } => {
+                    Command::Teleop { .. }
+                    | Command::Stop
+                    | Command::Clear
+                    | Command::PlanRun { .. } => {
                         self.event("warn", "not connected to the robot: command ignored");
                     }
                 }
@@ -221,14 +230,13 @@ impl Relay {
                 o.send(&m)?;
                 tick = now + period;
             }
-            if o.pump(SLICE)? {
-                if let Some(t) = o.latest() {
-                    if let Some(m) = self.telemetry(t, o, timeout) {
-                        // The upload moved on: its next message goes now, not at the tick.
-                        o.send(&m)?;
-                        tick = Instant::now() + period;
-                    }
-                }
+            if o.pump(SLICE)?
+                && let Some(t) = o.latest()
+                && let Some(m) = self.telemetry(t, o)
+            {
+                // The upload moved on: its next message goes now, not at the tick.
+                o.send(&m)?;
+                tick = Instant::now() + period;
             }
             o.alive()?;
             if last_link.elapsed() > Duration::from_millis(500) {
@@ -355,7 +363,10 @@ impl Relay {
                 self.upload = None;
                 self.plan_status(
                     "failed",
-                    &format!("the robot did not confirm {step:?} within {:.1} s", timeout.as_secs_f64()),
+                    &format!(
+                        "the robot did not confirm {step:?} within {:.1} s",
+                        timeout.as_secs_f64()
+                    ),
                     None,
                 );
                 return Message::Heartbeat;
@@ -391,7 +402,7 @@ impl Relay {
 
     /// Handles new telemetry: confirmations, upload progress, events, the pages' JSON.
     /// Returns the upload's next message when the upload moved on.
-    fn telemetry(&mut self, t: Telemetry, o: &ConsoleOperator, _timeout: Duration) -> Option<Message> {
+    fn telemetry(&mut self, t: Telemetry, o: &ConsoleOperator) -> Option<Message> {
         if self.prev.is_some_and(|p| t.time_us < p.time_us) {
             return None;
         }
@@ -402,7 +413,13 @@ impl Relay {
         {
             self.estop = None;
             self.follow = None;
-            self.event("warn", &format!("e-stop confirmed by the robot at t {:.2} s", t.time_us as f64 * 1e-6));
+            self.event(
+                "warn",
+                &format!(
+                    "e-stop confirmed by the robot at t {:.2} s",
+                    t.time_us as f64 * 1e-6
+                ),
+            );
         }
         if let Some(p) = self.clear
             && t.ack_seq >= p.first
@@ -434,14 +451,25 @@ impl Relay {
                 self.follow = None;
                 self.plan_status("done", &msg, Some((t.plan.received, t.plan.len)));
                 self.event("info", &msg);
-            } else if !t.plan.done && t.mode != Mode::Trajectory && !matches!(t.mode, Mode::Stopping) {
-                let msg = format!("the robot left the plan (mode {}, faults {})", t.mode, t.fault_history);
+            } else if !t.plan.done
+                && t.mode != Mode::Trajectory
+                && !matches!(t.mode, Mode::Stopping)
+            {
+                let msg = format!(
+                    "the robot left the plan (mode {}, faults {})",
+                    t.mode, t.fault_history
+                );
                 self.follow = None;
                 self.plan_status("failed", &msg, None);
             }
         }
-        let steer = self.info.is_some_and(|i| matches!(i.kind, RobotKind::Caster | RobotKind::Swerve));
-        self.hub.publish(&telemetry_json(&t, prev.as_ref(), steer, &o.counters(), o.frames()), Some("telemetry"));
+        let steer = self
+            .info
+            .is_some_and(|i| matches!(i.kind, RobotKind::Caster | RobotKind::Swerve));
+        self.hub.publish(
+            &telemetry_json(&t, prev.as_ref(), steer, &o.counters(), o.frames()),
+            Some("telemetry"),
+        );
         next
     }
 
@@ -457,7 +485,11 @@ impl Relay {
             }
             Step::Begin => (t.plan.id == u.id && t.plan.len == n).then_some(Step::Chunk(0)),
             Step::Chunk(have) => {
-                let got = if t.plan.id == u.id { t.plan.received } else { 0 };
+                let got = if t.plan.id == u.id {
+                    t.plan.received
+                } else {
+                    0
+                };
                 if got >= n {
                     Some(Step::Start)
                 } else if got > have {
@@ -471,7 +503,10 @@ impl Relay {
                     let (id, secs) = (u.id, u.began.elapsed().as_secs_f64());
                     self.upload = None;
                     self.follow = Some(Follow { id, max_dev: 0.0 });
-                    self.event("info", &format!("plan {id} uploaded in {secs:.2} s and started"));
+                    self.event(
+                        "info",
+                        &format!("plan {id} uploaded in {secs:.2} s and started"),
+                    );
                     self.plan_status("running", "", Some((t.plan.received, t.plan.len)));
                 }
                 return None;
@@ -494,13 +529,21 @@ impl Relay {
         for (flag, name) in Faults::ALL {
             if new.contains(flag) && flag != Faults::LIMIT {
                 let text = match flag {
-                    Faults::LINK_LOST => "watchdog: no command in time, the robot stopped".to_string(),
+                    Faults::LINK_LOST => {
+                        "watchdog: no command in time, the robot stopped".to_string()
+                    }
                     Faults::ESTOP => "e-stop latched".to_string(),
-                    Faults::SLIP => format!("wheel slip detected (residual {:.3} m/s)", b.slip_residual),
+                    Faults::SLIP => {
+                        format!("wheel slip detected (residual {:.3} m/s)", b.slip_residual)
+                    }
                     Faults::REJECTED => format!("a command was rejected ({} so far)", b.rejected),
                     _ => format!("fault: {name}"),
                 };
-                let level = if flag == Faults::HARDWARE || flag == Faults::ESTOP { "error" } else { "warn" };
+                let level = if flag == Faults::HARDWARE || flag == Faults::ESTOP {
+                    "error"
+                } else {
+                    "warn"
+                };
                 self.event(level, &text);
             }
         }
@@ -516,7 +559,15 @@ impl Relay {
             "length_m": plan.path_length(),
             "points": pts.iter().map(|p| [p.pose[0], p.pose[1], p.pose[2]]).collect::<Vec<_>>(),
         });
-        self.event("info", &format!("plan {name} loaded: {} samples, {:.1} s, {:.2} m", plan.samples.len(), plan.duration(), plan.path_length()));
+        self.event(
+            "info",
+            &format!(
+                "plan {name} loaded: {} samples, {:.1} s, {:.2} m",
+                plan.samples.len(),
+                plan.duration(),
+                plan.path_length()
+            ),
+        );
         self.hub.publish(&msg, Some("plan"));
         self.plan_status("preview", "", None);
         self.plan = Some((name, plan));
@@ -563,9 +614,16 @@ fn upload_message(u: &Upload) -> Message {
     match u.step {
         Step::SetPose => {
             let p = u.pts[0].pose;
-            Message::SetPose { x: p[0], y: p[1], heading: p[2] }
+            Message::SetPose {
+                x: p[0],
+                y: p[1],
+                heading: p[2],
+            }
         }
-        Step::Begin => Message::PlanBegin { id: u.id, len: u.pts.len() as u16 },
+        Step::Begin => Message::PlanBegin {
+            id: u.id,
+            len: u.pts.len() as u16,
+        },
         Step::Chunk(have) => {
             let off = have as usize;
             let end = (off + CHUNK_POINTS).min(u.pts.len());
@@ -574,7 +632,11 @@ fn upload_message(u: &Upload) -> Message {
                 // At most CHUNK_POINTS by the range: never full.
                 let _ = points.push(*p);
             }
-            Message::PlanChunk { id: u.id, offset: have, points }
+            Message::PlanChunk {
+                id: u.id,
+                offset: have,
+                points,
+            }
         }
         Step::Start => Message::PlanStart { id: u.id },
     }
@@ -601,9 +663,16 @@ pub fn measured_rates(a: &Telemetry, b: &Telemetry) -> Option<Vec<f64>> {
 }
 
 /// The pages' telemetry message.
-fn telemetry_json(t: &Telemetry, prev: Option<&Telemetry>, steer: bool, op: &LinkCounters, frames: u64) -> Value {
+fn telemetry_json(
+    t: &Telemetry,
+    prev: Option<&Telemetry>,
+    steer: bool,
+    op: &LinkCounters,
+    frames: u64,
+) -> Value {
     let n = (t.wheels as usize).min(omnikin::MAX_WHEELS);
-    let twist_err = ((t.command[0] - t.twist[0]).powi(2) + (t.command[1] - t.twist[1]).powi(2)).sqrt();
+    let twist_err =
+        ((t.command[0] - t.twist[0]).powi(2) + (t.command[1] - t.twist[1]).powi(2)).sqrt();
     json!({
         "type": "telemetry",
         "t": t.time_us as f64 * 1e-6,
@@ -638,12 +707,34 @@ mod tests {
     use super::*;
 
     fn tel(time_us: u64, q: [f32; 3]) -> Telemetry {
-        let s = omnikin::runtime::Status::<f64>::default();
-        let mut t = Telemetry::new(&s, &LinkCounters::default());
-        t.time_us = time_us;
-        t.wheels = 3;
-        t.wheel_angles[..3].copy_from_slice(&q);
-        t
+        let z = [0.0f32; omnikin::MAX_WHEELS];
+        let mut wheel_angles = z;
+        wheel_angles[..3].copy_from_slice(&q);
+        Telemetry {
+            time_us,
+            mode: Mode::Idle,
+            faults: Faults::NONE,
+            fault_history: Faults::NONE,
+            pose: [0.0; 3],
+            twist: [0.0; 3],
+            command: [0.0; 3],
+            wheels: 3,
+            wheel_rates: z,
+            steer_rates: z,
+            wheel_angles,
+            steer_angles: z,
+            gyro: [0.0; 3],
+            accel: [0.0; 3],
+            plan: Default::default(),
+            plan_time: 0.0,
+            reference: [0.0; 3],
+            slip_residual: 0.0,
+            rejected: 0,
+            last_command_us: 0,
+            link: LinkCounters::default(),
+            ack_seq: 0,
+            estop_seq: 0,
+        }
     }
 
     #[test]
@@ -652,7 +743,10 @@ mod tests {
         let a = tel(1_000_000, [1.0, 2.0, 0.0]);
         let b = tel(1_050_000, [1.1, 1.95, 0.0]);
         let r = measured_rates(&a, &b).unwrap();
-        assert!((r[0] - 2.0).abs() < 1e-4 && (r[1] + 1.0).abs() < 1e-4 && r[2] == 0.0, "{r:?}");
+        assert!(
+            (r[0] - 2.0).abs() < 1e-4 && (r[1] + 1.0).abs() < 1e-4 && r[2] == 0.0,
+            "{r:?}"
+        );
         assert!(measured_rates(&b, &a).is_none());
         assert!(measured_rates(&a, &a).is_none());
     }
@@ -660,9 +754,19 @@ mod tests {
     #[test]
     fn chunks_cover_the_plan_in_order() {
         let pts: Vec<WirePoint> = (0..21)
-            .map(|i| WirePoint { t: i as f32, pose: [i as f32, 0.0, 0.0], twist: [0.0; 3] })
+            .map(|i| WirePoint {
+                t: i as f32,
+                pose: [i as f32, 0.0, 0.0],
+                twist: [0.0; 3],
+            })
             .collect();
-        let mut u = Upload { id: 7, pts: pts.clone(), step: Step::Chunk(0), since: Instant::now(), began: Instant::now() };
+        let mut u = Upload {
+            id: 7,
+            pts: pts.clone(),
+            step: Step::Chunk(0),
+            since: Instant::now(),
+            began: Instant::now(),
+        };
         let mut seen = vec![];
         let mut have = 0u16;
         while (have as usize) < pts.len() {
