@@ -56,6 +56,9 @@ pub struct RelayConfig {
 /// A step of a plan upload (drive's `follow_plan`, as a state machine).
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Step {
+    /// Bring the robot to rest first (teleop may have left it in velocity mode, which the
+    /// heartbeats of the upload would keep alive).
+    Halt,
     SetPose,
     Begin,
     Chunk(u16),
@@ -64,6 +67,7 @@ enum Step {
 
 struct Upload {
     id: u16,
+    set_pose: bool,
     pts: Vec<WirePoint>,
     step: Step,
     since: Instant,
@@ -270,7 +274,8 @@ impl Relay {
     fn command(&mut self, c: Command, o: &mut ConsoleOperator) -> Result<()> {
         match c {
             Command::Teleop { vx, vy, yaw } => {
-                if self.estop.is_some() {
+                // Latched (or being latched): the robot would reject it; the page shows why.
+                if self.estop.is_some() || self.prev.is_some_and(|t| t.mode == Mode::EStop) {
                     return Ok(());
                 }
                 if self.upload.take().is_some() {
@@ -331,7 +336,8 @@ impl Relay {
                 self.upload = Some(Upload {
                     id,
                     pts,
-                    step: if set_pose { Step::SetPose } else { Step::Begin },
+                    step: Step::Halt,
+                    set_pose,
                     since: now,
                     began: now,
                 });
@@ -478,6 +484,11 @@ impl Relay {
         let u = self.upload.as_mut()?;
         let n = u.pts.len() as u16;
         let next = match u.step {
+            Step::Halt => (t.mode == Mode::Idle).then_some(if u.set_pose {
+                Step::SetPose
+            } else {
+                Step::Begin
+            }),
             Step::SetPose => {
                 let p = u.pts[0].pose;
                 ((t.pose[0] - p[0]).abs() < 1e-4 && (t.pose[1] - p[1]).abs() < 1e-4)
@@ -612,6 +623,7 @@ impl Relay {
 
 fn upload_message(u: &Upload) -> Message {
     match u.step {
+        Step::Halt => Message::Stop,
         Step::SetPose => {
             let p = u.pts[0].pose;
             Message::SetPose {
@@ -762,6 +774,7 @@ mod tests {
             .collect();
         let mut u = Upload {
             id: 7,
+            set_pose: false,
             pts: pts.clone(),
             step: Step::Chunk(0),
             since: Instant::now(),
