@@ -50,6 +50,9 @@ function handle(m) {
   }
 }
 
+// Three decimals, without a "-0.000".
+function fix3(v) { const s = v.toFixed(3); return s === '-0.000' ? '0.000' : s; }
+
 // ---- link / status ----
 let linkMsg = null;
 function setLink(state, detail, m) {
@@ -93,7 +96,7 @@ function linkTable() {
 function telemetry(m) {
   last = m;
   const [x, y, h] = m.pose;
-  $('pose').textContent = `x ${x.toFixed(3)} m, y ${y.toFixed(3)} m, heading ${h.toFixed(3)} rad`;
+  $('pose').textContent = `x ${fix3(x)} m, y ${fix3(y)} m, heading ${fix3(h)} rad`;
   $('pose').dataset.x = x; $('pose').dataset.y = y; $('pose').dataset.heading = h; $('pose').dataset.t = m.t;
   $('mode').textContent = m.mode;
   $('mode-pill').className = 'pill ' + (m.mode === 'estop' ? 'bad' : m.mode === 'idle' ? '' : 'ok');
@@ -265,33 +268,33 @@ function drawMap() {
   const gx0 = Math.floor((cx - span / 2) / step) * step, gy0 = Math.floor((cy - span * H / W / 2) / step) * step;
   for (let g = gx0; g <= cx + span / 2; g += step) {
     ctx.beginPath(); ctx.moveTo(X(g), 0); ctx.lineTo(X(g), H); ctx.stroke();
-    ctx.fillText(`${+g.toFixed(3)}`, X(g) + 2, H - 4);
+    if (X(g) > 30 && X(g) < W - 40) ctx.fillText(`${+g.toFixed(3)}`, X(g) + 2, H - 4);
   }
   for (let g = gy0; g <= cy + span * H / W / 2; g += step) {
     ctx.beginPath(); ctx.moveTo(0, Y(g)); ctx.lineTo(W, Y(g)); ctx.stroke();
-    ctx.fillText(`${+g.toFixed(3)}`, 2, Y(g) - 2);
+    if (Y(g) > 14 && Y(g) < H - 18) ctx.fillText(`${+g.toFixed(3)}`, 2, Y(g) - 2);
   }
   // World axes at the origin.
   ctx.strokeStyle = '#9ca3af'; ctx.lineWidth = 1.5;
   ctx.beginPath(); ctx.moveTo(X(0), Y(0)); ctx.lineTo(X(step), Y(0)); ctx.moveTo(X(0), Y(0)); ctx.lineTo(X(0), Y(step)); ctx.stroke();
   ctx.fillStyle = '#6b7280'; ctx.fillText('x', X(step) + 3, Y(0) + 4); ctx.fillText('y', X(0) - 4, Y(step) - 4);
   ctx.fillText(`grid ${+step.toFixed(3)} m`, W - 80, 14);
-  // Plan.
+  // Trail.
+  if (trail.length > 1) {
+    ctx.strokeStyle = 'rgba(13, 148, 136, 0.75)'; ctx.lineWidth = 4; ctx.beginPath();
+    trail.forEach((p, i) => (i ? ctx.lineTo(X(p[0]), Y(p[1])) : ctx.moveTo(X(p[0]), Y(p[1]))));
+    ctx.stroke();
+  }
+  // Plan (over the trail, thinner: where they differ both show).
   if (plan && plan.points.length) {
     const running = planState === 'running' || planState === 'uploading' || planState === 'done';
-    ctx.strokeStyle = running ? '#2563eb' : '#9333ea'; ctx.lineWidth = 2;
+    ctx.strokeStyle = running ? '#2563eb' : '#9333ea'; ctx.lineWidth = 1.5;
     ctx.setLineDash(running ? [] : [6, 4]);
     ctx.beginPath();
     plan.points.forEach((p, i) => (i ? ctx.lineTo(X(p[0]), Y(p[1])) : ctx.moveTo(X(p[0]), Y(p[1]))));
     ctx.stroke(); ctx.setLineDash([]);
     const p0 = plan.points[0];
     ctx.fillStyle = ctx.strokeStyle; ctx.beginPath(); ctx.arc(X(p0[0]), Y(p0[1]), 4, 0, 7); ctx.fill();
-  }
-  // Trail.
-  if (trail.length > 1) {
-    ctx.strokeStyle = '#0d9488'; ctx.lineWidth = 2; ctx.beginPath();
-    trail.forEach((p, i) => (i ? ctx.lineTo(X(p[0]), Y(p[1])) : ctx.moveTo(X(p[0]), Y(p[1]))));
-    ctx.stroke();
   }
   if (last) {
     if (last.mode === 'trajectory') {
@@ -316,7 +319,8 @@ function plotFrame(c, series, yLabel) {
   const ctx = c.getContext('2d'), W = c.width, H = c.height;
   ctx.clearRect(0, 0, W, H);
   const L = 48, R = 8, T = 8, B = 22;
-  const tEnd = hist.length ? hist[hist.length - 1].t : HISTORY_S, t0 = tEnd - HISTORY_S;
+  // The window: the last HISTORY_S of robot time (from 0 while the robot is younger).
+  const tEnd = Math.max(HISTORY_S, hist.length ? hist[hist.length - 1].t : 0), t0 = tEnd - HISTORY_S;
   let lo = Infinity, hi = -Infinity;
   for (const s of series) for (const [, v] of s.data) { if (v < lo) lo = v; if (v > hi) hi = v; }
   if (!isFinite(lo)) { lo = -1; hi = 1; }

@@ -538,19 +538,19 @@ impl Relay {
         }
         let new = Faults(b.fault_history.0 & !a.fault_history.0);
         for (flag, name) in Faults::ALL {
-            if new.contains(flag) && flag != Faults::LIMIT {
+            // LIMIT is routine; ESTOP is reported by its confirmation and the mode change.
+            if new.contains(flag) && flag != Faults::LIMIT && flag != Faults::ESTOP {
                 let text = match flag {
                     Faults::LINK_LOST => {
                         "watchdog: no command in time, the robot stopped".to_string()
                     }
-                    Faults::ESTOP => "e-stop latched".to_string(),
                     Faults::SLIP => {
                         format!("wheel slip detected (residual {:.3} m/s)", b.slip_residual)
                     }
                     Faults::REJECTED => format!("a command was rejected ({} so far)", b.rejected),
                     _ => format!("fault: {name}"),
                 };
-                let level = if flag == Faults::HARDWARE || flag == Faults::ESTOP {
+                let level = if flag == Faults::HARDWARE {
                     "error"
                 } else {
                     "warn"
