@@ -37,6 +37,10 @@ pub struct DriveArgs {
     /// Give up waiting for the robot after this many seconds without an answer.
     #[arg(long, default_value_t = 3.0, global = true, allow_hyphen_values = true, value_parser = crate::args::timeout_s)]
     pub timeout: f64,
+    /// Record every telemetry frame (and an uploaded plan) as MCAP with Foxglove schemas
+    /// (docs/seeing-the-robot.md), kept on every exit path like --out.
+    #[arg(long, value_name = "FILE", global = true)]
+    pub mcap: Option<PathBuf>,
     /// What to do.
     #[command(subcommand)]
     pub action: DriveAction,
@@ -192,6 +196,7 @@ struct Session {
     /// What a v1 HelloAck said (the answer to the v1 probe): (protocol, robot has a key).
     v1_answer: Option<(u8, bool)>,
     log: Option<crate::output::OutFile>,
+    mcap: Option<crate::mcap_log::McapLog>,
     frames: u64,
     heartbeat: Duration,
     timeout: Duration,
@@ -208,6 +213,10 @@ impl Session {
         let key = a.key.as_deref().map(load_key).transpose()?;
         let addr = parse_address(&a.connect, "--connect")?;
         let link = Link::new(Transport::open(&addr, false)?);
+        let mcap = crate::mcap_log::McapLog::for_flag(a.mcap.as_deref(), "omnikin drive", true)?;
+        if mcap.is_some() {
+            crate::output::catch_signals()?;
+        }
         Ok(Self {
             link,
             op: OperatorLink::new(key.clone()),
@@ -217,6 +226,7 @@ impl Session {
             last_telemetry: None,
             v1_answer: None,
             log: None,
+            mcap,
             frames: 0,
             heartbeat: crate::args::duration("--heartbeat", 1.0 / a.heartbeat)?,
             timeout: crate::args::duration("--timeout", a.timeout)?,
@@ -267,6 +277,9 @@ impl Session {
                     if let Some(w) = self.log.as_mut() {
                         writeln!(w, "{}", telemetry_row(&t, omnikin::MAX_WHEELS, true))
                             .context("--out: cannot write")?;
+                    }
+                    if let Some(m) = self.mcap.as_mut() {
+                        crate::mcap_log::telemetry(m, &t)?;
                     }
                     self.last_telemetry = Some(Instant::now());
                     self.frames += 1;
@@ -412,6 +425,9 @@ impl Session {
     }
 
     fn finish(&mut self) -> Result<()> {
+        if let Some(m) = self.mcap.take() {
+            m.finish()?;
+        }
         match self.log.take() {
             Some(w) => w.commit(),
             None => Ok(()),
@@ -623,6 +639,9 @@ fn follow_plan(s: &mut Session, path: &Path, set_pose: bool) -> Result<()> {
     }
     let info = s.hello()?;
     let pts = plan_points(&plan, info.plan_capacity as usize);
+    if let Some(m) = s.mcap.as_mut() {
+        crate::mcap_log::drive_plan(m, s.latest.map_or(0, |t| t.time_us), &pts)?;
+    }
     let n = pts.len() as u16;
     let id = (epoch_seq() & 0xffff) as u16;
     if set_pose {
@@ -747,6 +766,7 @@ impl ConsoleOperator {
             key: key.map(Path::to_path_buf),
             heartbeat: heartbeat_hz,
             timeout: timeout_s,
+            mcap: None,
             action: DriveAction::Hello,
         })
         .map(Self)

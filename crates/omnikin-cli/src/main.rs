@@ -15,6 +15,7 @@ mod drive;
 mod figures;
 mod kinematics;
 mod link_io;
+mod mcap_log;
 mod odometry;
 mod output;
 mod plan;
@@ -91,6 +92,9 @@ enum Command {
     /// and drives it (dead-man teleop by keyboard or gamepad, e-stop, plan upload), relayed
     /// over the same link as `drive`. Prints the URL to open, with its per-start token.
     Console(console::ConsoleArgs),
+    /// Convert an MCAP log (--mcap of simulate, odometry, robot, drive) to one CSV file per
+    /// channel, or CSV logs back to MCAP.
+    Convert(mcap_log::convert::ConvertArgs),
 }
 
 /// `omnikin inverse`.
@@ -236,6 +240,7 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             inputs.extend(a.disturbances.as_deref().map(|p| ("--disturbances", p)));
             inputs.extend(a.sensors.as_deref().map(|p| ("--sensors", p)));
             dirs.push(("--out", &a.out));
+            files.extend(a.mcap.as_deref().map(|p| ("--mcap", p)));
         }
         Command::Evaluate(a) => {
             inputs.push(("--plan", &a.plan));
@@ -249,6 +254,7 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             inputs.extend(a.fixes.as_deref().map(|p| ("--fixes", p)));
             files.push(("--out", &a.out));
             files.extend(a.plot.as_deref().map(|p| ("--plot", p)));
+            files.extend(a.mcap.as_deref().map(|p| ("--mcap", p)));
         }
         Command::Robot(a) => {
             inputs.extend(robot(&a.robot));
@@ -260,9 +266,11 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             );
             inputs.extend(a.key.as_deref().map(|p| ("--key", p)));
             files.extend(a.log.as_deref().map(|p| ("--log", p)));
+            files.extend(a.mcap.as_deref().map(|p| ("--mcap", p)));
         }
         Command::Drive(a) => {
             inputs.extend(a.key.as_deref().map(|p| ("--key", p)));
+            files.extend(a.mcap.as_deref().map(|p| ("--mcap", p)));
             match &a.action {
                 drive::DriveAction::Velocity { out, .. } => {
                     files.extend(out.as_deref().map(|p| ("--out", p)));
@@ -276,6 +284,13 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             }
         }
         Command::Console(a) => inputs.extend(a.key.as_deref().map(|p| ("--key", p))),
+        Command::Convert(a) => {
+            inputs.push(("IN", &a.input));
+            files.extend(a.mcap.as_deref().map(|p| ("--mcap", p)));
+            if let Some(d) = a.csv.as_deref().filter(|d| output::is_file_like(d)) {
+                output::check_dir("--csv", d)?;
+            }
+        }
     }
     for (flag, p) in inputs {
         output::input(flag, p);
@@ -308,6 +323,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Robot(a) => robot::run(&a),
         Command::Drive(a) => drive::run(&a),
         Command::Console(a) => console::run(&a),
+        Command::Convert(a) => mcap_log::convert::run(&a),
     }?;
     output::flush_stdout()
 }

@@ -62,6 +62,10 @@ pub struct OdometryArgs {
     /// Standard deviation of a fix's heading, rad (fixes with a heading column).
     #[arg(long, default_value_t = 0.05, value_parser = positive_f64)]
     pub fix_heading_std: f64,
+    /// Also write the estimate as MCAP with Foxglove schemas (/pose, /tf;
+    /// docs/seeing-the-robot.md).
+    #[arg(long, value_name = "FILE")]
+    pub mcap: Option<PathBuf>,
     /// Gyro bias to subtract from gyro_z, rad/s.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = finite_f64)]
     pub gyro_bias: f64,
@@ -277,6 +281,9 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     crate::output::write_file("--out", &args.out, |w| {
         std::io::Write::write_all(w, csv.as_bytes())
     })?;
+    if let Some(p) = &args.mcap {
+        crate::mcap_log::poses("--mcap", p, &out.t, &out.estimate)?;
+    }
 
     let end = out.estimate.last().copied().unwrap_or(start);
     let duration = out.t.last().copied().unwrap_or(t0) - t0;

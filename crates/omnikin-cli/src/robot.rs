@@ -90,6 +90,10 @@ pub struct RobotArgs {
     /// Write one CSV row per control cycle: estimate, true pose, mode, faults, counters.
     #[arg(long, value_name = "FILE")]
     pub log: Option<PathBuf>,
+    /// Also write the log as MCAP with Foxglove schemas (/pose, /truth, /tf, /reference,
+    /// /wheels, /link, /events; docs/seeing-the-robot.md), kept like --log on every exit.
+    #[arg(long, value_name = "FILE")]
+    pub mcap: Option<PathBuf>,
     /// Seed of the disturbance draws.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -213,6 +217,7 @@ pub fn run(a: &RobotArgs) -> Result<()> {
         }
         None => None,
     };
+    let mut mcap = crate::mcap_log::McapLog::for_flag(a.mcap.as_deref(), "omnikin robot", true)?;
     crate::output::catch_signals()?;
     crate::errln!(
         "robot: {} ({}) simulated, {} Hz control, listening on {} (protocol v{}, {}), {}",
@@ -385,6 +390,16 @@ pub fn run(a: &RobotArgs) -> Result<()> {
             )
             .context("--log: cannot write")?;
         }
+        if let Some(m) = mcap.as_mut() {
+            let tp = plant.true_pose();
+            crate::mcap_log::runtime_cycle(
+                m,
+                &status,
+                tp,
+                robot_link.counters(),
+                robot.steerable(),
+            )?;
+        }
         plant.advance(period)?;
         if let Some(d) = plant.dynamics() {
             max_tilt = max_tilt.max(d.state().tilt());
@@ -410,6 +425,9 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     }
     if let Some(w) = log {
         w.commit()?;
+    }
+    if let Some(m) = mcap {
+        m.finish()?;
     }
     let c = robot_link.counters();
     let tp = plant.true_pose();

@@ -59,6 +59,14 @@ pub struct SimulateArgs {
     /// degrees from +x); repeatable. A fall is reported in metrics.json ("fallen", exit 0).
     #[arg(long, allow_hyphen_values = true, value_name = "N_S@T[@DEG]", value_parser = crate::sim_ballbot::parse_push)]
     pub push: Vec<crate::sim_ballbot::PushArg>,
+    /// Also write the first trial as MCAP with Foxglove schemas (/pose, /truth, /tf, /plan,
+    /// /wheels; docs/seeing-the-robot.md).
+    #[arg(long, value_name = "FILE")]
+    pub mcap: Option<PathBuf>,
+    /// With --mcap: the first N trials in the one file (trial 0 on /pose, /truth, …, trial k
+    /// on /trial-NNN/pose, …).
+    #[arg(long, value_name = "N", requires = "mcap", value_parser = clap::value_parser!(u64).range(1..=1000))]
+    pub mcap_trials: Option<u64>,
 }
 
 /// The plant `omnikin simulate` runs a plan through.
@@ -146,6 +154,7 @@ fn simulate_dynamic(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Resu
         .and_then(|_| write_trial(&mut trials_csv, 0, trial))
         .with_context(|| format!("cannot write {}", trials_path.display()))?;
     trials_csv.commit()?;
+    crate::mcap_log::one_trial(a.mcap.as_deref(), plan, trial)?;
     let runs = [omnikin_sim::metrics::Run {
         xy: trial.tracked.clone(),
         heading: Some(trial.pose.iter().map(|q| q.heading).collect()),
@@ -377,6 +386,11 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
         bail!("--initial-tilt-deg and --push need --robot ballbot (kind ballbot) --plant dynamic");
     }
     if ballbot_dynamic {
+        if a.mcap.is_some() {
+            bail!(
+                "--mcap: not yet for the ballbot's dynamic plant (kinematic plants and sphere-omni's dynamic plant only)"
+            );
+        }
         return crate::sim_ballbot::simulate(a, &d, &plan);
     }
     if a.plant == PlantKind::Dynamic {
@@ -436,6 +450,8 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     let mut trials_csv = crate::output::OutFile::create("--out", &trials_path)?;
     writeln!(trials_csv, "{}", trials_header(robot.wheels()))
         .with_context(|| format!("cannot write {}", trials_path.display()))?;
+    let mcap_trials = a.mcap_trials.unwrap_or(1) as usize;
+    let mut mcap = crate::mcap_log::simulation(a.mcap.as_deref(), &plan)?;
     let mc = pool
         .install(|| {
             omnikin_sim::simulate_and_evaluate(
@@ -452,6 +468,9 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
                     if let Some(sp) = &sensors {
                         emit_sensors(&a.out, &robot, i, trial, sp, a.seed)?;
                     }
+                    if let Some(m) = mcap.as_mut().filter(|_| i < mcap_trials) {
+                        crate::mcap_log::trial(m, i, trial, &plan)?;
+                    }
                     Ok(())
                 },
             )
@@ -465,6 +484,9 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
             Ok(mc)
         })?;
     pb.finish_and_clear();
+    if let Some(m) = mcap {
+        m.finish()?;
+    }
     let (metrics, mean) = (mc.evaluation.metrics, mc.evaluation.mean);
     finite(&metrics)?;
     let plan = reference;

@@ -1,0 +1,557 @@
+//! MCAP logs (`--mcap` on robot, drive, simulate, odometry) read back with the `mcap` crate's
+//! reader: schema names, one message per CSV row on each channel, monotonic log times, values
+//! equal to the CSV log's; a file cut mid-way and a robot killed outright still read up to
+//! the last complete chunk; `omnikin convert` round trips MCAP ↔ CSV.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::{BIN, Robot, num, read_rows, square_plan};
+use serde_json::Value;
+
+fn tmp(name: &str) -> PathBuf {
+    common::tmp("mcap", name)
+}
+
+/// One message as the reader sees it.
+#[derive(Debug, Clone, PartialEq)]
+struct Msg {
+    topic: String,
+    schema: String,
+    encoding: String,
+    log_time: u64,
+    data: Vec<u8>,
+}
+
+impl Msg {
+    fn json(&self) -> Value {
+        serde_json::from_slice(&self.data).expect("a JSON message")
+    }
+}
+
+/// Every message of `bytes` in file order, and the reader's error if it stopped early.
+fn read_bytes(bytes: &[u8]) -> (Vec<Msg>, Option<String>) {
+    let mut out = Vec::new();
+    for m in mcap::MessageStream::new(bytes).expect("starts like MCAP") {
+        match m {
+            Ok(m) => out.push(Msg {
+                topic: m.channel.topic.clone(),
+                schema: m.channel.schema.as_ref().unwrap().name.clone(),
+                encoding: m.channel.message_encoding.clone(),
+                log_time: m.log_time,
+                data: m.data.to_vec(),
+            }),
+            Err(e) => return (out, Some(e.to_string())),
+        }
+    }
+    (out, None)
+}
+
+/// A complete MCAP file: every message, and the summary agrees with them.
+fn read(path: &Path) -> Vec<Msg> {
+    let bytes = std::fs::read(path).unwrap();
+    let (msgs, err) = read_bytes(&bytes);
+    assert_eq!(err, None, "{}", path.display());
+    let summary = mcap::Summary::read(&bytes)
+        .unwrap()
+        .expect("a summary section");
+    let stats = summary.stats.expect("statistics");
+    assert_eq!(stats.message_count, msgs.len() as u64);
+    msgs
+}
+
+fn on<'a>(msgs: &'a [Msg], topic: &str) -> Vec<&'a Msg> {
+    msgs.iter().filter(|m| m.topic == topic).collect()
+}
+
+/// Schema of every channel as named in the task, JSON everywhere, log times never decreasing
+/// along the file and along every channel.
+fn check_channels(msgs: &[Msg]) -> BTreeMap<String, usize> {
+    let mut counts = BTreeMap::new();
+    let mut last: BTreeMap<&str, u64> = BTreeMap::new();
+    for m in msgs {
+        let base = match m.topic.strip_prefix("/trial-") {
+            Some(r) => &r[r.find('/').unwrap()..],
+            None => &m.topic,
+        };
+        let want = match base {
+            "/pose" | "/truth" | "/reference" => "foxglove.PoseInFrame",
+            "/tf" => "foxglove.FrameTransform",
+            "/plan" => "foxglove.PosesInFrame",
+            "/events" => "foxglove.Log",
+            "/wheels" => "omnikin.WheelRates",
+            "/link" => "omnikin.LinkCounters",
+            t => panic!("unexpected channel {t}"),
+        };
+        assert_eq!(m.schema, want, "{}", m.topic);
+        assert_eq!(m.encoding, "json");
+        let prev = last.insert(&m.topic, m.log_time).unwrap_or(0);
+        assert!(m.log_time >= prev, "{}: log time goes back", m.topic);
+        // The message's own timestamp is its log time.
+        let ts = &m.json()["timestamp"];
+        let ns = ts["sec"].as_u64().unwrap() * 1_000_000_000 + ts["nsec"].as_u64().unwrap();
+        assert_eq!(ns, m.log_time, "{}", m.topic);
+        *counts.entry(m.topic.clone()).or_insert(0) += 1;
+    }
+    counts
+}
+
+fn pose_of(m: &Msg) -> (f64, f64, f64) {
+    let v = m.json();
+    let p = &v["pose"];
+    let q = &p["orientation"];
+    let h = 2.0 * q["z"].as_f64().unwrap().atan2(q["w"].as_f64().unwrap());
+    (
+        p["position"]["x"].as_f64().unwrap(),
+        p["position"]["y"].as_f64().unwrap(),
+        h,
+    )
+}
+
+/// Equal but for the last bits: JSON numbers are read back by serde_json's fast float parser,
+/// which may be one unit in the last place off the value written.
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-14 * a.abs().max(b.abs()) || a == b
+}
+
+/// Two CSV files with the same header and cells, numbers equal to 1e-12 (a heading goes
+/// through a quaternion and back).
+fn same_csv(a: &Path, b: &Path) {
+    let (ta, tb) = (
+        std::fs::read_to_string(a).unwrap(),
+        std::fs::read_to_string(b).unwrap(),
+    );
+    let (la, lb): (Vec<&str>, Vec<&str>) = (ta.lines().collect(), tb.lines().collect());
+    assert_eq!(la.len(), lb.len(), "{}", a.display());
+    assert_eq!(la[0], lb[0]);
+    for (x, y) in la.iter().zip(&lb) {
+        for (c, d) in x.split(',').zip(y.split(',')) {
+            match (c.parse::<f64>(), d.parse::<f64>()) {
+                (Ok(u), Ok(v)) => assert!((u - v).abs() <= 1e-12 * (1.0 + u.abs()), "{x} / {y}"),
+                _ => assert_eq!(c, d, "{x} / {y}"),
+            }
+        }
+    }
+}
+
+fn same_angle(a: f64, b: f64, tol: f64) -> bool {
+    let d = (a - b).rem_euclid(std::f64::consts::TAU);
+    d.min(std::f64::consts::TAU - d) <= tol
+}
+
+/// Rows' `t` (s) as log times (ns).
+fn ns(t: f64) -> u64 {
+    (t * 1e9).round() as u64
+}
+
+fn run(args: &[&str]) -> std::process::Output {
+    let out = Command::new(BIN).args(args).output().unwrap();
+    eprintln!(
+        "omnikin {args:?}:\n{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+/// Waits (bounded) until `dir` holds a temporary file of at least `bytes`.
+fn wait_for_tmp(dir: &Path, bytes: u64) -> PathBuf {
+    let start = Instant::now();
+    loop {
+        let found = std::fs::read_dir(dir).unwrap().find_map(|e| {
+            let e = e.unwrap();
+            let n = e.file_name().to_string_lossy().to_string();
+            (n.ends_with(".tmp") && n.contains(".mcap.") && e.metadata().unwrap().len() >= bytes)
+                .then(|| e.path())
+        });
+        if let Some(f) = found {
+            return f;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "the MCAP never grew"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn robot_and_drive_mcap_match_their_csv_logs_and_convert_round_trips() {
+    let dir = tmp("robot");
+    let (rlog, rmcap) = (dir.join("robot.csv"), dir.join("robot.mcap"));
+    let robot = Robot::start_robot(
+        "kiwi",
+        &["--max-time", "16", "--log", p(&rlog), "--mcap", p(&rmcap)],
+    );
+    let (dlog, dmcap) = (dir.join("drive.csv"), dir.join("drive.mcap"));
+    let out = common::drive(
+        &robot.addr,
+        "2",
+        &[
+            "--mcap",
+            p(&dmcap),
+            "velocity",
+            "--vx",
+            "0.2",
+            "--yaw-rate",
+            "0.5",
+            "--for",
+            "0.3",
+            "--out",
+            p(&dlog),
+        ],
+    );
+    assert!(out.status.success());
+    let out = common::drive(&robot.addr, "2", &["estop"]);
+    assert!(out.status.success());
+    robot.summary();
+
+    // The robot: one message per row of its CSV log on every per-cycle channel.
+    let rows = read_rows(&rlog);
+    let msgs = read(&rmcap);
+    let counts = check_channels(&msgs);
+    for t in ["/pose", "/truth", "/tf", "/wheels", "/link"] {
+        assert_eq!(counts[t], rows.len(), "{t}");
+    }
+    let poses = on(&msgs, "/pose");
+    let truth = on(&msgs, "/truth");
+    for ((r, m), tm) in rows.iter().zip(&poses).zip(&truth) {
+        assert_eq!(m.log_time, ns(num(r, "t")));
+        let (x, y, h) = pose_of(m);
+        assert!((x - num(r, "x")).abs() < 2e-6 && (y - num(r, "y")).abs() < 2e-6);
+        assert!(same_angle(h, num(r, "heading"), 2e-6));
+        let (x, y, _) = pose_of(tm);
+        assert!((x - num(r, "true_x")).abs() < 2e-6 && (y - num(r, "true_y")).abs() < 2e-6);
+    }
+    // The robot moved and turned, so the test compares something.
+    let last = rows.last().unwrap();
+    assert!(num(last, "x").hypot(num(last, "y")) > 0.02, "{last:?}");
+    // Commanded wheel rates are the log's w1..w3.
+    for (r, m) in rows.iter().zip(on(&msgs, "/wheels")) {
+        let c = m.json()["commanded"].clone();
+        for i in 0..3 {
+            let w = c[i].as_f64().unwrap();
+            assert!((w - num(r, &format!("w{}", i + 1))).abs() < 2e-6);
+        }
+    }
+    // /link: frames received and commands rejected, as the log's counters.
+    for (r, m) in rows.iter().zip(on(&msgs, "/link")) {
+        let v = m.json();
+        assert_eq!(v["ok"].as_f64().unwrap(), num(r, "rx_ok"));
+        assert_eq!(v["dropped"].as_f64().unwrap(), num(r, "rx_dropped"));
+        assert_eq!(v["rejected"].as_f64().unwrap(), num(r, "rejected"));
+    }
+    // /events: one line per mode change of the log (and the first mode), the e-stop an error
+    // at the row where the mode became estop.
+    let events = on(&msgs, "/events");
+    let mut changes = Vec::new();
+    for (i, r) in rows.iter().enumerate() {
+        if i == 0 || rows[i - 1]["mode"] != r["mode"] {
+            changes.push((ns(num(r, "t")), r["mode"].clone()));
+        }
+    }
+    let mode_events: Vec<(u64, Value)> = events
+        .iter()
+        .map(|m| (m.log_time, m.json()))
+        .filter(|(_, v)| {
+            let s = v["message"].as_str().unwrap();
+            s.starts_with("mode") || s.starts_with("e-stop")
+        })
+        .collect();
+    assert_eq!(
+        mode_events.len(),
+        changes.len(),
+        "{mode_events:?} {changes:?}"
+    );
+    for ((t, v), (ct, mode)) in mode_events.iter().zip(&changes) {
+        assert_eq!(t, ct);
+        let s = v["message"].as_str().unwrap();
+        if mode == "estop" {
+            assert!(s.starts_with("e-stop") && v["level"] == 4, "{v}");
+        } else {
+            assert!(s.ends_with(mode.as_str()), "{s} vs {mode}");
+        }
+    }
+    assert!(changes.iter().any(|(_, m)| m == "estop"));
+
+    // The operator: one message per telemetry row.
+    let drows = read_rows(&dlog);
+    let dmsgs = read(&dmcap);
+    let dcounts = check_channels(&dmsgs);
+    assert!(drows.len() > 5);
+    for t in ["/pose", "/tf", "/wheels", "/link"] {
+        assert_eq!(dcounts[t], drows.len(), "{t}");
+    }
+    for (r, m) in drows.iter().zip(on(&dmsgs, "/pose")) {
+        assert_eq!(m.log_time, ns(num(r, "t")));
+        let (x, _, _) = pose_of(m);
+        assert!((x - num(r, "x")).abs() < 1e-6);
+    }
+
+    // convert: MCAP -> CSV -> MCAP -> CSV gives the same files and the same messages.
+    let (c1, c2, back) = (dir.join("csv1"), dir.join("csv2"), dir.join("back.mcap"));
+    assert!(
+        run(&["convert", p(&rmcap), "--csv", p(&c1)])
+            .status
+            .success()
+    );
+    assert!(
+        run(&["convert", p(&c1), "--mcap", p(&back)])
+            .status
+            .success()
+    );
+    assert!(
+        run(&["convert", p(&back), "--csv", p(&c2)])
+            .status
+            .success()
+    );
+    let names = |d: &Path| {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(
+        names(&c1),
+        [
+            "events.csv",
+            "link.csv",
+            "pose.csv",
+            "tf.csv",
+            "truth.csv",
+            "wheels.csv"
+        ]
+    );
+    for n in names(&c1) {
+        same_csv(&c1.join(&n), &c2.join(&n));
+    }
+    let again = read(&back);
+    assert_eq!(check_channels(&again), counts);
+    // pose.csv has the log's columns and rows.
+    let pose_rows = read_rows(&c1.join("pose.csv"));
+    assert_eq!(pose_rows.len(), rows.len());
+    for (a, b) in pose_rows.iter().zip(&rows) {
+        assert_eq!(ns(num(a, "t")), ns(num(b, "t")));
+        assert!(
+            (num(a, "heading") - num(b, "heading")).abs() < 2e-6,
+            "unwrapped"
+        );
+    }
+    // The robot's CSV log itself converts to the same channels and events.
+    let from_log = dir.join("from-log.mcap");
+    assert!(
+        run(&["convert", p(&rlog), "--mcap", p(&from_log)])
+            .status
+            .success()
+    );
+    let fl = read(&from_log);
+    let flc = check_channels(&fl);
+    for t in ["/pose", "/truth", "/tf", "/wheels", "/link", "/events"] {
+        assert_eq!(flc[t], counts[t], "{t}");
+    }
+    let texts = |v: &[&Msg]| -> Vec<(u64, Value)> {
+        v.iter()
+            .map(|m| (m.log_time, m.json()["message"].clone()))
+            .collect()
+    };
+    assert_eq!(texts(&on(&fl, "/events")), texts(&events));
+    // Output rules: an existing output is refused without --force, an input always.
+    let out = run(&["convert", p(&rlog), "--mcap", p(&from_log)]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--force"));
+    let out = run(&["--force", "convert", p(&rlog), "--mcap", p(&rlog)]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("input"));
+
+    // A file cut mid-way reads up to its last complete chunk: a prefix of the full file.
+    let bytes = std::fs::read(&rmcap).unwrap();
+    let (part, err) = read_bytes(&bytes[..bytes.len() / 2]);
+    assert!(err.is_some(), "a cut file ends early");
+    assert!(
+        !part.is_empty() && part.len() < msgs.len(),
+        "{}",
+        part.len()
+    );
+    assert_eq!(part[..], msgs[..part.len()]);
+    let cut = dir.join("cut.mcap");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let out = run(&["convert", p(&cut), "--csv", p(&dir.join("cut"))]);
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("ends early"));
+    let cut_poses = read_rows(&dir.join("cut/pose.csv"));
+    assert_eq!(cut_poses.len(), on(&part, "/pose").len());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn killed_robot_leaves_an_mcap_readable_to_its_last_chunk() {
+    let dir = tmp("kill");
+    for sig in ["KILL", "TERM"] {
+        let out_dir = dir.join(sig);
+        std::fs::create_dir_all(&out_dir).unwrap();
+        let mcap_path = out_dir.join("robot.mcap");
+        let log = out_dir.join("robot.csv");
+        let mut child = Command::new(BIN)
+            .args([
+                "robot",
+                "--sim",
+                "--robot",
+                "kiwi",
+                "--listen",
+                "127.0.0.1:0",
+            ])
+            .args([
+                "--time-scale",
+                "8",
+                "--log",
+                p(&log),
+                "--mcap",
+                p(&mcap_path),
+            ])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // At least two chunks (64 KiB each) reached the file.
+        let tmp_file = wait_for_tmp(&out_dir, 2 * 64 * 1024);
+        assert!(!mcap_path.exists());
+        assert!(
+            Command::new("kill")
+                .arg(format!("-{sig}"))
+                .arg(child.id().to_string())
+                .status()
+                .unwrap()
+                .success()
+        );
+        let status = child.wait().unwrap();
+        if sig == "KILL" {
+            // Killed outright: the temporary file is all there is, cut after a chunk (or
+            // within one); the reader gets every message of the complete chunks.
+            assert_eq!(status.code(), None);
+            let bytes = std::fs::read(&tmp_file).unwrap();
+            let (msgs, err) = read_bytes(&bytes);
+            assert!(err.is_some(), "no summary after a kill");
+            let counts = check_channels(&msgs);
+            assert!(counts["/pose"] > 100, "{counts:?}");
+            // Whole cycles but for the one a chunk boundary may split.
+            for t in ["/truth", "/tf", "/wheels", "/link"] {
+                assert!(counts[t].abs_diff(counts["/pose"]) <= 1, "{counts:?}");
+            }
+            let csv = out_dir.join("csv");
+            let out = run(&["convert", p(&tmp_file), "--csv", p(&csv)]);
+            assert!(out.status.success());
+            assert_eq!(read_rows(&csv.join("pose.csv")).len(), counts["/pose"]);
+        } else {
+            // SIGTERM: closed properly, under its name, one message per row of the CSV log.
+            assert_eq!(status.code(), Some(143));
+            let msgs = read(&mcap_path);
+            let counts = check_channels(&msgs);
+            let rows = read_rows(&log);
+            assert_eq!(counts["/pose"], rows.len());
+            assert_eq!(counts["/link"], rows.len());
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn simulate_and_odometry_mcap_match_their_csv_outputs() {
+    let dir = tmp("sim");
+    let plan = square_plan(&dir);
+    let out_dir = dir.join("out");
+    let smcap = dir.join("sim.mcap");
+    let out = run(&[
+        "simulate",
+        p(&plan),
+        "--robot",
+        "sphere-omni",
+        "--trials",
+        "3",
+        "--threads",
+        "1",
+        "--out",
+        p(&out_dir),
+        "--emit-sensors",
+        "--mcap",
+        p(&smcap),
+        "--mcap-trials",
+        "2",
+    ]);
+    assert!(out.status.success());
+    let msgs = read(&smcap);
+    let counts = check_channels(&msgs);
+    let rows = read_rows(&out_dir.join("trials.csv"));
+    let trial = |k: &str| -> Vec<_> { rows.iter().filter(|r| r["trial"] == k).collect() };
+    for (k, prefix) in [("0", ""), ("1", "/trial-001")] {
+        let tr = trial(k);
+        for t in ["/pose", "/truth", "/tf", "/wheels"] {
+            assert_eq!(counts[&format!("{prefix}{t}")], tr.len(), "{prefix}{t}");
+        }
+        for (r, m) in tr.iter().zip(on(&msgs, &format!("{prefix}/truth"))) {
+            assert_eq!(m.log_time, ns(num(r, "t")));
+            let (x, y, h) = pose_of(m);
+            assert!(
+                close(x, num(r, "x")) && close(y, num(r, "y")),
+                "{x} {y} {r:?}"
+            );
+            assert!(same_angle(h, num(r, "heading"), 1e-9));
+        }
+        for (r, m) in tr.iter().zip(on(&msgs, &format!("{prefix}/pose"))) {
+            let (x, y, _) = pose_of(m);
+            assert!(close(x, num(r, "tracked_x")) && close(y, num(r, "tracked_y")));
+        }
+    }
+    assert!(
+        !counts.keys().any(|t| t.starts_with("/trial-002")),
+        "{counts:?}"
+    );
+    // /plan: the plan's path, once.
+    let plan_rows = read_rows(&plan);
+    let plans = on(&msgs, "/plan");
+    assert_eq!(plans.len(), 1);
+    let poses = plans[0].json()["poses"].as_array().unwrap().clone();
+    assert_eq!(poses.len(), plan_rows.len());
+    assert_eq!(
+        poses[10]["position"]["x"].as_f64().unwrap(),
+        num(&plan_rows[10], "x")
+    );
+
+    // odometry over trial 0's encoder log: /pose is the pose CSV, row for row.
+    let enc = out_dir.join("sensors/trial-000/encoders.csv");
+    let (poses_csv, omcap) = (dir.join("poses.csv"), dir.join("odo.mcap"));
+    let out = run(&[
+        "odometry",
+        p(&enc),
+        "--robot",
+        "sphere-omni",
+        "--out",
+        p(&poses_csv),
+        "--mcap",
+        p(&omcap),
+    ]);
+    assert!(out.status.success());
+    let msgs = read(&omcap);
+    let counts = check_channels(&msgs);
+    let rows = read_rows(&poses_csv);
+    assert_eq!(counts["/pose"], rows.len());
+    assert_eq!(counts["/tf"], rows.len());
+    for (r, m) in rows.iter().zip(on(&msgs, "/pose")) {
+        let (x, y, h) = pose_of(m);
+        assert!(
+            close(x, num(r, "x")) && close(y, num(r, "y")),
+            "{x} {y} {r:?}"
+        );
+        assert!(same_angle(h, num(r, "heading"), 1e-9));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
