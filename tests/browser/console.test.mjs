@@ -2,14 +2,14 @@
 // playwright-core (no browser download). Starts `omnikin robot --sim` and `omnikin console`,
 // opens the printed URL and drives the robot from the page: dead-man teleop, release → stop
 // within the watchdog time, e-stop (button and Space) confirmed by the robot, a square plan
-// uploaded from a file and driven to the end; a request without the token gets 403.
+// uploaded from a file and driven to the end while recorded to MCAP; a request without the token gets 403.
 //
 // Env: OMNIKIN_BIN (default target/debug/omnikin), CHROMIUM (default /usr/bin/chromium),
 // SCREENSHOT_DIR (where console*.png go; default a temporary directory).
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { spawn, execFileSync } from 'node:child_process';
-import { mkdtempSync, mkdirSync, rmSync } from 'node:fs';
+import { mkdtempSync, mkdirSync, rmSync, existsSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join, resolve, dirname } from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -68,7 +68,8 @@ before(async () => {
   const robotAddr = `127.0.0.1:${port}`;
   start(['robot', '--sim', '--robot', 'sphere-omni', '--listen', robotAddr, '--watchdog', String(WATCHDOG_S),
     '--max-time', '600'], 'robot');
-  const con = start(['console', '--connect', robotAddr, '--listen', '127.0.0.1:0', '--for', '300'], 'console');
+  const con = start(['console', '--connect', robotAddr, '--listen', '127.0.0.1:0', '--for', '300',
+    '--record-dir', tmp], 'console');
   const line = await until('the console URL', () => con.out.match(/http:\/\/127\.0\.0\.1:\d+\/\?token=[0-9a-f]{32}/), 15000);
   url = line[0];
   base = url.replace(/\/\?token=.*/, '');
@@ -157,6 +158,8 @@ test('a square plan is uploaded, previewed and driven', async () => {
   await until('the preview', async () => (await page.textContent('#plan-info')).includes('841 samples'));
   await page.screenshot({ path: join(shots, 'console-preview.png'), fullPage: true });
   await page.check('#set-pose');
+  await page.click('[data-testid="record"]');
+  await until('recording', async () => (await page.textContent('#record-note')).startsWith('recording to'));
   await page.click('#plan-run');
   await until('plan running', async () => (await text('plan-state')).startsWith('running'), 15000);
   let maxX = -Infinity, maxY = -Infinity;
@@ -168,6 +171,9 @@ test('a square plan is uploaded, previewed and driven', async () => {
     return (await text('plan-state')).startsWith('done');
   }, 60000, 100);
   const end = await pose();
+  await page.click('[data-testid="record"]');
+  const rec = await until('the recording closed', async () => (await events()).find((e) => /recorded \d+ telemetry frames to .*\.mcap/.test(e)));
+  assert.ok(existsSync(rec.match(/to (\S+\.mcap)/)[1]), rec);
   // Paper 000's square: legs +y, +x, -y, -x of 0.4 m from the plan's start (set as the pose).
   assert.ok(Math.abs(maxY - 0.4) < 0.05 && Math.abs(maxX - 0.4) < 0.05, `corners reached: max x ${maxX}, max y ${maxY}`);
   assert.ok(Math.hypot(end.x, end.y) < 0.05, `back at the start: ${end.text}`);

@@ -40,7 +40,8 @@ function connect() {
 
 function handle(m) {
   switch (m.type) {
-    case 'config': config = m; $('record').title = m.mcap_note || ''; break;
+    case 'config': config = m; $('record').disabled = !m.mcap; break;
+    case 'record': recordState(m); break;
     case 'link': robot = m.robot || robot; setLink(m.state, m.detail, m); break;
     case 'telemetry': telemetry(m); break;
     case 'plan': plan = m; planInfo(); break;
@@ -202,6 +203,16 @@ function teleopTick() {
   }
 }
 setInterval(teleopTick, 50);
+
+// ---- recording to MCAP (written by the console, in its --record-dir) ----
+let recording = false;
+function recordState(m) {
+  recording = m.on;
+  $('record').textContent = m.on ? 'Stop recording' : 'Record MCAP';
+  $('record').classList.toggle('rec', m.on);
+  $('record-note').textContent = m.on ? `recording to ${m.path}` : 'not recording';
+}
+$('record').addEventListener('click', () => send({ type: 'record', on: !recording }));
 
 // ---- plan upload ----
 const MAX_PLAN_BYTES = 8 * 1024 * 1024 - 4096;

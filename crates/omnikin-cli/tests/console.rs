@@ -29,8 +29,13 @@ struct Console {
 
 impl Console {
     fn start(robot: &str) -> Self {
+        Self::start_with(robot, &[])
+    }
+
+    fn start_with(robot: &str, extra: &[&str]) -> Self {
         let mut child = Command::new(BIN)
             .args(["console", "--connect", robot, "--listen", "127.0.0.1:0"])
+            .args(extra)
             // The robot runs 8x real time (common::Robot): heartbeats at 100 Hz wall clock
             // are 12.5 Hz of robot time, well inside its 0.5 s watchdog.
             .args(["--for", "60", "--heartbeat", "100"])
@@ -173,6 +178,32 @@ impl Page {
     }
 }
 
+/// Reads a recording back with the `mcap` crate's reader: one `/pose` message per telemetry
+/// frame the console counted, the plan on `/plan`, Foxglove schema names, monotonic log times.
+fn check_recording(event: &str) {
+    // "recorded N telemetry frames to PATH"
+    let rest = event.strip_prefix("recorded ").unwrap();
+    let (n, path) = rest.split_once(" telemetry frames to ").unwrap();
+    let n: usize = n.parse().unwrap();
+    let bytes = std::fs::read(path).unwrap();
+    let mut count = std::collections::HashMap::<String, usize>::new();
+    let mut last = std::collections::HashMap::<String, u64>::new();
+    let mut schemas = std::collections::HashMap::<String, String>::new();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        let topic = m.channel.topic.clone();
+        let prev = last.insert(topic.clone(), m.log_time).unwrap_or(0);
+        assert!(m.log_time >= prev, "{topic}: log time goes back");
+        *count.entry(topic.clone()).or_default() += 1;
+        schemas.insert(topic, m.channel.schema.as_ref().unwrap().name.clone());
+    }
+    assert!(n > 50, "{event}");
+    assert_eq!(count.get("/pose"), Some(&n), "{count:?}");
+    assert_eq!(count.get("/plan"), Some(&1), "{count:?}");
+    assert_eq!(schemas["/pose"], "foxglove.PoseInFrame");
+    assert_eq!(schemas["/tf"], "foxglove.FrameTransform");
+}
+
 #[test]
 fn every_request_needs_the_token_and_upgrades_need_the_page_origin() {
     let robot = Robot::start(&["--max-time", "120"]);
@@ -249,7 +280,8 @@ fn every_request_needs_the_token_and_upgrades_need_the_page_origin() {
 #[test]
 fn relay_drives_the_robot_and_survives_hostile_pages() {
     let robot = Robot::start(&["--max-time", "120"]);
-    let c = Console::start(&robot.addr);
+    let rec_dir = common::tmp("console", "recordings");
+    let c = Console::start_with(&robot.addr, &["--record-dir", rec_dir.to_str().unwrap()]);
     let mut p = c.page();
     p.wait_for(Duration::from_secs(10), "telemetry", |m| {
         m["type"] == "telemetry"
@@ -326,6 +358,11 @@ fn relay_drives_the_robot_and_survives_hostile_pages() {
     let dir = common::tmp("console", "plan");
     let plan = common::square_plan(&dir);
     let csv = std::fs::read_to_string(&plan).unwrap();
+    // Recorded to MCAP while it is driven.
+    p.send(json!({"type": "record", "on": true}));
+    p.wait_for(Duration::from_secs(5), "recording", |m| {
+        m["type"] == "record" && m["on"] == true
+    });
     p.send(json!({"type": "plan", "name": "square.csv", "csv": csv}));
     let preview = p.wait_for(Duration::from_secs(5), "preview", |m| m["type"] == "plan");
     let rows = csv.lines().count() - 1;
@@ -340,6 +377,14 @@ fn relay_drives_the_robot_and_survives_hostile_pages() {
     assert_eq!(done["state"], "done", "{done}");
     let end = p.pose();
     assert!(end[0].hypot(end[1]) < 0.05, "square closes: {end:?}");
+    p.send(json!({"type": "record", "on": false}));
+    let ev = p.wait_for(Duration::from_secs(5), "recorded event", |m| {
+        m["type"] == "event"
+            && m["text"]
+                .as_str()
+                .is_some_and(|t| t.starts_with("recorded "))
+    });
+    check_recording(ev["text"].as_str().unwrap());
 
     // An oversized message (over the 8 MiB limit) drops that page, not the console.
     let mut big = c.page();

@@ -48,6 +48,8 @@ pub enum Command {
         /// First set the pose estimate to the plan's first pose.
         set_pose: bool,
     },
+    /// Start (`true`) or stop recording the telemetry to MCAP.
+    Record(bool),
 }
 
 /// A page's message, as JSON (`{"type": "...", ...}`).
@@ -60,6 +62,7 @@ enum PageMessage {
     Clear,
     Plan { name: String, csv: String },
     PlanRun { set_pose: bool },
+    Record { on: bool },
 }
 
 /// Longest plan file name kept (the rest is cut).
@@ -175,6 +178,7 @@ impl Hub {
             PageMessage::Stop => Command::Stop,
             PageMessage::Clear => Command::Clear,
             PageMessage::PlanRun { set_pose } => Command::PlanRun { set_pose },
+            PageMessage::Record { on } => Command::Record(on),
             PageMessage::Plan { name, csv } => {
                 let name: String = name
                     .chars()

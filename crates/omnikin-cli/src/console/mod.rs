@@ -56,6 +56,10 @@ pub struct ConsoleArgs {
     /// Teleop yaw rate at full key / stick, rad/s.
     #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = teleop_scale)]
     pub turn: f64,
+    /// Where the page's "Record MCAP" writes its files (console-<unix time>.mcap, with the
+    /// channels of `drive --mcap`, docs/seeing-the-robot.md).
+    #[arg(long, value_name = "DIR", default_value = ".")]
+    pub record_dir: PathBuf,
     /// Stop after this many seconds (wall clock; default: until Ctrl-C).
     #[arg(long = "for", value_name = "SECONDS", allow_hyphen_values = true, value_parser = crate::args::run_for_s)]
     pub duration: Option<f64>,
@@ -98,6 +102,12 @@ pub fn run(a: &ConsoleArgs) -> Result<()> {
             a.listen
         )
     })?;
+    if !a.record_dir.is_dir() {
+        anyhow::bail!(
+            "--record-dir {}: not a directory (recordings go there)",
+            a.record_dir.display()
+        );
+    }
     // Address and key are checked before anything is served (the same errors as `drive`).
     let first =
         crate::drive::ConsoleOperator::open(&a.connect, a.key.as_deref(), a.heartbeat, a.timeout)?;
@@ -133,8 +143,8 @@ pub fn run(a: &ConsoleArgs) -> Result<()> {
     let (hub, rx) = Hub::new();
     hub.publish(
         &serde_json::json!({"type": "config", "speed": a.speed, "turn": a.turn,
-            "heartbeat_hz": a.heartbeat, "mcap": false,
-            "mcap_note": "recording to MCAP needs the MCAP writer (issue 17, not in this build)"}),
+            "heartbeat_hz": a.heartbeat, "mcap": true,
+            "record_dir": a.record_dir.display().to_string()}),
         Some("config"),
     );
     let cfg = relay::RelayConfig {
@@ -144,6 +154,7 @@ pub fn run(a: &ConsoleArgs) -> Result<()> {
         timeout_s: a.timeout,
         speed: a.speed,
         turn: a.turn,
+        record_dir: a.record_dir.clone(),
     };
     let relay = {
         let hub = hub.clone();

@@ -24,6 +24,7 @@ use serde_json::{Value, json};
 
 use super::hub::{Command, Hub};
 use crate::drive::{ConsoleOperator, plan_points};
+use crate::mcap_log::McapLog;
 
 /// How long a page's teleop command stays valid: the page repeats it every 50 ms while the
 /// dead-man is held; without a repeat for this long the relay stops the robot.
@@ -51,6 +52,16 @@ pub struct RelayConfig {
     pub speed: f64,
     /// Full-scale teleop yaw rate, rad/s.
     pub turn: f64,
+    /// Where recordings go (`--record-dir`).
+    pub record_dir: std::path::PathBuf,
+}
+
+/// A recording to MCAP (the MCAP writer of `drive --mcap`): one message per channel and
+/// telemetry frame, the uploaded plans on `/plan`.
+struct Recording {
+    log: McapLog,
+    path: std::path::PathBuf,
+    frames: u64,
 }
 
 /// A step of a plan upload (drive's `follow_plan`, as a state machine).
@@ -101,6 +112,7 @@ struct Relay {
     plan: Option<(String, Plan)>,
     prev: Option<Telemetry>,
     info: Option<RobotInfo>,
+    rec: Option<Recording>,
 }
 
 /// Runs the relay until the hub shuts down. `first` is the session opened (and its address
@@ -118,7 +130,9 @@ pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: Consol
         plan: None,
         prev: None,
         info: None,
+        rec: None,
     };
+    r.record_status();
     let mut op = Some(first);
     let mut last_error = String::new();
     while !r.hub.shutdown.load(Ordering::SeqCst) {
@@ -156,7 +170,10 @@ pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: Consol
         r.prev = None;
         r.link_state("connected", "session open", Some(&o));
         r.event("info", &format!("session with {} open", r.cfg.connect));
-        if let Err(e) = r.session(&mut o, &rx) {
+        let result = r.session(&mut o, &rx);
+        // A recording is one session's: robot time starts again with the next one.
+        r.record(false);
+        if let Err(e) = result {
             // Leaving a session: nothing in flight survives it (the robot's watchdog stops
             // it; a new session starts from a clean slate, except an e-stop request).
             r.teleop = None;
@@ -187,7 +204,8 @@ impl Relay {
                     Command::Teleop { .. }
                     | Command::Stop
                     | Command::Clear
-                    | Command::PlanRun { .. } => {
+                    | Command::PlanRun { .. }
+                    | Command::Record(_) => {
                         self.event("warn", "not connected to the robot: command ignored");
                     }
                 }
@@ -313,8 +331,14 @@ impl Relay {
                 o.send(&Message::Clear)?;
             }
             Command::Plan { name, plan } => self.preview(name, *plan),
+            Command::Record(on) => self.record(on),
             Command::PlanRun { set_pose } => {
-                let Some((name, plan)) = &self.plan else {
+                let cap = self.info.map_or(2, |i| i.plan_capacity as usize).max(2);
+                let Some((name, pts)) = self
+                    .plan
+                    .as_ref()
+                    .map(|(name, plan)| (name.clone(), plan_points(plan, cap)))
+                else {
                     self.event("warn", "run plan: no plan loaded");
                     return Ok(());
                 };
@@ -322,9 +346,14 @@ impl Relay {
                     self.event("warn", "run plan: the e-stop is latched (clear it first)");
                     return Ok(());
                 }
-                let cap = self.info.map_or(2, |i| i.plan_capacity as usize).max(2);
-                let pts = plan_points(plan, cap);
                 let id = (crate::link_io::epoch_seq() & 0xffff) as u16;
+                let now_us = self.prev.map_or(0, |t| t.time_us);
+                if let Some(r) = self.rec.as_mut()
+                    && let Err(e) = crate::mcap_log::drive_plan(&mut r.log, now_us, &pts)
+                {
+                    self.event("error", &format!("recording: {e:#}"));
+                    self.record(false);
+                }
                 self.event(
                     "info",
                     &format!("uploading plan {name} as id {id}: {} points", pts.len()),
@@ -469,6 +498,15 @@ impl Relay {
                 self.plan_status("failed", &msg, None);
             }
         }
+        if let Some(r) = self.rec.as_mut() {
+            match crate::mcap_log::telemetry(&mut r.log, &t) {
+                Ok(()) => r.frames += 1,
+                Err(e) => {
+                    self.event("error", &format!("recording: {e:#}"));
+                    self.record(false);
+                }
+            }
+        }
         let steer = self
             .info
             .is_some_and(|i| matches!(i.kind, RobotKind::Caster | RobotKind::Swerve));
@@ -582,6 +620,51 @@ impl Relay {
         self.hub.publish(&msg, Some("plan"));
         self.plan_status("preview", "", None);
         self.plan = Some((name, plan));
+    }
+
+    /// Starts or stops the recording (a new file `console-<unix time>.mcap` in the record
+    /// directory each time, never overwriting one).
+    fn record(&mut self, on: bool) {
+        match (on, self.rec.take()) {
+            (true, Some(r)) => self.rec = Some(r),
+            (true, None) => {
+                let secs = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0, |d| d.as_secs());
+                let path = self.cfg.record_dir.join(format!("console-{secs}.mcap"));
+                match McapLog::create("--record-dir", &path, "omnikin console", true) {
+                    Ok(log) => {
+                        self.event("info", &format!("recording to {}", path.display()));
+                        self.rec = Some(Recording {
+                            log,
+                            path,
+                            frames: 0,
+                        });
+                    }
+                    Err(e) => self.event("error", &format!("recording: {e:#}")),
+                }
+            }
+            (false, Some(r)) => {
+                let (path, frames) = (r.path.display().to_string(), r.frames);
+                match r.log.finish() {
+                    Ok(()) => self.event(
+                        "info",
+                        &format!("recorded {frames} telemetry frames to {path}"),
+                    ),
+                    Err(e) => self.event("error", &format!("recording {path}: {e:#}")),
+                }
+            }
+            (false, None) => {}
+        }
+        self.record_status();
+    }
+
+    fn record_status(&self) {
+        self.hub.publish(
+            &json!({"type": "record", "on": self.rec.is_some(),
+                "path": self.rec.as_ref().map(|r| r.path.display().to_string())}),
+            Some("record"),
+        );
     }
 
     fn plan_status(&mut self, state: &str, detail: &str, progress: Option<(u16, u16)>) {
