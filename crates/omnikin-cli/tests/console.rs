@@ -396,3 +396,48 @@ fn relay_drives_the_robot_and_survives_hostile_pages() {
     });
     drop(slow);
 }
+
+/// Kills a child process on drop.
+struct Kill(Child);
+impl Drop for Kill {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn an_estop_asked_before_the_robot_answers_is_sent_once_it_does() {
+    let addr = format!("127.0.0.1:{}", common::free_port());
+    let c = Console::start(&addr);
+    let mut p = c.page();
+    // Nobody there yet: the page sees the link as not connected, the e-stop is kept.
+    p.send(json!({"type": "estop"}));
+    std::thread::sleep(Duration::from_millis(300));
+    let _robot = Kill(
+        Command::new(BIN)
+            .args([
+                "robot",
+                "--sim",
+                "--robot",
+                "sphere-omni",
+                "--listen",
+                &addr,
+            ])
+            .args(["--time-scale", "8", "--max-time", "120"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    p.wait_for(Duration::from_secs(15), "confirmation event", |m| {
+        m["type"] == "event"
+            && m["text"]
+                .as_str()
+                .is_some_and(|t| t.contains("e-stop confirmed"))
+    });
+    let t = p.wait_for(Duration::from_secs(5), "telemetry", |m| {
+        m["type"] == "telemetry"
+    });
+    assert_eq!(t["mode"], "estop", "{t}");
+}

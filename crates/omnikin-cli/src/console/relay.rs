@@ -168,6 +168,12 @@ pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: Consol
         last_error.clear();
         r.info = Some(info);
         r.prev = None;
+        // An e-stop asked for before this session is sent in it, and confirmed by it
+        // (sequence numbers start again with every session).
+        if let Some(p) = r.estop.as_mut() {
+            p.first = o.next_seq();
+            p.since = Instant::now();
+        }
         r.link_state("connected", "session open", Some(&o));
         r.event("info", &format!("session with {} open", r.cfg.connect));
         let result = r.session(&mut o, &rx);
