@@ -242,6 +242,27 @@ fn robot_and_drive_mcap_match_their_csv_logs_and_convert_round_trips() {
             assert!((w - num(r, &format!("w{}", i + 1))).abs() < 2e-6);
         }
     }
+    // Measured rates are the encoders' angle differences: on the ideal plant a wheel turns
+    // exactly at the rate commanded in the cycle before.
+    let wheels = on(&msgs, "/wheels");
+    assert!(
+        wheels[0].json().get("measured").is_none(),
+        "no rate before two rows"
+    );
+    let mut moving = 0;
+    for (a, b) in wheels.iter().zip(&wheels[1..]) {
+        let (c, m) = (a.json()["commanded"].clone(), b.json()["measured"].clone());
+        for i in 0..3 {
+            let (c, m) = (c[i].as_f64().unwrap(), m[i].as_f64().unwrap());
+            assert!(
+                (c - m).abs() < 1e-9,
+                "{} s: wheel {i}: {c} then {m}",
+                b.log_time
+            );
+            moving += usize::from(c.abs() > 0.1);
+        }
+    }
+    assert!(moving > 50, "the wheels turned");
     // /link: frames received and commands rejected, as the log's counters.
     for (r, m) in rows.iter().zip(on(&msgs, "/link")) {
         let v = m.json();

@@ -15,10 +15,12 @@
 //! or one CSV log: `robot --log`, `drive … --out`, `simulate`'s `trials.csv` or a pose CSV
 //! `t,x,y,heading` (`odometry --out`); its columns say what it has.
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::io::Read;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
 use omnikin::Pose2;
@@ -69,50 +71,54 @@ fn read_limited(path: &Path) -> Result<Vec<u8>> {
     Ok(buf)
 }
 
-/// One decoded message: log time (ns), topic, JSON body.
-pub struct Decoded {
+/// One message of an MCAP file: its channel and its bytes (borrowed from the file where the
+/// chunk is uncompressed), parsed as JSON only when its channel's CSV is written, so the
+/// memory of a conversion is the file and one channel's CSV text.
+pub struct Decoded<'a> {
     /// Log time, ns.
     pub log_time: u64,
-    /// Topic.
-    pub topic: String,
-    /// Schema name.
-    pub schema: String,
-    /// The JSON message.
-    pub value: Value,
+    /// The channel (topic, schema, encoding).
+    pub channel: Arc<mcap::Channel<'a>>,
+    /// The message bytes.
+    pub data: Cow<'a, [u8]>,
 }
 
-/// Every message of an MCAP file in file order, and why reading stopped early, if it did (a
-/// truncated or damaged file: the messages before the damage are returned).
-pub fn read_mcap(path: &Path) -> Result<(Vec<Decoded>, Option<String>)> {
-    let buf = read_limited(path)?;
-    let shown = path.display();
+impl Decoded<'_> {
+    /// The topic.
+    pub fn topic(&self) -> &str {
+        &self.channel.topic
+    }
+    /// The schema name (empty without a schema).
+    pub fn schema(&self) -> &str {
+        self.channel.schema.as_ref().map_or("", |s| s.name.as_str())
+    }
+    /// The JSON message (`Null` if it is not JSON).
+    pub fn value(&self) -> Value {
+        if self.channel.message_encoding == fg::MESSAGE_ENCODING {
+            serde_json::from_slice(&self.data).unwrap_or(Value::Null)
+        } else {
+            Value::Null
+        }
+    }
+}
+
+/// Every message of the MCAP file `buf` (named `shown` in errors) in file order, and why
+/// reading stopped early, if it did (a truncated or damaged file: the messages before the
+/// damage are returned).
+pub fn read_mcap<'a>(buf: &'a [u8], shown: &str) -> Result<(Vec<Decoded<'a>>, Option<String>)> {
     if buf.len() < mcap::MAGIC.len() || buf[..mcap::MAGIC.len()] != *mcap::MAGIC {
         bail!("{shown}: not an MCAP file (it does not start with the MCAP magic)");
     }
-    let stream = mcap::MessageStream::new(&buf).with_context(|| format!("{shown}: not MCAP"))?;
+    let stream = mcap::MessageStream::new(buf).with_context(|| format!("{shown}: not MCAP"))?;
     let mut out = Vec::new();
     let mut stopped = None;
     for m in stream {
         match m {
-            Ok(m) => {
-                let schema = m
-                    .channel
-                    .schema
-                    .as_ref()
-                    .map(|s| s.name.clone())
-                    .unwrap_or_default();
-                let value = if m.channel.message_encoding == fg::MESSAGE_ENCODING {
-                    serde_json::from_slice(&m.data).unwrap_or(Value::Null)
-                } else {
-                    Value::Null
-                };
-                out.push(Decoded {
-                    log_time: m.log_time,
-                    topic: m.channel.topic.clone(),
-                    schema,
-                    value,
-                });
-            }
+            Ok(m) => out.push(Decoded {
+                log_time: m.log_time,
+                channel: m.channel,
+                data: m.data,
+            }),
             Err(e) => {
                 stopped = Some(e.to_string());
                 break;
@@ -218,7 +224,7 @@ fn channel_csv(topic: Topic, msgs: &[&Decoded]) -> Result<String> {
     let bad = |m: &Decoded| {
         anyhow::anyhow!(
             "{} at log time {} ns: not a {} message",
-            m.topic,
+            m.topic(),
             m.log_time,
             topic.schema.name
         )
@@ -229,7 +235,7 @@ fn channel_csv(topic: Topic, msgs: &[&Decoded]) -> Result<String> {
             s.push_str("t,x,y,heading\n");
             let mut prev = None;
             for m in msgs {
-                let p = fg::decode_pose_in_frame(&m.value).ok_or_else(|| bad(m))?;
+                let p = fg::decode_pose_in_frame(&m.value()).ok_or_else(|| bad(m))?;
                 let h = unwrap(p.heading, prev);
                 prev = Some(h);
                 let _ = writeln!(s, "{},{},{},{h}", t(m), p.x, p.y);
@@ -239,8 +245,12 @@ fn channel_csv(topic: Topic, msgs: &[&Decoded]) -> Result<String> {
             s.push_str("t,x,y,heading,parent_frame_id,child_frame_id\n");
             let mut prev = None;
             for m in msgs {
-                let (p, parent, child) =
-                    fg::decode_frame_transform(&m.value).ok_or_else(|| bad(m))?;
+                let (p, parent, child) = {
+                    let v = m.value();
+                    fg::decode_frame_transform(&v)
+                        .map(|(p, a, b)| (p, a.to_string(), b.to_string()))
+                }
+                .ok_or_else(|| bad(m))?;
                 let h = unwrap(p.heading, prev);
                 prev = Some(h);
                 let _ = writeln!(
@@ -249,15 +259,15 @@ fn channel_csv(topic: Topic, msgs: &[&Decoded]) -> Result<String> {
                     t(m),
                     p.x,
                     p.y,
-                    cell(parent),
-                    cell(child)
+                    cell(&parent),
+                    cell(&child)
                 );
             }
         }
         "foxglove.PosesInFrame" => {
             s.push_str("t,i,x,y,heading\n");
             for m in msgs {
-                let poses = fg::decode_poses_in_frame(&m.value).ok_or_else(|| bad(m))?;
+                let poses = fg::decode_poses_in_frame(&m.value()).ok_or_else(|| bad(m))?;
                 let mut prev = None;
                 for (i, p) in poses.iter().enumerate() {
                     let h = unwrap(p.heading, prev);
@@ -269,14 +279,18 @@ fn channel_csv(topic: Topic, msgs: &[&Decoded]) -> Result<String> {
         "foxglove.Log" => {
             s.push_str("t,level,name,message\n");
             for m in msgs {
-                let (level, name, text) = fg::decode_log(&m.value).ok_or_else(|| bad(m))?;
-                let _ = writeln!(s, "{},{level},{},{}", t(m), cell(name), cell(text));
+                let (level, name, text) = {
+                    let v = m.value();
+                    fg::decode_log(&v).map(|(l, n, t)| (l, n.to_string(), t.to_string()))
+                }
+                .ok_or_else(|| bad(m))?;
+                let _ = writeln!(s, "{},{level},{},{}", t(m), cell(&name), cell(&text));
             }
         }
         "omnikin.WheelRates" => {
             let rows: Vec<fg::WheelRates> = msgs
                 .iter()
-                .map(|m| fg::decode_wheel_rates(&m.value).ok_or_else(|| bad(m)))
+                .map(|m| fg::decode_wheel_rates(&m.value()).ok_or_else(|| bad(m)))
                 .collect::<Result<_>>()?;
             let width = |f: RatesField| {
                 rows.iter()
@@ -316,7 +330,7 @@ fn channel_csv(topic: Topic, msgs: &[&Decoded]) -> Result<String> {
             }
             s.push('\n');
             for m in msgs {
-                let c = fg::decode_link_counters(&m.value).ok_or_else(|| bad(m))?;
+                let c = fg::decode_link_counters(&m.value()).ok_or_else(|| bad(m))?;
                 let _ = write!(s, "{}", t(m));
                 for v in c.values() {
                     let _ = write!(s, ",{}", v.map(|v| v.to_string()).unwrap_or_default());
@@ -330,7 +344,8 @@ fn channel_csv(topic: Topic, msgs: &[&Decoded]) -> Result<String> {
 }
 
 fn to_csv(input: &Path, dir: &Path) -> Result<()> {
-    let (msgs, stopped) = read_mcap(input)?;
+    let buf = read_limited(input)?;
+    let (msgs, stopped) = read_mcap(&buf, &input.display().to_string())?;
     if let Some(why) = &stopped {
         if msgs.is_empty() {
             bail!("{}: no message could be read: {why}", input.display());
@@ -345,15 +360,15 @@ fn to_csv(input: &Path, dir: &Path) -> Result<()> {
     let mut by_topic: BTreeMap<String, (Topic, Vec<&Decoded>)> = BTreeMap::new();
     let mut skipped: BTreeMap<String, usize> = BTreeMap::new();
     for m in &msgs {
-        match fg::topic(&m.topic).filter(|t| t.schema.name == m.schema) {
+        match fg::topic(m.topic()).filter(|t| t.schema.name == m.schema()) {
             Some(t) => by_topic
-                .entry(m.topic.clone())
+                .entry(m.topic().to_string())
                 .or_insert((t, vec![]))
                 .1
                 .push(m),
             None => {
                 *skipped
-                    .entry(format!("{} ({})", m.topic, m.schema))
+                    .entry(format!("{} ({})", m.topic(), m.schema()))
                     .or_default() += 1
             }
         }

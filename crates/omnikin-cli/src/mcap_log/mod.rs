@@ -3,9 +3,10 @@
 //!
 //! A command hands [`McapLog`] one [`Sample`] per row of its CSV log (the robot's time, the
 //! estimate, the true pose in simulation, the wheels, the link counters, mode and faults);
-//! the log turns it into one message on each channel the sample has data for (see
-//! [`foxglove::TOPICS`]) and derives `/events` from mode and fault changes. So a channel has as
-//! many messages as the CSV log has rows.
+//! the log's [`Encoder`] turns it into one message on each channel the sample has data for
+//! (see [`foxglove::TOPICS`]) and derives `/events` from mode and fault changes. So a channel
+//! has as many messages as the CSV log has rows. A live Foxglove server uses the same two steps
+//! ([`telemetry_sample`], [`Encoder::messages`]) and publishes what the files hold.
 //!
 //! The file is chunked (64 KiB of messages, or one second of wall clock, whichever comes first)
 //! and a chunk reaches the file only whole, so a process killed outright leaves a file that
@@ -88,16 +89,79 @@ struct Previous {
     state: Option<(Mode, Faults)>,
 }
 
+/// Samples to channel messages: the one step from a [`Sample`] to Foxglove messages, shared by
+/// the MCAP writer and a live Foxglove server (stateful: measured rates and events compare
+/// each sample with the previous one under the same prefix).
+pub struct Encoder {
+    /// Process name in `/events` (`omnikin robot`, …).
+    name: &'static str,
+    previous: HashMap<String, Previous>,
+}
+
+impl Encoder {
+    /// An encoder whose `/events` name the process `name`.
+    pub fn new(name: &'static str) -> Self {
+        Self {
+            name,
+            previous: HashMap::new(),
+        }
+    }
+
+    /// The messages of one sample at log time `ns` (see [`foxglove::time_ns`]) for the channels
+    /// under `prefix` (`""`, or `/trial-NNN`), in this order: `/pose`, `/tf` always;
+    /// `/truth`, `/reference`, `/wheels`, `/link` when the sample has them; `/events` when the
+    /// mode changed or a fault appeared since the previous sample.
+    pub fn messages(&mut self, prefix: &str, s: &Sample, ns: u64) -> Vec<(Topic, Value)> {
+        use foxglove as fg;
+        let mut out = vec![
+            (fg::POSE, fg::pose_in_frame(ns, s.pose)),
+            (fg::TF, fg::frame_transform(ns, s.pose)),
+        ];
+        if let Some(p) = s.truth {
+            out.push((fg::TRUTH, fg::pose_in_frame(ns, p)));
+        }
+        if let Some(p) = s.reference {
+            out.push((fg::REFERENCE, fg::pose_in_frame(ns, p)));
+        }
+        let prev = self.previous.entry(prefix.to_string()).or_default();
+        let dt = s.t - prev.t;
+        let measured = |now: &Option<Vec<f64>>, before: &Option<Vec<f64>>| match (now, before) {
+            (Some(a), Some(b)) if dt > 0.0 && a.len() == b.len() => Some(rates(a, b, dt)),
+            _ => None,
+        };
+        let w = WheelRates {
+            commanded: s.commanded.clone(),
+            commanded_steer: s.commanded_steer.clone(),
+            measured: measured(&s.wheel_angles, &prev.wheel_angles),
+            measured_steer: measured(&s.steer_angles, &prev.steer_angles),
+        };
+        prev.t = s.t;
+        prev.wheel_angles.clone_from(&s.wheel_angles);
+        prev.steer_angles.clone_from(&s.steer_angles);
+        let before = std::mem::replace(&mut prev.state, s.state);
+        if s.commanded.is_some() || s.wheel_angles.is_some() {
+            out.push((fg::WHEELS, fg::wheel_rates(ns, &w)));
+        }
+        if let Some(c) = &s.link {
+            out.push((fg::LINK, fg::link_counters(ns, c)));
+        }
+        if let Some(now) = s.state {
+            for (level, text) in events(before, now) {
+                out.push((fg::EVENTS, fg::log(ns, level, self.name, &text)));
+            }
+        }
+        out
+    }
+}
+
 /// An MCAP log being written.
 pub struct McapLog {
     writer: mcap::Writer<NoSeek<Sink>>,
     flag: String,
     path: String,
-    /// Process name in `/events` (`omnikin robot`, …).
-    name: &'static str,
+    encoder: Encoder,
     schemas: HashMap<&'static str, u16>,
     channels: HashMap<String, u16>,
-    previous: HashMap<String, Previous>,
     sequence: u32,
     last_flush: Instant,
 }
@@ -130,10 +194,9 @@ impl McapLog {
             writer,
             flag: flag.to_string(),
             path: shown,
-            name,
+            encoder: Encoder::new(name),
             schemas: HashMap::new(),
             channels: HashMap::new(),
-            previous: HashMap::new(),
             sequence: 0,
             last_flush: Instant::now(),
         })
@@ -229,47 +292,12 @@ impl McapLog {
         self.sample_under("", s)
     }
 
-    /// Writes one row on the channels under `prefix` (`""` or `/trial-NNN`): `/pose`, `/tf`
-    /// always; `/truth`, `/reference`, `/wheels`, `/link` when the sample has them; `/events`
-    /// when the mode changes or a fault appears.
+    /// Writes one row on the channels under `prefix` (`""` or `/trial-NNN`): the messages of
+    /// [`Encoder::messages`].
     pub fn sample_under(&mut self, prefix: &str, s: &Sample) -> Result<()> {
-        use foxglove as fg;
         let ns = self.ns(s.t)?;
-        self.message(prefix, fg::POSE, ns, &fg::pose_in_frame(ns, s.pose))?;
-        self.message(prefix, fg::TF, ns, &fg::frame_transform(ns, s.pose))?;
-        if let Some(p) = s.truth {
-            self.message(prefix, fg::TRUTH, ns, &fg::pose_in_frame(ns, p))?;
-        }
-        if let Some(p) = s.reference {
-            self.message(prefix, fg::REFERENCE, ns, &fg::pose_in_frame(ns, p))?;
-        }
-        let prev = self.previous.entry(prefix.to_string()).or_default();
-        let dt = s.t - prev.t;
-        let measured = |now: &Option<Vec<f64>>, before: &Option<Vec<f64>>| match (now, before) {
-            (Some(a), Some(b)) if dt > 0.0 && a.len() == b.len() => Some(rates(a, b, dt)),
-            _ => None,
-        };
-        let w = WheelRates {
-            commanded: s.commanded.clone(),
-            commanded_steer: s.commanded_steer.clone(),
-            measured: measured(&s.wheel_angles, &prev.wheel_angles),
-            measured_steer: measured(&s.steer_angles, &prev.steer_angles),
-        };
-        prev.t = s.t;
-        prev.wheel_angles.clone_from(&s.wheel_angles);
-        prev.steer_angles.clone_from(&s.steer_angles);
-        let before = std::mem::replace(&mut prev.state, s.state);
-        if s.commanded.is_some() || s.wheel_angles.is_some() {
-            self.message(prefix, fg::WHEELS, ns, &fg::wheel_rates(ns, &w))?;
-        }
-        if let Some(c) = &s.link {
-            self.message(prefix, fg::LINK, ns, &fg::link_counters(ns, c))?;
-        }
-        if let Some(now) = s.state {
-            for (level, text) in events(before, now) {
-                let v = fg::log(ns, level, self.name, &text);
-                self.message(prefix, fg::EVENTS, ns, &v)?;
-            }
+        for (topic, v) in self.encoder.messages(prefix, s, ns) {
+            self.message(prefix, topic, ns, &v)?;
         }
         Ok(())
     }
@@ -360,13 +388,19 @@ pub fn runtime_cycle(
 
 /// `drive`: one telemetry frame as the operator received it.
 pub fn telemetry(log: &mut McapLog, t: &omnikin::link::Telemetry) -> Result<()> {
+    log.sample(&telemetry_sample(t))
+}
+
+/// The [`Sample`] of a telemetry frame (robot time, estimate, reference in trajectory mode,
+/// commanded rates and encoder angles of the robot's wheels, counters, mode and faults).
+pub fn telemetry_sample(t: &omnikin::link::Telemetry) -> Sample {
     let n = usize::from(t.wheels).min(omnikin::MAX_WHEELS);
     let v = |a: &[f32]| a[..n].iter().map(|&x| f64::from(x)).collect::<Vec<f64>>();
     let p = |a: [f32; 3]| Pose2::new(f64::from(a[0]), f64::from(a[1]), f64::from(a[2]));
     // Kinds without steer motors send zeros: steer columns only when some are non-zero.
     let steer = t.steer_rates[..n].iter().any(|&x| x != 0.0)
         || t.steer_angles[..n].iter().any(|&x| x != 0.0);
-    log.sample(&Sample {
+    Sample {
         t: t.time_us as f64 * 1e-6,
         pose: p(t.pose),
         truth: None,
@@ -377,7 +411,7 @@ pub fn telemetry(log: &mut McapLog, t: &omnikin::link::Telemetry) -> Result<()> 
         steer_angles: steer.then(|| v(&t.steer_angles)),
         link: Some(Counters::from_link(&t.link, t.rejected)),
         state: Some((t.mode, t.faults)),
-    })
+    }
 }
 
 /// `drive plan`: the uploaded plan's poses on `/plan`, at the robot time `time_us` (µs) of the
