@@ -442,3 +442,117 @@ fn an_estop_asked_before_the_robot_answers_is_sent_once_it_does() {
     });
     assert_eq!(t["mode"], "estop", "{t}");
 }
+
+#[test]
+fn foxglove_clients_get_the_mcap_channels_live() {
+    let robot = Robot::start(&["--max-time", "120"]);
+    let mut child = Kill(
+        Command::new(BIN)
+            .args([
+                "console",
+                "--connect",
+                &robot.addr,
+                "--listen",
+                "127.0.0.1:0",
+            ])
+            .args([
+                "--foxglove",
+                "127.0.0.1:0",
+                "--for",
+                "60",
+                "--heartbeat",
+                "100",
+            ])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let out = child.0.stdout.take().unwrap();
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let mut r = BufReader::new(out);
+        for _ in 0..2 {
+            let mut line = String::new();
+            let _ = r.read_line(&mut line);
+            let _ = tx.send(line);
+        }
+    });
+    let _page = rx.recv_timeout(Duration::from_secs(10)).unwrap();
+    let fox = rx.recv_timeout(Duration::from_secs(10)).unwrap();
+    let url = fox
+        .trim()
+        .strip_prefix("console: foxglove ")
+        .expect("foxglove URL line")
+        .to_string();
+    let host = url
+        .strip_prefix("ws://")
+        .unwrap()
+        .split('/')
+        .next()
+        .unwrap()
+        .to_string();
+    // Without the token: refused.
+    let bare = format!("ws://{host}/").into_client_request().unwrap();
+    assert!(matches!(
+        tungstenite::client(bare, TcpStream::connect(&host).unwrap()),
+        Err(tungstenite::HandshakeError::Failure(tungstenite::Error::Http(r))) if r.status() == 403
+    ));
+    let mut req = url.as_str().into_client_request().unwrap();
+    req.headers_mut().insert(
+        "Sec-WebSocket-Protocol",
+        "foxglove.websocket.v1".parse().unwrap(),
+    );
+    let s = TcpStream::connect(&host).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    let (mut ws, resp) = tungstenite::client(req, s).unwrap();
+    assert_eq!(
+        resp.headers().get("Sec-WebSocket-Protocol").unwrap(),
+        "foxglove.websocket.v1"
+    );
+    let text = |ws: &mut WebSocket<TcpStream>| -> Value {
+        match ws.read().unwrap() {
+            Message::Text(t) => serde_json::from_str(t.as_str()).unwrap(),
+            m => panic!("{m:?}"),
+        }
+    };
+    assert_eq!(text(&mut ws)["op"], "serverInfo");
+    let adv = text(&mut ws);
+    assert_eq!(adv["op"], "advertise");
+    let chans = adv["channels"].as_array().unwrap();
+    let id = |topic: &str| {
+        chans.iter().find(|c| c["topic"] == topic).unwrap()["id"]
+            .as_u64()
+            .unwrap()
+    };
+    let pose = chans.iter().find(|c| c["topic"] == "/pose").unwrap();
+    assert_eq!(pose["schemaName"], "foxglove.PoseInFrame");
+    assert_eq!(pose["encoding"], "json");
+    ws.send(Message::text(
+        json!({"op": "subscribe", "subscriptions": [
+            {"id": 10, "channelId": id("/pose")}, {"id": 11, "channelId": id("/wheels")}]})
+        .to_string(),
+    ))
+    .unwrap();
+    let (mut n10, mut n11, mut last_ns) = (0, 0, 0u64);
+    let end = Instant::now() + Duration::from_secs(10);
+    while (n10 < 5 || n11 < 5) && Instant::now() < end {
+        if let Message::Binary(b) = ws.read().unwrap() {
+            assert_eq!(b[0], 1, "messageData");
+            let sub = u32::from_le_bytes(b[1..5].try_into().unwrap());
+            let ns = u64::from_le_bytes(b[5..13].try_into().unwrap());
+            let v: Value = serde_json::from_slice(&b[13..]).unwrap();
+            match sub {
+                10 => {
+                    n10 += 1;
+                    assert!(ns >= last_ns, "log times go forward");
+                    last_ns = ns;
+                    assert_eq!(v["frame_id"], "world", "{v}");
+                }
+                11 => n11 += 1,
+                s => panic!("subscription {s} was never asked for"),
+            }
+        }
+    }
+    assert!(n10 >= 5 && n11 >= 5, "pose {n10}, wheels {n11}");
+}

@@ -19,6 +19,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 
+pub mod foxglove_ws;
 pub mod http;
 pub mod hub;
 pub mod relay;
@@ -60,6 +61,10 @@ pub struct ConsoleArgs {
     /// channels of `drive --mcap`, docs/seeing-the-robot.md).
     #[arg(long, value_name = "DIR", default_value = ".")]
     pub record_dir: PathBuf,
+    /// Also serve the telemetry live over the Foxglove WebSocket protocol on this address
+    /// (e.g. 127.0.0.1:8765; port 0: any free port), with the channels of the MCAP logs.
+    #[arg(long, value_name = "ADDR")]
+    pub foxglove: Option<String>,
     /// Stop after this many seconds (wall clock; default: until Ctrl-C).
     #[arg(long = "for", value_name = "SECONDS", allow_hyphen_values = true, value_parser = crate::args::run_for_s)]
     pub duration: Option<f64>,
@@ -134,6 +139,10 @@ pub fn run(a: &ConsoleArgs) -> Result<()> {
         local
     };
     crate::outln!("console: open http://{shown}/?token={token}")?;
+    let fox = match &a.foxglove {
+        Some(f) => Some(foxglove_listener(f, &token)?),
+        None => None,
+    };
     crate::output::flush_stdout()?;
     crate::errln!(
         "console: relaying to the robot at {} (Ctrl-C stops)",
@@ -155,6 +164,7 @@ pub fn run(a: &ConsoleArgs) -> Result<()> {
         speed: a.speed,
         turn: a.turn,
         record_dir: a.record_dir.clone(),
+        fox: fox.as_ref().map(|(_, h)| h.clone()),
     };
     let relay = {
         let hub = hub.clone();
@@ -162,6 +172,12 @@ pub fn run(a: &ConsoleArgs) -> Result<()> {
             .name("relay".into())
             .spawn(move || relay::run(hub, rx, cfg, first))?
     };
+    if let Some((listener, fox)) = fox {
+        let (hub, policy) = (hub.clone(), policy_for(&listener, &token)?);
+        std::thread::Builder::new()
+            .name("foxglove".into())
+            .spawn(move || foxglove_accept(listener, policy, hub, fox))?;
+    }
     let end = match a.duration {
         Some(s) => Some(Instant::now() + crate::args::duration("--for", s)?),
         None => None,
@@ -275,6 +291,67 @@ fn exchange(
             hub.clients.fetch_add(1, Ordering::SeqCst);
             ws::serve(stream, rest, hub.clone());
             hub.clients.fetch_sub(1, Ordering::SeqCst);
+        }
+    }
+}
+
+/// Binds `--foxglove` and prints its URL (with the console's token).
+fn foxglove_listener(addr: &str, token: &str) -> Result<(TcpListener, Arc<foxglove_ws::FoxHub>)> {
+    let at: SocketAddr = addr.parse().with_context(|| {
+        format!("--foxglove: expected HOST:PORT (e.g. 127.0.0.1:8765), got \"{addr}\"")
+    })?;
+    let l = TcpListener::bind(at).with_context(|| format!("--foxglove {at}: cannot bind"))?;
+    l.set_nonblocking(true)?;
+    let local = l.local_addr()?;
+    if !local.ip().is_loopback() {
+        crate::errln!(
+            "console: WARNING: --foxglove {at} is not a loopback address: anyone on that network who learns the URL can watch the robot"
+        );
+    }
+    let shown = if local.ip().is_unspecified() {
+        SocketAddr::new(std::net::Ipv4Addr::LOCALHOST.into(), local.port())
+    } else {
+        local
+    };
+    crate::outln!("console: foxglove ws://{shown}/?token={token}")?;
+    Ok((l, Arc::new(foxglove_ws::FoxHub::default())))
+}
+
+fn policy_for(l: &TcpListener, token: &str) -> Result<http::Policy> {
+    let local = l.local_addr()?;
+    Ok(http::Policy {
+        token: token.to_string(),
+        port: local.port(),
+        loopback: local.ip().is_loopback(),
+    })
+}
+
+/// At most this many Foxglove clients at once.
+const MAX_FOXGLOVE: usize = 4;
+
+fn foxglove_accept(
+    l: TcpListener,
+    policy: http::Policy,
+    hub: Arc<Hub>,
+    fox: Arc<foxglove_ws::FoxHub>,
+) {
+    let policy = Arc::new(policy);
+    let slots = Arc::new(AtomicUsize::new(0));
+    while !hub.shutdown.load(Ordering::SeqCst) {
+        match l.accept() {
+            Ok((stream, _)) => {
+                let Some(slot) = Slot::take(&slots, MAX_FOXGLOVE) else {
+                    continue;
+                };
+                let (policy, hub, fox) = (policy.clone(), hub.clone(), fox.clone());
+                let _ = std::thread::Builder::new()
+                    .name("foxglove-client".into())
+                    .spawn(move || {
+                        let _slot = slot;
+                        foxglove_ws::exchange(stream, &policy, &hub, &fox);
+                    });
+            }
+            Err(_) => std::thread::sleep(Duration::from_millis(20)),
         }
     }
 }

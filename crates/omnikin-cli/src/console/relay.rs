@@ -54,6 +54,8 @@ pub struct RelayConfig {
     pub turn: f64,
     /// Where recordings go (`--record-dir`).
     pub record_dir: std::path::PathBuf,
+    /// The live Foxglove stream (`--foxglove`).
+    pub fox: Option<Arc<super::foxglove_ws::FoxHub>>,
 }
 
 /// A recording to MCAP (the MCAP writer of `drive --mcap`): one message per channel and
@@ -113,6 +115,9 @@ struct Relay {
     prev: Option<Telemetry>,
     info: Option<RobotInfo>,
     rec: Option<Recording>,
+    /// Telemetry to Foxglove messages for `--foxglove` (per session: measured rates and
+    /// events compare consecutive frames).
+    enc: crate::mcap_log::Encoder,
 }
 
 /// Runs the relay until the hub shuts down. `first` is the session opened (and its address
@@ -131,6 +136,7 @@ pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: Consol
         prev: None,
         info: None,
         rec: None,
+        enc: crate::mcap_log::Encoder::new("omnikin console"),
     };
     r.record_status();
     let mut op = Some(first);
@@ -168,6 +174,7 @@ pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: Consol
         last_error.clear();
         r.info = Some(info);
         r.prev = None;
+        r.enc = crate::mcap_log::Encoder::new("omnikin console");
         // An e-stop asked for before this session is sent in it, and confirmed by it
         // (sequence numbers start again with every session).
         if let Some(p) = r.estop.as_mut() {
@@ -354,6 +361,21 @@ impl Relay {
                 }
                 let id = (crate::link_io::epoch_seq() & 0xffff) as u16;
                 let now_us = self.prev.map_or(0, |t| t.time_us);
+                if let Some(fox) = &self.cfg.fox {
+                    use crate::mcap_log::foxglove as fg;
+                    let ns = now_us.saturating_mul(1000);
+                    let poses: Vec<omnikin::Pose2<f64>> = pts
+                        .iter()
+                        .map(|w| {
+                            omnikin::Pose2::new(
+                                w.pose[0].into(),
+                                w.pose[1].into(),
+                                w.pose[2].into(),
+                            )
+                        })
+                        .collect();
+                    fox.publish(fg::PLAN, ns, &fg::poses_in_frame(ns, &poses));
+                }
                 if let Some(r) = self.rec.as_mut()
                     && let Err(e) = crate::mcap_log::drive_plan(&mut r.log, now_us, &pts)
                 {
@@ -502,6 +524,14 @@ impl Relay {
                 );
                 self.follow = None;
                 self.plan_status("failed", &msg, None);
+            }
+        }
+        if let Some(fox) = &self.cfg.fox {
+            let s = crate::mcap_log::telemetry_sample(&t);
+            if let Some(ns) = crate::mcap_log::foxglove::time_ns(s.t) {
+                for (topic, v) in self.enc.messages("", &s, ns) {
+                    fox.publish(topic, ns, &v);
+                }
             }
         }
         if let Some(r) = self.rec.as_mut() {
