@@ -840,3 +840,80 @@ fn stream_plan(s: &mut Session, plan: &Plan, set_pose: bool) -> Result<()> {
     s.print_status()?;
     Ok(())
 }
+
+/// The operator session of `drive`, for `omnikin console`: the same handshake (with its v1
+/// probe and its diagnosis of a failed handshake), the same session frames and the same
+/// telemetry bookkeeping, driven from the console's own event loop instead of a `drive`
+/// action.
+pub(crate) struct ConsoleOperator(Session);
+
+impl ConsoleOperator {
+    /// Opens the transport to `connect` (an address as `drive --connect` takes it) with an
+    /// optional key file; `heartbeat_hz` and `timeout_s` as `drive --heartbeat/--timeout`.
+    pub(crate) fn open(
+        connect: &str,
+        key: Option<&Path>,
+        heartbeat_hz: f64,
+        timeout_s: f64,
+    ) -> Result<Self> {
+        Session::open(&DriveArgs {
+            connect: connect.to_string(),
+            key: key.map(Path::to_path_buf),
+            heartbeat: heartbeat_hz,
+            timeout: timeout_s,
+            mcap: None,
+            action: DriveAction::Hello,
+        })
+        .map(Self)
+    }
+
+    /// The handshake (blocks up to the timeout): the robot's answer.
+    pub(crate) fn hello(&mut self) -> Result<RobotInfo> {
+        self.0.hello()
+    }
+
+    /// Sends `m` in the session.
+    pub(crate) fn send(&mut self, m: &Message) -> Result<()> {
+        self.0.send(m)
+    }
+
+    /// Receives for up to `d`; `true` if a new telemetry frame of this session arrived.
+    pub(crate) fn pump(&mut self, d: Duration) -> Result<bool> {
+        self.0.pump(d)
+    }
+
+    /// Fails when the session is over (taken over, or silent for the timeout).
+    pub(crate) fn alive(&self) -> Result<()> {
+        self.0.alive()
+    }
+
+    /// The newest telemetry of this session.
+    pub(crate) fn latest(&self) -> Option<Telemetry> {
+        self.0.latest
+    }
+
+    /// The sequence number the next message will carry.
+    pub(crate) fn next_seq(&self) -> u64 {
+        self.0.next_seq()
+    }
+
+    /// This end's receive counters.
+    pub(crate) fn counters(&self) -> omnikin::link::LinkCounters {
+        *self.0.op.counters()
+    }
+
+    /// Telemetry frames of this session received.
+    pub(crate) fn frames(&self) -> u64 {
+        self.0.frames
+    }
+
+    /// The session id, once established.
+    pub(crate) fn session_id(&self) -> Option<u64> {
+        self.0.op.session_id()
+    }
+
+    /// The heartbeat period and the timeout.
+    pub(crate) fn periods(&self) -> (Duration, Duration) {
+        (self.0.heartbeat, self.0.timeout)
+    }
+}

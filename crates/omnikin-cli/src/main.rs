@@ -10,6 +10,7 @@ use clap::{Parser, Subcommand};
 
 mod args;
 mod balance_check;
+mod console;
 mod data_dir;
 mod drive;
 mod figures;
@@ -91,6 +92,10 @@ enum Command {
     /// Drive a robot over the link from the PC: hello, velocity, plan upload, stop, e-stop,
     /// clear, telemetry and keyboard teleop.
     Drive(drive::DriveArgs),
+    /// A local web page that shows the robot (map, plan, pose, wheel rates, link, events)
+    /// and drives it (dead-man teleop by keyboard or gamepad, e-stop, plan upload), relayed
+    /// over the same link as `drive`. Prints the URL to open, with its per-start token.
+    Console(console::ConsoleArgs),
     /// Convert an MCAP log (--mcap of simulate, odometry, robot, drive) to one CSV file per
     /// channel, or CSV logs back to MCAP.
     Convert(mcap_log::convert::ConvertArgs),
@@ -288,6 +293,7 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
                 _ => {}
             }
         }
+        Command::Console(a) => inputs.extend(a.key.as_deref().map(|p| ("--key", p))),
         Command::Convert(a) => {
             inputs.push(("IN", &a.input));
             files.extend(a.mcap.as_deref().map(|p| ("--mcap", p)));
@@ -326,6 +332,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Odometry(a) => odometry::run(&a),
         Command::Robot(a) => robot::run(&a),
         Command::Drive(a) => drive::run(&a),
+        Command::Console(a) => console::run(&a),
         Command::Convert(a) => mcap_log::convert::run(&a),
         Command::Completions(a) => shell::completions(&a),
         Command::Man(a) => shell::man(&a),

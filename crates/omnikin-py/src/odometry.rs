@@ -6,6 +6,7 @@ use numpy::PyReadonlyArray2;
 use numpy::PyUntypedArrayMethods;
 use omnikin::Pose2;
 use omnikin_sim::odometry::{FixResult, OdometryOptions, run};
+use omnikin::estimate::fusion::Recovery;
 use omnikin_sim::table::NumericTable;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -68,7 +69,7 @@ fn table(
 /// `omnikin.odometry`: `(poses_columns, poses_values, odometry_values, fixes_json,
 /// summary_json)`.
 #[pyfunction]
-#[pyo3(signature = (robot, log_path=None, log_columns=None, fixes_path=None, fixes_columns=None, imu=false, counts_per_rev=None, initial_pose=None, fix_std=0.01, fix_heading_std=0.05, gyro_bias=0.0))]
+#[pyo3(signature = (robot, log_path=None, log_columns=None, fixes_path=None, fixes_columns=None, imu=false, counts_per_rev=None, initial_pose=None, fix_std=0.01, fix_heading_std=0.05, gyro_bias=0.0, max_latency=1.0, estimate_gyro_bias=true, estimate_wheel_scale=true, recovery_count=5, recovery_spread=0.05))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 pub fn odometry_native<'py>(
     py: Python<'py>,
@@ -83,6 +84,11 @@ pub fn odometry_native<'py>(
     fix_std: f64,
     fix_heading_std: f64,
     gyro_bias: f64,
+    max_latency: f64,
+    estimate_gyro_bias: bool,
+    estimate_wheel_scale: bool,
+    recovery_count: u32,
+    recovery_spread: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let log = table("log", log_path, log_columns)?;
     let fixes = match (fixes_path, fixes_columns) {
@@ -96,6 +102,12 @@ pub fn odometry_native<'py>(
         fix_std,
         fix_heading_std,
         gyro_bias,
+        max_latency,
+        estimate_gyro_bias,
+        estimate_wheel_scale,
+        recovery_count,
+        recovery_spread,
+        ..OdometryOptions::default()
     };
     let r = py
         .detach(|| run(&robot.desc, &log, fixes.as_ref(), &options))
@@ -141,6 +153,15 @@ pub fn odometry_native<'py>(
                 }
                 FixResult::TooLate => ("too_late", None, None),
                 FixResult::AfterLog => ("after_log", None, None),
+                FixResult::Initialised => ("initialised", None, None),
+                FixResult::Recovered {
+                    recovery: Recovery::Reinitialised,
+                    ..
+                } => ("reinitialised", None, None),
+                FixResult::Recovered {
+                    recovery: Recovery::Inflated,
+                    ..
+                } => ("inflated", None, None),
             };
             json!({
                 "line": f.line, "t": f.t, "arrival": f.arrival, "x": f.x, "y": f.y,
@@ -158,7 +179,18 @@ pub fn odometry_native<'py>(
         "fixes": s.fixes.map(|f| json!({
             "accepted": f.accepted, "rejected": f.rejected, "too_late": f.too_late,
             "after_log": f.after_log, "fused_minus_odometry_m": f.fused_minus_odometry,
+            "reinitialised": f.reinitialised, "inflated": f.inflated,
+            "initialised_at_s": f.initialised_at,
+            "gyro_bias_rad_s": f.gyro_bias.map(|b| json!({ "value": b.0, "std": b.1 })),
+            "wheel_scale": f.wheel_scale.map(|k| json!({ "value": k.0, "std": k.1 })),
         })),
+        "shell_spin_rad_s": s.shell_spin.map(|w| json!({
+            "mean": w.mean, "std": w.std, "from_fixes": w.from_fixes,
+        })),
+        "shell_spin_unobservable": s.shell_spin_unobservable,
+        "events": r.events.iter().map(|e| json!({
+            "kind": e.kind.name(), "start_s": e.start, "end_s": e.end, "peak": e.peak,
+        })).collect::<Vec<_>>(),
     });
     let d = PyDict::new(py);
     d.set_item("poses", poses)?;

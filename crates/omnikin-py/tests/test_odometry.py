@@ -76,9 +76,17 @@ def test_odometry_matches_cli(cli, tmp_path, logs, robot, flags, kw):
     else:
         f = s["fixes"]
         assert (f"fixes: {f['accepted']} fused, {f['rejected']} rejected as outliers, "
-                f"{f['too_late']} older than the history, {f['after_log']} after the log") in printed
+                f"{f['too_late']} arrived too late (> --max-latency), {f['after_log']} after the log"
+                ) in printed
+        assert f"recoveries: {f['reinitialised']} re-initialised, {f['inflated']} inflated" in printed
+        if f["wheel_scale"] is not None:
+            k = f["wheel_scale"]
+            assert f"estimated wheel scale {k['value']:.5f} ± {k['std']:.5f}" in printed
         assert len(got["fixes"]) == len(read_csv(fx)["t"])
-        assert sum(r["result"] == "accepted" for r in got["fixes"]) == f["accepted"]
+        # Fused fixes: plain, the one that set the pose, and the ones that ended a recovery.
+        fused = ("accepted", "initialised", "reinitialised", "inflated")
+        assert sum(r["result"] in fused for r in got["fixes"]) == f["accepted"]
+        assert sum(r["result"] == "too_late" for r in got["fixes"]) == f["too_late"]
         # The odometry columns are the pure wheel odometry: what the CLI gives without fixes.
         plain = tmp_path / "plain.csv"
         cli.run("odometry", log, "--robot", robot, *[a for a in args if a not in ("--fixes", fixes)],
@@ -109,6 +117,39 @@ def test_odometry_errors_are_the_clis(cli, tmp_path, logs):
         omnikin.odometry("kiwi", no_imu, imu=True)
     with pytest.raises(ValueError, match="same length"):
         omnikin.odometry("kiwi", {"t": [0.0, 1.0], "q1": [0.0]})
+
+
+@pytest.mark.parametrize("flags, kw", [
+    (["--max-latency", "0.05"], {"max_latency": 0.05}),
+    (["--no-wheel-scale-state", "--no-gyro-bias-state"],
+     {"estimate_wheel_scale": False, "estimate_gyro_bias": False}),
+    (["--recovery-count", "2", "--recovery-spread", "0.2"],
+     {"recovery_count": 2, "recovery_spread": 0.2}),
+])
+def test_odometry_filter_options_are_the_clis(cli, tmp_path, logs, flags, kw):
+    """The filter's options (latency window, bias/scale states, recovery) as the CLI's flags."""
+    d = logs["caster3"]
+    log, fixes = d / "encoders.csv", d / "fixes.csv"
+    out = tmp_path / "poses.csv"
+    p = cli.run("odometry", log, "--robot", "caster3", "--fixes", fixes, "--imu", *flags,
+                "--out", out)
+    got = omnikin.odometry("caster3", str(log), fixes=str(fixes), imu=True, **kw)
+    assert_table(got["poses"], read_csv(out))
+    f = got["summary"]["fixes"]
+    assert f"{f['too_late']} arrived too late" in p.stderr
+    if kw.get("estimate_wheel_scale") is False:
+        assert f["wheel_scale"] is None and f["gyro_bias_rad_s"] is None
+    if "max_latency" in kw:
+        # The simulated camera is late by more than 50 ms: some fixes miss the window.
+        assert f["too_late"] > 0
+
+
+def test_odometry_filter_option_errors(logs):
+    log = str(logs["kiwi"] / "encoders.csv")
+    for kw, field in [({"recovery_count": 0}, "recovery_count"), ({"max_latency": -1.0}, "max_latency"),
+                      ({"recovery_spread": float("nan")}, "recovery_spread")]:
+        with pytest.raises(ValueError, match=field):
+            omnikin.odometry("kiwi", log, **kw)
 
 
 def test_simulated_sensor_logs_feed_odometry(logs):

@@ -187,6 +187,11 @@ def odometry(
     fix_std: float = 0.01,
     fix_heading_std: float = 0.05,
     gyro_bias: float = 0.0,
+    max_latency: float = 1.0,
+    estimate_gyro_bias: bool = True,
+    estimate_wheel_scale: bool = True,
+    recovery_count: int = 5,
+    recovery_spread: float = 0.05,
 ) -> Dict[str, Any]:
     """Wheel odometry over an encoder log, fused with camera ``fixes`` when given, as
     ``omnikin odometry`` (the same pipeline, ``omnikin_sim::odometry``).
@@ -197,7 +202,13 @@ def odometry(
     ["sensors"][0]["encoders"]``. ``fixes``: ``t, x, y`` (s, m; world frame) with optional
     ``heading`` (rad) and ``arrival`` (s). ``imu``: heading from ``yaw`` (or integrated
     ``gyro_z`` minus ``gyro_bias``) instead of the wheels. ``initial_pose``: ``(x, y, heading)``
-    (m, rad); ``fix_std`` / ``fix_heading_std``: a fix's standard deviations (m, rad). For a
+    (m, rad); ``fix_std`` / ``fix_heading_std``: a fix's standard deviations (m, rad).
+    ``max_latency``: the oldest fix (s before the latest encoder sample) still fused at its
+    time; older ones count as ``too_late``. ``estimate_gyro_bias`` / ``estimate_wheel_scale``:
+    the filter's bias and common wheel-scale states (the CLI's ``--no-gyro-bias-state`` /
+    ``--no-wheel-scale-state`` turn them off). ``recovery_count`` rejected fixes in a row
+    (1..=16) that agree within ``recovery_spread`` (m) re-initialise the filter, otherwise
+    inflate its covariance. For a
     dict, an error's line is the row + 1 (line 1 is the header).
 
     Returns ``{"poses": ..., "odometry": ..., "fixes": [...], "summary": {...}}``: ``poses``
@@ -217,6 +228,11 @@ def odometry(
         fix_std=fix_std,
         fix_heading_std=fix_heading_std,
         gyro_bias=gyro_bias,
+        max_latency=max_latency,
+        estimate_gyro_bias=estimate_gyro_bias,
+        estimate_wheel_scale=estimate_wheel_scale,
+        recovery_count=recovery_count,
+        recovery_spread=recovery_spread,
         **_table_args("log", log),
         **_table_args("fixes", fixes),
     )

@@ -129,6 +129,11 @@ def odometry(
     fix_std: float = 0.01,
     fix_heading_std: float = 0.05,
     gyro_bias: float = 0.0,
+    max_latency: float = 1.0,
+    estimate_gyro_bias: bool = True,
+    estimate_wheel_scale: bool = True,
+    recovery_count: int = 5,
+    recovery_spread: float = 0.05,
 ) -> Dict[str, Any]:
     """``{"poses": Table, "odometry": Table, "fixes": list, "summary": dict}`` as ``omnikin
     odometry``: ``poses`` the ``--out`` CSV's ``t, x, y, heading`` (world frame; s, m, rad),

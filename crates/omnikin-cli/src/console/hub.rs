@@ -1,0 +1,281 @@
+//! What the relay and the browsers share: the stream of JSON messages to the pages (bounded
+//! ring, plus the newest message of each "sticky" kind that a page opened later needs first),
+//! the bounded command queue to the relay, and the e-stop request, which bypasses the queue.
+
+use std::collections::{BTreeMap, VecDeque};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::mpsc::{Receiver, SyncSender, TrySendError, sync_channel};
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use omnikin_plan::Plan;
+use serde::Deserialize;
+
+/// Messages kept for the pages (at 20 Hz telemetry, about 12 s).
+pub const RING: usize = 256;
+/// Events replayed to a page that connects later.
+pub const EVENTS: usize = 100;
+/// Commands waiting for the relay; a page that sends faster is told "busy".
+pub const QUEUE: usize = 64;
+/// Largest message a page may send, bytes (a plan CSV with about 50 000 rows).
+pub const MAX_MESSAGE: usize = 8 * 1024 * 1024;
+
+/// A command from a page, for the relay.
+#[derive(Debug)]
+pub enum Command {
+    /// Teleop while the dead-man is held: fractions of the console's --speed and --turn,
+    /// each clamped to [-1, 1] (robot frame: forward, left, counter-clockwise).
+    Teleop {
+        /// Forward.
+        vx: f64,
+        /// Left.
+        vy: f64,
+        /// Counter-clockwise.
+        yaw: f64,
+    },
+    /// Controlled stop (dead-man released, or the Stop button).
+    Stop,
+    /// Clear the e-stop latch and the fault history.
+    Clear,
+    /// A plan to preview (parsed from the page's CSV).
+    Plan {
+        /// The file name the page gave.
+        name: String,
+        /// The plan.
+        plan: Box<Plan>,
+    },
+    /// Upload the previewed plan and run it.
+    PlanRun {
+        /// First set the pose estimate to the plan's first pose.
+        set_pose: bool,
+    },
+    /// Start (`true`) or stop recording the telemetry to MCAP.
+    Record(bool),
+}
+
+/// A page's message, as JSON (`{"type": "...", ...}`).
+#[derive(Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+enum PageMessage {
+    Teleop { vx: f64, vy: f64, yaw: f64 },
+    Stop,
+    Estop,
+    Clear,
+    Plan { name: String, csv: String },
+    PlanRun { set_pose: bool },
+    Record { on: bool },
+}
+
+/// Longest plan file name kept (the rest is cut).
+const MAX_NAME: usize = 120;
+
+/// Clamps a teleop axis to [-1, 1]; `None` for a non-finite one.
+fn axis(v: f64) -> Option<f64> {
+    v.is_finite().then(|| v.clamp(-1.0, 1.0))
+}
+
+/// The shared state.
+pub struct Hub {
+    inner: Mutex<Inner>,
+    /// Set by any page's e-stop; the relay takes it before anything else.
+    pub estop: AtomicBool,
+    /// Set when the console is shutting down.
+    pub shutdown: AtomicBool,
+    /// Open websocket clients.
+    pub clients: AtomicUsize,
+    tx: SyncSender<Command>,
+}
+
+struct Inner {
+    next: u64,
+    ring: VecDeque<(u64, Arc<str>)>,
+    sticky: BTreeMap<&'static str, Arc<str>>,
+    events: VecDeque<Arc<str>>,
+}
+
+impl Hub {
+    /// A hub and the relay's end of the command queue.
+    pub fn new() -> (Arc<Self>, Receiver<Command>) {
+        let (tx, rx) = sync_channel(QUEUE);
+        (
+            Arc::new(Hub {
+                inner: Mutex::new(Inner {
+                    next: 1,
+                    ring: VecDeque::with_capacity(RING),
+                    sticky: BTreeMap::new(),
+                    events: VecDeque::with_capacity(EVENTS),
+                }),
+                estop: AtomicBool::new(false),
+                shutdown: AtomicBool::new(false),
+                clients: AtomicUsize::new(0),
+                tx,
+            }),
+            rx,
+        )
+    }
+
+    fn lock(&self) -> MutexGuard<'_, Inner> {
+        // A panicking holder cannot leave the ring inconsistent (every update is one push).
+        self.inner.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Sends `msg` to every page; `sticky` keeps it as the newest of its kind for pages that
+    /// connect later; events are kept for them too.
+    pub fn publish(&self, msg: &serde_json::Value, sticky: Option<&'static str>) {
+        let text: Arc<str> = msg.to_string().into();
+        let mut g = self.lock();
+        let seq = g.next;
+        g.next += 1;
+        if g.ring.len() == RING {
+            g.ring.pop_front();
+        }
+        g.ring.push_back((seq, text.clone()));
+        if let Some(k) = sticky {
+            g.sticky.insert(k, text.clone());
+        }
+        if msg["type"] == "event" {
+            if g.events.len() == EVENTS {
+                g.events.pop_front();
+            }
+            g.events.push_back(text);
+        }
+    }
+
+    /// What a new page gets first (the sticky messages, then the kept events) and the
+    /// cursor from which it follows the stream.
+    pub fn subscribe(&self) -> (Vec<Arc<str>>, u64) {
+        let g = self.lock();
+        let mut first: Vec<Arc<str>> = g.sticky.values().cloned().collect();
+        first.extend(g.events.iter().cloned());
+        (first, g.next)
+    }
+
+    /// Messages after `cursor` (at most the ring: a page that fell behind skips ahead) and
+    /// the new cursor.
+    pub fn since(&self, cursor: u64) -> (Vec<Arc<str>>, u64) {
+        let g = self.lock();
+        let out = g
+            .ring
+            .iter()
+            .filter(|(s, _)| *s >= cursor)
+            .map(|(_, m)| m.clone())
+            .collect();
+        (out, g.next)
+    }
+
+    /// Handles one text message of a page; `Err` is the answer for that page alone (never
+    /// a crash: every field is checked, a plan is parsed here, outside the relay's loop).
+    pub fn handle(&self, text: &str) -> Result<(), String> {
+        let m: PageMessage = serde_json::from_str(text).map_err(|e| format!("bad message: {e}"))?;
+        let cmd = match m {
+            PageMessage::Estop => {
+                self.estop.store(true, Ordering::SeqCst);
+                return Ok(());
+            }
+            PageMessage::Teleop { vx, vy, yaw } => match (axis(vx), axis(vy), axis(yaw)) {
+                (Some(vx), Some(vy), Some(yaw)) => Command::Teleop { vx, vy, yaw },
+                _ => return Err("teleop: vx, vy and yaw must be finite numbers".into()),
+            },
+            PageMessage::Stop => Command::Stop,
+            PageMessage::Clear => Command::Clear,
+            PageMessage::PlanRun { set_pose } => Command::PlanRun { set_pose },
+            PageMessage::Record { on } => Command::Record(on),
+            PageMessage::Plan { name, csv } => {
+                let name: String = name
+                    .chars()
+                    .filter(|c| !c.is_control())
+                    .take(MAX_NAME)
+                    .collect();
+                let plan = Plan::read_csv(csv.as_bytes(), &name)
+                    .map_err(|e| format!("plan {name}: {e}"))?;
+                if plan.samples.len() < 2 {
+                    return Err(format!("plan {name}: needs at least 2 samples"));
+                }
+                Command::Plan {
+                    name,
+                    plan: Box::new(plan),
+                }
+            }
+        };
+        match self.tx.try_send(cmd) {
+            Ok(()) => Ok(()),
+            Err(TrySendError::Full(_)) => {
+                Err("busy: the relay has too many commands waiting; this one was dropped".into())
+            }
+            Err(TrySendError::Disconnected(_)) => Err("the relay has stopped".into()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hostile_messages_are_answered_not_obeyed() {
+        let (hub, rx) = Hub::new();
+        for m in [
+            "",
+            "null",
+            "[]",
+            "{}",
+            r#"{"type":"launch"}"#,
+            r#"{"type":"teleop","vx":"1","vy":0,"yaw":0}"#,
+            r#"{"type":"teleop","vx":1,"vy":0}"#,
+            r#"{"type":"teleop","vx":1e999,"vy":0,"yaw":0}"#,
+            r#"{"type":"teleop","vx":1,"vy":0,"yaw":0,"speed":100}"#,
+            r#"{"type":"plan","name":"x.csv","csv":"t,x\n1,2\n"}"#,
+            r#"{"type":"plan","name":"x.csv","csv":"\u0000\u0001"}"#,
+            r#"{"type":"plan_run","set_pose":"yes"}"#,
+        ] {
+            assert!(hub.handle(m).is_err(), "{m}");
+        }
+        assert!(rx.try_recv().is_err(), "nothing reached the relay");
+        assert!(!hub.estop.load(Ordering::SeqCst));
+    }
+
+    #[test]
+    fn teleop_is_clamped_to_full_scale() {
+        let (hub, rx) = Hub::new();
+        hub.handle(r#"{"type":"teleop","vx":50,"vy":-3,"yaw":0.25}"#)
+            .unwrap();
+        match rx.try_recv().unwrap() {
+            Command::Teleop { vx, vy, yaw } => assert_eq!((vx, vy, yaw), (1.0, -1.0, 0.25)),
+            c => panic!("{c:?}"),
+        }
+    }
+
+    #[test]
+    fn estop_bypasses_a_full_queue() {
+        let (hub, _rx) = Hub::new();
+        for _ in 0..QUEUE {
+            hub.handle(r#"{"type":"stop"}"#).unwrap();
+        }
+        assert!(
+            hub.handle(r#"{"type":"stop"}"#)
+                .unwrap_err()
+                .contains("busy")
+        );
+        hub.handle(r#"{"type":"estop"}"#).unwrap();
+        assert!(hub.estop.load(Ordering::SeqCst));
+    }
+
+    #[test]
+    fn ring_is_bounded_and_sticky_kept() {
+        let (hub, _rx) = Hub::new();
+        hub.publish(
+            &serde_json::json!({"type": "link", "state": "connected"}),
+            Some("link"),
+        );
+        for i in 0..(RING + 10) {
+            hub.publish(&serde_json::json!({"type": "telemetry", "i": i}), None);
+        }
+        hub.publish(&serde_json::json!({"type": "event", "text": "x"}), None);
+        let (all, next) = hub.since(0);
+        assert_eq!(all.len(), RING);
+        assert!(all[RING - 1].contains("event"));
+        let (first, cursor) = hub.subscribe();
+        assert_eq!(cursor, next);
+        assert!(first[0].contains("connected") && first[1].contains("\"x\""));
+        assert!(hub.since(cursor).0.is_empty());
+    }
+}

@@ -1,0 +1,918 @@
+//! The relay: one thread that owns the operator session with the robot (`drive`'s session,
+//! [`ConsoleOperator`]) and turns the pages' commands into link messages, and telemetry into
+//! JSON for the pages.
+//!
+//! Every heartbeat period it sends exactly one message, by priority: an unconfirmed e-stop,
+//! an unconfirmed clear, the current step of a plan upload, the dead-man teleop command
+//! (valid for [`TELEOP_HOLD`] after the page's last one), an unconfirmed stop, else a
+//! heartbeat. An e-stop request is also sent the moment it is seen (it is checked between
+//! receives, every [`SLICE`] at most), and cancels teleop and uploads. A lost session is
+//! re-opened after [`RETRY`].
+
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::sync::mpsc::{Receiver, TryRecvError};
+use std::time::{Duration, Instant};
+
+use anyhow::Result;
+use omnikin::link::{
+    CHUNK_POINTS, LinkCounters, Message, RobotInfo, RobotKind, Telemetry, WirePoint,
+};
+use omnikin::runtime::{Faults, Frame, Mode};
+use omnikin_plan::Plan;
+use serde_json::{Value, json};
+
+use super::hub::{Command, Hub};
+use crate::drive::{ConsoleOperator, plan_points};
+use crate::mcap_log::McapLog;
+
+/// How long a page's teleop command stays valid: the page repeats it every 50 ms while the
+/// dead-man is held; without a repeat for this long the relay stops the robot.
+pub const TELEOP_HOLD: Duration = Duration::from_millis(300);
+/// Longest wait inside one receive, so an e-stop request is sent within this.
+pub const SLICE: Duration = Duration::from_millis(5);
+/// Wait before re-opening a lost session.
+pub const RETRY: Duration = Duration::from_secs(1);
+/// Most plan points drawn by the page (the plan is decimated for the preview only).
+const PREVIEW_POINTS: usize = 2000;
+/// Commands taken from the queue per receive slice.
+const BATCH: usize = 16;
+
+/// The relay's configuration.
+pub struct RelayConfig {
+    /// `--connect`.
+    pub connect: String,
+    /// `--key`.
+    pub key: Option<std::path::PathBuf>,
+    /// `--heartbeat`, Hz.
+    pub heartbeat_hz: f64,
+    /// `--timeout`, s.
+    pub timeout_s: f64,
+    /// Full-scale teleop speed, m/s.
+    pub speed: f64,
+    /// Full-scale teleop yaw rate, rad/s.
+    pub turn: f64,
+    /// Where recordings go (`--record-dir`).
+    pub record_dir: std::path::PathBuf,
+    /// The live Foxglove stream (`--foxglove`).
+    pub fox: Option<Arc<super::foxglove_ws::FoxHub>>,
+}
+
+/// A recording to MCAP (the MCAP writer of `drive --mcap`): one message per channel and
+/// telemetry frame, the uploaded plans on `/plan`.
+struct Recording {
+    log: McapLog,
+    path: std::path::PathBuf,
+    frames: u64,
+}
+
+/// A step of a plan upload (drive's `follow_plan`, as a state machine).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Step {
+    /// Bring the robot to rest first (teleop may have left it in velocity mode, which the
+    /// heartbeats of the upload would keep alive).
+    Halt,
+    SetPose,
+    Begin,
+    Chunk(u16),
+    Start,
+}
+
+struct Upload {
+    id: u16,
+    set_pose: bool,
+    pts: Vec<WirePoint>,
+    step: Step,
+    since: Instant,
+    began: Instant,
+}
+
+/// A plan being followed: its id and the largest distance from its reference so far.
+struct Follow {
+    id: u16,
+    max_dev: f32,
+}
+
+/// A message sent until telemetry confirms it: the first sequence number it went out with.
+#[derive(Clone, Copy)]
+struct Pending {
+    first: u64,
+    since: Instant,
+    warned: bool,
+}
+
+/// The relay's state across sessions.
+struct Relay {
+    hub: Arc<Hub>,
+    cfg: RelayConfig,
+    teleop: Option<([f32; 3], Instant)>,
+    estop: Option<Pending>,
+    clear: Option<Pending>,
+    stop: Option<Pending>,
+    upload: Option<Upload>,
+    follow: Option<Follow>,
+    plan: Option<(String, Plan)>,
+    prev: Option<Telemetry>,
+    info: Option<RobotInfo>,
+    rec: Option<Recording>,
+    /// Telemetry to Foxglove messages for `--foxglove` (per session: measured rates and
+    /// events compare consecutive frames).
+    enc: crate::mcap_log::Encoder,
+}
+
+/// Runs the relay until the hub shuts down. `first` is the session opened (and its address
+/// and key checked) before the server started.
+pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: ConsoleOperator) {
+    let mut r = Relay {
+        hub,
+        cfg,
+        teleop: None,
+        estop: None,
+        clear: None,
+        stop: None,
+        upload: None,
+        follow: None,
+        plan: None,
+        prev: None,
+        info: None,
+        rec: None,
+        enc: crate::mcap_log::Encoder::new("omnikin console"),
+    };
+    r.record_status();
+    let mut op = Some(first);
+    let mut last_error = String::new();
+    while !r.hub.shutdown.load(Ordering::SeqCst) {
+        let mut o = match op.take() {
+            Some(o) => o,
+            None => match ConsoleOperator::open(
+                &r.cfg.connect,
+                r.cfg.key.as_deref(),
+                r.cfg.heartbeat_hz,
+                r.cfg.timeout_s,
+            ) {
+                Ok(o) => o,
+                Err(e) => {
+                    r.lost(&mut last_error, &format!("{e:#}"));
+                    r.wait(RETRY, &rx);
+                    continue;
+                }
+            },
+        };
+        r.link_state(
+            "connecting",
+            &format!("handshake with {}", r.cfg.connect),
+            None,
+        );
+        let info = match o.hello() {
+            Ok(i) => i,
+            Err(e) => {
+                r.lost(&mut last_error, &format!("{e:#}"));
+                r.wait(RETRY, &rx);
+                continue;
+            }
+        };
+        last_error.clear();
+        r.info = Some(info);
+        r.prev = None;
+        r.enc = crate::mcap_log::Encoder::new("omnikin console");
+        // An e-stop asked for before this session is sent in it, and confirmed by it
+        // (sequence numbers start again with every session).
+        if let Some(p) = r.estop.as_mut() {
+            p.first = o.next_seq();
+            p.since = Instant::now();
+        }
+        r.link_state("connected", "session open", Some(&o));
+        r.event("info", &format!("session with {} open", r.cfg.connect));
+        let result = r.session(&mut o, &rx);
+        // A recording is one session's: robot time starts again with the next one.
+        r.record(false);
+        if let Err(e) = result {
+            // Leaving a session: nothing in flight survives it (the robot's watchdog stops
+            // it; a new session starts from a clean slate, except an e-stop request).
+            r.teleop = None;
+            r.stop = None;
+            r.clear = None;
+            if r.upload.take().is_some() || r.follow.take().is_some() {
+                r.plan_status("failed", "the session was lost", None);
+            }
+            if r.hub.shutdown.load(Ordering::SeqCst) {
+                break;
+            }
+            r.lost(&mut last_error, &format!("{e:#}"));
+            r.wait(RETRY, &rx);
+        } else {
+            break;
+        }
+    }
+}
+
+impl Relay {
+    /// Waits `d` (shutdown checked), answering commands that need no session.
+    fn wait(&mut self, d: Duration, rx: &Receiver<Command>) {
+        let end = Instant::now() + d;
+        while Instant::now() < end && !self.hub.shutdown.load(Ordering::SeqCst) {
+            while let Ok(c) = rx.try_recv() {
+                match c {
+                    Command::Plan { name, plan } => self.preview(name, *plan),
+                    Command::Teleop { .. }
+                    | Command::Stop
+                    | Command::Clear
+                    | Command::PlanRun { .. }
+                    | Command::Record(_) => {
+                        self.event("warn", "not connected to the robot: command ignored");
+                    }
+                }
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    fn lost(&mut self, last: &mut String, why: &str) {
+        if why != last.as_str() {
+            crate::errln!("console: {why}");
+            self.event("error", why);
+            *last = why.to_string();
+        }
+        self.link_state("lost", why, None);
+    }
+
+    /// One session: until it fails (the error says why) or the hub shuts down (`Ok`).
+    fn session(&mut self, o: &mut ConsoleOperator, rx: &Receiver<Command>) -> Result<()> {
+        let (period, timeout) = o.periods();
+        let mut tick = Instant::now();
+        let mut last_link = Instant::now();
+        loop {
+            if self.hub.shutdown.load(Ordering::SeqCst) {
+                if self.teleop.is_some() || self.upload.is_some() || self.follow.is_some() {
+                    o.send(&Message::Stop)?;
+                }
+                return Ok(());
+            }
+            if let Some(sig) = crate::output::interrupted() {
+                o.send(&Message::Stop)?;
+                return Err(sig.into());
+            }
+            self.take_estop(o)?;
+            for _ in 0..BATCH {
+                match rx.try_recv() {
+                    Ok(c) => self.command(c, o)?,
+                    Err(TryRecvError::Empty | TryRecvError::Disconnected) => break,
+                }
+            }
+            let now = Instant::now();
+            if now >= tick {
+                let m = self.due(o, now, timeout);
+                o.send(&m)?;
+                tick = now + period;
+            }
+            if o.pump(SLICE)?
+                && let Some(t) = o.latest()
+                && let Some(m) = self.telemetry(t, o)
+            {
+                // The upload moved on: its next message goes now, not at the tick.
+                o.send(&m)?;
+                tick = Instant::now() + period;
+            }
+            o.alive()?;
+            if last_link.elapsed() > Duration::from_millis(500) {
+                self.link_state("connected", "session open", Some(o));
+                last_link = Instant::now();
+            }
+        }
+    }
+
+    /// An e-stop request from a page: sent now, and kept until the robot confirms it.
+    fn take_estop(&mut self, o: &mut ConsoleOperator) -> Result<()> {
+        if self.hub.estop.swap(false, Ordering::SeqCst) {
+            self.teleop = None;
+            self.stop = None;
+            if self.upload.take().is_some() {
+                self.plan_status("failed", "cancelled by the e-stop", None);
+            }
+            if self.estop.is_none() {
+                self.estop = Some(Pending {
+                    first: o.next_seq(),
+                    since: Instant::now(),
+                    warned: false,
+                });
+            }
+            o.send(&Message::EStop)?;
+            self.event("warn", "e-stop sent");
+        }
+        Ok(())
+    }
+
+    fn command(&mut self, c: Command, o: &mut ConsoleOperator) -> Result<()> {
+        match c {
+            Command::Teleop { vx, vy, yaw } => {
+                // Latched (or being latched): the robot would reject it; the page shows why.
+                if self.estop.is_some() || self.prev.is_some_and(|t| t.mode == Mode::EStop) {
+                    return Ok(());
+                }
+                if self.upload.take().is_some() {
+                    self.plan_status("failed", "cancelled by teleop", None);
+                }
+                let v = [
+                    (vx * self.cfg.speed) as f32,
+                    (vy * self.cfg.speed) as f32,
+                    (yaw * self.cfg.turn) as f32,
+                ];
+                self.teleop = Some((v, Instant::now() + TELEOP_HOLD));
+                self.stop = None;
+            }
+            Command::Stop => {
+                if self.upload.take().is_some() {
+                    self.plan_status("failed", "cancelled by stop", None);
+                }
+                let was = self.teleop.take().is_some();
+                self.stop = Some(Pending {
+                    first: o.next_seq(),
+                    since: Instant::now(),
+                    warned: false,
+                });
+                o.send(&Message::Stop)?;
+                if !was {
+                    self.event("info", "stop sent");
+                }
+            }
+            Command::Clear => {
+                self.clear = Some(Pending {
+                    first: o.next_seq(),
+                    since: Instant::now(),
+                    warned: false,
+                });
+                o.send(&Message::Clear)?;
+            }
+            Command::Plan { name, plan } => self.preview(name, *plan),
+            Command::Record(on) => self.record(on),
+            Command::PlanRun { set_pose } => {
+                let cap = self.info.map_or(2, |i| i.plan_capacity as usize).max(2);
+                let Some((name, pts)) = self
+                    .plan
+                    .as_ref()
+                    .map(|(name, plan)| (name.clone(), plan_points(plan, cap)))
+                else {
+                    self.event("warn", "run plan: no plan loaded");
+                    return Ok(());
+                };
+                if self.estop.is_some() || self.prev.is_some_and(|t| t.mode == Mode::EStop) {
+                    self.event("warn", "run plan: the e-stop is latched (clear it first)");
+                    return Ok(());
+                }
+                let id = (crate::link_io::epoch_seq() & 0xffff) as u16;
+                let now_us = self.prev.map_or(0, |t| t.time_us);
+                if let Some(fox) = &self.cfg.fox {
+                    use crate::mcap_log::foxglove as fg;
+                    let ns = now_us.saturating_mul(1000);
+                    let poses: Vec<omnikin::Pose2<f64>> = pts
+                        .iter()
+                        .map(|w| {
+                            omnikin::Pose2::new(
+                                w.pose[0].into(),
+                                w.pose[1].into(),
+                                w.pose[2].into(),
+                            )
+                        })
+                        .collect();
+                    fox.publish(fg::PLAN, ns, &fg::poses_in_frame(ns, &poses));
+                }
+                if let Some(r) = self.rec.as_mut()
+                    && let Err(e) = crate::mcap_log::drive_plan(&mut r.log, now_us, &pts)
+                {
+                    self.event("error", &format!("recording: {e:#}"));
+                    self.record(false);
+                }
+                self.event(
+                    "info",
+                    &format!("uploading plan {name} as id {id}: {} points", pts.len()),
+                );
+                let now = Instant::now();
+                self.teleop = None;
+                self.stop = None;
+                self.follow = None;
+                self.upload = Some(Upload {
+                    id,
+                    pts,
+                    step: Step::Halt,
+                    set_pose,
+                    since: now,
+                    began: now,
+                });
+                self.plan_status("uploading", "", Some((0, 0)));
+            }
+        }
+        Ok(())
+    }
+
+    /// The message of this heartbeat tick.
+    fn due(&mut self, o: &ConsoleOperator, now: Instant, timeout: Duration) -> Message {
+        if let Some(p) = self.estop.as_mut() {
+            let warn = !p.warned && p.since.elapsed() > timeout;
+            p.warned |= warn;
+            if warn {
+                self.event(
+                    "error",
+                    "the robot has not confirmed the e-stop yet: still sending it",
+                );
+            }
+            return Message::EStop;
+        }
+        if self.clear.is_some() {
+            return Message::Clear;
+        }
+        if let Some(u) = &self.upload {
+            if u.since.elapsed() > timeout {
+                let step = u.step;
+                self.upload = None;
+                self.plan_status(
+                    "failed",
+                    &format!(
+                        "the robot did not confirm {step:?} within {:.1} s",
+                        timeout.as_secs_f64()
+                    ),
+                    None,
+                );
+                return Message::Heartbeat;
+            }
+            return upload_message(u);
+        }
+        if let Some((v, until)) = self.teleop {
+            if now < until {
+                return Message::SetVelocity {
+                    frame: Frame::Robot,
+                    vx: v[0],
+                    vy: v[1],
+                    yaw_rate: v[2],
+                };
+            }
+            // The page stopped repeating (dead-man released without a stop, page closed).
+            self.teleop = None;
+            self.stop = Some(Pending {
+                first: o.next_seq(),
+                since: now,
+                warned: false,
+            });
+            self.event("info", "teleop expired (no dead-man repeat): stop");
+        }
+        if let Some(p) = &self.stop {
+            if p.since.elapsed() <= timeout {
+                return Message::Stop;
+            }
+            self.stop = None;
+        }
+        Message::Heartbeat
+    }
+
+    /// Handles new telemetry: confirmations, upload progress, events, the pages' JSON.
+    /// Returns the upload's next message when the upload moved on.
+    fn telemetry(&mut self, t: Telemetry, o: &ConsoleOperator) -> Option<Message> {
+        if self.prev.is_some_and(|p| t.time_us < p.time_us) {
+            return None;
+        }
+        let prev = self.prev.replace(t);
+        if let Some(p) = self.estop
+            && t.mode == Mode::EStop
+            && t.estop_seq >= p.first
+        {
+            self.estop = None;
+            self.follow = None;
+            self.event(
+                "warn",
+                &format!(
+                    "e-stop confirmed by the robot at t {:.2} s",
+                    t.time_us as f64 * 1e-6
+                ),
+            );
+        }
+        if let Some(p) = self.clear
+            && t.ack_seq >= p.first
+            && t.mode != Mode::EStop
+            && t.fault_history.is_empty()
+        {
+            self.clear = None;
+            self.event("info", "cleared: e-stop latch and fault history");
+        }
+        if let Some(p) = self.stop
+            && t.ack_seq >= p.first
+            && matches!(t.mode, Mode::Idle | Mode::EStop | Mode::Stopping)
+        {
+            self.stop = None;
+        }
+        if let Some(pr) = prev {
+            self.events_between(&pr, &t);
+        }
+        let next = self.advance_upload(&t);
+        if let Some(f) = &mut self.follow {
+            if t.mode == Mode::Trajectory {
+                let d = (t.pose[0] - t.reference[0]).hypot(t.pose[1] - t.reference[1]);
+                f.max_dev = f.max_dev.max(d);
+            } else if t.plan.id == f.id && t.plan.done && t.mode == Mode::Idle {
+                let msg = format!(
+                    "plan {} done: max |pose - reference| {:.4} m; end pose ({:.3}, {:.3}, {:.3})",
+                    f.id, f.max_dev, t.pose[0], t.pose[1], t.pose[2]
+                );
+                self.follow = None;
+                self.plan_status("done", &msg, Some((t.plan.received, t.plan.len)));
+                self.event("info", &msg);
+            } else if !t.plan.done
+                && t.mode != Mode::Trajectory
+                && !matches!(t.mode, Mode::Stopping)
+            {
+                let msg = format!(
+                    "the robot left the plan (mode {}, faults {})",
+                    t.mode, t.fault_history
+                );
+                self.follow = None;
+                self.plan_status("failed", &msg, None);
+            }
+        }
+        if let Some(fox) = &self.cfg.fox {
+            let s = crate::mcap_log::telemetry_sample(&t);
+            if let Some(ns) = crate::mcap_log::foxglove::time_ns(s.t) {
+                for (topic, v) in self.enc.messages("", &s, ns) {
+                    fox.publish(topic, ns, &v);
+                }
+            }
+        }
+        if let Some(r) = self.rec.as_mut() {
+            match crate::mcap_log::telemetry(&mut r.log, &t) {
+                Ok(()) => r.frames += 1,
+                Err(e) => {
+                    self.event("error", &format!("recording: {e:#}"));
+                    self.record(false);
+                }
+            }
+        }
+        let steer = self
+            .info
+            .is_some_and(|i| matches!(i.kind, RobotKind::Caster | RobotKind::Swerve));
+        self.hub.publish(
+            &telemetry_json(&t, prev.as_ref(), steer, &o.counters(), o.frames()),
+            Some("telemetry"),
+        );
+        next
+    }
+
+    /// Moves the upload on when telemetry confirms its current step.
+    fn advance_upload(&mut self, t: &Telemetry) -> Option<Message> {
+        let u = self.upload.as_mut()?;
+        let n = u.pts.len() as u16;
+        let next = match u.step {
+            Step::Halt => (t.mode == Mode::Idle).then_some(if u.set_pose {
+                Step::SetPose
+            } else {
+                Step::Begin
+            }),
+            Step::SetPose => {
+                let p = u.pts[0].pose;
+                ((t.pose[0] - p[0]).abs() < 1e-4 && (t.pose[1] - p[1]).abs() < 1e-4)
+                    .then_some(Step::Begin)
+            }
+            Step::Begin => (t.plan.id == u.id && t.plan.len == n).then_some(Step::Chunk(0)),
+            Step::Chunk(have) => {
+                let got = if t.plan.id == u.id {
+                    t.plan.received
+                } else {
+                    0
+                };
+                if got >= n {
+                    Some(Step::Start)
+                } else if got > have {
+                    Some(Step::Chunk(got))
+                } else {
+                    None
+                }
+            }
+            Step::Start => {
+                if t.mode == Mode::Trajectory || (t.plan.done && t.plan.id == u.id) {
+                    let (id, secs) = (u.id, u.began.elapsed().as_secs_f64());
+                    self.upload = None;
+                    self.follow = Some(Follow { id, max_dev: 0.0 });
+                    self.event(
+                        "info",
+                        &format!("plan {id} uploaded in {secs:.2} s and started"),
+                    );
+                    self.plan_status("running", "", Some((t.plan.received, t.plan.len)));
+                }
+                return None;
+            }
+        }?;
+        u.step = next;
+        u.since = Instant::now();
+        let (got, len) = (t.plan.received, t.plan.len);
+        let m = upload_message(u);
+        self.plan_status("uploading", "", Some((got, len)));
+        Some(m)
+    }
+
+    /// Events from two consecutive telemetry frames: mode changes and new faults.
+    fn events_between(&mut self, a: &Telemetry, b: &Telemetry) {
+        if a.mode != b.mode {
+            self.event("info", &format!("mode {} → {}", a.mode, b.mode));
+        }
+        let new = Faults(b.fault_history.0 & !a.fault_history.0);
+        for (flag, name) in Faults::ALL {
+            // LIMIT is routine; ESTOP is reported by its confirmation and the mode change.
+            if new.contains(flag) && flag != Faults::LIMIT && flag != Faults::ESTOP {
+                let text = match flag {
+                    Faults::LINK_LOST => {
+                        "watchdog: no command in time, the robot stopped".to_string()
+                    }
+                    Faults::SLIP => {
+                        format!("wheel slip detected (residual {:.3} m/s)", b.slip_residual)
+                    }
+                    Faults::REJECTED => format!("a command was rejected ({} so far)", b.rejected),
+                    _ => format!("fault: {name}"),
+                };
+                let level = if flag == Faults::HARDWARE {
+                    "error"
+                } else {
+                    "warn"
+                };
+                self.event(level, &text);
+            }
+        }
+    }
+
+    fn preview(&mut self, name: String, plan: Plan) {
+        let pts = plan_points(&plan, PREVIEW_POINTS);
+        let msg = json!({
+            "type": "plan",
+            "name": name,
+            "samples": plan.samples.len(),
+            "duration_s": plan.duration(),
+            "length_m": plan.path_length(),
+            "points": pts.iter().map(|p| [p.pose[0], p.pose[1], p.pose[2]]).collect::<Vec<_>>(),
+        });
+        self.event(
+            "info",
+            &format!(
+                "plan {name} loaded: {} samples, {:.1} s, {:.2} m",
+                plan.samples.len(),
+                plan.duration(),
+                plan.path_length()
+            ),
+        );
+        self.hub.publish(&msg, Some("plan"));
+        self.plan_status("preview", "", None);
+        self.plan = Some((name, plan));
+    }
+
+    /// Starts or stops the recording (a new file `console-<unix time>.mcap` in the record
+    /// directory each time, never overwriting one).
+    fn record(&mut self, on: bool) {
+        match (on, self.rec.take()) {
+            (true, Some(r)) => self.rec = Some(r),
+            (true, None) => {
+                let secs = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0, |d| d.as_secs());
+                let path = self.cfg.record_dir.join(format!("console-{secs}.mcap"));
+                match McapLog::create("--record-dir", &path, "omnikin console", true) {
+                    Ok(log) => {
+                        self.event("info", &format!("recording to {}", path.display()));
+                        self.rec = Some(Recording {
+                            log,
+                            path,
+                            frames: 0,
+                        });
+                    }
+                    Err(e) => self.event("error", &format!("recording: {e:#}")),
+                }
+            }
+            (false, Some(r)) => {
+                let (path, frames) = (r.path.display().to_string(), r.frames);
+                match r.log.finish() {
+                    Ok(()) => self.event(
+                        "info",
+                        &format!("recorded {frames} telemetry frames to {path}"),
+                    ),
+                    Err(e) => self.event("error", &format!("recording {path}: {e:#}")),
+                }
+            }
+            (false, None) => {}
+        }
+        self.record_status();
+    }
+
+    fn record_status(&self) {
+        self.hub.publish(
+            &json!({"type": "record", "on": self.rec.is_some(),
+                "path": self.rec.as_ref().map(|r| r.path.display().to_string())}),
+            Some("record"),
+        );
+    }
+
+    fn plan_status(&mut self, state: &str, detail: &str, progress: Option<(u16, u16)>) {
+        if state == "failed" {
+            self.event("error", &format!("plan: {detail}"));
+        }
+        self.hub.publish(
+            &json!({"type": "plan_status", "state": state, "detail": detail,
+                "received": progress.map(|p| p.0), "len": progress.map(|p| p.1)}),
+            Some("plan_status"),
+        );
+    }
+
+    fn link_state(&self, state: &str, detail: &str, o: Option<&ConsoleOperator>) {
+        let robot = self.info.map(|i| {
+            json!({"protocol": i.protocol, "kind": format!("{:?}", i.kind), "plan_capacity": i.plan_capacity,
+                "rate_hz": i.rate_hz, "watchdog_s": i.watchdog, "authenticated": i.authenticated})
+        });
+        self.hub.publish(
+            &json!({"type": "link", "state": state, "detail": detail, "addr": self.cfg.connect,
+                "session": o.and_then(ConsoleOperator::session_id).map(|s| format!("{s:016x}")),
+                "robot": if state == "connected" { robot } else { None },
+                "clients": self.hub.clients.load(Ordering::SeqCst)}),
+            Some("link"),
+        );
+    }
+
+    fn event(&self, level: &str, text: &str) {
+        let wall = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0.0, |d| d.as_secs_f64());
+        let robot_t = self.prev.map(|t| t.time_us as f64 * 1e-6);
+        self.hub.publish(
+            &json!({"type": "event", "level": level, "text": text, "wall": wall, "robot_t": robot_t}),
+            None,
+        );
+    }
+}
+
+fn upload_message(u: &Upload) -> Message {
+    match u.step {
+        Step::Halt => Message::Stop,
+        Step::SetPose => {
+            let p = u.pts[0].pose;
+            Message::SetPose {
+                x: p[0],
+                y: p[1],
+                heading: p[2],
+            }
+        }
+        Step::Begin => Message::PlanBegin {
+            id: u.id,
+            len: u.pts.len() as u16,
+        },
+        Step::Chunk(have) => {
+            let off = have as usize;
+            let end = (off + CHUNK_POINTS).min(u.pts.len());
+            let mut points = omnikin::link::heapless::Vec::new();
+            for p in &u.pts[off.min(end)..end] {
+                // At most CHUNK_POINTS by the range: never full.
+                let _ = points.push(*p);
+            }
+            Message::PlanChunk {
+                id: u.id,
+                offset: have,
+                points,
+            }
+        }
+        Step::Start => Message::PlanStart { id: u.id },
+    }
+}
+
+fn counters(c: &LinkCounters) -> Value {
+    json!({"ok": c.ok, "dropped": c.dropped(), "framing": c.framing, "crc": c.crc, "version": c.version,
+        "auth": c.auth, "replay": c.replay, "malformed": c.malformed, "session": c.session, "entropy": c.entropy})
+}
+
+/// Measured wheel rates, rad/s: the encoder angles' difference over the robot time between
+/// two telemetry frames (`None` without a previous frame or when no time passed).
+pub fn measured_rates(a: &Telemetry, b: &Telemetry) -> Option<Vec<f64>> {
+    let dt = b.time_us.checked_sub(a.time_us)? as f64 * 1e-6;
+    if dt <= 0.0 {
+        return None;
+    }
+    let n = (b.wheels as usize).min(omnikin::MAX_WHEELS);
+    Some(
+        (0..n)
+            .map(|i| (b.wheel_angles[i] as f64 - a.wheel_angles[i] as f64) / dt)
+            .collect(),
+    )
+}
+
+/// The pages' telemetry message.
+fn telemetry_json(
+    t: &Telemetry,
+    prev: Option<&Telemetry>,
+    steer: bool,
+    op: &LinkCounters,
+    frames: u64,
+) -> Value {
+    let n = (t.wheels as usize).min(omnikin::MAX_WHEELS);
+    let twist_err =
+        ((t.command[0] - t.twist[0]).powi(2) + (t.command[1] - t.twist[1]).powi(2)).sqrt();
+    json!({
+        "type": "telemetry",
+        "t": t.time_us as f64 * 1e-6,
+        "mode": t.mode.name(),
+        "faults": t.faults.to_string(),
+        "fault_history": t.fault_history.to_string(),
+        "pose": t.pose,
+        "twist": t.twist,
+        "command": t.command,
+        "wheels": n,
+        "wheel_cmd": &t.wheel_rates[..n],
+        "wheel_meas": prev.and_then(|p| measured_rates(p, t)),
+        "steer_angles": if steer { Some(&t.steer_angles[..n]) } else { None },
+        "plan": {"id": t.plan.id, "received": t.plan.received, "len": t.plan.len, "done": t.plan.done},
+        "plan_time": t.plan_time,
+        "reference": t.reference,
+        "tracking_error_m": (t.mode == Mode::Trajectory)
+            .then(|| (t.pose[0] - t.reference[0]).hypot(t.pose[1] - t.reference[1])),
+        "twist_error": twist_err,
+        "slip_residual": t.slip_residual,
+        "rejected": t.rejected,
+        "ack_seq": t.ack_seq,
+        "estop_seq": t.estop_seq,
+        "robot_link": counters(&t.link),
+        "console_link": counters(op),
+        "frames": frames,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tel(time_us: u64, q: [f32; 3]) -> Telemetry {
+        let z = [0.0f32; omnikin::MAX_WHEELS];
+        let mut wheel_angles = z;
+        wheel_angles[..3].copy_from_slice(&q);
+        Telemetry {
+            time_us,
+            mode: Mode::Idle,
+            faults: Faults::NONE,
+            fault_history: Faults::NONE,
+            pose: [0.0; 3],
+            twist: [0.0; 3],
+            command: [0.0; 3],
+            wheels: 3,
+            wheel_rates: z,
+            steer_rates: z,
+            wheel_angles,
+            steer_angles: z,
+            gyro: [0.0; 3],
+            accel: [0.0; 3],
+            plan: Default::default(),
+            plan_time: 0.0,
+            reference: [0.0; 3],
+            slip_residual: 0.0,
+            rejected: 0,
+            last_command_us: 0,
+            link: LinkCounters::default(),
+            ack_seq: 0,
+            estop_seq: 0,
+        }
+    }
+
+    #[test]
+    fn measured_rates_are_encoder_differences() {
+        // 0.05 s apart: 0.1 rad → 2 rad/s, -0.05 rad → -1 rad/s.
+        let a = tel(1_000_000, [1.0, 2.0, 0.0]);
+        let b = tel(1_050_000, [1.1, 1.95, 0.0]);
+        let r = measured_rates(&a, &b).unwrap();
+        assert!(
+            (r[0] - 2.0).abs() < 1e-4 && (r[1] + 1.0).abs() < 1e-4 && r[2] == 0.0,
+            "{r:?}"
+        );
+        assert!(measured_rates(&b, &a).is_none());
+        assert!(measured_rates(&a, &a).is_none());
+    }
+
+    #[test]
+    fn chunks_cover_the_plan_in_order() {
+        let pts: Vec<WirePoint> = (0..21)
+            .map(|i| WirePoint {
+                t: i as f32,
+                pose: [i as f32, 0.0, 0.0],
+                twist: [0.0; 3],
+            })
+            .collect();
+        let mut u = Upload {
+            id: 7,
+            set_pose: false,
+            pts: pts.clone(),
+            step: Step::Chunk(0),
+            since: Instant::now(),
+            began: Instant::now(),
+        };
+        let mut seen = vec![];
+        let mut have = 0u16;
+        while (have as usize) < pts.len() {
+            u.step = Step::Chunk(have);
+            match upload_message(&u) {
+                Message::PlanChunk { id, offset, points } => {
+                    assert_eq!((id, offset), (7, have));
+                    assert!(!points.is_empty() && points.len() <= CHUNK_POINTS);
+                    seen.extend(points.iter().copied());
+                    have += points.len() as u16;
+                }
+                m => panic!("{m:?}"),
+            }
+        }
+        assert_eq!(seen, pts);
+    }
+}
