@@ -5,8 +5,8 @@
 use numpy::PyReadonlyArray2;
 use numpy::PyUntypedArrayMethods;
 use omnikin::Pose2;
-use omnikin_sim::odometry::{FixResult, OdometryOptions, run};
 use omnikin::estimate::fusion::Recovery;
+use omnikin_sim::odometry::{FixResult, OdometryOptions, run};
 use omnikin_sim::table::NumericTable;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
