@@ -24,8 +24,10 @@
 //!
 //! A command ending in `&` runs in the background for the rest of its block (its output is
 //! compared once the expected number of lines has arrived) and is killed at the block's end.
-//! The address `127.0.0.1:7000` is replaced by a free port. A command whose expected output
-//! has a line starting with `error:` must fail; every other command must succeed.
+//! The addresses `127.0.0.1:7000` (the robot, UDP), `127.0.0.1:8090` (the console's page) and
+//! `127.0.0.1:8765` (its Foxglove WebSocket) are replaced by free ports, and in a `shape`
+//! block a console URL's per-start `token=…` compares as any token. A command whose expected
+//! output has a line starting with `error:` must fail; every other command must succeed.
 //!
 //! `OMNIKIN_README_BLESS=1` rewrites the README's expected outputs with what the commands
 //! printed (then review the diff: never hand-write output into the README).
@@ -38,7 +40,12 @@ use std::time::{Duration, Instant};
 
 const BIN: &str = env!("CARGO_BIN_EXE_omnikin");
 const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
-const PORT: &str = "127.0.0.1:7000";
+/// The README's addresses, each replaced by a free port of its protocol (`true`: UDP).
+const PORTS: [(&str, bool); 3] = [
+    ("127.0.0.1:7000", true),
+    ("127.0.0.1:8090", false),
+    ("127.0.0.1:8765", false),
+];
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Mode {
@@ -144,7 +151,8 @@ struct Env {
     path: String,
     data: PathBuf,
     home: PathBuf,
-    port: String,
+    /// The free address standing in for each of [`PORTS`].
+    ports: Vec<String>,
 }
 
 impl Env {
@@ -166,18 +174,44 @@ impl Env {
             bin.display(),
             std::env::var("PATH").unwrap_or_default()
         );
-        let port = std::net::UdpSocket::bind("127.0.0.1:0")
-            .unwrap()
-            .local_addr()
-            .unwrap()
-            .port();
+        let ports = PORTS
+            .iter()
+            .map(|&(_, udp)| {
+                let a = if udp {
+                    std::net::UdpSocket::bind("127.0.0.1:0")
+                        .unwrap()
+                        .local_addr()
+                } else {
+                    std::net::TcpListener::bind("127.0.0.1:0")
+                        .unwrap()
+                        .local_addr()
+                };
+                a.unwrap().to_string()
+            })
+            .collect();
         Env {
             dir,
             path,
             data,
             home,
-            port: format!("127.0.0.1:{port}"),
+            ports,
         }
+    }
+
+    /// A README line with the free addresses in place of the README's.
+    fn to_free(&self, line: &str) -> String {
+        PORTS
+            .iter()
+            .zip(&self.ports)
+            .fold(line.to_string(), |l, ((readme, _), free)| l.replace(readme, free))
+    }
+
+    /// Printed text with the README's addresses in place of the free ones.
+    fn to_readme(&self, text: &str) -> String {
+        PORTS
+            .iter()
+            .zip(&self.ports)
+            .fold(text.to_string(), |l, ((readme, _), free)| l.replace(free, readme))
     }
 
     fn command(&self, line: &str) -> Command {
@@ -185,7 +219,7 @@ impl Env {
         let line = line.strip_prefix("cd examples && ").unwrap_or(line);
         let mut c = Command::new("sh");
         c.arg("-c")
-            .arg(format!("{{ {} ; }} 2>&1", line.replace(PORT, &self.port)))
+            .arg(format!("{{ {} ; }} 2>&1", self.to_free(line)))
             .current_dir(&self.dir)
             .env("PATH", &self.path)
             .env("XDG_DATA_HOME", &self.data)
@@ -201,7 +235,7 @@ fn run(env: &Env, line: &str) -> (Vec<String>, bool) {
     let t = Instant::now();
     let out = env.command(line).output().expect("cannot run sh");
     assert!(out.stderr.is_empty(), "stderr is merged into stdout");
-    let text = String::from_utf8_lossy(&out.stdout).replace(&env.port, PORT);
+    let text = env.to_readme(&String::from_utf8_lossy(&out.stdout));
     eprintln!("readme: {:.1} s  $ {line}", t.elapsed().as_secs_f64());
     (tidy(&text), out.status.success())
 }
@@ -214,8 +248,19 @@ fn tidy(text: &str) -> Vec<String> {
     v
 }
 
-/// Every number (integer, decimal, exponent, sign) becomes `N`.
+/// Every number (integer, decimal, exponent, sign) becomes `N`, and a console URL's token
+/// (`token=` and its hex digits) becomes `token=T`.
 fn mask(line: &str) -> String {
+    let mut line = line.to_string();
+    let mut from = 0;
+    while let Some(i) = line[from..].find("token=") {
+        let start = from + i + "token=".len();
+        let end = line[start..]
+            .find(|c: char| !c.is_ascii_hexdigit())
+            .map_or(line.len(), |e| start + e);
+        line.replace_range(start..end, "T");
+        from = start + 1;
+    }
     let mut out = String::new();
     let b: Vec<char> = line.chars().collect();
     let mut i = 0;
@@ -312,7 +357,7 @@ fn check_block(
             std::thread::sleep(Duration::from_millis(300));
             let start: Vec<String> = read_log(&log)
                 .into_iter()
-                .map(|l| l.replace(&env.port, PORT))
+                .map(|l| env.to_readme(&l))
                 .collect();
             background.push(Background { child });
             got.push(start);
@@ -534,6 +579,11 @@ fn the_readme_names_only_files_that_exist() {
 fn mask_replaces_every_number() {
     assert_eq!(mask("t 5.950 s, -0.3 m, 1e-5, v2"), "t N s, N m, N, vN");
     assert_eq!(mask("85 frames ok"), "N frames ok");
+    assert_eq!(
+        mask("open http://127.0.0.1:8090/?token=9ba55e9733b34171dc2255d1c81e42e8"),
+        "open http://N:N/?token=T"
+    );
+    assert_eq!(mask("ws://h/?token=ab12 and token=c"), "ws://h/?token=T and token=T");
 }
 
 /// `omnikin ARGS --help`.
