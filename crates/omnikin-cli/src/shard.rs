@@ -286,8 +286,18 @@ fn reproduce_inputs(
     m.insert("rate".into(), exact(info.rate));
     m.insert("profiles".into(), info.profiles.join(","));
     m.insert("series_fingerprint".into(), series_fingerprint(series));
+    // The fit is deterministic but costly (a search over the dynamic plant): a merge takes
+    // it from the shards, which all agree on it.
     if let Some(f) = &info.fit {
+        m.insert("dynamic_fit_name".into(), f.name.into());
         m.insert("dynamic_fit_value".into(), exact(f.value));
+        m.insert("dynamic_fit_fitted_on".into(), f.fitted_on.clone());
+        m.insert("dynamic_fit_target".into(), exact(f.target_radius_ratio));
+        m.insert(
+            "dynamic_fit_achieved".into(),
+            exact(f.achieved_radius_ratio),
+        );
+        m.insert("dynamic_fit_method".into(), f.method.clone());
     }
     m
 }
@@ -809,15 +819,23 @@ fn merge_reproduce(
             })
             .collect::<Result<_>>()?;
     let fit = if profiles.contains(&"dynamic") {
-        let fit = rp::dynamic_fit(&series)
-            .context("dynamic profile: fitting the centre-of-mass depth")?;
-        if exact(fit.value) != m.input(first, "dynamic_fit_value")? {
-            bail!(
-                "{}: the shards' dynamic fit differs from this omnikin's",
-                first.display()
-            );
-        }
-        Some(fit)
+        let name = m.input(first, "dynamic_fit_name")?;
+        Some(omnikin_sim::dynamics::sphere::DynamicFit {
+            name: ["com_depth"]
+                .into_iter()
+                .find(|n| *n == name)
+                .with_context(|| {
+                    format!(
+                        "{}: unknown fitted parameter {name}",
+                        first.join(MANIFEST).display()
+                    )
+                })?,
+            value: m.float(first, "dynamic_fit_value")?,
+            fitted_on: m.input(first, "dynamic_fit_fitted_on")?.into(),
+            target_radius_ratio: m.float(first, "dynamic_fit_target")?,
+            achieved_radius_ratio: m.float(first, "dynamic_fit_achieved")?,
+            method: m.input(first, "dynamic_fit_method")?.into(),
+        })
     } else {
         None
     };
