@@ -377,6 +377,11 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     let d = RobotDescription::resolve(&a.robot)?;
     let robot = d.build::<f64>()?;
     let plan = Plan::load_csv(&a.plan)?;
+    if a.shard.is_some() && a.plant == PlantKind::Dynamic {
+        bail!(
+            "--shard: the dynamic plant runs one trial; shards split the kinematic plant's trials"
+        );
+    }
     let ballbot_dynamic = a.plant == PlantKind::Dynamic && d.robot_kind() == omnikin::Kind::Ballbot;
     if !ballbot_dynamic && (a.initial_tilt_deg.is_some() || !a.push.is_empty()) {
         bail!("--initial-tilt-deg and --push need --robot ballbot (kind ballbot) --plant dynamic");

@@ -269,6 +269,16 @@ fn shard_flags_are_checked_at_the_edge() {
     )
     .failure()
     .stderr(predicate::str::contains("--shard: not with --emit-sensors"));
+    simulate(
+        "3",
+        "1",
+        &d.join("o"),
+        &["--shard", "1/2", "--plant", "dynamic"],
+    )
+    .failure()
+    .stderr(predicate::str::contains(
+        "--shard: the dynamic plant runs one trial",
+    ));
     omnikin()
         .args([
             "reproduce",
