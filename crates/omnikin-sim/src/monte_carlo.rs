@@ -408,6 +408,59 @@ mod tests {
         }
     }
 
+    /// Runs read back (a merge of shards) evaluate bit for bit as the simulated trials did,
+    /// in batches of any size, and a failing source stops the evaluation with its error.
+    #[test]
+    fn evaluating_read_back_runs_equals_simulating_them() {
+        let d = RobotDescription::preset("sphere-omni").unwrap();
+        let robot = d.build::<f64>().unwrap();
+        let model = RobotModel::from_description(&d).unwrap();
+        let c = Circle::paper(2.0);
+        let plan =
+            omnikin_plan::planner::plan(&c.path().unwrap(), &c.heading(), &model, &c.options(20.0))
+                .unwrap()
+                .plan;
+        let profile = crate::reproduce::hardware_profile();
+        let trials = 21;
+        let want =
+            simulate_and_evaluate(&robot, &plan, &plan, &profile, trials, 4, &|| {}, |_, _| {
+                Ok::<(), ()>(())
+            })
+            .unwrap();
+        let runs: Vec<Run> = run_trials(&robot, &plan, &profile, trials, 4, &|| {})
+            .unwrap()
+            .into_iter()
+            .map(trial_run)
+            .collect();
+        let got = evaluate_runs(
+            &|i| Ok::<_, ()>(runs[i].clone()),
+            plan.samples.len(),
+            &plan,
+            trials,
+            &|| {},
+        )
+        .unwrap();
+        assert_eq!(got.evaluation, want.evaluation);
+        assert_eq!(got.figure_runs, want.figure_runs);
+        let failed = evaluate_runs(
+            &|i| {
+                if i == 7 {
+                    Err("shard 2 unreadable")
+                } else {
+                    Ok(runs[i].clone())
+                }
+            },
+            plan.samples.len(),
+            &plan,
+            trials,
+            &|| {},
+        );
+        assert!(matches!(
+            failed,
+            Err(MonteCarloError::Visit("shard 2 unreadable"))
+        ));
+    }
+
     #[test]
     fn a_failing_visit_stops_the_run_with_its_error() {
         let d = RobotDescription::preset("sphere-omni").unwrap();
