@@ -22,6 +22,7 @@ mod output;
 mod plan;
 mod plot;
 mod robot;
+mod shard;
 mod shell;
 mod sim;
 mod sim_ballbot;
@@ -83,6 +84,9 @@ enum Command {
     /// Re-run a paper's whole experiment design in simulation and tabulate our figures next
     /// to the paper's (sphere-2019: paper 000's squares and circles at four speeds).
     Reproduce(sim::ReproduceArgs),
+    /// Combine the shard directories of `simulate … --shard K/N` or `reproduce … --shard K/N`
+    /// (all N, from any machines) into exactly what one run writes, bit for bit.
+    Merge(shard::MergeArgs),
     /// Wheel odometry over an encoder log (t,q1..qN[,s1..sN][,gyro_z][,yaw]), optionally
     /// with the IMU heading and fused with camera fixes; writes t,x,y,heading.
     Odometry(odometry::OdometryArgs),
@@ -256,6 +260,12 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             dirs.push(("--out", &a.out));
         }
         Command::Reproduce(a) => dirs.extend(a.out.as_deref().map(|p| ("--out", p))),
+        Command::Merge(a) => {
+            for f in shard::input_files(a) {
+                output::input("SHARD_DIR", &f);
+            }
+            dirs.push(("--out", &a.out));
+        }
         Command::Man(a) => dirs.extend(a.out.as_deref().map(|p| ("--out", p))),
         Command::Completions(_) => {}
         Command::Odometry(a) => {
@@ -329,6 +339,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Simulate(a) => sim::simulate(&a),
         Command::Evaluate(a) => sim::evaluate_tracks(&a),
         Command::Reproduce(a) => sim::reproduce(&a),
+        Command::Merge(a) => shard::merge(&a),
         Command::Odometry(a) => odometry::run(&a),
         Command::Robot(a) => robot::run(&a),
         Command::Drive(a) => drive::run(&a),

@@ -67,6 +67,12 @@ pub struct SimulateArgs {
     /// on /trial-NNN/pose, …).
     #[arg(long, value_name = "N", requires = "mcap", value_parser = clap::value_parser!(u64).range(1..=1000))]
     pub mcap_trials: Option<u64>,
+    /// Run only shard K of N (1 ≤ K ≤ N ≤ --trials): trials ⌊(K−1)·T/N⌋ to ⌊K·T/N⌋−1 of the
+    /// T = --trials, seeded exactly as in one run. --out then holds that shard's trials.csv
+    /// rows, its runs (runs.bin), a copy of the plan and shard.json; `omnikin merge` of all N
+    /// shard directories writes what one run writes, bit for bit.
+    #[arg(long, value_name = "K/N", value_parser = crate::shard::parse_shard)]
+    pub shard: Option<omnikin_sim::shard::Shard>,
 }
 
 /// The plant `omnikin simulate` runs a plan through.
@@ -371,6 +377,11 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     let d = RobotDescription::resolve(&a.robot)?;
     let robot = d.build::<f64>()?;
     let plan = Plan::load_csv(&a.plan)?;
+    if a.shard.is_some() && a.plant == PlantKind::Dynamic {
+        bail!(
+            "--shard: the dynamic plant runs one trial; shards split the kinematic plant's trials"
+        );
+    }
     let ballbot_dynamic = a.plant == PlantKind::Dynamic && d.robot_kind() == omnikin::Kind::Ballbot;
     if !ballbot_dynamic && (a.initial_tilt_deg.is_some() || !a.push.is_empty()) {
         bail!("--initial-tilt-deg and --push need --robot ballbot (kind ballbot) --plant dynamic");
@@ -413,6 +424,9 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
             a.plan.display(),
             step.cause()
         );
+    }
+    if let Some(shard) = a.shard {
+        return crate::shard::simulate_shard(a, shard, &d, &robot, &plan, &profile);
     }
     let sensors = if a.emit_sensors {
         Some(sensor_profile(a.sensors.as_deref())?)
@@ -477,52 +491,91 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     if let Some(m) = mcap {
         m.finish()?;
     }
-    let (metrics, mean) = (mc.evaluation.metrics, mc.evaluation.mean);
-    finite(&metrics)?;
-    let plan = reference;
-    let meta = json!({
-        "robot": d.name, "kind": d.kind(), "plan": a.plan.display().to_string(),
-        "disturbances": a.disturbances.as_ref().map(|p| p.display().to_string()),
-        "trials": a.trials, "seed": a.seed, "plant_rate_hz": profile.rate_hz(),
-    });
-    let mut j = serde_json::to_value(&metrics)?;
-    j["simulation"] = meta;
-    write_file(&a.out.join("metrics.json"), |w| {
-        writeln!(
-            w,
-            "{}",
-            serde_json::to_string_pretty(&j).unwrap_or_default()
-        )
-    })?;
-    write_mean(&a.out.join("mean.csv"), &plan, &mean)?;
-    let shown = if mc.figure_runs.len() < trials {
-        format!(" (first {} drawn)", mc.figure_runs.len())
-    } else {
-        String::new()
+    let info = SimulationInfo {
+        robot: d.name.clone(),
+        kind: d.kind().to_string(),
+        plan: a.plan.display().to_string(),
+        disturbances: a.disturbances.as_ref().map(|p| p.display().to_string()),
+        trials: a.trials,
+        seed: a.seed,
+        plant_rate_hz: profile.rate_hz(),
     };
-    crate::figures::trajectory_figure(
-        "--out",
-        &a.out.join("figure.svg"),
-        &format!(
-            "{} — {} trials of {}{shown}",
-            d.name,
-            a.trials,
-            a.plan.display()
-        ),
-        &plan,
-        &mc.figure_runs,
-        &mean,
-    )?;
     if a.emit_sensors {
         crate::errln!(
             "sensor logs: {}/sensors/trial-NNN/{{encoders.csv, fixes.csv, imu.csv, truth.csv}}",
             a.out.display().to_string().trim_end_matches('/')
         );
     }
+    finish_simulation(&a.out, &info, &reference, mc)
+}
+
+/// What `simulate`'s outputs say about the run (metrics.json's `simulation`, the figure's
+/// title): the same from one run and from `omnikin merge` of its shards.
+#[derive(Clone, Debug)]
+pub(crate) struct SimulationInfo {
+    /// Robot name.
+    pub robot: String,
+    /// Robot kind.
+    pub kind: String,
+    /// The plan file as named on the command line.
+    pub plan: String,
+    /// The disturbance profile as named on the command line.
+    pub disturbances: Option<String>,
+    /// `--trials`.
+    pub trials: u64,
+    /// `--seed`.
+    pub seed: u64,
+    /// The plant's integration rate, Hz.
+    pub plant_rate_hz: f64,
+}
+
+/// The finishing step of `simulate`, shared by one run and `omnikin merge`: checks the
+/// metrics, writes metrics.json, mean.csv and figure.svg into `out` (trials.csv is already
+/// there) and prints the summary. `reference` is the planned path of the tracked point.
+pub(crate) fn finish_simulation(
+    out: &Path,
+    info: &SimulationInfo,
+    reference: &Plan,
+    mc: omnikin_sim::MonteCarlo,
+) -> Result<()> {
+    let (metrics, mean) = (mc.evaluation.metrics, mc.evaluation.mean);
+    finite(&metrics)?;
+    let plan = reference;
+    let meta = json!({
+        "robot": info.robot, "kind": info.kind, "plan": info.plan,
+        "disturbances": info.disturbances,
+        "trials": info.trials, "seed": info.seed, "plant_rate_hz": info.plant_rate_hz,
+    });
+    let mut j = serde_json::to_value(&metrics)?;
+    j["simulation"] = meta;
+    write_file(&out.join("metrics.json"), |w| {
+        writeln!(
+            w,
+            "{}",
+            serde_json::to_string_pretty(&j).unwrap_or_default()
+        )
+    })?;
+    write_mean(&out.join("mean.csv"), plan, &mean)?;
+    let shown = if (mc.figure_runs.len() as u64) < info.trials {
+        format!(" (first {} drawn)", mc.figure_runs.len())
+    } else {
+        String::new()
+    };
+    crate::figures::trajectory_figure(
+        "--out",
+        &out.join("figure.svg"),
+        &format!(
+            "{} — {} trials of {}{shown}",
+            info.robot, info.trials, info.plan
+        ),
+        plan,
+        &mc.figure_runs,
+        &mean,
+    )?;
     print_summary(&metrics);
     crate::errln!(
         "wrote {}/{{metrics.json, trials.csv, mean.csv, figure.svg}}",
-        a.out.display().to_string().trim_end_matches('/')
+        out.display().to_string().trim_end_matches('/')
     );
     Ok(())
 }
@@ -651,6 +704,12 @@ pub struct ReproduceArgs {
     /// Worker threads, 1 to 256 (default: all cores).
     #[arg(long, value_parser = crate::args::threads)]
     pub threads: Option<usize>,
+    /// Run only shard K of N (1 ≤ K ≤ N ≤ --trials): trials ⌊(K−1)·T/N⌋ to ⌊K·T/N⌋−1 of
+    /// every series and profile (the dynamic profile's --dynamic-trials split the same way),
+    /// seeded exactly as in one run. --out then holds those trials' runs (runs/*.bin) and
+    /// shard.json; `omnikin merge` of all N shard directories writes what one run writes.
+    #[arg(long, value_name = "K/N", value_parser = crate::shard::parse_shard)]
+    pub shard: Option<omnikin_sim::shard::Shard>,
 }
 
 /// A profile of `omnikin reproduce` (`--profiles`).
@@ -704,7 +763,31 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
     let d = RobotDescription::preset("sphere-omni").context("the sphere-omni preset is missing")?;
     let robot = d.build::<f64>()?;
     let series = rp::sphere_2019_series(&d, a.rate)?;
-    create_dir_for(&out, &["table.md", "table.csv", "metrics.json"])?;
+    let dyn_trials = if run_dynamic {
+        a.dynamic_trials as usize
+    } else {
+        0
+    };
+    if let Some(shard) = a.shard {
+        shard.check(
+            if kinematic.is_empty() {
+                dyn_trials
+            } else {
+                a.trials as usize
+            },
+            if kinematic.is_empty() {
+                "--dynamic-trials"
+            } else {
+                "--trials"
+            },
+        )?;
+    }
+    let files: &[&str] = if a.shard.is_some() {
+        &["shard.json"]
+    } else {
+        &["table.md", "table.csv", "metrics.json"]
+    };
+    create_dir_for(&out, files)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads.unwrap_or(0))
         .build()
@@ -719,29 +802,89 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
         None
     };
     let dynamic = fit.as_ref().map(rp::dynamic_profile);
-    let dyn_trials = if run_dynamic {
-        a.dynamic_trials as usize
-    } else {
-        0
+    let plants = rp::Plants::new(&robot, a.seed, &kinematic, dynamic.as_ref());
+    let runs = plants.runs(a.trials as usize, dyn_trials);
+    let info = ReproduceInfo {
+        trials: a.trials as usize,
+        dynamic_trials: dyn_trials,
+        seed: a.seed,
+        rate: a.rate,
+        profiles: runs.iter().map(|r| r.0).collect(),
+        fit,
     };
-    let total = series.len() as u64 * (kinematic.len() as u64 * a.trials + dyn_trials as u64);
+    if let Some(shard) = a.shard {
+        return crate::shard::reproduce_shard(&out, shard, &info, &plants, &series, &pool);
+    }
+    let total: u64 = series.len() as u64 * runs.iter().map(|r| r.1 as u64).sum::<u64>();
     let pb = progress_bar(total, "reproducing paper 000");
-    let mut rows = Vec::new();
-    let mut all = serde_json::Map::new();
-    let mut figures = 0;
+    let mut report = Report::new(&out, info);
     for s in &series {
         let outcomes = pool.install(|| {
-            rp::run_series(
-                &robot,
+            rp::evaluate_series(
                 s,
-                a.trials as usize,
-                a.seed,
-                &kinematic,
-                dynamic.as_ref().map(|d| (d, dyn_trials)),
+                &runs,
+                &|name, i| plants.trial(s, name, i).map(omnikin_sim::trial_run),
                 &|| pb.inc(1),
             )
+        });
+        let outcomes = outcomes.map_err(|e| match e {
+            MonteCarloError::Sim(e) | MonteCarloError::Visit(e) => anyhow::Error::new(e),
+            e => anyhow::Error::new(e),
         })?;
-        for o in &outcomes {
+        report.add(s, &outcomes)?;
+    }
+    pb.finish_and_clear();
+    report.finish(start)
+}
+
+/// What `reproduce`'s outputs say about the run: the same from one run and from `omnikin
+/// merge` of its shards.
+#[derive(Clone, Debug)]
+pub(crate) struct ReproduceInfo {
+    /// `--trials` per series and kinematic profile.
+    pub trials: usize,
+    /// Trials per series of the dynamic profile (0 when it does not run).
+    pub dynamic_trials: usize,
+    /// `--seed`.
+    pub seed: u64,
+    /// `--rate`, Hz.
+    pub rate: f64,
+    /// The profiles that ran, in table order.
+    pub profiles: Vec<&'static str>,
+    /// The dynamic profile's fit, when it ran.
+    pub fit: Option<omnikin_sim::dynamics::sphere::DynamicFit>,
+}
+
+/// The finishing step of `reproduce`, shared by one run and `omnikin merge`: one figure per
+/// series and profile as the outcomes come ([`Report::add`]), then table.md, table.csv and
+/// metrics.json ([`Report::finish`]).
+pub(crate) struct Report<'a> {
+    out: &'a Path,
+    info: ReproduceInfo,
+    rows: Vec<omnikin_sim::reproduce::Row>,
+    all: serde_json::Map<String, serde_json::Value>,
+    figures: usize,
+}
+
+impl<'a> Report<'a> {
+    /// A report into the output directory `out` (created and checked).
+    pub fn new(out: &'a Path, info: ReproduceInfo) -> Self {
+        Self {
+            out,
+            info,
+            rows: Vec::new(),
+            all: serde_json::Map::new(),
+            figures: 0,
+        }
+    }
+
+    /// One series' outcomes: its figures, its metrics and its table row.
+    pub fn add(
+        &mut self,
+        s: &omnikin_sim::reproduce::Series,
+        outcomes: &[omnikin_sim::reproduce::Outcome],
+    ) -> Result<()> {
+        for o in outcomes {
             if o.profile == "ideal" {
                 continue;
             }
@@ -760,15 +903,15 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
             );
             crate::figures::trajectory_figure(
                 "--out",
-                &out.join(format!("{}-{}.svg", s.name, o.profile)),
+                &self.out.join(format!("{}-{}.svg", s.name, o.profile)),
                 &title,
                 &s.plan,
                 &o.runs,
                 &o.mean,
             )?;
-            figures += 1;
+            self.figures += 1;
         }
-        all.insert(
+        self.all.insert(
             s.name.clone(),
             json!(
                 outcomes
@@ -777,47 +920,51 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
                     .collect::<std::collections::BTreeMap<_, _>>()
             ),
         );
-        rows.push(rp::row(s, &outcomes));
+        self.rows.push(omnikin_sim::reproduce::row(s, outcomes));
+        Ok(())
     }
-    pb.finish_and_clear();
-    let md = rp::table_markdown(
-        &rows,
-        a.trials as usize,
-        a.seed,
-        fit.as_ref().map(|f| (f, dyn_trials)),
-    );
-    write_file(&out.join("table.md"), |w| w.write_all(md.as_bytes()))?;
-    write_file(&out.join("table.csv"), |w| {
-        w.write_all(rp::table_csv(&rows).as_bytes())
-    })?;
-    let (g, p) = rp::spin_slip_fit();
-    let meta = json!({
-        "trials": a.trials, "dynamic_trials": dyn_trials, "seed": a.seed,
-        "profiles": kinematic.iter().copied().chain(run_dynamic.then_some("dynamic")).collect::<Vec<_>>(),
-        "plan_rate_hz": a.rate,
-        "spin_slip_gain": g, "spin_slip_exponent": p,
-        "spin_slip_fit": { "fitted_on": ["circle-0.4", "circle-0.5"], "parameters": ["spin_slip_gain", "spin_slip_exponent"] },
-        "dynamic_fit": fit.as_ref().map(|f| json!({
-            "name": f.name, "value": f.value, "unit": "m", "fitted_on": f.fitted_on,
-            "target_radius_ratio": f.target_radius_ratio,
-            "achieved_radius_ratio": f.achieved_radius_ratio, "method": f.method,
-            "assumed": { "pivot_friction": rp::DYNAMIC_PIVOT_FRICTION },
-        })),
-        "series": all,
-    });
-    write_file(&out.join("metrics.json"), |w| {
-        writeln!(
-            w,
-            "{}",
-            serde_json::to_string_pretty(&meta).unwrap_or_default()
-        )
-    })?;
-    crate::outln!("{md}")?;
-    crate::errln!(
-        "wrote {dir}/table.md, {dir}/table.csv, {dir}/metrics.json and {n} figures in {:.1} s",
-        start.elapsed().as_secs_f64(),
-        dir = out.display(),
-        n = figures
-    );
-    Ok(())
+
+    /// Writes table.md, table.csv and metrics.json, prints the table, and says what was
+    /// written in how long since `start`.
+    pub fn finish(self, start: std::time::Instant) -> Result<()> {
+        use omnikin_sim::reproduce as rp;
+        let (out, info, rows) = (self.out, &self.info, &self.rows);
+        let fit = info.fit.as_ref();
+        let dyn_trials = info.dynamic_trials;
+        let md = rp::table_markdown(rows, info.trials, info.seed, fit.map(|f| (f, dyn_trials)));
+        write_file(&out.join("table.md"), |w| w.write_all(md.as_bytes()))?;
+        write_file(&out.join("table.csv"), |w| {
+            w.write_all(rp::table_csv(rows).as_bytes())
+        })?;
+        let (g, p) = rp::spin_slip_fit();
+        let meta = json!({
+            "trials": info.trials, "dynamic_trials": dyn_trials, "seed": info.seed,
+            "profiles": info.profiles,
+            "plan_rate_hz": info.rate,
+            "spin_slip_gain": g, "spin_slip_exponent": p,
+            "spin_slip_fit": { "fitted_on": ["circle-0.4", "circle-0.5"], "parameters": ["spin_slip_gain", "spin_slip_exponent"] },
+            "dynamic_fit": fit.map(|f| json!({
+                "name": f.name, "value": f.value, "unit": "m", "fitted_on": f.fitted_on,
+                "target_radius_ratio": f.target_radius_ratio,
+                "achieved_radius_ratio": f.achieved_radius_ratio, "method": f.method,
+                "assumed": { "pivot_friction": rp::DYNAMIC_PIVOT_FRICTION },
+            })),
+            "series": self.all,
+        });
+        write_file(&out.join("metrics.json"), |w| {
+            writeln!(
+                w,
+                "{}",
+                serde_json::to_string_pretty(&meta).unwrap_or_default()
+            )
+        })?;
+        crate::outln!("{md}")?;
+        crate::errln!(
+            "wrote {dir}/table.md, {dir}/table.csv, {dir}/metrics.json and {n} figures in {:.1} s",
+            start.elapsed().as_secs_f64(),
+            dir = out.display(),
+            n = self.figures
+        );
+        Ok(())
+    }
 }

@@ -20,6 +20,9 @@
 //! * [`sil`]: software in the loop — the same plant as a board for the robot runtime.
 //! * [`run_trials`]: seeded parallel Monte Carlo; trial `i` draws from its own ChaCha8 stream,
 //!   so results do not depend on the number of threads.
+//! * [`shard`]: one run split into shards `K/N` by trial (any process or machine), and the
+//!   runs each shard keeps read back so a merge gives one run's figures bit for bit
+//!   ([`simulate_range`], [`evaluate_runs`]).
 //! * [`metrics`]: deviation from the planned path (m and % of path), end-point and heading
 //!   errors, mean trajectory with a Student-t 95 % band, fitted circle and radius ratio,
 //!   repeatability.
@@ -45,13 +48,15 @@ pub mod plant_step;
 pub mod profile;
 pub mod reproduce;
 pub mod sensors;
+pub mod shard;
 pub mod sil;
 pub mod table;
 pub mod track;
 
 pub use monte_carlo::{
-    FIGURE_RUNS, MonteCarlo, MonteCarloError, RETAIN_LIMIT_BYTES, evaluate_trials, run_trials,
-    second_pass_resimulates, simulate_and_evaluate, trial_rng,
+    FIGURE_RUNS, MonteCarlo, MonteCarloError, RETAIN_LIMIT_BYTES, evaluate_runs, evaluate_trials,
+    run_trials, second_pass_resimulates, simulate_and_evaluate, simulate_range, trial_rng,
+    trial_run,
 };
 pub use plant::{SimError, Trial, plan_mismatch, simulate_trial};
 pub use profile::Profile;

@@ -81,7 +81,8 @@ pub enum MonteCarloError<E> {
     /// The metrics could not be computed.
     #[error(transparent)]
     Metrics(#[from] MetricsError),
-    /// The caller's `visit` failed (e.g. writing a trial to a file).
+    /// The caller's code failed: `visit` (e.g. writing a trial to a file), or the source of
+    /// runs of [`evaluate_runs`] (e.g. reading a shard).
     #[error("{0}")]
     Visit(E),
 }
@@ -91,23 +92,59 @@ fn batch_size() -> usize {
     (8 * rayon::current_num_threads()).clamp(16, 256)
 }
 
+/// What the metrics take of one trial: its tracked positions, and the run they make.
+trait Tracked: Send {
+    /// The tracked positions, one per plan sample.
+    fn xy(&self) -> &[[f64; 2]];
+    /// The run the metrics see: the tracked positions and the true headings.
+    fn into_run(self) -> Run;
+}
+
+impl Tracked for Trial {
+    fn xy(&self) -> &[[f64; 2]] {
+        &self.tracked
+    }
+    fn into_run(self) -> Run {
+        trial_run(self)
+    }
+}
+
+impl Tracked for Run {
+    fn xy(&self) -> &[[f64; 2]] {
+        &self.xy
+    }
+    fn into_run(self) -> Run {
+        self
+    }
+}
+
+/// The run the metrics see of a trial: what the tracker saw (`tracked`) with the true
+/// headings (`pose[k].heading`, rad). This is all a shard keeps of a trial for the metrics
+/// ([`crate::shard`]).
+pub fn trial_run(t: Trial) -> Run {
+    Run {
+        heading: Some(t.pose.iter().map(|p| p.heading).collect()),
+        xy: t.tracked,
+    }
+}
+
 /// Simulates batches of trials `range` in parallel (`simulate(i)` = trial `i`), computes
 /// `prepare(state, trial)` in the same workers, and hands both to `each(state, …)` in trial
 /// order.
-fn for_each_trial<S: Sync, P: Send, E>(
-    simulate: &(dyn Fn(usize) -> Result<Trial, SimError> + Sync),
+fn for_each_trial<S: Sync, T: Send, P: Send, E: Send>(
+    simulate: &(dyn Fn(usize) -> Result<T, MonteCarloError<E>> + Sync),
     range: core::ops::Range<usize>,
     progress: &(dyn Fn() + Sync),
     state: &mut S,
-    prepare: impl Fn(&S, &Trial) -> P + Sync,
-    mut each: impl FnMut(&mut S, usize, Trial, P) -> Result<(), MonteCarloError<E>>,
+    prepare: impl Fn(&S, &T) -> P + Sync,
+    mut each: impl FnMut(&mut S, usize, T, P) -> Result<(), MonteCarloError<E>>,
 ) -> Result<(), MonteCarloError<E>> {
     let batch = batch_size();
     let mut start = range.start;
     while start < range.end {
         let end = (start + batch).min(range.end);
         let shared: &S = state;
-        let trials: Vec<(Trial, P)> = (start..end)
+        let trials: Vec<(T, P)> = (start..end)
             .into_par_iter()
             .map(|i| {
                 let r = simulate(i).map(|t| {
@@ -126,6 +163,26 @@ fn for_each_trial<S: Sync, P: Send, E>(
     Ok(())
 }
 
+/// Simulates trials `range` (`simulate(i)` = trial `i`, depending on `i` alone) in parallel
+/// batches and hands each to `visit` **in trial order**, keeping one batch in memory: the
+/// part of a run a shard does ([`crate::shard`]), with no metrics. `progress` is called once
+/// per finished trial (from worker threads).
+pub fn simulate_range<T: Send, E: Send>(
+    simulate: &(dyn Fn(usize) -> Result<T, SimError> + Sync),
+    range: core::ops::Range<usize>,
+    progress: &(dyn Fn() + Sync),
+    mut visit: impl FnMut(usize, T) -> Result<(), E>,
+) -> Result<(), MonteCarloError<E>> {
+    for_each_trial(
+        &|i| simulate(i).map_err(MonteCarloError::Sim),
+        range,
+        progress,
+        &mut (),
+        |_, _| (),
+        |_, i, t, ()| visit(i, t).map_err(MonteCarloError::Visit),
+    )
+}
+
 /// Runs `trials` trials of `plan` (seeded like [`run_trials`]) and evaluates what the tracker
 /// saw, with the true headings, against `reference` (the planned path of the tracked point,
 /// [`crate::metrics::tracked_reference`]), **without keeping the trials**: they are simulated
@@ -137,7 +194,7 @@ fn for_each_trial<S: Sync, P: Send, E>(
 /// tracked positions for the second pass up to [`RETAIN_LIMIT_BYTES`] — above that the second
 /// pass simulates the trials again (`progress` then counts each trial twice).
 #[allow(clippy::too_many_arguments)]
-pub fn simulate_and_evaluate<E>(
+pub fn simulate_and_evaluate<E: Send>(
     robot: &Robot<f64>,
     plan: &Plan,
     reference: &Plan,
@@ -147,7 +204,9 @@ pub fn simulate_and_evaluate<E>(
     progress: &(dyn Fn() + Sync),
     visit: impl FnMut(usize, &Trial) -> Result<(), E>,
 ) -> Result<MonteCarlo, MonteCarloError<E>> {
-    let simulate = |i: usize| simulate_trial(robot, plan, profile, &mut trial_rng(seed, i));
+    let simulate = |i: usize| {
+        simulate_trial(robot, plan, profile, &mut trial_rng(seed, i)).map_err(MonteCarloError::Sim)
+    };
     stream(
         &simulate,
         plan.samples.len(),
@@ -163,7 +222,7 @@ pub fn simulate_and_evaluate<E>(
 /// grid (`samples` samples) and must depend only on `i` (e.g. draw from [`trial_rng`]`(seed,
 /// i)`), so the result is bit-identical for any number of threads. Used by the dynamic plant
 /// ([`crate::dynamics::sphere::DynamicProfile`]).
-pub fn evaluate_trials<E>(
+pub fn evaluate_trials<E: Send>(
     simulate: &(dyn Fn(usize) -> Result<Trial, SimError> + Sync),
     samples: usize,
     reference: &Plan,
@@ -172,7 +231,7 @@ pub fn evaluate_trials<E>(
     visit: impl FnMut(usize, &Trial) -> Result<(), E>,
 ) -> Result<MonteCarlo, MonteCarloError<E>> {
     stream(
-        simulate,
+        &|i| simulate(i).map_err(MonteCarloError::Sim),
         samples,
         reference,
         trials,
@@ -182,14 +241,39 @@ pub fn evaluate_trials<E>(
     )
 }
 
-/// [`evaluate_trials`] with the bound on kept positions as a parameter.
-fn stream<E>(
-    simulate: &(dyn Fn(usize) -> Result<Trial, SimError> + Sync),
+/// The evaluation of [`simulate_and_evaluate`] over runs that were simulated elsewhere —
+/// read back from shards ([`crate::shard`]): `run(i)` returns trial `i`'s [`trial_run`],
+/// bit for bit. The same code reduces them in the same order, so the result is bit-identical
+/// to one run's. `run` may be called twice per trial (the second pass reads again above
+/// [`RETAIN_LIMIT_BYTES`]), from worker threads; its error stops the evaluation as
+/// [`MonteCarloError::Visit`].
+pub fn evaluate_runs<E: Send>(
+    run: &(dyn Fn(usize) -> Result<Run, E> + Sync),
     samples: usize,
     reference: &Plan,
     trials: usize,
     progress: &(dyn Fn() + Sync),
-    mut visit: impl FnMut(usize, &Trial) -> Result<(), E>,
+) -> Result<MonteCarlo, MonteCarloError<E>> {
+    stream(
+        &|i| run(i).map_err(MonteCarloError::Visit),
+        samples,
+        reference,
+        trials,
+        progress,
+        |_, _: &Run| Ok(()),
+        RETAIN_LIMIT_BYTES,
+    )
+}
+
+/// [`evaluate_trials`] with the bound on kept positions as a parameter, over any source of
+/// trials (simulated, or read back).
+fn stream<T: Tracked, E: Send>(
+    simulate: &(dyn Fn(usize) -> Result<T, MonteCarloError<E>> + Sync),
+    samples: usize,
+    reference: &Plan,
+    trials: usize,
+    progress: &(dyn Fn() + Sync),
+    mut visit: impl FnMut(usize, &T) -> Result<(), E>,
     retain_limit: usize,
 ) -> Result<MonteCarlo, MonteCarloError<E>> {
     let resimulate = resimulates(trials, samples, retain_limit);
@@ -202,13 +286,10 @@ fn stream<E>(
         0..trials,
         progress,
         &mut first,
-        |e, t| e.distances(&t.tracked),
+        |e, t| e.distances(t.xy()),
         |e, i, t, d| {
             visit(i, &t).map_err(MonteCarloError::Visit)?;
-            let run = Run {
-                xy: t.tracked,
-                heading: Some(t.pose.iter().map(|p| p.heading).collect()),
-            };
+            let run = t.into_run();
             e.add_with(&run, d)?;
             if figure_runs.len() < FIGURE_RUNS {
                 figure_runs.push(Run {
@@ -230,7 +311,7 @@ fn stream<E>(
             progress,
             &mut second,
             |_, _| (),
-            |s, _, t, ()| s.add(&t.tracked).map_err(MonteCarloError::Metrics),
+            |s, _, t, ()| s.add(t.xy()).map_err(MonteCarloError::Metrics),
         )?;
     } else {
         for xy in &kept {
@@ -291,7 +372,10 @@ mod tests {
             let mc = pool(threads)
                 .install(|| {
                     stream(
-                        &|i| simulate_trial(&robot, &plan, &profile, &mut trial_rng(9, i)),
+                        &|i| {
+                            simulate_trial(&robot, &plan, &profile, &mut trial_rng(9, i))
+                                .map_err(MonteCarloError::Sim)
+                        },
                         plan.samples.len(),
                         &reference,
                         trials,
@@ -322,6 +406,59 @@ mod tests {
             assert_eq!(mc.figure_runs.len(), FIGURE_RUNS.min(trials));
             assert_eq!(mc.figure_runs[3].xy, all[3].tracked);
         }
+    }
+
+    /// Runs read back (a merge of shards) evaluate bit for bit as the simulated trials did,
+    /// in batches of any size, and a failing source stops the evaluation with its error.
+    #[test]
+    fn evaluating_read_back_runs_equals_simulating_them() {
+        let d = RobotDescription::preset("sphere-omni").unwrap();
+        let robot = d.build::<f64>().unwrap();
+        let model = RobotModel::from_description(&d).unwrap();
+        let c = Circle::paper(2.0);
+        let plan =
+            omnikin_plan::planner::plan(&c.path().unwrap(), &c.heading(), &model, &c.options(20.0))
+                .unwrap()
+                .plan;
+        let profile = crate::reproduce::hardware_profile();
+        let trials = 21;
+        let want =
+            simulate_and_evaluate(&robot, &plan, &plan, &profile, trials, 4, &|| {}, |_, _| {
+                Ok::<(), ()>(())
+            })
+            .unwrap();
+        let runs: Vec<Run> = run_trials(&robot, &plan, &profile, trials, 4, &|| {})
+            .unwrap()
+            .into_iter()
+            .map(trial_run)
+            .collect();
+        let got = evaluate_runs(
+            &|i| Ok::<_, ()>(runs[i].clone()),
+            plan.samples.len(),
+            &plan,
+            trials,
+            &|| {},
+        )
+        .unwrap();
+        assert_eq!(got.evaluation, want.evaluation);
+        assert_eq!(got.figure_runs, want.figure_runs);
+        let failed = evaluate_runs(
+            &|i| {
+                if i == 7 {
+                    Err("shard 2 unreadable")
+                } else {
+                    Ok(runs[i].clone())
+                }
+            },
+            plan.samples.len(),
+            &plan,
+            trials,
+            &|| {},
+        );
+        assert!(matches!(
+            failed,
+            Err(MonteCarloError::Visit("shard 2 unreadable"))
+        ));
     }
 
     #[test]

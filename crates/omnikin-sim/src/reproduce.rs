@@ -35,7 +35,7 @@ use crate::metrics::{MeanTrajectory, Metrics, Run};
 use crate::profile::{
     FloorProfile, MotorProfile, Profile, RollerProfile, SpinProfile, TrackingProfile,
 };
-use crate::{MonteCarloError, SimError, simulate_and_evaluate};
+use crate::{MonteCarloError, SimError};
 
 /// The two experiments of paper 000, §6.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -274,12 +274,112 @@ pub struct Outcome {
     pub runs: Vec<Run>,
 }
 
+/// The plants of one re-run: the robot, the seed, the kinematic profiles of [`profiles`]
+/// that run (in that table's order) and the dynamic profile when it runs. Trial `i` of every
+/// profile and series draws from [`crate::trial_rng`]`(seed, i)`: it depends on nothing else,
+/// so the trials can run on any thread, process or machine ([`crate::shard`]).
+pub struct Plants<'a> {
+    robot: &'a omnikin::Robot<f64>,
+    seed: u64,
+    kinematic: Vec<(&'static str, Profile)>,
+    dynamic: Option<&'a DynamicProfile>,
+}
+
+impl<'a> Plants<'a> {
+    /// The plants of the kinematic profiles named in `kinematic` and, given, the dynamic one.
+    pub fn new(
+        robot: &'a omnikin::Robot<f64>,
+        seed: u64,
+        kinematic: &[&str],
+        dynamic: Option<&'a DynamicProfile>,
+    ) -> Self {
+        Self {
+            robot,
+            seed,
+            kinematic: profiles()
+                .into_iter()
+                .filter(|(n, _)| kinematic.contains(n))
+                .collect(),
+            dynamic,
+        }
+    }
+
+    /// The profiles that run, in table order (kinematic ones, then `dynamic`), with their
+    /// trial counts: `trials` each, `dynamic_trials` for the dynamic one.
+    pub fn runs(&self, trials: usize, dynamic_trials: usize) -> Vec<(&'static str, usize)> {
+        let kin = self.kinematic.iter().map(|(n, _)| (*n, trials));
+        kin.chain(self.dynamic.map(|_| ("dynamic", dynamic_trials)))
+            .collect()
+    }
+
+    /// Trial `i` of `series` under the profile `name`.
+    ///
+    /// # Errors
+    /// [`SimError::Mismatch`] for a profile that does not run; the trial's error.
+    pub fn trial(&self, series: &Series, name: &str, i: usize) -> Result<crate::Trial, SimError> {
+        let mut rng = crate::trial_rng(self.seed, i);
+        if name == "dynamic" {
+            if let Some(d) = self.dynamic {
+                return d.trial(&series.plan, &mut rng);
+            }
+        } else if let Some((_, p)) = self.kinematic.iter().find(|(n, _)| *n == name) {
+            return crate::simulate_trial(self.robot, &series.plan, p, &mut rng);
+        }
+        Err(SimError::Mismatch(format!("profile {name} does not run")))
+    }
+}
+
+/// The tracked point's offset in the robot frame under the profile `name`, m (the metrics'
+/// reference is the planned path of that point): the kinematic profile's
+/// `[tracking] offset`, none for the dynamic profile.
+fn tracking_offset(name: &str) -> [f64; 2] {
+    profiles()
+        .into_iter()
+        .find(|(n, _)| *n == name)
+        .and_then(|(_, p)| p.tracking.offset)
+        .unwrap_or([0.0; 2])
+}
+
+/// Evaluates `series` under each of `runs` (profile name, trials) from the runs of its
+/// trials, `run(profile, i)` = trial `i`'s [`crate::trial_run`], streaming them into the
+/// metrics ([`crate::evaluate_runs`]: memory does not grow with the trials). One re-run
+/// ([`run_series`]) and a merge of shards (runs read back) both go through here, so their
+/// figures are bit-identical.
+///
+/// # Errors
+/// `run`'s error as [`MonteCarloError::Visit`]; the metrics' error.
+pub fn evaluate_series<E: Send>(
+    series: &Series,
+    runs: &[(&'static str, usize)],
+    run: &(dyn Fn(&str, usize) -> Result<Run, E> + Sync),
+    progress: &(dyn Fn() + Sync),
+) -> Result<Vec<Outcome>, MonteCarloError<E>> {
+    let mut out = Vec::new();
+    for &(name, trials) in runs {
+        let reference = crate::metrics::tracked_reference(&series.plan, tracking_offset(name));
+        let mc = crate::evaluate_runs(
+            &|i| run(name, i),
+            series.plan.samples.len(),
+            &reference,
+            trials,
+            progress,
+        )?;
+        out.push(Outcome {
+            profile: name,
+            metrics: mc.evaluation.metrics,
+            mean: mc.evaluation.mean,
+            runs: mc.figure_runs,
+        });
+    }
+    Ok(out)
+}
+
 /// Simulates `series` under the profiles of [`profiles`] named in `kinematic` (in that
 /// table's order) with `trials` trials each, then,
 /// with `dynamic` given, under the dynamic profile with `dynamic.1` trials, streaming the
-/// trials into the metrics ([`simulate_and_evaluate`], [`crate::evaluate_trials`]: memory does
-/// not grow with `trials`). Trial `i` of every profile draws from [`crate::trial_rng`]`(seed,
-/// i)`: the results do not depend on the thread count.
+/// trials into the metrics ([`evaluate_series`]: memory does not grow with `trials`). Trial
+/// `i` of every profile draws from [`crate::trial_rng`]`(seed, i)`: the results do not depend
+/// on the thread count.
 ///
 /// # Errors
 /// Any trial's error.
@@ -292,62 +392,43 @@ pub fn run_series(
     dynamic: Option<(&DynamicProfile, usize)>,
     progress: &(dyn Fn() + Sync),
 ) -> Result<Vec<Outcome>, SimError> {
-    let mut out = Vec::new();
-    for (name, profile) in profiles() {
-        if !kinematic.contains(&name) {
-            continue;
-        }
-        let reference = crate::metrics::tracked_reference(
-            &series.plan,
-            profile.tracking.offset.unwrap_or([0.0; 2]),
-        );
-        let mc = simulate_and_evaluate(
-            robot,
-            &series.plan,
-            &reference,
-            &profile,
-            trials,
-            seed,
+    let plants = Plants::new(robot, seed, kinematic, dynamic.map(|d| d.0));
+    let runs = plants.runs(trials, dynamic.map_or(0, |d| d.1));
+    evaluate_series(
+        series,
+        &runs,
+        &|name, i| plants.trial(series, name, i).map(crate::trial_run),
+        progress,
+    )
+    .map_err(|e| match e {
+        MonteCarloError::Sim(e) | MonteCarloError::Visit(e) => e,
+        // The runs are simulated on the plan's own grid, so the metrics always apply.
+        MonteCarloError::Metrics(e) => SimError::Mismatch(e.to_string()),
+    })
+}
+
+/// Simulates the trials `range(profile)` of `series` under each of `runs` (profile name,
+/// trials) — one shard's part ([`crate::shard`]) — and hands each trial's
+/// [`crate::trial_run`] to `visit(profile, i, run)` in trial order, without metrics.
+///
+/// # Errors
+/// A trial's error ([`MonteCarloError::Sim`]) or `visit`'s ([`MonteCarloError::Visit`]).
+pub fn shard_series<E: Send>(
+    plants: &Plants<'_>,
+    series: &Series,
+    runs: &[(&'static str, core::ops::Range<usize>)],
+    progress: &(dyn Fn() + Sync),
+    mut visit: impl FnMut(&'static str, usize, Run) -> Result<(), E>,
+) -> Result<(), MonteCarloError<E>> {
+    for (name, range) in runs {
+        crate::simulate_range(
+            &|i| plants.trial(series, name, i).map(crate::trial_run),
+            range.clone(),
             progress,
-            |_, _| Ok::<(), core::convert::Infallible>(()),
-        )
-        .map_err(|e| match e {
-            MonteCarloError::Sim(e) => e,
-            // The runs are simulated on the plan's own grid, so the metrics always apply.
-            MonteCarloError::Metrics(e) => SimError::Mismatch(e.to_string()),
-            MonteCarloError::Visit(never) => match never {},
-        })?;
-        out.push(Outcome {
-            profile: name,
-            metrics: mc.evaluation.metrics,
-            mean: mc.evaluation.mean,
-            runs: mc.figure_runs,
-        });
+            |i, run| visit(name, i, run),
+        )?;
     }
-    if let Some((profile, trials)) = dynamic {
-        let reference = crate::metrics::tracked_reference(&series.plan, [0.0; 2]);
-        let simulate = |i: usize| profile.trial(&series.plan, &mut crate::trial_rng(seed, i));
-        let mc = crate::evaluate_trials(
-            &simulate,
-            series.plan.samples.len(),
-            &reference,
-            trials,
-            progress,
-            |_, _| Ok::<(), core::convert::Infallible>(()),
-        )
-        .map_err(|e| match e {
-            MonteCarloError::Sim(e) => e,
-            MonteCarloError::Metrics(e) => SimError::Mismatch(e.to_string()),
-            MonteCarloError::Visit(never) => match never {},
-        })?;
-        out.push(Outcome {
-            profile: "dynamic",
-            metrics: mc.evaluation.metrics,
-            mean: mc.evaluation.mean,
-            runs: mc.figure_runs,
-        });
-    }
-    Ok(out)
+    Ok(())
 }
 
 fn fmt_opt(v: Option<f64>, digits: usize) -> String {
