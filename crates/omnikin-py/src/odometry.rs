@@ -6,7 +6,7 @@ use numpy::PyReadonlyArray2;
 use numpy::PyUntypedArrayMethods;
 use omnikin::Pose2;
 use omnikin::estimate::fusion::Recovery;
-use omnikin_sim::odometry::{FixResult, OdometryOptions, run};
+use omnikin_sim::odometry::{FixResult, OdometryOptions, ThresholdSource, TiltReport, run};
 use omnikin_sim::table::NumericTable;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -186,7 +186,23 @@ pub fn odometry_native<'py>(
         })),
         "shell_spin_rad_s": s.shell_spin.map(|w| json!({
             "mean": w.mean, "std": w.std, "from_fixes": w.from_fixes,
+            "tilt": match w.tilt {
+                TiltReport::Compensated { mean_tilt, max_tilt, tilt_std, spin_std, uncompensated } => json!({
+                    "compensated": true, "mean_rad": mean_tilt, "max_rad": max_tilt,
+                    "std_rad": tilt_std, "spin_std_rad_s": spin_std,
+                    "uncompensated_rad_s": uncompensated,
+                }),
+                TiltReport::NotCompensated(why) => json!({ "compensated": false, "why": why }),
+            },
         })),
+        "event_thresholds": s.event_thresholds.rows().iter().map(|(name, v, unit, source)| json!({
+            "name": name, "value": v, "unit": unit,
+            "source": match source {
+                ThresholdSource::Given => "option",
+                ThresholdSource::RobotFile => "robot file",
+                ThresholdSource::Default => "default",
+            },
+        })).collect::<Vec<_>>(),
         "shell_spin_unobservable": s.shell_spin_unobservable,
         "events": r.events.iter().map(|e| json!({
             "kind": e.kind.name(), "start_s": e.start, "end_s": e.end, "peak": e.peak,

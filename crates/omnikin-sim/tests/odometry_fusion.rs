@@ -635,3 +635,76 @@ fn platform_tilt_is_compensated_within_its_bound() {
         s.shell_spin
     );
 }
+
+#[test]
+fn the_robot_files_event_thresholds_decide_and_options_override_them() {
+    use omnikin_sim::odometry::{EventOverrides, ThresholdSource};
+    // The wheel spin (5.0–5.3 s, peak ≈ 1.7 rad/s) and the dead stop (8 s, ≈ 6 m/s²) of
+    // `a_wheel_spin_and_a_sudden_stop_are_one_event_each`, without quantisation.
+    let stop = |t: f64| {
+        if t < 8.0 {
+            twist(t)
+        } else {
+            Twist2::new(0.0, 0.0, 0.0)
+        }
+    };
+    let spin = |i: usize, t: f64| {
+        if i == 0 && (5.0..5.3).contains(&t) {
+            15.0
+        } else {
+            0.0
+        }
+    };
+    let w = world_with(
+        10.0,
+        1000.0,
+        Pose2::new(0.0, 0.0, 0.0),
+        1.0,
+        0.0,
+        stop,
+        spin,
+    );
+    let kinds = |r: &OdometryRun| r.events.iter().map(|e| e.kind).collect::<Vec<_>>();
+    let preset = run(&w.description, &w.log, None, &options(&w, true)).unwrap();
+    assert_eq!(kinds(&preset), [EventKind::Slip, EventKind::Collision]);
+    assert_eq!(
+        preset.summary.event_thresholds.sources,
+        [ThresholdSource::Default; 3]
+    );
+    // A kiwi whose file sets a slip level above the spin and a collision level above the stop.
+    let (_, kiwi) = omnikin::description::PRESETS
+        .iter()
+        .find(|(n, _)| *n == "kiwi")
+        .unwrap();
+    let text = format!("{kiwi}\n[events]\nslip_yaw_rate = 5.0\ncollision_decel = 20.0\n");
+    let strict = RobotDescription::from_toml_str(&text, "strict.toml").unwrap();
+    assert_eq!(strict.events.slip_yaw_rate, Some(5.0));
+    let r = run(&strict, &w.log, None, &options(&w, true)).unwrap();
+    println!("robot file [events]: {:?}", r.events);
+    assert!(r.events.is_empty(), "{:?}", r.events);
+    let t = r.summary.event_thresholds;
+    assert_eq!(
+        t.sources,
+        [
+            ThresholdSource::RobotFile,
+            ThresholdSource::Default,
+            ThresholdSource::RobotFile
+        ]
+    );
+    assert_eq!(t.thresholds.collision_decel, 20.0);
+    // An option overrides the file: the slip is back, the stop still below the file's level.
+    let o = OdometryOptions {
+        events: EventOverrides {
+            slip_yaw_rate: Some(0.3),
+            ..EventOverrides::default()
+        },
+        ..options(&w, true)
+    };
+    let r = run(&strict, &w.log, None, &o).unwrap();
+    assert_eq!(kinds(&r), [EventKind::Slip]);
+    assert!((5.0..5.03).contains(&r.events[0].start), "{:?}", r.events);
+    assert_eq!(
+        r.summary.event_thresholds.sources[0],
+        ThresholdSource::Given
+    );
+}

@@ -217,7 +217,10 @@ def odometry(
     with its ``result`` (``accepted``, ``rejected``, ``too_late``, ``after_log``) and
     ``mahalanobis2``, and the summary the CLI prints (``heading_source``, ``samples``,
     ``duration_s``, ``path_length_m``, ``end``, ``max_slip_m_s``/``max_slip_t_s``,
-    ``mean_shell_spin_rad_s``, ``fixes`` counters) as a dict. A fix rejected as an outlier
+    ``mean_shell_spin_rad_s``, ``shell_spin_rad_s`` with its ``tilt`` (compensated from
+    ``gyro_x, gyro_y, accel_x, accel_y, accel_z`` log columns, or why not),
+    ``event_thresholds`` with their ``source`` (robot file ``[events]`` or default),
+    ``fixes`` counters) as a dict. A fix rejected as an outlier
     is also a ``UserWarning``, as the CLI warns.
     """
     r = _native.odometry_native(
