@@ -464,7 +464,7 @@ fn tilt_compensation_and_event_threshold_sources_in_the_summary() {
             .args(["odometry", log.to_str().unwrap(), "--imu", "--robot"])
             .arg(&file)
             .arg("--out")
-            .arg(dir.join(format!("p{}.csv", extra.len())))
+            .arg(dir.join(&format!("p{}.csv", extra.len())))
             .args(extra)
             .output()
             .unwrap();
