@@ -5,7 +5,8 @@
 //!
 //! Input: the encoder log of conventions.md (`t,q1..qN` cumulative wheel angles in rad, or
 //! counts with `--counts-per-rev`, one per wheel of the robot; `s1..sN` steer angles for the
-//! steerable kinds, caster3 and swerve; optional `gyro_z` rad/s and `yaw` rad). Fixes: `t,x,y`
+//! steerable kinds, caster3 and swerve; optional `gyro_z` rad/s and `yaw` rad, and
+//! `gyro_x,gyro_y,accel_x,accel_y,accel_z` for the platform tilt). Fixes: `t,x,y`
 //! with optional `heading` and `arrival` (s; when the fix reached the robot, default `t`); each fix is handed to the filter when it arrives and fused
 //! at the time it was taken. Output: `t,x,y,heading` per log row. Bad files are rejected with
 //! `FILE:LINE: column NAME: what is wrong`.
@@ -29,7 +30,8 @@ use crate::args::{Triple, finite_f64};
 #[derive(clap::Args, Debug)]
 pub struct OdometryArgs {
     /// Encoder log CSV: t,q1..qN (rad, cumulative; one per wheel), steerable kinds (caster3,
-    /// swerve) add s1..sN (rad); optional gyro_z (rad/s) and yaw (rad).
+    /// swerve) add s1..sN (rad); optional gyro_z (rad/s) and yaw (rad); optional gyro_x,gyro_y
+    /// (rad/s) and accel_x,accel_y,accel_z (m/s², platform frame) for the tilt compensation.
     pub log: PathBuf,
     /// Robot: preset name (sphere-omni, ballbot, caster3, kiwi, x-drive, mecanum, swerve4) or
     /// path to a TOML description.
