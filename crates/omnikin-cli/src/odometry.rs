@@ -5,7 +5,8 @@
 //!
 //! Input: the encoder log of conventions.md (`t,q1..qN` cumulative wheel angles in rad, or
 //! counts with `--counts-per-rev`, one per wheel of the robot; `s1..sN` steer angles for the
-//! steerable kinds, caster3 and swerve; optional `gyro_z` rad/s and `yaw` rad). Fixes: `t,x,y`
+//! steerable kinds, caster3 and swerve; optional `gyro_z` rad/s and `yaw` rad, and
+//! `gyro_x,gyro_y,accel_x,accel_y,accel_z` for the platform tilt). Fixes: `t,x,y`
 //! with optional `heading` and `arrival` (s; when the fix reached the robot, default `t`); each fix is handed to the filter when it arrives and fused
 //! at the time it was taken. Output: `t,x,y,heading` per log row. Bad files are rejected with
 //! `FILE:LINE: column NAME: what is wrong`.
@@ -17,7 +18,9 @@ use anyhow::Result;
 use omnikin::Pose2;
 use omnikin::description::RobotDescription;
 use omnikin::estimate::fusion::Recovery;
-use omnikin_sim::odometry::{EventThresholds, FixResult, OdometryOptions, OdometryRun};
+use omnikin_sim::odometry::{
+    EventOverrides, FixResult, OdometryOptions, OdometryRun, ThresholdSource, TiltReport,
+};
 // The log and fixes parser lives in the library so that it can be fuzzed (fuzz/).
 use omnikin_sim::table::NumericTable as Table;
 
@@ -27,7 +30,8 @@ use crate::args::{Triple, finite_f64};
 #[derive(clap::Args, Debug)]
 pub struct OdometryArgs {
     /// Encoder log CSV: t,q1..qN (rad, cumulative; one per wheel), steerable kinds (caster3,
-    /// swerve) add s1..sN (rad); optional gyro_z (rad/s) and yaw (rad).
+    /// swerve) add s1..sN (rad); optional gyro_z (rad/s) and yaw (rad); optional gyro_x,gyro_y
+    /// (rad/s) and accel_x,accel_y,accel_z (m/s², platform frame) for the tilt compensation.
     pub log: PathBuf,
     /// Robot: preset name (sphere-omni, ballbot, caster3, kiwi, x-drive, mecanum, swerve4) or
     /// path to a TOML description.
@@ -83,19 +87,25 @@ pub struct OdometryArgs {
     /// Spread of the rejected fixes' innovations within which they count as agreeing, m.
     #[arg(long, default_value_t = 0.05, value_parser = positive_f64, value_name = "M")]
     pub recovery_spread: f64,
+    /// Do not compensate the platform tilt (with gyro_x,gyro_y and accel_x,accel_y,accel_z
+    /// columns, the heading rate is otherwise the body rate about the vertical).
+    #[arg(long)]
+    pub no_tilt_compensation: bool,
     /// Also write the slip and collision events to this CSV: kind,start,end,peak.
     #[arg(long, value_name = "events.csv")]
     pub events: Option<PathBuf>,
-    /// Yaw-rate disagreement between the wheels and the IMU heading that counts as slip, rad/s.
-    #[arg(long, default_value_t = 0.3, value_parser = positive_f64, value_name = "RAD_S")]
-    pub slip_yaw_rate: f64,
+    /// Yaw-rate disagreement between the wheels and the IMU heading that counts as slip, rad/s
+    /// (overrides the robot file's events.slip_yaw_rate; default 0.3).
+    #[arg(long, value_parser = positive_f64, value_name = "RAD_S")]
+    pub slip_yaw_rate: Option<f64>,
     /// Least-squares slip residual that counts as slip (kinds with more motors than twist
-    /// components), m/s.
-    #[arg(long, default_value_t = 0.05, value_parser = positive_f64, value_name = "M_S")]
-    pub slip_residual: f64,
-    /// Deceleration of the wheel speed (over 50 ms) that counts as a collision, m/s².
-    #[arg(long, default_value_t = 3.0, value_parser = positive_f64, value_name = "M_S2")]
-    pub collision_decel: f64,
+    /// components), m/s (overrides the robot file's events.slip_residual; default 0.05).
+    #[arg(long, value_parser = positive_f64, value_name = "M_S")]
+    pub slip_residual: Option<f64>,
+    /// Deceleration of the wheel speed (over 50 ms) that counts as a collision, m/s²
+    /// (overrides the robot file's events.collision_decel; default 3).
+    #[arg(long, value_parser = positive_f64, value_name = "M_S2")]
+    pub collision_decel: Option<f64>,
 }
 
 fn positive_f64(s: &str) -> std::result::Result<f64, String> {
@@ -124,11 +134,11 @@ impl OdometryArgs {
             estimate_wheel_scale: !self.no_wheel_scale_state,
             recovery_count: self.recovery_count,
             recovery_spread: self.recovery_spread,
-            events: EventThresholds {
+            tilt_compensation: !self.no_tilt_compensation,
+            events: EventOverrides {
                 slip_yaw_rate: self.slip_yaw_rate,
                 slip_residual: self.slip_residual,
                 collision_decel: self.collision_decel,
-                ..EventThresholds::default()
             },
         }
     }
@@ -223,8 +233,22 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         );
     }
     if let Some(s) = sum.shell_spin {
+        let tilt = match s.tilt {
+            TiltReport::Compensated {
+                mean_tilt,
+                max_tilt,
+                tilt_std,
+                spin_std,
+                uncompensated,
+            } => format!(
+                "platform tilt compensated: mean {mean_tilt:.4} rad, max {max_tilt:.4} rad, \
+                 ± {tilt_std:.4} rad (1σ, {spin_std:.4} rad/s of the bound); gyro_z alone \
+                 gives {uncompensated:.4} rad/s"
+            ),
+            TiltReport::NotCompensated(why) => format!("platform tilt not compensated: {why}"),
+        };
         crate::errln!(
-            "shell/ball spin Ω3 {:.4} ± {:.4} rad/s (1σ; corrected for the gyro bias and wheel scale {}; platform tilt not compensated)",
+            "shell/ball spin Ω3 {:.4} ± {:.4} rad/s (1σ; corrected for the gyro bias and wheel scale {}; {tilt})",
             s.mean,
             s.std,
             if s.from_fixes {
@@ -258,6 +282,23 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
             crate::errln!("estimated wheel scale {k:.5} ± {sk:.5} (1σ; true/measured travel)");
         }
     }
+    let thresholds: Vec<String> = sum
+        .event_thresholds
+        .rows()
+        .iter()
+        .map(|(name, v, unit, source)| {
+            format!(
+                "{name} {v} {unit} ({})",
+                match source {
+                    ThresholdSource::Given => "--".to_string() + &name.replace('_', "-"),
+                    ThresholdSource::RobotFile =>
+                        format!("[events] of {}", description.source_name),
+                    ThresholdSource::Default => "default".to_string(),
+                }
+            )
+        })
+        .collect();
+    crate::errln!("event thresholds: {}", thresholds.join(", "));
     for e in &r.events {
         crate::errln!(
             "event: {} from t = {} s to {} s (peak {:.3} {})",

@@ -41,8 +41,8 @@ pub struct SimulateArgs {
     /// DIR/sensors/trial-NNN/{encoders.csv, fixes.csv, imu.csv, truth.csv}.
     #[arg(long)]
     pub emit_sensors: bool,
-    /// Sensor profile for --emit-sensors (TOML: counts_per_rev, [gyro], [yaw], [imu], [camera];
-    /// see omnikin_sim::sensors). Default: 4096-count encoders, a gyro, camera fixes at 10 Hz.
+    /// Sensor profile for --emit-sensors (TOML: counts_per_rev, [gyro], [yaw], [imu], [camera],
+    /// [tilt]; see omnikin_sim::sensors). Default: 4096-count encoders, a gyro, camera fixes at 10 Hz.
     #[arg(long, value_name = "SENSORS.toml", requires = "emit_sensors")]
     pub sensors: Option<PathBuf>,
     /// Plant: `kinematic` (the motors' motion through the forward kinematics, with the

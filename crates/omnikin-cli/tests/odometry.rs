@@ -430,3 +430,65 @@ fn fusion_summary_events_file_and_bad_flags() {
             .stderr(predicate::str::contains(message));
     }
 }
+
+#[test]
+fn tilt_compensation_and_event_threshold_sources_in_the_summary() {
+    // The sphere circle with a 3-axis gyro and an accelerometer on a platform tilted 0.3 rad:
+    // the summary says the tilt was compensated (and how much gyro_z alone would be off), and
+    // where each event threshold came from: the robot file's [events], a flag, the default.
+    let dir = scratch("tilt-events");
+    let (robot, trial) = sphere_trial(&Profile::default(), 5);
+    let sensors = SensorProfile::from_toml_str(
+        "[gyro]\nnoise_std = 0.001\nbias = 0.0\nbias_std = 0.0\n[tilt]\nroll = 0.3\npitch = 0.0\n",
+        "tilt.toml",
+    )
+    .unwrap();
+    let s = emit(&robot, &trial, &sensors, &mut trial_rng(5, 1));
+    let log = dir.join("log.csv");
+    write_encoder_log(&s.encoder, std::fs::File::create(&log).unwrap()).unwrap();
+    let header = std::fs::read_to_string(&log).unwrap();
+    assert!(
+        header.starts_with("t,q1,q2,q3,gyro_z,gyro_x,gyro_y,accel_x,accel_y,accel_z\n"),
+        "{}",
+        &header[..80]
+    );
+    let file = dir.join("sphere.toml");
+    let (_, preset) = omnikin::description::PRESETS[0];
+    std::fs::write(
+        &file,
+        format!("{preset}\n[events]\nslip_yaw_rate = 0.5\ncollision_decel = 4.0\n"),
+    )
+    .unwrap();
+    let run = |extra: &[&str]| {
+        let out = omnikin()
+            .args(["odometry", log.to_str().unwrap(), "--imu", "--robot"])
+            .arg(&file)
+            .arg("--out")
+            .arg(dir.join(&format!("p{}.csv", extra.len())))
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{out:?}");
+        String::from_utf8(out.stderr).unwrap()
+    };
+    let e = run(&[]);
+    assert!(e.contains("platform tilt compensated: mean 0.30"), "{e}");
+    assert!(e.contains("gyro_z alone gives"), "{e}");
+    assert!(
+        e.contains(&format!(
+            "event thresholds: slip_yaw_rate 0.5 rad/s ([events] of {0}), slip_residual 0.05 m/s \
+             (default), collision_decel 4 m/s² ([events] of {0})",
+            file.display()
+        )),
+        "{e}"
+    );
+    let e = run(&["--no-tilt-compensation", "--collision-decel", "2.5"]);
+    assert!(
+        e.contains("platform tilt not compensated: switched off"),
+        "{e}"
+    );
+    assert!(
+        e.contains("collision_decel 2.5 m/s² (--collision-decel)"),
+        "{e}"
+    );
+}

@@ -6,7 +6,9 @@ use numpy::PyReadonlyArray2;
 use numpy::PyUntypedArrayMethods;
 use omnikin::Pose2;
 use omnikin::estimate::fusion::Recovery;
-use omnikin_sim::odometry::{FixResult, OdometryOptions, run};
+use omnikin_sim::odometry::{
+    EventOverrides, FixResult, OdometryOptions, ThresholdSource, TiltReport, run,
+};
 use omnikin_sim::table::NumericTable;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -69,7 +71,7 @@ fn table(
 /// `omnikin.odometry`: `(poses_columns, poses_values, odometry_values, fixes_json,
 /// summary_json)`.
 #[pyfunction]
-#[pyo3(signature = (robot, log_path=None, log_columns=None, fixes_path=None, fixes_columns=None, imu=false, counts_per_rev=None, initial_pose=None, fix_std=0.01, fix_heading_std=0.05, gyro_bias=0.0, max_latency=1.0, estimate_gyro_bias=true, estimate_wheel_scale=true, recovery_count=5, recovery_spread=0.05))]
+#[pyo3(signature = (robot, log_path=None, log_columns=None, fixes_path=None, fixes_columns=None, imu=false, counts_per_rev=None, initial_pose=None, fix_std=0.01, fix_heading_std=0.05, gyro_bias=0.0, max_latency=1.0, estimate_gyro_bias=true, estimate_wheel_scale=true, recovery_count=5, recovery_spread=0.05, tilt_compensation=true, slip_yaw_rate=None, slip_residual=None, collision_decel=None))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 pub fn odometry_native<'py>(
     py: Python<'py>,
@@ -89,6 +91,10 @@ pub fn odometry_native<'py>(
     estimate_wheel_scale: bool,
     recovery_count: u32,
     recovery_spread: f64,
+    tilt_compensation: bool,
+    slip_yaw_rate: Option<f64>,
+    slip_residual: Option<f64>,
+    collision_decel: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let log = table("log", log_path, log_columns)?;
     let fixes = match (fixes_path, fixes_columns) {
@@ -107,7 +113,12 @@ pub fn odometry_native<'py>(
         estimate_wheel_scale,
         recovery_count,
         recovery_spread,
-        ..OdometryOptions::default()
+        tilt_compensation,
+        events: EventOverrides {
+            slip_yaw_rate,
+            slip_residual,
+            collision_decel,
+        },
     };
     let r = py
         .detach(|| run(&robot.desc, &log, fixes.as_ref(), &options))
@@ -186,7 +197,23 @@ pub fn odometry_native<'py>(
         })),
         "shell_spin_rad_s": s.shell_spin.map(|w| json!({
             "mean": w.mean, "std": w.std, "from_fixes": w.from_fixes,
+            "tilt": match w.tilt {
+                TiltReport::Compensated { mean_tilt, max_tilt, tilt_std, spin_std, uncompensated } => json!({
+                    "compensated": true, "mean_rad": mean_tilt, "max_rad": max_tilt,
+                    "std_rad": tilt_std, "spin_std_rad_s": spin_std,
+                    "uncompensated_rad_s": uncompensated,
+                }),
+                TiltReport::NotCompensated(why) => json!({ "compensated": false, "why": why }),
+            },
         })),
+        "event_thresholds": s.event_thresholds.rows().iter().map(|(name, v, unit, source)| json!({
+            "name": name, "value": v, "unit": unit,
+            "source": match source {
+                ThresholdSource::Given => "option",
+                ThresholdSource::RobotFile => "robot file",
+                ThresholdSource::Default => "default",
+            },
+        })).collect::<Vec<_>>(),
         "shell_spin_unobservable": s.shell_spin_unobservable,
         "events": r.events.iter().map(|e| json!({
             "kind": e.kind.name(), "start_s": e.start, "end_s": e.end, "peak": e.peak,

@@ -10,6 +10,12 @@
 //!   encoder (`floor`, `counts_per_rev`);
 //! * a level **IMU** (3-axis gyro with constant bias and white noise, accelerometer = specific
 //!   force, magnetometer = the world field in the body frame) for AHRS tests;
+//! * with [`SensorProfile::tilt`], both on a **tilted platform** (a constant roll and pitch of
+//!   the platform relative to its heading frame, `R = Rz(ψ) Ry(pitch) Rx(roll)`): the gyro reads
+//!   `Rᵀ ψ̇ e₃` (its z axis `cos(tilt)·ψ̇`), the accelerometer `Rᵀ (a + g e₃)`, and the encoder
+//!   log gains the 3-axis columns `gyro_x,gyro_y` (with `gyro_z`) and `accel_x,accel_y,accel_z`
+//!   (m/s², specific force, platform frame). The wheel angles are the plant's (a kinematic
+//!   plant keeps the wheel kinematics level): only the inertial sensors see the tilt.
 //! * **camera fixes** of the robot centre every `period` seconds with Gaussian noise, a fixed
 //!   latency (the fix is stamped with the time it was taken and carries its arrival time) and
 //!   occasional outliers.
@@ -79,6 +85,38 @@ impl Default for ImuProfile {
     }
 }
 
+/// A constant tilt of the platform carrying the IMU (and the gyro of the encoder log), rad:
+/// `R = Rz(heading) Ry(pitch) Rx(roll)`, body → world.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TiltProfile {
+    /// Roll about the platform's x axis, rad.
+    pub roll: f64,
+    /// Pitch about the platform's y axis, rad.
+    pub pitch: f64,
+    /// White noise of the encoder log's accelerometer columns, per axis, m/s² (default 0).
+    #[serde(default)]
+    pub accel_noise_std: f64,
+}
+
+impl TiltProfile {
+    /// The tilt rotation `Ry(pitch) Rx(roll)` (platform → heading frame), row-major.
+    fn matrix(&self) -> [[f64; 3]; 3] {
+        let (sr, cr) = self.roll.sin_cos();
+        let (sp, cp) = self.pitch.sin_cos();
+        [
+            [cp, sp * sr, sp * cr],
+            [0.0, cr, -sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    }
+}
+
+/// `Mᵀ v`.
+fn transpose_times(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|j| m[0][j] * v[0] + m[1][j] * v[1] + m[2][j] * v[2])
+}
+
 /// External camera (e.g. paper 000's overhead camera) tracking the robot centre.
 #[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -127,6 +165,9 @@ pub struct SensorProfile {
     pub imu: Option<ImuProfile>,
     /// Emit camera fixes.
     pub camera: Option<CameraProfile>,
+    /// Tilt the platform of the inertial sensors; the encoder log then has a 3-axis gyro and an
+    /// accelerometer (with [`SensorProfile::gyro`]).
+    pub tilt: Option<TiltProfile>,
 }
 
 impl SensorProfile {
@@ -145,6 +186,7 @@ impl SensorProfile {
             yaw: None,
             imu: Some(ImuProfile::default()),
             camera: Some(CameraProfile::default()),
+            tilt: None,
         }
     }
 
@@ -220,6 +262,18 @@ impl SensorProfile {
                 check(&format!("imu.field[{i}]"), Some(*f), field, "µT")?;
             }
         }
+        if let Some(t) = self.tilt {
+            // Up to about 69°: beyond, the platform is lying on its side.
+            let tilt = (-1.2, 1.2);
+            check("tilt.roll", Some(t.roll), tilt, "rad")?;
+            check("tilt.pitch", Some(t.pitch), tilt, "rad")?;
+            check(
+                "tilt.accel_noise_std",
+                Some(t.accel_noise_std),
+                ACCEL_NOISE_RANGE,
+                "m/s²",
+            )?;
+        }
         if let Some(c) = self.camera {
             check("camera.period", Some(c.period), CAMERA_PERIOD_RANGE, "s")?;
             check("camera.latency", Some(c.latency), CAMERA_LATENCY_RANGE, "s")?;
@@ -267,6 +321,10 @@ pub struct EncoderRow {
     pub gyro_z: Option<f64>,
     /// Absolute yaw, rad.
     pub yaw: Option<f64>,
+    /// Gyro x and y rates (tilted platform, [`SensorProfile::tilt`]), rad/s.
+    pub gyro_xy: Option<[f64; 2]>,
+    /// Specific force (tilted platform), m/s², platform frame.
+    pub accel: Option<[f64; 3]>,
 }
 
 /// One IMU sample (body frame: x forward, y left, z up).
@@ -384,6 +442,14 @@ pub fn emit(
     if let Some(g) = profile.gyro {
         out.gyro_bias = g.bias + g.bias_std * gauss(rng);
     }
+    let tilt = profile.tilt.map(|p| (p, p.matrix()));
+    // Specific force in the heading frame (x forward, y left, z up), m/s².
+    let specific_force = |k: usize| {
+        let (s, c) = heading(k).sin_cos();
+        let ax = second_derivative(&t[..n], k, |i| trial.pose[i].x);
+        let ay = second_derivative(&t[..n], k, |i| trial.pose[i].y);
+        [c * ax + s * ay, -s * ax + c * ay, 9.81]
+    };
     for k in 0..n {
         let q = trial.wheel_angles[k].map(|x| quantise(x, profile.counts_per_rev));
         let steer = steerable.then(|| {
@@ -394,9 +460,26 @@ pub fn emit(
                 .unwrap_or([0.0; MAX_WHEELS])
                 .map(|x| quantise(x, profile.steer_counts_per_rev))
         });
+        let rate = derivative(&t[..n], k, heading);
+        // The body rate of the (tilted) platform turning about the vertical: Rᵀ ψ̇ e₃.
+        let body = match &tilt {
+            Some((_, m)) => transpose_times(m, [0.0, 0.0, rate]),
+            None => [0.0, 0.0, rate],
+        };
         let gyro_z = profile
             .gyro
-            .map(|g| derivative(&t[..n], k, heading) + out.gyro_bias + g.noise_std * gauss(rng));
+            .map(|g| body[2] + out.gyro_bias + g.noise_std * gauss(rng));
+        let (gyro_xy, accel) = match (profile.gyro, &tilt) {
+            (Some(g), Some((p, m))) => {
+                let gxy = [0, 1].map(|i| body[i] + g.noise_std * gauss(rng));
+                let f = transpose_times(m, specific_force(k));
+                (
+                    Some(gxy),
+                    Some(f.map(|x| x + p.accel_noise_std * gauss(rng))),
+                )
+            }
+            _ => (None, None),
+        };
         let yaw = profile.yaw.map(|y| {
             let v = heading(k) + y.noise_std * gauss(rng);
             if y.wrap { omnikin::wrap_angle(v) } else { v }
@@ -408,20 +491,24 @@ pub fn emit(
             steer,
             gyro_z,
             yaw,
+            gyro_xy,
+            accel,
         });
     }
     if let Some(imu) = profile.imu {
         for k in 0..n {
             let (s, c) = heading(k).sin_cos();
-            let ax = second_derivative(&t[..n], k, |i| trial.pose[i].x);
-            let ay = second_derivative(&t[..n], k, |i| trial.pose[i].y);
             let wz = derivative(&t[..n], k, heading);
             let f = imu.field;
+            let level = |v: [f64; 3]| match &tilt {
+                Some((_, m)) => transpose_times(m, v),
+                None => v,
+            };
             let mut row = ImuRow {
                 t: t[k],
-                gyro: [0.0, 0.0, wz],
-                accel: [c * ax + s * ay, -s * ax + c * ay, 9.81],
-                mag: [c * f[0] + s * f[1], -s * f[0] + c * f[1], f[2]],
+                gyro: level([0.0, 0.0, wz]),
+                accel: level(specific_force(k)),
+                mag: level([c * f[0] + s * f[1], -s * f[0] + c * f[1], f[2]]),
             };
             for i in 0..3 {
                 row.gyro[i] += imu.gyro_bias[i] + imu.gyro_noise_std * gauss(rng);
@@ -488,8 +575,8 @@ fn num(x: f64) -> String {
 }
 
 /// Writes the encoder log CSV of conventions.md: `t,q1..qN`, then `s1..sN` (steerable kinds),
-/// `gyro_z`, `yaw` when the rows carry them (the wheel count and the optional columns decided
-/// by the first row).
+/// `gyro_z`, `yaw` when the rows carry them, and `gyro_x,gyro_y,accel_x,accel_y,accel_z` for a
+/// tilted platform (the wheel count and the optional columns decided by the first row).
 pub fn write_encoder_log<W: Write>(rows: &[EncoderRow], mut out: W) -> std::io::Result<()> {
     let first = rows.first();
     let (wheels, steer, gyro, yaw) = (
@@ -498,6 +585,7 @@ pub fn write_encoder_log<W: Write>(rows: &[EncoderRow], mut out: W) -> std::io::
         first.is_some_and(|r| r.gyro_z.is_some()),
         first.is_some_and(|r| r.yaw.is_some()),
     );
+    let inertial = first.is_some_and(|r| r.gyro_xy.is_some() && r.accel.is_some());
     let mut header = String::from("t");
     for i in 1..=wheels {
         header.push_str(&format!(",q{i}"));
@@ -512,6 +600,9 @@ pub fn write_encoder_log<W: Write>(rows: &[EncoderRow], mut out: W) -> std::io::
     }
     if yaw {
         header.push_str(",yaw");
+    }
+    if inertial {
+        header.push_str(",gyro_x,gyro_y,accel_x,accel_y,accel_z");
     }
     writeln!(out, "{header}")?;
     for r in rows {
@@ -532,6 +623,14 @@ pub fn write_encoder_log<W: Write>(rows: &[EncoderRow], mut out: W) -> std::io::
         }
         if yaw {
             line.push_str(&format!(",{}", num(r.yaw.unwrap_or(f64::NAN))));
+        }
+        if inertial {
+            let g = r.gyro_xy.unwrap_or([f64::NAN; 2]);
+            let a = r.accel.unwrap_or([f64::NAN; 3]);
+            for v in g.iter().chain(&a) {
+                line.push(',');
+                line.push_str(&num(*v));
+            }
         }
         writeln!(out, "{line}")?;
     }

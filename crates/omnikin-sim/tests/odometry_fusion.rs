@@ -468,3 +468,243 @@ fn shell_spin_comes_with_a_bound_that_holds() {
     assert!(wheels.summary.shell_spin.is_none());
     assert!(wheels.summary.shell_spin_unobservable.is_some());
 }
+
+/// The sphere on a 0.2 m circle at 2 rad/s with paper 000's speed-dependent shell spin (the
+/// truth, constant on the circle), its gyro (0.002 rad/s noise) and accelerometer on a platform
+/// tilted by `tilt` (roll, pitch; rad), 100 Hz: `(log, true Ω3, true heading rate)` (the
+/// platform turns at the wheels' 2 rad/s plus the spin).
+fn tilted_sphere(tilt: Option<(f64, f64)>) -> (NumericTable, f64, f64) {
+    use omnikin::sphere::{SphereOmni, SphereParams};
+    use omnikin_plan::{Plan, Sample};
+    use omnikin_sim::sensors::{GyroProfile, SensorProfile, TiltProfile, emit, write_encoder_log};
+    use omnikin_sim::{Profile, simulate_trial, trial_rng};
+    let (g, p) = (0.875, 1.22);
+    let profile = Profile::from_toml_str(
+        &format!("[shell_spin]\nslip_gain = {g}\nslip_exponent = {p}\n"),
+        "spin",
+    )
+    .unwrap();
+    let m = SphereOmni::new(SphereParams::preset()).unwrap();
+    let (rt, w0, rate) = (0.2, 2.0, 100.0);
+    let samples = (0..=3000)
+        .map(|k| {
+            let t = k as f64 / rate;
+            let (s, c) = (w0 * t).sin_cos();
+            let pose = Pose2::new(rt * c, rt * s, std::f64::consts::FRAC_PI_2 + w0 * t);
+            let twist = Twist2::new(-rt * w0 * s, rt * w0 * c, w0);
+            Sample {
+                t,
+                pose,
+                twist,
+                wheel_rates: omnikin_plan::per_wheel(
+                    &m.wheel_rates_world(twist, pose.heading, 0.0).unwrap(),
+                ),
+                steer: None,
+            }
+        })
+        .collect();
+    let plan = Plan { wheels: 3, samples };
+    let w = plan.samples[0].wheel_rates;
+    let tw0 = m.body_twist([w[0], w[1], w[2]], 0.0).unwrap();
+    let spin_true = g * tw0.vx.hypot(tw0.vy).powf(p) * (-tw0.yaw_rate);
+    let robot = omnikin::Robot::Sphere(m);
+    let trial = simulate_trial(&robot, &plan, &profile, &mut trial_rng(8, 0)).unwrap();
+    let sensors = SensorProfile {
+        gyro: Some(GyroProfile {
+            noise_std: 0.002,
+            bias: 0.0,
+            bias_std: 0.0,
+        }),
+        tilt: tilt.map(|(roll, pitch)| TiltProfile {
+            roll,
+            pitch,
+            accel_noise_std: 0.05,
+        }),
+        ..SensorProfile::default()
+    };
+    let s = emit(&robot, &trial, &sensors, &mut trial_rng(8, 1));
+    let mut log = Vec::new();
+    write_encoder_log(&s.encoder, &mut log).unwrap();
+    let log = NumericTable::parse(std::str::from_utf8(&log).unwrap(), "log.csv").unwrap();
+    let (a, b) = (trial.pose[0], trial.pose[trial.pose.len() - 1]);
+    let yaw_rate = (b.heading - a.heading) / (trial.t[trial.t.len() - 1] - trial.t[0]);
+    (log, spin_true, yaw_rate)
+}
+
+#[test]
+fn platform_tilt_is_compensated_within_its_bound() {
+    use omnikin_sim::odometry::TiltReport;
+    let description = RobotDescription::preset("sphere-omni").unwrap();
+    let o = OdometryOptions {
+        imu: true,
+        ..OdometryOptions::default()
+    };
+    // Tilted by 0.25 rad roll and −0.15 rad pitch: 0.291 rad.
+    let (roll, pitch) = (0.25, -0.15);
+    let (log, truth, yaw_rate) = tilted_sphere(Some((roll, pitch)));
+    let tilt = (roll.cos() * pitch.cos()).acos();
+    assert!((yaw_rate - (2.0 + truth)).abs() < 1e-3, "{yaw_rate}");
+    let expected_bias = -yaw_rate * (1.0 - tilt.cos());
+    let on = run(&description, &log, None, &o).unwrap().summary;
+    let off = run(
+        &description,
+        &log,
+        None,
+        &OdometryOptions {
+            tilt_compensation: false,
+            ..o
+        },
+    )
+    .unwrap()
+    .summary;
+    let (c, u) = (on.shell_spin.unwrap(), off.shell_spin.unwrap());
+    let TiltReport::Compensated {
+        mean_tilt,
+        tilt_std,
+        spin_std,
+        uncompensated,
+        ..
+    } = c.tilt
+    else {
+        panic!("not compensated: {:?}", c.tilt)
+    };
+    println!(
+        "tilt {tilt:.4} rad: true Ω3 {truth:.4} rad/s; compensated {:.4} ± {:.4} (tilt {mean_tilt:.4} ± \
+         {tilt_std:.4} rad, {spin_std:.4} rad/s of the bound); uncompensated {:.4} ± {:.4} \
+         (bias {:.4}, expected {expected_bias:.4})",
+        c.mean,
+        c.std,
+        u.mean,
+        u.std,
+        u.mean - truth
+    );
+    assert!(matches!(u.tilt, TiltReport::NotCompensated(_)));
+    // The uncompensated estimate carries the tilt bias −ψ̇(1 − cos θ) (within 10 %), the
+    // compensated one is within 3σ of the truth and much closer than the bias.
+    assert!(
+        ((u.mean - truth) - expected_bias).abs() < 0.1 * expected_bias.abs(),
+        "{} vs {expected_bias}",
+        u.mean - truth
+    );
+    assert!(
+        (uncompensated - u.mean).abs() < 2e-3,
+        "{uncompensated} {}",
+        u.mean
+    );
+    assert!((c.mean - truth).abs() < 3.0 * c.std, "{c:?} vs {truth}");
+    assert!(
+        (c.mean - truth).abs() < 0.1 * expected_bias.abs(),
+        "{} vs {truth}",
+        c.mean
+    );
+    assert!(
+        (mean_tilt - tilt).abs() < 3.0 * tilt_std,
+        "{mean_tilt} vs {tilt}"
+    );
+    // Level, with the same columns: the two agree, and the tilt estimate is near 0.
+    let (level, truth, _) = tilted_sphere(Some((0.0, 0.0)));
+    let on = run(&description, &level, None, &o).unwrap().summary;
+    let off = run(
+        &description,
+        &level,
+        None,
+        &OdometryOptions {
+            tilt_compensation: false,
+            ..o
+        },
+    )
+    .unwrap()
+    .summary;
+    let (c, u) = (on.shell_spin.unwrap(), off.shell_spin.unwrap());
+    println!(
+        "level: compensated {:.4} ± {:.4}, uncompensated {:.4}; true {truth:.4}",
+        c.mean, c.std, u.mean
+    );
+    assert!((c.mean - u.mean).abs() < 2e-3, "{c:?} vs {u:?}");
+    assert!((c.mean - truth).abs() < 3.0 * c.std && (c.mean - truth).abs() < 5e-3);
+    let TiltReport::Compensated { mean_tilt, .. } = c.tilt else {
+        panic!("{:?}", c.tilt)
+    };
+    assert!(mean_tilt < 0.01, "{mean_tilt}");
+    // Without accelerometer columns the summary says so.
+    let (plain, _, _) = tilted_sphere(None);
+    let s = run(&description, &plain, None, &o).unwrap().summary;
+    assert!(
+        matches!(s.shell_spin.unwrap().tilt, TiltReport::NotCompensated(why) if why.contains("accel_x")),
+        "{:?}",
+        s.shell_spin
+    );
+}
+
+#[test]
+fn the_robot_files_event_thresholds_decide_and_options_override_them() {
+    use omnikin_sim::odometry::{EventOverrides, ThresholdSource};
+    // The wheel spin (5.0–5.3 s, peak ≈ 1.7 rad/s) and the dead stop (8 s, ≈ 6 m/s²) of
+    // `a_wheel_spin_and_a_sudden_stop_are_one_event_each`, without quantisation.
+    let stop = |t: f64| {
+        if t < 8.0 {
+            twist(t)
+        } else {
+            Twist2::new(0.0, 0.0, 0.0)
+        }
+    };
+    let spin = |i: usize, t: f64| {
+        if i == 0 && (5.0..5.3).contains(&t) {
+            15.0
+        } else {
+            0.0
+        }
+    };
+    let w = world_with(
+        10.0,
+        1000.0,
+        Pose2::new(0.0, 0.0, 0.0),
+        1.0,
+        0.0,
+        stop,
+        spin,
+    );
+    let kinds = |r: &OdometryRun| r.events.iter().map(|e| e.kind).collect::<Vec<_>>();
+    let preset = run(&w.description, &w.log, None, &options(&w, true)).unwrap();
+    assert_eq!(kinds(&preset), [EventKind::Slip, EventKind::Collision]);
+    assert_eq!(
+        preset.summary.event_thresholds.sources,
+        [ThresholdSource::Default; 3]
+    );
+    // A kiwi whose file sets a slip level above the spin and a collision level above the stop.
+    let (_, kiwi) = omnikin::description::PRESETS
+        .iter()
+        .find(|(n, _)| *n == "kiwi")
+        .unwrap();
+    let text = format!("{kiwi}\n[events]\nslip_yaw_rate = 5.0\ncollision_decel = 20.0\n");
+    let strict = RobotDescription::from_toml_str(&text, "strict.toml").unwrap();
+    assert_eq!(strict.events.slip_yaw_rate, Some(5.0));
+    let r = run(&strict, &w.log, None, &options(&w, true)).unwrap();
+    println!("robot file [events]: {:?}", r.events);
+    assert!(r.events.is_empty(), "{:?}", r.events);
+    let t = r.summary.event_thresholds;
+    assert_eq!(
+        t.sources,
+        [
+            ThresholdSource::RobotFile,
+            ThresholdSource::Default,
+            ThresholdSource::RobotFile
+        ]
+    );
+    assert_eq!(t.thresholds.collision_decel, 20.0);
+    // An option overrides the file: the slip is back, the stop still below the file's level.
+    let o = OdometryOptions {
+        events: EventOverrides {
+            slip_yaw_rate: Some(0.3),
+            ..EventOverrides::default()
+        },
+        ..options(&w, true)
+    };
+    let r = run(&strict, &w.log, None, &o).unwrap();
+    assert_eq!(kinds(&r), [EventKind::Slip]);
+    assert!((5.0..5.03).contains(&r.events[0].start), "{:?}", r.events);
+    assert_eq!(
+        r.summary.event_thresholds.sources[0],
+        ThresholdSource::Given
+    );
+}

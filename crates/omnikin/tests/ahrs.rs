@@ -150,3 +150,34 @@ fn bad_input_is_rejected() {
     let att = f.update(0.01, [0.0, 0.0, PI], [0.0; 3], None).unwrap();
     assert!((att.yaw - 0.01 * PI).abs() < 1e-12);
 }
+
+#[test]
+fn from_accel_gives_the_tilt_and_the_vertical_rate_of_a_tilted_turn() {
+    for (roll, pitch, rate) in [(0.25, -0.15, 1.3), (0.0, 0.0, -2.0), (-0.6, 0.4, 0.7)] {
+        let tilt = UnitQuaternion::from_euler_angles(roll, pitch, 0.0);
+        // Still, turning about the world vertical: gravity and the rate in the body frame.
+        let accel = tilt.inverse() * Vector3::new(0.0, 0.0, 9.81);
+        let gyro = tilt.inverse() * Vector3::new(0.0, 0.0, rate);
+        let f = Mahony::from_accel(MahonyGains::default_gains(), 0.0, accel.into()).unwrap();
+        let expected = (f64::cos(roll) * f64::cos(pitch)).acos();
+        assert!(
+            (f.tilt() - expected).abs() < 1e-12,
+            "{} vs {expected}",
+            f.tilt()
+        );
+        let v = f.vertical_rate(gyro.into());
+        assert!((v - rate).abs() < 1e-12, "{v} vs {rate}");
+        // The gyro's z axis alone reads cos(tilt) of it.
+        assert!((gyro.z - rate * expected.cos()).abs() < 1e-12);
+        let up = f.up_in_body();
+        assert!((Vector3::from(up) - accel / 9.81).norm() < 1e-12);
+    }
+    assert_eq!(
+        Mahony::<f64>::from_accel(MahonyGains::default_gains(), 0.0, [0.0; 3]),
+        Err(AhrsError::Degenerate { field: "accel" })
+    );
+    assert!(matches!(
+        Mahony::<f64>::from_accel(MahonyGains::default_gains(), 0.0, [f64::NAN, 0.0, 9.8]),
+        Err(AhrsError::NonFinite { .. })
+    ));
+}

@@ -347,3 +347,45 @@ fn a_byte_order_mark_is_skipped() {
         assert_eq!(d.geometry, RobotDescription::preset(name).unwrap().geometry);
     }
 }
+
+#[test]
+fn events_table_is_read_checked_and_names_the_line() {
+    use omnikin::description::EventSpec;
+    let (_, kiwi) = PRESETS.iter().find(|(n, _)| *n == "kiwi").unwrap();
+    let d = RobotDescription::from_toml_str(kiwi, "kiwi").unwrap();
+    assert_eq!(d.events, EventSpec::default());
+    let text = format!("{kiwi}\n[events]\nslip_yaw_rate = 0.5\nslip_residual = 0.02\n");
+    let d = RobotDescription::from_toml_str(&text, "k.toml").unwrap();
+    let t = d.events.thresholds();
+    assert_eq!(
+        (t.slip_yaw_rate, t.slip_residual, t.collision_decel),
+        (
+            0.5,
+            0.02,
+            omnikin::description::events::DEFAULT_COLLISION_DECEL
+        )
+    );
+    let line_of =
+        |text: &str, key: &str| text.lines().position(|l| l.starts_with(key)).unwrap() + 1;
+    for (bad, rule) in [
+        ("collision_decel = -3.0", "outside the plausible range"),
+        ("collision_decel = 1e9", "outside the plausible range"),
+        ("slip_yaw_rate = nan", "outside the plausible range"),
+        ("colision_decel = 3.0", "unknown field `colision_decel`"),
+        ("slip_yaw_rate = \"big\"", "invalid type"),
+    ] {
+        let text = format!("{kiwi}\n[events]\nslip_residual = 0.5\n{bad}\n");
+        let e = error_of(&text);
+        let key = bad.split(' ').next().unwrap();
+        let line = line_of(&text, key);
+        assert!(e.contains(rule), "{e}");
+        assert!(
+            e.contains(&format!("robots/test.toml:{line}:")),
+            "{e} (line {line})"
+        );
+    }
+    // Any kind has one.
+    let text = sphere_with("[limits]", "[events]\ncollision_decel = 5.0\n\n[limits]");
+    let d = RobotDescription::from_toml_str(&text, "s.toml").unwrap();
+    assert_eq!(d.events.collision_decel, Some(5.0));
+}

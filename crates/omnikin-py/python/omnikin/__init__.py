@@ -192,6 +192,10 @@ def odometry(
     estimate_wheel_scale: bool = True,
     recovery_count: int = 5,
     recovery_spread: float = 0.05,
+    tilt_compensation: bool = True,
+    slip_yaw_rate: Optional[float] = None,
+    slip_residual: Optional[float] = None,
+    collision_decel: Optional[float] = None,
 ) -> Dict[str, Any]:
     """Wheel odometry over an encoder log, fused with camera ``fixes`` when given, as
     ``omnikin odometry`` (the same pipeline, ``omnikin_sim::odometry``).
@@ -208,7 +212,11 @@ def odometry(
     the filter's bias and common wheel-scale states (the CLI's ``--no-gyro-bias-state`` /
     ``--no-wheel-scale-state`` turn them off). ``recovery_count`` rejected fixes in a row
     (1..=16) that agree within ``recovery_spread`` (m) re-initialise the filter, otherwise
-    inflate its covariance. For a
+    inflate its covariance. ``tilt_compensation``: with ``gyro_x, gyro_y, accel_x, accel_y,
+    accel_z`` columns, the heading rate is the body rate about the vertical (the CLI's
+    ``--no-tilt-compensation`` turns it off). ``slip_yaw_rate`` (rad/s), ``slip_residual``
+    (m/s), ``collision_decel`` (m/s²): event thresholds overriding the robot file's
+    ``[events]`` (``None``: the file's, else the default). For a
     dict, an error's line is the row + 1 (line 1 is the header).
 
     Returns ``{"poses": ..., "odometry": ..., "fixes": [...], "summary": {...}}``: ``poses``
@@ -217,7 +225,10 @@ def odometry(
     with its ``result`` (``accepted``, ``rejected``, ``too_late``, ``after_log``) and
     ``mahalanobis2``, and the summary the CLI prints (``heading_source``, ``samples``,
     ``duration_s``, ``path_length_m``, ``end``, ``max_slip_m_s``/``max_slip_t_s``,
-    ``mean_shell_spin_rad_s``, ``fixes`` counters) as a dict. A fix rejected as an outlier
+    ``mean_shell_spin_rad_s``, ``shell_spin_rad_s`` with its ``tilt`` (compensated from
+    ``gyro_x, gyro_y, accel_x, accel_y, accel_z`` log columns, or why not),
+    ``event_thresholds`` with their ``source`` (``option``, ``robot file`` or ``default``),
+    ``fixes`` counters) as a dict. A fix rejected as an outlier
     is also a ``UserWarning``, as the CLI warns.
     """
     r = _native.odometry_native(
@@ -233,6 +244,10 @@ def odometry(
         estimate_wheel_scale=estimate_wheel_scale,
         recovery_count=recovery_count,
         recovery_spread=recovery_spread,
+        tilt_compensation=tilt_compensation,
+        slip_yaw_rate=slip_yaw_rate,
+        slip_residual=slip_residual,
+        collision_decel=collision_decel,
         **_table_args("log", log),
         **_table_args("fixes", fixes),
     )

@@ -134,6 +134,10 @@ def odometry(
     estimate_wheel_scale: bool = True,
     recovery_count: int = 5,
     recovery_spread: float = 0.05,
+    tilt_compensation: bool = True,
+    slip_yaw_rate: Optional[float] = None,
+    slip_residual: Optional[float] = None,
+    collision_decel: Optional[float] = None,
 ) -> Dict[str, Any]:
     """``{"poses": Table, "odometry": Table, "fixes": list, "summary": dict}`` as ``omnikin
     odometry``: ``poses`` the ``--out`` CSV's ``t, x, y, heading`` (world frame; s, m, rad),

@@ -17,8 +17,8 @@ use std::collections::VecDeque;
 
 use omnikin::estimate::odometry::OdometryStep;
 
-/// Detection thresholds. [`Default`]: 0.3 rad/s, 0.05 m/s, 3 m/s², 50 ms window, 10 ms
-/// smoothing, 0.2 s hold.
+/// Detection thresholds. [`Default`]: 0.3 rad/s, 0.05 m/s, 3 m/s² (the robot file's defaults,
+/// [`omnikin::description::events`]), 50 ms window, 10 ms smoothing, 0.2 s hold.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EventThresholds {
     /// Yaw-rate disagreement between wheels and IMU that counts as slip, rad/s (> 0).
@@ -38,9 +38,9 @@ pub struct EventThresholds {
 impl Default for EventThresholds {
     fn default() -> Self {
         Self {
-            slip_yaw_rate: 0.3,
-            slip_residual: 0.05,
-            collision_decel: 3.0,
+            slip_yaw_rate: omnikin::description::events::DEFAULT_SLIP_YAW_RATE,
+            slip_residual: omnikin::description::events::DEFAULT_SLIP_RESIDUAL,
+            collision_decel: omnikin::description::events::DEFAULT_COLLISION_DECEL,
             window: 0.05,
             smoothing: 0.01,
             hold: 0.2,
@@ -48,21 +48,78 @@ impl Default for EventThresholds {
     }
 }
 
-impl EventThresholds {
-    pub(crate) fn check(&self) -> Result<(), (&'static str, f64)> {
-        for (v, name) in [
-            (self.slip_yaw_rate, "events.slip_yaw_rate"),
-            (self.slip_residual, "events.slip_residual"),
-            (self.collision_decel, "events.collision_decel"),
-            (self.window, "events.window"),
-            (self.smoothing, "events.smoothing"),
-            (self.hold, "events.hold"),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err((name, v));
-            }
+/// Thresholds given to the pipeline that override the robot file's `[events]` (`None`: the
+/// robot file's value, else the default). Each must be finite and > 0.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EventOverrides {
+    /// As [`EventThresholds::slip_yaw_rate`], rad/s.
+    pub slip_yaw_rate: Option<f64>,
+    /// As [`EventThresholds::slip_residual`], m/s.
+    pub slip_residual: Option<f64>,
+    /// As [`EventThresholds::collision_decel`], m/s².
+    pub collision_decel: Option<f64>,
+}
+
+/// Where a threshold came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ThresholdSource {
+    /// Given to the pipeline ([`EventOverrides`]; a command-line flag).
+    Given,
+    /// The robot file's `[events]` table.
+    RobotFile,
+    /// Neither: the default.
+    Default,
+}
+
+/// The thresholds a run used, and where each of the three came from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ResolvedThresholds {
+    /// The values.
+    pub thresholds: EventThresholds,
+    /// Sources of `slip_yaw_rate`, `slip_residual`, `collision_decel`, in that order.
+    pub sources: [ThresholdSource; 3],
+}
+
+impl ResolvedThresholds {
+    /// Override > robot file > default, per threshold.
+    pub fn resolve(given: &EventOverrides, file: &omnikin::description::EventSpec) -> Self {
+        let pick = |g: Option<f64>, f: Option<f64>, d: f64| match (g, f) {
+            (Some(v), _) => (v, ThresholdSource::Given),
+            (None, Some(v)) => (v, ThresholdSource::RobotFile),
+            (None, None) => (d, ThresholdSource::Default),
+        };
+        let d = EventThresholds::default();
+        let (a, sa) = pick(given.slip_yaw_rate, file.slip_yaw_rate, d.slip_yaw_rate);
+        let (b, sb) = pick(given.slip_residual, file.slip_residual, d.slip_residual);
+        let (c, sc) = pick(
+            given.collision_decel,
+            file.collision_decel,
+            d.collision_decel,
+        );
+        Self {
+            thresholds: EventThresholds {
+                slip_yaw_rate: a,
+                slip_residual: b,
+                collision_decel: c,
+                ..d
+            },
+            sources: [sa, sb, sc],
         }
-        Ok(())
+    }
+
+    /// `(name, value, unit, source)` of the three, for a summary.
+    pub fn rows(&self) -> [(&'static str, f64, &'static str, ThresholdSource); 3] {
+        let t = &self.thresholds;
+        [
+            ("slip_yaw_rate", t.slip_yaw_rate, "rad/s", self.sources[0]),
+            ("slip_residual", t.slip_residual, "m/s", self.sources[1]),
+            (
+                "collision_decel",
+                t.collision_decel,
+                "m/s²",
+                self.sources[2],
+            ),
+        ]
     }
 }
 

@@ -9,7 +9,10 @@
 //!
 //! * Log: `t,q1..qN` cumulative wheel angles (rad, or counts with
 //!   [`OdometryOptions::counts_per_rev`]), one per wheel of the robot; `s1..sN` steer angles for
-//!   the steerable kinds (caster3, swerve); optional `gyro_z` (rad/s) and `yaw` (rad).
+//!   the steerable kinds (caster3, swerve); optional `gyro_z` (rad/s) and `yaw` (rad); optional
+//!   `gyro_x,gyro_y` (rad/s) and `accel_x,accel_y,accel_z` (m/s², specific force), platform
+//!   frame: with `gyro_z` the heading rate is the body rate about the vertical, the platform's
+//!   tilt from the accelerometer ([`tilt`]).
 //! * Fixes: `t,x,y` (s, m, m; world frame) with optional `heading` (rad) and `arrival` (s; when
 //!   the fix reached the robot, default `t`). Each fix is handed to the filter when it arrives
 //!   and fused at the time it was taken.
@@ -28,7 +31,10 @@ use omnikin::{MAX_WHEELS, Pose2};
 use crate::table::{NumericTable, TableError};
 
 pub mod events;
-pub use events::{EventKind, EventThresholds, OdometryEvent};
+pub mod tilt;
+pub use events::{
+    EventKind, EventOverrides, EventThresholds, OdometryEvent, ResolvedThresholds, ThresholdSource,
+};
 
 /// Entries of the filter's history (sized by time: half of them cover
 /// [`OdometryOptions::max_latency`] whatever the encoder rate).
@@ -63,8 +69,13 @@ pub struct OdometryOptions {
     /// Spread within which a run of rejected fixes counts as agreeing (re-initialise, else
     /// inflate the covariance), m (> 0). Default 0.05.
     pub recovery_spread: f64,
-    /// Slip and collision thresholds. Default [`EventThresholds::default`].
-    pub events: EventThresholds,
+    /// With `gyro_x,gyro_y,accel_x,accel_y,accel_z` columns and the heading from `gyro_z`:
+    /// estimate the platform's tilt and use the body rate about the vertical as the heading
+    /// rate ([`tilt`]). Default `true`.
+    pub tilt_compensation: bool,
+    /// Slip and collision thresholds that override the robot file's `[events]` table (which
+    /// overrides [`EventThresholds::default`]). Default: none.
+    pub events: EventOverrides,
 }
 
 impl Default for OdometryOptions {
@@ -81,7 +92,8 @@ impl Default for OdometryOptions {
             estimate_wheel_scale: true,
             recovery_count: 5,
             recovery_spread: 0.05,
-            events: EventThresholds::default(),
+            tilt_compensation: true,
+            events: EventOverrides::default(),
         }
     }
 }
@@ -283,6 +295,9 @@ pub struct OdometrySummary {
     pub shell_spin_unobservable: Option<&'static str>,
     /// Fix counters, when fixes were given.
     pub fixes: Option<FixSummary>,
+    /// The slip and collision thresholds used, and where each came from (the options, the
+    /// robot file's `[events]`, the default).
+    pub event_thresholds: ResolvedThresholds,
 }
 
 /// The mean shell (sphere) or ball (ballbot) spin about the vertical over the log,
@@ -291,8 +306,9 @@ pub struct OdometrySummary {
 ///
 /// The 1-σ bound combines the scatter of the per-second means, the gyro-bias and wheel-scale
 /// uncertainty (the filter's, or its priors 0.02 rad/s and 0.05 without fixes) and their
-/// correlation. Platform tilt is not compensated: on a tilted platform the gyro's z axis is not
-/// vertical and `Ω3` is biased by about `ψ̇·(1 − cos tilt)`.
+/// correlation, and the platform tilt's uncertainty when it is compensated ([`TiltReport`]).
+/// Without compensation, on a tilted platform the gyro's z axis is not vertical and `Ω3` is
+/// biased by about `−ψ̇·(1 − cos tilt)`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShellSpin {
     /// Mean `Ω3`, rad/s, corrected.
@@ -303,6 +319,31 @@ pub struct ShellSpin {
     pub uncorrected: f64,
     /// Whether the filter's bias and scale estimates (from fixes) were used, not their priors.
     pub from_fixes: bool,
+    /// Whether the platform tilt was compensated, and its figures.
+    pub tilt: TiltReport,
+}
+
+/// The platform tilt behind an `Ω3` estimate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TiltReport {
+    /// The heading rate was the body rate about the vertical ([`tilt`]).
+    Compensated {
+        /// Mean tilt over the log, rad.
+        mean_tilt: f64,
+        /// Largest tilt, rad.
+        max_tilt: f64,
+        /// 1-σ of the tilt estimate, rad.
+        tilt_std: f64,
+        /// Its share of [`ShellSpin::std`], rad/s (first order: `tilt_std` times the mean
+        /// horizontal body rate; second order: the mean heading rate times `tilt_std²`).
+        spin_std: f64,
+        /// `Ω3` as it would be with `gyro_z` as the heading rate (bias and scale corrected the
+        /// same way), rad/s: the bias the compensation removed is `mean − uncompensated`.
+        uncompensated: f64,
+    },
+    /// Not compensated, and why (no accelerometer columns, no 3-axis gyro, switched off, or
+    /// an absolute `yaw` heading).
+    NotCompensated(&'static str),
 }
 
 /// The result of [`run`].
@@ -393,11 +434,16 @@ fn check_options(o: &OdometryOptions) -> Result<(), OdometryError> {
             format!("must be in 1..=16, got {}", o.recovery_count),
         );
     }
-    if let Err((name, v)) = o.events.check() {
-        return bad(
-            "events",
-            format!("{name} must be a finite number > 0, got {v}"),
-        );
+    for (v, name) in [
+        (o.events.slip_yaw_rate, "events.slip_yaw_rate"),
+        (o.events.slip_residual, "events.slip_residual"),
+        (o.events.collision_decel, "events.collision_decel"),
+    ] {
+        if let Some(v) = v
+            && !(v.is_finite() && v > 0.0)
+        {
+            return bad(name, format!("must be a finite number > 0, got {v}"));
+        }
     }
     if !o.gyro_bias.is_finite() {
         return bad("gyro_bias", format!("must be finite, got {}", o.gyro_bias));
@@ -517,11 +563,13 @@ pub fn run(
             ));
         }
     }
+    #[derive(Clone, Copy)]
     enum Source {
         Wheels,
         Gyro(usize),
         Yaw(usize),
     }
+    let inertial_cols = ["gyro_x", "gyro_y", "accel_x", "accel_y", "accel_z"].map(|c| log.col(c));
     let source = match (options.imu, log.col("yaw"), log.col("gyro_z")) {
         (false, _, _) => Source::Wheels,
         (true, Some(y), _) => Source::Yaw(y),
@@ -536,6 +584,27 @@ pub fn run(
                 ),
             ));
         }
+    };
+    let has_accel = inertial_cols[2..].iter().all(Option::is_some);
+    let has_gyro_xy = inertial_cols[..2].iter().all(Option::is_some);
+    // The columns of the 3-axis gyro and the accelerometer, when the tilt is compensated.
+    let (inertial, tilt_note) = match source {
+        Source::Wheels => (None, "the heading comes from the wheels"),
+        Source::Yaw(_) => (
+            None,
+            "the yaw column is taken as the heading about the vertical as given",
+        ),
+        Source::Gyro(_) if !has_accel => (
+            None,
+            "no accel_x,accel_y,accel_z columns: gyro_z taken as the heading rate",
+        ),
+        Source::Gyro(_) if !has_gyro_xy => (
+            None,
+            "accel columns but no gyro_x,gyro_y: the body rate cannot be projected on the \
+             vertical",
+        ),
+        Source::Gyro(_) if !options.tilt_compensation => (None, "switched off"),
+        Source::Gyro(_) => (Some(inertial_cols.map(|c| c.unwrap_or(0))), ""),
     };
     if log.rows.is_empty() {
         return Err(input(&log.file, None, "no samples after the header".into()));
@@ -598,8 +667,12 @@ pub fn run(
     let mut blocks: Vec<f64> = Vec::new();
     let mut block = (0.0f64, 0usize, t0);
     let mut path = 0.0;
+    let mut tilt_tracker = inertial.map(|_| tilt::TiltTracker::new());
+    // Sum of (vertical rate − gyro_z) over the samples with a spin: the uncompensated Ω3.
+    let mut tilt_difference_sum = 0.0f64;
+    let thresholds = ResolvedThresholds::resolve(&options.events, &description.events);
     let mut detector = events::Detector::new(
-        options.events,
+        thresholds.thresholds,
         !matches!(source, Source::Wheels),
         odo.robot().motors() > 3,
     );
@@ -644,22 +717,49 @@ pub fn run(
             Source::Gyro(g) => bounded(g, omnikin_plan::limits::MAX_PLAN_RATE, "rad/s")?,
             Source::Yaw(y) => bounded(y, omnikin_plan::limits::MAX_HEADING, "rad")?,
         }
-        let heading = match source {
-            Source::Wheels => HeadingInput::Wheels,
-            Source::Gyro(g) => HeadingInput::GyroRate(at(g) - options.gyro_bias),
-            Source::Yaw(y) => HeadingInput::Absolute(at(y)),
+        if let Some(c) = inertial {
+            for &col in &c[..2] {
+                bounded(col, omnikin_plan::limits::MAX_PLAN_RATE, "rad/s")?;
+            }
+            for &col in &c[2..] {
+                bounded(col, omnikin_plan::limits::ACCEL_RANGE.1, "m/s²")?;
+            }
+        }
+        let heading = match (source, inertial, tilt_tracker.as_mut()) {
+            (Source::Wheels, _, _) => HeadingInput::Wheels,
+            (Source::Gyro(g), Some(c), Some(tracker)) => {
+                let gyro = [at(c[0]), at(c[1]), at(g) - options.gyro_bias];
+                let rate = tracker
+                    .step(t, gyro, [at(c[2]), at(c[3]), at(c[4])])
+                    .map_err(|e| {
+                        input(
+                            &log.file,
+                            Some(line),
+                            format!("columns accel_x,accel_y,accel_z: {e}"),
+                        )
+                    })?;
+                HeadingInput::GyroRate(rate)
+            }
+            (Source::Gyro(g), _, _) => HeadingInput::GyroRate(at(g) - options.gyro_bias),
+            (Source::Yaw(y), _, _) => HeadingInput::Absolute(at(y)),
         };
         let step = odo
             .update(&reading, heading)
             .map_err(|e| input(&log.file, Some(line), e.to_string()))?;
         path += step.delta.x.hypot(step.delta.y);
         detector.step(&step);
+        if let Some(tracker) = tilt_tracker.as_mut() {
+            tracker.after_step(&step);
+        }
         if step.slip_residual > max_slip.0 {
             max_slip = (step.slip_residual, t);
         }
         if let Some(x) = step.shell_spin {
             spin_sum = (spin_sum.0 + x, spin_sum.1 + 1);
             wheel_rate_sum += step.twist.yaw_rate - x;
+            if let Some(tracker) = &tilt_tracker {
+                tilt_difference_sum += tracker.last_difference;
+            }
             block = (block.0 + x, block.1 + 1, block.2);
             if t - block.2 >= 1.0 {
                 blocks.push(block.0 / block.1 as f64);
@@ -791,12 +891,28 @@ pub fn run(
                 vk
             };
             // Ω3 = raw − b − (k − 1)·w;  ∂/∂b = −1, ∂/∂k = −w.
-            let var = vb + w * w * vk + 2.0 * w * cbk + scatter * scatter;
+            let mut var = vb + w * w * vk + 2.0 * w * cbk + scatter * scatter;
+            let mean = raw - b - (k - 1.0) * w;
+            let tilt = match tilt_tracker.as_ref().and_then(tilt::TiltTracker::figures) {
+                Some(f) => {
+                    let spin_std = f.rate_std();
+                    var += spin_std * spin_std;
+                    TiltReport::Compensated {
+                        mean_tilt: f.mean_tilt,
+                        max_tilt: f.max_tilt,
+                        tilt_std: f.tilt_std,
+                        spin_std,
+                        uncompensated: mean - tilt_difference_sum / n,
+                    }
+                }
+                None => TiltReport::NotCompensated(tilt_note),
+            };
             ShellSpin {
-                mean: raw - b - (k - 1.0) * w,
+                mean,
                 std: var.max(0.0).sqrt(),
                 uncorrected: raw,
                 from_fixes,
+                tilt,
             }
         }),
         shell_spin_unobservable: (odo.robot().kind().has_vertical_spin()
@@ -805,6 +921,7 @@ pub fn run(
             "the heading comes from the wheels, so the spin is assumed (0), not measured: use --imu",
         ),
         fixes: fix_summary,
+        event_thresholds: thresholds,
     };
     Ok(OdometryRun {
         columns,

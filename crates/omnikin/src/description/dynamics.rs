@@ -196,7 +196,7 @@ pub(super) enum Parsed {
 
 /// The 1-based line of `key = …` inside the section `[section]` of `text` (or of the section
 /// header when the key is not found there), for error messages.
-fn key_line(text: &str, section: &str, key: &str) -> Option<usize> {
+pub(super) fn key_line(text: &str, section: &str, key: &str) -> Option<usize> {
     let header = format!("[{section}]");
     let lines: std::vec::Vec<&str> = text.lines().collect();
     let start = lines

@@ -20,6 +20,10 @@
 //! [dynamics]                      # optional, sphere-omni and ballbot: see SphereDynamicsSpec,
 //!                                 # BallbotDynamicsSpec
 //! platform_mass = 2.0             # kg
+//!
+//! [events]                        # optional, any kind: slip and collision thresholds
+//! slip_yaw_rate = 0.3             # rad/s (see EventSpec)
+//! collision_decel = 3.0           # m/s²
 //! ```
 //!
 //! Loading validates everything and reports the first problem as a [`DescriptionError`] that
@@ -44,12 +48,14 @@ use crate::{Kind, Real, Robot};
 
 mod ballbot_dynamics;
 mod dynamics;
+pub mod events;
 mod schema;
 
 pub use ballbot_dynamics::{
     BallbotDynamicsSpec, DEFAULT_LEAN_MARGIN, DEFAULT_MAX_TILT_DEG, WeightsSpec,
 };
 pub use dynamics::SphereDynamicsSpec;
+pub use events::{EventLevels, EventSpec};
 
 use schema::{Header, KINDS};
 
@@ -211,6 +217,9 @@ pub struct RobotDescription {
     pub sphere_dynamics: Option<SphereDynamicsSpec>,
     /// The `[dynamics]` table of a `ballbot` file (see [`BallbotDynamicsSpec`]), if any.
     pub ballbot_dynamics: Option<BallbotDynamicsSpec>,
+    /// The `[events]` table: slip and collision thresholds as given (all `None` without one;
+    /// [`EventSpec::thresholds`] fills in the defaults).
+    pub events: EventSpec,
 }
 
 impl RobotDescription {
@@ -291,6 +300,7 @@ impl RobotDescription {
                 dynamics::Parsed::Sphere(s) => (Some(s), None),
                 dynamics::Parsed::Ballbot(b) => (None, Some(b)),
             };
+        let events = events::parse(text, &err, &de_err)?;
         for (field, value) in [
             ("limits.max_wheel_rate", limits.max_wheel_rate),
             ("limits.max_wheel_accel", limits.max_wheel_accel),
@@ -376,6 +386,7 @@ impl RobotDescription {
             limits,
             sphere_dynamics,
             ballbot_dynamics,
+            events,
         })
     }
 

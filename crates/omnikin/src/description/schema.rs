@@ -39,6 +39,9 @@ struct File<G> {
     /// Parsed and checked per kind by `super::dynamics`.
     #[allow(dead_code)]
     dynamics: Option<toml::Value>,
+    /// Parsed and checked by `super::events`.
+    #[allow(dead_code)]
+    events: Option<toml::Value>,
 }
 
 /// One value for all three wheels, or one per wheel (a list, whose length is checked after

@@ -152,6 +152,58 @@ impl<T: Real> Mahony<T> {
         })
     }
 
+    /// A filter initialised from one still accelerometer reading, without a magnetometer: roll
+    /// and pitch from gravity (`roll = atan2(a_y, a_z)`, `pitch = atan2(−a_x, √(a_y² + a_z²))`),
+    /// yaw 0. For a platform whose tilt matters and whose heading comes from elsewhere
+    /// (wheels, camera): [`Mahony::update`] with `mag = None` then integrates the yaw.
+    ///
+    /// # Errors
+    /// [`AhrsError::NonFinite`], or [`AhrsError::Degenerate`] for a zero reading.
+    pub fn from_accel(
+        gains: MahonyGains<T>,
+        field_azimuth: T,
+        accel: [T; 3],
+    ) -> Result<Self, AhrsError> {
+        let a = vec3(accel, "accel")?;
+        if !field_azimuth.is_finite() {
+            return Err(AhrsError::NonFinite {
+                field: "field_azimuth",
+            });
+        }
+        if a.norm() <= T::zero() {
+            return Err(AhrsError::Degenerate { field: "accel" });
+        }
+        let roll = a.y.atan2(a.z);
+        let pitch = (-a.x).atan2(a.y.hypot(a.z));
+        Ok(Self {
+            q: UnitQuaternion::from_euler_angles(roll, pitch, T::zero()),
+            bias: Vector3::zeros(),
+            gains,
+            field_azimuth,
+        })
+    }
+
+    /// The tilt: angle between the body's z axis and the world vertical, rad, in [0, π].
+    pub fn tilt(&self) -> T {
+        let z = self.q * Vector3::z();
+        z.z.max(-T::one()).min(T::one()).acos()
+    }
+
+    /// The body rate `gyro` (raw, rad/s, body frame) less the estimated bias, projected onto
+    /// the world vertical: `e₃ᵀ R (ω − b̂)`, rad/s. This is the heading rate of a tilted body
+    /// (the gyro's z axis alone reads `cos(tilt)` of it when the body turns about the
+    /// vertical); it depends on roll and pitch only, not on the (unobserved) yaw.
+    pub fn vertical_rate(&self, gyro: [T; 3]) -> T {
+        let w = Vector3::from(gyro) - self.bias;
+        (self.q * w).z
+    }
+
+    /// The unit vector of the world vertical in the body frame, `Rᵀ e₃` (the direction the
+    /// accelerometer reads gravity in when the body does not accelerate).
+    pub fn up_in_body(&self) -> [T; 3] {
+        (self.q.inverse() * Vector3::z()).into()
+    }
+
     /// The orientation, body → world.
     pub fn quaternion(&self) -> UnitQuaternion<T> {
         self.q
