@@ -109,10 +109,13 @@ mod status;
 
 use crate::Real;
 pub use balance::{BalanceRuntime, BalanceRuntimeConfig, BalanceStatus};
-pub use command::{Command, CommandError, Frame, PlanPoint};
+pub use command::{
+    CameraFix, Command, CommandError, FIX_HISTORY, FIX_MAX_COORDINATE, FIX_MAX_STD_XY, Frame,
+    PlanPoint,
+};
 pub use config::{Config, ConfigError, RATE_HZ_RANGE};
 pub use controller::Runtime;
-pub use status::{Faults, Mode, PlanStatus, Status};
+pub use status::{Faults, FixCounters, Mode, PlanStatus, Status};
 
 /// A runtime the operator link drives ([`crate::link::serve`], [`crate::link::robot_info`]):
 /// the rate runtime ([`Runtime`]) and the balance runtime ([`BalanceRuntime`]). One command
