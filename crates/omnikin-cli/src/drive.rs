@@ -343,10 +343,8 @@ impl Session {
                 Ok(OperatorEvent::Message {
                     msg: Message::Estimate(e),
                     ..
-                }) => {
-                    if self.estimate.is_none_or(|l| e.time_us >= l.time_us) {
-                        self.estimate = Some(e);
-                    }
+                }) if self.estimate.is_none_or(|l| e.time_us >= l.time_us) => {
+                    self.estimate = Some(e);
                 }
                 Err(DropReason::Version(1)) => {
                     // Read without the key: only to name the mismatch, never acted upon.

@@ -55,7 +55,7 @@ impl Wire {
     }
 
     /// Frame bytes (delimiter included) into the robot, and the message served.
-    fn to_robot<const N: usize>(
+    fn deliver<const N: usize>(
         &mut self,
         frame: &[u8],
         rt: &mut Runtime<f64, N>,
@@ -87,19 +87,19 @@ impl Wire {
 
     fn send<const N: usize>(&mut self, m: &Message, rt: &mut Runtime<f64, N>, now: u64) {
         let f = self.encode(m);
-        self.to_robot(&f, rt, now).unwrap();
+        self.deliver(&f, rt, now).unwrap();
     }
 
     fn connect<const N: usize>(&mut self, rt: &mut Runtime<f64, N>) {
         let mut buf = [0u8; MAX_FRAME];
         let n = self.op.hello(&mut self.rng, &mut buf).unwrap();
-        self.to_robot(&buf[..n], rt, 0).unwrap();
+        self.deliver(&buf[..n], rt, 0).unwrap();
         self.send(&Message::Heartbeat, rt, 0);
         assert!(self.robot.session_id().is_some());
     }
 
     /// A robot → operator message through the link, decoded on the operator's side.
-    fn to_operator(&mut self, m: &Message) -> Message {
+    fn back(&mut self, m: &Message) -> Message {
         let mut buf = [0u8; MAX_FRAME];
         let n = self.robot.encode(m, &mut buf).unwrap();
         match self.op.receive(&mut buf[..n - 1]).unwrap() {
@@ -198,11 +198,10 @@ fn circle(fixes: bool) -> Run {
         if k % 5 == 0 {
             let rf = rt.fusion();
             let e = Estimate::new(&status, rf.gyro_bias().0, rf.wheel_scale().0);
-            let Message::Estimate(e) = w.to_operator(&Message::Estimate(e)) else {
+            let Message::Estimate(e) = w.back(&Message::Estimate(e)) else {
                 panic!()
             };
-            let Message::Telemetry(t) =
-                w.to_operator(&Message::Telemetry(w.robot.telemetry(&status)))
+            let Message::Telemetry(t) = w.back(&Message::Telemetry(w.robot.telemetry(&status)))
             else {
                 panic!()
             };
@@ -299,7 +298,7 @@ fn a_forged_or_replayed_fix_is_dropped_and_counted() {
         &mut buf,
     )
     .unwrap();
-    assert_eq!(w.to_robot(&buf[..n], &mut rt, now), Err(DropReason::Auth));
+    assert_eq!(w.deliver(&buf[..n], &mut rt, now), Err(DropReason::Auth));
     // A genuine fix, then the same frame again (a replay).
     let good = w.encode(&Message::Fix(WireFix {
         capture_us: now,
@@ -309,9 +308,9 @@ fn a_forged_or_replayed_fix_is_dropped_and_counted() {
         std_xy: 0.01,
         std_heading: 0.0,
     }));
-    w.to_robot(&good, &mut rt, now).unwrap();
+    w.deliver(&good, &mut rt, now).unwrap();
     assert!(matches!(
-        w.to_robot(&good, &mut rt, now),
+        w.deliver(&good, &mut rt, now),
         Err(DropReason::Replay(_))
     ));
     let c = w.robot.counters();
@@ -364,4 +363,97 @@ fn a_forged_or_replayed_fix_is_dropped_and_counted() {
         "{e}"
     );
     assert_eq!(rt.rejected(), 3);
+}
+
+/// `omnikin robot --sim` at rest at the origin, and fixes saying it stands at (0.3, −0.2):
+/// the robot was put down elsewhere than its runtime assumes. `drive telemetry --fixes FILE`
+/// forwards them at their arrival times; the runtime rejects the first ones (its pose is
+/// "known"), recovers by re-initialising at the agreeing fixes, then fuses the rest. One
+/// outlier is gated, one fix arrives too late.
+#[test]
+fn drive_forwards_fixes_from_a_csv_and_the_robot_counts_them() {
+    let dir = common::tmp("fixes", "forward");
+    let fixes = dir.join("fixes.csv");
+    let tele = dir.join("telemetry.csv");
+    let mut csv = String::from("t,x,y,arrival\n");
+    let mut n = 0;
+    for k in 0..31 {
+        let t = 6.0 + 0.1 * k as f64;
+        let x = if k == 20 { 5.0 } else { 0.3 };
+        csv += &format!("{t:.1},{x},-0.2,{t:.1}\n");
+        n += 1;
+        if k == 25 {
+            // Taken at 6.05 s, arrived 1.5 s later: older than max_latency (1 s).
+            csv += "6.05,0.3,-0.2,8.55\n";
+            n += 1;
+        }
+    }
+    std::fs::write(&fixes, csv).unwrap();
+    let robot = common::Robot::start(&["--max-time", "16"]);
+    let out = common::drive(
+        &robot.addr,
+        "2",
+        &[
+            "--fixes",
+            fixes.to_str().unwrap(),
+            "telemetry",
+            "--out",
+            tele.to_str().unwrap(),
+            "--for",
+            "1.5",
+        ],
+    );
+    assert!(out.status.success());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let want = format!(
+        "fixes: {n} sent from {}; robot: accepted 26, rejected 5, too late 1, recoveries 1",
+        fixes.display()
+    );
+    assert!(stdout.contains(&want), "want `{want}` in\n{stdout}");
+    let summary = robot.summary();
+    assert_eq!(summary["fixes"]["accepted"], 26);
+    assert_eq!(summary["link"]["dropped"], 0);
+    // The runtime's pose moved to the fixes; the wheel odometry did not.
+    let p = &summary["pose"];
+    let (x, y) = (p[0].as_f64().unwrap(), p[1].as_f64().unwrap());
+    assert!((x - 0.3).hypot(y + 0.2) < 0.005, "pose ({x}, {y})");
+    let o = &summary["fixes"]["odometry_pose"];
+    assert!(o[0].as_f64().unwrap().abs() < 1e-9 && o[1].as_f64().unwrap().abs() < 1e-9);
+    // The telemetry CSV carries the estimate columns.
+    let rows = common::read_rows(&tele);
+    let last = rows.last().unwrap();
+    assert_eq!(last["fix_accepted"], "26");
+    assert_eq!(last["fix_recoveries"], "1");
+    assert!(common::num(last, "var_x") > 0.0 && common::num(last, "var_x") < 1e-4);
+    assert!((common::num(last, "x") - 0.3).abs() < 0.005);
+}
+
+/// A bad line on stdin ends the run with its line and column named.
+#[test]
+fn a_bad_fix_line_on_stdin_names_its_line() {
+    let robot = common::Robot::start(&["--max-time", "16"]);
+    let mut child = std::process::Command::new(common::BIN)
+        .args(["drive", "--connect", &robot.addr, "--fixes", "-"])
+        .args(["telemetry", "--out"])
+        .arg(common::tmp("fixes", "stdin").join("t.csv"))
+        .args(["--for", "1"])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    use std::io::Write;
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(b"t,x,y,heading\n1.0,0,0,0.1\n1.1,0,abc,0.1\n")
+        .unwrap();
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("--fixes: stdin:3: column y: `abc` is not a number"),
+        "{stderr}"
+    );
 }
