@@ -699,9 +699,7 @@ impl Session {
                         // it) verifies under the shared K_s but is dropped as malformed before
                         // it can move the replay window.
                         Ok(
-                            Message::Telemetry(_)
-                            | Message::SessionEnd(_)
-                            | Message::Estimate(_),
+                            Message::Telemetry(_) | Message::SessionEnd(_) | Message::Estimate(_),
                         ) => Some(Reason::Malformed),
                         Ok(_) => None,
                     }
