@@ -499,7 +499,16 @@ impl Session {
         if let Some(f) = &self.fixes {
             crate::outln!("{}", f.report(self.estimate.map(|e| e.fixes)))?;
         }
-        if let (Some(e), Some(t)) = (&self.estimate, &self.latest) {
+        // The estimate line once fixes are in play (this run forwards them, or the robot has
+        // had some): before that the pose is the wheel odometry and the line says nothing new.
+        let fixes_seen = |e: &Estimate| {
+            let f = e.fixes;
+            self.fixes.is_some() || f.accepted + f.rejected + f.too_late > 0
+        };
+        if let (Some(e), Some(t)) = (
+            self.estimate.as_ref().filter(|e| fixes_seen(e)),
+            &self.latest,
+        ) {
             crate::outln!(
                 "robot estimate: pose ({:.4} m, {:.4} m, {:.4} rad) ± ({:.4} m, {:.4} m, {:.4} rad) 1σ; wheel odometry ({:.4} m, {:.4} m, {:.4} rad)",
                 t.pose[0],
