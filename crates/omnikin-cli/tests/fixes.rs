@@ -162,15 +162,16 @@ fn circle(fixes: bool) -> Run {
         vy: 0.0,
         yaw_rate: 0.4,
     };
-    drive(fixes, &vel, 3000, false)
+    drive(fixes, std::slice::from_ref(&vel), &vel, 3000, false)
 }
 
 /// `cycles` at 100 Hz of the velocity command `vel` on the drifting board (see [`circle`]);
 /// `heading`: the fixes carry the true heading too (σ 0.01 rad).
-fn drive(fixes: bool, vel: &Message, cycles: u64, heading: bool) -> Run {
+/// `start` is sent at the first cycle, `repeat` every 0.1 s after it.
+fn drive(fixes: bool, start: &[Message], repeat: &Message, cycles: u64, heading: bool) -> Run {
     let robot = sphere();
     let mut rt =
-        Box::new(Runtime::<f64, 64>::new(robot, Config::new(100.0), Pose2::default()).unwrap());
+        Box::new(Runtime::<f64, 256>::new(robot, Config::new(100.0), Pose2::default()).unwrap());
     let profile = Profile::from_toml_str(DRIFT_PROFILE, "drift.toml").unwrap();
     let mut plant = SilPlant::new(robot, profile, 7, Pose2::default());
     let mut w = Wire::new(&rt);
@@ -181,8 +182,12 @@ fn drive(fixes: bool, vel: &Message, cycles: u64, heading: bool) -> Run {
     let mut last: Option<(Telemetry, Estimate, Pose2<f64>)> = None;
     for k in 0..cycles {
         let now = plant.time_us();
-        if k % 10 == 0 {
-            w.send(vel, &mut rt, now);
+        if k == 0 {
+            for m in start {
+                w.send(m, &mut rt, now);
+            }
+        } else if k % 10 == 0 {
+            w.send(repeat, &mut rt, now);
         }
         while fixes && queue.front().is_some_and(|(at, _)| *at <= now) {
             let (_, f) = queue.pop_front().unwrap();
@@ -248,8 +253,8 @@ fn with_fixes_a_world_frame_command_keeps_the_robot_near_its_line() {
         vy: 0.0,
         yaw_rate: 0.0,
     };
-    let without = drive(false, &vel, 2000, true);
-    let with = drive(true, &vel, 2000, true);
+    let without = drive(false, std::slice::from_ref(&vel), &vel, 2000, true);
+    let with = drive(true, std::slice::from_ref(&vel), &vel, 2000, true);
     println!(
         "world-frame 0.3 m/s along x for 20 s: true y at the end {:.4} m without fixes, {:.4} m with (true x {:.3} / {:.3} m)",
         without.truth.y, with.truth.y, without.truth.x, with.truth.x
@@ -496,5 +501,59 @@ fn a_bad_fix_line_on_stdin_names_its_line() {
     assert!(
         stderr.contains("--fixes: stdin:3: column y: `abc` is not a number"),
         "{stderr}"
+    );
+}
+
+/// A plan followed with pose feedback tracks the fused pose: a 6 m straight line along the
+/// world x axis at 0.3 m/s on the drifting board, uploaded over the link, ends far from its
+/// end point on the wheels alone and at it with fixes (position and heading).
+#[test]
+fn with_fixes_a_plan_is_tracked_in_the_world() {
+    use omnikin::link::{CHUNK_POINTS, WirePoint};
+    let points: Vec<WirePoint> = (0..=200)
+        .map(|k| {
+            let t = 0.1 * k as f32;
+            WirePoint {
+                t,
+                pose: [0.3 * t, 0.0, 0.0],
+                twist: [if k < 200 { 0.3 } else { 0.0 }, 0.0, 0.0],
+            }
+        })
+        .collect();
+    let mut start = vec![Message::PlanBegin {
+        id: 7,
+        len: points.len() as u16,
+    }];
+    for (k, c) in points.chunks(CHUNK_POINTS).enumerate() {
+        start.push(Message::PlanChunk {
+            id: 7,
+            offset: (k * CHUNK_POINTS) as u16,
+            points: omnikin::link::heapless::Vec::from_slice(c).unwrap(),
+        });
+    }
+    start.push(Message::PlanStart { id: 7 });
+    let end = |r: &Run| (r.truth.x - 6.0).hypot(r.truth.y);
+    let without = drive(false, &start, &Message::Heartbeat, 2300, true);
+    let with = drive(true, &start, &Message::Heartbeat, 2300, true);
+    println!(
+        "plan 6 m along x: true end {:.4} m from the plan's end without fixes ({:.3}, {:.3}), {:.4} m with ({:.3}, {:.3}); telemetry pose error {:.4} m",
+        end(&without),
+        without.truth.x,
+        without.truth.y,
+        end(&with),
+        with.truth.x,
+        with.truth.y,
+        with.final_fused
+    );
+    assert_eq!(without.estimate.fixes.accepted, 0);
+    assert!(
+        end(&with) < 0.03,
+        "with fixes the plan ends {} m off",
+        end(&with)
+    );
+    assert!(
+        end(&without) > 5.0 * end(&with).max(0.01),
+        "without fixes the plan ended {} m off only: the test would prove nothing",
+        end(&without)
     );
 }
