@@ -458,3 +458,40 @@ fn balance_runtime_and_link_allocate_nothing() {
     // The refused commands were counted, and the session went through velocity and e-stop.
     assert!(modes[Mode::Velocity as usize] && modes[Mode::EStop as usize]);
 }
+
+/// The runtime re-bases its odometry clock every 256 s (`f32` keeps µs resolution); the
+/// fusion filter's history moves with it, so fixes keep being fused at their capture time
+/// across the re-base, without allocating.
+#[test]
+fn fixes_are_fused_across_the_clock_rebase() {
+    let robot = Robot::Sphere(SphereOmni::<f32>::new(SphereParams::preset()).unwrap());
+    let mut rt = Runtime::<f32, 8>::new(robot, Config::new(100.0), Pose2::default()).unwrap();
+    let mut board = Board {
+        angles: EncoderAngles::zero(),
+    };
+    let mut now = 0u64;
+    let (n, ()) = allocations(|| {
+        for k in 0..30_000u64 {
+            let mut out = MotorCommand::zero();
+            rt.cycle(now, &mut board, &mut NoImu, &mut Out(&mut out));
+            if k > 0 && k % 100 == 0 {
+                // At rest at the origin; the camera says 3 mm east, 0.2 s ago.
+                let fix = omnikin::runtime::CameraFix {
+                    capture_us: now - 200_000,
+                    x: 0.003,
+                    y: 0.0,
+                    heading: None,
+                    std_xy: 0.01,
+                    std_heading: 0.0,
+                };
+                rt.handle(Command::Fix(fix), now).unwrap();
+            }
+            now += 10_000;
+        }
+    });
+    assert_eq!(n, 0);
+    let f = rt.fix_counters();
+    assert_eq!((f.accepted, f.rejected, f.too_late), (299, 0, 0), "{f:?}");
+    assert!((rt.pose().x - 0.003).abs() < 2e-4, "{:?}", rt.pose());
+    assert_eq!(rt.odometry_pose().x, 0.0);
+}
