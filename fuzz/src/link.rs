@@ -698,9 +698,9 @@ impl Session {
                         // A message for the other end (a robot's telemetry reflected back to
                         // it) verifies under the shared K_s but is dropped as malformed before
                         // it can move the replay window.
-                        Ok(Message::Telemetry(_) | Message::SessionEnd(_)) => {
-                            Some(Reason::Malformed)
-                        }
+                        Ok(
+                            Message::Telemetry(_) | Message::SessionEnd(_) | Message::Estimate(_),
+                        ) => Some(Reason::Malformed),
                         Ok(_) => None,
                     }
                 };
@@ -919,7 +919,10 @@ impl Session {
     fn serve(&mut self, seq: u64, m: &Message) {
         match serve(&mut self.runtime, &mut self.link, seq, m, self.now_us) {
             Served::Ignored => {
-                assert!(matches!(m, Message::Telemetry(_) | Message::SessionEnd(_)))
+                assert!(matches!(
+                    m,
+                    Message::Telemetry(_) | Message::SessionEnd(_) | Message::Estimate(_)
+                ))
             }
             Served::Accepted => match m {
                 Message::EStop => self.estop_seq = seq,

@@ -3,11 +3,11 @@
 //! so that fuzzing starts past the checks a random input never passes.
 
 use omnikin::link::{
-    EndReason, Hello, HelloAck, KIND_TAGGED, Key, LinkCounters, MAX_FRAME, MacKey, Message,
-    NONCE_LEN, PROTOCOL_VERSION, RobotInfo, RobotKind, Telemetry, WirePoint, encode_hello,
-    encode_message,
+    EndReason, Estimate, Hello, HelloAck, KIND_TAGGED, Key, LinkCounters, MAX_FRAME, MacKey,
+    Message, NONCE_LEN, PROTOCOL_VERSION, RobotInfo, RobotKind, Telemetry, WireFix, WirePoint,
+    encode_hello, encode_message,
 };
-use omnikin::runtime::{Faults, Frame, Mode, PlanStatus};
+use omnikin::runtime::{Faults, FixCounters, Frame, Mode, PlanStatus};
 
 use crate::link::{FUZZ_KEY, cycles, derive, hello_record, record};
 
@@ -134,6 +134,44 @@ pub fn messages() -> Vec<(&'static str, Message)> {
         ),
         ("telemetry", Message::Telemetry(telemetry())),
         ("session-end", Message::SessionEnd(EndReason::TakenOver)),
+        (
+            "fix",
+            Message::Fix(WireFix {
+                capture_us: 1_200_000,
+                x: 0.4,
+                y: -0.1,
+                heading: Some(0.3),
+                std_xy: 0.01,
+                std_heading: 0.05,
+            }),
+        ),
+        (
+            "fix-position",
+            Message::Fix(WireFix {
+                capture_us: 900_000,
+                x: -0.2,
+                y: 0.7,
+                heading: None,
+                std_xy: 0.005,
+                std_heading: 0.0,
+            }),
+        ),
+        (
+            "estimate",
+            Message::Estimate(Estimate {
+                time_us: 1_250_000,
+                covariance: [1e-4, 2e-4, 3e-3],
+                odometry: [0.41, -0.09, 0.31],
+                gyro_bias: 0.0,
+                wheel_scale: 1.01,
+                fixes: FixCounters {
+                    accepted: 12,
+                    rejected: 2,
+                    too_late: 1,
+                    recoveries: 1,
+                },
+            }),
+        ),
     ]
 }
 

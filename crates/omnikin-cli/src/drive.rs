@@ -4,7 +4,8 @@
 //! Shape: `omnikin drive --connect ADDR [--key FILE] [--heartbeat HZ] ACTION`, with ACTION one
 //! of `hello`, `velocity --vx --vy --yaw-rate [--world] --for S`, `plan PLAN.csv`, `stop`,
 //! `estop`, `clear`, `telemetry --out LOG.csv [--for S]`, `teleop`. `velocity`, `plan` and
-//! `telemetry` take `--out LOG.csv` to record every telemetry frame.
+//! `telemetry` take `--out LOG.csv` to record every telemetry frame, and `--fixes FILE|-` to
+//! forward camera fixes while they run ([`crate::drive_fixes`]).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -12,8 +13,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use omnikin::link::{
-    CHUNK_POINTS, DropReason, EndReason, Key, MAX_FRAME, Message, OperatorEvent, OperatorLink,
-    PROTOCOL_VERSION, RobotInfo, Telemetry, WirePoint, v1,
+    CHUNK_POINTS, DropReason, EndReason, Estimate, Key, MAX_FRAME, Message, OperatorEvent,
+    OperatorLink, PROTOCOL_VERSION, RobotInfo, Telemetry, WirePoint, v1,
 };
 use omnikin::runtime::{Frame, Mode};
 use omnikin_plan::Plan;
@@ -41,6 +42,17 @@ pub struct DriveArgs {
     /// (docs/seeing-the-robot.md), kept on every exit path like --out.
     #[arg(long, value_name = "FILE", global = true)]
     pub mcap: Option<PathBuf>,
+    /// Forward camera fixes while `velocity`, `plan` or `telemetry` runs: a CSV
+    /// `t,x,y[,heading][,arrival]` (t = capture time in the robot's clock, s; `-` reads stdin),
+    /// each sent when the robot's clock reaches its arrival time (default t).
+    #[arg(long, value_name = "FILE|-", global = true)]
+    pub fixes: Option<PathBuf>,
+    /// Standard deviation sent with each fix's position, m.
+    #[arg(long, default_value_t = 0.01, global = true, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub fix_std: f64,
+    /// Standard deviation sent with each fix's heading, rad.
+    #[arg(long, default_value_t = 0.05, global = true, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub fix_heading_std: f64,
     /// What to do.
     #[command(subcommand)]
     pub action: DriveAction,
@@ -127,7 +139,32 @@ pub fn telemetry_header(wheels: usize, steer: bool) -> String {
         cols("s");
     }
     h.push_str(",gyro_z,mode,faults,fault_history,plan_id,plan_received,plan_len,plan_time,ref_x,ref_y,ref_heading,rejected,last_command_t,rx_ok,rx_framing,rx_crc,rx_version,rx_auth,rx_replay,rx_malformed,rx_session,rx_entropy");
+    h.push_str(ESTIMATE_COLUMNS);
     h
+}
+
+/// The estimate columns at the end of a telemetry row (empty when the robot sends no
+/// estimate): the uncorrected wheel odometry, the fused pose's variances, the fix counters.
+const ESTIMATE_COLUMNS: &str = ",odo_x,odo_y,odo_heading,var_x,var_y,var_heading,fix_accepted,fix_rejected,fix_too_late,fix_recoveries";
+
+/// The [`ESTIMATE_COLUMNS`] of `e` (empty cells for `None`).
+fn estimate_cells(e: Option<&Estimate>) -> String {
+    match e {
+        Some(e) => format!(
+            ",{},{},{},{:e},{:e},{:e},{},{},{},{}",
+            e.odometry[0],
+            e.odometry[1],
+            e.odometry[2],
+            e.covariance[0],
+            e.covariance[1],
+            e.covariance[2],
+            e.fixes.accepted,
+            e.fixes.rejected,
+            e.fixes.too_late,
+            e.fixes.recoveries
+        ),
+        None => ",".repeat(10),
+    }
 }
 
 /// One telemetry CSV row in the columns of [`telemetry_header`].
@@ -191,6 +228,10 @@ struct Session {
     key: Option<Key>,
     addr: String,
     latest: Option<Telemetry>,
+    /// The newest estimate of this session (robots that fuse fixes send one per telemetry).
+    estimate: Option<Estimate>,
+    /// `--fixes`: the fixes to forward.
+    fixes: Option<crate::drive_fixes::FixFeeder>,
     /// When the newest telemetry frame of this session arrived.
     last_telemetry: Option<Instant>,
     /// What a v1 HelloAck said (the answer to the v1 probe): (protocol, robot has a key).
@@ -223,6 +264,8 @@ impl Session {
             key,
             addr: a.connect.clone(),
             latest: None,
+            estimate: None,
+            fixes: None,
             last_telemetry: None,
             v1_answer: None,
             log: None,
@@ -275,8 +318,14 @@ impl Session {
                         self.latest = Some(t);
                     }
                     if let Some(w) = self.log.as_mut() {
-                        writeln!(w, "{}", telemetry_row(&t, omnikin::MAX_WHEELS, true))
-                            .context("--out: cannot write")?;
+                        let e = self.estimate.as_ref().filter(|e| e.time_us == t.time_us);
+                        writeln!(
+                            w,
+                            "{}{}",
+                            telemetry_row(&t, omnikin::MAX_WHEELS, true),
+                            estimate_cells(e)
+                        )
+                        .context("--out: cannot write")?;
                     }
                     if let Some(m) = self.mcap.as_mut() {
                         crate::mcap_log::telemetry(m, &t)?;
@@ -284,6 +333,18 @@ impl Session {
                     self.last_telemetry = Some(Instant::now());
                     self.frames += 1;
                     fresh = true;
+                    if let Some(f) = self.fixes.as_mut() {
+                        let now = self.latest.map_or(0, |l| l.time_us);
+                        for m in f.due(now)? {
+                            self.send(&m)?;
+                        }
+                    }
+                }
+                Ok(OperatorEvent::Message {
+                    msg: Message::Estimate(e),
+                    ..
+                }) if self.estimate.is_none_or(|l| e.time_us >= l.time_us) => {
+                    self.estimate = Some(e);
                 }
                 Err(DropReason::Version(1)) => {
                     // Read without the key: only to name the mismatch, never acted upon.
@@ -435,6 +496,32 @@ impl Session {
     }
 
     fn print_status(&self) -> Result<()> {
+        if let Some(f) = &self.fixes {
+            crate::outln!("{}", f.report(self.estimate.map(|e| e.fixes)))?;
+        }
+        // The estimate line once fixes are in play (this run forwards them, or the robot has
+        // had some): before that the pose is the wheel odometry and the line says nothing new.
+        let fixes_seen = |e: &Estimate| {
+            let f = e.fixes;
+            self.fixes.is_some() || f.accepted + f.rejected + f.too_late > 0
+        };
+        if let (Some(e), Some(t)) = (
+            self.estimate.as_ref().filter(|e| fixes_seen(e)),
+            &self.latest,
+        ) {
+            crate::outln!(
+                "robot estimate: pose ({:.4} m, {:.4} m, {:.4} rad) ± ({:.4} m, {:.4} m, {:.4} rad) 1σ; wheel odometry ({:.4} m, {:.4} m, {:.4} rad)",
+                t.pose[0],
+                t.pose[1],
+                t.pose[2],
+                e.covariance[0].max(0.0).sqrt(),
+                e.covariance[1].max(0.0).sqrt(),
+                e.covariance[2].max(0.0).sqrt(),
+                e.odometry[0],
+                e.odometry[1],
+                e.odometry[2]
+            )?;
+        }
         if let Some(t) = &self.latest {
             crate::outln!(
                 "robot t {:.3} s: mode {}, pose ({:.4} m, {:.4} m, {:.4} rad), faults {}, history {}",
@@ -474,6 +561,21 @@ impl Session {
 /// Runs one `drive` action.
 pub fn run(a: &DriveArgs) -> Result<()> {
     let mut s = Session::open(a)?;
+    if let Some(path) = &a.fixes {
+        if !matches!(
+            a.action,
+            DriveAction::Velocity { .. } | DriveAction::Plan { .. } | DriveAction::Telemetry { .. }
+        ) {
+            bail!(
+                "--fixes forwards fixes while velocity, plan or telemetry runs; not with this action"
+            );
+        }
+        s.fixes = Some(crate::drive_fixes::FixFeeder::open(
+            path,
+            a.fix_std,
+            a.fix_heading_std,
+        )?);
+    }
     match &a.action {
         DriveAction::Hello => {
             let i = s.hello()?;
@@ -862,6 +964,9 @@ impl ConsoleOperator {
             heartbeat: heartbeat_hz,
             timeout: timeout_s,
             mcap: None,
+            fixes: None,
+            fix_std: 0.01,
+            fix_heading_std: 0.05,
             action: DriveAction::Hello,
         })
         .map(Self)

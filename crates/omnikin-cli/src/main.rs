@@ -13,6 +13,7 @@ mod balance_check;
 mod console;
 mod data_dir;
 mod drive;
+mod drive_fixes;
 mod figures;
 mod kinematics;
 mod link_io;

@@ -302,6 +302,13 @@ pub fn run(a: &RobotArgs) -> Result<()> {
             && let Some(t) = sim.telemetry(&robot_link)
         {
             let mut buf = [0u8; MAX_FRAME];
+            // The estimate first, so that an operator has it when the telemetry of the same
+            // cycle arrives.
+            if let Some(e) = sim.estimate()
+                && let Ok(n) = robot_link.encode(&Message::Estimate(e), &mut buf)
+            {
+                link.transport.send_to(&buf[..n], active)?;
+            }
             if let Ok(n) = robot_link.encode(&Message::Telemetry(t), &mut buf) {
                 link.transport.send_to(&buf[..n], active)?;
             }

@@ -13,7 +13,9 @@
 
 use anyhow::{Context, Result, bail};
 use omnikin::description::RobotDescription;
-use omnikin::link::{LinkCounters, Message, RobotInfo, RobotLink, Telemetry, robot_info, serve};
+use omnikin::link::{
+    Estimate, LinkCounters, Message, RobotInfo, RobotLink, Telemetry, robot_info, serve,
+};
 use omnikin::runtime::{BalanceRuntime, BalanceRuntimeConfig, BalanceStatus, Runtime, Status};
 use omnikin::{Pose2, Robot};
 use omnikin_sim::dynamics::ballbot::sil::BallbotSil;
@@ -274,6 +276,18 @@ impl SimRobot {
         }
     }
 
+    /// The last cycle's estimate message (the rate runtime's fusion; `None` for the balance
+    /// runtime, which has no fusion, and before the first cycle).
+    pub fn estimate(&self) -> Option<Estimate> {
+        match self {
+            SimRobot::Rate { status, rt, .. } => status.as_ref().map(|s| {
+                let f = rt.fusion();
+                Estimate::new(s, f.gyro_bias().0, f.wheel_scale().0)
+            }),
+            SimRobot::Balance { .. } => None,
+        }
+    }
+
     /// The true pose (world; m, m, rad): the robot's, or the ball's position with the body's
     /// yaw.
     pub fn true_pose(&self) -> Pose2<f64> {
@@ -353,7 +367,7 @@ impl SimRobot {
                     }
                 }
                 row += &format!(
-                    "{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{}",
+                    "{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{},{:.6},{:.6},{:.6},{:.3e},{:.3e},{:.3e},{},{},{},{}",
                     s.mode,
                     s.faults,
                     s.plan_time,
@@ -364,6 +378,16 @@ impl SimRobot {
                     s.rejected,
                     c.ok,
                     c.dropped(),
+                    s.odometry.x,
+                    s.odometry.y,
+                    s.odometry.heading,
+                    s.covariance[0],
+                    s.covariance[1],
+                    s.covariance[2],
+                    s.fixes.accepted,
+                    s.fixes.rejected,
+                    s.fixes.too_late,
+                    s.fixes.recoveries,
                 );
                 Some(row)
             }
@@ -463,6 +487,22 @@ impl SimRobot {
         };
         out["plan"] = plan;
         out["dynamics"] = dynamics;
+        if let SimRobot::Rate {
+            status: Some(s),
+            rt,
+            ..
+        } = self
+        {
+            let f = s.fixes;
+            out["fixes"] = json!({
+                "accepted": f.accepted, "rejected": f.rejected, "too_late": f.too_late,
+                "recoveries": f.recoveries,
+                "odometry_pose": [s.odometry.x, s.odometry.y, s.odometry.heading],
+                "covariance": s.covariance,
+                "gyro_bias": rt.fusion().gyro_bias().0,
+                "wheel_scale": rt.fusion().wheel_scale().0,
+            });
+        }
         out
     }
 }
@@ -483,5 +523,5 @@ fn rate_log_header(wheels: usize, steer: bool) -> String {
             h += &format!(",sd{i}");
         }
     }
-    h + ",mode,faults,plan_time,ref_x,ref_y,ref_heading,last_command_t,rejected,rx_ok,rx_dropped"
+    h + ",mode,faults,plan_time,ref_x,ref_y,ref_heading,last_command_t,rejected,rx_ok,rx_dropped,odo_x,odo_y,odo_heading,var_x,var_y,var_heading,fix_accepted,fix_rejected,fix_too_late,fix_recoveries"
 }

@@ -6,15 +6,15 @@
 //! duplication.
 
 use omnikin::link::{
-    CHUNK_POINTS, DropReason, EncodeError, EndReason, FrameReader, HANDSHAKE_BODY, Hello, Key,
-    Kind, LinkCounters, MAX_FRAME, Message, OperatorEvent, OperatorLink, PROTOCOL_VERSION,
-    RobotEvent, RobotInfo, RobotKind, RobotLink, Telemetry, WirePoint, encode_hello,
+    CHUNK_POINTS, DropReason, EncodeError, EndReason, Estimate, FrameReader, HANDSHAKE_BODY, Hello,
+    Key, Kind, LinkCounters, MAX_FRAME, Message, OperatorEvent, OperatorLink, PROTOCOL_VERSION,
+    RobotEvent, RobotInfo, RobotKind, RobotLink, Telemetry, WireFix, WirePoint, encode_hello,
     encode_message, parse_frame, serve, v1,
 };
 use omnikin::runtime::hal::{
     EncoderAngles, Encoders, Entropy, EntropyError, MotorCommand, MotorOutputs, NoImu,
 };
-use omnikin::runtime::{Config, Faults, Frame, Mode, PlanStatus, Runtime};
+use omnikin::runtime::{Config, Faults, FixCounters, Frame, Mode, PlanStatus, Runtime};
 use omnikin::sphere::{SphereOmni, SphereParams};
 use omnikin::{MAX_WHEELS, Pose2, Robot};
 use proptest::prelude::*;
@@ -135,6 +135,33 @@ fn message() -> impl Strategy<Value = Message> {
         (f(), f(), f()).prop_map(|(x, y, heading)| Message::SetPose { x, y, heading }),
         telemetry().prop_map(Message::Telemetry),
         Just(Message::SessionEnd(EndReason::TakenOver)),
+        (any::<u64>(), f(), f(), prop::option::of(f()), f(), f()).prop_map(
+            |(capture_us, x, y, heading, std_xy, std_heading)| Message::Fix(WireFix {
+                capture_us,
+                x,
+                y,
+                heading,
+                std_xy,
+                std_heading,
+            })
+        ),
+        (any::<u64>(), f3(), f3(), f(), f(), any::<[u32; 4]>()).prop_map(
+            |(time_us, covariance, odometry, gyro_bias, wheel_scale, c)| Message::Estimate(
+                Estimate {
+                    time_us,
+                    covariance,
+                    odometry,
+                    gyro_bias,
+                    wheel_scale,
+                    fixes: FixCounters {
+                        accepted: c[0],
+                        rejected: c[1],
+                        too_late: c[2],
+                        recoveries: c[3],
+                    },
+                }
+            )
+        ),
     ]
 }
 
@@ -346,6 +373,33 @@ fn largest_messages_fit_one_frame_and_no_answer_outgrows_its_hello() {
     let n = encode_message(u64::MAX, u64::MAX, &chunk, Some(k.mac()), &mut buf).unwrap();
     println!("largest chunk frame: {n} bytes (MAX_FRAME {MAX_FRAME})");
     assert!(n <= MAX_FRAME);
+    // The fix and estimate messages, widest values, keyed and in the largest session.
+    let fix = Message::Fix(WireFix {
+        capture_us: u64::MAX,
+        x: f32::MAX,
+        y: f32::MAX,
+        heading: Some(f32::MAX),
+        std_xy: f32::MAX,
+        std_heading: f32::MAX,
+    });
+    let est = Message::Estimate(Estimate {
+        time_us: u64::MAX,
+        covariance: [f32::MAX; 3],
+        odometry: [f32::MAX; 3],
+        gyro_bias: f32::MAX,
+        wheel_scale: f32::MAX,
+        fixes: FixCounters {
+            accepted: u32::MAX,
+            rejected: u32::MAX,
+            too_late: u32::MAX,
+            recoveries: u32::MAX,
+        },
+    });
+    for (name, m) in [("fix", &fix), ("estimate", &est)] {
+        let n = encode_message(u64::MAX, u64::MAX, m, Some(k.mac()), &mut buf).unwrap();
+        println!("largest keyed {name} frame: {n} bytes");
+        assert!(n <= MAX_FRAME);
+    }
     // The largest HelloAck body is the Hello's padded length.
     let mut widest = info(true);
     widest.plan_capacity = u16::MAX;

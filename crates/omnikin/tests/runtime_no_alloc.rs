@@ -8,8 +8,8 @@ use std::cell::Cell;
 use omnikin::control::BalanceConfig;
 use omnikin::description::RobotDescription;
 use omnikin::link::{
-    CHUNK_POINTS, FrameReader, Key, MAX_FRAME, Message, OperatorLink, RobotEvent, RobotInfo,
-    RobotLink, WirePoint, robot_info, serve,
+    CHUNK_POINTS, Estimate, FrameReader, Key, MAX_FRAME, Message, OperatorLink, RobotEvent,
+    RobotInfo, RobotLink, WireFix, WirePoint, robot_info, serve,
 };
 use omnikin::runtime::hal::{
     EncoderAngles, Encoders, Entropy, EntropyError, MotorCommand, MotorOutputs, NoImu,
@@ -209,10 +209,45 @@ fn session_allocates_nothing(robot: Robot<f32>) {
             &mut rt,
             now,
         );
-        for _ in 0..100 {
+        let mut seen = [(0u64, Pose2::default()); 100];
+        for k in 0..100usize {
             w.send(&Message::Heartbeat, &mut rt, now);
-            cycle(&mut rt, &mut board, &mut now);
+            let st = cycle(&mut rt, &mut board, &mut now);
+            seen[k] = (st.time_us, st.pose);
+            // Camera fixes through the link: fused at a capture time 0.3 s back (replaying
+            // the history), one far off (gated); the estimate encoded.
+            if k >= 40 && k % 10 == 0 {
+                let (capture_us, p) = seen[k - 30];
+                let x = if k == 90 { 50.0 } else { p.x };
+                w.send(
+                    &Message::Fix(WireFix {
+                        capture_us,
+                        x,
+                        y: p.y,
+                        heading: Some(p.heading),
+                        std_xy: 0.02,
+                        std_heading: 0.05,
+                    }),
+                    &mut rt,
+                    now,
+                );
+            }
+            let e = Estimate::new(&st, 0.0, 1.0);
+            let _ = w.robot.encode(&Message::Estimate(e), &mut w.frame).unwrap();
         }
+        // An invalid fix (negative standard deviation): rejected as a command.
+        w.send(
+            &Message::Fix(WireFix {
+                capture_us: now - 20_000,
+                x: 0.0,
+                y: 0.0,
+                heading: None,
+                std_xy: -1.0,
+                std_heading: 0.0,
+            }),
+            &mut rt,
+            now,
+        );
         // Rejected commands (NaN, over-limit) and a corrupt frame.
         w.send(
             &Message::SetVelocity {
@@ -268,6 +303,19 @@ fn session_allocates_nothing(robot: Robot<f32>) {
                 .encode(&Message::Telemetry(tm), &mut w.frame)
                 .unwrap();
         }
+        // A fix older than the history (max_latency 1 s): too late.
+        w.send(
+            &Message::Fix(WireFix {
+                capture_us: 0,
+                x: 0.0,
+                y: 0.0,
+                heading: None,
+                std_xy: 0.01,
+                std_heading: 0.0,
+            }),
+            &mut rt,
+            now,
+        );
         // Watchdog stop and e-stop.
         for _ in 0..100 {
             cycle(&mut rt, &mut board, &mut now);
@@ -280,8 +328,10 @@ fn session_allocates_nothing(robot: Robot<f32>) {
     assert_eq!(n, 0, "{n} allocations in {cycles} control cycles");
     assert_eq!(cycles, 560);
     assert_eq!(rt.mode(), Mode::EStop);
-    assert_eq!(rt.rejected(), 2);
+    assert_eq!(rt.rejected(), 3);
     assert_eq!(w.robot.counters().crc, 1);
+    let f = rt.fix_counters();
+    assert_eq!((f.accepted, f.rejected, f.too_late), (5, 1, 1), "{f:?}");
 }
 
 /// A ballbot board at rest: the IMU reads gravity, the encoders the wheels' angles, the torques
@@ -407,4 +457,41 @@ fn balance_runtime_and_link_allocate_nothing() {
     assert_eq!(n, 0, "{n} allocations in the balance runtime's session");
     // The refused commands were counted, and the session went through velocity and e-stop.
     assert!(modes[Mode::Velocity as usize] && modes[Mode::EStop as usize]);
+}
+
+/// The runtime re-bases its odometry clock every 256 s (`f32` keeps µs resolution); the
+/// fusion filter's history moves with it, so fixes keep being fused at their capture time
+/// across the re-base, without allocating.
+#[test]
+fn fixes_are_fused_across_the_clock_rebase() {
+    let robot = Robot::Sphere(SphereOmni::<f32>::new(SphereParams::preset()).unwrap());
+    let mut rt = Runtime::<f32, 8>::new(robot, Config::new(100.0), Pose2::default()).unwrap();
+    let mut board = Board {
+        angles: EncoderAngles::zero(),
+    };
+    let mut now = 0u64;
+    let (n, ()) = allocations(|| {
+        for k in 0..30_000u64 {
+            let mut out = MotorCommand::zero();
+            rt.cycle(now, &mut board, &mut NoImu, &mut Out(&mut out));
+            if k > 0 && k % 100 == 0 {
+                // At rest at the origin; the camera says 3 mm east, 0.2 s ago.
+                let fix = omnikin::runtime::CameraFix {
+                    capture_us: now - 200_000,
+                    x: 0.003,
+                    y: 0.0,
+                    heading: None,
+                    std_xy: 0.01,
+                    std_heading: 0.0,
+                };
+                rt.handle(Command::Fix(fix), now).unwrap();
+            }
+            now += 10_000;
+        }
+    });
+    assert_eq!(n, 0);
+    let f = rt.fix_counters();
+    assert_eq!((f.accepted, f.rejected, f.too_late), (299, 0, 0), "{f:?}");
+    assert!((rt.pose().x - 0.003).abs() < 2e-4, "{:?}", rt.pose());
+    assert_eq!(rt.odometry_pose().x, 0.0);
 }

@@ -449,6 +449,23 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         self.base.t
     }
 
+    /// Moves the filter's clock: every stored time (the state, the history, the fixes in it)
+    /// has `offset` seconds subtracted, nothing else changes. A host whose time scalar loses
+    /// resolution as time grows (`f32`) re-bases the clock with it; the runtime does so every
+    /// 256 s.
+    pub fn shift_time(&mut self, offset: T) {
+        self.base.t -= offset;
+        for k in 0..self.len {
+            let i = self.index(k);
+            let e = &mut self.buf[i];
+            e.t -= offset;
+            e.post.t -= offset;
+            if let Some((fix, _)) = e.event.as_mut() {
+                fix.t -= offset;
+            }
+        }
+    }
+
     fn current(&self) -> &State<T> {
         if self.len == 0 {
             &self.base

@@ -6,7 +6,10 @@
 use serde::{Deserialize, Serialize};
 
 use super::{CHUNK_POINTS, LinkCounters, NONCE_LEN};
-use crate::runtime::{BalanceStatus, Command, Faults, Frame, Mode, PlanPoint, PlanStatus, Status};
+use crate::runtime::{
+    BalanceStatus, CameraFix, Command, Faults, FixCounters, Frame, Mode, PlanPoint, PlanStatus,
+    Status,
+};
 use crate::{MAX_WHEELS, Pose2, Real, Twist2};
 
 /// One plan point on the wire (world frame, SI, `f32`).
@@ -230,6 +233,77 @@ impl Telemetry {
     }
 }
 
+/// An external pose fix on the wire (operator → robot, [`Message::Fix`]): a camera or
+/// motion-capture measurement of the robot's world pose, with the robot-clock time it was
+/// taken. The robot validates it ([`CameraFix::check`]) and fuses it at `capture_us`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WireFix {
+    /// Capture time, robot clock µs (the clock of [`Telemetry::time_us`]).
+    pub capture_us: u64,
+    /// World x, m.
+    pub x: f32,
+    /// World y, m.
+    pub y: f32,
+    /// World heading, rad, or `None` for a position-only fix.
+    pub heading: Option<f32>,
+    /// Standard deviation of each position coordinate, m (> 0).
+    pub std_xy: f32,
+    /// Standard deviation of the heading, rad (> 0 when there is a heading).
+    pub std_heading: f32,
+}
+
+impl WireFix {
+    /// The runtime's fix (no validation: [`Runtime::handle`](crate::runtime::Runtime::handle)
+    /// validates).
+    pub fn to_fix<T: Real>(&self) -> CameraFix<T> {
+        let c = |x: f32| T::of(x as f64);
+        CameraFix {
+            capture_us: self.capture_us,
+            x: c(self.x),
+            y: c(self.y),
+            heading: self.heading.map(c),
+            std_xy: c(self.std_xy),
+            std_heading: c(self.std_heading),
+        }
+    }
+}
+
+/// The runtime's estimate at one cycle (robot → operator, [`Message::Estimate`], sent with
+/// each [`Telemetry`] of the same cycle): the fusion filter's uncertainty and fix counters and
+/// the uncorrected wheel odometry. [`Telemetry::pose`] is the pose the control uses (the fused
+/// one once a fix has been accepted). A message of its own so that the v2 `Telemetry` layout is
+/// unchanged (a robot or operator without it counts it `malformed` and goes on).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Estimate {
+    /// Robot clock, µs (the same cycle as the telemetry sent after it).
+    pub time_us: u64,
+    /// Variances of the fused pose `[σ²x, σ²y, σ²θ]`, m², m², rad².
+    pub covariance: [f32; 3],
+    /// Pure wheel odometry `[x, y, heading]` (world; m, m, rad), never corrected by fixes.
+    pub odometry: [f32; 3],
+    /// Estimated gyro bias, rad/s, and wheel-scale factor (1 nominal).
+    pub gyro_bias: f32,
+    /// Wheel-scale factor, true / measured travel.
+    pub wheel_scale: f32,
+    /// Fix counters since the robot started.
+    pub fixes: FixCounters,
+}
+
+impl Estimate {
+    /// From a rate runtime's status and its filter's bias and scale.
+    pub fn new<T: Real>(s: &Status<T>, gyro_bias: T, wheel_scale: T) -> Self {
+        let f = |x: T| x.to_f64() as f32;
+        Self {
+            time_us: s.time_us,
+            covariance: s.covariance.map(f),
+            odometry: [f(s.odometry.x), f(s.odometry.y), f(s.odometry.heading)],
+            gyro_bias: f(gyro_bias),
+            wheel_scale: f(wheel_scale),
+            fixes: s.fixes,
+        }
+    }
+}
+
 /// A runtime status the link turns into [`Telemetry`] ([`super::RobotLink::telemetry`]).
 pub trait TelemetrySource {
     /// The telemetry of this status with the link's counters (`ack_seq`, `estop_seq` zero).
@@ -313,6 +387,13 @@ pub enum Message {
     Telemetry(Telemetry),
     /// The robot ended this session (its last frame in it).
     SessionEnd(EndReason),
+    /// Operator → robot: an external pose fix to fuse at its capture time. Appended after
+    /// the v2 messages of 2 Dec 2026: a robot without it drops it as `malformed`.
+    Fix(WireFix),
+    /// Robot → operator: the runtime's estimate (covariance, fix counters, wheel odometry),
+    /// sent right before the [`Message::Telemetry`] of the same cycle. An operator without it
+    /// drops it as `malformed`.
+    Estimate(Estimate),
 }
 
 /// The body of a [`Kind::Hello`](super::Kind::Hello) frame (then zero padding up to [`HANDSHAKE_BODY`](super::HANDSHAKE_BODY) bytes).
@@ -336,7 +417,8 @@ pub struct HelloAck {
 }
 
 impl Message {
-    /// The runtime command of an operator message (`None` for `Telemetry` and `SessionEnd`).
+    /// The runtime command of an operator message (`None` for `Telemetry`, `SessionEnd` and
+    /// `Estimate`).
     /// Chunk points are converted into `buf`.
     pub fn command<'b, T: Real>(
         &self,
@@ -373,7 +455,8 @@ impl Message {
             Message::SetPose { x, y, heading } => {
                 Command::SetPose(Pose2::new(c(*x), c(*y), c(*heading)))
             }
-            Message::Telemetry(_) | Message::SessionEnd(_) => return None,
+            Message::Fix(f) => Command::Fix(f.to_fix()),
+            Message::Telemetry(_) | Message::SessionEnd(_) | Message::Estimate(_) => return None,
         })
     }
 }

@@ -89,8 +89,8 @@ pub use frame::{
 };
 use frame::{ct_eq, decode_hello, postcard_body, stuff};
 pub use message::{
-    EndReason, Hello, HelloAck, Message, RobotInfo, RobotKind, Telemetry, TelemetrySource,
-    WirePoint,
+    EndReason, Estimate, Hello, HelloAck, Message, RobotInfo, RobotKind, Telemetry,
+    TelemetrySource, WireFix, WirePoint,
 };
 pub use operator::{OperatorEvent, OperatorLink};
 pub use robot::{PENDING_SLOTS, RobotEvent, RobotLink, Served, robot_info, serve};

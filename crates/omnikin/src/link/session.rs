@@ -72,7 +72,10 @@ impl Session {
             return Err(DropReason::Replay(seq));
         }
         let msg = decode_message(p.body)?;
-        let for_robot = !matches!(msg, Message::Telemetry(_) | Message::SessionEnd(_));
+        let for_robot = !matches!(
+            msg,
+            Message::Telemetry(_) | Message::SessionEnd(_) | Message::Estimate(_)
+        );
         if for_robot != to_robot {
             return Err(DropReason::Malformed);
         }

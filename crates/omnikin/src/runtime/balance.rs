@@ -286,6 +286,10 @@ impl<T: Real> BalanceRuntime<T> {
                     instead: "a balancing robot follows velocity commands (send the plan's twists)",
                 })
             }
+            Command::Fix(_) => Err(CommandError::NotSupported {
+                what: "pose fixes",
+                instead: "the balance runtime has no fusion filter; fuse fixes offline (omnikin odometry --fixes)",
+            }),
         }
     }
 

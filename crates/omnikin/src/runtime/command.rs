@@ -84,6 +84,101 @@ pub enum Command<'a, T> {
     Clear,
     /// Reset the pose estimate (world frame, m, m, rad).
     SetPose(Pose2<T>),
+    /// An external pose fix (camera, motion capture) to fuse into the estimate at its capture
+    /// time ([`CameraFix`]). It does not feed the watchdog (it is a measurement, not a motion
+    /// command or heartbeat).
+    Fix(CameraFix<T>),
+}
+
+/// History entries of the runtime's fusion filter ([`crate::estimate::fusion::PoseFusion`]):
+/// half of them span [`Config::fusion`]'s `max_latency` whatever the control rate (1 s: 31 ms
+/// per entry). About 50 scalars each: 13 KiB in `f32`, 26 KiB in `f64`.
+pub const FIX_HISTORY: usize = 64;
+
+/// Largest |x|, |y| of a [`CameraFix`], m: a fix farther from the world origin is refused.
+pub const FIX_MAX_COORDINATE: f64 = 1.0e4;
+/// Largest standard deviation of a [`CameraFix`] position, m.
+pub const FIX_MAX_STD_XY: f64 = 100.0;
+
+/// An external pose measurement for the runtime's fusion ([`Command::Fix`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraFix<T> {
+    /// When the measurement was **taken**, robot clock µs (the clock of the telemetry's
+    /// `time_us` and of [`Runtime::cycle`](super::Runtime::cycle)'s `now_us`).
+    pub capture_us: u64,
+    /// World x, m.
+    pub x: T,
+    /// World y, m.
+    pub y: T,
+    /// World heading, rad (any wrapping), or `None` for a position-only fix.
+    pub heading: Option<T>,
+    /// Standard deviation of each position coordinate, m (0 < σ ≤ [`FIX_MAX_STD_XY`]).
+    pub std_xy: T,
+    /// Standard deviation of the heading, rad (0 < σ ≤ π; unused without a heading).
+    pub std_heading: T,
+}
+
+impl<T: Real> CameraFix<T> {
+    /// Checks the fix: every value finite, |x|, |y| ≤ [`FIX_MAX_COORDINATE`], `std_xy` in
+    /// (0, [`FIX_MAX_STD_XY`]], `std_heading` in (0, π] when there is a heading.
+    ///
+    /// # Errors
+    /// [`CommandError::NonFinite`], [`CommandError::OverLimit`], [`CommandError::OutOfRange`]
+    /// naming the field.
+    pub fn check(&self) -> Result<(), CommandError> {
+        let mut fields = [
+            (self.x, "fix.x"),
+            (self.y, "fix.y"),
+            (self.std_xy, "fix.std_xy"),
+            (T::zero(), "fix.heading"),
+            (T::one(), "fix.std_heading"),
+        ];
+        if let Some(h) = self.heading {
+            fields[3].0 = h;
+            fields[4].0 = self.std_heading;
+        }
+        for (v, field) in fields {
+            if !v.is_finite() {
+                return Err(CommandError::NonFinite { field });
+            }
+        }
+        for (v, field) in [(self.x, "fix.x"), (self.y, "fix.y")] {
+            if v.abs().to_f64() > FIX_MAX_COORDINATE {
+                return Err(CommandError::OverLimit {
+                    field,
+                    value: v.to_f64(),
+                    limit: FIX_MAX_COORDINATE,
+                });
+            }
+        }
+        let range = |v: T, field, max: f64, rule| {
+            let x = v.to_f64();
+            if x > 0.0 && x <= max {
+                Ok(())
+            } else {
+                Err(CommandError::OutOfRange {
+                    field,
+                    value: x,
+                    rule,
+                })
+            }
+        };
+        range(
+            self.std_xy,
+            "fix.std_xy",
+            FIX_MAX_STD_XY,
+            "must be in (0, 100] m",
+        )?;
+        if self.heading.is_some() {
+            range(
+                self.std_heading,
+                "fix.std_heading",
+                core::f64::consts::PI,
+                "must be in (0, pi] rad",
+            )?;
+        }
+        Ok(())
+    }
 }
 
 /// Why a command was rejected (it is then not executed at all, and counted).
@@ -164,6 +259,27 @@ pub enum CommandError {
         what: &'static str,
         /// What to send instead.
         instead: &'static str,
+    },
+    /// A value outside its allowed range (a fix's standard deviation, …).
+    #[error("{field} = {value}: {rule}")]
+    OutOfRange {
+        /// The field, e.g. `"fix.std_xy"`.
+        field: &'static str,
+        /// The value sent.
+        value: f64,
+        /// The rule it breaks.
+        rule: &'static str,
+    },
+    /// A fix stamped after the runtime's newest odometry step (the estimate does not
+    /// extrapolate; send a fix once the robot's clock has reached its capture time).
+    #[error(
+        "fix captured at {capture_us} µs is newer than the robot's latest cycle ({latest_us} µs)"
+    )]
+    FixInFuture {
+        /// The fix's capture time, µs.
+        capture_us: u64,
+        /// Clock time of the newest odometry step, µs.
+        latest_us: u64,
     },
 }
 

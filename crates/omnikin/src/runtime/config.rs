@@ -3,6 +3,7 @@
 
 use super::limits::{RateLimits, SlewLimits};
 use crate::Real;
+use crate::estimate::fusion::FusionConfig;
 
 /// A configuration value that cannot work.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
@@ -65,6 +66,10 @@ pub struct Config<T> {
     /// Take the heading change from the gyro (when an IMU sample arrives) instead of the
     /// wheels.
     pub heading_from_gyro: bool,
+    /// The pose fusion of external fixes ([`Command::Fix`](super::Command::Fix)): odometry
+    /// noise, gate, recovery, `max_latency` (how old a fix may be and still be fused at its
+    /// capture time), gyro-bias and wheel-scale states. Default [`FusionConfig::default`].
+    pub fusion: FusionConfig<T>,
 }
 
 impl<T: Real> Config<T> {
@@ -99,6 +104,7 @@ impl<T: Real> Config<T> {
             slip_speed: T::of(0.05),
             slip_filter: T::of(0.1),
             heading_from_gyro: false,
+            fusion: FusionConfig::default(),
         }
     }
 

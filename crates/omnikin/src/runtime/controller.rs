@@ -2,16 +2,20 @@
 //! [`Runtime::cycle`] as named steps — clock, sensors and odometry (with the slip checks),
 //! watchdog, target of the mode, command shaping ([`super::shape`]), motors, status.
 
+use nalgebra::Matrix3;
+
 use crate::drive::Rot2;
+use crate::estimate::estimator::Fix;
+use crate::estimate::fusion::{FusionError, FusionOutcome, PoseFusion, StepHeading};
 use crate::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use crate::{Pose2, Real, Robot, Twist2};
 
-use super::command::{Command, CommandError, Frame, check_motion};
+use super::command::{CameraFix, Command, CommandError, FIX_HISTORY, Frame, check_motion};
 use super::config::{Config, ConfigError};
 use super::hal::{EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOutputs};
 use super::limits::Slew;
 use super::plan::{PlanBuffer, zero_twist};
-use super::status::{Faults, Mode, Status};
+use super::status::{Faults, FixCounters, Mode, Status};
 
 /// Re-base the odometry time every this many seconds so `T = f32` keeps µs resolution.
 const REBASE_S: f64 = 256.0;
@@ -22,6 +26,15 @@ const REBASE_S: f64 = 256.0;
 ///
 /// Use: call [`Runtime::handle`] for each decoded command as it arrives (the newest valid
 /// command wins), and [`Runtime::cycle`] from a timer at [`Config::rate_hz`].
+///
+/// **Fixes.** Beside the wheel odometry the runtime runs a pose fusion filter
+/// ([`PoseFusion`], [`FIX_HISTORY`] entries, [`Config::fusion`]) fed with every odometry
+/// step; a [`Command::Fix`] is fused at its capture time (up to `max_latency` late; older
+/// ones are counted [`FixCounters::too_late`]). Once a fix has been accepted the control —
+/// velocity commands in the world frame, plan following — uses the **fused** pose, so a
+/// plan's tracking is corrected by the camera; until then it uses the wheel odometry (the
+/// two are the same prediction, so nothing changes for a robot that gets no fixes). The
+/// wheel odometry keeps running uncorrected ([`Status::odometry`]).
 #[derive(Clone, Debug)]
 pub struct Runtime<T, const N: usize> {
     pub(super) robot: Robot<T>,
@@ -36,6 +49,11 @@ pub struct Runtime<T, const N: usize> {
     pub(super) slew: Slew<T>,
     odo: Odometry<T>,
     odo_base_us: Option<u64>,
+    /// The fusion filter, on the odometry's (re-based) clock.
+    fusion: PoseFusion<T, FIX_HISTORY>,
+    fixes: FixCounters,
+    /// Clock time of the newest odometry step, µs.
+    odo_us: Option<u64>,
     last_us: Option<u64>,
     last_rx_us: Option<u64>,
     velocity: (Twist2<T>, Frame),
@@ -61,6 +79,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
     /// [`ConfigError`] from [`Config::validate`].
     pub fn new(robot: Robot<T>, config: Config<T>, pose: Pose2<T>) -> Result<Self, ConfigError> {
         config.validate()?;
+        let fusion = Self::filter(T::zero(), pose, &config)?;
         let z = T::zero();
         Ok(Self {
             robot,
@@ -73,6 +92,9 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             slew: Slew::new(),
             odo: Odometry::new(robot, pose),
             odo_base_us: None,
+            fusion,
+            fixes: FixCounters::default(),
+            odo_us: None,
             last_us: None,
             last_rx_us: None,
             velocity: (zero_twist(), Frame::Robot),
@@ -85,6 +107,25 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             slip_residual: z,
             slip_state: [z; 2],
             rejected: 0,
+        })
+    }
+
+    /// A fusion filter at time `t` (odometry clock, s) that knows it is at `pose`.
+    fn filter(
+        t: T,
+        pose: Pose2<T>,
+        config: &Config<T>,
+    ) -> Result<PoseFusion<T, FIX_HISTORY>, ConfigError> {
+        PoseFusion::new(t, pose, Matrix3::zeros(), config.fusion).map_err(|e| match e {
+            FusionError::BadParameter { field, rule, .. } => ConfigError { field, rule },
+            FusionError::NonFinite { field } => ConfigError {
+                field,
+                rule: "must be finite",
+            },
+            _ => ConfigError {
+                field: "fusion",
+                rule: "invalid fusion filter parameters",
+            },
         })
     }
 
@@ -106,9 +147,29 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         self.mode
     }
 
-    /// The estimated pose (world).
+    /// The estimated pose (world) the control uses: the fused pose once a fix has been
+    /// accepted, the wheel odometry before (see the type's docs).
     pub fn pose(&self) -> Pose2<T> {
+        if self.fixes.accepted > 0 {
+            self.fusion.pose()
+        } else {
+            self.odo.pose()
+        }
+    }
+
+    /// The pure wheel odometry (world), never corrected by fixes.
+    pub fn odometry_pose(&self) -> Pose2<T> {
         self.odo.pose()
+    }
+
+    /// The fusion filter (pose, covariance, gyro bias, wheel scale).
+    pub fn fusion(&self) -> &PoseFusion<T, FIX_HISTORY> {
+        &self.fusion
+    }
+
+    /// What became of the fixes so far.
+    pub fn fix_counters(&self) -> FixCounters {
+        self.fixes
     }
 
     /// Commands rejected so far.
@@ -123,9 +184,12 @@ impl<T: Real, const N: usize> Runtime<T, N> {
     /// # Errors
     /// [`CommandError`] saying why the command was rejected.
     pub fn handle(&mut self, command: Command<'_, T>, now_us: u64) -> Result<(), CommandError> {
+        let feeds_watchdog = !matches!(command, Command::Fix(_));
         match self.apply(command) {
             Ok(()) => {
-                self.last_rx_us = Some(now_us);
+                if feeds_watchdog {
+                    self.last_rx_us = Some(now_us);
+                }
                 Ok(())
             }
             Err(e) => {
@@ -183,9 +247,66 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                     return Err(CommandError::NonFinite { field: "pose" });
                 }
                 self.odo.reset_pose(p);
+                // The filter restarts at the set pose, known exactly (bias and scale
+                // estimates restart at their priors).
+                if let Ok(f) = Self::filter(self.fusion.time(), p, &self.config) {
+                    self.fusion = f;
+                }
                 Ok(())
             }
+            Command::Fix(fix) => self.fix(&fix),
         }
+    }
+
+    /// Fuses one external fix (validated first) at its capture time and counts the outcome.
+    fn fix(&mut self, fix: &CameraFix<T>) -> Result<(), CommandError> {
+        fix.check()?;
+        let (Some(base), Some(latest)) = (self.odo_base_us, self.odo_us) else {
+            // No odometry yet: nothing to fuse into.
+            self.fixes.too_late = self.fixes.too_late.saturating_add(1);
+            return Ok(());
+        };
+        if fix.capture_us > latest {
+            return Err(CommandError::FixInFuture {
+                capture_us: fix.capture_us,
+                latest_us: latest,
+            });
+        }
+        // On the odometry's re-based clock (negative before the latest re-base).
+        let t = T::of((fix.capture_us as f64 - base as f64) * 1e-6);
+        let f = Fix {
+            t,
+            x: fix.x,
+            y: fix.y,
+            heading: fix.heading,
+            std_xy: fix.std_xy,
+            std_heading: fix.std_heading,
+        };
+        let c = &mut self.fixes;
+        match self.fusion.add_fix(&f) {
+            Ok(FusionOutcome::Initialised | FusionOutcome::Accepted { .. }) => {
+                c.accepted = c.accepted.saturating_add(1);
+            }
+            Ok(FusionOutcome::Recovered { .. }) => {
+                c.accepted = c.accepted.saturating_add(1);
+                c.recoveries = c.recoveries.saturating_add(1);
+            }
+            Ok(FusionOutcome::Rejected { .. }) => c.rejected = c.rejected.saturating_add(1),
+            Err(FusionError::TooLate { .. }) => c.too_late = c.too_late.saturating_add(1),
+            // Within a cycle of the latest step on the µs clock but past it on `T`'s.
+            Err(FusionError::InFuture { .. }) => {
+                return Err(CommandError::FixInFuture {
+                    capture_us: fix.capture_us,
+                    latest_us: latest,
+                });
+            }
+            Err(FusionError::NonFinite { field }) => return Err(CommandError::NonFinite { field }),
+            Err(FusionError::BadParameter { field, value, rule }) => {
+                return Err(CommandError::OutOfRange { field, value, rule });
+            }
+            Err(FusionError::NonMonotonicTime { .. }) => {}
+        }
+        Ok(())
     }
 
     /// One control cycle at clock time `now_us`: read the encoders and the IMU, update the
@@ -209,7 +330,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         let mut faults = Faults::NONE;
         let dt = self.clock(now_us, &mut faults);
         let hw_ok = self.sense(now_us, encoders, imu, &mut faults);
-        let pose = self.odo.pose();
+        let pose = self.pose();
         self.watchdog(now_us, &mut faults);
         // One `sin_cos` of the heading serves every frame change of the cycle.
         let rot = Rot2::from_angle(pose.heading);
@@ -227,6 +348,12 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             faults,
             fault_history: self.history,
             pose,
+            odometry: self.odo.pose(),
+            covariance: {
+                let p = self.fusion.pose_covariance();
+                [p[(0, 0)], p[(1, 1)], p[(2, 2)]]
+            },
+            fixes: self.fixes,
             twist: self.twist,
             command: twist_cmd,
             wheels: self.wheels as u8,
@@ -307,7 +434,14 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             faults.insert(Faults::HARDWARE);
             return false;
         };
+        self.odo_us = Some(now_us);
         if step.dt > T::zero() {
+            let sh = match heading {
+                HeadingInput::GyroRate(_) => StepHeading::Gyro,
+                _ => StepHeading::Wheels,
+            };
+            // Cannot fail for a finite step at a later time; the filter is left as it was.
+            let _ = self.fusion.predict(t, step.delta, sh);
             // Slip: the least-squares residual of the fit (over-determined kinds) and the
             // gyro against the wheels' yaw rate, both low-passed.
             self.twist = step.twist;
@@ -331,6 +465,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             if fresh.update(&r0, heading).is_ok() {
                 self.odo = fresh;
                 self.odo_base_us = Some(now_us);
+                self.fusion.shift_time(t);
             }
         }
         true

@@ -34,7 +34,9 @@
 //! ## Cycle order
 //! 1. clock → `dt` (an overrun beyond twice the nominal period is flagged and clamped);
 //! 2. IMU, encoders → odometry (heading from the wheels, or the gyro with
-//!    [`Config::heading_from_gyro`]); slip checks;
+//!    [`Config::heading_from_gyro`]) → prediction of the fix fusion filter (fixes themselves
+//!    arrive through [`Runtime::handle`] as [`Command::Fix`] and are fused at their capture
+//!    time; the control uses the fused pose once one has been accepted); slip checks;
 //! 3. watchdog;
 //! 4. target twist of the mode (world frame); trajectory: `v = v_ref + K·(p_ref − p)`;
 //! 5. desaturation at the current heading/steer → slew (acceleration, jerk) → inverse
@@ -109,10 +111,13 @@ mod status;
 
 use crate::Real;
 pub use balance::{BalanceRuntime, BalanceRuntimeConfig, BalanceStatus};
-pub use command::{Command, CommandError, Frame, PlanPoint};
+pub use command::{
+    CameraFix, Command, CommandError, FIX_HISTORY, FIX_MAX_COORDINATE, FIX_MAX_STD_XY, Frame,
+    PlanPoint,
+};
 pub use config::{Config, ConfigError, RATE_HZ_RANGE};
 pub use controller::Runtime;
-pub use status::{Faults, Mode, PlanStatus, Status};
+pub use status::{Faults, FixCounters, Mode, PlanStatus, Status};
 
 /// A runtime the operator link drives ([`crate::link::serve`], [`crate::link::robot_info`]):
 /// the rate runtime ([`Runtime`]) and the balance runtime ([`BalanceRuntime`]). One command

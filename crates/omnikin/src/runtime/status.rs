@@ -134,6 +134,23 @@ pub struct PlanStatus {
     pub done: bool,
 }
 
+/// What became of the external fixes ([`Command::Fix`](super::Command::Fix)) since start.
+/// Wire-stable field order (it is sent in the link's estimate telemetry).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FixCounters {
+    /// Fixes fused (the first one, which initialises a filter that had no pose, and the ones
+    /// that ended a recovery included).
+    pub accepted: u32,
+    /// Fixes refused by the χ² gate (the estimate did not move).
+    pub rejected: u32,
+    /// Fixes captured before the oldest state the history keeps (more than the fusion's
+    /// `max_latency` before the latest cycle, or before the first cycle): dropped.
+    pub too_late: u32,
+    /// Runs of rejections that ended in a recovery (re-initialisation or covariance
+    /// inflation; [`crate::estimate::fusion::Recovery`]).
+    pub recoveries: u32,
+}
+
 /// Everything the loop knows after a cycle (the content of telemetry).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Status<T> {
@@ -145,9 +162,18 @@ pub struct Status<T> {
     pub faults: Faults,
     /// Faults seen since the last [`Command::Clear`] (sticky).
     pub fault_history: Faults,
-    /// Estimated pose (world, m, m, rad unwrapped): wheel odometry, heading per
-    /// [`Config::heading_from_gyro`].
+    /// Estimated pose (world, m, m, rad unwrapped), the one the control uses: the fused pose
+    /// once a fix has been accepted ([`FixCounters::accepted`] > 0), the wheel odometry
+    /// (heading per [`Config::heading_from_gyro`]) before.
     pub pose: Pose2<T>,
+    /// Pure wheel odometry (world; never corrected by fixes, moved only by
+    /// [`Command::SetPose`](super::Command::SetPose)).
+    pub odometry: Pose2<T>,
+    /// Variances of the fused pose `[σ²x, σ²y, σ²θ]` (m², m², rad²), growing with the
+    /// odometry's noise model between fixes.
+    pub covariance: [T; 3],
+    /// External fixes so far.
+    pub fixes: FixCounters,
     /// Measured robot-frame twist from the encoders (mean over the last cycle).
     pub twist: Twist2<T>,
     /// Commanded robot-frame twist after limits.
