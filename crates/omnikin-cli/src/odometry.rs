@@ -298,7 +298,15 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
             )
         })
         .collect();
-    crate::errln!("event thresholds: {}", thresholds.join(", "));
+    // Said when it matters: a threshold not at its default, or events found with them.
+    let all_default = sum
+        .event_thresholds
+        .rows()
+        .iter()
+        .all(|r| matches!(r.3, ThresholdSource::Default));
+    if !all_default || !r.events.is_empty() {
+        crate::errln!("event thresholds: {}", thresholds.join(", "));
+    }
     for e in &r.events {
         crate::errln!(
             "event: {} from t = {} s to {} s (peak {:.3} {})",

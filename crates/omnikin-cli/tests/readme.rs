@@ -203,7 +203,9 @@ impl Env {
         PORTS
             .iter()
             .zip(&self.ports)
-            .fold(line.to_string(), |l, ((readme, _), free)| l.replace(readme, free))
+            .fold(line.to_string(), |l, ((readme, _), free)| {
+                l.replace(readme, free)
+            })
     }
 
     /// Printed text with the README's addresses in place of the free ones.
@@ -211,7 +213,9 @@ impl Env {
         PORTS
             .iter()
             .zip(&self.ports)
-            .fold(text.to_string(), |l, ((readme, _), free)| l.replace(free, readme))
+            .fold(text.to_string(), |l, ((readme, _), free)| {
+                l.replace(free, readme)
+            })
     }
 
     fn command(&self, line: &str) -> Command {
@@ -583,7 +587,10 @@ fn mask_replaces_every_number() {
         mask("open http://127.0.0.1:8090/?token=9ba55e9733b34171dc2255d1c81e42e8"),
         "open http://N:N/?token=T"
     );
-    assert_eq!(mask("ws://h/?token=ab12 and token=c"), "ws://h/?token=T and token=T");
+    assert_eq!(
+        mask("ws://h/?token=ab12 and token=c"),
+        "ws://h/?token=T and token=T"
+    );
 }
 
 /// `omnikin ARGS --help`.
