@@ -699,7 +699,10 @@ impl Session {
                         // it) verifies under the shared K_s but is dropped as malformed before
                         // it can move the replay window.
                         Ok(
-                            Message::Telemetry(_) | Message::SessionEnd(_) | Message::Estimate(_),
+                            Message::Telemetry(_)
+                            | Message::SessionEnd(_)
+                            | Message::Estimate(_)
+                            | Message::Truth(_),
                         ) => Some(Reason::Malformed),
                         Ok(_) => None,
                     }
@@ -921,7 +924,10 @@ impl Session {
             Served::Ignored => {
                 assert!(matches!(
                     m,
-                    Message::Telemetry(_) | Message::SessionEnd(_) | Message::Estimate(_)
+                    Message::Telemetry(_)
+                        | Message::SessionEnd(_)
+                        | Message::Estimate(_)
+                        | Message::Truth(_)
                 ))
             }
             Served::Accepted => match m {

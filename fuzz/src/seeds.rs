@@ -4,8 +4,8 @@
 
 use omnikin::link::{
     EndReason, Estimate, Hello, HelloAck, KIND_TAGGED, Key, LinkCounters, MAX_FRAME, MacKey,
-    Message, NONCE_LEN, PROTOCOL_VERSION, RobotInfo, RobotKind, Telemetry, WireFix, WirePoint,
-    encode_hello, encode_message,
+    Message, NONCE_LEN, PROTOCOL_VERSION, RobotInfo, RobotKind, SimTruth, Telemetry, WireFix,
+    WirePoint, encode_hello, encode_message,
 };
 use omnikin::runtime::{Faults, FixCounters, Frame, Mode, PlanStatus};
 
@@ -170,6 +170,13 @@ pub fn messages() -> Vec<(&'static str, Message)> {
                     too_late: 1,
                     recoveries: 1,
                 },
+            }),
+        ),
+        (
+            "truth",
+            Message::Truth(SimTruth {
+                time_us: 1_250_000,
+                pose: [0.40, -0.10, 0.30],
             }),
         ),
     ]

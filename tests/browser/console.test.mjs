@@ -108,6 +108,16 @@ test('the page connects and shows the pose', async () => {
   await until('link connected', async () => (await text('link-state')) === 'connected');
   const p = await until('telemetry', async () => { const p = await pose(); return Number.isFinite(p.t) && p; });
   assert.match(p.text, /x -?\d+\.\d+ m, y -?\d+\.\d+ m, heading -?\d+\.\d+ rad/);
+  // A simulated robot sends its plant's truth: shown beside the estimate (ideal plant: equal).
+  const truth = await until('the truth readout', async () => {
+    const t = await page.$eval('[data-testid="truth"]', (e) => ({
+      hidden: e.hidden, text: e.textContent, x: +e.dataset.x, y: +e.dataset.y,
+    }));
+    return !t.hidden && Number.isFinite(t.x) && t;
+  });
+  assert.match(truth.text, /truth x -?\d+\.\d+ m, y -?\d+\.\d+ m, heading -?\d+\.\d+ rad/);
+  const q = await pose();
+  assert.ok(Math.hypot(truth.x - q.x, truth.y - q.y) < 0.05, `truth ${truth.text} vs estimate ${q.text}`);
 });
 
 test('dead-man teleop moves the robot; release stops it within the watchdog time', async () => {

@@ -15,6 +15,7 @@ let plan = null;           // plan being run / loaded: { name, points: [[x,y,h],
 let planState = '';
 const TRAIL_MAX = 4000;    // trail points kept
 const trail = [];
+const truthTrail = [];
 const HISTORY_S = 20;      // plot window, s (robot time)
 const hist = [];           // { t, cmd[], meas[], err, twistErr }
 const HIST_MAX = 2000;
@@ -104,6 +105,18 @@ function telemetry(m) {
   $('faults').textContent = m.fault_history;
   $('faults-pill').className = 'pill ' + (m.fault_history === 'none' ? '' : 'warn');
   $('estop').classList.toggle('latched', m.mode === 'estop');
+  if (m.truth) {
+    const [tx, ty, th] = m.truth;
+    $('truth').hidden = false;
+    $('truth').textContent = `truth x ${fix3(tx)} m, y ${fix3(ty)} m, heading ${fix3(th)} rad (|estimate − truth| ${fix3(Math.hypot(x - tx, y - ty))} m)`;
+    $('truth').dataset.x = tx; $('truth').dataset.y = ty; $('truth').dataset.heading = th;
+    $('truth-note').textContent = 'truth (simulation)';
+    const tt = truthTrail.length ? truthTrail[truthTrail.length - 1] : null;
+    if (!tt || Math.hypot(tt[0] - tx, tt[1] - ty) > 0.002) {
+      truthTrail.push([tx, ty]);
+      if (truthTrail.length > TRAIL_MAX) truthTrail.shift();
+    }
+  }
   const tl = trail.length ? trail[trail.length - 1] : null;
   if (!tl || Math.hypot(tl[0] - x, tl[1] - y) > 0.002) {
     trail.push([x, y]);
@@ -264,6 +277,7 @@ function drawMap() {
   if (plan) for (const p of plan.points) pts.push(p);
   for (const p of trail) pts.push(p);
   if (last) pts.push(last.pose, last.reference);
+  if (last && last.truth) pts.push(last.truth);
   let x0 = -0.5, x1 = 0.5, y0 = -0.5, y1 = 0.5;
   if (pts.length) {
     x0 = Math.min(...pts.map((p) => p[0])); x1 = Math.max(...pts.map((p) => p[0]));
@@ -296,6 +310,12 @@ function drawMap() {
     trail.forEach((p, i) => (i ? ctx.lineTo(X(p[0]), Y(p[1])) : ctx.moveTo(X(p[0]), Y(p[1]))));
     ctx.stroke();
   }
+  // The simulated truth's trail: thin and dashed under the estimate's.
+  if (truthTrail.length > 1) {
+    ctx.strokeStyle = 'rgba(107, 114, 128, 0.9)'; ctx.lineWidth = 1.5; ctx.setLineDash([3, 3]); ctx.beginPath();
+    truthTrail.forEach((p, i) => (i ? ctx.lineTo(X(p[0]), Y(p[1])) : ctx.moveTo(X(p[0]), Y(p[1]))));
+    ctx.stroke(); ctx.setLineDash([]);
+  }
   // Plan (over the trail, thinner: where they differ both show).
   if (plan && plan.points.length) {
     const running = planState === 'running' || planState === 'uploading' || planState === 'done';
@@ -311,6 +331,7 @@ function drawMap() {
     if (last.mode === 'trajectory') {
       ctx.fillStyle = '#f59e0b'; ctx.beginPath(); ctx.arc(X(last.reference[0]), Y(last.reference[1]), 5, 0, 7); ctx.fill();
     }
+    if (last.truth) drawRobot(ctx, X(last.truth[0]), Y(last.truth[1]), last.truth[2], Math.max(7, 0.035 * s), '#6b7280');
     drawRobot(ctx, X(last.pose[0]), Y(last.pose[1]), last.pose[2], Math.max(7, 0.035 * s), last.mode === 'estop' ? '#b91c1c' : '#111827');
   }
 }

@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use omnikin::link::{
     CHUNK_POINTS, DropReason, EndReason, Estimate, Key, MAX_FRAME, Message, OperatorEvent,
-    OperatorLink, PROTOCOL_VERSION, RobotInfo, Telemetry, WirePoint, v1,
+    OperatorLink, PROTOCOL_VERSION, RobotInfo, SimTruth, Telemetry, WirePoint, v1,
 };
 use omnikin::runtime::{Frame, Mode};
 use omnikin_plan::Plan;
@@ -230,6 +230,8 @@ struct Session {
     latest: Option<Telemetry>,
     /// The newest estimate of this session (robots that fuse fixes send one per telemetry).
     estimate: Option<Estimate>,
+    /// The newest true pose of this session (`robot --sim` sends one per telemetry).
+    truth: Option<SimTruth>,
     /// `--fixes`: the fixes to forward.
     fixes: Option<crate::drive_fixes::FixFeeder>,
     /// When the newest telemetry frame of this session arrived.
@@ -265,6 +267,7 @@ impl Session {
             addr: a.connect.clone(),
             latest: None,
             estimate: None,
+            truth: None,
             fixes: None,
             last_telemetry: None,
             v1_answer: None,
@@ -328,7 +331,9 @@ impl Session {
                         .context("--out: cannot write")?;
                     }
                     if let Some(m) = self.mcap.as_mut() {
-                        crate::mcap_log::telemetry(m, &t)?;
+                        m.sample(&crate::mcap_log::telemetry_sample_with_truth(
+                            &t, self.truth,
+                        ))?;
                     }
                     self.last_telemetry = Some(Instant::now());
                     self.frames += 1;
@@ -345,6 +350,12 @@ impl Session {
                     ..
                 }) if self.estimate.is_none_or(|l| e.time_us >= l.time_us) => {
                     self.estimate = Some(e);
+                }
+                Ok(OperatorEvent::Message {
+                    msg: Message::Truth(x),
+                    ..
+                }) if self.truth.is_none_or(|l| x.time_us >= l.time_us) => {
+                    self.truth = Some(x);
                 }
                 Err(DropReason::Version(1)) => {
                     // Read without the key: only to name the mismatch, never acted upon.
@@ -995,6 +1006,11 @@ impl ConsoleOperator {
     /// The newest telemetry of this session.
     pub(crate) fn latest(&self) -> Option<Telemetry> {
         self.0.latest
+    }
+
+    /// The newest true pose of this session (simulated robots only).
+    pub(crate) fn truth(&self) -> Option<SimTruth> {
+        self.0.truth
     }
 
     /// The sequence number the next message will carry.

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use omnikin::description::RobotDescription;
 use omnikin::link::{
-    DropReason, MAX_FRAME, Message, PENDING_SLOTS, RobotEvent, RobotLink, parse_frame,
+    DropReason, MAX_FRAME, Message, PENDING_SLOTS, RobotEvent, RobotLink, SimTruth, parse_frame,
 };
 use omnikin::runtime::Config;
 use omnikin_sim::profile::Profile;
@@ -307,6 +307,15 @@ pub fn run(a: &RobotArgs) -> Result<()> {
             if let Some(e) = sim.estimate()
                 && let Ok(n) = robot_link.encode(&Message::Estimate(e), &mut buf)
             {
+                link.transport.send_to(&buf[..n], active)?;
+            }
+            // A simulation knows the truth: the operator can draw it against the estimate.
+            let p = sim.true_pose();
+            let truth = SimTruth {
+                time_us: t.time_us,
+                pose: [p.x as f32, p.y as f32, p.heading as f32],
+            };
+            if let Ok(n) = robot_link.encode(&Message::Truth(truth), &mut buf) {
                 link.transport.send_to(&buf[..n], active)?;
             }
             if let Ok(n) = robot_link.encode(&Message::Telemetry(t), &mut buf) {

@@ -200,6 +200,13 @@ fn check_recording(event: &str) {
     assert!(n > 50, "{event}");
     assert_eq!(count.get("/pose"), Some(&n), "{count:?}");
     assert_eq!(count.get("/plan"), Some(&1), "{count:?}");
+    // `robot --sim` sends its plant's truth with every telemetry frame (UDP on loopback: a
+    // frame may still go missing, so not an exact count).
+    let truth = count.get("/truth").copied().unwrap_or(0);
+    assert!(
+        truth * 10 >= n * 9 && truth <= n,
+        "/truth {truth} of {n}: {count:?}"
+    );
     assert_eq!(schemas["/pose"], "foxglove.PoseInFrame");
     assert_eq!(schemas["/tf"], "foxglove.FrameTransform");
 }
@@ -286,6 +293,14 @@ fn relay_drives_the_robot_and_survives_hostile_pages() {
     p.wait_for(Duration::from_secs(10), "telemetry", |m| {
         m["type"] == "telemetry"
     });
+    // A simulated robot's telemetry comes with its plant's truth (ideal plant: the estimate).
+    let m = p.wait_for(Duration::from_secs(5), "telemetry with the truth", |m| {
+        m["type"] == "telemetry" && m["truth"].is_array()
+    });
+    let (q, truth) = (&m["pose"], &m["truth"]);
+    let d = (q[0].as_f64().unwrap() - truth[0].as_f64().unwrap())
+        .hypot(q[1].as_f64().unwrap() - truth[1].as_f64().unwrap());
+    assert!(d < 0.01, "estimate {q} vs truth {truth}");
     let x0 = p.pose()[0];
 
     // Hostile page messages: each answered with an error to that page, none obeyed.

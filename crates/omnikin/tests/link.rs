@@ -8,8 +8,8 @@
 use omnikin::link::{
     CHUNK_POINTS, DropReason, EncodeError, EndReason, Estimate, FrameReader, HANDSHAKE_BODY, Hello,
     Key, Kind, LinkCounters, MAX_FRAME, Message, OperatorEvent, OperatorLink, PROTOCOL_VERSION,
-    RobotEvent, RobotInfo, RobotKind, RobotLink, Telemetry, WireFix, WirePoint, encode_hello,
-    encode_message, parse_frame, serve, v1,
+    RobotEvent, RobotInfo, RobotKind, RobotLink, SimTruth, Telemetry, WireFix, WirePoint,
+    encode_hello, encode_message, parse_frame, serve, v1,
 };
 use omnikin::runtime::hal::{
     EncoderAngles, Encoders, Entropy, EntropyError, MotorCommand, MotorOutputs, NoImu,
@@ -162,6 +162,7 @@ fn message() -> impl Strategy<Value = Message> {
                 }
             )
         ),
+        (any::<u64>(), f3()).prop_map(|(time_us, pose)| Message::Truth(SimTruth { time_us, pose })),
     ]
 }
 
@@ -395,7 +396,11 @@ fn largest_messages_fit_one_frame_and_no_answer_outgrows_its_hello() {
             recoveries: u32::MAX,
         },
     });
-    for (name, m) in [("fix", &fix), ("estimate", &est)] {
+    let truth = Message::Truth(SimTruth {
+        time_us: u64::MAX,
+        pose: [f32::MAX; 3],
+    });
+    for (name, m) in [("fix", &fix), ("estimate", &est), ("truth", &truth)] {
         let n = encode_message(u64::MAX, u64::MAX, m, Some(k.mac()), &mut buf).unwrap();
         println!("largest keyed {name} frame: {n} bytes");
         assert!(n <= MAX_FRAME);

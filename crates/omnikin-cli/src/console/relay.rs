@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Result;
 use omnikin::link::{
-    CHUNK_POINTS, LinkCounters, Message, RobotInfo, RobotKind, Telemetry, WirePoint,
+    CHUNK_POINTS, LinkCounters, Message, RobotInfo, RobotKind, SimTruth, Telemetry, WirePoint,
 };
 use omnikin::runtime::{Faults, Frame, Mode};
 use omnikin_plan::Plan;
@@ -527,7 +527,7 @@ impl Relay {
             }
         }
         if let Some(fox) = &self.cfg.fox {
-            let s = crate::mcap_log::telemetry_sample(&t);
+            let s = crate::mcap_log::telemetry_sample_with_truth(&t, o.truth());
             if let Some(ns) = crate::mcap_log::foxglove::time_ns(s.t) {
                 for (topic, v) in self.enc.messages("", &s, ns) {
                     fox.publish(topic, ns, &v);
@@ -535,7 +535,10 @@ impl Relay {
             }
         }
         if let Some(r) = self.rec.as_mut() {
-            match crate::mcap_log::telemetry(&mut r.log, &t) {
+            match r
+                .log
+                .sample(&crate::mcap_log::telemetry_sample_with_truth(&t, o.truth()))
+            {
                 Ok(()) => r.frames += 1,
                 Err(e) => {
                     self.event("error", &format!("recording: {e:#}"));
@@ -547,7 +550,14 @@ impl Relay {
             .info
             .is_some_and(|i| matches!(i.kind, RobotKind::Caster | RobotKind::Swerve));
         self.hub.publish(
-            &telemetry_json(&t, prev.as_ref(), steer, &o.counters(), o.frames()),
+            &telemetry_json(
+                &t,
+                prev.as_ref(),
+                o.truth().filter(|x| x.time_us == t.time_us),
+                steer,
+                &o.counters(),
+                o.frames(),
+            ),
             Some("telemetry"),
         );
         next
@@ -797,6 +807,7 @@ pub fn measured_rates(a: &Telemetry, b: &Telemetry) -> Option<Vec<f64>> {
 fn telemetry_json(
     t: &Telemetry,
     prev: Option<&Telemetry>,
+    truth: Option<SimTruth>,
     steer: bool,
     op: &LinkCounters,
     frames: u64,
@@ -811,6 +822,7 @@ fn telemetry_json(
         "faults": t.faults.to_string(),
         "fault_history": t.fault_history.to_string(),
         "pose": t.pose,
+        "truth": truth.map(|x| x.pose),
         "twist": t.twist,
         "command": t.command,
         "wheels": n,

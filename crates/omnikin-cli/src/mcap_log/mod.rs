@@ -386,11 +386,6 @@ pub fn runtime_cycle(
     })
 }
 
-/// `drive`: one telemetry frame as the operator received it.
-pub fn telemetry(log: &mut McapLog, t: &omnikin::link::Telemetry) -> Result<()> {
-    log.sample(&telemetry_sample(t))
-}
-
 /// The [`Sample`] of a telemetry frame (robot time, estimate, reference in trajectory mode,
 /// commanded rates and encoder angles of the robot's wheels, counters, mode and faults).
 pub fn telemetry_sample(t: &omnikin::link::Telemetry) -> Sample {
@@ -412,6 +407,20 @@ pub fn telemetry_sample(t: &omnikin::link::Telemetry) -> Sample {
         link: Some(Counters::from_link(&t.link, t.rejected)),
         state: Some((t.mode, t.faults)),
     }
+}
+
+/// [`telemetry_sample`] with the simulated plant's true pose of the same cycle on `/truth`
+/// (`robot --sim` sends one before each telemetry frame; `None`, or the truth of another
+/// cycle, leaves `/truth` out).
+pub fn telemetry_sample_with_truth(
+    t: &omnikin::link::Telemetry,
+    truth: Option<omnikin::link::SimTruth>,
+) -> Sample {
+    let mut s = telemetry_sample(t);
+    s.truth = truth
+        .filter(|x| x.time_us == t.time_us)
+        .map(|x| Pose2::new(x.pose[0].into(), x.pose[1].into(), x.pose[2].into()));
+    s
 }
 
 /// `drive plan`: the uploaded plan's poses on `/plan`, at the robot time `time_us` (µs) of the

@@ -394,6 +394,20 @@ pub enum Message {
     /// sent right before the [`Message::Telemetry`] of the same cycle. An operator without it
     /// drops it as `malformed`.
     Estimate(Estimate),
+    /// Robot → operator, simulated robots only (`omnikin robot --sim`): the plant's true pose,
+    /// sent right before the [`Message::Telemetry`] of the same cycle, so an operator can show
+    /// the estimate against the truth. Appended after [`Message::Estimate`]: an operator
+    /// without it drops it as `malformed`. A real robot never sends it (it has no truth).
+    Truth(SimTruth),
+}
+
+/// The simulated plant's true pose at one cycle ([`Message::Truth`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SimTruth {
+    /// Robot clock, µs (the same cycle as the telemetry sent after it).
+    pub time_us: u64,
+    /// True pose `[x, y, heading]` (world; m, m, rad).
+    pub pose: [f32; 3],
 }
 
 /// The body of a [`Kind::Hello`](super::Kind::Hello) frame (then zero padding up to [`HANDSHAKE_BODY`](super::HANDSHAKE_BODY) bytes).
@@ -417,8 +431,8 @@ pub struct HelloAck {
 }
 
 impl Message {
-    /// The runtime command of an operator message (`None` for `Telemetry`, `SessionEnd` and
-    /// `Estimate`).
+    /// The runtime command of an operator message (`None` for `Telemetry`, `SessionEnd`,
+    /// `Estimate` and `Truth`).
     /// Chunk points are converted into `buf`.
     pub fn command<'b, T: Real>(
         &self,
@@ -456,7 +470,10 @@ impl Message {
                 Command::SetPose(Pose2::new(c(*x), c(*y), c(*heading)))
             }
             Message::Fix(f) => Command::Fix(f.to_fix()),
-            Message::Telemetry(_) | Message::SessionEnd(_) | Message::Estimate(_) => return None,
+            Message::Telemetry(_)
+            | Message::SessionEnd(_)
+            | Message::Estimate(_)
+            | Message::Truth(_) => return None,
         })
     }
 }

@@ -89,7 +89,7 @@ pub use frame::{
 };
 use frame::{ct_eq, decode_hello, postcard_body, stuff};
 pub use message::{
-    EndReason, Estimate, Hello, HelloAck, Message, RobotInfo, RobotKind, Telemetry,
+    EndReason, Estimate, Hello, HelloAck, Message, RobotInfo, RobotKind, SimTruth, Telemetry,
     TelemetrySource, WireFix, WirePoint,
 };
 pub use operator::{OperatorEvent, OperatorLink};

@@ -74,7 +74,10 @@ impl Session {
         let msg = decode_message(p.body)?;
         let for_robot = !matches!(
             msg,
-            Message::Telemetry(_) | Message::SessionEnd(_) | Message::Estimate(_)
+            Message::Telemetry(_)
+                | Message::SessionEnd(_)
+                | Message::Estimate(_)
+                | Message::Truth(_)
         );
         if for_robot != to_robot {
             return Err(DropReason::Malformed);
