@@ -301,6 +301,18 @@ impl Session {
     }
 
     /// Receives for `dur`; returns `true` if a new telemetry frame of this session arrived.
+    /// Sends `m` when the heartbeat `next` is due (then the next one is a period later), and
+    /// receives until the next one is due or frames arrive. A loop around it sends at the
+    /// heartbeat rate however many frames the robot sends (telemetry, estimate, truth), and
+    /// still sees every batch of them as it arrives.
+    fn beat(&mut self, next: &mut Instant, m: &Message) -> Result<bool> {
+        if Instant::now() >= *next {
+            self.send(m)?;
+            *next = Instant::now() + self.heartbeat;
+        }
+        self.pump(next.saturating_duration_since(Instant::now()))
+    }
+
     fn pump(&mut self, dur: Duration) -> Result<bool> {
         let mut fresh = false;
         if let Some(sig) = crate::output::interrupted() {
@@ -623,9 +635,9 @@ pub fn run(a: &DriveArgs) -> Result<()> {
                 yaw_rate: *yaw_rate as f32,
             };
             let end = Instant::now() + crate::args::duration("--for", *duration)?;
+            let mut beat = Instant::now();
             while Instant::now() < end {
-                s.send(&m)?;
-                s.pump(s.heartbeat)?;
+                s.beat(&mut beat, &m)?;
                 s.alive()?;
             }
             if let Some(t) = s.latest
@@ -678,10 +690,10 @@ pub fn run(a: &DriveArgs) -> Result<()> {
             s.record(Some(out))?;
             s.hello()?;
             let end = Instant::now() + crate::args::duration("--for", *duration)?;
+            let mut beat = Instant::now();
             while Instant::now() < end {
                 // Heartbeats keep the session (and the watchdog) alive without commanding.
-                s.send(&Message::Heartbeat)?;
-                s.pump(s.heartbeat)?;
+                s.beat(&mut beat, &Message::Heartbeat)?;
                 s.alive()?;
             }
             crate::outln!("{} telemetry frames written to {}", s.frames, out.display())?;
@@ -813,9 +825,9 @@ fn follow_plan(s: &mut Session, path: &Path, set_pose: bool) -> Result<()> {
     let mut max_dev = 0.0f32;
     let mut last_seen = Instant::now();
     let mut last_t = 0u64;
+    let mut beat = Instant::now();
     loop {
-        s.send(&Message::Heartbeat)?;
-        s.pump(s.heartbeat)?;
+        s.beat(&mut beat, &Message::Heartbeat)?;
         let Some(t) = s.latest else { continue };
         if t.time_us != last_t {
             last_t = t.time_us;
@@ -890,6 +902,7 @@ fn stream_plan(s: &mut Session, plan: &Plan, set_pose: bool) -> Result<()> {
     let t0 = s.latest.context("no telemetry")?.time_us;
     let end = plan.duration();
     let (mut max_dev, mut max_path_dev) = (0.0f64, 0.0f64);
+    let mut beat = Instant::now();
     loop {
         let t = s.latest.context("no telemetry")?;
         let now = t.time_us.saturating_sub(t0) as f64 * 1e-6;
@@ -912,13 +925,13 @@ fn stream_plan(s: &mut Session, plan: &Plan, set_pose: bool) -> Result<()> {
                 .fold(f64::INFINITY, f64::min);
             max_path_dev = max_path_dev.max(d);
         }
-        s.send(&Message::SetVelocity {
+        let m = Message::SetVelocity {
             frame: Frame::World,
             vx: p.twist.vx as f32,
             vy: p.twist.vy as f32,
             yaw_rate: p.twist.yaw_rate as f32,
-        })?;
-        s.pump(s.heartbeat)?;
+        };
+        s.beat(&mut beat, &m)?;
         s.alive()?;
         if let Some(t) = s.latest
             && t.mode == Mode::EStop
