@@ -45,9 +45,10 @@ fn valid(target: &str, name: &str, data: &[u8]) -> Result<(), String> {
             for frame in data.split(|&b| b == 0).filter(|f| !f.is_empty()) {
                 ok(parse_frame(&mut frame.to_vec()))?;
                 let r = robot.receive(&mut frame.to_vec(), &info, &mut Fixed, &mut reply);
-                // A robot → operator message (telemetry, session end; the stream seed has
-                // both) is dropped by the robot as malformed: a reflected frame.
-                let to_operator = ["telemetry", "session-end", "stream"]
+                // A robot → operator message (telemetry, session end, estimate, truth; the
+                // stream seed has the first two) is dropped by the robot as malformed: a
+                // reflected frame.
+                let to_operator = ["telemetry", "session-end", "stream", "estimate", "truth"]
                     .iter()
                     .any(|m| name.contains(m));
                 let reflected = to_operator
@@ -64,7 +65,9 @@ fn valid(target: &str, name: &str, data: &[u8]) -> Result<(), String> {
             let accepted = run_session(data);
             // A robot → operator message sent to the robot (a reflected frame) verifies under
             // the shared K_s but is dropped: only the handshake's confirming frame is taken.
-            let reflected = name.ends_with("-telemetry") || name.ends_with("-session-end");
+            let reflected = ["-telemetry", "-session-end", "-estimate", "-truth"]
+                .iter()
+                .any(|m| name.ends_with(m));
             let needed = if reflected { 1 } else { 2 };
             if !name.contains("-bad-") && accepted < needed {
                 return Err(format!("only {accepted} frames accepted"));
