@@ -333,11 +333,9 @@ mod tests {
     use omnikin_plan::RobotModel;
     use omnikin_plan::generators::Circle;
 
-    /// Streaming equals evaluating every kept trial, bit for bit, whether the second pass
-    /// keeps the positions or simulates again, on 1 and 3 threads, and across batches (more
-    /// trials than one batch).
-    #[test]
-    fn streaming_equals_keeping_every_trial_on_any_thread_count() {
+    /// The sphere preset and paper 000's circle at 2 rad/s, planned at 20 Hz: the runs these
+    /// tests simulate.
+    fn sphere_circle() -> (omnikin::Robot<f64>, omnikin_plan::Plan) {
         let d = RobotDescription::preset("sphere-omni").unwrap();
         let robot = d.build::<f64>().unwrap();
         let model = RobotModel::from_description(&d).unwrap();
@@ -346,6 +344,15 @@ mod tests {
             omnikin_plan::planner::plan(&c.path().unwrap(), &c.heading(), &model, &c.options(20.0))
                 .unwrap()
                 .plan;
+        (robot, plan)
+    }
+
+    /// Streaming equals evaluating every kept trial, bit for bit, whether the second pass
+    /// keeps the positions or simulates again, on 1 and 3 threads, and across batches (more
+    /// trials than one batch).
+    #[test]
+    fn streaming_equals_keeping_every_trial_on_any_thread_count() {
+        let (robot, plan) = sphere_circle();
         let mut profile = crate::reproduce::hardware_profile();
         profile.rate = Some(200.0);
         profile.tracking.offset = Some([0.01, 0.0]);
@@ -412,14 +419,7 @@ mod tests {
     /// in batches of any size, and a failing source stops the evaluation with its error.
     #[test]
     fn evaluating_read_back_runs_equals_simulating_them() {
-        let d = RobotDescription::preset("sphere-omni").unwrap();
-        let robot = d.build::<f64>().unwrap();
-        let model = RobotModel::from_description(&d).unwrap();
-        let c = Circle::paper(2.0);
-        let plan =
-            omnikin_plan::planner::plan(&c.path().unwrap(), &c.heading(), &model, &c.options(20.0))
-                .unwrap()
-                .plan;
+        let (robot, plan) = sphere_circle();
         let profile = crate::reproduce::hardware_profile();
         let trials = 21;
         let want =
@@ -463,14 +463,7 @@ mod tests {
 
     #[test]
     fn a_failing_visit_stops_the_run_with_its_error() {
-        let d = RobotDescription::preset("sphere-omni").unwrap();
-        let robot = d.build::<f64>().unwrap();
-        let model = RobotModel::from_description(&d).unwrap();
-        let c = Circle::paper(2.0);
-        let plan =
-            omnikin_plan::planner::plan(&c.path().unwrap(), &c.heading(), &model, &c.options(20.0))
-                .unwrap()
-                .plan;
+        let (robot, plan) = sphere_circle();
         let profile = Profile::default();
         let mut seen = 0;
         let r = simulate_and_evaluate(&robot, &plan, &plan, &profile, 30, 1, &|| {}, |i, _| {
