@@ -134,7 +134,8 @@ fn parse_row(
     for (v, col) in [(x, "x"), (y, "y")] {
         if v.abs() > FIX_MAX_COORDINATE {
             return Err(format!(
-                "{name}:{line}: column {col}: |{v}| m exceeds {FIX_MAX_COORDINATE} m (the robot refuses it)"
+                "{name}:{line}: column {col}: |{}| m exceeds {FIX_MAX_COORDINATE} m (the robot refuses it)",
+                crate::args::num(v)
             ));
         }
     }

@@ -291,6 +291,13 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
         }
         Command::Drive(a) => {
             inputs.extend(a.key.as_deref().map(|p| ("--key", p)));
+            // `--fixes -` is stdin, not a file.
+            inputs.extend(
+                a.fixes
+                    .as_deref()
+                    .filter(|p| *p != Path::new("-"))
+                    .map(|p| ("--fixes", p)),
+            );
             files.extend(a.mcap.as_deref().map(|p| ("--mcap", p)));
             match &a.action {
                 drive::DriveAction::Velocity { out, .. } => {

@@ -557,3 +557,22 @@ fn with_fixes_a_plan_is_tracked_in_the_world() {
         end(&without)
     );
 }
+
+#[test]
+fn the_fixes_file_is_an_input_and_never_the_telemetry_output() {
+    let dir = common::tmp("fixes", "input-is-output");
+    let f = dir.join("fixes.csv");
+    let text = "t,x,y\n0.1,0,0\n";
+    std::fs::write(&f, text).unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_omnikin"))
+        .args(["drive", "--connect", "127.0.0.1:9", "--fixes"])
+        .arg(&f)
+        .args(["telemetry", "--force", "--for", "1", "--out"])
+        .arg(&f)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("is also the input --fixes"), "{err}");
+    assert_eq!(std::fs::read_to_string(&f).unwrap(), text);
+}
