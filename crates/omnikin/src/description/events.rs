@@ -1,5 +1,5 @@
 //! The optional `[events]` table of a robot file: the thresholds of slip and collision
-//! detection (`omnikin odometry`, and later the runtime), every key optional (absent = the
+//! detection ([`crate::estimate::events`]: `omnikin odometry` and the runtime of `omnikin robot`), every key optional (absent = the
 //! default below), SI units:
 //!
 //! ```toml
@@ -19,12 +19,9 @@ use serde::Deserialize;
 
 use super::DescriptionError;
 
-/// Default [`EventSpec::slip_yaw_rate`], rad/s.
-pub const DEFAULT_SLIP_YAW_RATE: f64 = 0.3;
-/// Default [`EventSpec::slip_residual`], m/s.
-pub const DEFAULT_SLIP_RESIDUAL: f64 = 0.05;
-/// Default [`EventSpec::collision_decel`], m/s².
-pub const DEFAULT_COLLISION_DECEL: f64 = 3.0;
+pub use crate::estimate::events::{
+    DEFAULT_COLLISION_DECEL, DEFAULT_SLIP_RESIDUAL, DEFAULT_SLIP_YAW_RATE,
+};
 
 /// Plausible range of `events.slip_yaw_rate`, rad/s: below 10⁻³ rad/s gyro noise alone is an
 /// event, above 100 rad/s no wheel slip is ever seen.

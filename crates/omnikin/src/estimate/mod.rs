@@ -7,6 +7,7 @@
 //! | [`odometry`] | cumulative encoder angles (+ gyro or yaw) | world pose by exact SE(2) steps; caster slip residual, sphere shell spin |
 //! | [`ahrs`] | gyro + accelerometer + magnetometer | attitude and gyro bias (Mahony's complementary filter) |
 //! | [`estimator`] | odometry steps + delayed external position fixes | filtered pose and covariance (EKF with replay and a χ² gate) |
+//! | [`events`] | odometry steps + IMU yaw rate | slip and collision events (one per episode) and their counters |
 //! | [`fusion`] | odometry steps (+ heading source) + delayed fixes | pose, gyro bias, wheel scale and covariance; history sized by time, gate recovery, start from the first fix |
 //!
 //! The runtime ([`crate::runtime`]) runs odometry every cycle; the AHRS and the pose filter
@@ -14,5 +15,6 @@
 
 pub mod ahrs;
 pub mod estimator;
+pub mod events;
 pub mod fusion;
 pub mod odometry;
