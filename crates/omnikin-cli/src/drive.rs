@@ -145,13 +145,13 @@ pub fn telemetry_header(wheels: usize, steer: bool) -> String {
 
 /// The estimate columns at the end of a telemetry row (empty when the robot sends no
 /// estimate): the uncorrected wheel odometry, the fused pose's variances, the fix counters.
-const ESTIMATE_COLUMNS: &str = ",odo_x,odo_y,odo_heading,var_x,var_y,var_heading,fix_accepted,fix_rejected,fix_too_late,fix_recoveries";
+const ESTIMATE_COLUMNS: &str = ",odo_x,odo_y,odo_heading,var_x,var_y,var_heading,fix_accepted,fix_rejected,fix_too_late,fix_recoveries,slip_events,collision_events";
 
 /// The [`ESTIMATE_COLUMNS`] of `e` (empty cells for `None`).
 fn estimate_cells(e: Option<&Estimate>) -> String {
     match e {
         Some(e) => format!(
-            ",{},{},{},{:e},{:e},{:e},{},{},{},{}",
+            ",{},{},{},{:e},{:e},{:e},{},{},{},{},{},{}",
             e.odometry[0],
             e.odometry[1],
             e.odometry[2],
@@ -161,9 +161,11 @@ fn estimate_cells(e: Option<&Estimate>) -> String {
             e.fixes.accepted,
             e.fixes.rejected,
             e.fixes.too_late,
-            e.fixes.recoveries
+            e.fixes.recoveries,
+            e.events.slips,
+            e.events.collisions
         ),
-        None => ",".repeat(10),
+        None => ",".repeat(12),
     }
 }
 

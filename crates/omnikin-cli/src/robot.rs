@@ -96,6 +96,11 @@ pub struct RobotArgs {
     /// Seed of the disturbance draws.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// An obstacle in the robot's way, AT:FOR (s, robot time; e.g. 3:0.5): from AT for FOR
+    /// seconds the simulated robot stops dead and its wheels are blocked (kinematic plant), a
+    /// collision for the runtime's event detector (the robot file's [events]) to report.
+    #[arg(long, value_name = "AT:FOR", value_parser = obstacle)]
+    pub obstacle: Option<(f64, f64)>,
     /// Plant: `kinematic` (the motors' motion through the forward kinematics, with
     /// --disturbances) or `dynamic` (the robot file's [dynamics], no --disturbances):
     /// sphere-omni's shell + platform dynamics, or the ballbot's 3D model balanced by the
@@ -103,6 +108,22 @@ pub struct RobotArgs {
     /// refused, drive it with velocity commands; it falls if e-stopped).
     #[arg(long, value_enum, default_value_t = crate::sim::PlantKind::Kinematic)]
     pub plant: crate::sim::PlantKind,
+}
+
+/// `--obstacle AT:FOR`: 0 ≤ AT ≤ 10⁶ s, 0 < FOR ≤ 10⁶ s.
+fn obstacle(s: &str) -> Result<(f64, f64), String> {
+    let (at, dur) = s
+        .split_once(':')
+        .ok_or_else(|| format!("expected AT:FOR in seconds (e.g. 3:0.5), got \"{s}\""))?;
+    let at = crate::args::finite_f64(at).map_err(|e| format!("AT {e}"))?;
+    let dur = crate::args::finite_f64(dur).map_err(|e| format!("FOR {e}"))?;
+    if !(0.0..=1e6).contains(&at) {
+        return Err(format!("AT must be within [0, 1e6] s, got {at}"));
+    }
+    if !(dur > 0.0 && dur <= 1e6) {
+        return Err(format!("FOR must be within (0, 1e6] s, got {dur}"));
+    }
+    Ok((at, dur))
 }
 
 /// Control rate when `--rate` is not given (the rate runtime), Hz.
@@ -135,6 +156,12 @@ pub fn config(a: &RobotArgs, desc: &RobotDescription) -> Result<Config<f64>> {
     c.max_yaw_rate = a.max_yaw_rate;
     c.watchdog = a.watchdog;
     c.heading_from_gyro = a.gyro_heading;
+    // Slip and collision thresholds: the robot file's [events] (defaults where absent), the
+    // same ones `omnikin odometry` uses offline.
+    let ev = desc.events.thresholds();
+    c.events.slip_yaw_rate = ev.slip_yaw_rate;
+    c.events.slip_residual = ev.slip_residual;
+    c.events.collision_decel = ev.collision_decel;
     c.validate().map_err(|e| {
         let flag = match e.field {
             "rate_hz" => format!("rate {rate}"),

@@ -84,6 +84,9 @@ impl SimRobot {
         if dynamic && a.disturbances.is_some() {
             bail!("--plant dynamic takes no --disturbances (the dynamic plant is deterministic)");
         }
+        if dynamic && a.obstacle.is_some() {
+            bail!("--obstacle needs the kinematic plant (--plant kinematic)");
+        }
         if dynamic && desc.kind() == "ballbot" {
             return Self::balance(a, desc);
         }
@@ -104,8 +107,13 @@ impl SimRobot {
             {
                 crate::sim::warn_unused_sections(&prof, &robot, file);
             }
-            SilPlant::new(robot, prof, a.seed, Pose2::default())
+            let mut p = SilPlant::new(robot, prof, a.seed, Pose2::default());
+            if let Some((at, dur)) = a.obstacle {
+                p.set_obstacle(at, dur);
+            }
+            p
         };
+
         Ok(SimRobot::Rate {
             rt,
             plant: Box::new(plant),
@@ -367,7 +375,7 @@ impl SimRobot {
                     }
                 }
                 row += &format!(
-                    "{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{},{:.6},{:.6},{:.6},{:.3e},{:.3e},{:.3e},{},{},{},{}",
+                    "{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{},{:.6},{:.6},{:.6},{:.3e},{:.3e},{:.3e},{},{},{},{},{},{}",
                     s.mode,
                     s.faults,
                     s.plan_time,
@@ -388,6 +396,8 @@ impl SimRobot {
                     s.fixes.rejected,
                     s.fixes.too_late,
                     s.fixes.recoveries,
+                    s.events.slips,
+                    s.events.collisions,
                 );
                 Some(row)
             }
@@ -502,6 +512,9 @@ impl SimRobot {
                 "gyro_bias": rt.fusion().gyro_bias().0,
                 "wheel_scale": rt.fusion().wheel_scale().0,
             });
+            out["events"] = json!({
+                "slips": s.events.slips, "collisions": s.events.collisions,
+            });
         }
         out
     }
@@ -523,5 +536,5 @@ fn rate_log_header(wheels: usize, steer: bool) -> String {
             h += &format!(",sd{i}");
         }
     }
-    h + ",mode,faults,plan_time,ref_x,ref_y,ref_heading,last_command_t,rejected,rx_ok,rx_dropped,odo_x,odo_y,odo_heading,var_x,var_y,var_heading,fix_accepted,fix_rejected,fix_too_late,fix_recoveries"
+    h + ",mode,faults,plan_time,ref_x,ref_y,ref_heading,last_command_t,rejected,rx_ok,rx_dropped,odo_x,odo_y,odo_heading,var_x,var_y,var_heading,fix_accepted,fix_rejected,fix_too_late,fix_recoveries,slip_events,collision_events"
 }

@@ -576,3 +576,69 @@ fn simulate_and_odometry_mcap_match_their_csv_outputs() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A simulated obstacle (`robot --obstacle AT:FOR`: the robot stops dead, its wheels blocked)
+/// is exactly one collision event at its time, in every record of the run: the robot's CSV
+/// log (the `collision` fault flag rises once, `collision_events` counts 1), its MCAP
+/// `/events`, the telemetry `drive --out` writes, and the JSON summary — and no slip.
+#[test]
+fn an_obstacle_is_one_collision_event_in_every_log() {
+    let dir = tmp("obstacle");
+    let (rlog, rmcap, tele) = (
+        dir.join("robot.csv"),
+        dir.join("robot.mcap"),
+        dir.join("tele.csv"),
+    );
+    let robot = Robot::start(&[
+        "--max-time",
+        "16",
+        "--obstacle",
+        "7:0.5",
+        "--log",
+        p(&rlog),
+        "--mcap",
+        p(&rmcap),
+    ]);
+    let out = common::drive(
+        &robot.addr,
+        "2",
+        &["velocity", "--vx", "0.3", "--for", "1.4", "--out", p(&tele)],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let summary = robot.summary();
+    assert_eq!(summary["events"]["collisions"], 1, "{summary}");
+    assert_eq!(summary["events"]["slips"], 0, "{summary}");
+
+    let rows = read_rows(&rlog);
+    let flagged = |r: &std::collections::HashMap<String, String>| r["faults"].contains("collision");
+    let rises: Vec<f64> = rows
+        .windows(2)
+        .filter(|w| !flagged(&w[0]) && flagged(&w[1]))
+        .map(|w| num(&w[1], "t"))
+        .collect();
+    assert_eq!(rises.len(), 1, "{rises:?}");
+    // Detected within two 10 ms cycles of the obstacle (7 s of robot time), moving at 0.3 m/s.
+    assert!(
+        (7.0..=7.03).contains(&rises[0]),
+        "collision at {}",
+        rises[0]
+    );
+    assert_eq!(num(rows.last().unwrap(), "collision_events"), 1.0);
+    assert!(rows.iter().all(|r| num(r, "slip_events") == 0.0));
+
+    let msgs = read(&rmcap);
+    let lines: Vec<(f64, String)> = on(&msgs, "/events")
+        .iter()
+        .map(|m| (m.log_time as f64 * 1e-9, m.json()["message"].to_string()))
+        .filter(|(_, text)| text.contains("collision"))
+        .collect();
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    assert!((lines[0].0 - rises[0]).abs() < 1e-6, "{lines:?}");
+
+    let trows = read_rows(&tele);
+    assert_eq!(num(trows.last().unwrap(), "collision_events"), 1.0);
+}

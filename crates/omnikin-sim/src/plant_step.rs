@@ -189,6 +189,11 @@ impl Plant {
         self.slip_residual
     }
 
+    /// Holds the robot still (an obstacle): the twist becomes zero, the pose stays.
+    pub fn hold(&mut self) {
+        self.twist = Twist2::default();
+    }
+
     /// Pushes the robot: adds `delta` (world frame, m, m, rad) to the true pose (a kick no
     /// motor or encoder sees).
     pub fn push(&mut self, delta: Pose2<f64>) {

@@ -47,6 +47,8 @@ pub struct SilPlant {
     carry: f64,
     /// The dynamic plant, when it replaces the kinematic one ([`SilPlant::dynamic`]).
     dynamic: Option<Box<DynamicBoard>>,
+    /// An obstacle: from..until (plant clock, µs) the robot and its wheels are held still.
+    obstacle: Option<(u64, u64)>,
 }
 
 /// The sphere's dynamic model on the board, with what its last step reported.
@@ -105,6 +107,7 @@ impl SilPlant {
             time_us: 0,
             carry: 0.0,
             dynamic: None,
+            obstacle: None,
         }
     }
 
@@ -186,6 +189,17 @@ impl SilPlant {
         runtime.cycle(now, &mut Held(enc), &mut Held(imu), self)
     }
 
+    /// Puts an obstacle in the robot's way from `from_s` for `for_s` seconds of plant time
+    /// (kinematic plant only; the dynamic plant ignores it): the robot stops dead and its
+    /// wheels are blocked — the motors stall, the encoders stop, the gyro reads zero — then
+    /// it drives on. What a collision looks like to the runtime's event detector
+    /// ([`omnikin::estimate::events`]). Non-finite or negative times: no obstacle.
+    pub fn set_obstacle(&mut self, from_s: f64, for_s: f64) {
+        let us = |s: f64| (s * 1e6).round() as u64;
+        self.obstacle = (from_s.is_finite() && for_s.is_finite() && from_s >= 0.0 && for_s > 0.0)
+            .then(|| (us(from_s), us(from_s) + us(for_s)));
+    }
+
     /// Pushes the robot: adds `delta` (world frame, m, m, rad) to the true pose (a kick the
     /// odometry cannot see). With the dynamic plant the robot is set down at rest, level, at
     /// the pushed pose, its motors holding 0 rad/s until the next command.
@@ -237,6 +251,12 @@ impl SilPlant {
     }
 
     fn substep(&mut self, dt: f64, t: f64) -> Result<(), SimError> {
+        if let Some((from, until)) = self.obstacle
+            && (from as f64 * 1e-6..until as f64 * 1e-6).contains(&t)
+        {
+            self.plant.hold();
+            return Ok(());
+        }
         let c = &self.command;
         let motion = self.motors.step(c.wheel, c.steer, dt, &mut self.rng);
         self.plant

@@ -5,6 +5,7 @@
 //! e-stop confirmation, v1 peers — and a legitimate session through loss, reordering and
 //! duplication.
 
+use omnikin::estimate::events::EventCounters;
 use omnikin::link::{
     CHUNK_POINTS, DropReason, EncodeError, EndReason, Estimate, FrameReader, HANDSHAKE_BODY, Hello,
     Key, Kind, LinkCounters, MAX_FRAME, Message, OperatorEvent, OperatorLink, PROTOCOL_VERSION,
@@ -145,7 +146,7 @@ fn message() -> impl Strategy<Value = Message> {
                 std_heading,
             })
         ),
-        (any::<u64>(), f3(), f3(), f(), f(), any::<[u32; 4]>()).prop_map(
+        (any::<u64>(), f3(), f3(), f(), f(), any::<[u32; 6]>()).prop_map(
             |(time_us, covariance, odometry, gyro_bias, wheel_scale, c)| Message::Estimate(
                 Estimate {
                     time_us,
@@ -158,6 +159,10 @@ fn message() -> impl Strategy<Value = Message> {
                         rejected: c[1],
                         too_late: c[2],
                         recoveries: c[3],
+                    },
+                    events: EventCounters {
+                        slips: c[4],
+                        collisions: c[5],
                     },
                 }
             )
@@ -394,6 +399,10 @@ fn largest_messages_fit_one_frame_and_no_answer_outgrows_its_hello() {
             rejected: u32::MAX,
             too_late: u32::MAX,
             recoveries: u32::MAX,
+        },
+        events: EventCounters {
+            slips: u32::MAX,
+            collisions: u32::MAX,
         },
     });
     let truth = Message::Truth(SimTruth {

@@ -21,6 +21,8 @@ struct Board {
     gyro: bool,
     fail_encoders: bool,
     true_yaw_rate: f64,
+    /// The wheels are blocked (a collision): the motors no longer turn them.
+    stalled: bool,
 }
 
 impl Encoders<f64> for Board {
@@ -90,7 +92,9 @@ impl Rig {
             .rt
             .cycle(self.now, &mut self.board, &mut imu, &mut Board::default());
         for i in 0..MAX_WHEELS {
-            self.board.wheel[i] += st.motors.wheel[i] * DT;
+            if !self.board.stalled {
+                self.board.wheel[i] += st.motors.wheel[i] * DT;
+            }
             self.board.steer[i] += st.motors.steer[i] * DT;
         }
         self.board.true_yaw_rate = st.command.yaw_rate;
@@ -477,23 +481,76 @@ fn hardware_error_stops_and_is_reported() {
 
 #[test]
 fn gyro_disagreeing_with_the_wheels_is_slip() {
-    let mut rig = Rig::new(sphere(), Config::new(100.0));
+    // The detector's low-pass over 0.1 s instead of the default 10 ms, and a 0.5 rad/s
+    // threshold, so that the filter's delay and a glitch's rejection can be seen at 100 Hz.
+    let mut cfg = Config::new(100.0);
+    cfg.events.smoothing = 0.1;
+    cfg.events.slip_yaw_rate = 0.5;
+    let mut rig = Rig::new(sphere(), cfg);
     rig.board.gyro = true;
     rig.cmd(vel(0.1, 0.0, 0.2)).unwrap();
     rig.run(30, true);
     assert!(rig.log.iter().all(|s| !s.faults.contains(Faults::SLIP)));
-    // A 1 rad/s disagreement passes the 0.5 rad/s threshold after the 0.1 s low-pass: 7 cycles.
+    assert_eq!(rig.log.last().unwrap().events.slips, 0);
+    // A 1 rad/s disagreement, low-passed with a = 1 − e^(−dt/τ) per cycle, passes 0.5 rad/s
+    // after k cycles with (1 − a)^k < 0.5: k = ⌈ln 0.5 / (−dt/τ)⌉ = 7 (the 7th cycle, index 6).
     rig.board.gyro_offset = 1.0;
+    let k = (0.5f64.ln() / (-DT / 0.1)).ceil() as usize;
     let n = (0..30)
         .position(|_| rig.run(1, true).faults.contains(Faults::SLIP))
         .expect("slip must be detected");
-    assert_eq!(n, 7);
-    // A brief glitch (2 cycles) is filtered out.
+    assert_eq!(n + 1, k);
+    // One episode however long the slip lasts: the flag stays up, the counter is 1.
+    let st = rig.run(50, true);
+    assert!(st.faults.contains(Faults::SLIP));
+    assert_eq!(st.events.slips, 1);
+    // The slip ends; the flag drops once the signal has stayed below for the 0.2 s hold.
     rig.board.gyro_offset = 0.0;
-    rig.run(60, true);
+    let st = rig.run(60, true);
+    assert!(!st.faults.contains(Faults::SLIP));
+    // A brief glitch (2 cycles) is filtered out: no new event.
     rig.board.gyro_offset = 1.0;
     let st = rig.run(2, true);
     assert!(!st.faults.contains(Faults::SLIP));
+    rig.board.gyro_offset = 0.0;
+    let st = rig.run(30, true);
+    assert_eq!(st.events.slips, 1);
+    assert_eq!(st.events.collisions, 0);
+}
+
+#[test]
+fn blocked_wheels_are_one_collision_and_braking_is_none() {
+    let mut rig = Rig::new(sphere(), Config::new(100.0));
+    rig.cmd(vel(0.5, 0.0, 0.0)).unwrap();
+    rig.run(100, true);
+    // Braking at the 1 m/s² slew limit is no collision (threshold 3 m/s²).
+    rig.cmd(Command::Stop).unwrap();
+    rig.run(100, true);
+    rig.cmd(vel(0.5, 0.0, 0.0)).unwrap();
+    let st = rig.run(100, true);
+    assert!((st.twist.vx - 0.5).abs() < 1e-9, "cruising at 0.5 m/s");
+    assert!(
+        rig.log
+            .iter()
+            .all(|s| s.faults.0 & Faults::COLLISION.0 == 0)
+    );
+    assert_eq!(st.events.collisions, 0);
+    // The wheels are blocked at 0.5 m/s: a deceleration of ~0.5 m/s in a cycle.
+    let before = rig.log.len();
+    rig.board.stalled = true;
+    let st = rig.run(100, true);
+    let hit: Vec<usize> = rig.log[before..]
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.faults.contains(Faults::COLLISION))
+        .map(|(i, _)| i)
+        .collect();
+    // Flagged from the first or second cycle of the stop, continuously (one episode), and
+    // counted once; no slip (the gyro is off and the sphere has no redundant wheels).
+    assert!(hit.first().is_some_and(|&i| i <= 2), "{hit:?}");
+    assert_eq!(hit.len(), hit.last().unwrap() - hit.first().unwrap() + 1);
+    assert!(!st.faults.contains(Faults::COLLISION), "the episode ended");
+    assert_eq!((st.events.collisions, st.events.slips), (1, 0));
 }
 
 #[test]

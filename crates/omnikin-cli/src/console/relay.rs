@@ -631,6 +631,10 @@ impl Relay {
                     Faults::SLIP => {
                         format!("wheel slip detected (residual {:.3} m/s)", b.slip_residual)
                     }
+                    Faults::COLLISION => {
+                        "collision: the wheels stopped suddenly (events.collision_decel)"
+                            .to_string()
+                    }
                     Faults::REJECTED => format!("a command was rejected ({} so far)", b.rejected),
                     _ => format!("fault: {name}"),
                 };

@@ -349,6 +349,10 @@ pub fn events(before: Option<(Mode, Faults)>, now: (Mode, Faults)) -> Vec<(Level
                 Level::Warning,
                 "slip: the wheels disagree with the gyro or with each other",
             ),
+            Faults::COLLISION => (
+                Level::Warning,
+                "the wheel speed fell faster than events.collision_decel (a sudden stop)",
+            ),
             Faults::REJECTED => (Level::Warning, "command rejected"),
             Faults::HARDWARE => (Level::Error, "hardware fault"),
             Faults::OVERRUN => (Level::Warning, "cycle overrun"),

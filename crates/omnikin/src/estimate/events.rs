@@ -140,9 +140,11 @@ pub struct EventCounters {
 /// What one sample did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EventStep<T> {
-    /// The slip signal is over its threshold at this sample.
+    /// A slip episode is under way after this sample: from its first sample over the
+    /// threshold until the signal has stayed below for the hold time (so a flickering signal
+    /// is one episode, and a fault flag driven by this rises once per event).
     pub slipping: bool,
-    /// The deceleration is over its threshold at this sample.
+    /// A collision episode is under way after this sample (likewise).
     pub colliding: bool,
     /// An event that started at this sample (slip before collision when both did).
     pub started: [Option<EventKind>; 2],
@@ -229,6 +231,16 @@ impl<T: Real> EventDetector<T> {
         &self.th
     }
 
+    /// A slip episode is under way ([`EventStep::slipping`] of the last step).
+    pub fn slipping(&self) -> bool {
+        self.slip.active.is_some()
+    }
+
+    /// A collision episode is under way ([`EventStep::colliding`] of the last step).
+    pub fn colliding(&self) -> bool {
+        self.collision.active.is_some()
+    }
+
     /// Events started so far.
     pub fn counters(&self) -> EventCounters {
         self.counters
@@ -278,7 +290,7 @@ impl<T: Real> EventDetector<T> {
             out.started[0] = Some(EventKind::Slip);
         }
         out.finished[0] = done;
-        out.slipping = slip_over;
+        out.slipping = self.slip.active.is_some();
         // Deceleration over the window, from the oldest smoothed speed kept.
         if self.speeds.is_full() {
             self.speeds.pop_front();
@@ -305,8 +317,23 @@ impl<T: Real> EventDetector<T> {
             out.started[1] = Some(EventKind::Collision);
         }
         out.finished[1] = done;
-        out.colliding = over;
+        out.colliding = self.collision.active.is_some();
         out
+    }
+
+    /// Moves the clock origin `by` seconds later (every kept time − `by`): for a caller that
+    /// re-bases its odometry clock, so that windows and hold times stay continuous.
+    pub fn shift_time(&mut self, by: T) {
+        for (t, _) in self.speeds.iter_mut() {
+            *t -= by;
+        }
+        for e in [&mut self.slip.active, &mut self.collision.active]
+            .into_iter()
+            .flatten()
+        {
+            e.start -= by;
+            e.end -= by;
+        }
     }
 
     /// Ends the open events (at the end of a log): slip first, then collision.

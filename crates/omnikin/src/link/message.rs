@@ -6,6 +6,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{CHUNK_POINTS, LinkCounters, NONCE_LEN};
+use crate::estimate::events::EventCounters;
 use crate::runtime::{
     BalanceStatus, CameraFix, Command, Faults, FixCounters, Frame, Mode, PlanPoint, PlanStatus,
     Status,
@@ -287,6 +288,9 @@ pub struct Estimate {
     pub wheel_scale: f32,
     /// Fix counters since the robot started.
     pub fixes: FixCounters,
+    /// Slip and collision events since the robot started (the [`Faults::SLIP`] and
+    /// [`Faults::COLLISION`] bits of the telemetry are set in the cycles they are detected).
+    pub events: EventCounters,
 }
 
 impl Estimate {
@@ -300,6 +304,7 @@ impl Estimate {
             gyro_bias: f(gyro_bias),
             wheel_scale: f(wheel_scale),
             fixes: s.fixes,
+            events: s.events,
         }
     }
 }

@@ -1,8 +1,9 @@
 //! The control loop's settings: [`Config`] (rates, motor and body limits, watchdog, gains,
-//! slip thresholds) and their validation ([`ConfigError`], [`RATE_HZ_RANGE`]).
+//! event thresholds) and their validation ([`ConfigError`], [`RATE_HZ_RANGE`]).
 
 use super::limits::{RateLimits, SlewLimits};
 use crate::Real;
+use crate::estimate::events::EventThresholds;
 use crate::estimate::fusion::FusionConfig;
 
 /// A configuration value that cannot work.
@@ -55,14 +56,12 @@ pub struct Config<T> {
     pub max_correction: T,
     /// Largest heading correction rate added to the feed-forward, rad/s.
     pub max_yaw_correction: T,
-    /// Slip threshold on |gyro yaw rate − wheel yaw rate|, rad/s.
-    pub slip_yaw_rate: T,
-    /// Slip threshold on the least-squares residual of the odometry fit (kinds with more
-    /// wheel constraints than unknowns: caster, omni with more than 3 wheels, swerve), m/s.
-    pub slip_speed: T,
-    /// Time constant of the first-order low-pass applied to both slip signals before the
-    /// thresholds, s (encoder quantisation makes single-cycle rates noisy).
-    pub slip_filter: T,
+    /// Slip and collision detection ([`crate::estimate::events`], the detector `omnikin
+    /// odometry` runs offline): |gyro yaw rate − wheel yaw rate| and the least-squares slip
+    /// residual (kinds with more than three motors) for slip, the wheel speed's deceleration
+    /// for a collision. `omnikin robot` sets the three thresholds from the robot file's
+    /// `[events]` table. Default [`EventThresholds::standard`].
+    pub events: EventThresholds<T>,
     /// Take the heading change from the gyro (when an IMU sample arrives) instead of the
     /// wheels.
     pub heading_from_gyro: bool,
@@ -75,7 +74,7 @@ pub struct Config<T> {
 impl<T: Real> Config<T> {
     /// Defaults for a loop at `rate_hz`: no motor limits, 1 m/s², 4 rad/s², no jerk limit,
     /// accepted bounds 2 m/s and 10 rad/s, watchdog 0.5 s, gains 2/s, corrections ≤ 0.1 m/s
-    /// and 0.5 rad/s, slip thresholds 0.5 rad/s and 0.05 m/s filtered over 0.1 s, heading from
+    /// and 0.5 rad/s, the event thresholds of [`EventThresholds::standard`] (0.3 rad/s, 0.05 m/s, 3 m/s²), heading from
     /// the wheels, steer-angle gain `rate_hz / 5`.
     pub fn new(rate_hz: T) -> Self {
         Self {
@@ -100,9 +99,7 @@ impl<T: Real> Config<T> {
             k_heading: T::of(2.0),
             max_correction: T::of(0.1),
             max_yaw_correction: T::of(0.5),
-            slip_yaw_rate: T::of(0.5),
-            slip_speed: T::of(0.05),
-            slip_filter: T::of(0.1),
+            events: EventThresholds::standard(),
             heading_from_gyro: false,
             fusion: FusionConfig::default(),
         }
@@ -226,9 +223,12 @@ impl<T: Real> Config<T> {
         nonneg(self.k_heading, "k_heading")?;
         nonneg(self.max_correction, "max_correction")?;
         nonneg(self.max_yaw_correction, "max_yaw_correction")?;
-        pos(self.slip_yaw_rate, "slip_yaw_rate")?;
-        pos(self.slip_speed, "slip_speed")?;
-        nonneg(self.slip_filter, "slip_filter")?;
+        if let Some(field) = self.events.invalid_field() {
+            return Err(ConfigError {
+                field,
+                rule: "event thresholds and times must be finite and > 0 (Config::events)",
+            });
+        }
         nonneg(self.k_steer, "k_steer")?;
         Ok(())
     }

@@ -6,6 +6,7 @@ use nalgebra::Matrix3;
 
 use crate::drive::Rot2;
 use crate::estimate::estimator::Fix;
+use crate::estimate::events::EventDetector;
 use crate::estimate::fusion::{FusionError, FusionOutcome, PoseFusion, StepHeading};
 use crate::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use crate::{Pose2, Real, Robot, Twist2};
@@ -67,8 +68,8 @@ pub struct Runtime<T, const N: usize> {
     imu: Option<ImuSample<T>>,
     twist: Twist2<T>,
     slip_residual: T,
-    /// Low-passed |gyro − wheel yaw rate| (rad/s) and least-squares slip residual (m/s).
-    slip_state: [T; 2],
+    /// Slip and collision events ([`Config::events`]).
+    events: EventDetector<T>,
     rejected: u32,
 }
 
@@ -105,7 +106,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             imu: None,
             twist: zero_twist(),
             slip_residual: z,
-            slip_state: [z; 2],
+            events: EventDetector::new(config.events, robot.motors() > 3),
             rejected: 0,
         })
     }
@@ -330,6 +331,14 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         let mut faults = Faults::NONE;
         let dt = self.clock(now_us, &mut faults);
         let hw_ok = self.sense(now_us, encoders, imu, &mut faults);
+        // An event's flag stays up for its whole episode (cycles without a new encoder step
+        // included), so it rises once per event.
+        if self.events.slipping() {
+            faults.insert(Faults::SLIP);
+        }
+        if self.events.colliding() {
+            faults.insert(Faults::COLLISION);
+        }
         let pose = self.pose();
         self.watchdog(now_us, &mut faults);
         // One `sin_cos` of the heading serves every frame change of the cycle.
@@ -364,6 +373,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             plan_time: self.plan.reference_time,
             reference: self.plan.reference,
             slip_residual: self.slip_residual,
+            events: self.events.counters(),
             rejected: self.rejected,
             last_command_us: self.last_rx_us.unwrap_or(0),
         }
@@ -442,20 +452,12 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             };
             // Cannot fail for a finite step at a later time; the filter is left as it was.
             let _ = self.fusion.predict(t, step.delta, sh);
-            // Slip: the least-squares residual of the fit (over-determined kinds) and the
-            // gyro against the wheels' yaw rate, both low-passed.
+            // Events: slip (the least-squares residual of the fit on over-determined kinds,
+            // the gyro against the wheels' yaw rate) and collision (the wheel speed's
+            // deceleration), the detector `omnikin odometry` runs.
             self.twist = step.twist;
             self.slip_residual = step.slip_residual;
-            let k = step.dt / (cfg.slip_filter + step.dt);
-            let st = &mut self.slip_state;
-            st[1] += k * (step.slip_residual - st[1]);
-            if let Some(s) = self.imu {
-                let wheel_rate = step.wheel_heading_change / step.dt;
-                st[0] += k * ((s.gyro[2] - wheel_rate).abs() - st[0]);
-            }
-            if st[0] > cfg.slip_yaw_rate || st[1] > cfg.slip_speed {
-                faults.insert(Faults::SLIP);
-            }
+            self.events.step(&step, self.imu.map(|s| s.gyro[2]));
         }
         if t > T::of(REBASE_S) {
             // Re-base: a fresh odometry at the current pose whose reference is this very
@@ -466,6 +468,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 self.odo = fresh;
                 self.odo_base_us = Some(now_us);
                 self.fusion.shift_time(t);
+                self.events.shift_time(t);
             }
         }
         true

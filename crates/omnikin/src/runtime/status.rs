@@ -4,6 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::hal::{EncoderAngles, ImuSample, MotorCommand};
+use crate::estimate::events::EventCounters;
 use crate::{Pose2, Twist2};
 
 #[cfg(doc)]
@@ -55,10 +56,12 @@ impl Faults {
     /// A motor rate or acceleration limit shaped the command this cycle (desaturation scale
     /// below 1, or the wheel-acceleration limit was active).
     pub const LIMIT: Faults = Faults(1 << 0);
-    /// Wheel slip detected: the gyro's yaw rate disagrees with the wheels' by more than
-    /// [`Config::slip_yaw_rate`], or the least-squares slip residual of the odometry fit
-    /// (caster, omni with more than 3 wheels, swerve) exceeds [`Config::slip_speed`] (both
-    /// low-passed over [`Config::slip_filter`]).
+    /// A wheel-slip episode is under way (from the first cycle over the threshold until the
+    /// signal has stayed below for the hold time, so the flag rises once per event): the gyro's yaw rate disagrees with the wheels' by more
+    /// than [`Config::events`]' `slip_yaw_rate`, or the least-squares slip residual of the
+    /// odometry fit (kinds with more than 3 motors: caster, mecanum, swerve, omni with more
+    /// than 3 wheels) exceeds its `slip_residual` (both low-passed;
+    /// [`crate::estimate::events`]). [`Status::events`] counts the episodes.
     pub const SLIP: Faults = Faults(1 << 1);
     /// No valid command or heartbeat within [`Config::watchdog`] seconds.
     pub const LINK_LOST: Faults = Faults(1 << 2);
@@ -74,6 +77,10 @@ impl Faults {
     /// A balancing robot fell: its tilt passed the controller's fall threshold, the motors are
     /// off (latched until [`Command::Clear`](super::Command::Clear)).
     pub const FALLEN: Faults = Faults(1 << 7);
+    /// A collision episode is under way (likewise): the wheel speed fell faster than [`Config::events`]'
+    /// `collision_decel` over its window while no slip was under way
+    /// ([`crate::estimate::events`]). [`Status::events`] counts them.
+    pub const COLLISION: Faults = Faults(1 << 8);
 
     /// `true` when every bit of `other` is set.
     pub const fn contains(self, other: Faults) -> bool {
@@ -89,7 +96,7 @@ impl Faults {
     }
 
     /// Every flag with its name, in bit order.
-    pub const ALL: [(Faults, &'static str); 8] = [
+    pub const ALL: [(Faults, &'static str); 9] = [
         (Faults::LIMIT, "limit"),
         (Faults::SLIP, "slip"),
         (Faults::LINK_LOST, "link_lost"),
@@ -98,6 +105,7 @@ impl Faults {
         (Faults::HARDWARE, "hardware"),
         (Faults::OVERRUN, "overrun"),
         (Faults::FALLEN, "fallen"),
+        (Faults::COLLISION, "collision"),
     ];
 }
 
@@ -196,6 +204,8 @@ pub struct Status<T> {
     /// Least-squares slip residual of the last odometry step, m/s (0 for kinds with as many
     /// wheel constraints as unknowns: sphere, ballbot, 3-wheel omni).
     pub slip_residual: T,
+    /// Slip and collision events since start (episodes: a slip that lasts a second is one).
+    pub events: EventCounters,
     /// Commands rejected since start.
     pub rejected: u32,
     /// Clock time of the last valid command, µs (0 = none yet).
