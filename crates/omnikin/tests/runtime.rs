@@ -593,3 +593,50 @@ fn f32_runtime_and_bad_config() {
     cfg.watchdog = 0.5;
     assert!(Runtime::<f32, 4>::new(robot, cfg, Pose2::default()).is_ok());
 }
+
+/// `SetPose` restarts the fusion filter at the set pose, known exactly (variances 0), keeps
+/// the fix counters, and fixes after it are fused around the new pose.
+#[test]
+fn set_pose_restarts_the_fusion_filter() {
+    use omnikin::runtime::CameraFix;
+    let mut rig = Rig::new(sphere(), Config::new(100.0));
+    rig.cmd(vel(0.1, 0.0, 0.0)).unwrap();
+    let fix = |rig: &Rig, x: f64, y: f64| {
+        Command::Fix(CameraFix {
+            capture_us: rig.now - DT_US,
+            x,
+            y,
+            heading: None,
+            std_xy: 0.01,
+            std_heading: 0.0,
+        })
+    };
+    for _ in 0..20 {
+        let st = rig.run(10, true);
+        // The camera sees the robot 2 cm to the left of the wheels' estimate.
+        let c = fix(&rig, st.odometry.x, st.odometry.y + 0.02);
+        rig.cmd(c).unwrap();
+    }
+    let st = rig.run(1, true);
+    assert!(st.fixes.accepted >= 19, "{:?}", st.fixes);
+    assert!((st.pose.y - 0.02).abs() < 0.01, "fused y {}", st.pose.y);
+    assert!(st.covariance[1] > 0.0);
+    let fused = st.fixes;
+    // Set the pose: both the odometry and the fused pose start from it, exactly.
+    let set = Pose2::new(1.0, -2.0, 0.5);
+    rig.cmd(Command::SetPose(set)).unwrap();
+    let st = rig.run(1, false);
+    assert!((st.pose.x - set.x).abs() < 0.01 && (st.pose.y - set.y).abs() < 0.01);
+    assert!((st.odometry.y - set.y).abs() < 0.01);
+    assert!(st.covariance.iter().all(|&v| v < 1e-6), "{:?}", st.covariance);
+    assert_eq!(st.fixes, fused, "counters are kept");
+    // A fix 1 cm (1 σ) from the set pose is fused around it (not rejected as 2 m away from the
+    // pose before the set).
+    let st = rig.run(20, true);
+    let c = fix(&rig, st.odometry.x + 0.01, st.odometry.y);
+    rig.cmd(c).unwrap();
+    let st = rig.run(1, true);
+    assert_eq!(st.fixes.accepted, fused.accepted + 1, "{:?}", st.fixes);
+    assert_eq!(st.fixes.rejected, fused.rejected);
+    assert!(st.pose.x > st.odometry.x, "pulled toward the fix");
+}
