@@ -10,12 +10,16 @@
 //! * `estimate/pose_estimator_step/<type>`: the older 3-state [`PoseEstimator`] on the same
 //!   input (history of 256 steps, a fix 50 ms late), for comparison.
 //!
+//! * `estimate/events_step/<type>`: [`EventDetector::step`], the slip and collision detector
+//!   the runtime runs after each odometry step (gyro given; a full 128-sample window).
+//!
 //! `cargo bench -p omnikin --bench estimate` (or `-- --test` for one quick run of each).
 
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use omnikin::estimate::estimator::{Fix, PoseEstimator, ProcessNoise};
+use omnikin::estimate::events::{EventDetector, EventThresholds};
 use omnikin::estimate::fusion::{FusionConfig, PoseFusion, StepHeading};
 use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::nalgebra::Matrix3;
@@ -94,11 +98,35 @@ fn fusion<T: Real>(c: &mut Criterion, name: &str) {
     });
 }
 
+fn events<T: Real>(c: &mut Criterion, name: &str) {
+    let mut odo = Odometry::new(
+        Robot::Sphere(SphereOmni::<T>::new(SphereParams::preset()).unwrap()),
+        Pose2::new(T::zero(), T::zero(), T::zero()),
+    );
+    let r = |k: u32| {
+        let a = T::of(k as f64 * 1e-3);
+        EncoderReading::new(a, [a, a * T::of(0.5), -a])
+    };
+    odo.update(&r(0), HeadingInput::Wheels).unwrap();
+    let mut step = odo.update(&r(1), HeadingInput::Wheels).unwrap();
+    let mut det = EventDetector::new(EventThresholds::standard(), false);
+    let mut k = 0u32;
+    c.bench_function(&format!("estimate/events_step/{name}"), |b| {
+        b.iter(|| {
+            k = k.wrapping_add(1);
+            step.t = T::of(k as f64 * 1e-3);
+            black_box(det.step(black_box(&step), Some(T::of(0.1))))
+        })
+    });
+}
+
 fn benches(c: &mut Criterion) {
     odometry::<f64>(c, "f64");
     odometry::<f32>(c, "f32");
     fusion::<f64>(c, "f64");
     fusion::<f32>(c, "f32");
+    events::<f64>(c, "f64");
+    events::<f32>(c, "f32");
 }
 
 criterion_group!(estimate, benches);

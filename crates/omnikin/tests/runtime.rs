@@ -628,7 +628,11 @@ fn set_pose_restarts_the_fusion_filter() {
     let st = rig.run(1, false);
     assert!((st.pose.x - set.x).abs() < 0.01 && (st.pose.y - set.y).abs() < 0.01);
     assert!((st.odometry.y - set.y).abs() < 0.01);
-    assert!(st.covariance.iter().all(|&v| v < 1e-6), "{:?}", st.covariance);
+    assert!(
+        st.covariance.iter().all(|&v| v < 1e-6),
+        "{:?}",
+        st.covariance
+    );
     assert_eq!(st.fixes, fused, "counters are kept");
     // A fix 1 cm (1 σ) from the set pose is fused around it (not rejected as 2 m away from the
     // pose before the set).
