@@ -14,8 +14,10 @@
 //!   the platform relative to its heading frame, `R = Rz(ψ) Ry(pitch) Rx(roll)`): the gyro reads
 //!   `Rᵀ ψ̇ e₃` (its z axis `cos(tilt)·ψ̇`), the accelerometer `Rᵀ (a + g e₃)`, and the encoder
 //!   log gains the 3-axis columns `gyro_x,gyro_y` (with `gyro_z`) and `accel_x,accel_y,accel_z`
-//!   (m/s², specific force, platform frame). The wheel angles are the plant's (a kinematic
-//!   plant keeps the wheel kinematics level): only the inertial sensors see the tilt.
+//!   (m/s², specific force, platform frame). The sphere's and ballbot's wheels see it too: they
+//!   measure the shell's (ball's) rate relative to the platform in the tilted platform frame,
+//!   `Rᵀ ω̃`, so their angles are the plant's level ones mapped by `G Rᵀ G⁻¹`
+//!   ([`crate::odometry::tilt::shell_maps`]); the other kinds' wheel angles are the plant's.
 //! * **camera fixes** of the robot centre every `period` seconds with Gaussian noise, a fixed
 //!   latency (the fix is stamped with the time it was taken and carries its arrival time) and
 //!   occasional outliers.
@@ -443,6 +445,14 @@ pub fn emit(
         out.gyro_bias = g.bias + g.bias_std * gauss(rng);
     }
     let tilt = profile.tilt.map(|p| (p, p.matrix()));
+    // A tilted sphere's or ballbot's wheels measure the shell's (ball's) rate relative to the
+    // platform in the tilted platform frame: the level angles mapped by G Rᵀ G⁻¹ (linear, R
+    // constant, so the cumulative angles map as their increments do).
+    let wheel_tilt = tilt.and_then(|(_, m)| {
+        let (g, g_inv) = crate::odometry::tilt::shell_maps(robot)?;
+        let r = omnikin::nalgebra::Matrix3::from_fn(|i, j| m[i][j]);
+        Some(g * r.transpose() * g_inv)
+    });
     // Specific force in the heading frame (x forward, y left, z up), m/s².
     let specific_force = |k: usize| {
         let (s, c) = heading(k).sin_cos();
@@ -451,7 +461,12 @@ pub fn emit(
         [c * ax + s * ay, -s * ax + c * ay, 9.81]
     };
     for k in 0..n {
-        let q = trial.wheel_angles[k].map(|x| quantise(x, profile.counts_per_rev));
+        let mut level = trial.wheel_angles[k];
+        if let Some(m) = &wheel_tilt {
+            let v = m * omnikin::nalgebra::Vector3::new(level[0], level[1], level[2]);
+            level[..3].copy_from_slice(v.as_slice());
+        }
+        let q = level.map(|x| quantise(x, profile.counts_per_rev));
         let steer = steerable.then(|| {
             trial
                 .steer_angles

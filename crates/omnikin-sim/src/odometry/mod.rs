@@ -668,7 +668,17 @@ pub fn run(
     let mut block = (0.0f64, 0usize, t0);
     let mut path = 0.0;
     let mut tilt_tracker = inertial.map(|_| tilt::TiltTracker::new());
-    // Sum of (vertical rate − gyro_z) over the samples with a spin: the uncompensated Ω3.
+    // A sphere's or ballbot's wheels on a tilted platform measure the relative rate in the
+    // tilted frame: with the tilt tracked, their increments are de-tilted before the level
+    // kinematics (tilt::shell_maps). (previous raw angles, de-tilted cumulative angles).
+    let shell_maps = tilt_tracker
+        .as_ref()
+        .and_then(|_| tilt::shell_maps(odo.robot()));
+    let mut detilted: Option<([f64; 3], [f64; 3], f64)> = None;
+    // The de-tilting's change of the wheels' relative spin ω̃_z over the last step, rad/s.
+    let mut wheel_difference = 0.0f64;
+    // Sum of (vertical rate − gyro_z) and of the de-tilted minus raw wheel spin over the
+    // samples with a spin: their difference to the uncompensated Ω3.
     let mut tilt_difference_sum = 0.0f64;
     let thresholds = ResolvedThresholds::resolve(&options.events, &description.events);
     let mut detector = events::Detector::new(
@@ -743,6 +753,27 @@ pub fn run(
             (Source::Gyro(g), _, _) => HeadingInput::GyroRate(at(g) - options.gyro_bias),
             (Source::Yaw(y), _, _) => HeadingInput::Absolute(at(y)),
         };
+        if let (Some(maps), Some(tracker)) = (&shell_maps, tilt_tracker.as_mut()) {
+            let raw = [
+                reading.wheel_angles[0],
+                reading.wheel_angles[1],
+                reading.wheel_angles[2],
+            ];
+            let level = match detilted {
+                None => raw,
+                Some((prev, level, t0)) => {
+                    let dq = [raw[0] - prev[0], raw[1] - prev[1], raw[2] - prev[2]];
+                    let d = tracker.level_increments(maps, dq, t - t0);
+                    if t > t0 {
+                        let z = |v: [f64; 3]| (maps.1 * omnikin::nalgebra::Vector3::from(v)).z;
+                        wheel_difference = (z(d) - z(dq)) / (t - t0);
+                    }
+                    [level[0] + d[0], level[1] + d[1], level[2] + d[2]]
+                }
+            };
+            detilted = Some((raw, level, t));
+            reading.wheel_angles[..3].copy_from_slice(&level);
+        }
         let step = odo
             .update(&reading, heading)
             .map_err(|e| input(&log.file, Some(line), e.to_string()))?;
@@ -758,7 +789,7 @@ pub fn run(
             spin_sum = (spin_sum.0 + x, spin_sum.1 + 1);
             wheel_rate_sum += step.twist.yaw_rate - x;
             if let Some(tracker) = &tilt_tracker {
-                tilt_difference_sum += tracker.last_difference;
+                tilt_difference_sum += tracker.last_difference + wheel_difference;
             }
             block = (block.0 + x, block.1 + 1, block.2);
             if t - block.2 >= 1.0 {

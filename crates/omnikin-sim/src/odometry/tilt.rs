@@ -23,10 +23,56 @@
 //! vertical), and by `ψ̇ (1 − cos δθ) ≈ ψ̇ δθ²/2` to second order; so `Ω3`'s bound gains
 //! `√((σ_θ · mean |ω_h|)² + (mean |ψ̇| · σ_θ²)²)` (fully correlated over the log: added, not
 //! averaged down).
+//!
+//! A sphere's or ballbot's wheels see the tilt as well: they measure the shell's (ball's)
+//! rotation relative to the platform in the tilted platform frame, so their increments are
+//! de-tilted before the level kinematics ([`shell_maps`], `Δχ_level = G R G⁻¹ Δχ`), and `Ω3`
+//! is then the shell's rate about the vertical, `e₃ · (ω + ω̃)`. A tilt error then also mixes
+//! the shell's rolling into it: `ω_h` above is the shell's horizontal rate for these kinds.
 
+use omnikin::Robot;
 use omnikin::estimate::ahrs::{AhrsError, Mahony, MahonyGains};
 use omnikin::estimate::odometry::OdometryStep;
-use omnikin::nalgebra::{UnitQuaternion, Vector3};
+use omnikin::nalgebra::{Matrix3, UnitQuaternion, Vector3};
+
+/// The linear maps between the wheel rates and the rate `ω̃` of the shell (sphere) or ball
+/// (ballbot) relative to the platform in the platform frame: `(G, G⁻¹)` with `χ̇ = G ω̃`
+/// (paper 000 eq. 4.4; paper 001 likewise). `None` for the other kinds.
+///
+/// On a platform tilted by `R` (platform → heading frame, roll and pitch) the wheels measure
+/// `ω̃` in the *tilted* frame, `Rᵀ ω̃_h` with `ω̃_h` the relative rate in the heading frame, so
+/// wheel increments `Δχ` of a tilted platform are those of a level one mapped by
+/// `G Rᵀ G⁻¹`, and the level increments the odometry's kinematics expect are `G R G⁻¹ Δχ`.
+pub fn shell_maps(robot: &Robot<f64>) -> Option<(Matrix3<f64>, Matrix3<f64>)> {
+    let columns = |f: &dyn Fn(usize) -> Option<Vector3<f64>>| -> Option<Matrix3<f64>> {
+        let c = [f(0)?, f(1)?, f(2)?];
+        Some(Matrix3::from_columns(&c))
+    };
+    let unit = |i: usize| {
+        let mut e = [0.0; 3];
+        e[i] = 1.0;
+        e
+    };
+    match robot {
+        Robot::Sphere(m) => Some((
+            columns(&|i| {
+                m.wheel_rates_from_relative(unit(i).into())
+                    .ok()
+                    .map(Vector3::from)
+            })?,
+            columns(&|i| m.relative_rate_from_wheels(unit(i)).ok())?,
+        )),
+        Robot::Ballbot(m) => Some((
+            columns(&|i| {
+                m.wheel_rates_from_relative(unit(i).into())
+                    .ok()
+                    .map(Vector3::from)
+            })?,
+            columns(&|i| m.relative_rate_from_wheels(unit(i)).ok())?,
+        )),
+        _ => None,
+    }
+}
 
 /// Time constant of the low-pass filters on the odometry velocity and its derivative, s.
 pub const SMOOTHING: f64 = 0.1;
@@ -60,6 +106,12 @@ pub(crate) struct TiltTracker {
     horizontal_sum: f64,
     vertical_sum: f64,
     dt_sum: f64,
+    /// Body rate of the last sample in the world frame (bias removed), rad/s.
+    last_world_rate: Vector3<f64>,
+    /// Sum and count of `|Ω_h|`, the horizontal rate of the shell or ball (platform rate plus
+    /// the wheels' relative rate) in the world, over the de-tilted steps.
+    shell_horizontal_sum: f64,
+    shell_samples: usize,
 }
 
 /// What the tracker saw over the log.
@@ -68,7 +120,9 @@ pub(crate) struct TiltFigures {
     pub(crate) mean_tilt: f64,
     pub(crate) max_tilt: f64,
     pub(crate) tilt_std: f64,
-    /// Mean `|ω_h|`, rad/s.
+    /// Mean `|ω_h|`, rad/s: the horizontal body rate in the world of the platform, or, for a
+    /// sphere or ballbot whose wheel increments are de-tilted ([`shell_maps`]), of the shell
+    /// or ball (platform rate plus the wheels' relative rate).
     pub(crate) mean_horizontal_rate: f64,
     /// Mean `|ψ̇|` (the vertical rate), rad/s.
     pub(crate) mean_vertical_rate: f64,
@@ -100,6 +154,9 @@ impl TiltTracker {
             horizontal_sum: 0.0,
             vertical_sum: 0.0,
             dt_sum: 0.0,
+            last_world_rate: Vector3::zeros(),
+            shell_horizontal_sum: 0.0,
+            shell_samples: 0,
         }
     }
 
@@ -154,12 +211,38 @@ impl TiltTracker {
         self.tilt_sum += tilt;
         self.tilt_max = self.tilt_max.max(tilt);
         self.horizontal_sum += w.x.hypot(w.y);
+        self.last_world_rate = w;
         self.vertical_sum += rate.abs();
         if let Some(r) = residual {
             self.residual2_sum += r * r;
         }
         self.last_difference = rate - gyro[2];
         rate
+    }
+
+    /// The level wheel increments of a tilted sphere's or ballbot's increments `dq` over `dt`
+    /// seconds (`maps` from [`shell_maps`]): `G R G⁻¹ Δχ` with `R` the filter's current tilt
+    /// (platform → heading frame). Records the shell's horizontal rate for the bound. Before
+    /// the first sample, or with `dt ≤ 0`, `dq` unchanged.
+    pub(crate) fn level_increments(
+        &mut self,
+        maps: &(Matrix3<f64>, Matrix3<f64>),
+        dq: [f64; 3],
+        dt: f64,
+    ) -> [f64; 3] {
+        let Some(ahrs) = self.ahrs.as_ref() else {
+            return dq;
+        };
+        let q = ahrs.quaternion();
+        let yaw = UnitQuaternion::from_euler_angles(0.0, 0.0, ahrs.attitude().yaw);
+        let tilt = yaw.inverse() * q;
+        let rel = maps.1 * Vector3::from(dq);
+        if dt > 0.0 {
+            let shell = self.last_world_rate + q * (rel / dt);
+            self.shell_horizontal_sum += shell.x.hypot(shell.y);
+            self.shell_samples += 1;
+        }
+        (maps.0 * (tilt * rel)).into()
     }
 
     /// After the odometry step of the sample: updates the platform's acceleration.
@@ -197,7 +280,13 @@ impl TiltTracker {
             mean_tilt: self.tilt_sum / n,
             max_tilt: self.tilt_max,
             tilt_std: (rms2 * self.gains.kp * dt / 2.0 + floor * floor).sqrt(),
-            mean_horizontal_rate: self.horizontal_sum / n,
+            // The reported vertical rate is the shell's once the wheels are de-tilted: its
+            // horizontal rate is what a tilt error turns into a vertical one.
+            mean_horizontal_rate: if self.shell_samples > 0 {
+                self.shell_horizontal_sum / self.shell_samples as f64
+            } else {
+                self.horizontal_sum / n
+            },
             mean_vertical_rate: self.vertical_sum / n,
         })
     }
