@@ -113,7 +113,9 @@ if [ "$instructions" = 1 ]; then
                 robot_mecanum_odometry:wpi_mecanum_odometry \
                 robot_swerve4_inverse:wpi_swerve4_inverse robot_swerve4_forward:wpi_swerve4_forward \
                 robot_swerve4_odometry:wpi_swerve4_odometry \
-                plan20_11hz_time_optimal:plan20_wpilib plan20_1khz_time_optimal:plan20_wpilib; do
+                plan20_11hz_time_optimal:plan20_wpilib plan20_1khz_time_optimal:plan20_wpilib \
+                plan20_11hz_time_optimal:plan20_wpilib_constrained \
+                plan20_1khz_time_optimal:plan20_wpilib_constrained; do
       a=${pair%%:*}; b=${pair#*:}
       case "$a" in plan20_1khz*) n1=1; n2=2 ;; plan20*) n1=1; n2=3 ;; *) n1=1000; n2=11000 ;; esac
       ra=$(per_call "$tmp/omnikin-peer-harness" "$a" $n1 $n2)
@@ -185,6 +187,8 @@ pairs = [
     ("plan20_11hz_time_optimal", "plan20_wpilib"),
     ("plan20_1khz_time_optimal", "plan20_wpilib"),
     ("plan20_1khz_trapezoid", "plan20_wpilib"),
+    ("plan20_11hz_time_optimal", "plan20_wpilib_constrained"),
+    ("plan20_1khz_time_optimal", "plan20_wpilib_constrained"),
 ]
 for a, b in pairs:
     if a in med and b in med:

@@ -30,6 +30,8 @@
 #include <frc/kinematics/SwerveModuleState.h>
 #include <frc/trajectory/TrajectoryConfig.h>
 #include <frc/trajectory/TrajectoryGenerator.h>
+#include <frc/trajectory/constraint/CentripetalAccelerationConstraint.h>
+#include <frc/trajectory/constraint/SwerveDriveKinematicsConstraint.h>
 
 namespace {
 
@@ -47,6 +49,9 @@ inline T opaque(T v) {
 constexpr int K = 64;
 constexpr double kMount = 0.20;  // steering-axis radius D of the caster preset, m
 constexpr double kWheel = 0.05;  // wheel radius r of the caster preset, m
+// Wheel-rim speed limit of omnikin's plan20 (sphere-omni: max_wheel_rate 12 rad/s times its
+// wheel_radius 0.07 m), m/s: the module speed limit of the constrained WPILib plan.
+constexpr double kPlanWheelRim = 12.0 * 0.07;
 constexpr double kPi = 3.14159265358979323846;
 
 struct Inputs {
@@ -432,16 +437,41 @@ int main(int argc, char** argv) {
       keep(traj);
     }, ns);
     g_batch_ms = saved_batch;
+    if (timed) {
+      // What one call produces (outside the timed loop).
+      frc::TrajectoryConfig cfg{0.6_mps, 1.0_mps_sq};
+      auto traj = frc::TrajectoryGenerator::GenerateTrajectory(start, interior, end, cfg);
+      size_t states = traj.States().size();
+      double total_time = traj.TotalTime().value(), length = 0.0;
+      for (size_t s = 1; s < states; ++s)
+        length += traj.States()[s].pose.Translation().Distance(traj.States()[s - 1].pose.Translation()).value();
+      std::printf("plan20_wpilib\t%.3f\tstates=%zu duration_s=%.3f length_m=%.3f\n", ns, states,
+                  total_time, length);
+    }
+
+    // The like-for-like variant: omnikin's planner enforces per-wheel limits, so WPILib gets
+    // its per-module speed constraint too, on the caster-like swerve3 above (the robot turns
+    // with the tangent, as the constraint assumes: omega = v * curvature), with the wheel-rim
+    // speed omnikin's plan allows (sphere-omni: 12 rad/s on 0.07 m wheels = 0.84 m/s), and a
+    // centripetal constraint at the path acceleration limit (1 m/s^2).
+    // The configuration (and the kinematics' pseudo-inverse in it) is built once, outside
+    // the loop, as omnikin's robot model is.
+    frc::TrajectoryConfig constrained{0.6_mps, 1.0_mps_sq};
+    constrained.AddConstraint(frc::SwerveDriveKinematicsConstraint<3>{
+        swerve3(), units::meters_per_second_t{kPlanWheelRim}});
+    constrained.AddConstraint(frc::CentripetalAccelerationConstraint{1.0_mps_sq});
+    g_batch_ms = std::max(saved_batch * 5, 50.0);
+    timed = run("plan20_wpilib_constrained", [&](long) {
+      const auto& cfg = constrained;
+      auto traj = frc::TrajectoryGenerator::GenerateTrajectory(opaque(start), interior,
+                                                               opaque(end), cfg);
+      keep(traj);
+    }, ns);
+    g_batch_ms = saved_batch;
     if (!timed) return 0;
-    // What one call produces (outside the timed loop).
-    frc::TrajectoryConfig cfg{0.6_mps, 1.0_mps_sq};
-    auto traj = frc::TrajectoryGenerator::GenerateTrajectory(start, interior, end, cfg);
-    size_t states = traj.States().size();
-    double total_time = traj.TotalTime().value(), length = 0.0;
-    for (size_t s = 1; s < states; ++s)
-      length += traj.States()[s].pose.Translation().Distance(traj.States()[s - 1].pose.Translation()).value();
-    std::printf("plan20_wpilib\t%.3f\tstates=%zu duration_s=%.3f length_m=%.3f\n", ns, states,
-                total_time, length);
+    auto traj2 = frc::TrajectoryGenerator::GenerateTrajectory(start, interior, end, constrained);
+    std::printf("plan20_wpilib_constrained\t%.3f\tstates=%zu duration_s=%.3f\n", ns,
+                traj2.States().size(), traj2.TotalTime().value());
   }
   return 0;
 }

@@ -77,6 +77,8 @@ pub(super) struct Ctx<'a> {
     /// The robot's steer angles are set-points ([`omnikin::Kind::steer_is_set_point`]: a
     /// swerve's follow the twist) rather than a state integrated along the path (the caster).
     pub(super) set_point: bool,
+    /// Interpolation tolerance of the move grids ([`super::grid::grid_tol`] of the timing).
+    pub(super) grid_tol: f64,
 }
 
 /// Steer angles `γ_i` of a steer state (rad), entries `0..N` used (0 for kinds without

@@ -26,7 +26,8 @@
 //!    at a spline waypoint; `A'` is taken one-sided there) and equal cells between joins,
 //!    5 cm (50 mrad for turns; a fifth of the eccentricity for the caster) refined where the
 //!    linear interpolation of `A` or `A'` between nodes would be off by more than 1 % of that
-//!    motor's largest value on the move, down to 2 mm. The rows of `A` are the robot's motor
+//!    motor's largest value on the move (10 % for the time-optimal timing, whose speed caps
+//!    allow for the bulge between nodes), down to 2 mm. The rows of `A` are the robot's motor
 //!    **channels** ([`RobotModel::channel`]): its `N` wheels, then its `N` steer motors if it
 //!    has steering. For the caster the steer angles `γ(σ)` obey `dγ/dσ = J2(θ, γ) q'(σ)`
 //!    (paper 003, eq. 5), which does not depend on the timing, so they are integrated once
@@ -143,6 +144,7 @@ pub fn plan(
         robot,
         heading_cs,
         set_point: robot.model.kind().steer_is_set_point(),
+        grid_tol: grid::grid_tol(&opts.timing),
     };
     let mut moves = build_moves(&ctx, opts)?;
     if matches!(opts.timing, Timing::ConstantSpeed { .. }) && moves.len() != 1 {

@@ -64,13 +64,6 @@ fn time_optimal_timing_is_the_same_with_stored_and_rebuilt_cells() {
         )
         .expect("model");
         let heading_cs = [0.3_f64.cos(), 0.3_f64.sin()];
-        let ctx = Ctx {
-            path: &path,
-            heading: &heading,
-            robot: &robot,
-            heading_cs,
-            set_point: robot.model.kind().steer_is_set_point(),
-        };
         let opts = PlanOptions {
             timing: Timing::TimeOptimal {
                 limits: MotionLimits {
@@ -82,6 +75,14 @@ fn time_optimal_timing_is_the_same_with_stored_and_rebuilt_cells() {
             on_limit: OnLimit::Retime,
             rate: 100.0,
             initial_steer: InitialSteer::Aligned,
+        };
+        let ctx = Ctx {
+            path: &path,
+            heading: &heading,
+            robot: &robot,
+            heading_cs,
+            set_point: robot.model.kind().steer_is_set_point(),
+            grid_tol: grid::grid_tol(&opts.timing),
         };
         let moves = build_moves(&ctx, &opts).expect("moves");
         for mv in &moves {
