@@ -150,6 +150,11 @@ impl SimRobot {
         cfg.max_speed = a.max_speed;
         cfg.max_yaw_rate = a.max_yaw_rate;
         cfg.watchdog = a.watchdog;
+        // The robot file's [events] (only the collision test applies to this runtime).
+        let ev = desc.events.thresholds();
+        cfg.events.slip_yaw_rate = ev.slip_yaw_rate;
+        cfg.events.slip_residual = ev.slip_residual;
+        cfg.events.collision_decel = ev.collision_decel;
         let rt = BalanceRuntime::new(cfg, Pose2::default()).map_err(|e| {
             anyhow::anyhow!(
                 "--plant dynamic: robot {}: balance controller: {e}",
@@ -335,7 +340,7 @@ impl SimRobot {
     pub fn log_header(&self) -> String {
         match self {
             SimRobot::Rate { robot, .. } => rate_log_header(robot.wheels(), robot.steerable()),
-            SimRobot::Balance { .. } => "t,x,y,heading,true_x,true_y,true_heading,cmd_vx,cmd_vy,cmd_yaw_rate,tau1,tau2,tau3,tilt_deg,true_tilt_deg,mode,faults,last_command_t,rejected,rx_ok,rx_dropped".into(),
+            SimRobot::Balance { .. } => "t,x,y,heading,true_x,true_y,true_heading,cmd_vx,cmd_vy,cmd_yaw_rate,tau1,tau2,tau3,tilt_deg,true_tilt_deg,mode,faults,last_command_t,rejected,rx_ok,rx_dropped,collision_events".into(),
         }
     }
 
@@ -414,7 +419,7 @@ impl SimRobot {
                     row += &format!("{t:.6},");
                 }
                 row += &format!(
-                    "{:.4},{:.4},{},{},{:.6},{},{},{}",
+                    "{:.4},{:.4},{},{},{:.6},{},{},{},{}",
                     s.tilt.to_degrees(),
                     board.tilt().to_degrees(),
                     s.mode,
@@ -423,6 +428,7 @@ impl SimRobot {
                     s.rejected,
                     c.ok,
                     c.dropped(),
+                    s.events.collisions,
                 );
                 Some(row)
             }
@@ -497,6 +503,14 @@ impl SimRobot {
         };
         out["plan"] = plan;
         out["dynamics"] = dynamics;
+        if let SimRobot::Balance {
+            status: Some(s), ..
+        } = self
+        {
+            out["events"] = json!({
+                "slips": s.events.slips, "collisions": s.events.collisions,
+            });
+        }
         if let SimRobot::Rate {
             status: Some(s),
             rt,

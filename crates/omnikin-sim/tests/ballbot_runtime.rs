@@ -115,3 +115,56 @@ fn an_estop_turns_the_motors_off_and_plans_are_refused() {
     }
     assert!(fallen && b.tilt() > 20.0f64.to_radians());
 }
+
+/// Driving and braking within the lean limit is no collision; a blow against the motion
+/// (a horizontal impulse at the body's centre of mass, as running into a wall) that stops
+/// the ball within a few cycles is one.
+#[test]
+fn a_blow_against_the_motion_is_one_collision_and_driving_is_none() {
+    let (mut rt, mut b, dt) = setup();
+    let go = Command::Velocity {
+        twist: Twist2::new(0.3, 0.0, 0.0),
+        frame: Frame::World,
+    };
+    drive(&mut rt, &mut b, dt, 1.0, |_| Some(Command::Heartbeat));
+    drive(&mut rt, &mut b, dt, 3.0, |_| Some(go));
+    drive(&mut rt, &mut b, dt, 3.0, |_| Some(Command::Stop));
+    drive(&mut rt, &mut b, dt, 3.0, |_| Some(go));
+    let st = b.run_cycle(&mut rt);
+    assert_eq!(st.events.collisions, 0, "driving and braking");
+    assert!(
+        !st.fault_history
+            .contains(omnikin::runtime::Faults::COLLISION)
+    );
+    let v = b.plant().ball_velocity(b.state());
+    assert!((v.x - 0.3).abs() < 0.05, "cruising: {v:?}");
+    // 6 N·s against the motion: the ball stops within 10 ms and rolls back at 0.35 m/s.
+    b.push([-6.0, 0.0]);
+    let mut flagged = vec![];
+    for k in 0..(1.0 / dt) as usize {
+        let now = b.time_us();
+        rt.handle(go, now).unwrap();
+        let st = b.run_cycle(&mut rt);
+        b.advance(dt);
+        if st.faults.contains(omnikin::runtime::Faults::COLLISION) {
+            flagged.push(k);
+        }
+    }
+    let st = b.run_cycle(&mut rt);
+    eprintln!(
+        "a 6 N·s blow at {:.2} m/s: collision flagged from cycle {:?} to {:?}, {:?}, tilt {:.2}°",
+        v.x,
+        flagged.first(),
+        flagged.last(),
+        st.events,
+        b.tilt().to_degrees()
+    );
+    assert!(flagged.first().is_some_and(|&k| k <= 2), "{flagged:?}");
+    assert_eq!(
+        flagged.len(),
+        flagged.last().unwrap() - flagged[0] + 1,
+        "one episode"
+    );
+    assert_eq!((st.events.collisions, st.events.slips), (1, 0));
+    assert!(b.tilt() < 3f64.to_radians(), "still balancing");
+}

@@ -52,6 +52,8 @@ use crate::control::{
     ball_velocity_from_wheels,
 };
 use crate::estimate::ahrs::{Mahony, MahonyGains};
+use crate::estimate::events::{EventCounters, EventDetector, EventThresholds};
+use crate::estimate::odometry::OdometryStep;
 use crate::{Kind, Pose2, Real, Twist2};
 
 /// What the balance runtime is built from.
@@ -70,6 +72,11 @@ pub struct BalanceRuntimeConfig<T> {
     pub watchdog: T,
     /// AHRS gains.
     pub ahrs: MahonyGains<T>,
+    /// Collision detection on the ball's speed ([`crate::estimate::events`]; the slip tests
+    /// do not apply: the ball's spin about the vertical is not measured, and three wheels
+    /// leave no residual). Default [`EventThresholds::standard`]; `omnikin robot` takes the
+    /// robot file's `[events]`.
+    pub events: EventThresholds<T>,
 }
 
 impl<T: Real> BalanceRuntimeConfig<T> {
@@ -82,6 +89,7 @@ impl<T: Real> BalanceRuntimeConfig<T> {
             max_speed: T::one(),
             max_yaw_rate: T::one(),
             watchdog: T::of(0.5),
+            events: EventThresholds::standard(),
             ahrs: MahonyGains::default_gains(),
         }
     }
@@ -98,7 +106,8 @@ pub struct BalanceStatus<T> {
     /// 2 cm/s).
     pub mode: Mode,
     /// This cycle's faults: `LIMIT` (torque saturation), `LINK_LOST` (watchdog), `ESTOP`,
-    /// `REJECTED` (a command refused since the last cycle), `HARDWARE`, `FALLEN`.
+    /// `REJECTED` (a command refused since the last cycle), `HARDWARE`, `FALLEN`, `COLLISION`
+    /// (a collision episode under way, [`BalanceRuntimeConfig::events`]).
     pub faults: Faults,
     /// Faults since the last `Clear`.
     pub fault_history: Faults,
@@ -135,6 +144,8 @@ pub struct BalanceStatus<T> {
     pub rejected: u32,
     /// Clock of the newest accepted command, µs (0: none).
     pub last_command_us: u64,
+    /// Collisions since start (`slips` stays 0: no slip test on this runtime).
+    pub events: EventCounters,
 }
 
 /// The balance runtime (module doc). `Copy`-free but fixed size, no allocation.
@@ -157,7 +168,14 @@ pub struct BalanceRuntime<T: Real> {
     fault_history: Faults,
     last_velocity: [T; 2],
     ball_accel: [T; 2],
+    events: EventDetector<T>,
+    /// Clock origin of the event detector, µs (re-based every `EVENT_REBASE_S`).
+    event_base_us: Option<u64>,
 }
+
+/// Re-base the event detector's clock every this many seconds so `T = f32` keeps µs
+/// resolution.
+const EVENT_REBASE_S: f64 = 256.0;
 
 /// Time constant of the low-pass on the odometry's ball acceleration that corrects the
 /// accelerometer, s.
@@ -175,6 +193,12 @@ impl<T: Real> BalanceRuntime<T> {
             ("max_speed", config.max_speed),
             ("max_yaw_rate", config.max_yaw_rate),
             ("watchdog", config.watchdog),
+            ("events.collision_decel", config.events.collision_decel),
+            ("events.window", config.events.window),
+            ("events.smoothing", config.events.smoothing),
+            ("events.hold", config.events.hold),
+            ("events.slip_yaw_rate", config.events.slip_yaw_rate),
+            ("events.slip_residual", config.events.slip_residual),
         ] {
             let v = v.to_f64();
             if !(v.is_finite() && v > 0.0) {
@@ -208,6 +232,8 @@ impl<T: Real> BalanceRuntime<T> {
             fault_history: Faults::NONE,
             last_velocity: [z; 2],
             ball_accel: [z; 2],
+            events: EventDetector::new(config.events, false),
+            event_base_us: None,
         })
     }
 
@@ -375,6 +401,7 @@ impl<T: Real> BalanceRuntime<T> {
             self.ball_accel[i] = self.ball_accel[i] + k * (raw - self.ball_accel[i]);
         }
         self.last_velocity = velocity;
+        self.detect_collision(now_us, dt, velocity);
         let m = Measurement::from_attitude(&q, self.gyro, self.position, velocity);
         // Watchdog and target.
         let watchdog = match self.last_rx_us {
@@ -445,6 +472,7 @@ impl<T: Real> BalanceRuntime<T> {
             (self.rejected != self.rejected_seen, Faults::REJECTED),
             (fault, Faults::HARDWARE),
             (fallen, Faults::FALLEN),
+            (self.events.colliding(), Faults::COLLISION),
         ] {
             if on {
                 faults.insert(flag);
@@ -489,7 +517,33 @@ impl<T: Real> BalanceRuntime<T> {
             hardware_fault: fault,
             rejected: self.rejected,
             last_command_us: self.last_rx_us.unwrap_or(0),
+            events: self.events.counters(),
         }
+    }
+
+    /// Feeds the event detector the ball's speed of this cycle (world velocity; the
+    /// detector only uses its magnitude).
+    fn detect_collision(&mut self, now_us: u64, dt: T, velocity: [T; 2]) {
+        let z = T::zero();
+        let base = *self.event_base_us.get_or_insert(now_us);
+        let mut t = T::of(now_us.saturating_sub(base) as f64 * 1e-6);
+        if t > T::of(EVENT_REBASE_S) {
+            self.events.shift_time(t);
+            self.event_base_us = Some(now_us);
+            t = z;
+        }
+        let step = OdometryStep {
+            t,
+            dt,
+            pose: Pose2::new(self.position[0], self.position[1], z),
+            delta: Pose2::new(velocity[0] * dt, velocity[1] * dt, z),
+            twist: Twist2::new(velocity[0], velocity[1], z),
+            wheel_heading_change: z,
+            slip_residual: z,
+            wheel_slip: [z; crate::MAX_WHEELS],
+            shell_spin: None,
+        };
+        self.events.step(&step, None);
     }
 }
 
