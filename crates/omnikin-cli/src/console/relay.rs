@@ -620,7 +620,7 @@ impl Relay {
         if a.mode != b.mode {
             self.event("info", &format!("mode {} → {}", a.mode, b.mode));
         }
-        let new = Faults(b.fault_history.0 & !a.fault_history.0);
+        let new = new_faults(a, b);
         for (flag, name) in Faults::ALL {
             // LIMIT is routine; ESTOP is reported by its confirmation and the mode change.
             if new.contains(flag) && flag != Faults::LIMIT && flag != Faults::ESTOP {
@@ -849,9 +849,45 @@ fn telemetry_json(
     })
 }
 
+/// The faults to report between two consecutive telemetry frames: new in the history, and —
+/// for the slip and collision events, whose flags stay up for a whole episode (at least the
+/// 0.2 s hold, several telemetry frames) — every rising edge, so a second slip or collision
+/// after a first is reported too.
+fn new_faults(a: &Telemetry, b: &Telemetry) -> Faults {
+    let episodes = Faults::SLIP.0 | Faults::COLLISION.0;
+    Faults((b.fault_history.0 & !a.fault_history.0) | (b.faults.0 & !a.faults.0 & episodes))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_collision_episode_is_reported_once() {
+        let frame = |faults: Faults, history: Faults| Telemetry {
+            faults,
+            fault_history: history,
+            ..tel(0, [0.0; 3])
+        };
+        let c = Faults::COLLISION;
+        let frames = [
+            frame(Faults::NONE, Faults::NONE),
+            frame(c, c),
+            frame(c, c),
+            frame(Faults::NONE, c),
+            frame(c, c),
+            frame(Faults::NONE, c),
+        ];
+        let reported: Vec<bool> = frames
+            .windows(2)
+            .map(|w| new_faults(&w[0], &w[1]).contains(c))
+            .collect();
+        assert_eq!(reported, [true, false, false, true, false]);
+        // A sticky fault is reported once, when it enters the history.
+        let l = Faults::LINK_LOST;
+        assert!(new_faults(&frame(Faults::NONE, Faults::NONE), &frame(l, l)).contains(l));
+        assert!(new_faults(&frame(Faults::NONE, l), &frame(l, l)).is_empty());
+    }
 
     fn tel(time_us: u64, q: [f32; 3]) -> Telemetry {
         let z = [0.0f32; omnikin::MAX_WHEELS];
