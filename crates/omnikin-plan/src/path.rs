@@ -752,10 +752,21 @@ impl Path {
     /// Index of the piece containing arc length `s` (the later one at a join).
     fn piece_index(&self, s: f64) -> usize {
         let n = self.pieces.len();
-        match self.offsets[..n].binary_search_by(|o| o.total_cmp(&s)) {
-            Ok(k) => k,
-            Err(k) => k.saturating_sub(1),
+        // The last piece starting at or before `s`: a spline's pieces have similar lengths, so
+        // the proportional guess is usually right or a step off; bisect when it is not.
+        let k = ((s / self.length() * n as f64) as usize).min(n - 1);
+        if self.offsets[k] <= s && (k + 1 == n || self.offsets[k + 1] > s) {
+            return k;
         }
+        if k + 1 < n && self.offsets[k + 1] <= s && (k + 2 == n || self.offsets[k + 2] > s) {
+            return k + 1;
+        }
+        if k > 0 && self.offsets[k - 1] <= s && self.offsets[k] > s {
+            return k - 1;
+        }
+        self.offsets[..n]
+            .partition_point(|&o| o <= s)
+            .saturating_sub(1)
     }
 
     /// Point, unit tangent and curvature at arc length `s` (m), clamped to `[0, length]`. At a
