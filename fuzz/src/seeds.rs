@@ -2,6 +2,7 @@
 //! descriptions), the planner (plan CSV) and the link codec (frames of every message type),
 //! so that fuzzing starts past the checks a random input never passes.
 
+use omnikin::estimate::events::EventCounters;
 use omnikin::link::{
     EndReason, Estimate, Hello, HelloAck, KIND_TAGGED, Key, LinkCounters, MAX_FRAME, MacKey,
     Message, NONCE_LEN, PROTOCOL_VERSION, RobotInfo, RobotKind, SimTruth, Telemetry, WireFix,
@@ -169,6 +170,10 @@ pub fn messages() -> Vec<(&'static str, Message)> {
                     rejected: 2,
                     too_late: 1,
                     recoveries: 1,
+                },
+                events: EventCounters {
+                    slips: 1,
+                    collisions: 1,
                 },
             }),
         ),
