@@ -59,6 +59,7 @@ extern crate std;
 mod angle;
 mod error;
 mod real;
+mod trig;
 mod types;
 
 pub mod control;

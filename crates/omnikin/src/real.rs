@@ -20,6 +20,11 @@ pub trait Real: RealField + Copy + sealed::Sealed {
     fn of(x: f64) -> Self;
     /// Widens to `f64` (exact for both types), for error reports and printing.
     fn to_f64(self) -> f64;
+    /// `(sin x_i, cos x_i)` of four angles (rad) at once, as `([sin; 4], [cos; 4])`: for `f64`,
+    /// fdlibm's sine kernel and reduction over the four lanes in one pass (within 2 ulp of
+    /// `libm` or `10^-20` absolute; `libm` itself beyond `|x| = 10^5` rad or for a non-finite lane); for `f32`,
+    /// `libm` per lane. The caster's steer angles and heading take one call.
+    fn sin_cos4(x: [Self; 4]) -> ([Self; 4], [Self; 4]);
 }
 
 impl Real for f32 {
@@ -32,6 +37,10 @@ impl Real for f32 {
     fn to_f64(self) -> f64 {
         self as f64
     }
+    #[inline(always)]
+    fn sin_cos4(x: [Self; 4]) -> ([Self; 4], [Self; 4]) {
+        crate::trig::sin_cos4_f32(x)
+    }
 }
 
 impl Real for f64 {
@@ -43,6 +52,10 @@ impl Real for f64 {
     #[inline(always)]
     fn to_f64(self) -> f64 {
         self
+    }
+    #[inline(always)]
+    fn sin_cos4(x: [Self; 4]) -> ([Self; 4], [Self; 4]) {
+        crate::trig::sin_cos4_f64(x)
     }
 }
 

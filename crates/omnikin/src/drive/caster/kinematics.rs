@@ -2,7 +2,7 @@
 //! (paper 003, eqs. (2), (4), (5)) and the least-squares twist, with its slip residuals,
 //! from six motor rates.
 
-use super::{Caster3, CasterForward, CasterRates, ROLL_RATES, STEER, STEER_RATES, WheelTrig, cs};
+use super::{Caster3, CasterForward, CasterRates, ROLL_RATES, STEER, STEER_RATES, WheelTrig};
 use crate::drive::Rot2;
 use crate::real::{finite, finite3};
 use crate::{InputError, Real, Twist2};
@@ -25,21 +25,16 @@ impl<T: Real> Caster3<T> {
         heading: T,
         steer: [T; 3],
     ) -> Result<CasterRates<T>, InputError> {
-        self.motor_rates_at(twist_world, heading, Rot2::from_angle(heading), steer)
-    }
-
-    /// [`Caster3::motor_rates`] with the heading's rotation `rot = {cos θ, sin θ}` already known
-    /// (the runtime shares one `sin_cos` per cycle between its frame changes and this call);
-    /// `heading` itself only names the field in an error.
-    #[inline]
-    pub(crate) fn motor_rates_at(
-        &self,
-        twist_world: Twist2<T>,
-        heading: T,
-        rot: Rot2<T>,
-        steer: [T; 3],
-    ) -> Result<CasterRates<T>, InputError> {
-        let out = self.inverse_rows(rot, steer).rates_unchecked(twist_world);
+        // One four-lane sin_cos: the three steer angles and the heading.
+        let (s, c) = T::sin_cos4([steer[0], steer[1], steer[2], heading]);
+        let rot = Rot2 {
+            cos: c[3],
+            sin: s[3],
+        };
+        let steer_cs = [(c[0], s[0]), (c[1], s[1]), (c[2], s[2])];
+        let out = self
+            .inverse_rows(rot, steer_cs)
+            .rates_unchecked(twist_world);
         // A non-finite input makes every rate of its rows non-finite (`sin_cos` of a non-finite
         // angle is NaN, and each rate has every twist component times a finite coefficient), so
         // one test of the six rates covers the usual call; only a failure pays for naming the
@@ -60,8 +55,8 @@ impl<T: Real> Caster3<T> {
     /// rotation `rot` and steer angles `steer` (rad): what [`Caster3::motor_rates`] computes
     /// before applying them to the twist, kept to apply to many twists at one steer state.
     #[inline]
-    pub(crate) fn inverse_rows(&self, rot: Rot2<T>, steer: [T; 3]) -> CasterInverseRows<T> {
-        let trig = self.wheel_trig(rot, steer);
+    pub(crate) fn inverse_rows(&self, rot: Rot2<T>, steer_cs: [(T, T); 3]) -> CasterInverseRows<T> {
+        let trig = self.wheel_trig(rot, steer_cs);
         let wheel = |w: &WheelTrig<T>| {
             (
                 [
@@ -92,7 +87,13 @@ impl<T: Real> Caster3<T> {
     /// [`InputError::NonFinite`] naming `"steer[i]"`.
     pub fn robot_frame_inverse(&self, steer: [T; 3]) -> Result<CasterInverseRows<T>, InputError> {
         finite3(steer, STEER)?;
-        Ok(self.inverse_rows(Rot2::from_angle(T::zero()), steer))
+        let (s, c) = T::sin_cos4([steer[0], steer[1], steer[2], T::zero()]);
+        let rot = Rot2 {
+            cos: c[3],
+            sin: s[3],
+        };
+        let steer_cs = [(c[0], s[0]), (c[1], s[1]), (c[2], s[2])];
+        Ok(self.inverse_rows(rot, steer_cs))
     }
 
     /// Forward kinematics: the **world-frame** twist `(ẋ, ẏ, θ̇)` (m/s, m/s, rad/s) that best
@@ -128,7 +129,11 @@ impl<T: Real> Caster3<T> {
         // the frame). A non-finite input always ends in a non-finite twist, which the fit
         // reports as an error, so the inputs are tested — in the documented order, before any
         // error of the fit — only when the fit fails or the heading is not finite.
-        let fit = self.body_twist_robot_unchecked(rates, steer);
+        // One four-lane sin_cos: the three wheel directions in the robot frame and the heading.
+        let a = self.params.mount_angles;
+        let (s, c) = T::sin_cos4([a[0] + steer[0], a[1] + steer[1], a[2] + steer[2], heading]);
+        let dir = [[c[0], s[0]], [c[1], s[1]], [c[2], s[2]]];
+        let fit = self.fit(self.mount_centred, self.mount_mean, dir, rates);
         if fit.is_err() || !heading.is_finite() {
             finite3(rates.roll, ROLL_RATES)?;
             finite3(rates.steer, STEER_RATES)?;
@@ -136,7 +141,10 @@ impl<T: Real> Caster3<T> {
             finite3(steer, STEER)?;
         }
         let f = fit?;
-        let twist = f.twist.to_world(heading);
+        let twist = f.twist.rotated_by(Rot2 {
+            cos: c[3],
+            sin: s[3],
+        });
         if !twist.is_finite() {
             return Err(InputError::Singular {
                 reason: "the least-squares twist overflows: motor rates too large for the scalar type",
@@ -189,11 +197,11 @@ impl<T: Real> Caster3<T> {
         rates: &CasterRates<T>,
         steer: [T; 3],
     ) -> Result<CasterForward<T>, InputError> {
-        let dir = core::array::from_fn(|i| {
-            let (cm, sm) = self.mount_cs[i];
-            let (cg, sg) = cs(steer[i]);
-            [cm * cg - sm * sg, sm * cg + cm * sg]
-        });
+        // The wheel directions β_i = α_i + γ_i in the robot frame, one four-lane sin_cos (the
+        // fourth lane idle).
+        let a = self.params.mount_angles;
+        let (s, c) = T::sin_cos4([a[0] + steer[0], a[1] + steer[1], a[2] + steer[2], T::zero()]);
+        let dir = [[c[0], s[0]], [c[1], s[1]], [c[2], s[2]]];
         self.fit(self.mount_centred, self.mount_mean, dir, rates)
     }
 

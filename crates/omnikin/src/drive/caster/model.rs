@@ -82,14 +82,14 @@ impl<T: Real> Caster3<T> {
     }
 
     /// The cosines and sines of `β_i = α_i + θ + γ_i` and `γ_i` for the three wheels, from
-    /// the heading's rotation `{cos θ, sin θ}`, one `sin_cos` per steer angle and the precomputed
-    /// `(cos α_i, sin α_i)`, by the angle-addition formulas.
+    /// the heading's rotation `{cos θ, sin θ}`, the steer angles' `steer_cs[i] = (cos γ_i,
+    /// sin γ_i)` and the precomputed `(cos α_i, sin α_i)`, by the angle-addition formulas.
     #[inline(always)]
-    pub(super) fn wheel_trig(&self, heading: Rot2<T>, steer: [T; 3]) -> [WheelTrig<T>; 3] {
+    pub(super) fn wheel_trig(&self, heading: Rot2<T>, steer_cs: [(T, T); 3]) -> [WheelTrig<T>; 3] {
         let (ct, st) = (heading.cos, heading.sin);
         let wheel = |i: usize| {
             let (cm, sm) = self.mount_cs[i];
-            let (cg, sg) = cs(steer[i]);
+            let (cg, sg) = steer_cs[i];
             let (ca, sa) = (cm * ct - sm * st, sm * ct + cm * st);
             WheelTrig {
                 cb: ca * cg - sa * sg,
