@@ -14,10 +14,10 @@
 //!   `y = (x − n·P1) − n·P1t` with fdlibm's 33-bit `P1` (so `n·P1` is exact for `|n| < 2^20`)
 //!   and `P1t = π/2 − P1` to 53 bits: the reduced angle's absolute error is below
 //!   `|n| · 2^-85 + ulp(n·P1t) + ulp(y) / 2`, i.e. `10^-20` plus half an ulp of `y`;
-//! * fdlibm's degree-13 odd minimax kernel for `sin y` on `[−π/4, π/4]` (error below one ulp);
-//! * `cos y = √((1 − sin y)(1 + sin y))` instead of the cosine kernel: on `|y| ≤ π/4`,
-//!   `cos y ≥ 1/√2` and `|∂cos/∂sin| = |tan y| ≤ 1`, so the sine's error is not amplified,
-//!   and one square root replaces a degree-14 polynomial;
+//! * fdlibm's degree-13 odd and degree-14 even minimax kernels on `[−π/4, π/4]` (error below
+//!   one ulp), without the reduction's tail (it moves the result by at most half an ulp), their
+//!   polynomials in Estrin's form: coefficient pairs in parallel, a dependency chain about half
+//!   as long as Horner's rule, since the call's time is its latency;
 //! * the quadrant `n mod 4`, read from the rounding's bit pattern, swaps the pair and sets the
 //!   signs by bit operations.
 //!
@@ -27,12 +27,15 @@
 //! (`sin_cos4_agrees_with_libm`): within 2 ulp of each value or `10^-20` absolute (measured:
 //! 1 ulp).
 
+// fdlibm's constants are written as fdlibm publishes them (digits beyond f64's are harmless).
+#![allow(clippy::excessive_precision)]
+
 /// Largest `|x|` (rad) the single-step reduction serves; beyond it, `libm`.
 const REDUCTION_LIMIT: f64 = 1.0e5;
 /// `1.5 · 2^52`: adding and subtracting it rounds to the nearest integer.
 const TO_INT: f64 = 1.5 / f64::EPSILON;
-/// `2/π` (fdlibm `invpio2`).
-const INV_PIO2: f64 = 6.366_197_723_675_813_824_33e-1;
+/// `2/π` (fdlibm `invpio2`, 0x3FE45F30_6DC9C883).
+const INV_PIO2: f64 = core::f64::consts::FRAC_2_PI;
 /// The first 33 bits of `π/2` (fdlibm `pio2_1`).
 const PIO2_1: f64 = 1.570_796_326_734_125_614_17;
 /// `π/2 − PIO2_1` (fdlibm `pio2_1t`).
@@ -44,6 +47,13 @@ const S3: f64 = -1.984_126_982_985_794_931_34e-4;
 const S4: f64 = 2.755_731_370_707_006_767_89e-6;
 const S5: f64 = -2.505_076_025_340_686_341_95e-8;
 const S6: f64 = 1.589_690_995_211_550_102_21e-10;
+// fdlibm's `__kernel_cos` coefficients.
+const C1: f64 = 4.166_666_666_666_660_190_37e-2;
+const C2: f64 = -1.388_888_888_887_410_957_49e-3;
+const C3: f64 = 2.480_158_728_947_672_941_78e-5;
+const C4: f64 = -2.755_731_435_139_066_330_35e-7;
+const C5: f64 = 2.087_572_321_298_174_827_90e-9;
+const C6: f64 = -1.135_964_755_778_819_482_65e-11;
 
 /// `(sin x, cos x)` of one lane, `|x| ≤ REDUCTION_LIMIT` (see the module documentation).
 #[inline(always)]
@@ -55,11 +65,15 @@ fn lane(x: f64) -> (f64, f64) {
     let y = (x - n * PIO2_1) - n * PIO2_1T;
     let z = y * y;
     let zz = z * z;
-    // __kernel_sin(y, 0, 0)
-    let s = y + z * y * (S1 + z * (S2 + z * (S3 + z * S4) + z * zz * (S5 + z * S6)));
-    // cos y = √((1 − s)(1 + s)): on |y| ≤ π/4, cos y ≥ 1/√2 and |∂cos/∂sin| = |tan y| ≤ 1,
-    // so the sine's error is not amplified; one square root instead of the cosine kernel.
-    let c = nalgebra::ComplexField::sqrt((1.0 - s) * (1.0 + s));
+    let z4 = zz * zz;
+    // __kernel_sin(y, 0, 0) and __kernel_cos(y, 0), their polynomials in Estrin's form (pairs
+    // of coefficients in parallel: a shorter dependency chain than Horner's rule).
+    let ps = (S1 + z * S2) + zz * (S3 + z * S4) + z4 * (S5 + z * S6);
+    let s = y + (z * y) * ps;
+    let pc = (C1 + z * C2) + zz * (C3 + z * C4) + z4 * (C5 + z * C6);
+    let hz = 0.5 * z;
+    let w = 1.0 - hz;
+    let c = w + (((1.0 - w) - hz) + zz * pc);
     // Quadrant n mod 4: 0 → (s, c), 1 → (c, −s), 2 → (−s, −c), 3 → (−c, s).
     let swap = 0u64.wrapping_sub(quadrant & 1);
     let (sb, cb) = (s.to_bits(), c.to_bits());
@@ -76,11 +90,9 @@ fn lane(x: f64) -> (f64, f64) {
 /// `(sin, cos)` of four `f64` angles (rad), see the module documentation.
 #[inline(always)]
 pub(crate) fn sin_cos4_f64(x: [f64; 4]) -> ([f64; 4], [f64; 4]) {
-    let limit = REDUCTION_LIMIT.to_bits();
-    // |x| ≤ limit by the bit patterns (also false for NaN), all four lanes in one test.
-    let served = x
-        .iter()
-        .fold(true, |ok, v| ok & ((v.to_bits() & !(1 << 63)) <= limit));
+    // Σ |x_i| ≤ limit implies every |x_i| ≤ limit (false for a NaN or infinite lane): one
+    // comparison for the four lanes.
+    let served = (x[0].abs() + x[1].abs()) + (x[2].abs() + x[3].abs()) <= REDUCTION_LIMIT;
     let (mut s, mut c) = ([0.0; 4], [0.0; 4]);
     if served {
         for i in 0..4 {
@@ -170,6 +182,11 @@ mod tests {
             assert!(s[1].is_nan() && c[1].is_nan());
             assert_eq!((s[0], c[0]), libm::sincos(0.1));
         }
+    }
+
+    #[test]
+    fn two_over_pi_is_fdlibms() {
+        assert_eq!(INV_PIO2.to_bits(), 0x3FE4_5F30_6DC9_C883);
     }
 
     #[test]

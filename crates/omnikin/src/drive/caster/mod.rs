@@ -122,6 +122,9 @@ pub struct Caster3<T> {
     /// `L = D + d`, m: length scale used to make the yaw column commensurate with the linear
     /// ones in tolerances.
     scale: T,
+    /// `1000 ε L²`, m²: the spread `Σ |q_i|²` of the wheel centres at or below which the
+    /// forward kinematics call the yaw rate unobservable.
+    min_spread: T,
     /// `(cos α_i, sin α_i)` of the mounting angles.
     mount_cs: [(T, T); 3],
     /// `F̄ − C`, m: the centroid of the steering axes `F_i = C + D (cos α_i, sin α_i)`, robot

@@ -56,6 +56,7 @@ impl<T: Real> Caster3<T> {
             big_d_over_r,
             big_d_over_d,
             scale,
+            min_spread: T::of(1.0e3) * T::EPSILON * scale * scale,
             mount_cs,
             mount_mean,
             mount_centred,
