@@ -21,9 +21,11 @@ pub trait Real: RealField + Copy + sealed::Sealed {
     /// Widens to `f64` (exact for both types), for error reports and printing.
     fn to_f64(self) -> f64;
     /// `(sin x_i, cos x_i)` of four angles (rad) at once, as `([sin; 4], [cos; 4])`: for `f64`,
-    /// fdlibm's sine kernel and reduction over the four lanes in one pass (within 2 ulp of
-    /// `libm` or `10^-20` absolute; `libm` itself beyond `|x| = 10^5` rad or for a non-finite lane); for `f32`,
-    /// `libm` per lane. The caster's steer angles and heading take one call.
+    /// fdlibm's reduction and kernels over the four lanes in one pass when
+    /// `Σ |x_i| ≤ 10^5` rad (within 2 ulp of `libm`, absolute `10^-20` near the zeros of sine
+    /// and cosine; see the `trig` module), otherwise — or for a non-finite lane — `libm` for
+    /// all four; for `f32`, `libm` per lane. The caster's three wheel directions and heading
+    /// take one call.
     fn sin_cos4(x: [Self; 4]) -> ([Self; 4], [Self; 4]);
 }
 
