@@ -110,6 +110,20 @@ fn run(out: &Path, quick: bool) -> Result<(), String> {
         });
     }
 
+    for rate in pick(&[10.0, 100.0, 1000.0, 10000.0]) {
+        let plan = work.join(format!("plan20-{rate}.csv"));
+        if !plan.exists() {
+            plan_file(&wp20, rate, &plan)?;
+        }
+        let s = time(|| simulate(&plan, &noisy, 20, &work.join("sim")))?;
+        points.push(Point {
+            series: "simulate vs rate (20 trials)",
+            variable: "rate_hz",
+            value: rate,
+            seconds: s,
+        });
+    }
+
     // evaluate: one run of n rows against its plan (the plan itself as the track).
     for rate in pick(&[20.0, 200.0, 2000.0, 20000.0]) {
         let plan = work.join(format!("plan20-{rate}.csv"));
@@ -133,6 +147,16 @@ fn run(out: &Path, quick: bool) -> Result<(), String> {
             series: "reproduce vs trials (3 profiles)",
             variable: "trials",
             value: trials,
+            seconds: s,
+        });
+    }
+
+    for rate in pick(&[25.0, 100.0, 400.0, 1600.0]) {
+        let s = time(|| reproduce_at(10, rate, &work.join("reproduce")))?;
+        points.push(Point {
+            series: "reproduce vs plan rate (10 trials)",
+            variable: "rate_hz",
+            value: rate,
             seconds: s,
         });
     }
@@ -266,7 +290,11 @@ fn evaluate(plan: &Path, out: &Path) -> Result<(), String> {
 }
 
 fn reproduce(trials: u64, out: &Path) -> Result<(), String> {
-    let (trials, out) = (trials.to_string(), out.to_string_lossy());
+    reproduce_at(trials, 100.0, out)
+}
+
+fn reproduce_at(trials: u64, rate: f64, out: &Path) -> Result<(), String> {
+    let (trials, rate, out) = (trials.to_string(), rate.to_string(), out.to_string_lossy());
     let args = [
         "reproduce",
         "sphere-2019",
@@ -274,6 +302,8 @@ fn reproduce(trials: u64, out: &Path) -> Result<(), String> {
         "ideal,hardware,spin-slip",
         "--trials",
         &trials,
+        "--rate",
+        &rate,
         "--out",
         &out,
         "--force",
@@ -325,10 +355,10 @@ fn fit_slope(points: &[&Point]) -> Option<f64> {
     Some((b.seconds / a.seconds).ln() / (b.value / a.value).ln())
 }
 
-/// One log-log panel per series, 3 × 2, with the fitted slope in each title.
+/// One log-log panel per series, 4 × 2, with the fitted slope in each title.
 fn figure(points: &[Point], path: &Path) -> Result<(), String> {
     let names = series_names(points);
-    let root = SVGBackend::new(path, (1200, 760)).into_drawing_area();
+    let root = SVGBackend::new(path, (1600, 760)).into_drawing_area();
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let root = root
@@ -337,7 +367,7 @@ fn figure(points: &[Point], path: &Path) -> Result<(), String> {
             ("sans-serif", 20),
         )
         .map_err(|e| err(&e))?;
-    let panels = root.split_evenly((2, 3));
+    let panels = root.split_evenly((2, 4));
     for (panel, name) in panels.iter().zip(names) {
         let pts: Vec<&Point> = points.iter().filter(|p| p.series == name).collect();
         let (x0, x1) = bounds(pts.iter().map(|p| p.value));
