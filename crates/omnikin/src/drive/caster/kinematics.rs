@@ -130,10 +130,7 @@ impl<T: Real> Caster3<T> {
         // the frame). A non-finite input always ends in a non-finite twist, which the fit
         // reports as an error, so the inputs are tested — in the documented order, before any
         // error of the fit — only when the fit fails or the heading is not finite.
-        // One four-lane sin_cos: the three wheel directions in the robot frame and the heading.
-        let a = self.params.mount_angles;
-        let (s, c) = T::sin_cos4([a[0] + steer[0], a[1] + steer[1], a[2] + steer[2], heading]);
-        let dir = [[c[0], s[0]], [c[1], s[1]], [c[2], s[2]]];
+        let (dir, rot) = self.robot_directions(steer, heading);
         let fit = self.fit(self.mount_centred, self.mount_mean, dir, rates);
         if fit.is_err() || !heading.is_finite() {
             finite3(rates.roll, ROLL_RATES)?;
@@ -142,10 +139,7 @@ impl<T: Real> Caster3<T> {
             finite3(steer, STEER)?;
         }
         let f = fit?;
-        let twist = f.twist.rotated_by(Rot2 {
-            cos: c[3],
-            sin: s[3],
-        });
+        let twist = f.twist.rotated_by(rot);
         // The yaw rate is the fit's, already tested; the rotated velocity's sum is one test.
         if !(twist.vx + twist.vy).is_finite() && !twist.is_finite() {
             return Err(InputError::Singular {
@@ -200,12 +194,25 @@ impl<T: Real> Caster3<T> {
         rates: &CasterRates<T>,
         steer: [T; 3],
     ) -> Result<CasterForward<T>, InputError> {
-        // The wheel directions β_i = α_i + γ_i in the robot frame, one four-lane sin_cos (the
-        // fourth lane idle).
-        let a = self.params.mount_angles;
-        let (s, c) = T::sin_cos4([a[0] + steer[0], a[1] + steer[1], a[2] + steer[2], T::zero()]);
-        let dir = [[c[0], s[0]], [c[1], s[1]], [c[2], s[2]]];
+        let (dir, _) = self.robot_directions(steer, T::zero());
         self.fit(self.mount_centred, self.mount_mean, dir, rates)
+    }
+
+    /// The wheel directions `(cos β_i, sin β_i)`, `β_i = α_i + γ_i`, in the robot frame at steer
+    /// angles `steer` (rad), and the rotation by `angle` (rad; the heading, or 0 when the
+    /// caller needs none), from one four-lane [`Real::sin_cos4`].
+    #[inline(always)]
+    fn robot_directions(&self, steer: [T; 3], angle: T) -> ([[T; 2]; 3], Rot2<T>) {
+        let a = self.params.mount_angles;
+        let (s, c) = T::sin_cos4([a[0] + steer[0], a[1] + steer[1], a[2] + steer[2], angle]);
+        let dir = [[c[0], s[0]], [c[1], s[1]], [c[2], s[2]]];
+        (
+            dir,
+            Rot2 {
+                cos: c[3],
+                sin: s[3],
+            },
+        )
     }
 
     /// The least-squares rigid-velocity fit of [`Caster3::body_twist`] (see there), in the
