@@ -59,107 +59,122 @@ fn run(out: &Path, quick: bool) -> Result<(), String> {
         }
     };
     let mut points = Vec::new();
-
-    // plan: waypoints at 100 Hz, and 20 waypoints at every rate.
-    for n in pick(&[10.0, 20.0, 40.0, 80.0, 160.0, 320.0, 640.0]) {
-        let wp = waypoints(&work, n as usize)?;
-        let plan = work.join(format!("plan-{n}.csv"));
-        let s = time(|| plan_file(&wp, 100.0, &plan))?;
-        points.push(Point {
-            series: "plan vs path length (100 Hz)",
-            variable: "waypoints",
-            value: n,
-            seconds: s,
-        });
-    }
+    // One series: `run(size)` returns (the size as plotted, wall time).
+    let mut series = |name: &'static str,
+                      variable: &'static str,
+                      sizes: &[f64],
+                      run: &dyn Fn(f64) -> Result<(f64, f64), String>|
+     -> Result<(), String> {
+        for size in pick(sizes) {
+            let (value, seconds) = run(size)?;
+            points.push(Point {
+                series: name,
+                variable,
+                value,
+                seconds,
+            });
+        }
+        Ok(())
+    };
+    // The plans the other commands read, made once (untimed) when a series first needs them.
     let wp20 = waypoints(&work, 20)?;
-    for rate in pick(&[10.0, 100.0, 1000.0, 10000.0]) {
-        let plan = work.join(format!("plan20-{rate}.csv"));
-        let s = time(|| plan_file(&wp20, rate, &plan))?;
-        points.push(Point {
-            series: "plan vs rate (20 waypoints)",
-            variable: "rate_hz",
-            value: rate,
-            seconds: s,
-        });
-    }
-
-    // simulate: trials on the 20-waypoint plan, and path length at 20 trials.
-    let plan20 = work.join("plan20-100.csv");
-    plan_file(&wp20, 100.0, &plan20)?;
-    for trials in pick(&[1.0, 10.0, 100.0, 1000.0]) {
-        let s = time(|| simulate(&plan20, &noisy, trials as u64, &work.join("sim")))?;
-        points.push(Point {
-            series: "simulate vs trials",
-            variable: "trials",
-            value: trials,
-            seconds: s,
-        });
-    }
-    for n in pick(&[10.0, 20.0, 40.0, 80.0, 160.0]) {
-        let plan = work.join(format!("plan-{n}.csv"));
+    let plan_of = |n: usize, rate: f64| -> Result<PathBuf, String> {
+        let plan = work.join(format!("plan-{n}-{rate}.csv"));
         if !plan.exists() {
-            plan_file(&waypoints(&work, n as usize)?, 100.0, &plan)?;
+            let wp = if n == 20 {
+                wp20.clone()
+            } else {
+                waypoints(&work, n)?
+            };
+            plan_file(&wp, rate, &plan)?;
         }
-        let s = time(|| simulate(&plan, &noisy, 20, &work.join("sim")))?;
-        points.push(Point {
-            series: "simulate vs path length (20 trials)",
-            variable: "waypoints",
-            value: n,
-            seconds: s,
-        });
-    }
+        Ok(plan)
+    };
 
-    for rate in pick(&[10.0, 100.0, 1000.0, 10000.0]) {
-        let plan = work.join(format!("plan20-{rate}.csv"));
-        if !plan.exists() {
-            plan_file(&wp20, rate, &plan)?;
-        }
-        let s = time(|| simulate(&plan, &noisy, 20, &work.join("sim")))?;
-        points.push(Point {
-            series: "simulate vs rate (20 trials)",
-            variable: "rate_hz",
-            value: rate,
-            seconds: s,
-        });
-    }
+    // plan: waypoints at 100 Hz, and 20 waypoints at every rate (timed from scratch).
+    series(
+        "plan vs path length (100 Hz)",
+        "waypoints",
+        &[10.0, 20.0, 40.0, 80.0, 160.0, 320.0, 640.0],
+        &|n| {
+            let wp = waypoints(&work, n as usize)?;
+            Ok((
+                n,
+                time(|| plan_file(&wp, 100.0, &work.join("plan-timed.csv")))?,
+            ))
+        },
+    )?;
+    series(
+        "plan vs rate (20 waypoints)",
+        "rate_hz",
+        &[10.0, 100.0, 1000.0, 10000.0],
+        &|rate| {
+            Ok((
+                rate,
+                time(|| plan_file(&wp20, rate, &work.join("plan-timed.csv")))?,
+            ))
+        },
+    )?;
+
+    // simulate: trials on the 20-waypoint plan; path length and rate at 20 trials.
+    let sim = work.join("sim");
+    series(
+        "simulate vs trials",
+        "trials",
+        &[1.0, 10.0, 100.0, 1000.0],
+        &|trials| {
+            let plan = plan_of(20, 100.0)?;
+            Ok((
+                trials,
+                time(|| simulate(&plan, &noisy, trials as u64, &sim))?,
+            ))
+        },
+    )?;
+    series(
+        "simulate vs path length (20 trials)",
+        "waypoints",
+        &[10.0, 20.0, 40.0, 80.0, 160.0],
+        &|n| {
+            let plan = plan_of(n as usize, 100.0)?;
+            Ok((n, time(|| simulate(&plan, &noisy, 20, &sim))?))
+        },
+    )?;
+    series(
+        "simulate vs rate (20 trials)",
+        "rate_hz",
+        &[10.0, 100.0, 1000.0, 10000.0],
+        &|rate| {
+            let plan = plan_of(20, rate)?;
+            Ok((rate, time(|| simulate(&plan, &noisy, 20, &sim))?))
+        },
+    )?;
 
     // evaluate: one run of n rows against its plan (the plan itself as the track).
-    for rate in pick(&[20.0, 200.0, 2000.0, 20000.0]) {
-        let plan = work.join(format!("plan20-{rate}.csv"));
-        if !plan.exists() {
-            plan_file(&wp20, rate, &plan)?;
-        }
-        let rows = count_rows(&plan)? as f64;
-        let s = time(|| evaluate(&plan, &work.join("eval")))?;
-        points.push(Point {
-            series: "evaluate vs rows",
-            variable: "rows",
-            value: rows,
-            seconds: s,
-        });
-    }
+    series(
+        "evaluate vs rows",
+        "rows",
+        &[20.0, 200.0, 2000.0, 20000.0],
+        &|rate| {
+            let plan = plan_of(20, rate)?;
+            let rows = count_rows(&plan)? as f64;
+            Ok((rows, time(|| evaluate(&plan, &work.join("eval")))?))
+        },
+    )?;
 
-    // reproduce: the kinematic profiles at every trial count.
-    for trials in pick(&[10.0, 100.0, 1000.0]) {
-        let s = time(|| reproduce(trials as u64, &work.join("reproduce")))?;
-        points.push(Point {
-            series: "reproduce vs trials (3 profiles)",
-            variable: "trials",
-            value: trials,
-            seconds: s,
-        });
-    }
-
-    for rate in pick(&[25.0, 100.0, 400.0, 1600.0]) {
-        let s = time(|| reproduce_at(10, rate, &work.join("reproduce")))?;
-        points.push(Point {
-            series: "reproduce vs plan rate (10 trials)",
-            variable: "rate_hz",
-            value: rate,
-            seconds: s,
-        });
-    }
+    // reproduce: the kinematic profiles at every trial count and plan rate.
+    let rep = work.join("reproduce");
+    series(
+        "reproduce vs trials (3 profiles)",
+        "trials",
+        &[10.0, 100.0, 1000.0],
+        &|trials| Ok((trials, time(|| reproduce(trials as u64, 100.0, &rep))?)),
+    )?;
+    series(
+        "reproduce vs plan rate (10 trials)",
+        "rate_hz",
+        &[25.0, 100.0, 400.0, 1600.0],
+        &|rate| Ok((rate, time(|| reproduce(10, rate, &rep))?)),
+    )?;
 
     let csv = out.join("scaling.csv");
     let mut text = String::from("series,variable,value,seconds\n");
@@ -289,11 +304,7 @@ fn evaluate(plan: &Path, out: &Path) -> Result<(), String> {
     )
 }
 
-fn reproduce(trials: u64, out: &Path) -> Result<(), String> {
-    reproduce_at(trials, 100.0, out)
-}
-
-fn reproduce_at(trials: u64, rate: f64, out: &Path) -> Result<(), String> {
+fn reproduce(trials: u64, rate: f64, out: &Path) -> Result<(), String> {
     let (trials, rate, out) = (trials.to_string(), rate.to_string(), out.to_string_lossy());
     let args = [
         "reproduce",
