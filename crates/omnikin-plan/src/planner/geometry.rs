@@ -114,20 +114,21 @@ impl Hint {
 
     /// The unwrapped angle of the unit vector `dir` within ±π of the hint: from the angle
     /// between the two, `δ = 2 atan(t)`, `t = (h × d)/(1 + h·d)`, by its series when it is
-    /// below 0.1 rad (`|t| < 0.05`: the terms to `t¹¹` leave < 1e-18), as between neighbouring
-    /// grid nodes; by `atan2` otherwise.
+    /// below 0.2 rad (`h·d > 0.98`, so `|t| < 0.1005`: the terms to `t¹⁹` leave < 1e-20 rad),
+    /// as between neighbouring grid nodes and from a node to the samples in its cell; by
+    /// `atan2` otherwise.
     pub(super) fn unwrap(self, dir: [f64; 2]) -> f64 {
         if let Some([c, s]) = self.cs {
             let dot = c * dir[0] + s * dir[1];
-            if dot > 0.995 {
+            if dot > 0.98 {
                 let t = (c * dir[1] - s * dir[0]) / (1.0 + dot);
                 let t2 = t * t;
-                let atan = t
-                    * (1.0
-                        - t2 * (1.0 / 3.0
-                            - t2 * (1.0 / 5.0
-                                - t2 * (1.0 / 7.0 - t2 * (1.0 / 9.0 - t2 * (1.0 / 11.0))))));
-                return self.psi + 2.0 * atan;
+                // atan t = t Σ (−t²)ᵏ/(2k+1), k = 0…9, by Horner in t².
+                let mut sum = 1.0 / 19.0;
+                for k in (0..9).rev() {
+                    sum = 1.0 / (2 * k + 1) as f64 - t2 * sum;
+                }
+                return self.psi + 2.0 * t * sum;
             }
         }
         self.psi + wrap_angle(dir[1].atan2(dir[0]) - self.psi)

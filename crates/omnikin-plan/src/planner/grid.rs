@@ -120,10 +120,10 @@ impl Ctx<'_> {
         let steered = self.robot.steerable();
         let mut parts: Vec<Stretch> = Vec::with_capacity(n.len());
         for j in 0..n.len() {
-            let (psi0, g0) = parts
+            let (hint, g0) = parts
                 .last()
-                .map_or((psi_start, gamma0), |p: &Stretch| p.end());
-            parts.push(self.stretch(&kind, len, bounds[j], bounds[j + 1], n[j], psi0, g0)?);
+                .map_or((Hint::angle(psi_start), gamma0), |p: &Stretch| p.end());
+            parts.push(self.stretch(&kind, len, bounds[j], bounds[j + 1], n[j], hint, g0)?);
         }
         // Refine the stretches whose interpolation error is too large, rebuilding only them (and,
         // for steerable kinds, whose steer angles carry over, every stretch after the first rebuilt).
@@ -153,13 +153,13 @@ impl Ctx<'_> {
                     n[j] = want.min(cells(bounds[j + 1] - bounds[j], GRID_MIN).max(c));
                 }
                 if refine || (steered && dirty) {
-                    let (psi0, g0) = if j == 0 {
-                        (psi_start, gamma0)
+                    let (hint, g0) = if j == 0 {
+                        (Hint::angle(psi_start), gamma0)
                     } else {
                         parts[j - 1].end()
                     };
                     parts[j] =
-                        self.stretch(&kind, len, bounds[j], bounds[j + 1], n[j], psi0, g0)?;
+                        self.stretch(&kind, len, bounds[j], bounds[j + 1], n[j], hint, g0)?;
                     scales[j] = parts[j].scale(chans);
                     dirty = true;
                 }
@@ -183,7 +183,7 @@ impl Ctx<'_> {
             a.extend_from_slice(&p.a[skip..]);
             gamma.extend_from_slice(&p.gamma[skip..]);
         }
-        let (b_in, b_out) = derivative(&a, &sig, &n);
+        let (b_in, b_out) = derivative(&a, &sig, &n, chans);
         Ok(Move {
             kind,
             len,
@@ -201,7 +201,7 @@ impl Ctx<'_> {
     }
 
     /// One stretch of a move's grid: `n` equal cells from `s0` to `s1`, starting from heading
-    /// hint `psi0` and steer angles `g0`.
+    /// hint `hint` and steer angles `g0`.
     #[allow(clippy::too_many_arguments)]
     fn stretch(
         &self,
@@ -210,7 +210,7 @@ impl Ctx<'_> {
         s0: f64,
         s1: f64,
         n: usize,
-        psi0: f64,
+        hint: Hint,
         g0: Steer,
     ) -> Result<Stretch, PlanningError> {
         let sig: Vec<f64> = (0..=n)
@@ -222,7 +222,7 @@ impl Ctx<'_> {
                 }
             })
             .collect();
-        let (psi, cs, a, gamma) = self.grid(kind, len, psi0, g0, &sig)?;
+        let (psi, cs, a, gamma) = self.grid(kind, len, hint, g0, &sig)?;
         Ok(Stretch {
             sig,
             psi,
@@ -238,7 +238,7 @@ impl Ctx<'_> {
         &self,
         kind: &Kind,
         len: f64,
-        psi_start: f64,
+        hint: Hint,
         gamma0: Steer,
         sig: &[f64],
     ) -> Result<
@@ -254,7 +254,7 @@ impl Ctx<'_> {
         let mut cs = Vec::with_capacity(sig.len());
         let mut a = Vec::with_capacity(sig.len());
         let mut gamma = Vec::with_capacity(sig.len());
-        let mut hint = Hint::angle(psi_start);
+        let mut hint = hint;
         let mut g = gamma0;
         let steered = self.robot.steerable();
         for (k, &sigma) in sig.iter().enumerate() {
@@ -315,12 +315,15 @@ struct Stretch {
 }
 
 impl Stretch {
-    /// Heading and steer angles at the stretch's last node.
-    fn end(&self) -> (f64, Steer) {
-        (
-            *self.psi.last().expect("a stretch has nodes"),
-            *self.gamma.last().expect("a stretch has nodes"),
-        )
+    /// Heading (as the next stretch's hint, with its cosine and sine) and steer angles at the
+    /// stretch's last node.
+    fn end(&self) -> (Hint, Steer) {
+        let last = self.psi.len() - 1;
+        let hint = Hint {
+            psi: self.psi[last],
+            cs: Some(self.cs[last]),
+        };
+        (hint, self.gamma[last])
     }
 
     /// Largest `|A|` and `|A'|` (central differences) per channel on the stretch (the first
@@ -404,12 +407,14 @@ pub(super) fn cell_from(sig: &[f64], sigma: f64, from: usize) -> usize {
 /// Derivative of a vector function tabulated at the nodes `sig`, made of stretches of `n[j]`
 /// equal cells: central differences inside a stretch, second-order one-sided differences at
 /// the stretch ends (kinks, where the derivative may jump). Returns the derivative seen from
-/// the cell ending at each node and from the cell starting there (equal except at kinks).
+/// the cell ending at each node and from the cell starting there (equal except at kinks), in
+/// the first `chans` channels (the others 0).
 #[allow(clippy::type_complexity)]
 fn derivative(
     a: &[[f64; MAX_CHANNELS]],
     sig: &[f64],
     n: &[usize],
+    chans: usize,
 ) -> (Vec<[f64; MAX_CHANNELS]>, Vec<[f64; MAX_CHANNELS]>) {
     let m = a.len();
     // Filled in node order (no zeroed buffers): a node is the end of one cell of some stretch
@@ -422,19 +427,18 @@ fn derivative(
         let last = first + c;
         let h = (sig[last] - sig[first]) / c as f64;
         for k in first..=last {
-            let d: [f64; MAX_CHANNELS] = if k > first && k < last {
-                core::array::from_fn(|i| (a[k + 1][i] - a[k - 1][i]) / (2.0 * h))
-            } else if c == 1 {
-                core::array::from_fn(|i| (a[last][i] - a[first][i]) / h)
-            } else if k == first {
-                core::array::from_fn(|i| {
+            let mut d = [0.0; MAX_CHANNELS];
+            for i in 0..chans {
+                d[i] = if k > first && k < last {
+                    (a[k + 1][i] - a[k - 1][i]) / (2.0 * h)
+                } else if c == 1 {
+                    (a[last][i] - a[first][i]) / h
+                } else if k == first {
                     (-3.0 * a[k][i] + 4.0 * a[k + 1][i] - a[k + 2][i]) / (2.0 * h)
-                })
-            } else {
-                core::array::from_fn(|i| {
+                } else {
                     (3.0 * a[k][i] - 4.0 * a[k - 1][i] + a[k - 2][i]) / (2.0 * h)
-                })
-            };
+                };
+            }
             if k > first {
                 b_in.push(d);
             }
