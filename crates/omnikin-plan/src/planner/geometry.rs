@@ -79,6 +79,8 @@ pub(super) struct Ctx<'a> {
     pub(super) set_point: bool,
     /// Interpolation tolerance of the move grids ([`super::grid::grid_tol`] of the timing).
     pub(super) grid_tol: f64,
+    /// Coarsest cell of the move grids ([`super::grid::grid_max`] of the timing), m or rad.
+    pub(super) grid_max: f64,
 }
 
 /// Steer angles `γ_i` of a steer state (rad), entries `0..N` used (0 for kinds without

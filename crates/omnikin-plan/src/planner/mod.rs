@@ -145,6 +145,7 @@ pub fn plan(
         heading_cs,
         set_point: robot.model.kind().steer_is_set_point(),
         grid_tol: grid::grid_tol(&opts.timing),
+        grid_max: grid::grid_max(&opts.timing),
     };
     let mut moves = build_moves(&ctx, opts)?;
     if matches!(opts.timing, Timing::ConstantSpeed { .. }) && moves.len() != 1 {
@@ -191,7 +192,11 @@ pub fn plan(
                 return Ok(Planned { plan, report });
             }
             Some((p, ratio)) if round < 24 => {
-                slow_down(robot, opts, &mut moves, &mut retimed, *p, ratio)?
+                if matches!(opts.timing, Timing::TimeOptimal { .. }) {
+                    slow_down_locally(&ctx, opts, &mut moves, &plan)?
+                } else {
+                    slow_down(opts, &mut moves, &mut retimed, *p, ratio)?
+                }
             }
             Some((p, _)) => {
                 return Err(PlanningError::Infeasible(format!(
@@ -236,12 +241,103 @@ fn validate_request(heading: &HeadingLaw, opts: &PlanOptions) -> Result<(), Plan
     Ok(())
 }
 
+/// Cells on either side of a residual excess whose motor limits the time-optimal pass lowers
+/// when the grid there is already at its finest ([`slow_down_locally`]): the excess is seen
+/// between two samples, which may straddle a node.
+const SLOW_CELLS: usize = 2;
+
+/// For the time-optimal timing: removes **every** residual excess the samples show (a rate above
+/// its limit at a sample, an acceleration — the difference of two samples over their time
+/// step — above its limit), each where it is. The grid stretches that hold one get twice the
+/// cells ([`Ctx::refine`]: the excess is the grid's interpolation residue, which shrinks with
+/// the cells); where a stretch is already at [`grid::GRID_MIN`], the motor limits of the cells
+/// within [`SLOW_CELLS`] of the excess are lowered by its ratio (and 0.5 % more). Then the pass
+/// of each move concerned runs again. Lowering the whole move's limits (as [`slow_down`] does
+/// for the other timings) would slow every stretch for a local residue.
+fn slow_down_locally(
+    ctx: &Ctx,
+    opts: &PlanOptions,
+    moves: &mut [Move],
+    plan: &crate::Plan,
+) -> Result<(), PlanningError> {
+    let robot = ctx.robot;
+    let n = robot.wheels();
+    let chans = robot.channels();
+    let value = |s: &crate::plan::Sample, ch: usize| -> f64 {
+        if ch < n {
+            s.wheel_rates[ch]
+        } else {
+            s.steer.map_or(0.0, |(_, r)| r[ch - n])
+        }
+    };
+    // Per move: the stretches to refine, and per cell the factor its limits would get.
+    let mut stretches: Vec<Vec<usize>> = vec![Vec::new(); moves.len()];
+    let mut factor: Vec<Vec<f64>> = vec![Vec::new(); moves.len()];
+    let mut note = |t: f64, ratio: f64, moves: &[Move]| {
+        let m = moves.iter().rposition(|mv| mv.t0 <= t).unwrap_or(0);
+        let mv = &moves[m];
+        let MoveTiming::Grid { t: times, .. } = &mv.timing else {
+            return;
+        };
+        let (sigma, _, _) = mv.timing.eval(t - mv.t0, mv.len, &mv.sig, &mut 0);
+        let j = grid::cell(&mv.bounds, sigma);
+        if !stretches[m].contains(&j) {
+            stretches[m].push(j);
+        }
+        let cells = times.len() - 1;
+        let f = &mut factor[m];
+        if f.is_empty() {
+            *f = vec![1.0; cells];
+        }
+        let k = grid::cell(times, t - mv.t0);
+        for v in &mut f[k.saturating_sub(SLOW_CELLS)..=(k + SLOW_CELLS).min(cells - 1)] {
+            *v = v.min(0.995 / ratio);
+        }
+    };
+    for ch in 0..chans {
+        if let Some(l) = robot.rate_limit(ch) {
+            for s in &plan.samples {
+                let r = value(s, ch).abs() / l;
+                if r > 1.0 + 1e-9 {
+                    note(s.t, r, moves);
+                }
+            }
+        }
+        if let Some(l) = robot.accel_limit(ch) {
+            for w in plan.samples.windows(2) {
+                let r = ((value(&w[1], ch) - value(&w[0], ch)) / (w[1].t - w[0].t)).abs() / l;
+                if r > 1.0 + 1e-9 {
+                    note(w[0].t, r, moves);
+                    note(w[1].t, r, moves);
+                }
+            }
+        }
+    }
+    for ((mv, f), js) in moves.iter_mut().zip(factor).zip(stretches) {
+        if f.is_empty() {
+            continue;
+        }
+        if let Some(finer) = ctx.refine(mv, &js)? {
+            *mv = finer;
+        } else if mv.limit_scale.is_empty() {
+            mv.limit_scale = f;
+        } else {
+            for (s, g) in mv.limit_scale.iter_mut().zip(f) {
+                *s *= g;
+            }
+        }
+        let (v_user, a_user, user) = user_limits(robot, opts, &mv.kind);
+        let (timing, _) = time_optimal(robot, mv, v_user, a_user, user)?;
+        mv.timing = timing;
+    }
+    Ok(())
+}
+
 /// Slows down the move that holds the worst excess `p` (`ratio` = peak / limit, > 1) found on
-/// the samples, a residue of the grid approximation: a profile or constant speed by a further
-/// time dilation, a time-optimal timing by re-running the pass with a lower limit scale.
-/// Refuses instead under [`OnLimit::Reject`] (except for the time-optimal timing).
+/// the samples, a residue of the grid approximation, for the profile and constant-speed
+/// timings: by a further time dilation. Refuses instead under [`OnLimit::Reject`]. (The
+/// time-optimal timing is mended by [`slow_down_locally`].)
 fn slow_down(
-    robot: &RobotModel,
     opts: &PlanOptions,
     moves: &mut [Move],
     retimed: &mut Vec<Retiming>,
@@ -249,7 +345,7 @@ fn slow_down(
     ratio: f64,
 ) -> Result<(), PlanningError> {
     let idx = moves.iter().rposition(|m| m.t0 <= p.t).unwrap_or(0);
-    if opts.on_limit == OnLimit::Reject && !matches!(opts.timing, Timing::TimeOptimal { .. }) {
+    if opts.on_limit == OnLimit::Reject {
         // Only a grid-approximation residue can get here; refuse like the dense check.
         return Err(PlanningError::LimitExceeded(Violation {
             quantity: p.quantity,
@@ -281,10 +377,8 @@ fn slow_down(
             }
         }
         MoveTiming::Grid { .. } => {
-            mv.limit_scale *= 0.995 / ratio;
-            let (v_user, a_user, user) = user_limits(robot, opts, &mv.kind);
-            let (timing, _) = time_optimal(robot, mv, v_user, a_user, user)?;
-            mv.timing = timing;
+            // Only the time-optimal timing makes grid timings, and it slows down locally.
+            unreachable!("grid timings are slowed down by slow_down_locally")
         }
     }
     Ok(())

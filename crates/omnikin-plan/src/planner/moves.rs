@@ -65,7 +65,7 @@ pub(super) fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, Pl
 
     // The grid's size before refinement, from the lengths alone: refuse a path too long for
     // the grid before building any of it (refinement is checked move by move below).
-    let step = grid_step(ctx.robot);
+    let step = grid_step(ctx.robot, ctx.grid_max);
     let coarse: f64 = bounds
         .windows(2)
         .map(|w| ((w[1] - w[0]) / step).ceil().max(MIN_CELLS as f64))

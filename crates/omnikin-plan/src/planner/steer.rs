@@ -12,7 +12,7 @@ use crate::PlanningError;
 use crate::robot::RobotModel;
 
 use super::geometry::{Config, Ctx, Hint, Kind, Steer, body_per_speed};
-use super::grid::{GRID_MAX, GRID_MIN};
+use super::grid::GRID_MIN;
 
 impl Ctx<'_> {
     /// The steer state at `sigma + step` from `gamma` at `sigma`: one RK4 step of
@@ -75,13 +75,14 @@ pub(super) fn aligned_steer(robot: &RobotModel, c: &Config) -> Result<Steer, Pla
     Ok(robot.model.aligned_steer(body_per_speed(c))?)
 }
 
-/// The starting grid step of a move, m or rad: [`GRID_MAX`], refined by
+/// The starting grid step of a move, m or rad: `grid_max` (the timing's coarsest step,
+/// [`super::grid::grid_max`]), refined by
 /// [`Ctx::build_move`] where `A(σ)` needs it. Steer angles that follow the path change over a
 /// length of the order of [`omnikin::Robot::steer_length`] (the caster's eccentricity `d`,
 /// paper 003, eq. 5), so the grid then starts at a fifth of it.
-pub(super) fn grid_step(robot: &RobotModel) -> f64 {
+pub(super) fn grid_step(robot: &RobotModel, grid_max: f64) -> f64 {
     robot
         .model
         .steer_length()
-        .map_or(GRID_MAX, |d| (d / 5.0).clamp(GRID_MIN, GRID_MAX))
+        .map_or(grid_max, |d| (d / 5.0).clamp(GRID_MIN, grid_max))
 }

@@ -85,6 +85,7 @@ fn time_optimal_timing_is_the_same_with_stored_and_rebuilt_cells() {
             heading_cs,
             set_point: robot.model.kind().steer_is_set_point(),
             grid_tol: grid::grid_tol(&opts.timing),
+            grid_max: grid::grid_max(&opts.timing),
         };
         let moves = build_moves(&ctx, &opts).expect("moves");
         for mv in &moves {

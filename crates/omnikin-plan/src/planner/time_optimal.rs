@@ -160,7 +160,17 @@ pub(super) fn time_optimal_storing(
     let n = mv.a.len() - 1;
     let sig = &mv.sig;
     let chans = robot.channels();
-    let margin = MARGIN * mv.limit_scale;
+    // The final check's per-cell factors on the motor limits (1 where it found no excess): a
+    // cell's accelerations use its own, a node's rate cap the lower of its two cells'.
+    let scale = |k: usize| mv.limit_scale.get(k).copied().unwrap_or(1.0);
+    let node_scale = |k: usize| {
+        if mv.limit_scale.is_empty() {
+            1.0
+        } else {
+            scale(k.saturating_sub(1)).min(scale(k.min(n - 1)))
+        }
+    };
+    let margin = MARGIN;
     let motor = |ch: usize, accel: bool| {
         let (quantity, motor) = robot.channel(ch, accel);
         Limiter::Motor { quantity, motor }
@@ -175,6 +185,7 @@ pub(super) fn time_optimal_storing(
     for k in 0..=n {
         let mut c = v_user * v_user;
         let mut src = user.0;
+        let ks = node_scale(k);
         for ch in 0..chans {
             // |A| plus the estimated bulge of A between this node and its neighbours (|Δ²A|/8,
             // doubled for its product with a changing speed), so the rate limit also holds
@@ -185,7 +196,7 @@ pub(super) fn time_optimal_storing(
                 0.0
             };
             let a = mv.a[k][ch].abs() + bulge;
-            if let Some(l) = rate_limits[ch]
+            if let Some(l) = rate_limits[ch].map(|l| l * ks)
                 && a > 0.0
                 && (l / a).powi(2) < c
             {
@@ -197,16 +208,25 @@ pub(super) fn time_optimal_storing(
         cap_src[k] = src;
     }
     // Constraints of cell k: requested path acceleration |y − x| ≤ 2h a_user, and each motor's
-    // acceleration |A σ̈ + A' x| ≤ limit at both ends, σ̈ = (y − x)/(2h).
+    // acceleration |A σ̈ + A' x| ≤ limit at both ends, σ̈ = (y − x)/(2h). A motor's constraint
+    // is left out where the others imply it — where even |A| a_user + |A'| cap, the largest it
+    // can reach with |σ̈| ≤ a_user and x within the node's speed cap, is within the limit — so
+    // on a stretch far from the motors' acceleration limits a cell is a one-constraint LP.
     let fill = |c: &mut CellConstraints, k: usize| {
         let i2h = 1.0 / (2.0 * (sig[k + 1] - sig[k]));
         let (a0, b0, a1, b1) = (&mv.a[k], &mv.b_out[k], &mv.a[k + 1], &mv.b_in[k + 1]);
+        let (x0, x1) = (cap[k], cap[k + 1]);
+        let ks = scale(k);
         c.clear();
         c.add(i2h, -i2h, a_user, 0);
         for ch in 0..chans {
-            if let Some(l) = accel_limits[ch] {
-                c.add(a0[ch] * i2h, b0[ch] - a0[ch] * i2h, l, 1 + ch as u8);
-                c.add(a1[ch] * i2h + b1[ch], -a1[ch] * i2h, l, 1 + ch as u8);
+            if let Some(l) = accel_limits[ch].map(|l| l * ks) {
+                if a0[ch].abs() * a_user + b0[ch].abs() * x0 > l {
+                    c.add(a0[ch] * i2h, b0[ch] - a0[ch] * i2h, l, 1 + ch as u8);
+                }
+                if a1[ch].abs() * a_user + b1[ch].abs() * x1 > l {
+                    c.add(a1[ch] * i2h + b1[ch], -a1[ch] * i2h, l, 1 + ch as u8);
+                }
             }
         }
     };
