@@ -93,6 +93,8 @@ struct Quintic {
     inv: [[f64; 9]; TABLE],
     /// Smallest `|dp/du|` seen while building the table (table and quadrature nodes), m.
     min_speed: f64,
+    /// `TABLE / length` (1/m): the proportional guess of the table cell at an arc length.
+    per_length: f64,
 }
 
 impl Quintic {
@@ -121,6 +123,7 @@ impl Quintic {
             cum: [0.0; TABLE + 1],
             inv: [[0.0; 9]; TABLE],
             min_speed: f64::INFINITY,
+            per_length: 0.0,
         };
         // At each table node: the speed v = |p'| and the derivatives of the inverse u(s),
         // u' = 1/v, u'' = −v_u/v³, u''' = 3 v_u²/v⁵ − v_uu/v⁴ (v_u = p'·p''/v,
@@ -174,6 +177,7 @@ impl Quintic {
         }
         // A NaN anywhere makes the minimum NaN, so the caller's cusp check sees it.
         q.min_speed = if nan { f64::NAN } else { min_speed };
+        q.per_length = TABLE as f64 / q.cum[TABLE];
         q
     }
 
@@ -244,7 +248,7 @@ impl Quintic {
         // The last node with `cum[k] ≤ s`: the table is close to linear in `k` (the speed
         // varies little along a segment), so start from the proportional guess and walk (a
         // step or two, cheaper than a bisection of the table).
-        let guess = (s / self.length() * TABLE as f64) as usize;
+        let guess = (s * self.per_length) as usize;
         let mut k = guess.min(TABLE - 1);
         while k > 0 && self.cum[k] > s {
             k -= 1;
@@ -268,11 +272,11 @@ impl Quintic {
     fn at(&self, s: f64) -> PathPoint {
         let u = self.u_at(s);
         let (p, d1, d2) = self.eval(u);
-        let sp = (d1[0] * d1[0] + d1[1] * d1[1]).sqrt();
+        let inv = 1.0 / (d1[0] * d1[0] + d1[1] * d1[1]).sqrt();
         PathPoint {
             point: p,
-            tangent: [d1[0] / sp, d1[1] / sp],
-            curvature: (d1[0] * d2[1] - d1[1] * d2[0]) / (sp * sp * sp),
+            tangent: [d1[0] * inv, d1[1] * inv],
+            curvature: (d1[0] * d2[1] - d1[1] * d2[0]) * (inv * inv * inv),
         }
     }
 }
@@ -389,6 +393,8 @@ pub struct Path {
     pieces: Vec<Piece>,
     /// Arc length at the start of each piece, plus the total length at the end.
     offsets: Vec<f64>,
+    /// Pieces per metre of path (the proportional guess of the piece at an arc length).
+    per_length: f64,
     /// Whether the robot stops at the start of piece `k` (index `k ≥ 1`).
     stop_before: Vec<bool>,
     /// Arc length of each input waypoint on the path (closest point for filleted corners).
@@ -461,6 +467,7 @@ impl Path {
         }
         offsets.push(s);
         Self {
+            per_length: pieces.len() as f64 / s,
             pieces,
             offsets,
             stop_before,
@@ -770,7 +777,7 @@ impl Path {
         let n = self.pieces.len();
         // The last piece starting at or before `s`: a spline's pieces have similar lengths, so
         // the proportional guess is usually right or a step off; bisect when it is not.
-        let k = ((s / self.length() * n as f64) as usize).min(n - 1);
+        let k = ((s * self.per_length) as usize).min(n - 1);
         if self.offsets[k] <= s && (k + 1 == n || self.offsets[k + 1] > s) {
             return k;
         }

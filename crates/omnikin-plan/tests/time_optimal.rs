@@ -37,9 +37,8 @@ const SWITCH_LOSS: f64 = 7.5e-3;
 fn time_optimal_plans_are_never_slower_than_a_profile_and_stay_within_the_limits() {
     let mut compared = 0;
     for (name, _) in PRESETS {
-        let robot =
-            RobotModel::from_description(&RobotDescription::preset(name).expect("preset"))
-                .expect("model");
+        let robot = RobotModel::from_description(&RobotDescription::preset(name).expect("preset"))
+            .expect("model");
         for wps in splines() {
             let path = Path::spline(&wps).expect("spline");
             for speed in [0.5, 3.0] {
@@ -61,7 +60,10 @@ fn time_optimal_plans_are_never_slower_than_a_profile_and_stay_within_the_limits
                 let laws: &[HeadingLaw] = if name == "swerve4" {
                     &[HeadingLaw::Constant(0.4)]
                 } else {
-                    &[HeadingLaw::Tangent { offset: 0.2 }, HeadingLaw::Constant(0.4)]
+                    &[
+                        HeadingLaw::Tangent { offset: 0.2 },
+                        HeadingLaw::Constant(0.4),
+                    ]
                 };
                 for law in laws {
                     let fast = plan(&path, law, &robot, &opts(Timing::TimeOptimal { limits }))

@@ -126,7 +126,11 @@ impl Ctx<'_> {
     /// stretches `stretches` (indices into `mv.bounds`), for a residual excess the final check
     /// found there; `None` when none of them can be refined further. (Four: a doubling took
     /// about twice the rounds, each a full sampling, for the same plans.)
-    pub(super) fn refine(&self, mv: &Move, stretches: &[usize]) -> Result<Option<Move>, PlanningError> {
+    pub(super) fn refine(
+        &self,
+        mv: &Move,
+        stretches: &[usize],
+    ) -> Result<Option<Move>, PlanningError> {
         let mut n = mv.cells.clone();
         let mut changed = false;
         for &j in stretches {
@@ -142,8 +146,14 @@ impl Ctx<'_> {
             return Ok(None);
         }
         too_many_cells(mv.len, &n)?;
-        let mut out =
-            self.grid_on(mv.kind.clone(), mv.len, mv.psi[0], mv.gamma[0], mv.bounds.clone(), n)?;
+        let mut out = self.grid_on(
+            mv.kind.clone(),
+            mv.len,
+            mv.psi[0],
+            mv.gamma[0],
+            mv.bounds.clone(),
+            n,
+        )?;
         out.t0 = mv.t0;
         Ok(Some(out))
     }

@@ -62,7 +62,9 @@
 //!    previous sample's, so a stopped module keeps its angle). Finally every sample is
 //!    checked against the limits (rates at each sample, accelerations as differences between
 //!    consecutive samples); a residual excess from the grid approximation is removed by slowing
-//!    the offending move further.
+//!    the offending move further (profiles, constant speed), or, for the time-optimal timing,
+//!    where it occurs: the grid stretch holding it gets four times the cells (or, at the finest
+//!    cells, the limits of the cells around it are lowered) and the pass runs again.
 //!
 //! # Where each step lives
 //!
