@@ -231,11 +231,13 @@ impl Ctx<'_> {
         let mut gamma = Vec::with_capacity(total + 1);
         for (j, p) in parts.iter().enumerate() {
             let skip = usize::from(j > 0);
-            sig.extend_from_slice(&p.sig[skip..]);
-            psi.extend_from_slice(&p.psi[skip..]);
-            cs.extend_from_slice(&p.cs[skip..]);
-            a.extend_from_slice(&p.a[skip..]);
-            gamma.extend_from_slice(&p.gamma[skip..]);
+            for (i, node) in p.nodes.iter().enumerate().skip(skip) {
+                sig.push(p.sigma(i));
+                psi.push(node.psi);
+                cs.push(node.cs);
+                a.push(node.a);
+                gamma.push(node.gamma);
+            }
         }
         let (b_in, b_out) = derivative(&a, &sig, &n);
         Ok(Move {
@@ -269,63 +271,33 @@ impl Ctx<'_> {
         hint: Hint,
         g0: Steer,
     ) -> Result<Stretch, PlanningError> {
-        let sig: Vec<f64> = (0..=n)
-            .map(|i| {
-                if i == n {
-                    s1
-                } else {
-                    s0 + (s1 - s0) * i as f64 / n as f64
-                }
-            })
-            .collect();
-        let (psi, cs, a, gamma) = self.grid(kind, len, hint, g0, &sig)?;
-        Ok(Stretch {
-            sig,
-            psi,
-            cs,
-            a,
-            gamma,
-        })
-    }
-
-    /// Heading (and its cosine and sine), `A` and steer angles at the nodes `sig` of a move.
-    #[allow(clippy::type_complexity)]
-    fn grid(
-        &self,
-        kind: &Kind,
-        len: f64,
-        hint: Hint,
-        gamma0: Steer,
-        sig: &[f64],
-    ) -> Result<
-        (
-            Vec<f64>,
-            Vec<[f64; 2]>,
-            Vec<[f64; MAX_CHANNELS]>,
-            Vec<Steer>,
-        ),
-        PlanningError,
-    > {
-        let mut psi = Vec::with_capacity(sig.len());
-        let mut cs = Vec::with_capacity(sig.len());
-        let mut a = Vec::with_capacity(sig.len());
-        let mut gamma = Vec::with_capacity(sig.len());
+        let mut out = Stretch {
+            s0,
+            s1,
+            cells: n,
+            nodes: Vec::with_capacity(n + 1),
+        };
+        // Heading (and its cosine and sine), `A` and steer angles at each node.
         let mut hint = hint;
-        let mut g = gamma0;
+        let mut g = g0;
         let steered = self.robot.steerable();
-        for (k, &sigma) in sig.iter().enumerate() {
+        let mut prev = s0;
+        for k in 0..=n {
+            let sigma = out.sigma(k);
             if k > 0 && steered {
-                let h = sigma - sig[k - 1];
-                g = self.steer_step(kind, len, sig[k - 1], g, h, hint)?;
+                g = self.steer_step(kind, len, prev, g, sigma - prev, hint)?;
             }
             let c = self.config(kind, len, sigma, hint);
             hint = Hint::of(&c);
-            psi.push(c.pose.heading);
-            cs.push(c.cs);
-            a.push(self.rates_per_speed(kind, len, sigma, &c, &g)?);
-            gamma.push(g);
+            out.nodes.push(Node {
+                psi: c.pose.heading,
+                cs: c.cs,
+                a: self.rates_per_speed(kind, len, sigma, &c, &g)?,
+                gamma: g,
+            });
+            prev = sigma;
         }
-        Ok((psi, cs, a, gamma))
+        Ok(out)
     }
 
     /// Steer angles at `sigma` within a move (integrated ones; for set-points those of the
@@ -361,42 +333,66 @@ impl Ctx<'_> {
     }
 }
 
-/// One stretch of a move's grid between kinks (equal cells).
+/// One grid node of a stretch: heading (unwrapped), its cosine and sine, `A` and the steer
+/// angles.
+struct Node {
+    psi: f64,
+    cs: [f64; 2],
+    a: [f64; MAX_CHANNELS],
+    gamma: Steer,
+}
+
+/// One stretch of a move's grid between kinks: equal cells from `s0` to `s1`, its nodes in
+/// one vector (one allocation a stretch).
 struct Stretch {
-    sig: Vec<f64>,
-    psi: Vec<f64>,
-    cs: Vec<[f64; 2]>,
-    a: Vec<[f64; MAX_CHANNELS]>,
-    gamma: Vec<Steer>,
+    s0: f64,
+    s1: f64,
+    cells: usize,
+    nodes: Vec<Node>,
 }
 
 impl Stretch {
+    /// The parameter of node `i` (the last exactly `s1`).
+    fn sigma(&self, i: usize) -> f64 {
+        let n = self.cells;
+        if i >= n {
+            self.s1
+        } else {
+            self.s0 + (self.s1 - self.s0) * i as f64 / n as f64
+        }
+    }
+
+    /// The cell length.
+    fn h(&self) -> f64 {
+        (self.s1 - self.s0) / self.cells as f64
+    }
+
     /// Heading (as the next stretch's hint, with its cosine and sine) and steer angles at the
     /// stretch's last node.
     fn end(&self) -> (Hint, Steer) {
-        let last = self.psi.len() - 1;
+        let last = &self.nodes[self.nodes.len() - 1];
         let hint = Hint {
-            psi: self.psi[last],
-            cs: Some(self.cs[last]),
+            psi: last.psi,
+            cs: Some(last.cs),
         };
-        (hint, self.gamma[last])
+        (hint, last.gamma)
     }
 
     /// Largest `|A|` and `|A'|` (central differences) per channel on the stretch (the first
     /// `chans` channels; the others stay 0).
     fn scale(&self, chans: usize) -> [[f64; MAX_CHANNELS]; 2] {
-        let a = &self.a;
+        let a = &self.nodes;
         let mut out = [[0.0_f64; MAX_CHANNELS]; 2];
         for row in a {
             for ch in 0..chans {
-                out[0][ch] = out[0][ch].max(row[ch].abs());
+                out[0][ch] = out[0][ch].max(row.a[ch].abs());
             }
         }
         if a.len() >= 3 {
-            let h = self.sig[1] - self.sig[0];
+            let h = self.h();
             for k in 1..a.len() - 1 {
                 for ch in 0..chans {
-                    let d = (a[k + 1][ch] - a[k - 1][ch]) / (2.0 * h);
+                    let d = (a[k + 1].a[ch] - a[k - 1].a[ch]) / (2.0 * h);
                     out[1][ch] = out[1][ch].max(d.abs());
                 }
             }
@@ -408,12 +404,13 @@ impl Stretch {
     /// (`|Δ²A|/8 = h² A''/8`) and of its central differences `A'` (inside the stretch),
     /// relative to each channel's largest `|A|` and `|A'|` on the move (`scale`).
     fn error(&self, scale: &[[f64; MAX_CHANNELS]; 2], chans: usize) -> f64 {
-        let a = &self.a;
-        let m = a.len();
+        let nodes = &self.nodes;
+        let a = |k: usize| &nodes[k].a;
+        let m = nodes.len();
         if m < 3 {
             return 0.0;
         }
-        let h = self.sig[1] - self.sig[0];
+        let h = self.h();
         let inv = |s: f64, f: f64| if s > 0.0 { 1.0 / (f * s) } else { 0.0 };
         let inv_a: [f64; MAX_CHANNELS] = core::array::from_fn(|ch| inv(scale[0][ch], 8.0));
         // A'(k) = (A[k+1] − A[k−1]) / 2h, so Δ²A'/8 = (A[k+2] − 2A[k+1] + 2A[k−1] − A[k−2]) / 16h.
@@ -421,13 +418,13 @@ impl Stretch {
         let mut err = 0.0_f64;
         for k in 1..m - 1 {
             for ch in 0..chans {
-                let d2 = a[k - 1][ch] - 2.0 * a[k][ch] + a[k + 1][ch];
+                let d2 = a(k - 1)[ch] - 2.0 * a(k)[ch] + a(k + 1)[ch];
                 err = err.max(d2.abs() * inv_a[ch]);
             }
         }
         for k in 2..m.saturating_sub(2) {
             for ch in 0..chans {
-                let d = a[k + 2][ch] - 2.0 * a[k + 1][ch] + 2.0 * a[k - 1][ch] - a[k - 2][ch];
+                let d = a(k + 2)[ch] - 2.0 * a(k + 1)[ch] + 2.0 * a(k - 1)[ch] - a(k - 2)[ch];
                 err = err.max(d.abs() * inv_b[ch]);
             }
         }
