@@ -938,7 +938,10 @@ mod tests {
             }
         }
         // 5.1e-11 seen (5-point Gauss–Lobatto: 7.4e-12); a wrong weight leaves ≫ 1e-10.
-        assert!(worst_table < 1e-10, "table off by {worst_table:e} of a segment's length");
+        assert!(
+            worst_table < 1e-10,
+            "table off by {worst_table:e} of a segment's length"
+        );
     }
 
     #[test]

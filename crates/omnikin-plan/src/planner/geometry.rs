@@ -81,6 +81,60 @@ pub(super) struct Ctx<'a> {
     pub(super) grid_tol: f64,
     /// Coarsest cell of the move grids ([`super::grid::grid_max`] of the timing), m or rad.
     pub(super) grid_max: f64,
+    /// The wheel rates per unit robot-frame twist of a robot without steering
+    /// ([`linear_inverse`]), `None` for steerable kinds.
+    pub(super) linear: Option<Linear>,
+}
+
+/// The inverse kinematics of a robot without steering as a matrix: wheel `i`'s rate (rad/s)
+/// is `row_i · (v_x, v_y, ω)` of the robot-frame twist (m/s, m/s, rad/s); rows past `N` zero.
+pub(super) type Linear = [[f64; 3]; MAX_WHEELS];
+
+/// The core inverse kinematics of `robot` as a [`Linear`] matrix, from its answers to the
+/// three unit twists, if it has no steering and the matrix reproduces the core's answer to
+/// two other twists within 1e-13 (relative): every kind without steering is linear in the
+/// twist (paper 000, eqs. 5.6–5.7; paper 001's ballbot; the omni and mecanum matrices), so the
+/// planner's grid and samples need three products per wheel instead of the core call with its
+/// uniform actuator values. `None` otherwise, and the planner calls the core.
+pub(super) fn linear_inverse(robot: &RobotModel) -> Option<Linear> {
+    if robot.steerable() {
+        return None;
+    }
+    let n = robot.wheels();
+    let rates = |t: Twist2<f64>| robot.model.inverse(t, &AT_REST).ok().map(|a| a.wheel_rates);
+    let mut m = [[0.0; 3]; MAX_WHEELS];
+    for (j, t) in [
+        Twist2::new(1.0, 0.0, 0.0),
+        Twist2::new(0.0, 1.0, 0.0),
+        Twist2::new(0.0, 0.0, 1.0),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let w = rates(t)?;
+        for i in 0..n {
+            m[i][j] = w[i];
+        }
+    }
+    for t in [Twist2::new(0.37, -1.3, 0.71), Twist2::new(-2.1, 0.4, -3.3)] {
+        let w = rates(t)?;
+        for i in 0..n {
+            let lin = m[i][0] * t.vx + m[i][1] * t.vy + m[i][2] * t.yaw_rate;
+            if !((lin - w[i]).abs() <= 1e-13 * (1.0 + w[i].abs())) {
+                return None;
+            }
+        }
+    }
+    Some(m)
+}
+
+/// Wheel rates (rad/s, entries past `N` zero) of `m` for the world-frame velocity `dq`
+/// (`ẋ, ẏ, ψ̇`) at heading `(cos ψ, sin ψ) = cs`: the robot-frame twist
+/// `(c ẋ + s ẏ, −s ẋ + c ẏ, ψ̇)`, then `m` ([`Linear`]).
+pub(super) fn linear_rates(m: &Linear, cs: [f64; 2], dq: [f64; 3]) -> [f64; MAX_WHEELS] {
+    let [c, s] = cs;
+    let (vx, vy) = (c * dq[0] + s * dq[1], -s * dq[0] + c * dq[1]);
+    core::array::from_fn(|i| m[i][0] * vx + m[i][1] * vy + m[i][2] * dq[2])
 }
 
 /// Steer angles `γ_i` of a steer state (rad), entries `0..N` used (0 for kinds without
@@ -211,6 +265,15 @@ impl Ctx<'_> {
             let mut out = [0.0; MAX_CHANNELS];
             out[n..2 * n].copy_from_slice(&per_speed[..n]);
             return Ok(out);
+        }
+        if let Some(m) = &self.linear {
+            let w = linear_rates(m, c.cs, c.dq);
+            if w.iter().sum::<f64>().is_finite() {
+                let mut out = [0.0; MAX_CHANNELS];
+                out[..MAX_WHEELS].copy_from_slice(&w);
+                return Ok(out);
+            }
+            // A non-finite value: the core call below names it.
         }
         let rate = if self.set_point {
             self.twist_rate_per_speed(kind, len, sigma, c)

@@ -148,6 +148,7 @@ pub fn plan(
         set_point: robot.model.kind().steer_is_set_point(),
         grid_tol: grid::grid_tol(&opts.timing),
         grid_max: grid::grid_max(&opts.timing),
+        linear: geometry::linear_inverse(robot),
     };
     let mut moves = build_moves(&ctx, opts)?;
     if matches!(opts.timing, Timing::ConstantSpeed { .. }) && moves.len() != 1 {

@@ -54,6 +54,48 @@ fn heading_increment_series_is_accurate_to_rounding() {
 }
 
 #[test]
+fn the_linear_inverse_matches_the_core_for_every_kind_without_steering() {
+    // Every preset: kinds without steering get a matrix that reproduces the core inverse
+    // kinematics of world twists at any heading to 1e-13; steerable kinds get none.
+    for (name, _) in omnikin::description::PRESETS {
+        let robot = RobotModel::from_description(
+            &omnikin::description::RobotDescription::preset(name).expect("preset"),
+        )
+        .expect("model");
+        let m = geometry::linear_inverse(&robot);
+        assert_eq!(m.is_some(), !robot.steerable(), "{name}");
+        let Some(m) = m else { continue };
+        for i in 0..300 {
+            let x = i as f64;
+            let heading = 9.0 * (0.31 * x).sin();
+            let dq = [
+                (1.7 * x).cos() * 2.0,
+                (0.9 * x).sin(),
+                3.0 * (1.3 * x).cos(),
+            ];
+            let (s, c) = heading.sin_cos();
+            let got = geometry::linear_rates(&m, [c, s], dq);
+            let want = robot
+                .model
+                .inverse(
+                    omnikin::Twist2::new(dq[0], dq[1], dq[2]).to_robot(heading),
+                    &omnikin::Actuators::zero(),
+                )
+                .expect("inverse")
+                .wheel_rates;
+            for w in 0..omnikin::MAX_WHEELS {
+                assert!(
+                    (got[w] - want[w]).abs() <= 1e-13 * (1.0 + want[w].abs()),
+                    "{name} wheel {w}: {} vs {}",
+                    got[w],
+                    want[w]
+                );
+            }
+        }
+    }
+}
+
+#[test]
 fn time_optimal_timing_is_the_same_with_stored_and_rebuilt_cells() {
     let wps: Vec<[f64; 2]> = (0..8)
         .map(|k| [0.5 * k as f64, 0.4 * (0.9 * k as f64).sin()])
@@ -86,6 +128,7 @@ fn time_optimal_timing_is_the_same_with_stored_and_rebuilt_cells() {
             set_point: robot.model.kind().steer_is_set_point(),
             grid_tol: grid::grid_tol(&opts.timing),
             grid_max: grid::grid_max(&opts.timing),
+            linear: geometry::linear_inverse(&robot),
         };
         let moves = build_moves(&ctx, &opts).expect("moves");
         for mv in &moves {
