@@ -804,6 +804,27 @@ impl Path {
         self.pieces[k].at(s - self.offsets[k])
     }
 
+    /// [`Path::at_side`] and the index of the piece that answered.
+    pub(crate) fn at_side_piece(&self, s: f64, side: Side) -> (usize, PathPoint) {
+        let s = if s.is_nan() {
+            0.0
+        } else {
+            s.clamp(0.0, self.length())
+        };
+        let mut k = self.piece_index(s);
+        if side == Side::Before && k > 0 && s <= self.offsets[k] {
+            k -= 1;
+        }
+        (k, self.pieces[k].at(s - self.offsets[k]))
+    }
+
+    /// The point at arc length `s` if it lies strictly inside piece `k` (not at either end,
+    /// where [`Path::at_side`] decides the side), `None` otherwise.
+    pub(crate) fn inside_piece(&self, k: usize, s: f64) -> Option<PathPoint> {
+        let (start, end) = (*self.offsets.get(k)?, *self.offsets.get(k + 1)?);
+        (start < s && s < end).then(|| self.pieces[k].at(s - start))
+    }
+
     /// Like [`Path::at`], but at a join [`Side::Before`] evaluates the piece that ends there
     /// (the incoming direction and curvature) and [`Side::After`] the one that starts there.
     pub fn at_side(&self, s: f64, side: Side) -> PathPoint {

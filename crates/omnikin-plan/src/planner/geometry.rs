@@ -23,6 +23,8 @@ pub(super) struct Config {
     pub(super) cs: [f64; 2],
     /// `q'(σ) = (dx/dσ, dy/dσ, dψ/dσ)`.
     pub(super) dq: [f64; 3],
+    /// The path piece the point is on (travel moves).
+    pub(super) piece: Option<usize>,
 }
 
 #[derive(Clone, Debug)]
@@ -154,17 +156,24 @@ pub(super) static AT_REST: Actuators<f64> = Actuators {
 pub(super) struct Hint {
     pub(super) psi: f64,
     pub(super) cs: Option<[f64; 2]>,
+    /// The path piece the answer is likely on (that of a neighbouring node), if known.
+    pub(super) piece: Option<usize>,
 }
 
 impl Hint {
     pub(super) fn angle(psi: f64) -> Self {
-        Self { psi, cs: None }
+        Self {
+            psi,
+            cs: None,
+            piece: None,
+        }
     }
 
     pub(super) fn of(c: &Config) -> Self {
         Self {
             psi: c.pose.heading,
             cs: Some(c.cs),
+            piece: c.piece,
         }
     }
 
@@ -205,7 +214,14 @@ impl Ctx<'_> {
                 } else {
                     (s, Side::After)
                 };
-                let p = self.path.at_side(s, side);
+                // Inside the piece of a neighbouring node no piece search is needed.
+                let (piece, p) = match hint.piece.and_then(|k| self.path.inside_piece(k, s)) {
+                    Some(p) => (hint.piece, p),
+                    None => {
+                        let (k, p) = self.path.at_side_piece(s, side);
+                        (Some(k), p)
+                    }
+                };
                 let (psi, cs, dpsi) = match self.heading {
                     HeadingLaw::Constant(c) => (*c, self.heading_cs, 0.0),
                     HeadingLaw::Tangent { .. } => {
@@ -224,6 +240,7 @@ impl Ctx<'_> {
                     pose: Pose2::new(p.point[0], p.point[1], psi),
                     cs,
                     dq: [p.tangent[0], p.tangent[1], dpsi],
+                    piece,
                 }
             }
             Kind::Turn { x, y, psi0, dir } => {
@@ -233,6 +250,7 @@ impl Ctx<'_> {
                     pose: Pose2::new(x, y, psi),
                     cs: [c, s],
                     dq: [0.0, 0.0, dir],
+                    piece: None,
                 }
             }
             Kind::Resteer { x, y, psi, .. } => {
@@ -241,6 +259,7 @@ impl Ctx<'_> {
                     pose: Pose2::new(x, y, psi),
                     cs: [c, s],
                     dq: [0.0, 0.0, 0.0],
+                    piece: None,
                 }
             }
         }

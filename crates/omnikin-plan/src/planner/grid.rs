@@ -70,6 +70,8 @@ pub(super) struct Move {
     pub(super) psi: Vec<f64>,
     /// `(cos ψ, sin ψ)` at each node (the heading hint of the samples in its cell).
     pub(super) cs: Vec<[f64; 2]>,
+    /// The path piece of each node (travel moves; the piece hint of the samples in its cell).
+    pub(super) piece: Vec<Option<usize>>,
     pub(super) a: Vec<[f64; MAX_CHANNELS]>,
     /// `A'` at each node as seen from the cell that ends there (one-sided at a kink).
     pub(super) b_in: Vec<[f64; MAX_CHANNELS]>,
@@ -174,10 +176,12 @@ impl Ctx<'_> {
         let steered = self.robot.steerable();
         let mut parts: Vec<Stretch> = Vec::with_capacity(n.len());
         for j in 0..n.len() {
-            let (hint, g0) = parts
+            let start = parts
                 .last()
-                .map_or((Hint::angle(psi_start), gamma0), |p: &Stretch| p.end());
-            parts.push(self.stretch(&kind, len, bounds[j], bounds[j + 1], n[j], hint, g0)?);
+                .map_or(Start::Fresh(Hint::angle(psi_start), gamma0), |p| {
+                    Start::After(*p.last())
+                });
+            parts.push(self.stretch(&kind, len, bounds[j], bounds[j + 1], n[j], start)?);
         }
         // Refine the stretches whose interpolation error is too large, rebuilding only them (and,
         // for steerable kinds, whose steer angles carry over, every stretch after the first rebuilt).
@@ -207,13 +211,12 @@ impl Ctx<'_> {
                     n[j] = want.min(cells(bounds[j + 1] - bounds[j], GRID_MIN).max(c));
                 }
                 if refine || (steered && dirty) {
-                    let (hint, g0) = if j == 0 {
-                        (Hint::angle(psi_start), gamma0)
+                    let start = if j == 0 {
+                        Start::Fresh(Hint::angle(psi_start), gamma0)
                     } else {
-                        parts[j - 1].end()
+                        Start::After(*parts[j - 1].last())
                     };
-                    parts[j] =
-                        self.stretch(&kind, len, bounds[j], bounds[j + 1], n[j], hint, g0)?;
+                    parts[j] = self.stretch(&kind, len, bounds[j], bounds[j + 1], n[j], start)?;
                     scales[j] = parts[j].scale(chans);
                     dirty = true;
                 }
@@ -229,6 +232,7 @@ impl Ctx<'_> {
         let mut cs = Vec::with_capacity(total + 1);
         let mut a = Vec::with_capacity(total + 1);
         let mut gamma = Vec::with_capacity(total + 1);
+        let mut piece = Vec::with_capacity(total + 1);
         for (j, p) in parts.iter().enumerate() {
             let skip = usize::from(j > 0);
             for (i, node) in p.nodes.iter().enumerate().skip(skip) {
@@ -237,6 +241,7 @@ impl Ctx<'_> {
                 cs.push(node.cs);
                 a.push(node.a);
                 gamma.push(node.gamma);
+                piece.push(node.piece);
             }
         }
         let (b_in, b_out) = derivative(&a, &sig, &n);
@@ -248,6 +253,7 @@ impl Ctx<'_> {
             sig,
             psi,
             cs,
+            piece,
             a,
             b_in,
             b_out,
@@ -259,8 +265,7 @@ impl Ctx<'_> {
     }
 
     /// One stretch of a move's grid: `n` equal cells from `s0` to `s1`, starting from heading
-    /// hint `hint` and steer angles `g0`.
-    #[allow(clippy::too_many_arguments)]
+    /// hint and steer angles of `start`, or from the previous stretch's last node.
     fn stretch(
         &self,
         kind: &Kind,
@@ -268,8 +273,7 @@ impl Ctx<'_> {
         s0: f64,
         s1: f64,
         n: usize,
-        hint: Hint,
-        g0: Steer,
+        start: Start,
     ) -> Result<Stretch, PlanningError> {
         let mut out = Stretch {
             s0,
@@ -277,12 +281,18 @@ impl Ctx<'_> {
             cells: n,
             nodes: Vec::with_capacity(n + 1),
         };
-        // Heading (and its cosine and sine), `A` and steer angles at each node.
-        let mut hint = hint;
-        let mut g = g0;
+        // Heading (and its cosine and sine), `A` and steer angles at each node; the first is
+        // the previous stretch's last (the same parameter) when there is one.
+        let (mut hint, mut g, first) = match start {
+            Start::Fresh(hint, g) => (hint, g, 0),
+            Start::After(node) => {
+                out.nodes.push(node);
+                (node.hint(), node.gamma, 1)
+            }
+        };
         let steered = self.robot.steerable();
         let mut prev = s0;
-        for k in 0..=n {
+        for k in first..=n {
             let sigma = out.sigma(k);
             if k > 0 && steered {
                 g = self.steer_step(kind, len, prev, g, sigma - prev, hint)?;
@@ -294,6 +304,7 @@ impl Ctx<'_> {
                 cs: c.cs,
                 a: self.rates_per_speed(kind, len, sigma, &c, &g)?,
                 gamma: g,
+                piece: c.piece,
             });
             prev = sigma;
         }
@@ -314,6 +325,7 @@ impl Ctx<'_> {
         let hint = Hint {
             psi: mv.psi[k],
             cs: Some(mv.cs[k]),
+            piece: mv.piece[k],
         };
         let c = self.config(&mv.kind, mv.len, sigma, hint);
         if self.set_point || !self.robot.steerable() {
@@ -333,13 +345,33 @@ impl Ctx<'_> {
     }
 }
 
+/// Where a stretch starts: a heading hint and steer angles, or the previous stretch's last
+/// node (the same parameter).
+enum Start {
+    Fresh(Hint, Steer),
+    After(Node),
+}
+
 /// One grid node of a stretch: heading (unwrapped), its cosine and sine, `A` and the steer
 /// angles.
+#[derive(Clone, Copy)]
 struct Node {
     psi: f64,
     cs: [f64; 2],
     a: [f64; MAX_CHANNELS],
     gamma: Steer,
+    piece: Option<usize>,
+}
+
+impl Node {
+    /// The node's heading (and path piece) as the hint of the next.
+    fn hint(&self) -> Hint {
+        Hint {
+            psi: self.psi,
+            cs: Some(self.cs),
+            piece: self.piece,
+        }
+    }
 }
 
 /// One stretch of a move's grid between kinks: equal cells from `s0` to `s1`, its nodes in
@@ -367,15 +399,9 @@ impl Stretch {
         (self.s1 - self.s0) / self.cells as f64
     }
 
-    /// Heading (as the next stretch's hint, with its cosine and sine) and steer angles at the
-    /// stretch's last node.
-    fn end(&self) -> (Hint, Steer) {
-        let last = &self.nodes[self.nodes.len() - 1];
-        let hint = Hint {
-            psi: last.psi,
-            cs: Some(last.cs),
-        };
-        (hint, last.gamma)
+    /// The stretch's last node.
+    fn last(&self) -> &Node {
+        &self.nodes[self.nodes.len() - 1]
     }
 
     /// Largest `|A|` and `|A'|` (central differences) per channel on the stretch (the first

@@ -42,6 +42,7 @@ fn heading_increment_series_is_accurate_to_rounding() {
             let got = Hint {
                 psi,
                 cs: Some([c, s]),
+                piece: None,
             }
             .unwrap([cd, sd]);
             assert!(
@@ -178,7 +179,7 @@ proptest! {
         delta in prop_oneof![-0.22_f64..0.22, -3.1_f64..3.1],
     ) {
         let (s, c) = psi.sin_cos();
-        let hint = Hint { psi, cs: Some([c, s]) };
+        let hint = Hint { psi, cs: Some([c, s]), piece: None };
         let (sd, cd) = (psi + delta).sin_cos();
         let got = hint.unwrap([cd, sd]);
         let want = Hint::angle(psi).unwrap([cd, sd]);

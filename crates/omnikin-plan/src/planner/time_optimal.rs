@@ -13,7 +13,8 @@ use super::timing::{MARGIN, MoveTiming};
 const CELL_MAX: usize = 1 + 2 * MAX_CHANNELS;
 
 /// Up to this many cells the time-optimal pass keeps each cell's constraints from the
-/// backward pass for the forward one (≈ 11 MB at most) instead of rebuilding them.
+/// backward pass for the forward one (≤ 17 bytes a constraint, ≈ 11 MB at most) instead of
+/// rebuilding them.
 const STORED_CELLS: usize = 25_000;
 
 /// The constraints of one grid cell in the unknowns `x = x_k` (start) and `y = x_{k+1}`
@@ -117,21 +118,32 @@ impl CellConstraints {
 
     /// The largest admissible `y ≤ y_max` given `x`, and what bounds it (`None` for `y_max`).
     pub(super) fn largest_end(&self, x: f64, y_max: f64) -> (f64, Option<u8>) {
-        let mut y = y_max;
-        let mut who = None;
-        let mut floor = 0.0_f64;
-        for i in 0..self.n {
-            let bx = self.slope[i] * x;
-            let hi = self.hi[i] + bx;
-            if hi < y {
-                y = hi;
-                who = Some(self.who[i]);
-            }
-            floor = floor.max(-self.hi[i] + bx);
-        }
-        // x lies in the reachable set, so floor ≤ y up to rounding.
-        (y.max(floor.min(y_max)).max(0.0), who)
+        largest_end(&self.rows()[..self.n], &self.who[..self.n], x, y_max)
     }
+
+    /// The constraints as rows `[hi, slope]` (the first `n` are set).
+    fn rows(&self) -> [[f64; 2]; CELL_MAX] {
+        core::array::from_fn(|i| [self.hi[i], self.slope[i]])
+    }
+}
+
+/// [`CellConstraints::largest_end`] over constraint rows `[hi, slope]` and their limits `who`
+/// (as kept between the passes).
+fn largest_end(rows: &[[f64; 2]], who: &[u8], x: f64, y_max: f64) -> (f64, Option<u8>) {
+    let mut y = y_max;
+    let mut by = None;
+    let mut floor = 0.0_f64;
+    for (&[h, slope], &w) in rows.iter().zip(who) {
+        let bx = slope * x;
+        let hi = h + bx;
+        if hi < y {
+            y = hi;
+            by = Some(w);
+        }
+        floor = floor.max(-h + bx);
+    }
+    // x lies in the reachable set, so floor ≤ y up to rounding.
+    (y.max(floor.min(y_max)).max(0.0), by)
 }
 
 /// The time-optimal timing of one move (see the module docs): a reachability pass backward
@@ -239,10 +251,14 @@ pub(super) fn time_optimal_storing(
         }
     };
     // Backward: reach[k] = the largest x_k from which rest at the end is reachable. The
-    // forward pass reuses the cells' constraints (≈ 440 bytes a cell) up to STORED_CELLS
-    // cells and rebuilds them beyond, so a long fine grid does not hold them all.
+    // forward pass reuses the cells' constraints (17 bytes each, a cell's count, pushed in the
+    // backward order) up to STORED_CELLS cells and rebuilds them beyond, so a long fine grid
+    // does not hold them all.
     let store = n <= stored_cells;
-    let mut stored: Vec<CellConstraints> = Vec::with_capacity(if store { n } else { 0 });
+    let cap_rows = if store { 2 * n } else { 0 };
+    let (mut kept_rows, mut kept_who) =
+        (Vec::with_capacity(cap_rows), Vec::with_capacity(cap_rows));
+    let mut kept_n: Vec<u8> = Vec::with_capacity(if store { n } else { 0 });
     let mut reach = vec![0.0; n + 1];
     let mut reach_src = vec![user.0; n + 1];
     for k in (0..n).rev() {
@@ -251,21 +267,33 @@ pub(super) fn time_optimal_storing(
         reach[k] = x;
         reach_src[k] = who.map_or(cap_src[k], name);
         if store {
-            stored.push(c.clone());
+            kept_n.push(c.n as u8);
+            for i in 0..c.n {
+                kept_rows.push([c.hi[i], c.slope[i]]);
+                kept_who.push(c.who[i]);
+            }
         }
     }
     // Forward: from rest, the largest admissible end value that stays reachable.
     let mut x = vec![0.0; n + 1];
     let mut who = Vec::with_capacity(n);
+    let mut end = kept_rows.len();
     for k in 0..n {
-        let cell = if store {
-            // Pushed in the backward order.
-            &stored[n - 1 - k]
+        let (y, limiter) = if store {
+            let m = usize::from(kept_n[n - 1 - k]);
+            let start = end - m;
+            let cell = largest_end(
+                &kept_rows[start..end],
+                &kept_who[start..end],
+                x[k],
+                reach[k + 1],
+            );
+            end = start;
+            cell
         } else {
             fill(&mut c, k);
-            &c
+            c.largest_end(x[k], reach[k + 1])
         };
-        let (y, limiter) = cell.largest_end(x[k], reach[k + 1]);
         x[k + 1] = y;
         who.push(limiter.map_or(reach_src[k + 1], name));
     }
