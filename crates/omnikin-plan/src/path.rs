@@ -106,7 +106,7 @@ impl Quintic {
         p1: [f64; 2],
         v1: [f64; 2],
         a1: [f64; 2],
-    ) -> Self {
+    ) -> Box<Self> {
         let mut c = [[0.0; 2]; 6];
         for d in 0..2 {
             [c[0][d], c[1][d], c[2][d], c[3][d], c[4][d], c[5][d]] =
@@ -116,14 +116,15 @@ impl Quintic {
             let f = (k + 1) as f64;
             [f * c[k + 1][0], f * c[k + 1][1]]
         });
-        let mut q = Self {
+        // Built in its box (the tables are filled in place, not copied into it).
+        let mut q = Box::new(Self {
             c,
             dc,
             cum: [0.0; TABLE + 1],
             inv: [[0.0; 9]; TABLE],
             min_speed: f64::INFINITY,
             per_length: 0.0,
-        };
+        });
         // At each table node: the speed v = |p'| and the derivatives of the inverse u(s),
         // u' = 1/v, u'' = −v_u/v³, u''' = 3 v_u²/v⁵ − v_uu/v⁴ (v_u = p'·p''/v,
         // v_uu = (|p''|² + p'·p''')/v − v_u²/v).
@@ -269,7 +270,11 @@ impl Quintic {
     }
 
     fn at(&self, s: f64) -> PathPoint {
-        let u = self.u_at(s);
+        self.at_u(self.u_at(s))
+    }
+
+    /// Point, unit tangent and curvature at the curve parameter `u`.
+    fn at_u(&self, u: f64) -> PathPoint {
         let (p, d1, d2) = self.eval(u);
         let inv = 1.0 / (d1[0] * d1[0] + d1[1] * d1[1]).sqrt();
         PathPoint {
@@ -339,6 +344,15 @@ impl Piece {
             Piece::Line { len, .. } => *len,
             Piece::Arc { radius, sweep, .. } => radius * sweep.abs(),
             Piece::Quintic(q) => q.length(),
+        }
+    }
+
+    /// The point at the piece's end (`end`) or start: for a quintic at `u = 1` or `0`
+    /// exactly, without the arc-length inversion.
+    fn at_end(&self, end: bool) -> PathPoint {
+        match self {
+            Piece::Quintic(q) => q.at_u(if end { 1.0 } else { 0.0 }),
+            _ => self.at(if end { self.length() } else { 0.0 }),
         }
     }
 
@@ -703,9 +717,13 @@ impl Path {
             d1[0] = m[0];
             d1[1] = m[0];
         } else {
+            // The chord directions are unit vectors: a turn above MAX_SMOOTH_TURN is a dot
+            // product below its cosine (the angle itself only for the message).
+            let min_dot = MAX_SMOOTH_TURN.cos();
             for k in 1..n - 1 {
-                let turn = cross(m[k - 1], m[k]).atan2(dot(m[k - 1], m[k]));
-                if turn.abs() > MAX_SMOOTH_TURN {
+                let cos_turn = dot(m[k - 1], m[k]);
+                if cos_turn.is_nan() || cos_turn < min_dot {
+                    let turn = cross(m[k - 1], m[k]).atan2(dot(m[k - 1], m[k]));
                     return Err(PlanningError::InvalidPath(format!(
                         "waypoint {} ({}, {}) turns by {:.1}°: a smooth spline cannot pass a reversal; use a polyline with stops",
                         k + 1,
@@ -755,7 +773,7 @@ impl Path {
             }
             s += q.length();
             waypoint_s.push(s);
-            pieces.push(Piece::Quintic(Box::new(q)));
+            pieces.push(Piece::Quintic(q));
         }
         let stops = vec![false; pieces.len()];
         Ok(Self::from_pieces(pieces, stops, waypoint_s))
@@ -848,8 +866,8 @@ impl Path {
                 let prev = &self.pieces[k - 1];
                 Join {
                     s: self.offsets[k],
-                    before: prev.at(prev.length()),
-                    after: self.pieces[k].at(0.0),
+                    before: prev.at_end(true),
+                    after: self.pieces[k].at_end(false),
                     stop: self.stop_before[k],
                 }
             })

@@ -6,6 +6,7 @@
 use crate::PlanningError;
 use crate::limits::MAX_MOVE_GRID_CELLS;
 use crate::robot::MAX_CHANNELS;
+use omnikin::MAX_WHEELS;
 
 use super::geometry::{Config, Ctx, Hint, Kind, Steer};
 use super::options::Timing;
@@ -175,20 +176,30 @@ impl Ctx<'_> {
         // Each stretch starts from the end state (heading, steer angles) of the one before.
         let steered = self.robot.steerable();
         let mut parts: Vec<Stretch> = Vec::with_capacity(n.len());
+        // Every stretch's nodes in one vector (a rebuilt stretch appends its new nodes).
+        let mut arena: Vec<Node> = Vec::with_capacity(n.iter().sum::<usize>() + n.len());
         for j in 0..n.len() {
             let start = parts
                 .last()
                 .map_or(Start::Fresh(Hint::angle(psi_start), gamma0), |p| {
-                    Start::After(*p.last())
+                    Start::After(*p.last(&arena))
                 });
-            parts.push(self.stretch(&kind, len, bounds[j], bounds[j + 1], n[j], start)?);
+            parts.push(self.stretch(
+                &mut arena,
+                &kind,
+                len,
+                bounds[j],
+                bounds[j + 1],
+                n[j],
+                start,
+            )?);
         }
         // Refine the stretches whose interpolation error is too large, rebuilding only them (and,
         // for steerable kinds, whose steer angles carry over, every stretch after the first rebuilt).
         let chans = self.robot.channels();
         // Each stretch's largest |A| and |A'|, recomputed only when it is rebuilt.
         let mut scales: Vec<[[f64; MAX_CHANNELS]; 2]> =
-            parts.iter().map(|p| p.scale(chans)).collect();
+            parts.iter().map(|p| p.scale(&arena, chans)).collect();
         for _ in 0..8 {
             let mut scale = [[0.0_f64; MAX_CHANNELS]; 2];
             for ps in &scales {
@@ -202,7 +213,7 @@ impl Ctx<'_> {
             for j in 0..parts.len() {
                 let c = n[j];
                 let h = (bounds[j + 1] - bounds[j]) / c as f64;
-                let err = parts[j].error(&scale, chans);
+                let err = parts[j].error(&arena, &scale, chans);
                 let refine = err > self.grid_tol && h > GRID_MIN;
                 if refine {
                     // Linear interpolation error scales with h²; aim at half the tolerance.
@@ -214,10 +225,18 @@ impl Ctx<'_> {
                     let start = if j == 0 {
                         Start::Fresh(Hint::angle(psi_start), gamma0)
                     } else {
-                        Start::After(*parts[j - 1].last())
+                        Start::After(*parts[j - 1].last(&arena))
                     };
-                    parts[j] = self.stretch(&kind, len, bounds[j], bounds[j + 1], n[j], start)?;
-                    scales[j] = parts[j].scale(chans);
+                    parts[j] = self.stretch(
+                        &mut arena,
+                        &kind,
+                        len,
+                        bounds[j],
+                        bounds[j + 1],
+                        n[j],
+                        start,
+                    )?;
+                    scales[j] = parts[j].scale(&arena, chans);
                     dirty = true;
                 }
             }
@@ -235,7 +254,7 @@ impl Ctx<'_> {
         let mut piece = Vec::with_capacity(total + 1);
         for (j, p) in parts.iter().enumerate() {
             let skip = usize::from(j > 0);
-            for (i, node) in p.nodes.iter().enumerate().skip(skip) {
+            for (i, node) in p.nodes(&arena).iter().enumerate().skip(skip) {
                 sig.push(p.sigma(i));
                 psi.push(node.psi);
                 cs.push(node.cs);
@@ -244,7 +263,7 @@ impl Ctx<'_> {
                 piece.push(node.piece);
             }
         }
-        let (b_in, b_out) = derivative(&a, &sig, &n);
+        let (b_in, b_out) = derivative(&a, &sig, &n, chans);
         Ok(Move {
             kind,
             len,
@@ -266,8 +285,10 @@ impl Ctx<'_> {
 
     /// One stretch of a move's grid: `n` equal cells from `s0` to `s1`, starting from heading
     /// hint and steer angles of `start`, or from the previous stretch's last node.
+    #[allow(clippy::too_many_arguments)]
     fn stretch(
         &self,
+        arena: &mut Vec<Node>,
         kind: &Kind,
         len: f64,
         s0: f64,
@@ -275,18 +296,18 @@ impl Ctx<'_> {
         n: usize,
         start: Start,
     ) -> Result<Stretch, PlanningError> {
-        let mut out = Stretch {
+        let out = Stretch {
             s0,
             s1,
             cells: n,
-            nodes: Vec::with_capacity(n + 1),
+            first: arena.len(),
         };
         // Heading (and its cosine and sine), `A` and steer angles at each node; the first is
         // the previous stretch's last (the same parameter) when there is one.
         let (mut hint, mut g, first) = match start {
             Start::Fresh(hint, g) => (hint, g, 0),
             Start::After(node) => {
-                out.nodes.push(node);
+                arena.push(node);
                 (node.hint(), node.gamma, 1)
             }
         };
@@ -299,7 +320,7 @@ impl Ctx<'_> {
             }
             let c = self.config(kind, len, sigma, hint);
             hint = Hint::of(&c);
-            out.nodes.push(Node {
+            arena.push(Node {
                 psi: c.pose.heading,
                 cs: c.cs,
                 a: self.rates_per_speed(kind, len, sigma, &c, &g)?,
@@ -374,13 +395,13 @@ impl Node {
     }
 }
 
-/// One stretch of a move's grid between kinks: equal cells from `s0` to `s1`, its nodes in
-/// one vector (one allocation a stretch).
+/// One stretch of a move's grid between kinks: `cells` equal cells from `s0` to `s1`, its
+/// `cells + 1` nodes from index `first` of the move's node vector.
 struct Stretch {
     s0: f64,
     s1: f64,
     cells: usize,
-    nodes: Vec<Node>,
+    first: usize,
 }
 
 impl Stretch {
@@ -399,15 +420,20 @@ impl Stretch {
         (self.s1 - self.s0) / self.cells as f64
     }
 
+    /// The stretch's nodes in the move's node vector `arena`.
+    fn nodes<'a>(&self, arena: &'a [Node]) -> &'a [Node] {
+        &arena[self.first..=self.first + self.cells]
+    }
+
     /// The stretch's last node.
-    fn last(&self) -> &Node {
-        &self.nodes[self.nodes.len() - 1]
+    fn last<'a>(&self, arena: &'a [Node]) -> &'a Node {
+        &arena[self.first + self.cells]
     }
 
     /// Largest `|A|` and `|A'|` (central differences) per channel on the stretch (the first
     /// `chans` channels; the others stay 0).
-    fn scale(&self, chans: usize) -> [[f64; MAX_CHANNELS]; 2] {
-        let a = &self.nodes;
+    fn scale(&self, arena: &[Node], chans: usize) -> [[f64; MAX_CHANNELS]; 2] {
+        let a = self.nodes(arena);
         let mut out = [[0.0_f64; MAX_CHANNELS]; 2];
         for row in a {
             for ch in 0..chans {
@@ -429,8 +455,8 @@ impl Stretch {
     /// Largest estimated error of linear interpolation between the nodes of `A`
     /// (`|Δ²A|/8 = h² A''/8`) and of its central differences `A'` (inside the stretch),
     /// relative to each channel's largest `|A|` and `|A'|` on the move (`scale`).
-    fn error(&self, scale: &[[f64; MAX_CHANNELS]; 2], chans: usize) -> f64 {
-        let nodes = &self.nodes;
+    fn error(&self, arena: &[Node], scale: &[[f64; MAX_CHANNELS]; 2], chans: usize) -> f64 {
+        let nodes = self.nodes(arena);
         let a = |k: usize| &nodes[k].a;
         let m = nodes.len();
         if m < 3 {
@@ -503,14 +529,36 @@ pub(super) fn cell_from(sig: &[f64], sigma: f64, from: usize) -> usize {
 /// Derivative of a vector function tabulated at the nodes `sig`, made of stretches of `n[j]`
 /// equal cells: central differences inside a stretch, second-order one-sided differences at
 /// the stretch ends (kinks, where the derivative may jump). Returns the derivative seen from
-/// the cell ending at each node and from the cell starting there (equal except at kinks).
+/// the cell ending at each node and from the cell starting there (equal except at kinks), in
+/// the first `chans` channels or more (the others 0; fixed-length loops vectorise).
 #[allow(clippy::type_complexity)]
 fn derivative(
     a: &[[f64; MAX_CHANNELS]],
     sig: &[f64],
     n: &[usize],
+    chans: usize,
+) -> (Vec<[f64; MAX_CHANNELS]>, Vec<[f64; MAX_CHANNELS]>) {
+    // Robots without steering use the first MAX_WHEELS channels only: half the work.
+    if chans <= MAX_WHEELS {
+        derivative_w::<MAX_WHEELS>(a, sig, n)
+    } else {
+        derivative_w::<MAX_CHANNELS>(a, sig, n)
+    }
+}
+
+/// [`derivative`] of the first `W` channels (the others 0).
+#[allow(clippy::type_complexity)]
+fn derivative_w<const W: usize>(
+    a: &[[f64; MAX_CHANNELS]],
+    sig: &[f64],
+    n: &[usize],
 ) -> (Vec<[f64; MAX_CHANNELS]>, Vec<[f64; MAX_CHANNELS]>) {
     let m = a.len();
+    let widen = |d: [f64; W]| {
+        let mut out = [0.0; MAX_CHANNELS];
+        out[..W].copy_from_slice(&d);
+        out
+    };
     // Filled in node order (no zeroed buffers): a node is the end of one cell of some stretch
     // (`b_in`, nodes 1…m−1) and the start of one (`b_out`, nodes 0…m−2).
     let mut b_in = Vec::with_capacity(m);
@@ -521,7 +569,7 @@ fn derivative(
         let last = first + c;
         let h = (sig[last] - sig[first]) / c as f64;
         for k in first..=last {
-            let d: [f64; MAX_CHANNELS] = if k > first && k < last {
+            let d: [f64; W] = if k > first && k < last {
                 core::array::from_fn(|i| (a[k + 1][i] - a[k - 1][i]) / (2.0 * h))
             } else if c == 1 {
                 core::array::from_fn(|i| (a[last][i] - a[first][i]) / h)
@@ -534,6 +582,7 @@ fn derivative(
                     (3.0 * a[k][i] - 4.0 * a[k - 1][i] + a[k - 2][i]) / (2.0 * h)
                 })
             };
+            let d = widen(d);
             if k > first {
                 b_in.push(d);
             }
