@@ -90,7 +90,12 @@ pub(super) struct Ctx<'a> {
 
 /// The inverse kinematics of a robot without steering as a matrix: wheel `i`'s rate (rad/s)
 /// is `row_i · (v_x, v_y, ω)` of the robot-frame twist (m/s, m/s, rad/s); rows past `N` zero.
-pub(super) type Linear = [[f64; 3]; MAX_WHEELS];
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Linear {
+    rows: [[f64; 3]; MAX_WHEELS],
+    /// The number of wheels `N`.
+    n: usize,
+}
 
 /// The core inverse kinematics of `robot` as a [`Linear`] matrix, from its answers to the
 /// three unit twists, if it has no steering and the matrix reproduces the core's answer to
@@ -127,7 +132,7 @@ pub(super) fn linear_inverse(robot: &RobotModel) -> Option<Linear> {
             }
         }
     }
-    Some(m)
+    Some(Linear { rows: m, n })
 }
 
 /// Wheel rates (rad/s, entries past `N` zero) of `m` for the world-frame velocity `dq`
@@ -136,7 +141,11 @@ pub(super) fn linear_inverse(robot: &RobotModel) -> Option<Linear> {
 pub(super) fn linear_rates(m: &Linear, cs: [f64; 2], dq: [f64; 3]) -> [f64; MAX_WHEELS] {
     let [c, s] = cs;
     let (vx, vy) = (c * dq[0] + s * dq[1], -s * dq[0] + c * dq[1]);
-    core::array::from_fn(|i| m[i][0] * vx + m[i][1] * vy + m[i][2] * dq[2])
+    let mut out = [0.0; MAX_WHEELS];
+    for (w, r) in out.iter_mut().zip(&m.rows[..m.n]) {
+        *w = r[0] * vx + r[1] * vy + r[2] * dq[2];
+    }
+    out
 }
 
 /// Steer angles `γ_i` of a steer state (rad), entries `0..N` used (0 for kinds without
