@@ -333,16 +333,14 @@ impl Ctx<'_> {
     }
 
     /// Steer angles at `sigma` within a move (integrated ones; for set-points those of the
-    /// cell's start node), and the configuration there; `from` is the grid cell of the previous
-    /// call (see [`cell_from`]) and is updated.
+    /// cell's start node), and the configuration there; `k` is the grid cell holding `sigma`
+    /// (its start node is the heading hint and the steer integration's start).
     pub(super) fn state(
         &self,
         mv: &Move,
         sigma: f64,
-        from: &mut usize,
+        k: usize,
     ) -> Result<(Config, Steer), PlanningError> {
-        let k = cell_from(&mv.sig, sigma, *from);
-        *from = k;
         let hint = Hint {
             psi: mv.psi[k],
             cs: Some(mv.cs[k]),

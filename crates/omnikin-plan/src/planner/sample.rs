@@ -15,7 +15,8 @@ use super::geometry::{AT_REST, Ctx, body_per_speed, linear_rates};
 fn twist_dq(t: &Twist2<f64>) -> [f64; 3] {
     [t.vx, t.vy, t.yaw_rate]
 }
-use super::grid::Move;
+use super::grid::{self, Move};
+use super::timing::MoveTiming;
 
 /// Samples the timed moves at `rate` Hz (plus the exact end time).
 pub(super) fn sample(ctx: &Ctx, moves: &[Move], rate: f64) -> Result<Plan, PlanningError> {
@@ -63,7 +64,14 @@ pub(super) fn sample(ctx: &Ctx, moves: &[Move], rate: f64) -> Result<Plan, Plann
         }
         let mv = &moves[m];
         let (sigma, v, acc) = mv.timing.eval(t - mv.t0, mv.len, &mv.sig, &mut from_t);
-        let (c, gamma) = ctx.state(mv, sigma, &mut from_s)?;
+        if matches!(mv.timing, MoveTiming::Grid { .. }) {
+            // A grid timing's time cell is the parameter's cell (up to rounding at its end,
+            // where either node serves as the hint): no second search.
+            from_s = from_t;
+        } else {
+            from_s = grid::cell_from(&mv.sig, sigma, from_s);
+        }
+        let (c, gamma) = ctx.state(mv, sigma, from_s)?;
         let twist = Twist2::new(c.dq[0] * v, c.dq[1] * v, c.dq[2] * v);
         let a = if let Some((angles, per_speed)) = mv.kind.resteer_at(mv.len, sigma) {
             // A re-steer at rest: the modules' angles along the move, turning at `Δ/len · σ̇`.
