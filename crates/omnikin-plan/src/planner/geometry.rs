@@ -127,7 +127,8 @@ pub(super) fn linear_inverse(robot: &RobotModel) -> Option<Linear> {
         let w = rates(t)?;
         for i in 0..n {
             let lin = m[i][0] * t.vx + m[i][1] * t.vy + m[i][2] * t.yaw_rate;
-            if !((lin - w[i]).abs() <= 1e-13 * (1.0 + w[i].abs())) {
+            let off = (lin - w[i]).abs();
+            if off.is_nan() || off > 1e-13 * (1.0 + w[i].abs()) {
                 return None;
             }
         }
