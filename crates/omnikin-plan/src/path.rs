@@ -846,16 +846,7 @@ impl Path {
     /// Like [`Path::at`], but at a join [`Side::Before`] evaluates the piece that ends there
     /// (the incoming direction and curvature) and [`Side::After`] the one that starts there.
     pub fn at_side(&self, s: f64, side: Side) -> PathPoint {
-        let s = if s.is_nan() {
-            0.0
-        } else {
-            s.clamp(0.0, self.length())
-        };
-        let mut k = self.piece_index(s);
-        if side == Side::Before && k > 0 && s <= self.offsets[k] {
-            k -= 1;
-        }
-        self.pieces[k].at(s - self.offsets[k])
+        self.at_side_piece(s, side).1
     }
 
     /// The interior joins between pieces, in order, each seen from both sides: where the

@@ -179,11 +179,7 @@ impl Ctx<'_> {
         // Every stretch's nodes in one vector (a rebuilt stretch appends its new nodes).
         let mut arena: Vec<Node> = Vec::with_capacity(n.iter().sum::<usize>() + n.len());
         for j in 0..n.len() {
-            let start = parts
-                .last()
-                .map_or(Start::Fresh(Hint::angle(psi_start), gamma0), |p| {
-                    Start::After(*p.last(&arena))
-                });
+            let start = start_of(&parts, &arena, j, psi_start, gamma0);
             parts.push(self.stretch(
                 &mut arena,
                 &kind,
@@ -222,11 +218,7 @@ impl Ctx<'_> {
                     n[j] = want.min(cells(bounds[j + 1] - bounds[j], GRID_MIN).max(c));
                 }
                 if refine || (steered && dirty) {
-                    let start = if j == 0 {
-                        Start::Fresh(Hint::angle(psi_start), gamma0)
-                    } else {
-                        Start::After(*parts[j - 1].last(&arena))
-                    };
+                    let start = start_of(&parts, &arena, j, psi_start, gamma0);
                     parts[j] = self.stretch(
                         &mut arena,
                         &kind,
@@ -361,6 +353,16 @@ impl Ctx<'_> {
             hint,
         )?;
         Ok((c, g))
+    }
+}
+
+/// Where stretch `j` starts: from the move's start heading and steer angles, or from the last
+/// node of stretch `j − 1`.
+fn start_of(parts: &[Stretch], arena: &[Node], j: usize, psi_start: f64, gamma0: Steer) -> Start {
+    if j == 0 {
+        Start::Fresh(Hint::angle(psi_start), gamma0)
+    } else {
+        Start::After(*parts[j - 1].last(arena))
     }
 }
 
