@@ -178,17 +178,14 @@ impl Ctx<'_> {
         let mut parts: Vec<Stretch> = Vec::with_capacity(n.len());
         // Every stretch's nodes in one vector (a rebuilt stretch appends its new nodes).
         let mut arena: Vec<Node> = Vec::with_capacity(n.iter().sum::<usize>() + n.len());
+        // Stretch j with `cells` cells, appended to the arena, from the end of stretch j − 1.
+        let build = |arena: &mut Vec<Node>, parts: &[Stretch], j: usize, cells: usize| {
+            let start = start_of(parts, arena, j, psi_start, gamma0);
+            self.stretch(arena, &kind, len, bounds[j], bounds[j + 1], cells, start)
+        };
         for j in 0..n.len() {
-            let start = start_of(&parts, &arena, j, psi_start, gamma0);
-            parts.push(self.stretch(
-                &mut arena,
-                &kind,
-                len,
-                bounds[j],
-                bounds[j + 1],
-                n[j],
-                start,
-            )?);
+            let part = build(&mut arena, &parts, j, n[j])?;
+            parts.push(part);
         }
         // Refine the stretches whose interpolation error is too large, rebuilding only them (and,
         // for steerable kinds, whose steer angles carry over, every stretch after the first rebuilt).
@@ -218,16 +215,7 @@ impl Ctx<'_> {
                     n[j] = want.min(cells(bounds[j + 1] - bounds[j], GRID_MIN).max(c));
                 }
                 if refine || (steered && dirty) {
-                    let start = start_of(&parts, &arena, j, psi_start, gamma0);
-                    parts[j] = self.stretch(
-                        &mut arena,
-                        &kind,
-                        len,
-                        bounds[j],
-                        bounds[j + 1],
-                        n[j],
-                        start,
-                    )?;
+                    parts[j] = build(&mut arena, &parts, j, n[j])?;
                     scales[j] = parts[j].scale(&arena, chans);
                     dirty = true;
                 }
