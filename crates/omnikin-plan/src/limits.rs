@@ -30,7 +30,7 @@ pub const MAX_PLAN_ROWS: usize = MAX_PLAN_SAMPLES;
 pub const MAX_MOVE_GRID_CELLS: usize = 400_000;
 
 /// Most grid cells of all moves of a plan together (≈ 200 bytes a cell: 400 MB; 100 km of
-/// path on the coarsest 5 cm grid). Checked from the path's length before the grid is built,
+/// path on the profiles' coarsest 5 cm grid, 200 km on the time-optimal timing's 10 cm). Checked from the path's length before the grid is built,
 /// and again as refinement adds cells.
 pub const MAX_PLAN_GRID_CELLS: usize = 2_000_000;
 

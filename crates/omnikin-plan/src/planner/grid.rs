@@ -22,9 +22,9 @@ pub(super) const GRID_MAX: f64 = 0.05;
 /// [`GRID_MAX`] for the time-optimal timing. Its pass is exact at the nodes, and the final
 /// check on the samples mends any excess between them where it occurs (by refining the grid
 /// there, [`Ctx::refine`]), so a coarse start costs little time-optimality: over the presets
-/// on two splines at 0.5–3 m/s the plans came out between 3.0 % shorter and 0.4 % longer than
-/// with 5 cm cells and a whole-move slow-down (the grid's nodes on the peer bench's spline
-/// 246 → 127; 20 cm cells: up to 1.4 % longer).
+/// on two splines at 0.5–3 m/s the plans came out between 2.9 % shorter and 0.4 % longer than
+/// with 5 cm cells and a whole-move slow-down (the grid on the peer bench's spline 246 → 122
+/// nodes; 20 cm cells: up to 1.4 % longer).
 pub(super) const GRID_MAX_TIME_OPTIMAL: f64 = 0.1;
 
 /// Largest linear-interpolation error of the motor rates per unit speed `A(σ)` between grid

@@ -26,8 +26,9 @@
 //!    at a spline waypoint; `A'` is taken one-sided there) and equal cells between joins,
 //!    5 cm (50 mrad for turns; a fifth of the eccentricity for the caster) refined where the
 //!    linear interpolation of `A` or `A'` between nodes would be off by more than 1 % of that
-//!    motor's largest value on the move (10 % for the time-optimal timing, whose speed caps
-//!    allow for the bulge between nodes), down to 2 mm. The rows of `A` are the robot's motor
+//!    motor's largest value on the move, down to 2 mm. The time-optimal timing, whose speed
+//!    caps allow for the bulge between nodes and whose residual excesses are mended where they
+//!    occur (step 4), starts from 10 cm (100 mrad) and refines at 20 %. The rows of `A` are the robot's motor
 //!    **channels** ([`RobotModel::channel`]): its `N` wheels, then its `N` steer motors if it
 //!    has steering. For the caster the steer angles `γ(σ)` obey `dγ/dσ = J2(θ, γ) q'(σ)`
 //!    (paper 003, eq. 5), which does not depend on the timing, so they are integrated once
