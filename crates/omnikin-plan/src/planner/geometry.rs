@@ -136,17 +136,21 @@ pub(super) fn linear_inverse(robot: &RobotModel) -> Option<Linear> {
     Some(Linear { rows: m, n })
 }
 
-/// Wheel rates (rad/s, entries past `N` zero) of `m` for the world-frame velocity `dq`
-/// (`ẋ, ẏ, ψ̇`) at heading `(cos ψ, sin ψ) = cs`: the robot-frame twist
-/// `(c ẋ + s ẏ, −s ẋ + c ẏ, ψ̇)`, then `m` ([`Linear`]).
-pub(super) fn linear_rates(m: &Linear, cs: [f64; 2], dq: [f64; 3]) -> [f64; MAX_WHEELS] {
-    let [c, s] = cs;
-    let (vx, vy) = (c * dq[0] + s * dq[1], -s * dq[0] + c * dq[1]);
-    let mut out = [0.0; MAX_WHEELS];
-    for (w, r) in out.iter_mut().zip(&m.rows[..m.n]) {
-        *w = r[0] * vx + r[1] * vy + r[2] * dq[2];
+impl Linear {
+    /// Wheel rates (rad/s, entries past `N` zero) for the world-frame velocity `dq`
+    /// (`ẋ, ẏ, ψ̇`) at heading `(cos ψ, sin ψ) = cs`: the robot-frame twist
+    /// `(c ẋ + s ẏ, −s ẋ + c ẏ, ψ̇)`, then the matrix. `None` if a rate is not finite, so the
+    /// caller's core call names the value.
+    #[inline(always)]
+    pub(super) fn wheel_rates(&self, cs: [f64; 2], dq: [f64; 3]) -> Option<[f64; MAX_WHEELS]> {
+        let [c, s] = cs;
+        let (vx, vy) = (c * dq[0] + s * dq[1], -s * dq[0] + c * dq[1]);
+        let mut out = [0.0; MAX_WHEELS];
+        for (w, r) in out.iter_mut().zip(&self.rows[..self.n]) {
+            *w = r[0] * vx + r[1] * vy + r[2] * dq[2];
+        }
+        out.iter().sum::<f64>().is_finite().then_some(out)
     }
-    out
 }
 
 /// Steer angles `γ_i` of a steer state (rad), entries `0..N` used (0 for kinds without
@@ -295,14 +299,10 @@ impl Ctx<'_> {
             out[n..2 * n].copy_from_slice(&per_speed[..n]);
             return Ok(out);
         }
-        if let Some(m) = &self.linear {
-            let w = linear_rates(m, c.cs, c.dq);
-            if w.iter().sum::<f64>().is_finite() {
-                let mut out = [0.0; MAX_CHANNELS];
-                out[..MAX_WHEELS].copy_from_slice(&w);
-                return Ok(out);
-            }
-            // A non-finite value: the core call below names it.
+        if let Some(w) = self.linear.as_ref().and_then(|m| m.wheel_rates(c.cs, c.dq)) {
+            let mut out = [0.0; MAX_CHANNELS];
+            out[..MAX_WHEELS].copy_from_slice(&w);
+            return Ok(out);
         }
         let rate = if self.set_point {
             self.twist_rate_per_speed(kind, len, sigma, c)

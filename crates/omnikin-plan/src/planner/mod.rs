@@ -267,13 +267,7 @@ fn slow_down_locally(
     let robot = ctx.robot;
     let n = robot.wheels();
     let chans = robot.channels();
-    let value = |s: &crate::plan::Sample, ch: usize| -> f64 {
-        if ch < n {
-            s.wheel_rates[ch]
-        } else {
-            s.steer.map_or(0.0, |(_, r)| r[ch - n])
-        }
-    };
+    let value = |s: &crate::plan::Sample, ch: usize| report::channel_value(s, n, ch);
     // Per move: the stretches to refine, and per cell the factor its limits would get.
     let mut stretches: Vec<Vec<usize>> = vec![Vec::new(); moves.len()];
     let mut factor: Vec<Vec<f64>> = vec![Vec::new(); moves.len()];

@@ -154,13 +154,7 @@ pub struct Planned {
 pub fn plan_peaks(plan: &Plan, robot: &RobotModel) -> Vec<Peak> {
     let n = robot.wheels();
     let chans = robot.channels();
-    let value = |s: &Sample, ch: usize| -> f64 {
-        if ch < n {
-            s.wheel_rates[ch]
-        } else {
-            s.steer.map(|(_, r)| r[ch - n]).unwrap_or(0.0)
-        }
-    };
+    let value = |s: &Sample, ch: usize| channel_value(s, n, ch);
     let mut out = Vec::new();
     for accel in [false, true] {
         for group in [0..n, n..2 * n] {
@@ -204,6 +198,16 @@ pub fn plan_peaks(plan: &Plan, robot: &RobotModel) -> Vec<Peak> {
         }
     }
     out
+}
+
+/// A sample's value of motor channel `ch` of a robot with `n` wheels ([`RobotModel::channel`]):
+/// wheel rate `ch` for `ch < n`, else steer rate `ch − n` (0 without steering).
+pub(super) fn channel_value(s: &Sample, n: usize, ch: usize) -> f64 {
+    if ch < n {
+        s.wheel_rates[ch]
+    } else {
+        s.steer.map_or(0.0, |(_, r)| r[ch - n])
+    }
 }
 
 pub(super) fn report(

@@ -9,12 +9,7 @@ use crate::PlanningError;
 use crate::limits::MAX_PLAN_SAMPLES;
 use crate::plan::{Plan, Sample};
 
-use super::geometry::{AT_REST, Ctx, body_per_speed, linear_rates};
-
-/// A world twist as the `(ẋ, ẏ, ψ̇)` of [`linear_rates`].
-fn twist_dq(t: &Twist2<f64>) -> [f64; 3] {
-    [t.vx, t.vy, t.yaw_rate]
-}
+use super::geometry::{AT_REST, Ctx, body_per_speed};
 use super::grid::{self, Move};
 use super::timing::MoveTiming;
 
@@ -95,9 +90,10 @@ pub(super) fn sample(ctx: &Ctx, moves: &[Move], rate: f64) -> Result<Plan, Plann
             let a = robot.actuators_cs(c.cs, twist, twist_rate, &current)?;
             current = a;
             a
-        } else if let Some(m) = &ctx.linear
-            && let w = linear_rates(m, c.cs, twist_dq(&twist))
-            && w.iter().sum::<f64>().is_finite()
+        } else if let Some(w) = ctx
+            .linear
+            .as_ref()
+            .and_then(|m| m.wheel_rates(c.cs, [twist.vx, twist.vy, twist.yaw_rate]))
         {
             // Without steering: the inverse kinematics as a matrix (`linear_inverse`).
             Actuators {

@@ -75,7 +75,7 @@ fn the_linear_inverse_matches_the_core_for_every_kind_without_steering() {
                 3.0 * (1.3 * x).cos(),
             ];
             let (s, c) = heading.sin_cos();
-            let got = geometry::linear_rates(&m, [c, s], dq);
+            let got = m.wheel_rates([c, s], dq).expect("finite");
             let want = robot
                 .model
                 .inverse(

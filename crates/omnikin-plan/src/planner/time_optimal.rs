@@ -182,15 +182,14 @@ pub(super) fn time_optimal_storing(
             scale(k.saturating_sub(1)).min(scale(k.min(n - 1)))
         }
     };
-    let margin = MARGIN;
     let motor = |ch: usize, accel: bool| {
         let (quantity, motor) = robot.channel(ch, accel);
         Limiter::Motor { quantity, motor }
     };
     let rate_limits: [Option<f64>; MAX_CHANNELS] =
-        core::array::from_fn(|ch| robot.rate_limit(ch).map(|l| l * margin));
+        core::array::from_fn(|ch| robot.rate_limit(ch).map(|l| l * MARGIN));
     let accel_limits: [Option<f64>; MAX_CHANNELS] =
-        core::array::from_fn(|ch| robot.accel_limit(ch).map(|l| l * margin));
+        core::array::from_fn(|ch| robot.accel_limit(ch).map(|l| l * MARGIN));
     // Speed caps on x = σ̇²: the requested speed and every motor's rate limit.
     let mut cap = vec![0.0; n + 1];
     let mut cap_src = vec![user.0; n + 1];
