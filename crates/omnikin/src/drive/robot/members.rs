@@ -271,10 +271,20 @@ impl<T: Real> KindModel<T> for Caster3<T> {
             roll: increments(start, end),
             steer: dg,
         };
-        // The fast unchecked fit; on failure the checked one names the input.
+        // The fast unchecked fit; on failure the checked one names the input (out of line:
+        // `body_twist` is inlined where it is called, and this path is cold).
+        #[cold]
+        #[inline(never)]
+        fn named<T: Real>(
+            c: &Caster3<T>,
+            rates: &CasterRates<T>,
+            steer: [T; 3],
+        ) -> Result<crate::caster::CasterForward<T>, InputError> {
+            c.body_twist(rates, T::zero(), steer)
+        }
         let f = match self.body_twist_robot_unchecked(&rates, mid) {
             Ok(f) => f,
-            Err(_) => self.body_twist(&rates, T::zero(), mid)?,
+            Err(_) => named(self, &rates, mid)?,
         };
         Ok(caster_motion(f))
     }
