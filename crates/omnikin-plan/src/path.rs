@@ -84,6 +84,8 @@ struct Quintic {
     /// Coefficients of `dp/du = Σ d_k u^k`, `d_k = (k + 1) c_{k+1}`, `k = 0..4` (precomputed:
     /// the speed `|dp/du|` is the inner loop of the arc-length table).
     dc: [[f64; 2]; 5],
+    /// Coefficients of `d²p/du² = Σ e_k u^k`, `e_k = (k + 1) d_{k+1}`, `k = 0..3`.
+    ddc: [[f64; 2]; 4],
     /// `cum[k]` = arc length from `u = 0` to `u = k/TABLE`, m.
     cum: [f64; TABLE + 1],
     /// Per table cell `k`: the inverse `u(s)` on the cell as a septic in
@@ -116,10 +118,15 @@ impl Quintic {
             let f = (k + 1) as f64;
             [f * c[k + 1][0], f * c[k + 1][1]]
         });
+        let ddc = core::array::from_fn(|k| {
+            let f = (k + 1) as f64;
+            [f * dc[k + 1][0], f * dc[k + 1][1]]
+        });
         // Built in its box (the tables are filled in place, not copied into it).
         let mut q = Box::new(Self {
             c,
             dc,
+            ddc,
             cum: [0.0; TABLE + 1],
             inv: [[0.0; 9]; TABLE],
             min_speed: f64::INFINITY,
@@ -183,30 +190,33 @@ impl Quintic {
 
     /// Position, first and second derivative with respect to `u`.
     fn eval(&self, u: f64) -> ([f64; 2], [f64; 2], [f64; 2]) {
-        let c = &self.c;
+        let (c, e, f) = (&self.c, &self.dc, &self.ddc);
         let mut p = [0.0; 2];
         let mut d1 = [0.0; 2];
         let mut d2 = [0.0; 2];
+        // Estrin's form (pairs of coefficients in parallel: a shorter dependency chain than
+        // Horner's rule, which set much of a path point's latency).
+        let (u2, u4) = (u * u, u * u * (u * u));
         for d in 0..2 {
-            p[d] = c[0][d]
-                + u * (c[1][d] + u * (c[2][d] + u * (c[3][d] + u * (c[4][d] + u * c[5][d]))));
-            let e = &self.dc;
-            d1[d] = e[0][d] + u * (e[1][d] + u * (e[2][d] + u * (e[3][d] + u * e[4][d])));
-            d2[d] = 2.0 * c[2][d] + u * (6.0 * c[3][d] + u * (12.0 * c[4][d] + u * 20.0 * c[5][d]));
+            p[d] = (c[0][d] + u * c[1][d])
+                + u2 * (c[2][d] + u * c[3][d])
+                + u4 * (c[4][d] + u * c[5][d]);
+            d1[d] = (e[0][d] + u * e[1][d]) + u2 * (e[2][d] + u * e[3][d]) + u4 * e[4][d];
+            d2[d] = (f[0][d] + u * f[1][d]) + u2 * (f[2][d] + u * f[3][d]);
         }
         (p, d1, d2)
     }
 
     /// First, second and third derivative with respect to `u`.
     fn derivatives(&self, u: f64) -> ([f64; 2], [f64; 2], [f64; 2]) {
-        let (c, e) = (&self.c, &self.dc);
+        let (e, f) = (&self.dc, &self.ddc);
         let mut d1 = [0.0; 2];
         let mut d2 = [0.0; 2];
         let mut d3 = [0.0; 2];
         for d in 0..2 {
             d1[d] = e[0][d] + u * (e[1][d] + u * (e[2][d] + u * (e[3][d] + u * e[4][d])));
-            d2[d] = 2.0 * c[2][d] + u * (6.0 * c[3][d] + u * (12.0 * c[4][d] + u * 20.0 * c[5][d]));
-            d3[d] = 6.0 * c[3][d] + u * (24.0 * c[4][d] + u * 60.0 * c[5][d]);
+            d2[d] = f[0][d] + u * (f[1][d] + u * (f[2][d] + u * f[3][d]));
+            d3[d] = f[1][d] + u * (2.0 * f[2][d] + u * 3.0 * f[3][d]);
         }
         (d1, d2, d3)
     }
@@ -248,8 +258,9 @@ impl Quintic {
         // The last node with `cum[k] ≤ s`: the table is close to linear in `k` (the speed
         // varies little along a segment), so start from the proportional guess and walk (a
         // step or two, cheaper than a bisection of the table).
-        let guess = (s * self.per_length) as usize;
-        let mut k = guess.min(TABLE - 1);
+        // (As i32: in range, a conversion cheaper than to usize.)
+        let guess = (s * self.per_length) as i32;
+        let mut k = (guess.max(0) as usize).min(TABLE - 1);
         while k > 0 && self.cum[k] > s {
             k -= 1;
         }
@@ -258,9 +269,9 @@ impl Quintic {
         }
         let c = &self.inv[k];
         let t = (s - self.cum[k]) * c[8];
-        let u = c[0]
-            + t * (c[1]
-                + t * (c[2] + t * (c[3] + t * (c[4] + t * (c[5] + t * (c[6] + t * c[7]))))));
+        // Estrin's form (pairs in parallel: a shorter dependency chain than Horner's rule).
+        let (t2, pair) = (t * t, |j: usize| c[j] + t * c[j + 1]);
+        let u = (pair(0) + t2 * pair(2)) + (t2 * t2) * (pair(4) + t2 * pair(6));
         let w = 1.0 / TABLE as f64;
         if u.is_finite() {
             u.clamp(k as f64 * w, (k + 1) as f64 * w)

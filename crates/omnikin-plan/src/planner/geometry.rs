@@ -201,12 +201,16 @@ impl Hint {
             let dot = c * dir[0] + s * dir[1];
             if dot > 0.98 {
                 let t = (c * dir[1] - s * dir[0]) / (1.0 + dot);
-                let t2 = t * t;
-                // atan t = t Σ (−t²)ᵏ/(2k+1), k = 0…9, by Horner in t².
-                let mut sum = 1.0 / 19.0;
-                for k in (0..9).rev() {
-                    sum = 1.0 / (2 * k + 1) as f64 - t2 * sum;
-                }
+                // atan t = t Σ aₖ zᵏ, aₖ = (−1)ᵏ/(2k+1), z = t², k = 0…9, in Estrin's form
+                // (pairs of terms in parallel: half the dependency chain of Horner's rule,
+                // which set the latency of every path point on the tangent law).
+                let z = t * t;
+                let (z2, a) = (z * z, |k: i32| {
+                    f64::from(1 - 2 * (k & 1)) / f64::from(2 * k + 1)
+                });
+                let (z4, z8) = (z2 * z2, z2 * z2 * (z2 * z2));
+                let pair = |k: i32| a(k) + a(k + 1) * z;
+                let sum = (pair(0) + z2 * pair(2)) + z4 * (pair(4) + z2 * pair(6)) + z8 * pair(8);
                 return self.psi + 2.0 * t * sum;
             }
         }
