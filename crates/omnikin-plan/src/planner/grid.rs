@@ -567,19 +567,17 @@ fn derivative_w<const W: usize>(
     for &c in n {
         let last = first + c;
         let h = (sig[last] - sig[first]) / c as f64;
+        // One division a stretch, not one a value.
+        let (ih, i2h) = (1.0 / h, 0.5 / h);
         for k in first..=last {
             let d: [f64; W] = if k > first && k < last {
-                core::array::from_fn(|i| (a[k + 1][i] - a[k - 1][i]) / (2.0 * h))
+                core::array::from_fn(|i| (a[k + 1][i] - a[k - 1][i]) * i2h)
             } else if c == 1 {
-                core::array::from_fn(|i| (a[last][i] - a[first][i]) / h)
+                core::array::from_fn(|i| (a[last][i] - a[first][i]) * ih)
             } else if k == first {
-                core::array::from_fn(|i| {
-                    (-3.0 * a[k][i] + 4.0 * a[k + 1][i] - a[k + 2][i]) / (2.0 * h)
-                })
+                core::array::from_fn(|i| (-3.0 * a[k][i] + 4.0 * a[k + 1][i] - a[k + 2][i]) * i2h)
             } else {
-                core::array::from_fn(|i| {
-                    (3.0 * a[k][i] - 4.0 * a[k - 1][i] + a[k - 2][i]) / (2.0 * h)
-                })
+                core::array::from_fn(|i| (3.0 * a[k][i] - 4.0 * a[k - 1][i] + a[k - 2][i]) * i2h)
             };
             let d = widen(d);
             if k > first {
