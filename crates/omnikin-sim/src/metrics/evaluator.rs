@@ -82,11 +82,18 @@ pub(super) fn nearest_all(index: &PathIndex, points: &[[f64; 2]]) -> Vec<(f64, u
         .concat()
 }
 
-/// Largest distance of `points` from the path of `index` (0 for none).
+/// Largest distance of `points` from the path of `index` (0 for none): parallel over chunks
+/// of points, each by [`PathIndex::farthest`]; the same value as the largest of one query
+/// after another.
 fn max_distance(index: &PathIndex, points: &[[f64; 2]]) -> f64 {
-    nearest_all(index, points)
-        .into_iter()
-        .fold(0.0, |m, (d, _)| m.max(d))
+    use rayon::prelude::*;
+    if points.len() <= QUERY_CHUNK {
+        return index.farthest(points);
+    }
+    points
+        .par_chunks(QUERY_CHUNK)
+        .map(|c| index.farthest(c))
+        .reduce(|| 0.0, f64::max)
 }
 
 /// The second pass of an [`Evaluator`]: the mean is known; the spread around it is summed.

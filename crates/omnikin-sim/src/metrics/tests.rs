@@ -250,6 +250,45 @@ proptest! {
         }
     }
 
+    /// The early-break farthest distance is the largest exhaustive distance bit for bit: for
+    /// points along the path (most searches stop early), a noisy dense copy of it (the case
+    /// the early break is for), points far away and at the centroid, in any order.
+    #[test]
+    fn path_index_farthest_equals_the_largest_exhaustive_distance(
+        path in path_strategy(),
+        noise in prop::collection::vec((-1.0f64..1.0, -1.0f64..1.0), 1..40),
+        scale in prop_oneof![Just(0.0), 1e-6f64..1e-3, 1e-2f64..0.3, 1.0f64..10.0],
+        dense in 1usize..6,
+        reversed in any::<bool>(),
+    ) {
+        let index = PathIndex::new(&path);
+        let n = path.len();
+        // Points between the vertices (`dense` per segment), each moved by the noise.
+        let mut points: Vec<[f64; 2]> = (0..(n - 1).max(1) * dense)
+            .map(|j| {
+                let (k, f) = (j / dense, (j % dense) as f64 / dense as f64);
+                let (a, b) = (path[k.min(n - 1)], path[(k + 1).min(n - 1)]);
+                let e = noise[j % noise.len()];
+                [a[0] + f * (b[0] - a[0]) + scale * e.0, a[1] + f * (b[1] - a[1]) + scale * e.1]
+            })
+            .collect();
+        let c = [
+            path.iter().map(|p| p[0]).sum::<f64>() / n as f64,
+            path.iter().map(|p| p[1]).sum::<f64>() / n as f64,
+        ];
+        points.insert(points.len() / 2, c);
+        if reversed {
+            points.reverse();
+        }
+        let brute = points.iter().map(|&q| distance_to_path(q, &path)).fold(0.0, f64::max);
+        prop_assert_eq!(index.farthest(&points).to_bits(), brute.to_bits());
+        prop_assert_eq!(index.farthest(&[]).to_bits(), 0.0f64.to_bits());
+        // And the other way round: the path's vertices against the noisy points' polyline.
+        let back = PathIndex::new(&points);
+        let brute = path.iter().map(|&q| distance_to_path(q, &points)).fold(0.0, f64::max);
+        prop_assert_eq!(back.farthest(&path).to_bits(), brute.to_bits());
+    }
+
     /// The streaming two-pass evaluation equals the quadratic one, every metric bit for
     /// bit, and the mean trajectory and band too.
     #[test]
