@@ -192,26 +192,39 @@ impl Hint {
     }
 
     /// The unwrapped angle of the unit vector `dir` within ±π of the hint: from the angle
-    /// between the two, `δ = 2 atan(t)`, `t = (h × d)/(1 + h·d)`, by its series when it is
-    /// below 0.2 rad (`h·d > 0.98`, so `|t| < 0.1005`: the terms to `t¹⁹` leave < 1e-20 rad),
-    /// as between neighbouring grid nodes and from a node to the samples in its cell; by
-    /// `atan2` otherwise.
+    /// between the two, `δ = asin(h × d)`, by its series when it is below 0.2 rad
+    /// (`h·d > 0.98`, so `|h × d| < 0.199`: the terms to `x²³` leave < 1e-19 rad), as between
+    /// neighbouring grid nodes and from a node to the samples in its cell; by `atan2`
+    /// otherwise. (The sine's series needs no division, unlike `2 atan((h × d)/(1 + h·d))`:
+    /// a shorter dependency chain for every path point on the tangent law.)
     pub(super) fn unwrap(self, dir: [f64; 2]) -> f64 {
         if let Some([c, s]) = self.cs {
             let dot = c * dir[0] + s * dir[1];
             if dot > 0.98 {
-                let t = (c * dir[1] - s * dir[0]) / (1.0 + dot);
-                // atan t = t Σ aₖ zᵏ, aₖ = (−1)ᵏ/(2k+1), z = t², k = 0…9, in Estrin's form
-                // (pairs of terms in parallel: half the dependency chain of Horner's rule,
-                // which set the latency of every path point on the tangent law).
-                let z = t * t;
-                let (z2, a) = (z * z, |k: i32| {
-                    f64::from(1 - 2 * (k & 1)) / f64::from(2 * k + 1)
-                });
+                let x = c * dir[1] - s * dir[0];
+                // asin x = x Σ aₖ zᵏ, aₖ = (2k)! / (4ᵏ (k!)² (2k + 1)), z = x², k = 0…11, in
+                // Estrin's form (pairs of terms in parallel).
+                const A: [f64; 12] = [
+                    1.0,
+                    1.0 / 6.0,
+                    3.0 / 40.0,
+                    5.0 / 112.0,
+                    35.0 / 1152.0,
+                    63.0 / 2816.0,
+                    231.0 / 13312.0,
+                    143.0 / 10240.0,
+                    6435.0 / 557056.0,
+                    12155.0 / 1245184.0,
+                    46189.0 / 5505024.0,
+                    88179.0 / 12058624.0,
+                ];
+                let z = x * x;
+                let (z2, pair) = (z * z, |k: usize| A[k] + A[k + 1] * z);
                 let (z4, z8) = (z2 * z2, z2 * z2 * (z2 * z2));
-                let pair = |k: i32| a(k) + a(k + 1) * z;
-                let sum = (pair(0) + z2 * pair(2)) + z4 * (pair(4) + z2 * pair(6)) + z8 * pair(8);
-                return self.psi + 2.0 * t * sum;
+                let sum = (pair(0) + z2 * pair(2))
+                    + z4 * (pair(4) + z2 * pair(6))
+                    + z8 * (pair(8) + z2 * pair(10));
+                return self.psi + x * sum;
             }
         }
         self.psi + wrap_angle(dir[1].atan2(dir[0]) - self.psi)
