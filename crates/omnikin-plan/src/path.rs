@@ -135,49 +135,61 @@ impl Quintic {
         // At each table node: the speed v = |p'| and the derivatives of the inverse u(s),
         // u' = 1/v, u'' = −v_u/v³, u''' = 3 v_u²/v⁵ − v_uu/v⁴ (v_u = p'·p''/v,
         // v_uu = (|p''|² + p'·p''')/v − v_u²/v).
+        // The dot products first, then every square root and reciprocal in loops of their
+        // own: independent lanes the compiler pairs (two per SSE2 instruction), where one
+        // node at a time left the divider's throughput the table's cost.
+        let w = 1.0 / TABLE as f64;
+        let dot = |a: [f64; 2], b: [f64; 2]| a[0] * b[0] + a[1] * b[1];
+        let (mut v2, mut p12, mut p2) = ([0.0; TABLE + 1], [0.0; TABLE + 1], [0.0; TABLE + 1]);
+        for k in 0..=TABLE {
+            let (d1, d2, d3) = q.derivatives(k as f64 * w);
+            (v2[k], p12[k]) = (dot(d1, d1), dot(d1, d2));
+            p2[k] = dot(d2, d2) + dot(d1, d3);
+        }
+        let mid2: [f64; TABLE] = core::array::from_fn(|k| q.speed_squared((k as f64 + 0.5) * w));
+        let v: [f64; TABLE + 1] = core::array::from_fn(|k| v2[k].sqrt());
+        let mid: [f64; TABLE] = core::array::from_fn(|k| mid2[k].sqrt());
+        let iv: [f64; TABLE + 1] = core::array::from_fn(|k| 1.0 / v[k]);
         let mut spd = [[0.0; 3]; TABLE + 1];
         let mut du = [[0.0; 3]; TABLE + 1];
         let mut nan = false;
         for k in 0..=TABLE {
-            let u = k as f64 / TABLE as f64;
-            let (d1, d2, d3) = q.derivatives(u);
-            let dot = |a: [f64; 2], b: [f64; 2]| a[0] * b[0] + a[1] * b[1];
-            let v = dot(d1, d1).sqrt();
-            let iv = 1.0 / v;
-            let vu = dot(d1, d2) * iv;
-            let vuu = (dot(d2, d2) + dot(d1, d3) - vu * vu) * iv;
+            let iv = iv[k];
+            let vu = p12[k] * iv;
+            let vuu = (p2[k] - vu * vu) * iv;
             let (iv2, iv3) = (iv * iv, iv * iv * iv);
-            spd[k] = [v, vu, vuu];
+            spd[k] = [v[k], vu, vuu];
             du[k] = [iv, -vu * iv3, (3.0 * vu * vu * iv - vuu) * iv2 * iv2];
-            nan |= v.is_nan();
+            nan |= v[k].is_nan();
         }
-        let mut min_speed = spd.iter().map(|v| v[0]).fold(f64::INFINITY, f64::min);
+        let min_speed = v.iter().chain(&mid).copied().fold(f64::INFINITY, f64::min);
         // Each cell by the symmetric rule on the speed and its first two derivatives at the
         // cell's ends (which the inverse below needs anyway) and the speed at its middle:
         // w [19/70 (v₀ + v₁) + w/35 (v₀' − v₁') + w²/840 (v₀'' + v₁'') + 16/35 v(½)], exact for
         // degree 7 like 5-point Gauss–Lobatto (error ∝ w⁹, 7 × Lobatto's constant) for one
         // speed evaluation instead of three (the tests hold the table to 1e-11 of the segment's
         // length against a 256-interval 5-point reference: 5.1e-11 on the tests' bent spline).
-        let w = 1.0 / TABLE as f64;
         for k in 0..TABLE {
             let (a, b) = (spd[k], spd[k + 1]);
-            let mid = q.speed((k as f64 + 0.5) * w);
-            min_speed = min_speed.min(mid);
             let sum = MID_W[0] * (a[0] + b[0])
                 + MID_W[1] * w * (a[1] - b[1])
                 + MID_W[2] * w * w * (a[2] + b[2])
-                + MID_W[3] * mid;
+                + MID_W[3] * mid[k];
             q.cum[k + 1] = q.cum[k] + sum * w;
+        }
+        let span: [f64; TABLE] = core::array::from_fn(|k| q.cum[k + 1] - q.cum[k]);
+        let ispan: [f64; TABLE] = core::array::from_fn(|k| 1.0 / span[k]);
+        for k in 0..TABLE {
             // The inverse on the cell: the septic Hermite interpolant of u(s) through the
             // cell's ends with its first three derivatives there. In t = (s − cum[k]) / span
             // the j-th derivative scales by spanʲ.
-            let span = q.cum[k + 1] - q.cum[k];
+            let span = span[k];
             let u0 = k as f64 * w;
             if span > 0.0 {
                 let (h2, h3) = (span * span, span * span * span);
                 let end = |j: usize, u: f64| [u, du[j][0] * span, du[j][1] * h2, du[j][2] * h3];
                 let c = hermite7(end(k, u0), end(k + 1, u0 + w));
-                q.inv[k] = [c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], 1.0 / span];
+                q.inv[k] = [c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], ispan[k]];
             } else {
                 q.inv[k] = [u0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
             }
@@ -224,11 +236,17 @@ impl Quintic {
     /// `|dp/du|`, m. (`sqrt` of the sum of squares: the derivatives of a path in metres are
     /// far from the range where `hypot`'s overflow protection matters, and it costs several
     /// times less.)
+    #[cfg(test)]
     fn speed(&self, u: f64) -> f64 {
+        self.speed_squared(u).sqrt()
+    }
+
+    /// `|dp/du|²`, m².
+    fn speed_squared(&self, u: f64) -> f64 {
         let c = &self.dc;
         let d = |i: usize| c[0][i] + u * (c[1][i] + u * (c[2][i] + u * (c[3][i] + u * c[4][i])));
         let (dx, dy) = (d(0), d(1));
-        (dx * dx + dy * dy).sqrt()
+        dx * dx + dy * dy
     }
 
     /// Arc length between `u0` and `u1` by 5-point Gauss–Legendre quadrature (the tests'
