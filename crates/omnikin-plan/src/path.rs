@@ -84,7 +84,7 @@ struct Quintic {
     /// Coefficients of `dp/du = Σ d_k u^k`, `d_k = (k + 1) c_{k+1}`, `k = 0..4` (precomputed:
     /// the speed `|dp/du|` is the inner loop of the arc-length table).
     dc: [[f64; 2]; 5],
-    /// Coefficients of `d²p/du² = Σ e_k u^k`, `e_k = (k + 1) d_{k+1}`, `k = 0..3`.
+    /// Coefficients of `d²p/du² = Σ f_k u^k`, `f_k = (k + 1) d_{k+1}`, `k = 0..3`.
     ddc: [[f64; 2]; 4],
     /// `cum[k]` = arc length from `u = 0` to `u = k/TABLE`, m.
     cum: [f64; TABLE + 1],
@@ -136,8 +136,9 @@ impl Quintic {
         // u' = 1/v, u'' = −v_u/v³, u''' = 3 v_u²/v⁵ − v_uu/v⁴ (v_u = p'·p''/v,
         // v_uu = (|p''|² + p'·p''')/v − v_u²/v).
         // The dot products first, then every square root and reciprocal in loops of their
-        // own: independent lanes the compiler pairs (two per SSE2 instruction), where one
-        // node at a time left the divider's throughput the table's cost.
+        // own: independent lanes, which the benchmark build pairs (`sqrtpd`, `divpd`; the
+        // auto-vectoriser's choice, so it may not hold for every build), where one node at a
+        // time left the divider's throughput the table's cost.
         let w = 1.0 / TABLE as f64;
         let dot = |a: [f64; 2], b: [f64; 2]| a[0] * b[0] + a[1] * b[1];
         let (mut v2, mut p12, mut p2) = ([0.0; TABLE + 1], [0.0; TABLE + 1], [0.0; TABLE + 1]);
@@ -233,15 +234,17 @@ impl Quintic {
         (d1, d2, d3)
     }
 
-    /// `|dp/du|`, m. (`sqrt` of the sum of squares: the derivatives of a path in metres are
-    /// far from the range where `hypot`'s overflow protection matters, and it costs several
-    /// times less.)
+    /// `|dp/du|`, m (the tests' quadrature).
     #[cfg(test)]
     fn speed(&self, u: f64) -> f64 {
         self.speed_squared(u).sqrt()
     }
 
-    /// `|dp/du|²`, m².
+    /// `|dp/du|²`, m², by Horner's rule like [`Quintic::derivatives`] (the table's points are
+    /// independent, so their latency overlaps; Estrin's form there cost 3.5 k instructions a
+    /// plan for no time). Its square root, not `hypot`: the derivatives of a path in metres are
+    /// far from the range where `hypot`'s overflow protection matters, and it costs several
+    /// times less.
     fn speed_squared(&self, u: f64) -> f64 {
         let c = &self.dc;
         let d = |i: usize| c[0][i] + u * (c[1][i] + u * (c[2][i] + u * (c[3][i] + u * c[4][i])));

@@ -34,8 +34,8 @@ const LEAF: usize = 8;
 
 /// Entries of a query's node stack. The search goes down nearer child first, leaving one
 /// sibling per level on the stack, so it holds at most the tree's height + 1 entries; the
-/// tree halves the segment range per level, so 48 entries serve any path of up to
-/// `LEAF · 2^46` segments (far beyond memory). A deeper node would be scanned directly
+/// tree halves the segment range per level, so 48 entries serve every path of up to
+/// `LEAF · 2^46` segments or more (far beyond memory). A deeper node would be scanned directly
 /// (still exact). The stack is zeroed per query: at 130 entries (2 kB, enough for any
 /// `usize`) the zeroing was a fifth of a query's instructions.
 const STACK: usize = 48;
@@ -173,8 +173,9 @@ impl PathIndex {
     /// `points.map(|p| self.distance(p)).fold(0.0, f64::max)` (0 for no points), by an
     /// early-break directed Hausdorff search (Taha & Hanbury, "An efficient algorithm for
     /// calculating the exact Hausdorff distance", IEEE TPAMI 2015): a point whose distance to
-    /// some segment (first the previous point's nearest, then any the search meets) is already
-    /// within the largest distance found cannot raise it, so its search stops there. Points
+    /// some segment (first the one the previous point's search ended on, then any the search
+    /// meets) is already within the largest distance found cannot raise it, so its search
+    /// stops there. Points
     /// along a path close to the polyline mostly stop at the first segment tried; a query that
     /// must be exact costs what [`PathIndex::nearest`] costs, which on a dense noisy polyline
     /// grows with its number of segments near the point.

@@ -7,8 +7,8 @@
 //! `wide::f64x2` (the `wide` crate: safe SIMD types; SSE2 is part of the x86-64 baseline), so
 //! the pairing does not depend on the auto-vectoriser's cost model, which paired the lanes of
 //! one caller and left another's scalar (the world-frame forward: 476 instructions through the
-//! auto-vectorised lanes, 438 through the pairs); elsewhere the same generic kernel runs lane
-//! by lane. [`sin_cos4_f32`] stays `libm` per lane (a Cortex-M4F's single-precision FPU gains
+//! auto-vectorised lanes, 458 through the pairs, 438 with the call inlined); elsewhere the same
+//! generic kernel runs lane by lane. [`sin_cos4_f32`] stays `libm` per lane (a Cortex-M4F's single-precision FPU gains
 //! nothing from lanes).
 //!
 //! The `f64` algorithm follows fdlibm (FreeBSD `s_sin.c`, `k_sin.c`, `k_cos.c`, as ported by
@@ -26,7 +26,8 @@
 //!   ulp of `y`). The tail matters when the result lies a binade below `y`: there it is worth up
 //!   to an ulp of the result. Worst true error found (a review against a 200-bit reference over
 //!   ≈ 18 M angles, 3 Dec 2026): **1.51 ulp**, against 0.65 ulp for `libm` on the same angles;
-//!   keeping the correction costs 28 of the caster forward call's ≈ 450 instructions;
+//!   keeping the correction cost 28 of the caster forward call's then ≈ 450 instructions (397
+//!   now);
 //! * the quadrant `n mod 4`, read from the rounding's bit pattern, swaps the pair and sets the
 //!   signs by bit operations.
 //!

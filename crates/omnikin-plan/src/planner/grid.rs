@@ -567,8 +567,9 @@ fn derivative_w<const W: usize>(
     for &c in n {
         let last = first + c;
         let h = (sig[last] - sig[first]) / c as f64;
-        // One division a stretch, not one a value.
-        let (ih, i2h) = (1.0 / h, 0.5 / h);
+        // One reciprocal a stretch, not a division a value (halving it is exact).
+        let ih = 1.0 / h;
+        let i2h = 0.5 * ih;
         for k in first..=last {
             let d: [f64; W] = if k > first && k < last {
                 core::array::from_fn(|i| (a[k + 1][i] - a[k - 1][i]) * i2h)

@@ -85,7 +85,7 @@ pub(super) fn nearest_all(index: &PathIndex, points: &[[f64; 2]]) -> Vec<(f64, u
 /// Largest distance of `points` from the path of `index` (0 for none): parallel over chunks
 /// of points, each by [`PathIndex::farthest`]; the same value as the largest of one query
 /// after another.
-fn max_distance(index: &PathIndex, points: &[[f64; 2]]) -> f64 {
+pub(super) fn max_distance(index: &PathIndex, points: &[[f64; 2]]) -> f64 {
     use rayon::prelude::*;
     if points.len() <= QUERY_CHUNK {
         return index.farthest(points);

@@ -1,7 +1,7 @@
 //! Tests of the metrics: quantiles against tables, the circle fit, the path distance, and the
 //! streaming evaluation and path index against the quadratic and exhaustive oracles.
 
-use super::evaluator::{QUERY_CHUNK, nearest_all};
+use super::evaluator::{QUERY_CHUNK, max_distance, nearest_all};
 use super::*;
 
 #[test]
@@ -402,6 +402,45 @@ fn parallel_chunks_of_queries_equal_the_exhaustive_scan() {
     for (p, (d, _)) in points.iter().zip(got) {
         assert_eq!(d.to_bits(), distance_to_path(*p, &path).to_bits());
     }
+}
+
+#[test]
+fn the_parallel_farthest_distance_equals_the_exhaustive_one() {
+    // More points than one chunk (each chunk starts its largest distance at 0), a noisy
+    // dense polyline against a smooth one and back, and a non-finite point.
+    let smooth: Vec<[f64; 2]> = (0..700)
+        .map(|k| {
+            let a = k as f64 * 0.05;
+            [a.cos() * (1.0 + 0.01 * a), a.sin()]
+        })
+        .collect();
+    let mut noisy: Vec<[f64; 2]> = (0..3 * QUERY_CHUNK + 17)
+        .map(|k| {
+            let a = k as f64 * 0.0085;
+            let e = ((k * 7919) % 101) as f64 / 101.0 - 0.5;
+            [
+                (1.0 + 0.02 * e) * a.cos() * (1.0 + 0.01 * a),
+                a.sin() + 0.02 * e,
+            ]
+        })
+        .collect();
+    let brute = |points: &[[f64; 2]], path: &[[f64; 2]]| {
+        points
+            .iter()
+            .map(|&q| distance_to_path(q, path))
+            .fold(0.0, f64::max)
+    };
+    let got = max_distance(&PathIndex::new(&smooth), &noisy);
+    assert_eq!(got.to_bits(), brute(&noisy, &smooth).to_bits());
+    let got = max_distance(&PathIndex::new(&noisy), &smooth);
+    assert_eq!(got.to_bits(), brute(&smooth, &noisy).to_bits());
+    assert!(got > 0.0);
+    noisy[QUERY_CHUNK + 5] = [f64::NAN, 0.0];
+    let got = max_distance(&PathIndex::new(&smooth), &noisy);
+    assert_eq!(got.to_bits(), brute(&noisy, &smooth).to_bits());
+    noisy[2 * QUERY_CHUNK] = [f64::INFINITY, 1.0];
+    let got = max_distance(&PathIndex::new(&smooth), &noisy);
+    assert_eq!(got.to_bits(), brute(&noisy, &smooth).to_bits());
 }
 
 #[test]

@@ -120,7 +120,7 @@ impl<T: Real> Caster3<T> {
     ///   yaw rate is unobservable: `Σ |p_i − p̄|² ≤ 1000 ε (D + d)²`. This is possible only when
     ///   `d = D` and every `γ_i = π`.
     // Inlined into the caller (a control loop's call costs about 400 instructions; out of line
-    // its prologue, the result's trip through memory and the caller's unwrap were 50 more).
+    // its prologue, the result's trip through memory and the caller's unwrap were 16–20 more).
     #[inline(always)]
     pub fn body_twist(
         &self,
