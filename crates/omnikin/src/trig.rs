@@ -36,9 +36,10 @@
 //! review: `cos(−86916.87315054201)` = 4.2092874562e-15 against 4.2092878035e-15). `sin(−0)`
 //! is `+0` (`libm`: `−0`).
 //!
-//! When `|x_0| + |x_1| + |x_2| + |x_3| > 10^5` rad, or a lane is not finite, all four lanes go
-//! through `libm`'s `sin_cos` (fdlibm with its full reduction), so large angles keep `libm`'s
-//! accuracy and NaN stays NaN. Tested against `libm` (`sin_cos4_agrees_with_libm`: random
+//! A lane beyond `10^5` rad, or not finite, goes through `libm`'s `sin_cos` (fdlibm with its
+//! full reduction), so large angles keep `libm`'s accuracy and NaN stays NaN; the other lanes
+//! still take the kernel, so each lane's result depends on its own angle only (one comparison
+//! of `|x_0| + … + |x_3|` with the limit serves the usual call). Tested against `libm` (`sin_cos4_agrees_with_libm`: random
 //! lanes up to `10^5` rad on the fast path, every multiple of π/2 to ±400 and its neighbours):
 //! within 2 ulp of `libm`'s value or `10^-20` absolute.
 
@@ -219,9 +220,15 @@ pub(crate) fn sin_cos4_f64(x: [f64; 4]) -> ([f64; 4], [f64; 4]) {
     if served {
         served4(x)
     } else {
-        let (mut s, mut c) = ([0.0; 4], [0.0; 4]);
+        // Lane by lane: a lane beyond the limit (or not finite) through libm, the others
+        // through the same kernel as on the fast path, so that every lane's result depends on
+        // its own angle only (a huge heading does not change the wheel directions' bits).
+        let inside = |v: f64| v.abs() <= REDUCTION_LIMIT;
+        let (mut s, mut c) = served4(x.map(|v| if inside(v) { v } else { 0.0 }));
         for i in 0..4 {
-            (s[i], c[i]) = nalgebra::ComplexField::sin_cos(x[i]);
+            if !inside(x[i]) {
+                (s[i], c[i]) = nalgebra::ComplexField::sin_cos(x[i]);
+            }
         }
         (s, c)
     }
@@ -360,13 +367,32 @@ mod tests {
     fn beyond_the_limit_and_non_finite_lanes_are_libm() {
         let xs = [1.0e6, -3.0e17, 0.5, f64::MAX];
         let (s, c) = sin_cos4_f64(xs);
-        for i in 0..4 {
+        for i in [0, 1, 3] {
             assert_eq!((s[i], c[i]), libm::sincos(xs[i]));
         }
-        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
-            let (s, c) = sin_cos4_f64([0.1, bad, 0.2, 0.3]);
-            assert!(s[1].is_nan() && c[1].is_nan());
-            assert_eq!((s[0], c[0]), libm::sincos(0.1));
+        // Each lane depends on its own angle only: the in-range lane is the kernel's.
+        let alone = |v: f64, i: usize| {
+            let mut x = [0.0; 4];
+            x[i] = v;
+            let (s, c) = sin_cos4_f64(x);
+            (s[i].to_bits(), c[i].to_bits())
+        };
+        assert_eq!((s[2].to_bits(), c[2].to_bits()), alone(0.5, 2));
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 2.0e5, -1.0e300] {
+            let xs = [0.1, bad, 0.2, -2.3371443113700283];
+            let (s, c) = sin_cos4_f64(xs);
+            if bad.is_finite() {
+                assert_eq!((s[1], c[1]), libm::sincos(bad));
+            } else {
+                assert!(s[1].is_nan() && c[1].is_nan());
+            }
+            for i in [0, 2, 3] {
+                assert_eq!(
+                    (s[i].to_bits(), c[i].to_bits()),
+                    alone(xs[i], i),
+                    "lane {i}"
+                );
+            }
         }
     }
 
