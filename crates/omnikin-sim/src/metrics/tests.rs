@@ -382,15 +382,20 @@ fn non_finite_metrics_are_named() {
     assert_eq!(fine.check_finite(), Ok(()));
 }
 
-#[test]
-fn parallel_chunks_of_queries_equal_the_exhaustive_scan() {
-    // More points than one chunk, so several chunks run, each with its own hints.
-    let path: Vec<[f64; 2]> = (0..700)
+/// A slowly opening spiral of 700 vertices (the chunked-query tests' smooth path).
+fn spiral700() -> Vec<[f64; 2]> {
+    (0..700)
         .map(|k| {
             let a = k as f64 * 0.05;
             [a.cos() * (1.0 + 0.01 * a), a.sin()]
         })
-        .collect();
+        .collect()
+}
+
+#[test]
+fn parallel_chunks_of_queries_equal_the_exhaustive_scan() {
+    // More points than one chunk, so several chunks run, each with its own hints.
+    let path = spiral700();
     let points: Vec<[f64; 2]> = (0..3 * QUERY_CHUNK + 17)
         .map(|k| {
             let a = k as f64 * 0.0029;
@@ -408,12 +413,7 @@ fn parallel_chunks_of_queries_equal_the_exhaustive_scan() {
 fn the_parallel_farthest_distance_equals_the_exhaustive_one() {
     // More points than one chunk (each chunk starts its largest distance at 0), a noisy
     // dense polyline against a smooth one and back, and a non-finite point.
-    let smooth: Vec<[f64; 2]> = (0..700)
-        .map(|k| {
-            let a = k as f64 * 0.05;
-            [a.cos() * (1.0 + 0.01 * a), a.sin()]
-        })
-        .collect();
+    let smooth = spiral700();
     let mut noisy: Vec<[f64; 2]> = (0..3 * QUERY_CHUNK + 17)
         .map(|k| {
             let a = k as f64 * 0.0085;
