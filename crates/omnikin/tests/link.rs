@@ -1,16 +1,18 @@
 //! The link, in process: the codec (encode∘decode is the identity, arbitrary bytes never
-//! panic, every bad frame lands in exactly one counter) and the v2 session protocol against
-//! the attacks of issue 12 — replay of a recorded keyed session after a robot restart, a forged
-//! `seq = 2^64 - 1`, a third party's heartbeats, takeover without a handshake, a replayed
-//! e-stop confirmation, v1 peers — and a legitimate session through loss, reordering and
-//! duplication.
+//! panic, every bad frame lands in exactly one counter) and the v3 session protocol against
+//! replay of a recorded keyed session after a robot restart, a forged `seq = 2^64 - 1`, a third
+//! party's heartbeats, takeover without a handshake or without asking, replayed Hellos and
+//! first frames (no state for an unproven peer, used nonces, expired epochs), a replayed
+//! e-stop confirmation, a held-back clear after an e-stop, v1 peers — and a legitimate session
+//! through loss, reordering and duplication.
 
 use omnikin::estimate::events::EventCounters;
 use omnikin::link::{
-    CHUNK_POINTS, DropReason, EncodeError, EndReason, Estimate, FrameReader, HANDSHAKE_BODY, Hello,
-    Key, Kind, LinkCounters, MAX_FRAME, Message, OperatorEvent, OperatorLink, PROTOCOL_VERSION,
-    RobotEvent, RobotInfo, RobotKind, RobotLink, SimTruth, Telemetry, WireFix, WirePoint,
-    encode_hello, encode_message, parse_frame, serve, v1,
+    CHUNK_POINTS, DropReason, EPOCH_US, EncodeError, EndReason, Estimate, FrameReader,
+    HANDSHAKE_BODY, Hello, Key, Kind, LIVE_US, LinkCounters, MAX_FRAME, Message, Opening,
+    OperatorEvent, OperatorLink, PROTOCOL_VERSION, RobotEvent, RobotInfo, RobotKind, RobotLink,
+    SimTruth, Telemetry, USED_PER_EPOCH, WireFix, WirePoint, encode_hello, encode_message,
+    encode_open, parse_frame, serve, v1,
 };
 use omnikin::runtime::hal::{
     EncoderAngles, Encoders, Entropy, EntropyError, MotorCommand, MotorOutputs, NoImu,
@@ -65,9 +67,9 @@ fn telemetry() -> impl Strategy<Value = Telemetry> {
             any::<u32>(),
             any::<u64>(),
         ),
-        (any::<[u32; 9]>(), any::<u64>(), any::<u64>()),
+        (any::<[u32; 11]>(), any::<u64>(), any::<u64>(), any::<u64>()),
     )
-        .prop_map(|(a, b, c, (l, ack_seq, estop_seq))| Telemetry {
+        .prop_map(|(a, b, c, (l, ack_seq, estop_seq, clear_seq))| Telemetry {
             time_us: a.0,
             mode: a.1,
             faults: Faults(a.2),
@@ -103,9 +105,12 @@ fn telemetry() -> impl Strategy<Value = Telemetry> {
                 malformed: l[6],
                 session: l[7],
                 entropy: l[8],
+                throttled: l[9],
+                stale: l[10],
             },
             ack_seq,
             estop_seq,
+            clear_seq,
         })
 }
 
@@ -213,6 +218,8 @@ struct Bot {
     link: RobotLink,
     rng: TestRng,
     info: RobotInfo,
+    /// Robot clock, µs.
+    now: u64,
 }
 
 impl Bot {
@@ -222,6 +229,7 @@ impl Bot {
             link: RobotLink::new(key),
             rng: TestRng(seed),
             info,
+            now: 0,
         }
     }
     /// Receives one wire frame; returns the event and the reply bytes.
@@ -230,9 +238,9 @@ impl Bot {
         let mut reply = [0u8; MAX_FRAME];
         let r = self
             .link
-            .receive(&mut f, &self.info, &mut self.rng, &mut reply);
+            .receive(&mut f, self.now, &self.info, &mut self.rng, &mut reply);
         let n = match &r {
-            Ok(RobotEvent::Hello(n)) => *n,
+            Ok(RobotEvent::Hello(n) | RobotEvent::Busy(n)) => *n,
             Ok(RobotEvent::Message {
                 replaced: Some(n), ..
             }) => *n,
@@ -264,8 +272,10 @@ fn op_hello(op: &mut OperatorLink, rng: &mut TestRng) -> Vec<u8> {
     b[..n].to_vec()
 }
 
-/// Handshake and key confirmation (a heartbeat); returns every operator → robot frame sent.
+/// Handshake and key confirmation (a heartbeat in an open frame, taking over if need be);
+/// returns every operator → robot frame sent.
 fn connect(op: &mut OperatorLink, bot: &mut Bot, rng: &mut TestRng) -> Vec<Vec<u8>> {
+    op.set_take_over(true);
     let hello = op_hello(op, rng);
     let (r, ack) = bot.rx(&hello);
     assert!(matches!(r, Ok(RobotEvent::Hello(_))), "{r:?}");
@@ -318,7 +328,7 @@ proptest! {
                     Some(f) => {
                         let mut copy = f.to_vec();
                         let mut reply = [0u8; MAX_FRAME];
-                        let _ = bot.link.receive(f, &bot.info, &mut bot.rng, &mut reply);
+                        let _ = bot.link.receive(f, 0, &bot.info, &mut bot.rng, &mut reply);
                         let _ = op.receive(&mut copy);
                     }
                     None => {
@@ -379,6 +389,26 @@ fn largest_messages_fit_one_frame_and_no_answer_outgrows_its_hello() {
     let n = encode_message(u64::MAX, u64::MAX, &chunk, Some(k.mac()), &mut buf).unwrap();
     println!("largest chunk frame: {n} bytes (MAX_FRAME {MAX_FRAME})");
     assert!(n <= MAX_FRAME);
+    // And as an operator's first frame, with the handshake's opening.
+    let opening = Opening {
+        client_nonce: [0xff; 16],
+        epoch: u32::MAX,
+        take_over: true,
+    };
+    let n = encode_open(
+        u64::MAX,
+        u64::MAX,
+        &opening,
+        &chunk,
+        Some(k.mac()),
+        &mut buf,
+    )
+    .unwrap();
+    println!("largest open chunk frame: {n} bytes (MAX_FRAME {MAX_FRAME})");
+    assert!(n <= MAX_FRAME);
+    let p = parse_frame(&mut buf[..n - 1]).unwrap();
+    assert_eq!((p.header.kind, p.opening), (Kind::Open, Some(opening)));
+    assert_eq!(omnikin::link::decode_message(p.body).unwrap(), chunk);
     // The fix and estimate messages, widest values, keyed and in the largest session.
     let fix = Message::Fix(WireFix {
         capture_us: u64::MAX,
@@ -421,6 +451,7 @@ fn largest_messages_fit_one_frame_and_no_answer_outgrows_its_hello() {
         info: widest,
         client_nonce: [0xff; 16],
         robot_nonce: [0xff; 16],
+        epoch: u32::MAX,
     };
     let mut b = [0u8; 128];
     assert_eq!(
@@ -503,7 +534,7 @@ fn wrong_or_missing_key_and_forged_headers_are_unauthenticated() {
         assert_eq!(r, Err(DropReason::Auth));
         assert!(reply.is_empty(), "no answer to an unauthenticated Hello");
     }
-    assert_eq!(bot.link.pending_id(), None);
+    assert_eq!(bot.link.session_id(), None);
     // The right key works; a captured frame with a changed seq (CRC fixed up) does not.
     let mut op = OperatorLink::new(Some(k));
     connect(&mut op, &mut bot, &mut rng);
@@ -674,7 +705,7 @@ fn observation_2_a_third_party_neither_gets_telemetry_nor_disturbs_the_operator(
     let mut buf = [0u8; MAX_FRAME];
     let n = encode_message(12345, 1, &Message::Heartbeat, None, &mut buf).unwrap();
     assert_eq!(bot.rx(&buf[..n]).0, Err(DropReason::Session(12345)));
-    // …its Hello only opens a pending session; the operator's stays active.
+    // …its Hello is answered and changes nothing; the operator's session stays active.
     let h = op_hello(&mut third, &mut rng);
     assert!(matches!(bot.rx(&h).0, Ok(RobotEvent::Hello(_))));
     assert_eq!(bot.link.session_id(), id);
@@ -693,27 +724,27 @@ fn takeover_only_through_a_valid_handshake() {
     let mut a = OperatorLink::new(Some(k.clone()));
     let rec = connect(&mut a, &mut bot, &mut rng);
     let first = bot.link.session_id().unwrap();
-    // A replay of A's own handshake is a replay: not answered, no pending session.
-    for f in &rec {
-        let (r, reply) = bot.rx(f);
-        assert!(matches!(r, Err(DropReason::Replay(_))), "{r:?}");
-        assert!(reply.is_empty());
-    }
-    assert_eq!(bot.link.pending_id(), None);
-    // A Hello recorded from someone else opens a pending session nobody can confirm.
+    // A replay of A's own handshake: the Hello gets the same answer no larger than itself and
+    // changes nothing; the first frame is a replay.
+    let (r, reply) = bot.rx(&rec[0]);
+    assert!(matches!(r, Ok(RobotEvent::Hello(_))), "{r:?}");
+    assert!(reply.len() <= rec[0].len());
+    let (r, reply) = bot.rx(&rec[1]);
+    assert!(matches!(r, Err(DropReason::Replay(_))), "{r:?}");
+    assert!(reply.is_empty());
+    assert_eq!(bot.link.session_id(), Some(first));
+    // A Hello recorded from someone else: answered, nothing kept.
     let mut z = OperatorLink::new(Some(k.clone()));
     let zh = op_hello(&mut z, &mut rng);
     assert!(matches!(bot.rx(&zh).0, Ok(RobotEvent::Hello(_))));
     assert_eq!(bot.link.session_id(), Some(first));
-    assert!(bot.link.pending_id().is_some_and(|p| p != first));
     assert!(bot.rx(&op_tx(&mut a, &Message::Heartbeat)).0.is_ok());
-    // A session frame claiming the pending id without K_s is unauthenticated.
+    // A session frame with a made-up id and the PSK's tag (not K_s): no such session.
     let mut buf = [0u8; MAX_FRAME];
-    let pending = bot.link.pending_id().unwrap();
-    let n = encode_message(pending, 1, &Message::EStop, Some(k.mac()), &mut buf).unwrap();
-    assert_eq!(bot.rx(&buf[..n]).0, Err(DropReason::Auth));
+    let n = encode_message(0x1234, 1, &Message::EStop, Some(k.mac()), &mut buf).unwrap();
+    assert_eq!(bot.rx(&buf[..n]).0, Err(DropReason::Session(0x1234)));
     assert_eq!(bot.link.session_id(), Some(first));
-    // B completes a handshake: B takes over, A is told.
+    // B completes a handshake without asking to take over: A is live, B is told it is busy.
     let mut b = OperatorLink::new(Some(k));
     let hello = op_hello(&mut b, &mut rng);
     let (_, ack) = bot.rx(&hello);
@@ -721,11 +752,25 @@ fn takeover_only_through_a_valid_handshake() {
         op_rx(&mut b, &ack),
         Ok(OperatorEvent::Established(_))
     ));
-    assert_eq!(
-        bot.link.session_id(),
-        Some(first),
-        "not before key confirmation"
+    assert_eq!(bot.link.session_id(), Some(first), "not before key proof");
+    bot.now += LIVE_US / 2;
+    let open = op_tx(&mut b, &Message::Heartbeat);
+    let (r, busy) = bot.rx(&open);
+    assert!(matches!(r, Ok(RobotEvent::Busy(_))), "{r:?}");
+    assert!(
+        busy.len() < open.len(),
+        "a busy answer is smaller than the frame"
     );
+    assert_eq!(bot.link.session_id(), Some(first));
+    match op_rx(&mut b, &busy) {
+        Ok(OperatorEvent::Busy(x)) => {
+            assert_eq!((x.holder, x.idle_ms), (first, (LIVE_US / 2000) as u32));
+        }
+        r => panic!("{r:?}"),
+    }
+    assert!(!b.confirmed());
+    // Its user acts: B takes over, A is told.
+    b.set_take_over(true);
     let (r, notice) = bot.rx(&op_tx(&mut b, &Message::Heartbeat));
     assert!(matches!(
         r,
@@ -748,6 +793,155 @@ fn takeover_only_through_a_valid_handshake() {
         bot.rx(&op_tx(&mut a, &Message::Heartbeat)).0,
         Err(DropReason::Session(_))
     ));
+    // A's replayed first frame (take-over flag and all) cannot take the robot back.
+    let (r, reply) = bot.rx(&rec[1]);
+    assert!(matches!(r, Err(DropReason::Replay(_))), "{r:?}");
+    assert!(reply.is_empty());
+    assert_eq!(bot.link.session_id(), b.session_id());
+}
+
+#[test]
+fn a_session_that_went_silent_is_not_live_and_opens_without_take_over() {
+    let mut rng = TestRng(15);
+    let mut bot = Bot::new(None, 16);
+    let mut a = OperatorLink::new(None);
+    connect(&mut a, &mut bot, &mut rng);
+    bot.now += LIVE_US;
+    let mut b = OperatorLink::new(None);
+    let (_, ack) = bot.rx(&op_hello(&mut b, &mut rng));
+    assert!(op_rx(&mut b, &ack).is_ok());
+    let (r, _) = bot.rx(&op_tx(&mut b, &Message::Heartbeat));
+    assert!(
+        matches!(
+            r,
+            Ok(RobotEvent::Message {
+                new_session: true,
+                ..
+            })
+        ),
+        "{r:?}"
+    );
+    assert_eq!(bot.link.session_id(), b.session_id());
+}
+
+#[test]
+fn a_replayed_hello_from_anywhere_opens_nothing_and_the_operators_first_frame_opens_its_session() {
+    let k = key();
+    let mut rng = TestRng(17);
+    let mut bot = Bot::new(Some(k.clone()), 18);
+    let mut op = OperatorLink::new(Some(k));
+    op.set_take_over(true);
+    let hello = op_hello(&mut op, &mut rng);
+    let (_, ack) = bot.rx(&hello);
+    // The attacker replays the Hello 1000 times: same answer each time, never larger.
+    for _ in 0..1000 {
+        let (r, reply) = bot.rx(&hello);
+        assert!(matches!(r, Ok(RobotEvent::Hello(_))));
+        assert_eq!(reply, ack);
+        assert!(reply.len() <= hello.len());
+    }
+    assert_eq!(bot.link.session_id(), None);
+    assert_eq!(
+        bot.tx(&Message::Heartbeat),
+        Err(EncodeError::NoSession),
+        "nothing to stream to anyone"
+    );
+    assert!(op_rx(&mut op, &ack).is_ok());
+    let first = op_tx(&mut op, &Message::Heartbeat);
+    let (r, _) = bot.rx(&first);
+    assert!(matches!(
+        r,
+        Ok(RobotEvent::Message {
+            new_session: true,
+            newest: true,
+            ..
+        })
+    ));
+    // The first frame replayed (from anywhere) is a replay of the open session.
+    assert!(matches!(bot.rx(&first).0, Err(DropReason::Replay(1))));
+    // The operator is confirmed by the robot's first frame and sends session frames.
+    let t = bot.tx(&Message::SessionEnd(EndReason::TakenOver)).unwrap();
+    assert!(op_rx(&mut op, &t).is_ok());
+    assert!(op.confirmed());
+    let next = op_tx(&mut op, &Message::Heartbeat);
+    let mut raw = next[..next.len() - 1].to_vec();
+    assert_eq!(parse_frame(&mut raw).unwrap().header.kind, Kind::Session);
+    assert!(bot.rx(&next).0.is_ok());
+}
+
+#[test]
+fn first_frames_of_old_sessions_are_refused_by_epoch_and_used_nonce() {
+    let k = key();
+    let mut rng = TestRng(19);
+    let mut bot = Bot::new(Some(k.clone()), 20);
+    // Six sessions, each taking over from the one before; every first frame recorded.
+    let mut firsts = vec![];
+    for _ in 0..6 {
+        let mut op = OperatorLink::new(Some(k.clone()));
+        let rec = connect(&mut op, &mut bot, &mut rng);
+        firsts.push(rec[1].clone());
+        bot.now += 100_000;
+    }
+    let active = bot.link.session_id();
+    // Replayed within the epochs that opened them: used nonces.
+    for f in &firsts {
+        let (r, reply) = bot.rx(f);
+        assert!(matches!(r, Err(DropReason::Replay(_))), "{r:?}");
+        assert!(reply.is_empty());
+    }
+    assert_eq!(bot.link.session_id(), active);
+    // Two epochs later the epochs are gone: unknown sessions, nothing derived (the active
+    // session's own first frame is a replay in its window).
+    bot.now += 2 * EPOCH_US;
+    for f in &firsts[..5] {
+        assert!(matches!(bot.rx(f).0, Err(DropReason::Session(_))));
+    }
+    assert!(matches!(bot.rx(&firsts[5]).0, Err(DropReason::Replay(_))));
+    assert_eq!(bot.link.session_id(), active);
+    // A HelloAck kept back longer than two epochs is useless too.
+    let mut late = OperatorLink::new(Some(k.clone()));
+    late.set_take_over(true);
+    let (_, ack) = bot.rx(&op_hello(&mut late, &mut rng));
+    assert!(op_rx(&mut late, &ack).is_ok());
+    bot.now += 2 * EPOCH_US;
+    assert!(matches!(
+        bot.rx(&op_tx(&mut late, &Message::Heartbeat)).0,
+        Err(DropReason::Session(_))
+    ));
+    // One epoch later it still works.
+    let mut prompt = OperatorLink::new(Some(k));
+    prompt.set_take_over(true);
+    let (_, ack) = bot.rx(&op_hello(&mut prompt, &mut rng));
+    assert!(op_rx(&mut prompt, &ack).is_ok());
+    bot.now += EPOCH_US;
+    assert!(matches!(
+        bot.rx(&op_tx(&mut prompt, &Message::Heartbeat)).0,
+        Ok(RobotEvent::Message {
+            new_session: true,
+            ..
+        })
+    ));
+}
+
+#[test]
+fn more_sessions_than_an_epoch_remembers_still_open_and_never_replay() {
+    let mut rng = TestRng(23);
+    let mut bot = Bot::new(None, 24);
+    let mut firsts = vec![];
+    for _ in 0..3 * USED_PER_EPOCH {
+        let mut op = OperatorLink::new(None);
+        let rec = connect(&mut op, &mut bot, &mut rng);
+        firsts.push(rec[1].clone());
+    }
+    let active = bot.link.session_id();
+    for f in &firsts {
+        let r = bot.rx(f).0;
+        assert!(
+            matches!(r, Err(DropReason::Replay(_) | DropReason::Session(_))),
+            "{r:?}"
+        );
+    }
+    assert_eq!(bot.link.session_id(), active);
 }
 
 #[test]
@@ -770,9 +964,12 @@ fn a_retransmitted_hello_gets_the_same_session() {
         (3, 0),
         "the repeat is answered, not dropped"
     );
-    // Once the session is open, the same Hello is not answered at all.
+    // Once the session is open, the same Hello gets the same answer and opens nothing.
+    let id = bot.link.session_id();
     let (r, reply) = bot.rx(&h1);
-    assert_eq!((r, reply.len()), (Err(DropReason::Replay(0)), 0));
+    assert!(matches!(r, Ok(RobotEvent::Hello(_))));
+    assert_eq!(reply, a1);
+    assert_eq!(bot.link.session_id(), id);
     // The answer to someone else's Hello is not this operator's.
     let mut other = OperatorLink::new(Some(key()));
     let _ = op_hello(&mut other, &mut rng);
@@ -837,7 +1034,7 @@ fn observation_3_a_replayed_estop_confirmation_is_not_taken_for_a_new_one() {
 }
 
 #[test]
-fn v1_peers_and_v2_peers_name_the_mismatch() {
+fn v1_peers_and_v3_peers_name_the_mismatch() {
     // A v1 Hello built by hand from the v1 format: version 1, flags 0, seq, variant 0, protocol 1.
     let mut raw = vec![1u8, 0];
     raw.extend(77u64.to_le_bytes());
@@ -855,10 +1052,10 @@ fn v1_peers_and_v2_peers_name_the_mismatch() {
         let n = v1::encode_hello(5, key.as_ref(), &mut hello).unwrap();
         assert_eq!(bot.rx(&hello[..n]).0, Err(DropReason::Version(1)));
         assert_eq!(bot.link.counters().version, 1);
-        // The robot's answer is what a v1 operator decodes as "protocol 2".
+        // The robot's answer is what a v1 operator decodes as "protocol 3".
         let m = bot.link.version_reply(&bot.info, &mut buf).unwrap();
         let (_, f) = v1::parse(&mut buf[..m - 1].to_vec(), key.as_ref()).unwrap();
-        assert!(matches!(f, v1::Frame::HelloAck(i) if i.protocol == 2));
+        assert!(matches!(f, v1::Frame::HelloAck(i) if i.protocol == PROTOCOL_VERSION));
         if key.is_some() {
             let other = Key::new(b"another key of the same length!!").unwrap();
             assert_eq!(v1::parse(&mut buf[..m - 1].to_vec(), Some(&other)), None);
@@ -892,7 +1089,13 @@ fn wrong_direction_and_entropy_failures_are_counted() {
     assert_eq!(bot.rx(&ack).0, Err(DropReason::Malformed));
     let mut broken = RobotLink::new(None);
     let mut f = hello[..hello.len() - 1].to_vec();
-    let r = broken.receive(&mut f, &info(false), &mut NoEntropy, &mut [0u8; MAX_FRAME]);
+    let r = broken.receive(
+        &mut f,
+        0,
+        &info(false),
+        &mut NoEntropy,
+        &mut [0u8; MAX_FRAME],
+    );
     assert_eq!(r, Err(DropReason::Entropy));
     assert_eq!(broken.counters().entropy, 1);
     let mut fresh = OperatorLink::new(None);
@@ -959,27 +1162,135 @@ fn a_session_survives_loss_reordering_and_duplication() {
 }
 
 #[test]
-fn a_flood_of_hellos_within_the_round_trip_is_bounded_by_the_pending_slots() {
-    use omnikin::link::PENDING_SLOTS;
-    for flood in [PENDING_SLOTS - 1, PENDING_SLOTS] {
-        let mut rng = TestRng(71);
-        let mut bot = Bot::new(None, 72);
-        let mut op = OperatorLink::new(None);
-        let hello = op_hello(&mut op, &mut rng);
-        let (_, ack) = bot.rx(&hello);
-        // Other Hellos arrive before the operator's key confirmation.
-        for _ in 0..flood {
-            let h = op_hello(&mut OperatorLink::new(None), &mut rng);
-            assert!(matches!(bot.rx(&h).0, Ok(RobotEvent::Hello(_))));
-        }
-        assert!(op_rx(&mut op, &ack).is_ok());
-        let r = bot.rx(&op_tx(&mut op, &Message::Heartbeat)).0;
-        if flood < PENDING_SLOTS {
-            assert!(r.is_ok(), "{flood} other Hellos: {r:?}");
-        } else {
-            assert!(matches!(r, Err(DropReason::Session(_))), "{r:?}");
-        }
+fn a_flood_of_hellos_within_the_round_trip_changes_nothing() {
+    let mut rng = TestRng(71);
+    let mut bot = Bot::new(None, 72);
+    let mut op = OperatorLink::new(None);
+    let hello = op_hello(&mut op, &mut rng);
+    let (_, ack) = bot.rx(&hello);
+    // Ten thousand other Hellos (and replays of this one) before the operator's first frame.
+    let others: Vec<Vec<u8>> = (0..100)
+        .map(|_| op_hello(&mut OperatorLink::new(None), &mut rng))
+        .collect();
+    for k in 0..10_000 {
+        let h = if k % 7 == 0 { &hello } else { &others[k % 100] };
+        assert!(matches!(bot.rx(h).0, Ok(RobotEvent::Hello(_))));
     }
+    assert!(op_rx(&mut op, &ack).is_ok());
+    let r = bot.rx(&op_tx(&mut op, &Message::Heartbeat)).0;
+    assert!(
+        matches!(
+            r,
+            Ok(RobotEvent::Message {
+                new_session: true,
+                ..
+            })
+        ),
+        "{r:?}"
+    );
+}
+
+#[test]
+fn observation_3_held_back_clear_and_motion_after_an_estop_leave_the_robot_stopped() {
+    let k = key();
+    let mut rng = TestRng(91);
+    let mut plant = Plant::new();
+    let mut bot = Bot::new(Some(k.clone()), 92);
+    let mut op = OperatorLink::new(Some(k));
+    connect(&mut op, &mut bot, &mut rng);
+    let v = Message::SetVelocity {
+        frame: Frame::Robot,
+        vx: 1.0,
+        vy: 0.0,
+        yaw_rate: 0.0,
+    };
+    // The operator drives, e-stops, clears and drives again; an attacker in the path holds
+    // back an earlier clear and velocity frames and delivers them after the e-stop.
+    let held_clear = op_tx(&mut op, &Message::Clear);
+    let held_v: Vec<Vec<u8>> = (0..5).map(|_| op_tx(&mut op, &v)).collect();
+    let estop = op_tx(&mut op, &Message::EStop);
+    let estop_seq = 8;
+    assert!(plant.frame(&mut bot, &estop).is_ok());
+    let st = plant.cycle();
+    assert_eq!(st.mode, Mode::EStop);
+    for f in std::iter::once(&held_clear).chain(&held_v) {
+        let r = plant.frame(&mut bot, f);
+        assert!(r.is_ok(), "authentic and inside the window: {r:?}");
+    }
+    for _ in 0..50 {
+        plant.cycle();
+    }
+    let st = plant.cycle();
+    assert_eq!(st.mode, Mode::EStop, "still e-stopped");
+    assert_eq!(plant.rt.pose(), Pose2::default(), "never moved");
+    assert_eq!(bot.link.counters().stale, 6);
+    let t = bot.link.telemetry(&st);
+    assert_eq!((t.estop_seq, t.clear_seq), (estop_seq, 0));
+    // The operator's own clear (after the e-stop) ends it, and the telemetry names it.
+    let clear = op_tx(&mut op, &Message::Clear);
+    assert!(plant.frame(&mut bot, &clear).is_ok());
+    let st = plant.cycle();
+    assert_ne!(st.mode, Mode::EStop);
+    let t = bot.link.telemetry(&st);
+    assert_eq!((t.estop_seq, t.clear_seq), (0, estop_seq + 1));
+    // The held-back motion is void for good: delivered now, it still does nothing.
+    let late = held_v[0].clone();
+    assert!(matches!(
+        plant.frame(&mut bot, &late).unwrap_err(),
+        DropReason::Replay(_)
+    ));
+    let fresh = op_tx(&mut op, &v);
+    assert!(plant.frame(&mut bot, &fresh).is_ok());
+    for _ in 0..20 {
+        plant.cycle();
+    }
+    assert!(plant.rt.pose().x > 0.0, "a command after the clear drives");
+}
+
+#[test]
+fn a_hello_ack_with_a_session_id_or_a_forged_tag_is_refused() {
+    let k = key();
+    let mut rng = TestRng(93);
+    let mut bot = Bot::new(Some(k.clone()), 94);
+    let mut op = OperatorLink::new(Some(k.clone()));
+    let hello = op_hello(&mut op, &mut rng);
+    let (_, ack) = bot.rx(&hello);
+    // The same answer under another key, or re-framed with a session id, is refused.
+    let other = Key::new(b"another key of the same length!!").unwrap();
+    let mut raw = ack[..ack.len() - 1].to_vec();
+    let p = parse_frame(&mut raw).unwrap();
+    let body = p.body.to_vec();
+    let mut buf = [0u8; MAX_FRAME];
+    let n = omnikin::link::encode_frame_with(
+        Kind::HelloAck,
+        0,
+        0,
+        Some(other.mac()),
+        |b| {
+            b[..body.len()].copy_from_slice(&body);
+            Ok(body.len())
+        },
+        &mut buf,
+    )
+    .unwrap();
+    assert_eq!(op_rx(&mut op, &buf[..n]), Err(DropReason::Auth));
+    let n = omnikin::link::encode_frame_with(
+        Kind::HelloAck,
+        7,
+        0,
+        Some(k.mac()),
+        |b| {
+            b[..body.len()].copy_from_slice(&body);
+            Ok(body.len())
+        },
+        &mut buf,
+    )
+    .unwrap();
+    assert_eq!(op_rx(&mut op, &buf[..n]), Err(DropReason::Malformed));
+    assert!(matches!(
+        op_rx(&mut op, &ack),
+        Ok(OperatorEvent::Established(_))
+    ));
 }
 
 proptest! {
@@ -1123,9 +1434,12 @@ fn largest_telemetry_fits_a_frame() {
             malformed: u32::MAX,
             session: u32::MAX,
             entropy: u32::MAX,
+            throttled: u32::MAX,
+            stale: u32::MAX,
         },
         ack_seq: u64::MAX,
         estop_seq: u64::MAX,
+        clear_seq: u64::MAX,
     };
     let msg = Message::Telemetry(t);
     let k = key();

@@ -155,11 +155,11 @@ impl Wire {
             (&mut self.robot, &self.info, &mut self.rng, &mut self.reply);
         let mut answer = 0;
         self.reader.feed(&self.buf[..n], |f| match f {
-            Some(f) => match robot.receive(f, info, rng, reply) {
+            Some(f) => match robot.receive(f, now, info, rng, reply) {
                 Ok(RobotEvent::Message { seq, msg, .. }) => {
                     serve(rt, robot, seq, &msg, now);
                 }
-                Ok(RobotEvent::Hello(n)) => answer = n,
+                Ok(RobotEvent::Hello(n) | RobotEvent::Busy(n)) => answer = n,
                 Err(_) => {}
             },
             None => robot.count_framing_drop(),
@@ -167,7 +167,7 @@ impl Wire {
         answer
     }
 
-    /// The v2 handshake: Hello, HelloAck, then the first session frame confirms the key.
+    /// The v3 handshake: Hello, HelloAck, then the first (open) frame proves the key.
     fn connect(&mut self, rt: &mut Runtime<f32, PLAN_CAPACITY>, now: u64) -> bool {
         let Ok(n) = self.operator.hello(&mut self.rng, &mut self.buf) else {
             return false;

@@ -11,7 +11,11 @@
 //!   comparison (time-optimal, sphere-omni limits) sampled at RATE Hz;
 //! * `link-open`, `link-keyed`: one command frame (a `SetVelocity`) encoded by the operator's
 //!   endpoint and decoded by the robot's, then one telemetry frame the other way, without and
-//!   with a key — the per-frame cost of the link codec (its throughput on one core).
+//!   with a key — the per-frame cost of the link codec (its throughput on one core);
+//! * `handshake-open`, `handshake-keyed`: one whole handshake (Hello, HelloAck, the first open
+//!   frame that proves the key and opens the session) on both ends;
+//! * `hello-open`, `hello-keyed`: the robot's answer to one (replayed) Hello — the cost a
+//!   flood of Hellos imposes.
 
 use std::hint::black_box;
 
@@ -48,6 +52,17 @@ fn main() {
             black_box(omnikin_plan::planner::plan(&path, &heading, &model, &opts).unwrap());
         }
         return;
+    }
+    for (prefix, hello_only) in [("handshake-", false), ("hello-", true)] {
+        if let Some(mode) = what.strip_prefix(prefix) {
+            let keyed = match mode {
+                "open" => false,
+                "keyed" => true,
+                _ => usage(),
+            };
+            handshakes(keyed, hello_only, n);
+            return;
+        }
     }
     if let Some(mode) = what.strip_prefix("link-") {
         let keyed = match mode {
@@ -224,7 +239,7 @@ fn link_frames(keyed: bool, n: u64) {
     };
     let (mut rng, mut buf, mut reply) = (Fixed(1), [0u8; MAX_FRAME], [0u8; MAX_FRAME]);
     let m = op.hello(&mut rng, &mut buf).unwrap();
-    let Ok(RobotEvent::Hello(a)) = rob.receive(&mut buf[..m - 1], &info, &mut rng, &mut reply)
+    let Ok(RobotEvent::Hello(a)) = rob.receive(&mut buf[..m - 1], 0, &info, &mut rng, &mut reply)
     else {
         panic!("hello")
     };
@@ -243,10 +258,85 @@ fn link_frames(keyed: bool, n: u64) {
         };
         let m = op.encode(black_box(&cmd), &mut buf).unwrap();
         ok += rob
-            .receive(black_box(&mut buf[..m - 1]), &info, &mut rng, &mut reply)
+            .receive(black_box(&mut buf[..m - 1]), 0, &info, &mut rng, &mut reply)
             .is_ok() as u64;
         let m = rob.encode(black_box(&tele), &mut buf).unwrap();
         ok += op.receive(black_box(&mut buf[..m - 1])).is_ok() as u64;
     }
     assert_eq!(ok, 2 * n, "every frame must decode");
+}
+
+/// `n` handshakes (or, with `hello_only`, `n` answers to one replayed Hello).
+fn handshakes(keyed: bool, hello_only: bool, n: u64) {
+    use omnikin::link::{
+        Key, MAX_FRAME, Message, OperatorEvent, OperatorLink, PROTOCOL_VERSION, RobotEvent,
+        RobotInfo, RobotKind, RobotLink,
+    };
+    use omnikin::runtime::hal::{Entropy, EntropyError};
+    struct Counter(u64);
+    impl Entropy for Counter {
+        fn fill(&mut self, buf: &mut [u8]) -> Result<(), EntropyError> {
+            for b in buf {
+                self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1);
+                *b = (self.0 >> 56) as u8;
+            }
+            Ok(())
+        }
+    }
+    let key = keyed.then(|| Key::new(b"benchmark key, 32 bytes long ...").unwrap());
+    let mut rob = RobotLink::new(key.clone());
+    let info = RobotInfo {
+        protocol: PROTOCOL_VERSION,
+        kind: RobotKind::Sphere,
+        plan_capacity: 16,
+        rate_hz: 1000.0,
+        watchdog: 0.5,
+        authenticated: keyed,
+    };
+    let (mut rng, mut buf, mut reply) = (Counter(1), [0u8; MAX_FRAME], [0u8; MAX_FRAME]);
+    let mut opened = 0u64;
+    let mut hello = OperatorLink::new(key.clone());
+    let h = hello.hello(&mut rng, &mut buf).unwrap();
+    let recorded = buf[..h - 1].to_vec();
+    for i in 0..n {
+        let now = i * 1000;
+        if hello_only {
+            let mut f = recorded.clone();
+            let r = rob.receive(black_box(&mut f), now, &info, &mut rng, &mut reply);
+            opened += matches!(r, Ok(RobotEvent::Hello(_))) as u64;
+            continue;
+        }
+        let mut op = OperatorLink::new(key.clone());
+        op.set_take_over(true);
+        let m = op.hello(&mut rng, &mut buf).unwrap();
+        let Ok(RobotEvent::Hello(a)) = rob.receive(
+            black_box(&mut buf[..m - 1]),
+            now,
+            &info,
+            &mut rng,
+            &mut reply,
+        ) else {
+            panic!("hello")
+        };
+        assert!(matches!(
+            op.receive(&mut reply[..a - 1]),
+            Ok(OperatorEvent::Established(_))
+        ));
+        let m = op.encode(&Message::Heartbeat, &mut buf).unwrap();
+        let r = rob.receive(
+            black_box(&mut buf[..m - 1]),
+            now,
+            &info,
+            &mut rng,
+            &mut reply,
+        );
+        opened += matches!(
+            r,
+            Ok(RobotEvent::Message {
+                new_session: true,
+                ..
+            })
+        ) as u64;
+    }
+    assert_eq!(opened, n, "every handshake must complete");
 }

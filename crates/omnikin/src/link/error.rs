@@ -33,6 +33,13 @@ pub struct LinkCounters {
     pub session: u32,
     /// Dropped: a Hello that could not be answered because the entropy source failed.
     pub entropy: u32,
+    /// Dropped unread by the host: a Hello over its sender's rate (a flood; the host's
+    /// limiter, [`RobotLink::count_throttled`](super::RobotLink::count_throttled)).
+    pub throttled: u32,
+    /// Not a drop — these frames are also counted in `ok`: authentic, fresh commands that were
+    /// not executed because an e-stop with a higher sequence number was accepted before them
+    /// (a clear or motion command held back and delivered late).
+    pub stale: u32,
 }
 
 impl LinkCounters {
@@ -46,6 +53,7 @@ impl LinkCounters {
             .saturating_add(self.malformed)
             .saturating_add(self.session)
             .saturating_add(self.entropy)
+            .saturating_add(self.throttled)
     }
 }
 

@@ -1,14 +1,15 @@
-//! The v2 frame codec: the header layout ([`Kind`], [`Header`]), CRC-32C, tag and COBS
-//! around a postcard body ([`parse_frame`], [`encode_frame_with`], [`encode_message`],
-//! [`encode_hello`], [`decode_message`]), and the [`FrameReader`] that cuts a byte stream at
-//! its `0x00` delimiters.
+//! The v3 frame codec: the header layout ([`Kind`], [`Header`], the first frames'
+//! [`Opening`]), CRC-32C, tag and COBS around a postcard body ([`parse_frame`],
+//! [`encode_frame_with`], [`encode_message`], [`encode_open`], [`encode_hello`],
+//! [`decode_message`]), and the [`FrameReader`] that cuts a byte stream at its `0x00`
+//! delimiters.
 
 use serde::Serialize;
 
 use super::{
     CRC, DropReason, EncodeError, HANDSHAKE_BODY, HEADER_LEN, Hello, KIND_TAGGED, Key, MAX_BODY,
-    MAX_FRAME, MAX_RAW, MacKey, Message, PROTOCOL_VERSION, TAG_LEN, cobs_decode_in_place,
-    cobs_encode, cobs_max_len,
+    MAX_FRAME, MAX_RAW, MacKey, Message, NONCE_LEN, OPENING_LEN, PROTOCOL_VERSION, TAG_LEN,
+    cobs_decode_in_place, cobs_encode, cobs_max_len,
 };
 
 /// What a frame is (the low 7 bits of the kind byte).
@@ -21,6 +22,10 @@ pub enum Kind {
     HelloAck = 2,
     /// Either way: one [`Message`] of an established session.
     Session = 3,
+    /// Operator → robot: one [`Message`] of a session the robot has not confirmed yet, with
+    /// the handshake's [`Opening`] after the header, so that a robot that keeps no handshake
+    /// state can re-derive the session and verify the frame.
+    Open = 4,
 }
 
 impl Kind {
@@ -29,6 +34,7 @@ impl Kind {
             1 => Some(Kind::Hello),
             2 => Some(Kind::HelloAck),
             3 => Some(Kind::Session),
+            4 => Some(Kind::Open),
             _ => None,
         }
     }
@@ -47,11 +53,53 @@ pub struct Header {
     pub tagged: bool,
 }
 
+/// What an operator's first frames ([`Kind::Open`]) carry between the header and the body:
+/// `client_nonce[16] | epoch:u32 LE | flags:u8` ([`OPENING_LEN`] bytes, under the tag).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Opening {
+    /// The client nonce of the operator's Hello.
+    pub client_nonce: [u8; NONCE_LEN],
+    /// The robot's handshake epoch named in its HelloAck.
+    pub epoch: u32,
+    /// Take the robot over from an operator whose session is live (flag bit 0). Without it a
+    /// robot that is held answers [`Message::Busy`](super::Message::Busy).
+    pub take_over: bool,
+}
+
+impl Opening {
+    const TAKE_OVER: u8 = 1;
+
+    fn write(&self, b: &mut [u8]) {
+        b[..NONCE_LEN].copy_from_slice(&self.client_nonce);
+        b[NONCE_LEN..NONCE_LEN + 4].copy_from_slice(&self.epoch.to_le_bytes());
+        b[NONCE_LEN + 4] = if self.take_over { Self::TAKE_OVER } else { 0 };
+    }
+
+    fn read(b: &[u8]) -> Option<Self> {
+        let b = b.get(..OPENING_LEN)?;
+        let mut client_nonce = [0u8; NONCE_LEN];
+        client_nonce.copy_from_slice(&b[..NONCE_LEN]);
+        let mut e = [0u8; 4];
+        e.copy_from_slice(&b[NONCE_LEN..NONCE_LEN + 4]);
+        let flags = b[NONCE_LEN + 4];
+        if flags & !Self::TAKE_OVER != 0 {
+            return None;
+        }
+        Some(Self {
+            client_nonce,
+            epoch: u32::from_le_bytes(e),
+            take_over: flags & Self::TAKE_OVER != 0,
+        })
+    }
+}
+
 /// A frame whose COBS, length, CRC and version checked out; tag not yet verified.
 #[derive(Clone, Copy, Debug)]
 pub struct Parsed<'a> {
     /// The header.
     pub header: Header,
+    /// The handshake fields of a [`Kind::Open`] frame (`None` for the other kinds).
+    pub opening: Option<Opening>,
     /// The body bytes.
     pub body: &'a [u8],
     signed: &'a [u8],
@@ -82,7 +130,7 @@ impl Parsed<'_> {
 ///
 /// # Errors
 /// [`DropReason::Framing`], [`DropReason::Crc`], [`DropReason::Version`],
-/// [`DropReason::Malformed`] (unknown kind).
+/// [`DropReason::Malformed`] (unknown kind, or unknown flags of an [`Opening`]).
 pub fn parse_frame(frame: &mut [u8]) -> Result<Parsed<'_>, DropReason> {
     if frame.is_empty() || frame.len() > MAX_FRAME {
         return Err(DropReason::Framing);
@@ -117,17 +165,31 @@ pub fn parse_frame(frame: &mut [u8]) -> Result<Parsed<'_>, DropReason> {
         seq: u64_at(10),
         tagged,
     };
+    let start = if kind == Kind::Open {
+        HEADER_LEN + OPENING_LEN
+    } else {
+        HEADER_LEN
+    };
     let end = if tagged {
-        if data.len() < HEADER_LEN + TAG_LEN + 1 {
+        if data.len() < start + TAG_LEN + 1 {
             return Err(DropReason::Framing);
         }
         data.len() - TAG_LEN
     } else {
+        if data.len() < start + 1 {
+            return Err(DropReason::Framing);
+        }
         data.len()
+    };
+    let opening = if kind == Kind::Open {
+        Some(Opening::read(&data[HEADER_LEN..start]).ok_or(DropReason::Malformed)?)
+    } else {
+        None
     };
     Ok(Parsed {
         header,
-        body: &data[HEADER_LEN..end],
+        opening,
+        body: &data[start..end],
         signed: &data[..end],
         tag: &data[end..],
     })
@@ -139,10 +201,26 @@ pub fn parse_frame(frame: &mut [u8]) -> Result<Parsed<'_>, DropReason> {
 ///
 /// # Errors
 /// [`EncodeError::TooLarge`] when the body exceeds [`MAX_BODY`] or `out` is too small.
+/// A [`Kind::Open`] frame is written by [`encode_open`] (its [`Opening`] goes first).
 pub fn encode_frame_with(
     kind: Kind,
     session: u64,
     seq: u64,
+    mac: Option<&MacKey>,
+    body: impl FnOnce(&mut [u8]) -> Result<usize, EncodeError>,
+    out: &mut [u8],
+) -> Result<usize, EncodeError> {
+    if kind == Kind::Open {
+        return Err(EncodeError::TooLarge);
+    }
+    encode_raw(kind, session, seq, None, mac, body, out)
+}
+
+fn encode_raw(
+    kind: Kind,
+    session: u64,
+    seq: u64,
+    opening: Option<&Opening>,
     mac: Option<&MacKey>,
     body: impl FnOnce(&mut [u8]) -> Result<usize, EncodeError>,
     out: &mut [u8],
@@ -152,11 +230,18 @@ pub fn encode_frame_with(
     raw[1] = kind as u8 | if mac.is_some() { KIND_TAGGED } else { 0 };
     raw[2..10].copy_from_slice(&session.to_le_bytes());
     raw[10..HEADER_LEN].copy_from_slice(&seq.to_le_bytes());
-    let body_len = body(&mut raw[HEADER_LEN..HEADER_LEN + MAX_BODY])?;
+    let start = match opening {
+        Some(o) => {
+            o.write(&mut raw[HEADER_LEN..HEADER_LEN + OPENING_LEN]);
+            HEADER_LEN + OPENING_LEN
+        }
+        None => HEADER_LEN,
+    };
+    let body_len = body(&mut raw[start..start + MAX_BODY])?;
     if body_len > MAX_BODY {
         return Err(EncodeError::TooLarge);
     }
-    let mut n = HEADER_LEN + body_len;
+    let mut n = start + body_len;
     if let Some(m) = mac {
         let tag = m.tag(&raw[..n]);
         raw[n..n + TAG_LEN].copy_from_slice(&tag);
@@ -205,6 +290,45 @@ pub fn encode_message(
     out: &mut [u8],
 ) -> Result<usize, EncodeError> {
     encode_frame_with(Kind::Session, session, seq, mac, postcard_body(msg), out)
+}
+
+/// Encodes an operator's first frame ([`Kind::Open`]): a session frame carrying `msg` with the
+/// handshake's `opening` (stateless; [`OperatorLink::encode`](super::OperatorLink::encode) sends
+/// these until the robot confirms the session).
+///
+/// # Errors
+/// [`EncodeError::TooLarge`].
+pub fn encode_open(
+    session: u64,
+    seq: u64,
+    opening: &Opening,
+    msg: &Message,
+    mac: Option<&MacKey>,
+    out: &mut [u8],
+) -> Result<usize, EncodeError> {
+    encode_raw(
+        Kind::Open,
+        session,
+        seq,
+        Some(opening),
+        mac,
+        postcard_body(msg),
+        out,
+    )
+}
+
+/// The kind of a frame (the bytes between two delimiters, still COBS-encoded) from its first
+/// bytes, without decoding it — a host's cheap look before it spends work on a frame (rate
+/// limits on Hellos). `None` when it is not visibly a v3 frame. A valid frame's first two raw
+/// bytes (version, kind) are non-zero, so COBS's first code byte is at least 3 and copies them
+/// unchanged.
+pub fn peek_kind(frame: &[u8]) -> Option<Kind> {
+    match frame {
+        [code, version, kind, ..] if *code >= 3 && *version == PROTOCOL_VERSION => {
+            Kind::from_u8(kind & !KIND_TAGGED)
+        }
+        _ => None,
+    }
 }
 
 /// Encodes a Hello (zero-padded to [`HANDSHAKE_BODY`] bytes), tagged with the PSK if given.

@@ -154,6 +154,9 @@ pub struct Telemetry {
     /// latched (0: not latched by this session). An operator takes this, in a frame of its own
     /// session, as the confirmation of *its* e-stop.
     pub estop_seq: u64,
+    /// Sequence number of the `Clear` that ended this session's last e-stop (0: none): the
+    /// confirmation of a clear, and which one it was.
+    pub clear_seq: u64,
 }
 
 impl Telemetry {
@@ -190,6 +193,7 @@ impl Telemetry {
             link: *link,
             ack_seq: 0,
             estop_seq: 0,
+            clear_seq: 0,
         }
     }
 
@@ -230,6 +234,7 @@ impl Telemetry {
             link: *link,
             ack_seq: 0,
             estop_seq: 0,
+            clear_seq: 0,
         }
     }
 }
@@ -404,6 +409,21 @@ pub enum Message {
     /// the estimate against the truth. Appended after [`Message::Estimate`]: an operator
     /// without it drops it as `malformed`. A real robot never sends it (it has no truth).
     Truth(SimTruth),
+    /// Robot → operator: the answer to an open frame without
+    /// [`Opening::take_over`](super::Opening::take_over) while another operator's session is
+    /// live. The session is not opened; the operator may open it later, or take over.
+    Busy(Busy),
+}
+
+/// Who holds the robot ([`Message::Busy`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Busy {
+    /// The live session's id.
+    pub holder: u64,
+    /// Robot time since that session's newest frame, ms.
+    pub idle_ms: u32,
+    /// Robot time since that session opened, s.
+    pub held_s: u32,
 }
 
 /// The simulated plant's true pose at one cycle ([`Message::Truth`]).
@@ -431,13 +451,42 @@ pub struct HelloAck {
     pub info: RobotInfo,
     /// The Hello's nonce (binds the answer to that Hello).
     pub client_nonce: [u8; NONCE_LEN],
-    /// Fresh random bytes of the robot (make the session new even for a replayed Hello).
+    /// The robot's bytes for this Hello: derived from its handshake secret and the client
+    /// nonce ([`HandshakeSecrets`](super::HandshakeSecrets)), so the robot keeps no state.
     pub robot_nonce: [u8; NONCE_LEN],
+    /// The handshake epoch the robot answered in; the operator's open frames carry it back.
+    pub epoch: u32,
 }
 
 impl Message {
+    /// Whether this message is for the robot (operator → robot).
+    pub fn for_robot(&self) -> bool {
+        !matches!(
+            self,
+            Message::Telemetry(_)
+                | Message::SessionEnd(_)
+                | Message::Estimate(_)
+                | Message::Truth(_)
+                | Message::Busy(_)
+        )
+    }
+
+    /// Whether an accepted e-stop with a higher sequence number voids this message: a clear,
+    /// or a command that moves the robot or its estimate (velocity, plan, set-pose).
+    pub fn ordered_after_estop(&self) -> bool {
+        matches!(
+            self,
+            Message::Clear
+                | Message::SetVelocity { .. }
+                | Message::PlanBegin { .. }
+                | Message::PlanChunk { .. }
+                | Message::PlanStart { .. }
+                | Message::SetPose { .. }
+        )
+    }
+
     /// The runtime command of an operator message (`None` for `Telemetry`, `SessionEnd`,
-    /// `Estimate` and `Truth`).
+    /// `Estimate`, `Truth` and `Busy`).
     /// Chunk points are converted into `buf`.
     pub fn command<'b, T: Real>(
         &self,
@@ -478,7 +527,8 @@ impl Message {
             Message::Telemetry(_)
             | Message::SessionEnd(_)
             | Message::Estimate(_)
-            | Message::Truth(_) => return None,
+            | Message::Truth(_)
+            | Message::Busy(_) => return None,
         })
     }
 }

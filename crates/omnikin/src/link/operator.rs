@@ -1,9 +1,10 @@
-//! The operator's end of the link ([`OperatorLink`]): its handshake and its one session.
+//! The operator's end of the link ([`OperatorLink`]): its handshake and its one session, sent
+//! as open frames until the robot's first frame in it confirms it.
 
 use super::session::Session;
 use super::{
-    DropReason, EncodeError, EndReason, Hello, HelloAck, Key, Kind, LinkCounters, Message,
-    NONCE_LEN, PROTOCOL_VERSION, RobotInfo, encode_hello, parse_frame,
+    Busy, DropReason, EncodeError, EndReason, Hello, HelloAck, Key, Kind, LinkCounters, Message,
+    NONCE_LEN, Opening, PROTOCOL_VERSION, RobotInfo, encode_hello, parse_frame,
 };
 use crate::runtime::hal::Entropy;
 
@@ -12,9 +13,12 @@ use crate::runtime::hal::Entropy;
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 pub enum OperatorEvent {
-    /// The robot answered this operator's Hello: the session is established (the robot takes
-    /// it over once the first session frame reaches it).
+    /// The robot answered this operator's Hello: the session is established on this end; the
+    /// robot opens it when the first open frame reaches it (see [`OperatorLink::confirmed`]).
     Established(RobotInfo),
+    /// The robot did not open the session: another operator's session is live and this
+    /// operator did not ask to take over ([`OperatorLink::set_take_over`]).
+    Busy(Busy),
     /// A message of this operator's session.
     Message {
         /// Its sequence number.
@@ -32,8 +36,10 @@ enum OpState {
     Handshaking([u8; NONCE_LEN]),
     Established {
         session: Session,
-        client_nonce: [u8; NONCE_LEN],
+        opening: Opening,
         info: RobotInfo,
+        /// A frame of the robot in this session arrived: the robot opened it.
+        confirmed: bool,
     },
 }
 
@@ -43,18 +49,49 @@ pub struct OperatorLink {
     key: Option<Key>,
     state: OpState,
     ended: Option<EndReason>,
+    busy: Option<Busy>,
+    take_over: bool,
     counters: LinkCounters,
 }
 
 impl OperatorLink {
-    /// An operator end with an optional pre-shared key.
+    /// An operator end with an optional pre-shared key. It does not take the robot over from
+    /// a live session unless told ([`OperatorLink::set_take_over`]).
     pub fn new(key: Option<Key>) -> Self {
         Self {
             key,
             state: OpState::Idle,
             ended: None,
+            busy: None,
+            take_over: false,
             counters: LinkCounters::default(),
         }
+    }
+
+    /// Whether this operator's open frames ask the robot to end another operator's live
+    /// session (an explicit act of its user: `drive`, a console's control). Takes effect with
+    /// the next open frame.
+    pub fn set_take_over(&mut self, take_over: bool) {
+        self.take_over = take_over;
+        if let OpState::Established { opening, .. } = &mut self.state {
+            opening.take_over = take_over;
+        }
+    }
+
+    /// Whether the robot opened this operator's session (a frame of the robot in it arrived).
+    pub fn confirmed(&self) -> bool {
+        matches!(
+            self.state,
+            OpState::Established {
+                confirmed: true,
+                ..
+            }
+        )
+    }
+
+    /// The robot's newest [`Message::Busy`] answer, while the session is not confirmed.
+    pub fn busy(&self) -> Option<Busy> {
+        self.busy
     }
 
     /// Receive statistics.
@@ -109,6 +146,7 @@ impl OperatorLink {
                 rng.fill(&mut n)?;
                 self.state = OpState::Handshaking(n);
                 self.ended = None;
+                self.busy = None;
                 n
             }
         };
@@ -119,13 +157,21 @@ impl OperatorLink {
         encode_hello(&h, self.key.as_ref(), out)
     }
 
-    /// Encodes `msg` in this operator's session.
+    /// Encodes `msg` in this operator's session: as an open frame (with the handshake's
+    /// [`Opening`]) until the robot confirmed the session, as a session frame after.
     ///
     /// # Errors
     /// [`EncodeError::NoSession`] before the handshake, [`EncodeError::TooLarge`].
     pub fn encode(&mut self, msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
         match &mut self.state {
-            OpState::Established { session, .. } => session.encode(msg, out),
+            OpState::Established {
+                session,
+                confirmed: true,
+                ..
+            } => session.encode(msg, out),
+            OpState::Established {
+                session, opening, ..
+            } => session.encode_opening(msg, opening, out),
             _ => Err(EncodeError::NoSession),
         }
     }
@@ -144,9 +190,12 @@ impl OperatorLink {
     fn receive_inner(&mut self, frame: &mut [u8]) -> Result<OperatorEvent, DropReason> {
         let p = parse_frame(frame)?;
         match p.header.kind {
-            Kind::Hello => Err(DropReason::Malformed),
+            Kind::Hello | Kind::Open => Err(DropReason::Malformed),
             Kind::HelloAck => {
                 p.verify(self.key.as_ref().map(Key::mac))?;
+                if p.header.session != 0 || p.header.seq != 0 {
+                    return Err(DropReason::Malformed);
+                }
                 let ack = match postcard::take_from_bytes::<HelloAck>(p.body) {
                     Ok((a, [])) => a,
                     _ => return Err(DropReason::Malformed),
@@ -154,19 +203,21 @@ impl OperatorLink {
                 match &self.state {
                     OpState::Handshaking(n) if *n == ack.client_nonce => {
                         let (id, ks) = Session::derive(self.key.as_ref(), n, &ack.robot_nonce);
-                        if id != p.header.session {
-                            return Err(DropReason::Session(p.header.session));
-                        }
                         self.state = OpState::Established {
                             session: Session::new(id, &ks, self.key.is_some()),
-                            client_nonce: *n,
+                            opening: Opening {
+                                client_nonce: *n,
+                                epoch: ack.epoch,
+                                take_over: self.take_over,
+                            },
                             info: ack.info,
+                            confirmed: false,
                         };
                         Ok(OperatorEvent::Established(ack.info))
                     }
                     // A retransmitted answer to the Hello this session came from.
-                    OpState::Established { client_nonce, .. }
-                        if *client_nonce == ack.client_nonce =>
+                    OpState::Established { opening, .. }
+                        if opening.client_nonce == ack.client_nonce =>
                     {
                         Err(DropReason::Replay(0))
                     }
@@ -174,8 +225,25 @@ impl OperatorLink {
                 }
             }
             Kind::Session => match &mut self.state {
-                OpState::Established { session, .. } if session.id == p.header.session => {
+                OpState::Established {
+                    session, confirmed, ..
+                } if session.id == p.header.session => {
+                    if !*confirmed {
+                        // Before the robot opened the session, its only frames in it are Busy
+                        // answers (at the open frames' numbers): they must not move the window.
+                        let msg = session.peek(&p)?;
+                        if let Message::Busy(b) = msg {
+                            self.busy = Some(b);
+                            return Ok(OperatorEvent::Busy(b));
+                        }
+                    }
                     let (seq, msg) = session.open(&p, false)?;
+                    if matches!(msg, Message::Busy(_)) {
+                        // A (delayed) Busy answer after the session opened: stale.
+                        return Err(DropReason::Replay(seq));
+                    }
+                    *confirmed = true;
+                    self.busy = None;
                     if let Message::SessionEnd(r) = msg {
                         self.ended = Some(r);
                     }

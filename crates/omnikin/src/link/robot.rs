@@ -1,12 +1,14 @@
-//! The robot's end of the link ([`RobotLink`]): answers Hellos, keeps pending handshakes,
-//! confirms and switches the active session; and [`serve`], which hands a session's messages
-//! to the runtime (either kind, [`Operated`]).
+//! The robot's end of the link ([`RobotLink`]): answers Hellos without keeping state, opens a
+//! session on an open frame that proves the key, refuses replayed first frames, keeps a live
+//! session unless the newcomer asks to take over, and orders e-stops before older commands;
+//! and [`serve`], which hands a session's messages to the runtime (either kind,
+//! [`Operated`]).
 
-use super::session::{Pending, Session};
+use super::session::Session;
 use super::{
-    CHUNK_POINTS, DropReason, EncodeError, EndReason, HelloAck, Key, Kind, LinkCounters, Message,
-    NONCE_LEN, PROTOCOL_VERSION, RobotInfo, RobotKind, Telemetry, TelemetrySource, decode_hello,
-    encode_frame_with, parse_frame, postcard_body, v1,
+    Busy, CHUNK_POINTS, DropReason, EncodeError, EndReason, FirstFrame, HandshakeSecrets, HelloAck,
+    Key, Kind, LinkCounters, Message, PROTOCOL_VERSION, RobotInfo, RobotKind, Telemetry,
+    TelemetrySource, decode_hello, encode_frame_with, parse_frame, postcard_body, v1,
 };
 use crate::Real;
 use crate::runtime::hal::Entropy;
@@ -18,42 +20,53 @@ use crate::runtime::{Mode, Operated, PlanPoint};
 #[derive(Clone, Debug, PartialEq)]
 pub enum RobotEvent {
     /// A valid Hello: `reply[..n]` holds the HelloAck for its sender (never larger than the
-    /// Hello). The active session is untouched; the new one is pending until its operator's
-    /// first session frame verifies.
+    /// Hello). Nothing else changed: the robot keeps no state for a Hello.
     Hello(usize),
+    /// An authentic open frame of a session that did not take over because another session is
+    /// live: `reply[..n]` holds the [`Message::Busy`] answer for its sender (smaller than the
+    /// frame). Nothing else changed.
+    Busy(usize),
     /// A message of the active session.
     Message {
         /// Its sequence number.
         seq: u64,
         /// The message.
         msg: Message,
-        /// This frame confirmed a new session, which is now the active one.
+        /// This frame proved the session key of a new session, which is now the active one:
+        /// its sender's address is the session's address.
         new_session: bool,
+        /// The highest sequence number of the session so far: a host moves the session's
+        /// address to this frame's sender (roaming, as WireGuard does; a replayed or delayed
+        /// frame never moves it).
+        newest: bool,
         /// The new session took over from another: `reply[..n]` holds the previous operator's
         /// [`Message::SessionEnd`], to be sent to that operator's address.
         replaced: Option<usize>,
     },
 }
 
-/// Handshakes a robot keeps pending at once: a legitimate handshake completes unless this many
-/// other Hellos (a flood of spoofed or replayed ones) arrive within its round trip.
-pub const PENDING_SLOTS: usize = 4;
+/// Robot time after its newest frame during which a session counts as live, µs: an open frame
+/// without [`Opening::take_over`](super::Opening::take_over) does not replace a live session.
+pub const LIVE_US: u64 = 1_000_000;
 
-/// The robot's end of the link: the active session, up to [`PENDING_SLOTS`] pending ones, the
-/// counters.
+/// The robot's end of the link: the active session, the handshake secrets, the e-stop
+/// ordering, the counters.
 #[derive(Clone, Debug)]
 pub struct RobotLink {
     key: Option<Key>,
     active: Option<Session>,
-    /// The client nonce of the Hello that opened the active session.
-    active_nonce: [u8; NONCE_LEN],
-    pending: [Option<Pending>; PENDING_SLOTS],
-    /// Hellos answered, and the count at which each slot was filled (the oldest is replaced).
-    hellos: u64,
-    pending_since: [u64; PENDING_SLOTS],
+    secrets: HandshakeSecrets,
+    /// Robot time the active session opened and its newest frame arrived, µs.
+    opened_us: u64,
+    heard_us: u64,
     counters: LinkCounters,
     ack_seq: u64,
+    /// The latched e-stop's sequence number (0: none latched by this session).
     estop_seq: u64,
+    /// The newest accepted e-stop of this session: older clears and motion commands are void.
+    estop_barrier: u64,
+    /// The clear that ended this session's last e-stop.
+    clear_seq: u64,
     v1_seq: u64,
 }
 
@@ -63,13 +76,14 @@ impl RobotLink {
         Self {
             key,
             active: None,
-            active_nonce: [0; NONCE_LEN],
-            pending: [const { None }; PENDING_SLOTS],
-            hellos: 0,
-            pending_since: [0; PENDING_SLOTS],
+            secrets: HandshakeSecrets::new(),
+            opened_us: 0,
+            heard_us: 0,
             counters: LinkCounters::default(),
             ack_seq: 0,
             estop_seq: 0,
+            estop_barrier: 0,
+            clear_seq: 0,
             v1_seq: 1,
         }
     }
@@ -89,38 +103,39 @@ impl RobotLink {
         self.active.as_ref().map(|s| s.id)
     }
 
-    /// The newest pending (handshaken, not yet confirmed) session's id, if any.
-    pub fn pending_id(&self) -> Option<u64> {
-        (0..PENDING_SLOTS)
-            .filter(|&i| self.pending[i].is_some())
-            .max_by_key(|&i| self.pending_since[i])
-            .and_then(|i| self.pending[i].as_ref().map(|p| p.id))
-    }
-
     /// Counts a frame dropped before decoding (cut off at the end of a datagram, or longer
     /// than the receive buffer).
     pub fn count_framing_drop(&mut self) {
         self.counters.framing = self.counters.framing.saturating_add(1);
     }
 
+    /// Counts a Hello that the host dropped unread because its sender is over its rate.
+    pub fn count_throttled(&mut self) {
+        self.counters.throttled = self.counters.throttled.saturating_add(1);
+    }
+
     /// Decodes one frame (the bytes between two delimiters, without them; decoded in place)
-    /// and runs the session logic; `info` goes into a HelloAck, `rng` makes its nonce, `reply`
-    /// (at least [`MAX_FRAME`](super::MAX_FRAME) bytes) receives the frame to send back, if any (see
-    /// [`RobotEvent`]). Counts the frame in exactly one counter. A repeat of a pending Hello
-    /// (a retransmission after a lost HelloAck, a duplicate) is answered again with the same
-    /// answer and counts as `ok` (it is not dropped); a repeat of the Hello that opened the
-    /// active session is dropped as a replay, unanswered.
+    /// received at robot time `now_us` and runs the session logic; `info` goes into a
+    /// HelloAck, `rng` draws a new handshake secret when an epoch begins, `reply` (at least
+    /// [`MAX_FRAME`](super::MAX_FRAME) bytes) receives the frame to send back, if any (see
+    /// [`RobotEvent`]). Counts the frame in exactly one counter.
+    ///
+    /// A Hello is answered from the handshake secret alone: a repeat gets the same answer
+    /// within an epoch, and nothing is stored. An open frame opens a session only when its
+    /// epoch is live, its client nonce has not opened one before, its session id is the one
+    /// derived from them, and its tag verifies under the derived key.
     ///
     /// # Errors
     /// [`DropReason`]: the frame was dropped and must not be acted upon.
     pub fn receive(
         &mut self,
         frame: &mut [u8],
+        now_us: u64,
         info: &RobotInfo,
         rng: &mut impl Entropy,
         reply: &mut [u8],
     ) -> Result<RobotEvent, DropReason> {
-        let r = self.receive_inner(frame, info, rng, reply);
+        let r = self.receive_inner(frame, now_us, info, rng, reply);
         self.counters.count(&r);
         r
     }
@@ -128,6 +143,7 @@ impl RobotLink {
     fn receive_inner(
         &mut self,
         frame: &mut [u8],
+        now_us: u64,
         info: &RobotInfo,
         rng: &mut impl Entropy,
         reply: &mut [u8],
@@ -144,42 +160,19 @@ impl RobotLink {
                 if hello.protocol != PROTOCOL_VERSION {
                     return Err(DropReason::Version(hello.protocol));
                 }
-                if self.active.is_some() && hello.client_nonce == self.active_nonce {
-                    return Err(DropReason::Replay(0));
-                }
-                // A retransmitted Hello gets the same answer (the same pending session);
-                // another Hello takes a free slot, or replaces the oldest pending one.
-                let same = self.pending.iter().position(|p| {
-                    p.as_ref()
-                        .is_some_and(|p| p.client_nonce == hello.client_nonce)
-                });
-                let (slot, robot_nonce) = match same {
-                    Some(i) => (
-                        i,
-                        self.pending[i]
-                            .as_ref()
-                            .map_or([0; NONCE_LEN], |p| p.robot_nonce),
-                    ),
-                    None => {
-                        let mut rn = [0u8; NONCE_LEN];
-                        rng.fill(&mut rn).map_err(|_| DropReason::Entropy)?;
-                        let free = self.pending.iter().position(Option::is_none);
-                        let oldest = (0..PENDING_SLOTS)
-                            .min_by_key(|&i| self.pending_since[i])
-                            .unwrap_or(0);
-                        (free.unwrap_or(oldest), rn)
-                    }
-                };
-                let (id, ks) =
-                    Session::derive(self.key.as_ref(), &hello.client_nonce, &robot_nonce);
+                let (epoch, robot_nonce) = self
+                    .secrets
+                    .answer(now_us, &hello.client_nonce, rng)
+                    .map_err(|_| DropReason::Entropy)?;
                 let ack = HelloAck {
                     info: *info,
                     client_nonce: hello.client_nonce,
                     robot_nonce,
+                    epoch,
                 };
                 let n = encode_frame_with(
                     Kind::HelloAck,
-                    id,
+                    0,
                     0,
                     self.key.as_ref().map(Key::mac),
                     postcard_body(&ack),
@@ -190,80 +183,114 @@ impl RobotLink {
                 if n - 1 > received {
                     return Err(DropReason::Malformed);
                 }
-                if same.is_none() {
-                    self.hellos += 1;
-                    self.pending_since[slot] = self.hellos;
-                }
-                self.pending[slot] = Some(Pending {
-                    id,
-                    ks,
-                    client_nonce: hello.client_nonce,
-                    robot_nonce,
-                });
                 Ok(RobotEvent::Hello(n))
             }
             Kind::HelloAck => Err(DropReason::Malformed),
-            Kind::Session => {
+            Kind::Session | Kind::Open => {
                 let id = p.header.session;
                 if let Some(a) = self.active.as_mut().filter(|a| a.id == id) {
+                    let newest = p.header.seq > a.window.top();
                     let (seq, msg) = a.open(&p, true)?;
                     self.ack_seq = self.ack_seq.max(seq);
+                    self.heard_us = self.heard_us.max(now_us);
                     return Ok(RobotEvent::Message {
                         seq,
                         msg,
                         new_session: false,
+                        newest,
                         replaced: None,
                     });
                 }
-                let Some(slot) = self
-                    .pending
-                    .iter()
-                    .position(|pd| pd.as_ref().is_some_and(|pd| pd.id == id))
-                else {
+                let Some(o) = p.opening else {
                     return Err(DropReason::Session(id));
                 };
-                // Key confirmation: the new operator proved it holds K_s.
-                let Some(pd) = self.pending[slot].as_ref() else {
-                    return Err(DropReason::Session(id));
+                // Cheap refusals first: an expired, retired or unknown epoch, a used nonce.
+                let robot_nonce = match self.secrets.check(o.epoch, &o.client_nonce, now_us) {
+                    FirstFrame::Fresh(n) => n,
+                    FirstFrame::Used => return Err(DropReason::Replay(p.header.seq)),
+                    FirstFrame::UnknownEpoch => return Err(DropReason::Session(id)),
                 };
-                let mut session = Session::new(id, &pd.ks, self.key.is_some());
-                let (seq, msg) = session.open(&p, true)?;
-                // The other pending handshakes stay (they may still confirm and take over).
-                if let Some(pd) = self.pending[slot].take() {
-                    self.active_nonce = pd.client_nonce;
+                let (derived, ks) =
+                    Session::derive(self.key.as_ref(), &o.client_nonce, &robot_nonce);
+                if derived != id {
+                    return Err(DropReason::Session(id));
                 }
-                let new = Some(session);
+                // Key confirmation: the tag proves the sender holds K_s.
+                let mut session = Session::new(id, &ks, self.key.is_some());
+                let (seq, msg) = session.open(&p, true)?;
+                if let Some(a) = self.active.as_ref()
+                    && !o.take_over
+                    && now_us.saturating_sub(self.heard_us) < LIVE_US
+                {
+                    let busy = Busy {
+                        holder: a.id,
+                        idle_ms: (now_us.saturating_sub(self.heard_us) / 1000) as u32,
+                        held_s: (now_us.saturating_sub(self.opened_us) / 1_000_000)
+                            .min(u32::MAX as u64) as u32,
+                    };
+                    let n = session
+                        .encode_at(seq, &Message::Busy(busy), reply)
+                        .map_err(|_| DropReason::Malformed)?;
+                    return Ok(RobotEvent::Busy(n));
+                }
+                if !self.secrets.mark_used(o.epoch, &o.client_nonce, now_us) {
+                    return Err(DropReason::Session(id));
+                }
                 let replaced = match self.active.take() {
                     Some(mut old) => old
                         .encode(&Message::SessionEnd(EndReason::TakenOver), reply)
                         .ok(),
                     None => None,
                 };
-                self.active = new;
+                self.active = Some(session);
+                self.opened_us = now_us;
+                self.heard_us = now_us;
                 self.ack_seq = seq;
                 self.estop_seq = 0;
+                self.estop_barrier = 0;
+                self.clear_seq = 0;
                 Ok(RobotEvent::Message {
                     seq,
                     msg,
                     new_session: true,
+                    newest: true,
                     replaced,
                 })
             }
         }
     }
 
+    /// Whether message `seq` of the active session is void because an e-stop with a higher
+    /// sequence number was accepted before it ([`Message::ordered_after_estop`]); counts it
+    /// ([`LinkCounters::stale`]). [`serve`] calls it before the runtime sees the message.
+    pub fn stale(&mut self, seq: u64, msg: &Message) -> bool {
+        let stale = seq < self.estop_barrier && msg.ordered_after_estop();
+        if stale {
+            self.counters.stale = self.counters.stale.saturating_add(1);
+        }
+        stale
+    }
+
     /// Records what the runtime did with message `seq` of the active session (for the
     /// telemetry's `estop_seq`). [`serve`] calls it.
     pub fn note(&mut self, seq: u64, msg: &Message, accepted: bool) {
         match msg {
-            Message::EStop if accepted => self.estop_seq = seq,
-            Message::Clear if accepted => self.estop_seq = 0,
+            Message::EStop if accepted => {
+                self.estop_seq = seq;
+                self.estop_barrier = self.estop_barrier.max(seq);
+            }
+            Message::Clear if accepted => {
+                if self.estop_seq != 0 {
+                    self.clear_seq = seq;
+                }
+                self.estop_seq = 0;
+            }
             _ => {}
         }
     }
 
-    /// Telemetry for the active session: the status, the counters, `ack_seq` and `estop_seq`
-    /// (the latter 0 unless the runtime is in e-stop).
+    /// Telemetry for the active session: the status, the counters, `ack_seq`, `estop_seq`
+    /// (0 unless the runtime is in e-stop) and `clear_seq`.
     pub fn telemetry<S: TelemetrySource>(&self, s: &S) -> Telemetry {
         let mut t = s.telemetry(&self.counters);
         t.ack_seq = self.ack_seq;
@@ -272,6 +299,7 @@ impl RobotLink {
         } else {
             0
         };
+        t.clear_seq = self.clear_seq;
         t
     }
 
@@ -288,8 +316,8 @@ impl RobotLink {
     }
 
     /// The answer to a frame of protocol v1 ([`DropReason::Version`]`(1)`): a v1 HelloAck that
-    /// says `protocol: 2`, tagged the v1 way with the PSK, so a v1 operator prints "robot
-    /// speaks protocol version 2". The caller bounds how often it is sent (it is larger than
+    /// says `protocol: 3`, tagged the v1 way with the PSK, so a v1 operator prints "robot
+    /// speaks protocol version 3". The caller bounds how often it is sent (it is larger than
     /// the smallest v1 frame: send it only within the sender's anti-amplification budget).
     ///
     /// # Errors
@@ -312,6 +340,9 @@ impl RobotLink {
 pub enum Served {
     /// Executed (or accepted) by the runtime.
     Accepted,
+    /// Not handed to the runtime: a clear or motion command older than an accepted e-stop
+    /// ([`RobotLink::stale`]).
+    Stale,
     /// The runtime rejected it (counted there).
     Rejected(crate::runtime::CommandError),
     /// Not a command (a robot → operator message); ignored.
@@ -331,7 +362,8 @@ pub fn robot_info<T: Real, R: Operated<T>>(runtime: &R, authenticated: bool) -> 
 }
 
 /// Robot side: hands message `seq` of the active session (from [`RobotEvent::Message`]) to the
-/// runtime at clock time `now_us`, and records the outcome in `link` (e-stop confirmation).
+/// runtime at clock time `now_us` — unless an accepted e-stop voids it ([`Served::Stale`]) —
+/// and records the outcome in `link` (e-stop and clear confirmation).
 pub fn serve<T: Real, R: Operated<T>>(
     runtime: &mut R,
     link: &mut RobotLink,
@@ -340,6 +372,9 @@ pub fn serve<T: Real, R: Operated<T>>(
     now_us: u64,
 ) -> Served {
     let mut buf = [PlanPoint::zero(); CHUNK_POINTS];
+    if link.stale(seq, msg) {
+        return Served::Stale;
+    }
     let Some(cmd) = msg.command(&mut buf) else {
         return Served::Ignored;
     };

@@ -1,10 +1,9 @@
 //! One established session as both ends hold it: the key derivation of the handshake, the
-//! session's MAC state, outgoing sequence numbers and incoming replay window; and a robot's
-//! pending (not yet key-confirmed) handshake.
+//! session's MAC state, outgoing sequence numbers and incoming replay window.
 
 use super::{
-    DropReason, EncodeError, Key, MacKey, Message, NONCE_LEN, Parsed, ReplayWindow, decode_message,
-    encode_message,
+    DropReason, EncodeError, Key, MacKey, Message, NONCE_LEN, Opening, Parsed, ReplayWindow,
+    decode_message, encode_message, encode_open,
 };
 
 /// One direction-pair of an established session: its id, MAC key, outgoing sequence numbers
@@ -56,6 +55,37 @@ impl Session {
         Ok(n)
     }
 
+    /// An operator's open frame: `msg` with the handshake's `opening` (next sequence number).
+    pub(super) fn encode_opening(
+        &mut self,
+        msg: &Message,
+        opening: &Opening,
+        out: &mut [u8],
+    ) -> Result<usize, EncodeError> {
+        let n = encode_open(self.id, self.tx_seq, opening, msg, self.mac.as_ref(), out)?;
+        self.tx_seq = self.tx_seq.saturating_add(1);
+        Ok(n)
+    }
+
+    /// `msg` at sequence number `seq`, without touching the outgoing counter (a robot's
+    /// [`Message::Busy`] answer in a session it does not open: it echoes the open frame's
+    /// number).
+    pub(super) fn encode_at(
+        &self,
+        seq: u64,
+        msg: &Message,
+        out: &mut [u8],
+    ) -> Result<usize, EncodeError> {
+        encode_message(self.id, seq, msg, self.mac.as_ref(), out)
+    }
+
+    /// Verifies the tag and decodes `p` without the replay window (a [`Message::Busy`] answer
+    /// before the session is confirmed, which must not move the window).
+    pub(super) fn peek(&self, p: &Parsed<'_>) -> Result<Message, DropReason> {
+        p.verify(self.mac.as_ref())?;
+        decode_message(p.body)
+    }
+
     /// Verifies, checks freshness and decodes a frame of this session; `to_robot` says which
     /// end is receiving. Both directions share `K_s`, so a message for the other end (a
     /// robot's own telemetry reflected back to it, an operator's command sent back to the
@@ -72,27 +102,10 @@ impl Session {
             return Err(DropReason::Replay(seq));
         }
         let msg = decode_message(p.body)?;
-        let for_robot = !matches!(
-            msg,
-            Message::Telemetry(_)
-                | Message::SessionEnd(_)
-                | Message::Estimate(_)
-                | Message::Truth(_)
-        );
-        if for_robot != to_robot {
+        if msg.for_robot() != to_robot {
             return Err(DropReason::Malformed);
         }
         self.window.accept(seq);
         Ok((seq, msg))
     }
-}
-
-/// A handshake waiting for its key confirmation: id and `K_s` only (the keyed MAC state is
-/// built when a frame claims the id), so the pending slots stay small.
-#[derive(Clone, Debug)]
-pub(super) struct Pending {
-    pub(super) id: u64,
-    pub(super) ks: [u8; 32],
-    pub(super) client_nonce: [u8; NONCE_LEN],
-    pub(super) robot_nonce: [u8; NONCE_LEN],
 }
