@@ -223,6 +223,42 @@ fn telemetry_row(t: &Telemetry, wheels: usize, steer: bool) -> String {
     r
 }
 
+/// A v1 HelloAck (the robot's answer to the v1 probe, or a v1 robot's answer).
+#[derive(Clone, Copy, Debug)]
+struct V1Answer {
+    /// The protocol it names.
+    protocol: u8,
+    /// It says the robot has a key.
+    robot_keyed: bool,
+    /// Its tag verified under this operator's key: the robot (or a holder of the key) sent it.
+    /// Otherwise it is only known to come from the robot's address, which anyone can forge.
+    proven: bool,
+}
+
+/// The robot did not open the session: another operator's session is live and this operator
+/// did not ask to take over ([`Message::Busy`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RobotBusy {
+    /// The live session's id.
+    pub holder: u64,
+    /// Robot time since that session's newest frame, ms.
+    pub idle_ms: u32,
+    /// Robot time since that session opened, s.
+    pub held_s: u32,
+}
+
+impl std::fmt::Display for RobotBusy {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the robot is held by another operator (session {:016x}, for {} s, last heard {} ms ago); take over to drive it",
+            self.holder, self.held_s, self.idle_ms
+        )
+    }
+}
+
+impl std::error::Error for RobotBusy {}
+
 /// An operator session: the link, the newest telemetry of this session, an optional CSV log.
 struct Session {
     link: Link,
@@ -238,8 +274,9 @@ struct Session {
     fixes: Option<crate::drive_fixes::FixFeeder>,
     /// When the newest telemetry frame of this session arrived.
     last_telemetry: Option<Instant>,
-    /// What a v1 HelloAck said (the answer to the v1 probe): (protocol, robot has a key).
-    v1_answer: Option<(u8, bool)>,
+    /// What a v1 HelloAck said (the answer to the v1 probe), if it was authenticated by this
+    /// operator's key or came from the robot's own address.
+    v1_answer: Option<V1Answer>,
     log: Option<crate::output::OutFile>,
     mcap: Option<crate::mcap_log::McapLog>,
     frames: u64,
@@ -262,9 +299,13 @@ impl Session {
         if mcap.is_some() {
             crate::output::catch_signals()?;
         }
+        // `drive` is its user's act: it takes the robot over from another operator (who is
+        // told). The console asks first (ConsoleOperator::set_take_over).
+        let mut op = OperatorLink::new(key.clone());
+        op.set_take_over(true);
         Ok(Self {
             link,
-            op: OperatorLink::new(key.clone()),
+            op,
             key,
             addr: a.connect.clone(),
             latest: None,
@@ -325,6 +366,10 @@ impl Session {
                 self.op.count_framing_drop();
                 continue;
             };
+            let from_robot = match &self.link.transport {
+                Transport::Udp { peer, .. } => f.from.is_some() && f.from == *peer,
+                Transport::Serial(_) => true,
+            };
             let copy = bytes.clone();
             match self.op.receive(&mut bytes) {
                 Ok(OperatorEvent::Message {
@@ -372,10 +417,28 @@ impl Session {
                     self.truth = Some(x);
                 }
                 Err(DropReason::Version(1)) => {
-                    // Read without the key: only to name the mismatch, never acted upon.
-                    let mut c = copy;
-                    if let Some((_, v1::Frame::HelloAck(i))) = v1::parse(&mut c, None) {
-                        self.v1_answer = Some((i.protocol, i.authenticated));
+                    // Only to name a mismatch. Authenticated by this operator's key it ends
+                    // the handshake at once; otherwise it is kept only from the robot's own
+                    // address, and named only if the handshake times out (a forged v1 answer
+                    // ends nothing).
+                    let proven = self.key.as_ref().and_then(|k| {
+                        match v1::parse(&mut copy.clone(), Some(k)) {
+                            Some((_, v1::Frame::HelloAck(i))) => Some(i),
+                            _ => None,
+                        }
+                    });
+                    let plain = match v1::parse(&mut copy.clone(), None) {
+                        Some((_, v1::Frame::HelloAck(i))) if from_robot => Some(i),
+                        _ => None,
+                    };
+                    if let Some(i) = proven.or(plain)
+                        && self.v1_answer.is_none_or(|a| !a.proven)
+                    {
+                        self.v1_answer = Some(V1Answer {
+                            protocol: i.protocol,
+                            robot_keyed: i.authenticated,
+                            proven: proven.is_some(),
+                        });
                     }
                 }
                 _ => {}
@@ -397,11 +460,9 @@ impl Session {
             && t.elapsed() > self.timeout
         {
             if self.latest.is_none() {
-                // The HelloAck came, but no telemetry of the new session ever did: the robot
-                // never took the confirming frame (lost, or the pending handshake was evicted
-                // by more than four other Hellos in one round trip).
+                // The robot opened the session, but no telemetry of it ever came (lost).
                 bail!(
-                    "the robot at {} answered the handshake but never confirmed the session: no telemetry of it in {:.1} s (frames lost, or another client is flooding the robot with Hellos, which evicts pending handshakes); try again",
+                    "the robot at {} opened the session but sent no telemetry of it in {:.1} s (frames lost); try again",
                     self.addr,
                     self.timeout.as_secs_f64()
                 );
@@ -446,31 +507,60 @@ impl Session {
     }
 
     /// The handshake: Hello (retransmitted with the same nonce) until the robot's HelloAck,
-    /// then a heartbeat confirms the session key. After half the timeout without an answer a
-    /// v1 Hello probes for a v1 robot; its answer (or a v2 robot's answer to it) names the
-    /// cause when the handshake fails.
+    /// then the first session frames (a heartbeat in an open frame, repeated every heartbeat
+    /// period) until the robot's first frame in the session shows it opened it. After half the
+    /// timeout without an answer a v1 Hello probes for another protocol version; an answer to
+    /// it authenticated by the key names a mismatch at once, an unauthenticated one from the
+    /// robot's address names it if the handshake times out.
+    ///
+    /// # Errors
+    /// [`RobotBusy`] when another operator holds the robot and this one does not take over;
+    /// a version mismatch; no answer or no session within the timeout (the error says which).
     fn hello(&mut self) -> Result<RobotInfo> {
         let start = Instant::now();
         let mut buf = [0u8; MAX_FRAME];
         loop {
-            let n = self.op.hello(&mut OsEntropy, &mut buf)?;
-            self.link.transport.send(&buf[..n])?;
-            if start.elapsed() > self.timeout / 2 {
-                let n = v1::encode_hello(epoch_seq(), self.key.as_ref(), &mut buf)?;
-                self.link.transport.send(&buf[..n])?;
+            match self.op.info() {
+                None => {
+                    let n = self.op.hello(&mut OsEntropy, &mut buf)?;
+                    self.link.transport.send(&buf[..n])?;
+                    if start.elapsed() > self.timeout / 2 {
+                        let n = v1::encode_hello(epoch_seq(), self.key.as_ref(), &mut buf)?;
+                        self.link.transport.send(&buf[..n])?;
+                    }
+                }
+                Some(_) => self.send(&Message::Heartbeat)?,
             }
             let step_end = Instant::now() + self.heartbeat;
             while Instant::now() < step_end {
+                let established = self.op.info().is_some();
                 self.pump(step_end.saturating_duration_since(Instant::now()))?;
                 if let Some(info) = self.op.info() {
-                    self.send(&Message::Heartbeat)?;
-                    self.last_telemetry = Some(Instant::now());
-                    return Ok(info);
+                    if self.op.confirmed() {
+                        self.last_telemetry = Some(Instant::now());
+                        return Ok(info);
+                    }
+                    if let Some(b) = self.op.busy() {
+                        return Err(RobotBusy {
+                            holder: b.holder,
+                            idle_ms: b.idle_ms,
+                            held_s: b.held_s,
+                        }
+                        .into());
+                    }
+                    if !established {
+                        // The answer came: the first open frame goes now.
+                        self.send(&Message::Heartbeat)?;
+                    }
                 }
-                if let Some((1, _)) = self.v1_answer {
+                if let Some(a) = self.v1_answer
+                    && a.proven
+                    && a.protocol != PROTOCOL_VERSION
+                {
                     bail!(
-                        "version mismatch: the robot at {} speaks protocol v1, this omnikin speaks v{PROTOCOL_VERSION}; run the same omnikin version on both ends",
-                        self.addr
+                        "version mismatch: the robot at {} speaks protocol v{} (its answer was authenticated by --key), this omnikin speaks v{PROTOCOL_VERSION}; run the same omnikin version on both ends",
+                        self.addr,
+                        a.protocol
                     );
                 }
             }
@@ -484,17 +574,37 @@ impl Session {
     fn no_session_error(&self) -> anyhow::Error {
         let t = self.timeout.as_secs_f64();
         let c = self.op.counters();
+        if self.op.info().is_some() {
+            return anyhow::anyhow!(
+                "the robot at {} answered the handshake but did not open the session: no frame of it in {t:.1} s (frames lost on the way; try again)",
+                self.addr
+            );
+        }
+        let how = |a: &V1Answer| {
+            if a.proven {
+                "authenticated by --key"
+            } else {
+                "unauthenticated, from the robot's address"
+            }
+        };
         match (self.v1_answer, self.key.is_some()) {
-            // A v2 robot answered the v1 probe but not the v2 Hello: it rejected the Hello.
-            (Some((_, true)), true) => anyhow::anyhow!(
+            (Some(a), _) if a.protocol != PROTOCOL_VERSION => anyhow::anyhow!(
+                "version mismatch: the robot at {} speaks protocol v{} (its answer to a v1 probe, {}), this omnikin speaks v{PROTOCOL_VERSION}; run the same omnikin version on both ends",
+                self.addr,
+                a.protocol,
+                how(&a)
+            ),
+            // The robot speaks this version and answered the v1 probe but not the Hello: it
+            // rejected the Hello.
+            (Some(a), true) if a.robot_keyed && !a.proven => anyhow::anyhow!(
                 "authentication failed: the robot at {} (protocol v{PROTOCOL_VERSION}) rejects this operator's Hello — --key is not the robot's key",
                 self.addr
             ),
-            (Some((_, true)), false) => anyhow::anyhow!(
+            (Some(a), false) if a.robot_keyed => anyhow::anyhow!(
                 "authentication failed: the robot at {} requires a key; pass --key FILE (the robot's key file)",
                 self.addr
             ),
-            (Some((_, false)), true) => anyhow::anyhow!(
+            (Some(a), true) if !a.robot_keyed => anyhow::anyhow!(
                 "authentication failed: the robot at {} has no key but this operator sends --key; drop --key (or start the robot with the same --key)",
                 self.addr
             ),
@@ -984,7 +1094,7 @@ impl ConsoleOperator {
         heartbeat_hz: f64,
         timeout_s: f64,
     ) -> Result<Self> {
-        Session::open(&DriveArgs {
+        let mut s = Session::open(&DriveArgs {
             connect: connect.to_string(),
             key: key.map(Path::to_path_buf),
             heartbeat: heartbeat_hz,
@@ -994,13 +1104,22 @@ impl ConsoleOperator {
             fix_std: 0.01,
             fix_heading_std: 0.05,
             action: DriveAction::Hello,
-        })
-        .map(Self)
+        })?;
+        // A console watches: it opens a session only while nobody else's is live.
+        s.op.set_take_over(false);
+        Ok(Self(s))
     }
 
-    /// The handshake (blocks up to the timeout): the robot's answer.
+    /// The handshake (blocks up to the timeout): the robot's answer. Fails with [`RobotBusy`]
+    /// when another operator holds the robot and this one does not take over.
     pub(crate) fn hello(&mut self) -> Result<RobotInfo> {
         self.0.hello()
+    }
+
+    /// Whether this console's next handshake takes the robot over from a live session (only
+    /// when its user acts; `drive` always does).
+    pub(crate) fn set_take_over(&mut self, take_over: bool) {
+        self.0.op.set_take_over(take_over);
     }
 
     /// Sends `m` in the session.

@@ -89,6 +89,10 @@ pub enum Transport {
     Serial(Box<dyn serialport::SerialPort>),
 }
 
+/// Most UDP datagrams one [`Transport::recv`] takes (a robot's control cycle at 100 Hz then
+/// reads up to 409 600 datagrams a second, far above any flood its CPU could answer).
+pub const MAX_DATAGRAMS_PER_POLL: usize = 4096;
+
 /// Received bytes: where from (UDP) and whether they end a datagram.
 pub struct Chunk {
     /// Sender (UDP only).
@@ -157,7 +161,9 @@ impl Transport {
         }
     }
 
-    /// Waits up to `timeout` for the first bytes, then takes whatever else is pending.
+    /// Waits up to `timeout` for the first bytes, then takes whatever else is pending (UDP: at
+    /// most [`MAX_DATAGRAMS_PER_POLL`] datagrams, so that a flood cannot hold a control loop
+    /// in its receive step; the rest waits for the next call).
     pub fn recv(&mut self, timeout: Duration) -> Result<Vec<Chunk>> {
         let mut out = vec![];
         let mut buf = [0u8; 4096];
@@ -182,6 +188,9 @@ impl Transport {
                                 datagram: true,
                             });
                             wait = None;
+                            if out.len() >= MAX_DATAGRAMS_PER_POLL {
+                                break;
+                            }
                         }
                         Err(e)
                             if matches!(
@@ -269,6 +278,27 @@ impl Link {
         }
         Ok(out)
     }
+}
+
+/// A sender's transport address as the bytes the robot's link binds its handshake answer to
+/// (`RobotLink::receive`'s `peer`): IPv4 or IPv6 address then port, big-endian; none for a
+/// serial port (point to point). Returns the buffer and the used length.
+pub fn peer_bytes(from: Option<SocketAddr>) -> ([u8; 18], usize) {
+    let mut b = [0u8; 18];
+    let n = match from {
+        Some(SocketAddr::V4(a)) => {
+            b[..4].copy_from_slice(&a.ip().octets());
+            b[4..6].copy_from_slice(&a.port().to_be_bytes());
+            6
+        }
+        Some(SocketAddr::V6(a)) => {
+            b[..16].copy_from_slice(&a.ip().octets());
+            b[16..18].copy_from_slice(&a.port().to_be_bytes());
+            18
+        }
+        None => 0,
+    };
+    (b, n)
 }
 
 /// The operating system's random bytes (`getrandom`): the host's handshake nonces.

@@ -1,7 +1,7 @@
 //! `omnikin robot --sim`: the robot runtime plus the simulated plant in real time (software in
 //! the loop), serving the operator link over UDP or a serial port.
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::HashMap;
 use std::io::Write;
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use omnikin::description::RobotDescription;
 use omnikin::link::{
-    DropReason, MAX_FRAME, Message, PENDING_SLOTS, RobotEvent, RobotLink, SimTruth, parse_frame,
+    DropReason, Kind, MAX_FRAME, Message, RobotEvent, RobotLink, SimTruth, peek_kind,
 };
 use omnikin::runtime::Config;
 use omnikin_sim::profile::Profile;
@@ -234,17 +234,16 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     let start = Instant::now();
     let mut k: u64 = 0;
     let mut stopped_by = None;
-    // Where telemetry goes: the address the active session's HelloAck was sent to — the one
-    // that proved it receives the robot's answers by confirming the id it was sent. Not the
-    // confirming frame's source: a peer that handshakes from its own address could confirm
-    // from a spoofed one and turn the telemetry stream on a victim.
+    // Where telemetry goes: the address that proved the session key — the source of the open
+    // frame that opened the session, which the core also checked received the HelloAck (the
+    // robot's nonce is bound to the address). Fixed for the session: never moved by a Hello or
+    // by a frame from elsewhere (an operator whose address changes opens a new session).
     let mut active: Option<SocketAddr> = None;
-    // Where each recent HelloAck went, by session id (newest last; a pending session is always
-    // among the 4 × PENDING_SLOTS most recently answered ids).
-    let mut acked: VecDeque<(u64, Option<SocketAddr>)> = VecDeque::new();
     let mut amp = AmplificationBudget::default();
+    let mut hellos = HelloLimiter::default();
     let mut sessions = 0u32;
     let mut takeovers = 0u32;
+    let mut refused = 0u32;
     let mut reply = [0u8; MAX_FRAME];
     // Robot time of the active session's newest frame: telemetry stops after
     // `TELEMETRY_IDLE_S` of silence (nobody is listening, or the address changed hands).
@@ -259,17 +258,30 @@ pub fn run(a: &RobotArgs) -> Result<()> {
                 continue;
             };
             amp.received(f.from, bytes.len() + 1);
-            match robot_link.receive(&mut bytes, &info, &mut OsEntropy, &mut reply) {
+            // A Hello costs three MACs and an answer: a sender over its rate is dropped
+            // unread (a flood of replayed Hellos; WireGuard's handshake rate limit).
+            if peek_kind(&bytes) == Some(Kind::Hello) && !hellos.allow(f.from) {
+                robot_link.count_throttled();
+                continue;
+            }
+            let (peer, peer_len) = crate::link_io::peer_bytes(f.from);
+            match robot_link.receive(
+                &mut bytes,
+                now,
+                &peer[..peer_len],
+                &info,
+                &mut OsEntropy,
+                &mut reply,
+            ) {
                 Ok(RobotEvent::Hello(n)) => {
                     // Never larger than the Hello it answers (the core checks it).
                     amp.sent(f.from, n);
-                    if let Some(id) = ack_session(&reply[..n]) {
-                        acked.retain(|(i, _)| *i != id);
-                        acked.push_back((id, f.from));
-                        if acked.len() > 4 * PENDING_SLOTS {
-                            acked.pop_front();
-                        }
-                    }
+                    link.transport.send_to(&reply[..n], f.from)?;
+                }
+                Ok(RobotEvent::Busy(n)) => {
+                    // The sender proved the key; one answer smaller than its frame.
+                    amp.sent(f.from, n);
+                    refused += 1;
                     link.transport.send_to(&reply[..n], f.from)?;
                 }
                 Ok(RobotEvent::Message {
@@ -285,11 +297,10 @@ pub fn run(a: &RobotArgs) -> Result<()> {
                             takeovers += 1;
                         }
                         sessions += 1;
-                        let id = robot_link.session_id();
-                        active = acked
-                            .iter()
-                            .find(|(i, _)| Some(*i) == id)
-                            .and_then(|(_, a)| *a);
+                        active = f.from;
+                        // Telemetry at once: its first frame confirms the session to the
+                        // operator.
+                        ack = true;
                         crate::errln!(
                             "robot: session {:016x} opened{}{}",
                             robot_link.session_id().unwrap_or(0),
@@ -310,7 +321,7 @@ pub fn run(a: &RobotArgs) -> Result<()> {
                             | Message::PlanStart { .. }
                     );
                 }
-                // A v1 peer: one v1 answer it can print ("protocol 2"), within its budget.
+                // A v1 peer: one v1 answer it can print ("protocol 3"), within its budget.
                 Err(DropReason::Version(1)) => {
                     if let Ok(n) = robot_link.version_reply(&info, &mut reply)
                         && amp.allow_reply(f.from, n)
@@ -384,7 +395,7 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     let c = robot_link.counters();
     let mut summary = serde_json::json!({
         "time_s": sim.time_us() as f64 * 1e-6,
-        "link": {"ok": c.ok, "framing": c.framing, "crc": c.crc, "version": c.version, "auth": c.auth, "replay": c.replay, "malformed": c.malformed, "session": c.session, "entropy": c.entropy, "dropped": c.dropped(), "sessions": sessions, "takeovers": takeovers},
+        "link": {"ok": c.ok, "framing": c.framing, "crc": c.crc, "version": c.version, "auth": c.auth, "replay": c.replay, "malformed": c.malformed, "session": c.session, "entropy": c.entropy, "throttled": c.throttled, "stale": c.stale, "dropped": c.dropped(), "sessions": sessions, "takeovers": takeovers, "refused_busy": refused},
     });
     if let (Some(o), serde_json::Value::Object(r)) = (summary.as_object_mut(), sim.summary()) {
         o.extend(r);
@@ -396,10 +407,39 @@ pub fn run(a: &RobotArgs) -> Result<()> {
     }
 }
 
-/// The session id named by an encoded HelloAck (its header), `None` if it does not parse.
-fn ack_session(frame: &[u8]) -> Option<u64> {
-    let mut raw = frame.get(..frame.len().checked_sub(1)?)?.to_vec();
-    parse_frame(&mut raw).ok().map(|p| p.header.session)
+/// Hellos answered per sender: a token bucket per address ([`HelloLimiter::PER_SECOND`] a
+/// second, bursts of [`HelloLimiter::BURST`]), as WireGuard limits handshake initiations. An
+/// operator retransmits its Hello at its heartbeat rate until answered, well inside it; a
+/// flood from one socket is dropped unread. At most [`HelloLimiter::MAX_ADDRESSES`] senders are
+/// tracked; the table is cleared when full (every sender starts with a full bucket again),
+/// which keeps the work per frame constant under a spoofed-address flood.
+#[derive(Default)]
+struct HelloLimiter {
+    buckets: HashMap<Option<SocketAddr>, (f64, Instant)>,
+}
+
+impl HelloLimiter {
+    const PER_SECOND: f64 = 20.0;
+    const BURST: f64 = 5.0;
+    const MAX_ADDRESSES: usize = 4096;
+
+    /// Takes a token for a Hello from `from`; `false` when its bucket is empty.
+    fn allow(&mut self, from: Option<SocketAddr>) -> bool {
+        let now = Instant::now();
+        if self.buckets.len() >= Self::MAX_ADDRESSES && !self.buckets.contains_key(&from) {
+            self.buckets.clear();
+        }
+        let (tokens, last) = self.buckets.entry(from).or_insert((Self::BURST, now));
+        *tokens =
+            (*tokens + now.duration_since(*last).as_secs_f64() * Self::PER_SECOND).min(Self::BURST);
+        *last = now;
+        if *tokens >= 1.0 {
+            *tokens -= 1.0;
+            true
+        } else {
+            false
+        }
+    }
 }
 
 /// Anti-amplification for the answers the robot sends before an address has proved itself

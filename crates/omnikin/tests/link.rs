@@ -220,6 +220,8 @@ struct Bot {
     info: RobotInfo,
     /// Robot clock, µs.
     now: u64,
+    /// The transport address the next frames come from.
+    peer: Vec<u8>,
 }
 
 impl Bot {
@@ -230,15 +232,21 @@ impl Bot {
             rng: TestRng(seed),
             info,
             now: 0,
+            peer: b"operator".to_vec(),
         }
     }
     /// Receives one wire frame; returns the event and the reply bytes.
     fn rx(&mut self, wire: &[u8]) -> (Result<RobotEvent, DropReason>, Vec<u8>) {
         let mut f = wire[..wire.len() - 1].to_vec();
         let mut reply = [0u8; MAX_FRAME];
-        let r = self
-            .link
-            .receive(&mut f, self.now, &self.info, &mut self.rng, &mut reply);
+        let r = self.link.receive(
+            &mut f,
+            self.now,
+            &self.peer,
+            &self.info,
+            &mut self.rng,
+            &mut reply,
+        );
         let n = match &r {
             Ok(RobotEvent::Hello(n) | RobotEvent::Busy(n)) => *n,
             Ok(RobotEvent::Message {
@@ -328,7 +336,7 @@ proptest! {
                     Some(f) => {
                         let mut copy = f.to_vec();
                         let mut reply = [0u8; MAX_FRAME];
-                        let _ = bot.link.receive(f, 0, &bot.info, &mut bot.rng, &mut reply);
+                        let _ = bot.link.receive(f, 0, &[], &bot.info, &mut bot.rng, &mut reply);
                         let _ = op.receive(&mut copy);
                     }
                     None => {
@@ -825,7 +833,7 @@ fn a_session_that_went_silent_is_not_live_and_opens_without_take_over() {
 }
 
 #[test]
-fn a_replayed_hello_from_anywhere_opens_nothing_and_the_operators_first_frame_opens_its_session() {
+fn a_replayed_hello_from_another_address_opens_nothing_and_the_session_opens_at_the_operators() {
     let k = key();
     let mut rng = TestRng(17);
     let mut bot = Bot::new(Some(k.clone()), 18);
@@ -833,11 +841,15 @@ fn a_replayed_hello_from_anywhere_opens_nothing_and_the_operators_first_frame_op
     op.set_take_over(true);
     let hello = op_hello(&mut op, &mut rng);
     let (_, ack) = bot.rx(&hello);
-    // The attacker replays the Hello 1000 times: same answer each time, never larger.
+    // The attacker replays the Hello 1000 times from its own address: answers never larger,
+    // bound to the attacker's address, nothing kept.
+    bot.peer = b"attacker".to_vec();
+    let (_, theirs) = bot.rx(&hello);
+    assert_ne!(theirs, ack, "an answer is bound to the address it goes to");
     for _ in 0..1000 {
         let (r, reply) = bot.rx(&hello);
         assert!(matches!(r, Ok(RobotEvent::Hello(_))));
-        assert_eq!(reply, ack);
+        assert_eq!(reply, theirs);
         assert!(reply.len() <= hello.len());
     }
     assert_eq!(bot.link.session_id(), None);
@@ -846,14 +858,19 @@ fn a_replayed_hello_from_anywhere_opens_nothing_and_the_operators_first_frame_op
         Err(EncodeError::NoSession),
         "nothing to stream to anyone"
     );
+    // The operator's first frame, copied by an attacker in the path and delivered from the
+    // attacker's address first: it does not prove the address, nothing opens.
     assert!(op_rx(&mut op, &ack).is_ok());
     let first = op_tx(&mut op, &Message::Heartbeat);
+    assert!(matches!(bot.rx(&first).0, Err(DropReason::Session(_))));
+    assert_eq!(bot.link.session_id(), None);
+    // From the operator's address it opens the session.
+    bot.peer = b"operator".to_vec();
     let (r, _) = bot.rx(&first);
     assert!(matches!(
         r,
         Ok(RobotEvent::Message {
             new_session: true,
-            newest: true,
             ..
         })
     ));
@@ -1092,6 +1109,7 @@ fn wrong_direction_and_entropy_failures_are_counted() {
     let r = broken.receive(
         &mut f,
         0,
+        &[],
         &info(false),
         &mut NoEntropy,
         &mut [0u8; MAX_FRAME],

@@ -98,7 +98,7 @@ impl Wire {
             (&mut self.robot, &self.info, &mut self.rng, &mut self.reply);
         let mut answer = 0;
         self.reader.feed(&self.frame[..len], |f| match f {
-            Some(f) => match robot.receive(f, now, info, rng, reply) {
+            Some(f) => match robot.receive(f, now, &[], info, rng, reply) {
                 Ok(RobotEvent::Message { seq, msg, .. }) => {
                     serve(rt, robot, seq, &msg, now);
                 }

@@ -239,7 +239,8 @@ fn link_frames(keyed: bool, n: u64) {
     };
     let (mut rng, mut buf, mut reply) = (Fixed(1), [0u8; MAX_FRAME], [0u8; MAX_FRAME]);
     let m = op.hello(&mut rng, &mut buf).unwrap();
-    let Ok(RobotEvent::Hello(a)) = rob.receive(&mut buf[..m - 1], 0, &info, &mut rng, &mut reply)
+    let Ok(RobotEvent::Hello(a)) =
+        rob.receive(&mut buf[..m - 1], 0, &[], &info, &mut rng, &mut reply)
     else {
         panic!("hello")
     };
@@ -258,7 +259,14 @@ fn link_frames(keyed: bool, n: u64) {
         };
         let m = op.encode(black_box(&cmd), &mut buf).unwrap();
         ok += rob
-            .receive(black_box(&mut buf[..m - 1]), 0, &info, &mut rng, &mut reply)
+            .receive(
+                black_box(&mut buf[..m - 1]),
+                0,
+                &[],
+                &info,
+                &mut rng,
+                &mut reply,
+            )
             .is_ok() as u64;
         let m = rob.encode(black_box(&tele), &mut buf).unwrap();
         ok += op.receive(black_box(&mut buf[..m - 1])).is_ok() as u64;
@@ -283,6 +291,8 @@ fn handshakes(keyed: bool, hello_only: bool, n: u64) {
             Ok(())
         }
     }
+    // An IPv4 address and port, as a UDP host passes it.
+    const PEER: &[u8] = &[127, 0, 0, 1, 0x1b, 0x58];
     let key = keyed.then(|| Key::new(b"benchmark key, 32 bytes long ...").unwrap());
     let mut rob = RobotLink::new(key.clone());
     let info = RobotInfo {
@@ -302,7 +312,7 @@ fn handshakes(keyed: bool, hello_only: bool, n: u64) {
         let now = i * 1000;
         if hello_only {
             let mut f = recorded.clone();
-            let r = rob.receive(black_box(&mut f), now, &info, &mut rng, &mut reply);
+            let r = rob.receive(black_box(&mut f), now, PEER, &info, &mut rng, &mut reply);
             opened += matches!(r, Ok(RobotEvent::Hello(_))) as u64;
             continue;
         }
@@ -312,6 +322,7 @@ fn handshakes(keyed: bool, hello_only: bool, n: u64) {
         let Ok(RobotEvent::Hello(a)) = rob.receive(
             black_box(&mut buf[..m - 1]),
             now,
+            PEER,
             &info,
             &mut rng,
             &mut reply,
@@ -326,6 +337,7 @@ fn handshakes(keyed: bool, hello_only: bool, n: u64) {
         let r = rob.receive(
             black_box(&mut buf[..m - 1]),
             now,
+            PEER,
             &info,
             &mut rng,
             &mut reply,

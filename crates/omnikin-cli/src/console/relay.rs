@@ -8,6 +8,12 @@
 //! heartbeat. An e-stop request is also sent the moment it is seen (it is checked between
 //! receives, every [`SLICE`] at most), and cancels teleop and uploads. A lost session is
 //! re-opened after [`RETRY`].
+//!
+//! The console never takes the robot from another operator on its own: its handshakes do not
+//! ask to take over, so while another operator's session is live the robot answers Busy and
+//! the page shows who holds it (state `held`). Only its user's act — a teleop, stop, clear,
+//! plan run or e-stop from a page — makes the next handshake take over (and an e-stop then
+//! goes out in the new session at once).
 
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
@@ -23,7 +29,7 @@ use omnikin_plan::Plan;
 use serde_json::{Value, json};
 
 use super::hub::{Command, Hub};
-use crate::drive::{ConsoleOperator, plan_points};
+use crate::drive::{ConsoleOperator, RobotBusy, plan_points};
 use crate::mcap_log::McapLog;
 
 /// How long a page's teleop command stays valid: the page repeats it every 50 ms while the
@@ -118,6 +124,10 @@ struct Relay {
     /// Telemetry to Foxglove messages for `--foxglove` (per session: measured rates and
     /// events compare consecutive frames).
     enc: crate::mcap_log::Encoder,
+    /// Another operator held the robot at the last handshake.
+    held: Option<RobotBusy>,
+    /// The next handshake takes the robot over (the user acted while it was held).
+    take_over: bool,
 }
 
 /// Runs the relay until the hub shuts down. `first` is the session opened (and its address
@@ -137,6 +147,8 @@ pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: Consol
         info: None,
         rec: None,
         enc: crate::mcap_log::Encoder::new("omnikin console"),
+        held: None,
+        take_over: false,
     };
     r.record_status();
     let mut op = Some(first);
@@ -163,14 +175,31 @@ pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: Consol
             &format!("handshake with {}", r.cfg.connect),
             None,
         );
+        o.set_take_over(r.take_over);
         let info = match o.hello() {
             Ok(i) => i,
             Err(e) => {
-                r.lost(&mut last_error, &format!("{e:#}"));
+                if let Some(b) = e.downcast_ref::<RobotBusy>() {
+                    if r.held.is_none() {
+                        r.event("warn", &format!("{b}"));
+                    }
+                    r.held = Some(*b);
+                    r.link_state("held", &b.to_string(), None);
+                } else {
+                    r.held = None;
+                    r.lost(&mut last_error, &format!("{e:#}"));
+                }
                 r.wait(RETRY, &rx);
                 continue;
             }
         };
+        if r.take_over && r.held.is_some() {
+            r.event("warn", "took control of the robot from the other operator");
+        }
+        // Taken once for the user's act: if another operator takes the robot later, this
+        // console does not take it back on its own.
+        r.take_over = false;
+        r.held = None;
         last_error.clear();
         r.info = Some(info);
         r.prev = None;
@@ -207,13 +236,36 @@ pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: Consol
 }
 
 impl Relay {
-    /// Waits `d` (shutdown checked), answering commands that need no session.
+    /// Waits `d` (shutdown checked), answering commands that need no session. While another
+    /// operator holds the robot, a control command or an e-stop from a page is its user's act:
+    /// the wait ends at once and the next handshake takes over (an e-stop is then sent in the
+    /// new session; a teleop command is kept for it).
     fn wait(&mut self, d: Duration, rx: &Receiver<Command>) {
         let end = Instant::now() + d;
         while Instant::now() < end && !self.hub.shutdown.load(Ordering::SeqCst) {
+            if self.held.is_some() && self.hub.estop.load(Ordering::SeqCst) {
+                self.take_control("e-stop");
+                return;
+            }
             while let Ok(c) = rx.try_recv() {
                 match c {
                     Command::Plan { name, plan } => self.preview(name, *plan),
+                    Command::Teleop { vx, vy, yaw } if self.held.is_some() => {
+                        let v = [
+                            (vx * self.cfg.speed) as f32,
+                            (vy * self.cfg.speed) as f32,
+                            (yaw * self.cfg.turn) as f32,
+                        ];
+                        self.teleop = Some((v, Instant::now() + TELEOP_HOLD));
+                        self.take_control("teleop");
+                        return;
+                    }
+                    Command::Stop | Command::Clear | Command::PlanRun { .. }
+                        if self.held.is_some() =>
+                    {
+                        self.take_control("a command (send it again once connected)");
+                        return;
+                    }
                     Command::Teleop { .. }
                     | Command::Stop
                     | Command::Clear
@@ -225,6 +277,15 @@ impl Relay {
             }
             std::thread::sleep(Duration::from_millis(20));
         }
+    }
+
+    /// The user acted while another operator held the robot: the next handshake takes over.
+    fn take_control(&mut self, why: &str) {
+        self.take_over = true;
+        self.event(
+            "warn",
+            &format!("taking control of the robot from the other operator ({why})"),
+        );
     }
 
     fn lost(&mut self, last: &mut String, why: &str) {

@@ -3,12 +3,15 @@
 //!
 //! The robot keeps **no state for an unproven peer** (DTLS 1.3 cookies, QUIC Retry tokens and
 //! WireGuard's cookie reply rest on the same idea). Its nonce for a Hello is not random but
-//! derived: `robot_nonce = HMAC(secret_e, "omnikin-v3 robot nonce" | client_nonce)[..16]` with
-//! the secret of the current epoch `e`. The HelloAck names `e`; the operator's first session
-//! frames ([`Kind::Open`](super::Kind::Open)) carry `client_nonce` and `e` back, so the robot
-//! re-derives the nonce, the session id and the session key, and verifies the frame's tag
-//! under that key — the proof that the sender holds the pre-shared key. Only then does a
-//! session exist.
+//! derived: `robot_nonce = HMAC(secret_e, "omnikin-v3 robot nonce" | client_nonce | len(peer)
+//! | peer)[..16]` with the secret of the current epoch `e` and the sender's transport address
+//! `peer` (empty on a point-to-point link such as a serial port). The HelloAck names `e`; the
+//! operator's first session frames ([`Kind::Open`](super::Kind::Open)) carry `client_nonce`
+//! and `e` back, so the robot re-derives the nonce — for the address the open frame came from
+//! — the session id and the session key, and verifies the frame's tag under that key: the
+//! proof that the sender holds the pre-shared key *and* received the HelloAck at that address
+//! (DTLS binds its cookie to the client's address the same way). Only then does a session
+//! exist.
 //!
 //! Secrets rotate: an epoch lasts [`EPOCH_US`] of robot time, and a first frame is taken only
 //! in the current epoch or the one before it while that is younger than two epochs — a
@@ -93,15 +96,20 @@ impl HandshakeSecrets {
         }
     }
 
-    fn robot_nonce(secret: &MacKey, client_nonce: &[u8; NONCE_LEN]) -> [u8; NONCE_LEN] {
-        let full = secret.full(&[b"omnikin-v3 robot nonce", client_nonce]);
+    fn robot_nonce(
+        secret: &MacKey,
+        client_nonce: &[u8; NONCE_LEN],
+        peer: &[u8],
+    ) -> [u8; NONCE_LEN] {
+        let len = [peer.len().min(255) as u8];
+        let full = secret.full(&[b"omnikin-v3 robot nonce", client_nonce, &len, peer]);
         let mut n = [0u8; NONCE_LEN];
         n.copy_from_slice(&full[..NONCE_LEN]);
         n
     }
 
-    /// The epoch a Hello is answered in at robot time `now_us`, and the robot's nonce for
-    /// `client_nonce`: the current epoch, or a new one (secret drawn from `rng`) when the
+    /// The epoch a Hello from transport address `peer` is answered in at robot time `now_us`,
+    /// and the robot's nonce for `client_nonce` and `peer`: the current epoch, or a new one (secret drawn from `rng`) when the
     /// current is older than [`EPOCH_US`], retired, or none has started.
     ///
     /// # Errors
@@ -111,6 +119,7 @@ impl HandshakeSecrets {
         &mut self,
         now_us: u64,
         client_nonce: &[u8; NONCE_LEN],
+        peer: &[u8],
         rng: &mut impl Entropy,
     ) -> Result<(u32, [u8; NONCE_LEN]), EntropyError> {
         let cur = &self.epochs[self.current];
@@ -122,7 +131,7 @@ impl HandshakeSecrets {
         }
         let cur = &self.epochs[self.current];
         match &cur.secret {
-            Some(s) => Ok((cur.number, Self::robot_nonce(s, client_nonce))),
+            Some(s) => Ok((cur.number, Self::robot_nonce(s, client_nonce, peer))),
             None => Err(EntropyError),
         }
     }
@@ -169,9 +178,16 @@ impl HandshakeSecrets {
         })
     }
 
-    /// Checks a first frame's `epoch` and `client_nonce` at `now_us` (no state changes): one
-    /// table look-up and, if the epoch is live and the nonce unused, one HMAC.
-    pub fn check(&self, epoch: u32, client_nonce: &[u8; NONCE_LEN], now_us: u64) -> FirstFrame {
+    /// Checks a first frame's `epoch` and `client_nonce`, received from `peer` at `now_us` (no
+    /// state changes): one table look-up and, if the epoch is live and the nonce unused, one
+    /// HMAC.
+    pub fn check(
+        &self,
+        epoch: u32,
+        client_nonce: &[u8; NONCE_LEN],
+        peer: &[u8],
+        now_us: u64,
+    ) -> FirstFrame {
         let Some(i) = self.live(epoch, now_us) else {
             return FirstFrame::UnknownEpoch;
         };
@@ -180,7 +196,7 @@ impl HandshakeSecrets {
             return FirstFrame::Used;
         }
         match &e.secret {
-            Some(s) => FirstFrame::Fresh(Self::robot_nonce(s, client_nonce)),
+            Some(s) => FirstFrame::Fresh(Self::robot_nonce(s, client_nonce, peer)),
             None => FirstFrame::UnknownEpoch,
         }
     }
@@ -226,13 +242,18 @@ mod tests {
         let mut s = HandshakeSecrets::new();
         let mut rng = Counter(0);
         let cn = [7u8; NONCE_LEN];
-        let (e, a) = s.answer(0, &cn, &mut rng).unwrap();
-        let (e2, b) = s.answer(EPOCH_US - 1, &cn, &mut rng).unwrap();
+        let (e, a) = s.answer(0, &cn, b"a", &mut rng).unwrap();
+        let (e2, b) = s.answer(EPOCH_US - 1, &cn, b"a", &mut rng).unwrap();
         assert_eq!((e, a), (e2, b));
-        assert_eq!(s.check(e, &cn, EPOCH_US - 1), FirstFrame::Fresh(a));
-        // Another nonce, another robot nonce.
-        let (_, c) = s.answer(1, &[8u8; NONCE_LEN], &mut rng).unwrap();
+        assert_eq!(s.check(e, &cn, b"a", EPOCH_US - 1), FirstFrame::Fresh(a));
+        // Another nonce, or another address, another robot nonce.
+        let (_, c) = s.answer(1, &[8u8; NONCE_LEN], b"a", &mut rng).unwrap();
         assert_ne!(a, c);
+        let (_, d) = s.answer(1, &cn, b"b", &mut rng).unwrap();
+        assert_ne!(a, d);
+        assert_ne!(s.check(e, &cn, b"b", 2), FirstFrame::Fresh(a));
+        let (_, x) = s.answer(1, &cn, b"", &mut rng).unwrap();
+        assert_ne!(a, x);
     }
 
     #[test]
@@ -240,29 +261,30 @@ mod tests {
         let mut s = HandshakeSecrets::new();
         let mut rng = Counter(0);
         let cn = [1u8; NONCE_LEN];
-        let (e0, n0) = s.answer(0, &cn, &mut rng).unwrap();
+        let (e0, n0) = s.answer(0, &cn, b"a", &mut rng).unwrap();
         assert!(s.mark_used(e0, &cn, 5));
-        assert_eq!(s.check(e0, &cn, 6), FirstFrame::Used);
+        assert_eq!(s.check(e0, &cn, b"", 6), FirstFrame::Used);
         // The next epoch: e0 is the previous one, still live for one epoch.
-        let (e1, _) = s.answer(EPOCH_US, &[2; NONCE_LEN], &mut rng).unwrap();
+        let (e1, _) = s.answer(EPOCH_US, &[2; NONCE_LEN], b"", &mut rng).unwrap();
         assert_eq!(e1, e0.wrapping_add(1));
-        assert_eq!(s.check(e0, &cn, EPOCH_US + 1), FirstFrame::Used);
+        assert_eq!(s.check(e0, &cn, b"", EPOCH_US + 1), FirstFrame::Used);
         assert_eq!(
-            s.check(e0, &[3; NONCE_LEN], EPOCH_US + 1),
+            s.check(e0, &[3; NONCE_LEN], b"", EPOCH_US + 1),
             FirstFrame::Fresh(HandshakeSecrets::robot_nonce(
                 s.epochs[1 - s.current].secret.as_ref().unwrap(),
-                &[3; NONCE_LEN]
+                &[3; NONCE_LEN],
+                b""
             ))
         );
         let _ = n0;
         // Two epochs after it started, e0 is gone even without another Hello.
         assert_eq!(
-            s.check(e0, &[3; NONCE_LEN], 2 * EPOCH_US),
+            s.check(e0, &[3; NONCE_LEN], b"", 2 * EPOCH_US),
             FirstFrame::UnknownEpoch
         );
         // A number no live epoch has.
         assert_eq!(
-            s.check(e1.wrapping_add(5), &cn, EPOCH_US + 1),
+            s.check(e1.wrapping_add(5), &cn, b"", EPOCH_US + 1),
             FirstFrame::UnknownEpoch
         );
     }
@@ -271,17 +293,23 @@ mod tests {
     fn a_full_epoch_retires_and_the_next_hello_starts_another() {
         let mut s = HandshakeSecrets::new();
         let mut rng = Counter(0);
-        let (e0, _) = s.answer(0, &[0; NONCE_LEN], &mut rng).unwrap();
+        let (e0, _) = s.answer(0, &[0; NONCE_LEN], b"", &mut rng).unwrap();
         for i in 0..USED_PER_EPOCH as u8 {
             assert!(s.mark_used(e0, &[i; NONCE_LEN], 1));
         }
         // Retired: neither used nor unused nonces of it are taken any more.
-        assert_eq!(s.check(e0, &[0; NONCE_LEN], 2), FirstFrame::UnknownEpoch);
-        assert_eq!(s.check(e0, &[99; NONCE_LEN], 2), FirstFrame::UnknownEpoch);
-        let (e1, _) = s.answer(3, &[99; NONCE_LEN], &mut rng).unwrap();
+        assert_eq!(
+            s.check(e0, &[0; NONCE_LEN], b"", 2),
+            FirstFrame::UnknownEpoch
+        );
+        assert_eq!(
+            s.check(e0, &[99; NONCE_LEN], b"", 2),
+            FirstFrame::UnknownEpoch
+        );
+        let (e1, _) = s.answer(3, &[99; NONCE_LEN], b"", &mut rng).unwrap();
         assert_ne!(e1, e0);
         assert!(matches!(
-            s.check(e1, &[99; NONCE_LEN], 4),
+            s.check(e1, &[99; NONCE_LEN], b"", 4),
             FirstFrame::Fresh(_)
         ));
     }
@@ -295,7 +323,10 @@ mod tests {
             }
         }
         let mut s = HandshakeSecrets::new();
-        assert!(s.answer(0, &[0; NONCE_LEN], &mut Broken).is_err());
-        assert_eq!(s.check(0, &[0; NONCE_LEN], 0), FirstFrame::UnknownEpoch);
+        assert!(s.answer(0, &[0; NONCE_LEN], b"", &mut Broken).is_err());
+        assert_eq!(
+            s.check(0, &[0; NONCE_LEN], b"", 0),
+            FirstFrame::UnknownEpoch
+        );
     }
 }

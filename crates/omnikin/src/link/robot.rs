@@ -33,12 +33,8 @@ pub enum RobotEvent {
         /// The message.
         msg: Message,
         /// This frame proved the session key of a new session, which is now the active one:
-        /// its sender's address is the session's address.
+        /// its sender's address (the one that received the HelloAck) is the session's address.
         new_session: bool,
-        /// The highest sequence number of the session so far: a host moves the session's
-        /// address to this frame's sender (roaming, as WireGuard does; a replayed or delayed
-        /// frame never moves it).
-        newest: bool,
         /// The new session took over from another: `reply[..n]` holds the previous operator's
         /// [`Message::SessionEnd`], to be sent to that operator's address.
         replaced: Option<usize>,
@@ -115,15 +111,17 @@ impl RobotLink {
     }
 
     /// Decodes one frame (the bytes between two delimiters, without them; decoded in place)
-    /// received at robot time `now_us` and runs the session logic; `info` goes into a
+    /// received at robot time `now_us` from transport address `peer` (its bytes, e.g. IP and
+    /// port; empty on a point-to-point link) and runs the session logic; `info` goes into a
     /// HelloAck, `rng` draws a new handshake secret when an epoch begins, `reply` (at least
     /// [`MAX_FRAME`](super::MAX_FRAME) bytes) receives the frame to send back, if any (see
     /// [`RobotEvent`]). Counts the frame in exactly one counter.
     ///
-    /// A Hello is answered from the handshake secret alone: a repeat gets the same answer
-    /// within an epoch, and nothing is stored. An open frame opens a session only when its
-    /// epoch is live, its client nonce has not opened one before, its session id is the one
-    /// derived from them, and its tag verifies under the derived key.
+    /// A Hello is answered from the handshake secret alone: a repeat from the same address
+    /// gets the same answer within an epoch, and nothing is stored. An open frame opens a
+    /// session only when its epoch is live, its client nonce has not opened one before, its
+    /// session id is the one derived from them and the address it came from (so it came from
+    /// the address the HelloAck went to), and its tag verifies under the derived key.
     ///
     /// # Errors
     /// [`DropReason`]: the frame was dropped and must not be acted upon.
@@ -131,11 +129,12 @@ impl RobotLink {
         &mut self,
         frame: &mut [u8],
         now_us: u64,
+        peer: &[u8],
         info: &RobotInfo,
         rng: &mut impl Entropy,
         reply: &mut [u8],
     ) -> Result<RobotEvent, DropReason> {
-        let r = self.receive_inner(frame, now_us, info, rng, reply);
+        let r = self.receive_inner(frame, now_us, peer, info, rng, reply);
         self.counters.count(&r);
         r
     }
@@ -144,6 +143,7 @@ impl RobotLink {
         &mut self,
         frame: &mut [u8],
         now_us: u64,
+        peer: &[u8],
         info: &RobotInfo,
         rng: &mut impl Entropy,
         reply: &mut [u8],
@@ -162,7 +162,7 @@ impl RobotLink {
                 }
                 let (epoch, robot_nonce) = self
                     .secrets
-                    .answer(now_us, &hello.client_nonce, rng)
+                    .answer(now_us, &hello.client_nonce, peer, rng)
                     .map_err(|_| DropReason::Entropy)?;
                 let ack = HelloAck {
                     info: *info,
@@ -189,7 +189,6 @@ impl RobotLink {
             Kind::Session | Kind::Open => {
                 let id = p.header.session;
                 if let Some(a) = self.active.as_mut().filter(|a| a.id == id) {
-                    let newest = p.header.seq > a.window.top();
                     let (seq, msg) = a.open(&p, true)?;
                     self.ack_seq = self.ack_seq.max(seq);
                     self.heard_us = self.heard_us.max(now_us);
@@ -197,7 +196,6 @@ impl RobotLink {
                         seq,
                         msg,
                         new_session: false,
-                        newest,
                         replaced: None,
                     });
                 }
@@ -205,7 +203,7 @@ impl RobotLink {
                     return Err(DropReason::Session(id));
                 };
                 // Cheap refusals first: an expired, retired or unknown epoch, a used nonce.
-                let robot_nonce = match self.secrets.check(o.epoch, &o.client_nonce, now_us) {
+                let robot_nonce = match self.secrets.check(o.epoch, &o.client_nonce, peer, now_us) {
                     FirstFrame::Fresh(n) => n,
                     FirstFrame::Used => return Err(DropReason::Replay(p.header.seq)),
                     FirstFrame::UnknownEpoch => return Err(DropReason::Session(id)),
@@ -253,7 +251,6 @@ impl RobotLink {
                     seq,
                     msg,
                     new_session: true,
-                    newest: true,
                     replaced,
                 })
             }
