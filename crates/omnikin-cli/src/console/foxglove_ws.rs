@@ -244,6 +244,51 @@ mod tests {
     use super::*;
 
     #[test]
+    fn admission_takes_the_token_and_host_but_any_origin() {
+        let p = http::Policy {
+            token: "0123456789abcdef0123456789abcdef".into(),
+            port: 8765,
+            loopback: true,
+        };
+        let head = |target: &str, host: &str, extra: &str| {
+            format!(
+                "GET {target} HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n{extra}\r\n"
+            )
+        };
+        let t = "/?token=0123456789abcdef0123456789abcdef";
+        let ok = admit(
+            head(t, "127.0.0.1:8765", "Origin: https://app.foxglove.dev\r\n").as_bytes(),
+            &p,
+        )
+        .unwrap();
+        assert!(ok.starts_with("HTTP/1.1 101") && !ok.contains("Sec-WebSocket-Protocol"));
+        let ok = admit(
+            head(
+                t,
+                "localhost:8765",
+                &format!("Sec-WebSocket-Protocol: {SUBPROTOCOL}\r\n"),
+            )
+            .as_bytes(),
+            &p,
+        )
+        .unwrap();
+        assert!(ok.ends_with(&format!("Sec-WebSocket-Protocol: {SUBPROTOCOL}\r\n\r\n")));
+        assert_eq!(
+            admit(head("/", "127.0.0.1:8765", "").as_bytes(), &p)
+                .unwrap_err()
+                .0,
+            403
+        );
+        assert_eq!(
+            admit(head(t, "evil.example:8765", "").as_bytes(), &p)
+                .unwrap_err()
+                .0,
+            403
+        );
+        assert_eq!(admit(b"\x00garbage\r\n\r\n", &p).unwrap_err().0, 400);
+    }
+
+    #[test]
     fn frames_and_subscriptions() {
         let f = message_data(7, 0x0102_0304_0506_0708, b"{}");
         assert_eq!(f[0], 1);

@@ -171,12 +171,13 @@ impl Gate {
 
     /// Closes the oldest pending connection among those `which` selects, with a `503`.
     fn evict_oldest(&mut self, which: impl Fn(&Pending) -> bool) {
+        // Ids count up in the order of the accepts: the smallest is the oldest.
         let oldest = self
             .pending
             .iter()
             .filter(|(_, p)| which(p))
-            .min_by_key(|(_, p)| p.since)
-            .map(|(id, _)| *id);
+            .map(|(id, _)| *id)
+            .min();
         if let Some(p) = oldest.and_then(|id| self.close(id)) {
             self.evicted += 1;
             answer(

@@ -6,8 +6,8 @@
 //! thread each; a head that passes the access rules gets a worker thread, one per HTTP
 //! exchange or websocket ([`http`], [`ws`], [`foxglove_ws`]); the relay owns the robot link
 //! ([`relay`]); they meet in the [`hub::Hub`]. A connection that never finishes its head costs
-//! a socket and a bounded buffer for at most [`gate::HEAD_TIMEOUT`], never a worker. The page and its script and style are embedded in the binary
-//! (`crates/omnikin-cli/console/`).
+//! a socket and a bounded buffer for at most [`gate::HEAD_TIMEOUT`], never a worker. The page
+//! and its script and style are embedded in the binary (`crates/omnikin-cli/console/`).
 //!
 //! Access: a random per-start token (16 bytes from the OS) is required on every request
 //! (403 without it); the websocket upgrade must also come from the page's own Origin; bound to
