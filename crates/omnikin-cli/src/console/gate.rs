@@ -11,9 +11,10 @@
 //! - a complete head within [`HEAD_TIMEOUT`] of the accept, else `408` and closed (nginx's
 //!   `client_header_timeout`, Apache `mod_reqtimeout`'s `header=`; no extension for data
 //!   received, as `MinRate` would give, because a head is at most 8 KiB: one or two segments);
-//! - at most [`MAX_PENDING_PER_ADDRESS`] from one IP address (nginx's `limit_conn` per
-//!   `$binary_remote_addr`, but applied to unfinished heads only): one more from that address
-//!   closes that address's oldest, so one address cannot evict another's connections;
+//! - at most [`MAX_PENDING_PER_ADDRESS`] from one address (nginx's `limit_conn` per
+//!   `$binary_remote_addr`, but applied to unfinished heads only; an IPv6 address counts by
+//!   its /64 prefix, the block one host is given): one more from that address closes that
+//!   address's oldest, so one address cannot evict another's connections;
 //! - at most [`MAX_PENDING`] in all: one more closes the oldest pending connection.
 //!
 //! A client with the page's URL sends its head at once, so its connection is the newest in the
@@ -22,7 +23,7 @@
 
 use std::collections::HashMap;
 use std::io::{ErrorKind, Read};
-use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::net::{IpAddr, SocketAddr, TcpListener, TcpStream};
 use std::time::{Duration, Instant};
 
 use mio::net::{TcpListener as MioListener, TcpStream as MioStream};
@@ -34,7 +35,7 @@ use super::http;
 pub const HEAD_TIMEOUT: Duration = Duration::from_secs(2);
 /// Most connections without a complete head, per listener.
 pub const MAX_PENDING: usize = 128;
-/// Most connections without a complete head from one IP address, per listener.
+/// Most connections without a complete head from one address ([`address_key`]), per listener.
 pub const MAX_PENDING_PER_ADDRESS: usize = 32;
 
 /// The listener's token; pending connections count up from 0.
@@ -54,7 +55,8 @@ pub struct Head {
 /// A connection still sending its head.
 struct Pending {
     stream: MioStream,
-    peer: SocketAddr,
+    /// The peer's [`address_key`].
+    from: u128,
     since: Instant,
     buf: Vec<u8>,
 }
@@ -67,6 +69,9 @@ pub struct Gate {
     pending: HashMap<usize, Pending>,
     next: usize,
     evicted: u64,
+    /// An accept failed for another reason than an empty backlog (out of descriptors): try
+    /// again next turn, as the edge-triggered listener may not report the waiting ones again.
+    retry_accept: bool,
 }
 
 impl Gate {
@@ -84,6 +89,7 @@ impl Gate {
             pending: HashMap::new(),
             next: 0,
             evicted: 0,
+            retry_accept: false,
         })
     }
 
@@ -114,7 +120,10 @@ impl Gate {
             Err(e) if e.kind() == ErrorKind::Interrupted => return Ok(()),
             Err(e) => return Err(e),
         }
-        let ready: Vec<Token> = self.events.iter().map(|e| e.token()).collect();
+        let mut ready: Vec<Token> = self.events.iter().map(|e| e.token()).collect();
+        if std::mem::take(&mut self.retry_accept) && !ready.contains(&LISTENER) {
+            ready.push(LISTENER);
+        }
         for t in ready {
             if t == LISTENER {
                 self.accept_all(on_head);
@@ -132,18 +141,20 @@ impl Gate {
             match self.listener.accept() {
                 Ok((stream, peer)) => self.admit(stream, peer, on_head),
                 Err(e) if e.kind() == ErrorKind::Interrupted => {}
-                // WouldBlock: all taken; anything else (out of descriptors): the next
-                // connection's event tries again.
-                Err(_) => return,
+                Err(e) if e.kind() == ErrorKind::WouldBlock => return,
+                Err(_) => {
+                    self.retry_accept = true;
+                    return;
+                }
             }
         }
     }
 
     /// Makes room for a new connection, then reads what it has already sent.
     fn admit(&mut self, mut stream: MioStream, peer: SocketAddr, on_head: &mut impl FnMut(Head)) {
-        let same = |p: &&Pending| p.peer.ip() == peer.ip();
-        if self.pending.values().filter(same).count() >= MAX_PENDING_PER_ADDRESS {
-            self.evict_oldest(|p| p.peer.ip() == peer.ip());
+        let from = address_key(peer.ip());
+        if self.pending.values().filter(|p| p.from == from).count() >= MAX_PENDING_PER_ADDRESS {
+            self.evict_oldest(|p| p.from == from);
         } else if self.pending.len() >= MAX_PENDING {
             self.evict_oldest(|_| true);
         }
@@ -161,7 +172,7 @@ impl Gate {
             id,
             Pending {
                 stream,
-                peer,
+                from,
                 since: Instant::now(),
                 buf: Vec::new(),
             },
@@ -250,6 +261,20 @@ impl Gate {
     }
 }
 
+/// What the per-address cap counts by: an IPv4 address (also written IPv4-mapped in IPv6),
+/// or the /64 prefix of an IPv6 address (a host may use any address of its /64). IPv4 keys are
+/// below 2^32 and IPv6 keys have their low 64 bits zero: they meet only at `0.0.0.0` and the
+/// zero prefix, `::/64`, whose one possible peer is `::1` (loopback).
+pub fn address_key(ip: IpAddr) -> u128 {
+    match ip {
+        IpAddr::V4(v4) => u128::from(u32::from(v4)),
+        IpAddr::V6(v6) => match v6.to_ipv4_mapped() {
+            Some(v4) => u128::from(u32::from(v4)),
+            None => u128::from(v6) & !u128::from(u64::MAX),
+        },
+    }
+}
+
 /// A best-effort answer on a non-blocking socket (a short response fits any send buffer; if
 /// it does not, the connection is closed without it), then the close.
 fn answer(mut stream: MioStream, status: u16, why: &str) {
@@ -276,6 +301,18 @@ mod tests {
                 .unwrap();
         }
         heads
+    }
+
+    #[test]
+    fn addresses_count_by_host_and_ipv6_by_its_64_prefix() {
+        let k = |s: &str| address_key(s.parse().unwrap());
+        assert_eq!(k("192.0.2.7"), k("::ffff:192.0.2.7"));
+        assert_ne!(k("192.0.2.7"), k("192.0.2.8"));
+        assert_eq!(k("2001:db8:1:2::1"), k("2001:db8:1:2:ffff:ffff:ffff:ffff"));
+        assert_ne!(k("2001:db8:1:2::1"), k("2001:db8:1:3::1"));
+        // An IPv6 prefix never collides with an IPv4 host.
+        assert_ne!(k("::"), k("0.0.0.1"));
+        assert_ne!(k("::1"), k("127.0.0.1"));
     }
 
     #[test]
