@@ -4,7 +4,8 @@
 //! 50 connections to the page's port and 50 to the Foxglove port, none with the token, each
 //! sending one byte of a request head that never ends every 200 ms, and reopened whenever the
 //! console drops it (what slowloris does). Meanwhile a legitimate client loads the page (HTML,
-//! script, style) 10 times and opens 10 Foxglove connections: at least 9 of each must succeed.
+//! script, style) 10 times and opens 10 Foxglove connections: at least 9 of each must succeed,
+//! and a page opened before the attack keeps receiving telemetry through it.
 //! Every wait is bounded (5 s per request, 45 s for all of them); about 12 s in all.
 
 use std::io::{BufRead, BufReader, ErrorKind, Read, Write};
@@ -59,6 +60,34 @@ fn dropped(s: &mut TcpStream) -> bool {
         Ok(_) => true, // end of stream, or a 408 before the close
         Err(e) if e.kind() == ErrorKind::WouldBlock => s.write_all(b"a").is_err(),
         Err(_) => true,
+    }
+}
+
+/// A page's websocket opened before the attack: counts the telemetry messages it receives
+/// until `stop` (reading all the time, as a browser does, so the console never drops it).
+fn watch_page(host: &str, token: &str, stop: Arc<AtomicBool>, seen: Arc<AtomicUsize>) {
+    let mut req = format!("ws://{host}/ws?token={token}")
+        .into_client_request()
+        .unwrap();
+    req.headers_mut()
+        .insert("Origin", format!("http://{host}").parse().unwrap());
+    let s = TcpStream::connect(host).unwrap();
+    s.set_read_timeout(Some(Duration::from_millis(100)))
+        .unwrap();
+    let (mut ws, _) = tungstenite::client(req, s).expect("page upgrade before the attack");
+    while !stop.load(Ordering::SeqCst) {
+        match ws.read() {
+            Ok(Message::Text(t)) => {
+                let v: Value = serde_json::from_str(t.as_str()).unwrap();
+                if v["type"] == "telemetry" {
+                    seen.fetch_add(1, Ordering::SeqCst);
+                }
+            }
+            Ok(_) => {}
+            Err(tungstenite::Error::Io(e))
+                if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {}
+            Err(e) => panic!("the open page lost its socket: {e}"),
+        }
     }
 }
 
@@ -181,6 +210,25 @@ fn slowloris_without_the_token_does_not_lock_out_the_page_or_foxglove() {
         .unwrap();
 
     let stop = Arc::new(AtomicBool::new(false));
+    let _stop = Stop(stop.clone());
+    let telemetry = Arc::new(AtomicUsize::new(0));
+    let watcher = {
+        let (host, token, stop, seen) = (
+            host.to_string(),
+            token.to_string(),
+            stop.clone(),
+            telemetry.clone(),
+        );
+        std::thread::spawn(move || watch_page(&host, &token, stop, seen))
+    };
+    let end = Instant::now() + Duration::from_secs(15);
+    while telemetry.load(Ordering::SeqCst) == 0 && Instant::now() < end {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert!(
+        telemetry.load(Ordering::SeqCst) > 0,
+        "no telemetry on the page before the attack"
+    );
     let reopened = Arc::new(AtomicUsize::new(0));
     let attacker = {
         let (addrs, stop, reopened) = (
@@ -190,10 +238,10 @@ fn slowloris_without_the_token_does_not_lock_out_the_page_or_foxglove() {
         );
         std::thread::spawn(move || attack(addrs, stop, reopened))
     };
-    let _stop = Stop(stop.clone());
     // Let the attack take hold: every slot a slow connection can take is taken by now.
     std::thread::sleep(Duration::from_secs(1));
 
+    let before = telemetry.load(Ordering::SeqCst);
     let all = Instant::now() + Duration::from_secs(45);
     let (mut pages, mut foxes, mut failures) = (0, 0, Vec::new());
     for i in 0..10 {
@@ -212,14 +260,21 @@ fn slowloris_without_the_token_does_not_lock_out_the_page_or_foxglove() {
         // Spread over about 10 s, so slow connections time out and are reopened meanwhile.
         std::thread::sleep(Duration::from_millis(800));
     }
+    let during = telemetry.load(Ordering::SeqCst) - before;
     stop.store(true, Ordering::SeqCst);
     attacker.join().unwrap();
+    watcher.join().unwrap();
     eprintln!(
-        "pages {pages}/10, foxglove {foxes}/10, slow connections reopened {}; {failures:?}",
+        "pages {pages}/10, foxglove {foxes}/10, telemetry on the open page {during}, slow connections reopened {}; {failures:?}",
         reopened.load(Ordering::SeqCst)
     );
     assert!(
         pages >= 9 && foxes >= 9,
         "pages {pages}/10, foxglove {foxes}/10: {failures:?}"
+    );
+    // About 10 s of attack at the robot's telemetry rate (tens per second): a handful at least.
+    assert!(
+        during >= 10,
+        "the open page got {during} telemetry messages during the attack"
     );
 }
