@@ -13,7 +13,6 @@ use std::io::Write;
 use std::net::TcpStream;
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
 
 use serde::Deserialize;
 use serde_json::{Value, json};
@@ -140,45 +139,21 @@ pub fn apply(text: &str, subs: &mut HashMap<u32, u32>) {
     }
 }
 
-/// One connection to the Foxglove port: the request head, the rules, the upgrade with the
-/// subprotocol, then [`serve`].
-pub fn exchange(mut stream: TcpStream, policy: &http::Policy, hub: &Hub, fox: &FoxHub) {
-    if stream.set_nonblocking(false).is_err()
-        || stream
-            .set_read_timeout(Some(Duration::from_millis(250)))
-            .is_err()
-        || stream
-            .set_write_timeout(Some(super::ws::WRITE_TIMEOUT))
-            .is_err()
-    {
-        return;
-    }
-    let Ok((head, rest)) = http::read_head(&mut stream, Instant::now() + http::HEAD_TIMEOUT) else {
-        return;
-    };
-    let Some(mut req) = http::parse(&head) else {
-        let _ = http::respond(&mut stream, 400, "text/plain", b"bad request\n");
-        return;
-    };
-    // The same rules as the page's socket, except the Origin: stand in the page's own, so
-    // only the token, the Host and the upgrade are checked.
+/// The access rules for a request head on the Foxglove port: the same as the page's socket
+/// except the Origin (the page's own is stood in, so only the token, the Host and the upgrade
+/// are checked). The upgrade answer, with the subprotocol when the client asked for it, or
+/// the refusal.
+pub fn admit(head: &[u8], policy: &http::Policy) -> Result<String, http::Refusal> {
+    let mut req = http::parse(head).ok_or((400, "bad request"))?;
     let host = req.header("host").unwrap_or("").to_string();
     req.headers.retain(|(n, _)| n != "origin");
     req.headers
         .push(("origin".into(), format!("http://{host}")));
     req.path = "/ws".into();
-    let key = match http::route(&req, policy) {
-        Ok(http::Route::WebSocket(k)) => k,
-        Ok(_) => return,
-        Err((status, why)) => {
-            let _ = http::respond(
-                &mut stream,
-                status,
-                "text/plain; charset=utf-8",
-                format!("{why}\n").as_bytes(),
-            );
-            return;
-        }
+    let key = match http::route(&req, policy)? {
+        http::Route::WebSocket(k) => k,
+        // `route` gives a websocket or a refusal for `/ws`.
+        _ => return Err((400, "bad request: a websocket upgrade is required")),
     };
     let proto = req
         .header("sec-websocket-protocol")
@@ -188,14 +163,24 @@ pub fn exchange(mut stream: TcpStream, policy: &http::Policy, hub: &Hub, fox: &F
         answer.truncate(answer.len() - 2);
         answer.push_str(&format!("Sec-WebSocket-Protocol: {SUBPROTOCOL}\r\n\r\n"));
     }
-    if stream
-        .write_all(answer.as_bytes())
-        .and_then(|()| stream.flush())
-        .is_err()
+    Ok(answer)
+}
+
+/// One admitted client: sends the upgrade `answer`, then [`serve`]s until it closes, fails,
+/// falls behind or the console shuts down. `leftover`: bytes read past the request head.
+pub fn exchange(mut stream: TcpStream, answer: &str, leftover: Vec<u8>, hub: &Hub, fox: &FoxHub) {
+    if stream.set_nonblocking(false).is_err()
+        || stream
+            .set_write_timeout(Some(super::ws::WRITE_TIMEOUT))
+            .is_err()
+        || stream
+            .write_all(answer.as_bytes())
+            .and_then(|()| stream.flush())
+            .is_err()
     {
         return;
     }
-    serve(stream, rest, hub, fox);
+    serve(stream, leftover, hub, fox);
 }
 
 fn serve(stream: TcpStream, leftover: Vec<u8>, hub: &Hub, fox: &FoxHub) {
@@ -257,6 +242,51 @@ fn serve(stream: TcpStream, leftover: Vec<u8>, hub: &Hub, fox: &FoxHub) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn admission_takes_the_token_and_host_but_any_origin() {
+        let p = http::Policy {
+            token: "0123456789abcdef0123456789abcdef".into(),
+            port: 8765,
+            loopback: true,
+        };
+        let head = |target: &str, host: &str, extra: &str| {
+            format!(
+                "GET {target} HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n{extra}\r\n"
+            )
+        };
+        let t = "/?token=0123456789abcdef0123456789abcdef";
+        let ok = admit(
+            head(t, "127.0.0.1:8765", "Origin: https://app.foxglove.dev\r\n").as_bytes(),
+            &p,
+        )
+        .unwrap();
+        assert!(ok.starts_with("HTTP/1.1 101") && !ok.contains("Sec-WebSocket-Protocol"));
+        let ok = admit(
+            head(
+                t,
+                "localhost:8765",
+                &format!("Sec-WebSocket-Protocol: {SUBPROTOCOL}\r\n"),
+            )
+            .as_bytes(),
+            &p,
+        )
+        .unwrap();
+        assert!(ok.ends_with(&format!("Sec-WebSocket-Protocol: {SUBPROTOCOL}\r\n\r\n")));
+        assert_eq!(
+            admit(head("/", "127.0.0.1:8765", "").as_bytes(), &p)
+                .unwrap_err()
+                .0,
+            403
+        );
+        assert_eq!(
+            admit(head(t, "evil.example:8765", "").as_bytes(), &p)
+                .unwrap_err()
+                .0,
+            403
+        );
+        assert_eq!(admit(b"\x00garbage\r\n\r\n", &p).unwrap_err().0, 400);
+    }
 
     #[test]
     fn frames_and_subscriptions() {

@@ -1,16 +1,13 @@
-//! The console's HTTP side: reading one request head (bounded in bytes and time), the access
-//! rules (token, Host, Origin) and the routes. Pure functions of the request where possible,
-//! so the rules are unit-tested without a socket.
+//! The console's HTTP side: where a request head ends (bounded in bytes; the time bound and the
+//! reading are [`super::gate`]'s), the access rules (token, Host, Origin) and the routes. Pure
+//! functions of the request where possible, so the rules are unit-tested without a socket.
 
-use std::io::{ErrorKind, Read, Write};
-use std::time::{Duration, Instant};
+use std::io::Write;
 
 /// Largest request head read, bytes (request line and headers).
 pub const MAX_HEAD: usize = 8 * 1024;
 /// Most headers parsed in one request.
 pub const MAX_HEADERS: usize = 48;
-/// How long a client may take to send its request head.
-pub const HEAD_TIMEOUT: Duration = Duration::from_secs(5);
 
 /// One parsed request head.
 #[derive(Debug, Clone, PartialEq)]
@@ -48,47 +45,22 @@ impl Request {
     }
 }
 
-/// Why a request head could not be read.
+/// A request head that is over [`MAX_HEAD`] bytes without its end.
 #[derive(Debug, PartialEq)]
-pub enum HeadError {
-    /// The peer closed or the socket failed before a complete head.
-    Closed,
-    /// No complete head within [`HEAD_TIMEOUT`].
-    Timeout,
-    /// More than [`MAX_HEAD`] bytes without the end of the head.
-    TooLarge,
-}
+pub struct TooLarge;
 
-/// Reads until the blank line ending the head: the head's bytes and whatever followed it.
-/// The socket must have a read timeout (each read waits at most that long); the whole head
-/// must arrive before `deadline`.
-pub fn read_head(s: &mut impl Read, deadline: Instant) -> Result<(Vec<u8>, Vec<u8>), HeadError> {
-    let mut buf = Vec::with_capacity(1024);
-    let mut chunk = [0u8; 1024];
-    loop {
-        if let Some(end) = find_end(&buf) {
-            let rest = buf.split_off(end);
-            return Ok((buf, rest));
-        }
-        if buf.len() > MAX_HEAD {
-            return Err(HeadError::TooLarge);
-        }
-        if Instant::now() >= deadline {
-            return Err(HeadError::Timeout);
-        }
-        match s.read(&mut chunk) {
-            Ok(0) => return Err(HeadError::Closed),
-            Ok(n) => buf.extend_from_slice(&chunk[..n]),
-            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {}
-            Err(e) if e.kind() == ErrorKind::Interrupted => {}
-            Err(_) => return Err(HeadError::Closed),
-        }
+/// Where the request head in `buf` ends: the index just past its blank line (`\r\n\r\n`),
+/// `None` while it has not arrived, [`TooLarge`] when [`MAX_HEAD`] bytes came without it.
+/// `from`: how much of `buf` was searched before (the search resumes 3 bytes earlier, so a
+/// head read one byte at a time costs linear time, not quadratic).
+pub fn head_end(buf: &[u8], from: usize) -> Result<Option<usize>, TooLarge> {
+    let start = from.saturating_sub(3).min(buf.len());
+    match buf[start..].windows(4).position(|w| w == b"\r\n\r\n") {
+        Some(i) if start + i + 4 <= MAX_HEAD => Ok(Some(start + i + 4)),
+        Some(_) => Err(TooLarge),
+        None if buf.len() >= MAX_HEAD => Err(TooLarge),
+        None => Ok(None),
     }
-}
-
-/// The index just past `\r\n\r\n`, if the buffer has it.
-fn find_end(b: &[u8]) -> Option<usize> {
-    b.windows(4).position(|w| w == b"\r\n\r\n").map(|i| i + 4)
 }
 
 /// Parses a complete head (`httparse`): `None` when it is not a valid HTTP/1.x request.
@@ -409,22 +381,38 @@ mod tests {
 
     #[test]
     fn heads_are_bounded() {
-        let far = Instant::now() + Duration::from_secs(5);
         let big = vec![b'a'; MAX_HEAD + 2048];
-        assert_eq!(
-            read_head(&mut &big[..], far).unwrap_err(),
-            HeadError::TooLarge
-        );
-        assert_eq!(
-            read_head(&mut &b"GET / HTTP/1.1\r\n"[..], far).unwrap_err(),
-            HeadError::Closed
-        );
-        let (h, rest) = read_head(&mut &b"GET / HTTP/1.1\r\nHost: x\r\n\r\nabc"[..], far).unwrap();
-        assert!(h.ends_with(b"\r\n\r\n"));
-        assert_eq!(rest, b"abc");
+        assert_eq!(head_end(&big, 0), Err(TooLarge));
+        assert_eq!(head_end(&big[..MAX_HEAD - 1], 0), Ok(None));
+        // The end just inside the bound is a head; one byte further is not.
+        let mut edge = vec![b'a'; MAX_HEAD - 4];
+        edge.extend_from_slice(b"\r\n\r\n");
+        assert_eq!(head_end(&edge, 0), Ok(Some(MAX_HEAD)));
+        edge.insert(0, b'a');
+        assert_eq!(head_end(&edge, 0), Err(TooLarge));
+        assert_eq!(head_end(b"GET / HTTP/1.1\r\n", 0), Ok(None));
+        let full = b"GET / HTTP/1.1\r\nHost: x\r\n\r\nabc";
+        assert_eq!(head_end(full, 0), Ok(Some(full.len() - 3)));
         // Garbage is not a request.
         assert!(parse(b"\x00\x01\x02\r\n\r\n").is_none());
         assert!(parse(b"GET\r\n\r\n").is_none());
+    }
+
+    #[test]
+    fn a_head_read_a_byte_at_a_time_is_found_where_it_ends() {
+        let full = b"GET / HTTP/1.1\r\nHost: x\r\n\r\nrest";
+        let mut searched = 0;
+        for n in 1..=full.len() {
+            let got = head_end(&full[..n], searched).unwrap();
+            searched = n;
+            if n < full.len() - 4 {
+                assert_eq!(got, None, "{n} bytes");
+            } else {
+                assert_eq!(got, Some(full.len() - 4), "{n} bytes");
+                return;
+            }
+        }
+        panic!("the end was never found");
     }
 
     #[test]

@@ -1,10 +1,13 @@
 //! `omnikin console`: a local web page that shows and drives the robot, relayed over the
 //! operator link (`drive`'s session).
 //!
-//! Threads, no async runtime: the accept loop (this module), one thread per HTTP exchange or
-//! page websocket ([`http`], [`ws`]), and the relay that owns the robot link ([`relay`]); they
-//! meet in the [`hub::Hub`]. The page and its script and style are embedded in the binary
-//! (`crates/omnikin-cli/console/`).
+//! Threads, no async runtime: one [`gate::Gate`] per listening socket (the page's on the main
+//! thread, Foxglove's on its own) reads the request heads of every new connection without a
+//! thread each; a head that passes the access rules gets a worker thread, one per HTTP
+//! exchange or websocket ([`http`], [`ws`], [`foxglove_ws`]); the relay owns the robot link
+//! ([`relay`]); they meet in the [`hub::Hub`]. A connection that never finishes its head costs
+//! a socket and a bounded buffer for at most [`gate::HEAD_TIMEOUT`], never a worker. The page
+//! and its script and style are embedded in the binary (`crates/omnikin-cli/console/`).
 //!
 //! Access: a random per-start token (16 bytes from the OS) is required on every request
 //! (403 without it); the websocket upgrade must also come from the page's own Origin; bound to
@@ -20,6 +23,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 
 pub mod foxglove_ws;
+pub mod gate;
 pub mod http;
 pub mod hub;
 pub mod relay;
@@ -27,7 +31,7 @@ pub mod ws;
 
 use hub::Hub;
 
-/// At most this many HTTP exchanges at once (more are closed at once).
+/// At most this many HTTP exchanges at once, counted after the access rules (more get 503).
 pub const MAX_HTTP: usize = 16;
 /// At most this many pages connected at once (more get 503).
 pub const MAX_PAGES: usize = 8;
@@ -119,7 +123,6 @@ pub fn run(a: &ConsoleArgs) -> Result<()> {
     let listener =
         TcpListener::bind(listen).with_context(|| format!("--listen {listen}: cannot bind"))?;
     let local = listener.local_addr()?;
-    listener.set_nonblocking(true)?;
     let token = token()?;
     let loopback = local.ip().is_loopback();
     let policy = Arc::new(http::Policy {
@@ -182,6 +185,7 @@ pub fn run(a: &ConsoleArgs) -> Result<()> {
         Some(s) => Some(Instant::now() + crate::args::duration("--for", s)?),
         None => None,
     };
+    let mut gate = gate::Gate::new(listener).context("--listen: cannot poll the socket")?;
     let http_slots = Arc::new(AtomicUsize::new(0));
     let page_slots = Arc::new(AtomicUsize::new(0));
     let result = loop {
@@ -191,27 +195,19 @@ pub fn run(a: &ConsoleArgs) -> Result<()> {
         if end.is_some_and(|e| Instant::now() >= e) || relay.is_finished() {
             break Ok(());
         }
-        match listener.accept() {
-            Ok((stream, _)) => {
-                // Over the limit the connection is closed unanswered.
-                let Some(slot) = Slot::take(&http_slots, MAX_HTTP) else {
-                    continue;
-                };
-                let (hub, policy, pages) = (hub.clone(), policy.clone(), page_slots.clone());
-                let spawned = std::thread::Builder::new()
-                    .name("http".into())
-                    .spawn(move || exchange(stream, slot, &policy, hub, &pages));
-                if spawned.is_err() {
-                    crate::errln!("console: cannot start a thread for a connection");
-                }
-            }
-            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
-                std::thread::sleep(Duration::from_millis(20));
-            }
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => break Err(e).context("--listen: accept failed"),
+        let turned = gate.turn(Duration::from_millis(20), &mut |h| {
+            page_head(h, &policy, &hub, &http_slots, &page_slots);
+        });
+        if let Err(e) = turned {
+            break Err(e).context("--listen: polling the socket failed");
         }
     };
+    if gate.evicted() > 0 {
+        crate::errln!(
+            "console: closed {} connections on --listen that had not finished their request head when newer ones came (a slowloris attack, or a very slow link)",
+            gate.evicted()
+        );
+    }
     hub.shutdown.store(true, Ordering::SeqCst);
     // The relay sends a stop if it was driving; its receive slices are short.
     let deadline = Instant::now() + Duration::from_secs(2);
@@ -221,48 +217,66 @@ pub fn run(a: &ConsoleArgs) -> Result<()> {
     result
 }
 
-/// One connection: its request head, the access rules, then a response or a websocket.
+/// A best-effort answer written at once on the gate's thread (the socket is non-blocking; a
+/// short refusal fits any send buffer), then the close.
+fn refuse(mut stream: TcpStream, status: u16, why: &str) {
+    let _ = http::respond(
+        &mut stream,
+        status,
+        "text/plain; charset=utf-8",
+        format!("{why}\n").as_bytes(),
+    );
+}
+
+/// A complete head on the page's port: the access rules, then a worker for what they allow
+/// (at most [`MAX_HTTP`]).
+fn page_head(
+    h: gate::Head,
+    policy: &Arc<http::Policy>,
+    hub: &Arc<Hub>,
+    http_slots: &Arc<AtomicUsize>,
+    pages: &Arc<AtomicUsize>,
+) {
+    let Some(req) = http::parse(&h.head) else {
+        return refuse(h.stream, 400, "bad request");
+    };
+    let route = match http::route(&req, policy) {
+        Ok(r) => r,
+        Err((status, why)) => return refuse(h.stream, status, why),
+    };
+    let Some(slot) = Slot::take(http_slots, MAX_HTTP) else {
+        return refuse(
+            h.stream,
+            503,
+            "the console is busy: too many requests at once",
+        );
+    };
+    let (hub, policy, pages) = (hub.clone(), policy.clone(), pages.clone());
+    let spawned = std::thread::Builder::new()
+        .name("http".into())
+        .spawn(move || exchange(h.stream, route, h.rest, slot, &policy, hub, &pages));
+    if spawned.is_err() {
+        crate::errln!("console: cannot start a thread for a connection");
+    }
+}
+
+/// One admitted request on its worker: the response, or the websocket of a page.
 fn exchange(
     mut stream: TcpStream,
+    route: http::Route,
+    rest: Vec<u8>,
     slot: Slot,
     policy: &http::Policy,
     hub: Arc<Hub>,
     pages: &Arc<AtomicUsize>,
 ) {
     if stream.set_nonblocking(false).is_err()
-        || stream
-            .set_read_timeout(Some(Duration::from_millis(250)))
-            .is_err()
         || stream.set_write_timeout(Some(ws::WRITE_TIMEOUT)).is_err()
     {
         return;
     }
-    let (head, rest) = match http::read_head(&mut stream, Instant::now() + http::HEAD_TIMEOUT) {
-        Ok(h) => h,
-        Err(http::HeadError::TooLarge) => {
-            let _ = http::respond(&mut stream, 431, "text/plain", b"request head too large\n");
-            return;
-        }
-        Err(http::HeadError::Timeout) => {
-            let _ = http::respond(&mut stream, 408, "text/plain", b"request head timed out\n");
-            return;
-        }
-        Err(http::HeadError::Closed) => return,
-    };
-    let Some(req) = http::parse(&head) else {
-        let _ = http::respond(&mut stream, 400, "text/plain", b"bad request\n");
-        return;
-    };
-    match http::route(&req, policy) {
-        Err((status, why)) => {
-            let _ = http::respond(
-                &mut stream,
-                status,
-                "text/plain; charset=utf-8",
-                format!("{why}\n").as_bytes(),
-            );
-        }
-        Ok(http::Route::Page) => {
+    match route {
+        http::Route::Page => {
             let _ = http::respond(
                 &mut stream,
                 200,
@@ -270,10 +284,10 @@ fn exchange(
                 http::page(&policy.token).as_bytes(),
             );
         }
-        Ok(http::Route::Asset(ctype, body)) => {
+        http::Route::Asset(ctype, body) => {
             let _ = http::respond(&mut stream, 200, ctype, body.as_bytes());
         }
-        Ok(http::Route::WebSocket(key)) => {
+        http::Route::WebSocket(key) => {
             let Some(_page) = Slot::take(pages, MAX_PAGES) else {
                 let _ = http::respond(&mut stream, 503, "text/plain", b"too many pages open\n");
                 return;
@@ -301,7 +315,6 @@ fn foxglove_listener(addr: &str, token: &str) -> Result<(TcpListener, Arc<foxglo
         format!("--foxglove: expected HOST:PORT (e.g. 127.0.0.1:8765), got \"{addr}\"")
     })?;
     let l = TcpListener::bind(at).with_context(|| format!("--foxglove {at}: cannot bind"))?;
-    l.set_nonblocking(true)?;
     let local = l.local_addr()?;
     if !local.ip().is_loopback() {
         crate::errln!(
@@ -326,32 +339,45 @@ fn policy_for(l: &TcpListener, token: &str) -> Result<http::Policy> {
     })
 }
 
-/// At most this many Foxglove clients at once.
+/// At most this many Foxglove clients at once, counted after the access rules (more get 503).
 const MAX_FOXGLOVE: usize = 4;
 
+/// The Foxglove port's gate until the console shuts down: the access rules for each complete
+/// head, then a worker per admitted client (at most [`MAX_FOXGLOVE`]).
 fn foxglove_accept(
     l: TcpListener,
     policy: http::Policy,
     hub: Arc<Hub>,
     fox: Arc<foxglove_ws::FoxHub>,
 ) {
-    let policy = Arc::new(policy);
+    let mut gate = match gate::Gate::new(l) {
+        Ok(g) => g,
+        Err(e) => {
+            crate::errln!("console: --foxglove: cannot poll the socket: {e}");
+            return;
+        }
+    };
     let slots = Arc::new(AtomicUsize::new(0));
     while !hub.shutdown.load(Ordering::SeqCst) {
-        match l.accept() {
-            Ok((stream, _)) => {
-                let Some(slot) = Slot::take(&slots, MAX_FOXGLOVE) else {
-                    continue;
-                };
-                let (policy, hub, fox) = (policy.clone(), hub.clone(), fox.clone());
-                let _ = std::thread::Builder::new()
-                    .name("foxglove-client".into())
-                    .spawn(move || {
-                        let _slot = slot;
-                        foxglove_ws::exchange(stream, &policy, &hub, &fox);
-                    });
-            }
-            Err(_) => std::thread::sleep(Duration::from_millis(20)),
+        let turned = gate.turn(Duration::from_millis(50), &mut |h| {
+            let answer = match foxglove_ws::admit(&h.head, &policy) {
+                Ok(a) => a,
+                Err((status, why)) => return refuse(h.stream, status, why),
+            };
+            let Some(slot) = Slot::take(&slots, MAX_FOXGLOVE) else {
+                return refuse(h.stream, 503, "too many Foxglove clients at once");
+            };
+            let (hub, fox) = (hub.clone(), fox.clone());
+            let _ = std::thread::Builder::new()
+                .name("foxglove-client".into())
+                .spawn(move || {
+                    let _slot = slot;
+                    foxglove_ws::exchange(h.stream, &answer, h.rest, &hub, &fox);
+                });
+        });
+        if let Err(e) = turned {
+            crate::errln!("console: --foxglove: polling the socket failed: {e}");
+            return;
         }
     }
 }
