@@ -395,7 +395,8 @@ fn clock_rng() -> ClockRng {
     ClockRng(t | 1)
 }
 
-/// A hand-made operator: the v2 handshake and session frames built with the library.
+/// A hand-made operator: the v3 handshake and session frames built with the library (it takes
+/// the robot over, as `drive` does).
 struct Client {
     sock: UdpSocket,
     robot: SocketAddr,
@@ -411,10 +412,12 @@ impl Client {
     fn new(robot: SocketAddr) -> Self {
         let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
         sock.set_nonblocking(true).unwrap();
+        let mut op = OperatorLink::new(None);
+        op.set_take_over(true);
         Client {
             sock,
             robot,
-            op: OperatorLink::new(None),
+            op,
             reader: FrameReader::new(),
             latest: None,
             received: (0, 0),
@@ -892,7 +895,7 @@ fn observation_3_a_replayed_estop_confirmation_is_not_accepted() {
     // The recorded frames are of another session: dropped, so this session hears nothing.
     assert!(
         err.contains("lost the session")
-            || err.contains("never confirmed the session")
+            || err.contains("did not open the session")
             || err.contains("did not confirm the e-stop"),
         "{err}"
     );
@@ -967,7 +970,7 @@ fn version_mismatch_is_named_both_ways() {
         "{err}"
     );
     // A v1 operator against this robot: a hand-made v1 Hello gets a v1 HelloAck that says
-    // protocol 2 (what a v1 drive prints as "robot speaks protocol version 2").
+    // protocol 3 (what a v1 drive prints as "robot speaks protocol version 3").
     let robot = Robot::start(&["--max-time", "8"]);
     let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
     sock.set_read_timeout(Some(Duration::from_millis(500)))
@@ -994,8 +997,8 @@ fn version_mismatch_is_named_both_ways() {
     // v1 body: variant 1 (HelloAck), then RobotInfo.protocol.
     assert_eq!(
         (dec[10], dec[11]),
-        (1, 2),
-        "HelloAck with protocol 2: {dec:?}"
+        (1, 3),
+        "HelloAck with protocol 3: {dec:?}"
     );
     let s = robot.summary();
     assert_eq!(s["link"]["version"], 2);
@@ -1069,10 +1072,11 @@ fn telemetry_stops_when_the_operator_goes_silent() {
 
 #[test]
 fn telemetry_goes_to_the_address_that_received_the_hello_ack_not_to_the_confirmer() {
-    // A handshakes from its own address, then sends the key confirmation and keep-alives with
-    // another source address B (here another socket; on a network, a spoofed victim). Before,
-    // the robot streamed telemetry to B, which had never received anything from it: 4 frames
-    // of 25 bytes bought ~21 kB at a victim (x200), unkeyed or by any key holder.
+    // A handshakes from its own address, then sends its first frames with another source
+    // address B (here another socket; on a network, a spoofed victim). In v2 the robot once
+    // streamed telemetry to B, which had never received anything from it: 4 frames of 25 bytes
+    // bought ~21 kB at a victim (x200). In v3 the robot's nonce is bound to A's address, so
+    // frames from B prove nothing: no session, nothing to B; from A the session opens.
     let robot = Robot::start(&["--max-time", "16"]);
     let target = robot.socket_addr();
     let mut a = Client::new(target);
@@ -1098,10 +1102,264 @@ fn telemetry_goes_to_the_address_that_received_the_hello_ack_not_to_the_confirme
         (0, 0),
         "nothing to an address that got no HelloAck"
     );
-    assert!(
-        a.latest.is_some(),
-        "the telemetry goes to the handshaking address"
-    );
+    assert!(a.latest.is_none(), "no session from B's frames");
+    let t = a.wait(300);
+    assert_eq!(t.mode, Mode::Idle, "from A's own address the session opens");
     let s = robot.summary();
     assert_eq!(s["link"]["sessions"], 1);
+}
+
+/// Sends `frame` from a fresh socket every `every` until `until`, then listens `tail` longer;
+/// returns (datagrams, bytes) sent and received.
+fn spray(
+    robot: SocketAddr,
+    frame: &[u8],
+    every: Duration,
+    until: Instant,
+    tail: Duration,
+) -> ((u64, u64), (u64, u64)) {
+    let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
+    sock.set_nonblocking(true).unwrap();
+    let (mut sent, mut got) = ((0u64, 0u64), (0u64, 0u64));
+    let mut buf = [0u8; 2048];
+    let mut drain = |got: &mut (u64, u64)| {
+        while let Ok((n, _)) = sock.recv_from(&mut buf) {
+            got.0 += 1;
+            got.1 += n as u64;
+        }
+    };
+    while Instant::now() < until {
+        sock.send_to(frame, robot).unwrap();
+        sent.0 += 1;
+        sent.1 += frame.len() as u64;
+        drain(&mut got);
+        std::thread::sleep(every);
+    }
+    let end = Instant::now() + tail;
+    while Instant::now() < end {
+        drain(&mut got);
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    (sent, got)
+}
+
+#[test]
+fn a_replayed_hello_from_another_address_gets_no_session_and_no_telemetry() {
+    // Observation 1 of issue 30: the attacker sniffs the operator's Hello and re-sends it from
+    // its own address while the operator completes the handshake. Keyed, as in the report.
+    let dir = tmp("hello-replay");
+    let key = dir.join("robot.key");
+    std::fs::write(&key, "0123456789abcdef0123456789abcdef\n").unwrap();
+    let k = omnikin::link::Key::new(b"0123456789abcdef0123456789abcdef").unwrap();
+    let robot = Robot::start(&["--max-time", "16", "--key", key.to_str().unwrap()]);
+    let target = robot.socket_addr();
+    let mut op = Client::new(target);
+    op.op = OperatorLink::new(Some(k));
+    op.op.set_take_over(true);
+    let mut buf = [0u8; MAX_FRAME];
+    let n = op.op.hello(&mut clock_rng(), &mut buf).unwrap();
+    let hello = buf[..n].to_vec();
+    // The replayer, every 10 ms for 1.5 s (under the Hello rate limit, so every copy is
+    // answered), from the start of the handshake on.
+    let h = {
+        let hello = hello.clone();
+        let until = Instant::now() + Duration::from_millis(1500);
+        std::thread::spawn(move || {
+            spray(
+                target,
+                &hello,
+                Duration::from_millis(60),
+                until,
+                Duration::from_millis(300),
+            )
+        })
+    };
+    std::thread::sleep(Duration::from_millis(100));
+    op.raw(&hello);
+    let end = Instant::now() + Duration::from_secs(3);
+    while op.op.info().is_none() {
+        assert!(Instant::now() < end, "no HelloAck for the operator");
+        std::thread::sleep(Duration::from_millis(5));
+        op.drain();
+        if op.op.info().is_none() {
+            op.raw(&hello);
+        }
+    }
+    let t = op.wait(600);
+    let (sent, got) = h.join().unwrap();
+    let s = robot.summary();
+    println!(
+        "replayer sent {sent:?}, got {got:?}; operator got {:?}; robot {s}",
+        op.received
+    );
+    assert_eq!(t.mode, Mode::Idle);
+    assert!(op.op.confirmed(), "the operator's session opened");
+    assert_eq!(s["link"]["sessions"], 1, "one session: the operator's");
+    assert!(
+        got.1 <= sent.1,
+        "the replayer receives at most the bytes it sent"
+    );
+    assert!(
+        got.0 <= sent.0,
+        "one answer per Hello at most, no telemetry"
+    );
+    assert!(op.received.0 > 20, "telemetry went to the operator");
+}
+
+#[test]
+fn a_held_back_clear_delivered_after_an_estop_leaves_the_robot_stopped() {
+    // Observation 3 of issue 30, with real processes: an in-path attacker holds back an
+    // authentic Clear and velocity frames and delivers them after the operator's e-stop.
+    let robot = Robot::start(&["--max-time", "16"]);
+    let mut c = Client::new(robot.socket_addr());
+    c.connect();
+    c.wait(100);
+    let v = Message::SetVelocity {
+        frame: Frame::Robot,
+        vx: 1.0,
+        vy: 0.0,
+        yaw_rate: 0.0,
+    };
+    // The operator drives for a while.
+    let end = Instant::now() + Duration::from_millis(300);
+    while Instant::now() < end {
+        c.send(&v);
+        std::thread::sleep(Duration::from_millis(10));
+        c.drain();
+    }
+    let held: Vec<Vec<u8>> = std::iter::once(c.frame(&Message::Clear))
+        .chain((0..5).map(|_| c.frame(&v)))
+        .collect();
+    c.send(&Message::EStop);
+    let end = Instant::now() + Duration::from_secs(3);
+    let before = loop {
+        let t = c.wait(20);
+        if t.mode == Mode::EStop && t.estop_seq > 0 {
+            break t;
+        }
+        assert!(Instant::now() < end, "e-stop not confirmed");
+    };
+    for f in &held {
+        c.raw(f);
+    }
+    let after = c.wait(500);
+    let s = robot.summary();
+    println!("before {:?}, after {:?}: {s}", before.pose, after.pose);
+    assert_eq!(after.mode, Mode::EStop, "still e-stopped");
+    assert_eq!(after.clear_seq, 0, "no clear ended it");
+    assert!(
+        (after.pose[0] - before.pose[0]).abs() < 1e-4,
+        "did not drive"
+    );
+    assert_eq!(s["link"]["stale"], 6, "the clear and five velocity frames");
+}
+
+#[test]
+fn a_forged_v1_hello_ack_does_not_end_the_operators_attempt() {
+    // Observation 4 of issue 30: unauthenticated v1 HelloAcks ("protocol 1") sprayed at the
+    // operator, from the robot's address (a proxy in front of it) and from another address.
+    for keyed in [false, true] {
+        let dir = tmp(&format!("forged-v1-{keyed}"));
+        let key = dir.join("robot.key");
+        std::fs::write(&key, "0123456789abcdef0123456789abcdef\n").unwrap();
+        let k = key.to_str().unwrap();
+        let robot = if keyed {
+            Robot::start(&["--max-time", "16", "--key", k])
+        } else {
+            Robot::start(&["--max-time", "16"])
+        };
+        let front = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let back = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let other = UdpSocket::bind("127.0.0.1:0").unwrap();
+        front.set_nonblocking(true).unwrap();
+        back.set_nonblocking(true).unwrap();
+        let front_addr = front.local_addr().unwrap().to_string();
+        let target = robot.socket_addr();
+        let done = Arc::new(AtomicBool::new(false));
+        let d2 = done.clone();
+        let h = std::thread::spawn(move || {
+            let info = omnikin::link::RobotInfo {
+                protocol: 1,
+                kind: omnikin::link::RobotKind::Sphere,
+                plan_capacity: 4096,
+                rate_hz: 100.0,
+                watchdog: 0.5,
+                authenticated: false,
+            };
+            let mut forged = [0u8; MAX_FRAME];
+            let m = omnikin::link::v1::encode_hello_ack(&info, 1, None, &mut forged).unwrap();
+            let (mut op, mut n_forged) = (None, 0u32);
+            let mut buf = [0u8; 2048];
+            let deadline = Instant::now() + Duration::from_secs(10);
+            while !d2.load(Ordering::Relaxed) && Instant::now() < deadline {
+                while let Ok((n, from)) = front.recv_from(&mut buf) {
+                    if op.is_none() {
+                        // The forgeries go out before anything of the robot's.
+                        for _ in 0..3 {
+                            let _ = front.send_to(&forged[..m], from);
+                            let _ = other.send_to(&forged[..m], from);
+                            n_forged += 2;
+                        }
+                    }
+                    op = Some(from);
+                    back.send_to(&buf[..n], target).unwrap();
+                }
+                while let Ok((n, _)) = back.recv_from(&mut buf) {
+                    if let Some(o) = op {
+                        let _ = front.send_to(&buf[..n], o);
+                    }
+                }
+                std::thread::sleep(Duration::from_micros(300));
+            }
+            n_forged
+        });
+        let args: Vec<&str> = if keyed {
+            vec!["--key", k, "hello"]
+        } else {
+            vec!["hello"]
+        };
+        let out = drive(&front_addr, &args);
+        done.store(true, Ordering::Relaxed);
+        let n_forged = h.join().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(n_forged >= 6);
+        assert!(out.status.success(), "keyed {keyed}: {err}");
+        assert!(!err.contains("version mismatch"), "{err}");
+        assert!(String::from_utf8_lossy(&out.stdout).contains("protocol 3"));
+    }
+}
+
+#[test]
+fn an_idle_console_takes_nothing_over() {
+    // Observation 6 of issue 30: a console started while an operator drives, and left alone.
+    let robot = Robot::start(&["--max-time", "40"]);
+    let a = robot.addr.clone();
+    let driver =
+        std::thread::spawn(move || drive_with(&a, "2", &["velocity", "--vx", "0.1", "--for", "3"]));
+    std::thread::sleep(Duration::from_millis(300));
+    let console = Command::new(BIN)
+        .args([
+            "console",
+            "--connect",
+            &robot.addr,
+            "--listen",
+            "127.0.0.1:0",
+        ])
+        .args(["--for", "2.5"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .output()
+        .unwrap();
+    let driven = driver.join().unwrap();
+    let cerr = String::from_utf8_lossy(&console.stderr);
+    println!("console: {cerr}");
+    assert!(
+        driven.status.success(),
+        "the operator kept the robot: {}",
+        String::from_utf8_lossy(&driven.stderr)
+    );
+    assert!(cerr.contains("held by another operator"), "{cerr}");
+    let s = robot.summary();
+    assert_eq!(s["link"]["takeovers"], 0, "{s}");
+    assert!(s["link"]["refused_busy"].as_u64().unwrap() >= 1, "{s}");
 }

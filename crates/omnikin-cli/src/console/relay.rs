@@ -181,6 +181,7 @@ pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: Consol
             Err(e) => {
                 if let Some(b) = e.downcast_ref::<RobotBusy>() {
                     if r.held.is_none() {
+                        crate::errln!("console: {b}");
                         r.event("warn", &format!("{b}"));
                     }
                     r.held = Some(*b);
