@@ -81,6 +81,25 @@ impl Robot {
     }
 }
 
+impl Robot {
+    /// Stops the robot now (SIGTERM: it ends its loop and prints its summary as at
+    /// `--max-time`) and returns its JSON summary.
+    #[allow(dead_code)]
+    pub fn stop_summary(mut self) -> serde_json::Value {
+        let child = self.child.take().unwrap();
+        let _ = Command::new("kill")
+            .args(["-TERM", &child.id().to_string()])
+            .status();
+        let out = child.wait_with_output().unwrap();
+        serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+            panic!(
+                "robot summary: {e}: {}",
+                String::from_utf8_lossy(&out.stderr)
+            )
+        })
+    }
+}
+
 impl Drop for Robot {
     fn drop(&mut self) {
         if let Some(c) = self.child.as_mut() {
