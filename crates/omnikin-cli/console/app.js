@@ -61,7 +61,9 @@ function setLink(state, detail, m) {
   const el = $('link-state');
   el.textContent = state;
   el.title = detail || '';
-  $('link-pill').className = 'pill ' + (state === 'connected' ? 'ok' : state === 'connecting' ? 'warn' : 'bad');
+  // 'held': another operator's session is live; a control (or E-STOP) here takes it over.
+  el.textContent = state === 'held' ? 'held by another operator' : state;
+  $('link-pill').className = 'pill ' + (state === 'connected' ? 'ok' : (state === 'connecting' || state === 'held') ? 'warn' : 'bad');
   if (m) linkMsg = m;
   linkTable();
 }
