@@ -59,7 +59,6 @@ function fix3(v) { const s = v.toFixed(3); return s === '-0.000' ? '0.000' : s; 
 let linkMsg = null;
 function setLink(state, detail, m) {
   const el = $('link-state');
-  el.textContent = state;
   el.title = detail || '';
   // 'held': another operator's session is live; a control (or E-STOP) here takes it over.
   el.textContent = state === 'held' ? 'held by another operator' : state;
