@@ -65,12 +65,12 @@ impl Wire {
         let mut reply = [0u8; MAX_FRAME];
         match self
             .robot
-            .receive(&mut f, &self.info, &mut self.rng, &mut reply)?
+            .receive(&mut f, now, &[], &self.info, &mut self.rng, &mut reply)?
         {
             RobotEvent::Message { seq, msg, .. } => {
                 serve(rt, &mut self.robot, seq, &msg, now);
             }
-            RobotEvent::Hello(n) => {
+            RobotEvent::Hello(n) | RobotEvent::Busy(n) => {
                 let mut ack = reply[..n - 1].to_vec();
                 self.op.receive(&mut ack).unwrap();
             }

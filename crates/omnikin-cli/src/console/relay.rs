@@ -979,6 +979,7 @@ mod tests {
             link: LinkCounters::default(),
             ack_seq: 0,
             estop_seq: 0,
+            clear_seq: 0,
         }
     }
 
