@@ -621,6 +621,11 @@ impl Session {
     }
 
     fn finish(&mut self) -> Result<()> {
+        // Leave the session: the robot is free for the next operator at once (not after the
+        // 1 s during which a silent session still counts as live).
+        if self.op.confirmed() {
+            self.send(&Message::Bye)?;
+        }
         if let Some(m) = self.mcap.take() {
             m.finish()?;
         }

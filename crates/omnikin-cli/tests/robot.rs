@@ -135,7 +135,7 @@ fn velocity_stop_estop_and_clear() {
     let out = drive(&a, &["hello"]);
     assert!(
         String::from_utf8_lossy(&out.stdout)
-            .contains("protocol 2, model Sphere, plan capacity 4096")
+            .contains("protocol 3, model Sphere, plan capacity 4096")
     );
     let out = drive(
         &a,
@@ -215,10 +215,11 @@ fn wrong_key_is_dropped_and_nothing_moves() {
     let version = s["link"]["version"].as_u64().unwrap();
     assert!(auth >= 20, "auth drops {auth}");
     assert!(version >= 2, "the v1 probes: {version}");
+    let throttled = s["link"]["throttled"].as_u64().unwrap();
     assert_eq!(
         s["link"]["dropped"].as_u64().unwrap(),
-        auth + version,
-        "every drop is an auth drop or a v1 probe"
+        auth + version + throttled,
+        "every drop is an auth drop, a v1 probe or a Hello over the sender's rate"
     );
     assert_eq!(
         s["link"]["sessions"], 1,

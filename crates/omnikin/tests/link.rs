@@ -141,6 +141,14 @@ fn message() -> impl Strategy<Value = Message> {
         (f(), f(), f()).prop_map(|(x, y, heading)| Message::SetPose { x, y, heading }),
         telemetry().prop_map(Message::Telemetry),
         Just(Message::SessionEnd(EndReason::TakenOver)),
+        Just(Message::Bye),
+        any::<(u64, u32, u32)>().prop_map(|(holder, idle_ms, held_s)| Message::Busy(
+            omnikin::link::Busy {
+                holder,
+                idle_ms,
+                held_s
+            }
+        )),
         (any::<u64>(), f(), f(), prop::option::of(f()), f(), f()).prop_map(
             |(capture_us, x, y, heading, std_xy, std_heading)| Message::Fix(WireFix {
                 capture_us,
@@ -830,6 +838,29 @@ fn a_session_that_went_silent_is_not_live_and_opens_without_take_over() {
         "{r:?}"
     );
     assert_eq!(bot.link.session_id(), b.session_id());
+}
+
+#[test]
+fn an_operator_that_said_bye_is_not_live() {
+    let mut rng = TestRng(25);
+    let mut bot = Bot::new(None, 26);
+    let mut a = OperatorLink::new(None);
+    connect(&mut a, &mut bot, &mut rng);
+    assert!(bot.rx(&op_tx(&mut a, &Message::Bye)).0.is_ok());
+    let mut b = OperatorLink::new(None);
+    let (_, ack) = bot.rx(&op_hello(&mut b, &mut rng));
+    assert!(op_rx(&mut b, &ack).is_ok());
+    let (r, _) = bot.rx(&op_tx(&mut b, &Message::Heartbeat));
+    assert!(
+        matches!(
+            r,
+            Ok(RobotEvent::Message {
+                new_session: true,
+                ..
+            })
+        ),
+        "{r:?}"
+    );
 }
 
 #[test]

@@ -308,6 +308,7 @@ impl Relay {
                 if self.teleop.is_some() || self.upload.is_some() || self.follow.is_some() {
                     o.send(&Message::Stop)?;
                 }
+                o.send(&Message::Bye)?;
                 return Ok(());
             }
             if let Some(sig) = crate::output::interrupted() {

@@ -413,6 +413,10 @@ pub enum Message {
     /// [`Opening::take_over`](super::Opening::take_over) while another operator's session is
     /// live. The session is not opened; the operator may open it later, or take over.
     Busy(Busy),
+    /// Operator → robot: this operator leaves its session (the last frame a `drive` run or a
+    /// console sends). The session stops being live at once, so another operator opens
+    /// without taking over; the robot's motion is not affected (the watchdog still applies).
+    Bye,
 }
 
 /// Who holds the robot ([`Message::Busy`]).
@@ -486,7 +490,7 @@ impl Message {
     }
 
     /// The runtime command of an operator message (`None` for `Telemetry`, `SessionEnd`,
-    /// `Estimate`, `Truth` and `Busy`).
+    /// `Estimate`, `Truth`, `Busy` and `Bye`).
     /// Chunk points are converted into `buf`.
     pub fn command<'b, T: Real>(
         &self,
@@ -528,7 +532,8 @@ impl Message {
             | Message::SessionEnd(_)
             | Message::Estimate(_)
             | Message::Truth(_)
-            | Message::Busy(_) => return None,
+            | Message::Busy(_)
+            | Message::Bye => return None,
         })
     }
 }

@@ -43,6 +43,7 @@ pub enum RobotEvent {
 
 /// Robot time after its newest frame during which a session counts as live, µs: an open frame
 /// without [`Opening::take_over`](super::Opening::take_over) does not replace a live session.
+/// A session whose operator said [`Message::Bye`] is not live.
 pub const LIVE_US: u64 = 1_000_000;
 
 /// The robot's end of the link: the active session, the handshake secrets, the e-stop
@@ -55,6 +56,8 @@ pub struct RobotLink {
     /// Robot time the active session opened and its newest frame arrived, µs.
     opened_us: u64,
     heard_us: u64,
+    /// The active session's operator said [`Message::Bye`]: it is not live.
+    left: bool,
     counters: LinkCounters,
     ack_seq: u64,
     /// The latched e-stop's sequence number (0: none latched by this session).
@@ -75,6 +78,7 @@ impl RobotLink {
             secrets: HandshakeSecrets::new(),
             opened_us: 0,
             heard_us: 0,
+            left: false,
             counters: LinkCounters::default(),
             ack_seq: 0,
             estop_seq: 0,
@@ -192,6 +196,7 @@ impl RobotLink {
                     let (seq, msg) = a.open(&p, true)?;
                     self.ack_seq = self.ack_seq.max(seq);
                     self.heard_us = self.heard_us.max(now_us);
+                    self.left = matches!(msg, Message::Bye);
                     return Ok(RobotEvent::Message {
                         seq,
                         msg,
@@ -218,6 +223,7 @@ impl RobotLink {
                 let (seq, msg) = session.open(&p, true)?;
                 if let Some(a) = self.active.as_ref()
                     && !o.take_over
+                    && !self.left
                     && now_us.saturating_sub(self.heard_us) < LIVE_US
                 {
                     let busy = Busy {
@@ -243,6 +249,7 @@ impl RobotLink {
                 self.active = Some(session);
                 self.opened_us = now_us;
                 self.heard_us = now_us;
+                self.left = matches!(msg, Message::Bye);
                 self.ack_seq = seq;
                 self.estop_seq = 0;
                 self.estop_barrier = 0;
