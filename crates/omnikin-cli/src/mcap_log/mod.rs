@@ -17,6 +17,7 @@
 
 pub mod convert;
 pub mod foxglove;
+pub mod scan;
 
 use std::collections::HashMap;
 use std::io::{self, Write};
