@@ -447,6 +447,7 @@ fn to_csv(input: &Path, dir: &Path) -> Result<()> {
         let mut out = crate::output::OutFile::create("--csv", &path)?;
         channel_csv(*t, &buf, list, &mut out)
             .with_context(|| format!("{shown} -> {}", path.display()))?;
+        crate::output::check_interrupted()?;
         out.commit()?;
         crate::errln!("{topic}: {} messages -> {}", list.len(), path.display());
     }
@@ -919,6 +920,8 @@ fn to_mcap(input: &Path, out: &Path) -> Result<()> {
         crate::output::input("IN", input);
         let mut log = McapLog::create("--mcap", out, "omnikin convert", false)?;
         let n = log_to_mcap(&mut t, &mut log)?;
+        // A signal during the last rows: the temporary file goes with `log`.
+        crate::output::check_interrupted()?;
         log.finish()?;
         crate::errln!("{n} rows of {} -> {}", input.display(), out.display());
         return Ok(());

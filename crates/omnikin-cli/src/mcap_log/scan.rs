@@ -18,7 +18,7 @@
 //!   with at most [`MAX_SCHEMA_BYTES`] of schema data in all (the crate keeps a copy of each);
 //! - after the footer comes the closing magic and nothing else.
 //!
-//! The first record that breaks a rule ends the scan: [`Scan::end`] is where it starts, so the
+//! A file over a limit is refused. Otherwise the first record that breaks a rule ends the scan: [`Scan::end`] is where it starts, so the
 //! bytes before it (whole, checked records) can be read as a truncated file, and
 //! [`Scan::damage`] names the record, its byte offset and the rule. So the crate only ever sees
 //! records whose lengths hold, and the memory it can take is bounded by the file's size.
@@ -35,6 +35,10 @@ pub const MAX_SCHEMAS: usize = 4096;
 pub const MAX_SCHEMA_BYTES: u64 = 16 << 20;
 /// Most entries in one map of a record (channel and metadata maps, index maps).
 pub const MAX_MAP_ENTRIES: usize = 4096;
+
+/// What every message of a broken limit contains (the limit's name follows it): such a file
+/// is refused as a whole rather than read up to the record.
+const LIMIT_TAG: &str = "(MAX_";
 
 /// Size of a record's opcode and length.
 const RECORD_HEAD: usize = 9;
@@ -322,8 +326,9 @@ fn record(opcode: u8, b: &[u8], in_chunk: bool, c: &mut Counts) -> Result<(), St
     Ok(())
 }
 
-/// Scans the MCAP file `buf` (see the module docs). An error only when `buf` does not start
-/// with the MCAP magic.
+/// Scans the MCAP file `buf` (see the module docs). An error when `buf` does not start with
+/// the MCAP magic or breaks one of the limits ([`MAX_CHANNELS`], [`MAX_SCHEMAS`],
+/// [`MAX_SCHEMA_BYTES`], [`MAX_MAP_ENTRIES`]); damage is [`Scan::damage`].
 pub fn scan(buf: &[u8]) -> Result<Scan, String> {
     let magic = mcap::MAGIC;
     if buf.len() < magic.len() || buf[..magic.len()] != *magic {
@@ -373,7 +378,12 @@ pub fn scan(buf: &[u8]) -> Result<Scan, String> {
         }
         let body = &buf[at + RECORD_HEAD..at + RECORD_HEAD + len as usize];
         if let Err(e) = record(opcode, body, false, &mut c) {
-            damage = Some(format!("the {} at byte {at}: {e}", name(opcode)));
+            let e = format!("the {} at byte {at}: {e}", name(opcode));
+            // A limit is not damage: the file is refused, not read up to it.
+            if e.contains(LIMIT_TAG) {
+                return Err(e);
+            }
+            damage = Some(e);
             break;
         }
         footer = opcode == op::FOOTER;
