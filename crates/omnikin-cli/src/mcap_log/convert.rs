@@ -134,7 +134,7 @@ pub fn read_mcap(buf: &[u8], shown: &str) -> Result<(Channels, Option<String>)> 
     let mut by_id: HashMap<u16, std::result::Result<usize, String>> = HashMap::new();
     let mut by_topic: HashMap<String, usize> = HashMap::new();
     for (i, m) in stream.enumerate() {
-        if i % 4096 == 0 {
+        if i.is_multiple_of(4096) {
             crate::output::check_interrupted()?;
         }
         let m = match m {
@@ -286,7 +286,7 @@ fn channel_csv(
     // One row at a time: `s` holds it until it is written.
     let mut s = String::new();
     let mut row = |s: &mut String, i: usize| -> Result<()> {
-        if i % 4096 == 0 {
+        if i.is_multiple_of(4096) {
             crate::output::check_interrupted()?;
         }
         w.write_all(s.as_bytes())?;
@@ -538,7 +538,7 @@ impl Table {
         if !self.next_line()? {
             return Ok(None);
         }
-        if self.rows % 4096 == 0 {
+        if self.rows.is_multiple_of(4096) {
             crate::output::check_interrupted()?;
         }
         self.rows += 1;
@@ -917,7 +917,6 @@ fn to_mcap(input: &Path, out: &Path) -> Result<()> {
     crate::output::catch_signals()?;
     if !input.is_dir() {
         let mut t = Table::open(input)?;
-        crate::output::input("IN", input);
         let mut log = McapLog::create("--mcap", out, "omnikin convert", false)?;
         let n = log_to_mcap(&mut t, &mut log)?;
         // A signal during the last rows: the temporary file goes with `log`.

@@ -18,10 +18,11 @@
 //!   with at most [`MAX_SCHEMA_BYTES`] of schema data in all (the crate keeps a copy of each);
 //! - after the footer comes the closing magic and nothing else.
 //!
-//! A file over a limit is refused. Otherwise the first record that breaks a rule ends the scan: [`Scan::end`] is where it starts, so the
-//! bytes before it (whole, checked records) can be read as a truncated file, and
-//! [`Scan::damage`] names the record, its byte offset and the rule. So the crate only ever sees
-//! records whose lengths hold, and the memory it can take is bounded by the file's size.
+//! A file over a limit is refused. Otherwise the first record that breaks a rule ends the
+//! scan: [`Scan::end`] is where that record starts, so the bytes before it (whole, checked
+//! records) can be read as a truncated file, and [`Scan::damage`] names the record, its byte
+//! offset and the rule. So the crate only ever sees records whose lengths hold, and the memory
+//! it can take is bounded by the file's size.
 
 use mcap::records::op;
 
@@ -280,7 +281,7 @@ fn record(opcode: u8, b: &[u8], in_chunk: bool, c: &mut Counts) -> Result<(), St
         op::MESSAGE_INDEX => {
             r.fixed(2, "the channel id")?;
             let n = r.bytes32("the index entries")?;
-            if n.len() % 16 != 0 {
+            if !n.len().is_multiple_of(16) {
                 return Err(format!(
                     "the index entries are {} bytes, not a whole number of 16-byte entries",
                     n.len()
