@@ -474,3 +474,77 @@ pub fn data(buf: &[u8], offset: usize) -> &[u8] {
     let len = usize::try_from(u64::from_le_bytes(len)).unwrap_or(0);
     buf.get(offset + 22..offset + len).unwrap_or(&[])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A file from the `mcap` crate's writer: `n` messages on `/pose`, chunks of `chunk` bytes.
+    fn written(n: u64, chunk: u64) -> Vec<u8> {
+        let mut buf = Vec::new();
+        let mut w = mcap::WriteOptions::new()
+            .compression(None)
+            .chunk_size(Some(chunk))
+            .create(std::io::Cursor::new(&mut buf))
+            .unwrap();
+        let s = w.add_schema("s", "jsonschema", b"{}").unwrap();
+        let c = w
+            .add_channel(s, "/pose", "json", &Default::default())
+            .unwrap();
+        for i in 0..n {
+            let h = mcap::records::MessageHeader {
+                channel_id: c,
+                sequence: i as u32,
+                log_time: 1000 + i,
+                publish_time: 0,
+            };
+            w.write_to_known_channel(&h, format!("{{\"i\":{i}}}").as_bytes())
+                .unwrap();
+        }
+        w.finish().unwrap();
+        drop(w);
+        buf
+    }
+
+    #[test]
+    fn a_whole_file_scans_whole_and_its_messages_are_found_in_place() {
+        let buf = written(50, 200);
+        let s = scan(&buf).unwrap();
+        assert_eq!((s.end, s.damage.clone(), s.channels), (buf.len(), None, 1));
+        let mut found = Vec::new();
+        messages(&buf, s.end, usize::MAX, |id, o| {
+            found.push((id, log_time(&buf, o), data(&buf, o).to_vec()))
+        });
+        assert_eq!(found.len(), 50);
+        for (i, (id, t, d)) in found.iter().enumerate() {
+            assert_eq!((*id, *t), (1, 1000 + i as u64));
+            assert_eq!(d, format!("{{\"i\":{i}}}").as_bytes());
+        }
+        let mut limited = 0;
+        messages(&buf, s.end, 7, |_, _| limited += 1);
+        assert_eq!(limited, 7);
+    }
+
+    #[test]
+    fn every_cut_ends_at_a_record_and_says_where() {
+        let buf = written(20, 150);
+        let whole = {
+            let mut n = 0;
+            messages(&buf, buf.len(), usize::MAX, |_, _| n += 1);
+            n
+        };
+        let mut before = 0;
+        for cut in mcap::MAGIC.len()..buf.len() {
+            let s = scan(&buf[..cut]).unwrap();
+            assert!(s.end <= cut);
+            let d = s.damage.expect("a cut file is damaged");
+            assert!(d.contains("byte "), "{d}");
+            let mut n = 0;
+            messages(&buf[..cut], s.end, usize::MAX, |_, _| n += 1);
+            // Whole chunks only, so the count never falls as the cut moves on.
+            assert!(n >= before && n <= whole, "cut {cut}: {n} messages");
+            before = n;
+        }
+        assert!(scan(b"not mcap").is_err());
+    }
+}
