@@ -16,13 +16,14 @@ use crate::link::{FUZZ_KEY, cycles, derive, hello_record, record};
 pub type Seed = (&'static str, String, Vec<u8>);
 
 /// Every target name, in the order CI runs them.
-pub const TARGETS: [&str; 6] = [
+pub const TARGETS: [&str; 7] = [
     "frame_decoder",
     "link_session",
     "robot_toml",
     "profile_toml",
     "waypoints",
     "csv_tables",
+    "mcap_files",
 ];
 
 fn point(t: f32) -> WirePoint {
@@ -677,5 +678,16 @@ pub fn all() -> Vec<Seed> {
     v.extend(profile_toml());
     v.extend(waypoints());
     v.extend(csv_tables());
+    v.extend(mcap_files());
     v
+}
+
+/// MCAP files: a valid one, a truncated one and the crafted files of issue 31 (a record
+/// length near 2⁶⁴, a schema name of length 0xFFFFFFF0, an attachment without its CRC, a
+/// chunk's record past its end, a zstd chunk, a 5 000-entry map).
+pub fn mcap_files() -> Vec<Seed> {
+    crate::mcap::seeds()
+        .into_iter()
+        .map(|(name, bytes)| ("mcap_files", format!("seed-{name}"), bytes))
+        .collect()
 }

@@ -463,6 +463,16 @@ pub fn interrupted() -> Option<Interrupted> {
     }
 }
 
+/// `Err(Interrupted)` once a signal arrived since [`catch_signals`]: for a loop that stops by
+/// returning the error, so that its [`OutFile`]s are dropped (their temporary files removed,
+/// logs kept) before `main` exits with status 128 + signal.
+pub fn check_interrupted() -> Result<()> {
+    match interrupted() {
+        Some(sig) => Err(sig.into()),
+        None => Ok(()),
+    }
+}
+
 /// A stop requested by a signal: an error that `main` turns into exit status 128 + signal.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Interrupted(pub i32);

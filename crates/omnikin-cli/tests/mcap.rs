@@ -409,8 +409,13 @@ fn robot_and_drive_mcap_match_their_csv_logs_and_convert_round_trips() {
     let out = run(&["convert", p(&cut), "--csv", p(&dir.join("cut"))]);
     assert!(out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("ends early"));
+    // convert reads whole chunks only (its pre-scan ends at the cut chunk; a killed writer
+    // leaves none cut, issue 31), the crate's stream also the whole records of a cut one:
+    // the CSV is a non-empty prefix of the full file's, at most what the crate streamed.
     let cut_poses = read_rows(&dir.join("cut/pose.csv"));
-    assert_eq!(cut_poses.len(), on(&part, "/pose").len());
+    let all_poses = read_rows(&c1.join("pose.csv"));
+    assert!(!cut_poses.is_empty() && cut_poses.len() <= on(&part, "/pose").len());
+    assert_eq!(cut_poses[..], all_poses[..cut_poses.len()]);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

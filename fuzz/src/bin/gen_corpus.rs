@@ -110,6 +110,17 @@ fn valid(target: &str, name: &str, data: &[u8]) -> Result<(), String> {
             }
             Ok(())
         }
+        "mcap_files" => {
+            // The valid seeds scan whole; the crafted ones are refused or end at their damage
+            // (their point is to reach the scan's checks).
+            let scan = omnikin_fuzz::mcap::scan::scan(data);
+            match (name.ends_with("-valid"), scan) {
+                (true, Ok(s)) if s.damage.is_none() => Ok(()),
+                (true, r) => Err(format!("the valid file does not scan whole: {r:?}")),
+                (false, Ok(s)) if s.damage.is_none() => Err("a crafted file scans whole".into()),
+                (false, _) => Ok(()),
+            }
+        }
         other => Err(format!("no such target {other}")),
     }
 }
@@ -132,6 +143,7 @@ fn main() {
             "profile_toml" => text::profile_toml(&data),
             "waypoints" => text::waypoints(&data),
             "csv_tables" => text::csv_tables(&data),
+            "mcap_files" => omnikin_fuzz::mcap::mcap_files(&data),
             _ => {}
         }
         let dir = root.join(target);

@@ -15,12 +15,10 @@
 //! or one CSV log: `robot --log`, `drive … --out`, `simulate`'s `trials.csv` or a pose CSV
 //! `t,x,y,heading` (`odometry --out`); its columns say what it has.
 
-use std::borrow::Cow;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 use std::io::Read;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
 use omnikin::Pose2;
@@ -71,59 +69,108 @@ fn read_limited(path: &Path) -> Result<Vec<u8>> {
     Ok(buf)
 }
 
-/// One message of an MCAP file: its channel and its bytes (borrowed from the file where the
-/// chunk is uncompressed), parsed as JSON only when its channel's CSV is written, so the
-/// memory of a conversion is the file and one channel's CSV text.
+/// One message of an MCAP file: its log time and its bytes, borrowed from the file.
+#[derive(Clone, Copy, Debug)]
 pub struct Decoded<'a> {
     /// Log time, ns.
     pub log_time: u64,
-    /// The channel (topic, schema, encoding).
-    pub channel: Arc<mcap::Channel<'a>>,
-    /// The message bytes.
-    pub data: Cow<'a, [u8]>,
+    /// The message bytes (JSON for omnikin's channels).
+    pub data: &'a [u8],
 }
 
-impl Decoded<'_> {
-    /// The topic.
-    pub fn topic(&self) -> &str {
-        &self.channel.topic
-    }
-    /// The schema name (empty without a schema).
-    pub fn schema(&self) -> &str {
-        self.channel.schema.as_ref().map_or("", |s| s.name.as_str())
-    }
-    /// The JSON message (`Null` if it is not JSON).
-    pub fn value(&self) -> Value {
-        if self.channel.message_encoding == fg::MESSAGE_ENCODING {
-            serde_json::from_slice(&self.data).unwrap_or(Value::Null)
-        } else {
-            Value::Null
+impl<'a> Decoded<'a> {
+    /// The message whose record body starts at `offset` of `buf` (an offset of
+    /// [`Channels::ours`]).
+    pub fn at(buf: &'a [u8], offset: u32) -> Self {
+        let o = offset as usize;
+        Self {
+            log_time: super::scan::log_time(buf, o),
+            data: super::scan::data(buf, o),
         }
     }
+
+    /// The JSON message (`Null` if it is not JSON).
+    pub fn value(&self) -> Value {
+        serde_json::from_slice(self.data).unwrap_or(Value::Null)
+    }
 }
 
-/// Every message of the MCAP file `buf` (named `shown` in errors) in file order, and why
-/// reading stopped early, if it did (a truncated or damaged file: the messages before the
-/// damage are returned).
-pub fn read_mcap<'a>(buf: &'a [u8], shown: &str) -> Result<(Vec<Decoded<'a>>, Option<String>)> {
-    if buf.len() < mcap::MAGIC.len() || buf[..mcap::MAGIC.len()] != *mcap::MAGIC {
-        bail!("{shown}: not an MCAP file (it does not start with the MCAP magic)");
+// Message offsets are kept as u32: the input is at most MAX_INPUT_BYTES.
+const _: () = assert!(MAX_INPUT_BYTES < u32::MAX as u64);
+
+/// The channels of an MCAP file as [`read_mcap`] returns them.
+#[derive(Default)]
+pub struct Channels {
+    /// omnikin's channels, sorted by topic (also under `/trial-NNN`): topic, its [`Topic`],
+    /// the offsets of its messages' records in the file, in file order ([`Decoded::at`]).
+    pub ours: Vec<(String, Topic, Vec<u32>)>,
+    /// Other channels: `topic (schema)` with control characters escaped, and how many messages
+    /// they have.
+    pub skipped: BTreeMap<String, usize>,
+    /// Messages in all.
+    pub messages: usize,
+}
+
+/// Every message of the MCAP file `buf` (at most [`MAX_INPUT_BYTES`]; named `shown` in
+/// errors), by channel, and why reading stopped early, if it did (a truncated or damaged file:
+/// the messages before the damage are returned).
+///
+/// Three passes, none of which trusts a length it has not checked: [`super::scan::scan`]
+/// checks the file's framing, lengths and counts ([`super::scan::MAX_CHANNELS`] channels at
+/// most) and finds where the whole records end; the `mcap` crate reads those records (schemas,
+/// channels, CRCs, every message linked to its channel) and says how many messages are good;
+/// [`super::scan::messages`] then indexes those messages in place (the crate copies each one,
+/// so its output is not kept). The memory is the file and 4 bytes per message.
+pub fn read_mcap(buf: &[u8], shown: &str) -> Result<(Channels, Option<String>)> {
+    if buf.len() as u64 > MAX_INPUT_BYTES {
+        bail!("{shown}: larger than {MAX_INPUT_BYTES} bytes (MAX_INPUT_BYTES of omnikin convert)");
     }
-    let stream = mcap::MessageStream::new(buf).with_context(|| format!("{shown}: not MCAP"))?;
-    let mut out = Vec::new();
+    let scan = super::scan::scan(buf).map_err(|e| anyhow::anyhow!("{shown}: {e}"))?;
+    let stream =
+        mcap::MessageStream::new(&buf[..scan.end]).with_context(|| format!("{shown}: not MCAP"))?;
+    let mut out = Channels::default();
     let mut stopped = None;
-    for m in stream {
-        match m {
-            Ok(m) => out.push(Decoded {
-                log_time: m.log_time,
-                channel: m.channel,
-                data: m.data,
-            }),
+    // Channel id -> where its messages go: Ok(index in `ours`) or Err(key in `skipped`).
+    let mut by_id: HashMap<u16, std::result::Result<usize, String>> = HashMap::new();
+    let mut by_topic: HashMap<String, usize> = HashMap::new();
+    for (i, m) in stream.enumerate() {
+        if i.is_multiple_of(4096) {
+            crate::output::check_interrupted()?;
+        }
+        let m = match m {
+            Ok(m) => m,
             Err(e) => {
                 stopped = Some(e.to_string());
                 break;
             }
+        };
+        let slot = by_id.entry(m.channel.id).or_insert_with(|| {
+            let c = &m.channel;
+            let schema = c.schema.as_ref().map_or("", |s| s.name.as_str());
+            match fg::topic(&c.topic)
+                .filter(|t| t.schema.name == schema && c.message_encoding == fg::MESSAGE_ENCODING)
+            {
+                Some(t) => Ok(*by_topic.entry(c.topic.clone()).or_insert_with(|| {
+                    out.ours.push((c.topic.clone(), t, Vec::new()));
+                    out.ours.len() - 1
+                })),
+                None => Err(format!("{} ({schema})", c.topic.escape_debug())),
+            }
+        });
+        out.messages += 1;
+        if let Err(key) = slot {
+            *out.skipped.entry(key.clone()).or_default() += 1;
         }
+    }
+    super::scan::messages(buf, scan.end, out.messages, |id, offset| {
+        if let Some(Ok(k)) = by_id.get(&id) {
+            out.ours[*k].2.push(offset as u32);
+        }
+    });
+    out.ours.sort_by(|a, b| a.0.cmp(&b.0));
+    // The scan's account of damage names the record and its offset; the crate's only the rule.
+    if let Some(d) = scan.damage {
+        stopped = Some(d);
     }
     Ok((out, stopped))
 }
@@ -218,93 +265,112 @@ const LINK_COLUMNS: [&str; 11] = [
 /// One of the rate arrays of a [`fg::WheelRates`].
 type RatesField = fn(&fg::WheelRates) -> &Option<Vec<f64>>;
 
-/// The CSV text of one channel's messages (see the module docs for the columns).
-fn channel_csv(topic: Topic, msgs: &[&Decoded]) -> Result<String> {
+/// Writes the CSV of one channel's messages to `w`, row by row (see the module docs for the
+/// columns); a wheel-rate list longer than [`omnikin::MAX_WHEELS`] is an error.
+fn channel_csv(
+    topic: Topic,
+    buf: &[u8],
+    offsets: &[u32],
+    w: &mut dyn std::io::Write,
+) -> Result<()> {
+    let msgs = || offsets.iter().map(|&o| Decoded::at(buf, o));
     let t = |m: &Decoded| fg::seconds(m.log_time);
     let bad = |m: &Decoded| {
         anyhow::anyhow!(
-            "{} at log time {} ns: not a {} message",
-            m.topic(),
+            "{} message at log time {} ns: not a {} message",
+            topic.name,
             m.log_time,
             topic.schema.name
         )
     };
+    // One row at a time: `s` holds it until it is written.
     let mut s = String::new();
+    let mut row = |s: &mut String, i: usize| -> Result<()> {
+        if i.is_multiple_of(4096) {
+            crate::output::check_interrupted()?;
+        }
+        w.write_all(s.as_bytes())?;
+        s.clear();
+        Ok(())
+    };
     match topic.schema.name {
         "foxglove.PoseInFrame" => {
             s.push_str("t,x,y,heading\n");
             let mut prev = None;
-            for m in msgs {
-                let p = fg::decode_pose_in_frame(&m.value()).ok_or_else(|| bad(m))?;
+            for (i, m) in msgs().enumerate() {
+                let p = fg::decode_pose_in_frame(&m.value()).ok_or_else(|| bad(&m))?;
                 let h = unwrap(p.heading, prev);
                 prev = Some(h);
-                let _ = writeln!(s, "{},{},{},{h}", t(m), p.x, p.y);
+                let _ = writeln!(s, "{},{},{},{h}", t(&m), p.x, p.y);
+                row(&mut s, i)?;
             }
         }
         "foxglove.FrameTransform" => {
             s.push_str("t,x,y,heading,parent_frame_id,child_frame_id\n");
             let mut prev = None;
-            for m in msgs {
-                let (p, parent, child) = {
-                    let v = m.value();
-                    fg::decode_frame_transform(&v)
-                        .map(|(p, a, b)| (p, a.to_string(), b.to_string()))
-                }
-                .ok_or_else(|| bad(m))?;
+            for (i, m) in msgs().enumerate() {
+                let v = m.value();
+                let (p, parent, child) = fg::decode_frame_transform(&v).ok_or_else(|| bad(&m))?;
                 let h = unwrap(p.heading, prev);
                 prev = Some(h);
                 let _ = writeln!(
                     s,
                     "{},{},{},{h},{},{}",
-                    t(m),
+                    t(&m),
                     p.x,
                     p.y,
-                    cell(&parent),
-                    cell(&child)
+                    cell(parent),
+                    cell(child)
                 );
+                row(&mut s, i)?;
             }
         }
         "foxglove.PosesInFrame" => {
             s.push_str("t,i,x,y,heading\n");
-            for m in msgs {
-                let poses = fg::decode_poses_in_frame(&m.value()).ok_or_else(|| bad(m))?;
+            for (i, m) in msgs().enumerate() {
+                let poses = fg::decode_poses_in_frame(&m.value()).ok_or_else(|| bad(&m))?;
                 let mut prev = None;
-                for (i, p) in poses.iter().enumerate() {
+                for (k, p) in poses.iter().enumerate() {
                     let h = unwrap(p.heading, prev);
                     prev = Some(h);
-                    let _ = writeln!(s, "{},{i},{},{},{h}", t(m), p.x, p.y);
+                    let _ = writeln!(s, "{},{k},{},{},{h}", t(&m), p.x, p.y);
+                    row(&mut s, i)?;
                 }
             }
         }
         "foxglove.Log" => {
             s.push_str("t,level,name,message\n");
-            for m in msgs {
-                let (level, name, text) = {
-                    let v = m.value();
-                    fg::decode_log(&v).map(|(l, n, t)| (l, n.to_string(), t.to_string()))
-                }
-                .ok_or_else(|| bad(m))?;
-                let _ = writeln!(s, "{},{level},{},{}", t(m), cell(&name), cell(&text));
+            for (i, m) in msgs().enumerate() {
+                let v = m.value();
+                let (level, name, text) = fg::decode_log(&v).ok_or_else(|| bad(&m))?;
+                let _ = writeln!(s, "{},{level},{},{}", t(&m), cell(name), cell(text));
+                row(&mut s, i)?;
             }
         }
         "omnikin.WheelRates" => {
-            let rows: Vec<fg::WheelRates> = msgs
-                .iter()
-                .map(|m| fg::decode_wheel_rates(&m.value()).ok_or_else(|| bad(m)))
-                .collect::<Result<_>>()?;
-            let width = |f: RatesField| {
-                rows.iter()
-                    .filter_map(|r| f(r).as_ref().map(Vec::len))
-                    .max()
-                    .unwrap_or(0)
-            };
             let groups: [(&str, RatesField); 4] = [
                 ("w", |r| &r.commanded),
                 ("sd", |r| &r.commanded_steer),
                 ("mw", |r| &r.measured),
                 ("msd", |r| &r.measured_steer),
             ];
-            let widths: Vec<usize> = groups.iter().map(|(_, f)| width(*f)).collect();
+            // Two passes: the widest list of each group sets the columns.
+            let mut widths = [0usize; 4];
+            for m in msgs() {
+                let r = fg::decode_wheel_rates(&m.value()).ok_or_else(|| bad(&m))?;
+                for ((p, f), n) in groups.iter().zip(&mut widths) {
+                    let k = f(&r).as_ref().map_or(0, Vec::len);
+                    if k > omnikin::MAX_WHEELS {
+                        bail!(
+                            "{} message at log time {} ns: {k} values in {p}, more than the {} wheels a robot may have (MAX_WHEELS)",
+                            topic.name,
+                            m.log_time,
+                            omnikin::MAX_WHEELS
+                        );
+                    }
+                    *n = (*n).max(k);
+                }
+            }
             s.push('t');
             for ((p, _), n) in groups.iter().zip(&widths) {
                 for i in 1..=*n {
@@ -312,15 +378,17 @@ fn channel_csv(topic: Topic, msgs: &[&Decoded]) -> Result<String> {
                 }
             }
             s.push('\n');
-            for (m, r) in msgs.iter().zip(&rows) {
-                let _ = write!(s, "{}", t(m));
+            for (i, m) in msgs().enumerate() {
+                let r = fg::decode_wheel_rates(&m.value()).ok_or_else(|| bad(&m))?;
+                let _ = write!(s, "{}", t(&m));
                 for ((_, f), n) in groups.iter().zip(&widths) {
-                    let v = f(r);
+                    let v = f(&r);
                     for i in 0..*n {
                         let _ = write!(s, ",{}", opt(v.as_ref().and_then(|v| v.get(i).copied())));
                     }
                 }
                 s.push('\n');
+                row(&mut s, i)?;
             }
         }
         "omnikin.LinkCounters" => {
@@ -329,112 +397,170 @@ fn channel_csv(topic: Topic, msgs: &[&Decoded]) -> Result<String> {
                 let _ = write!(s, ",{c}");
             }
             s.push('\n');
-            for m in msgs {
-                let c = fg::decode_link_counters(&m.value()).ok_or_else(|| bad(m))?;
-                let _ = write!(s, "{}", t(m));
+            for (i, m) in msgs().enumerate() {
+                let c = fg::decode_link_counters(&m.value()).ok_or_else(|| bad(&m))?;
+                let _ = write!(s, "{}", t(&m));
                 for v in c.values() {
                     let _ = write!(s, ",{}", v.map(|v| v.to_string()).unwrap_or_default());
                 }
                 s.push('\n');
+                row(&mut s, i)?;
             }
         }
         other => bail!("no CSV form for schema {other}"),
     }
-    Ok(s)
+    // A channel without messages still gets its header.
+    w.write_all(s.as_bytes())?;
+    Ok(())
 }
 
 fn to_csv(input: &Path, dir: &Path) -> Result<()> {
+    crate::output::catch_signals()?;
+    let shown = input.display().to_string();
     let buf = read_limited(input)?;
-    let (msgs, stopped) = read_mcap(&buf, &input.display().to_string())?;
+    let (channels, stopped) = read_mcap(&buf, &shown)?;
     if let Some(why) = &stopped {
-        if msgs.is_empty() {
-            bail!("{}: no message could be read: {why}", input.display());
+        if channels.messages == 0 {
+            bail!("{shown}: no message could be read: {why}");
         }
         crate::errln!(
-            "warning: {}: the file ends early or is damaged ({why}); converted the {} messages before that (up to the last complete chunk)",
-            input.display(),
-            msgs.len()
+            "warning: {shown}: the file ends early or is damaged ({why}); converted the {} messages before that (up to the last complete chunk)",
+            channels.messages
         );
     }
-    // By topic, in order of first appearance; unknown channels are reported and skipped.
-    let mut by_topic: BTreeMap<String, (Topic, Vec<&Decoded>)> = BTreeMap::new();
-    let mut skipped: BTreeMap<String, usize> = BTreeMap::new();
-    for m in &msgs {
-        match fg::topic(m.topic()).filter(|t| t.schema.name == m.schema()) {
-            Some(t) => by_topic
-                .entry(m.topic().to_string())
-                .or_insert((t, vec![]))
-                .1
-                .push(m),
-            None => {
-                *skipped
-                    .entry(format!("{} ({})", m.topic(), m.schema()))
-                    .or_default() += 1
-            }
-        }
-    }
-    for (k, n) in &skipped {
+    for (k, n) in &channels.skipped {
         crate::errln!("warning: channel {k}: not an omnikin channel, {n} messages skipped");
     }
-    let names: Vec<String> = by_topic.keys().map(|t| file_name(t)).collect();
-    let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+    let names: Vec<String> = channels.ours.iter().map(|(t, _, _)| file_name(t)).collect();
+    // Topics are checked (`/trial-` digits, then one of the TOPICS), so names cannot collide;
+    // still, no file is written twice.
+    let distinct: std::collections::HashSet<&String> = names.iter().collect();
+    if distinct.len() != names.len() {
+        bail!("{shown}: two channels map to one CSV file name");
+    }
     crate::output::create_dir("--csv", dir)?;
-    for n in &refs {
+    for n in &names {
         crate::output::check_file("--csv", &dir.join(n))?;
     }
-    for ((topic, (t, list)), name) in by_topic.iter().zip(&names) {
-        let text = channel_csv(*t, list).with_context(|| format!("{}", input.display()))?;
-        crate::output::write_file("--csv", &dir.join(name), |w| {
-            std::io::Write::write_all(w, text.as_bytes())
-        })?;
-        crate::errln!(
-            "{topic}: {} messages -> {}",
-            list.len(),
-            dir.join(name).display()
-        );
+    for ((topic, t, list), name) in channels.ours.iter().zip(&names) {
+        let path = dir.join(name);
+        let mut out = crate::output::OutFile::create("--csv", &path)?;
+        channel_csv(*t, &buf, list, &mut out)
+            .with_context(|| format!("{shown} -> {}", path.display()))?;
+        crate::output::check_interrupted()?;
+        out.commit()?;
+        crate::errln!("{topic}: {} messages -> {}", list.len(), path.display());
     }
     Ok(())
 }
 
-/// A CSV file as text cells: header, `(line, cells)` rows.
+/// Most data rows of one CSV input of `convert --mcap`: 10⁷, the row limit of the other logs
+/// (`MAX_TRACK_ROWS`).
+pub const MAX_CSV_ROWS: usize = omnikin_sim::limits::MAX_TRACK_ROWS;
+
+/// A CSV file read as a stream: its header, then one row of text cells at a time
+/// ([`next_row`](Self::next_row)), so the memory is one line (at most `MAX_CSV_LINE`), whatever
+/// the file's size.
 struct Table {
     file: String,
     header: Vec<String>,
-    rows: Vec<(usize, Vec<String>)>,
+    lines: std::io::BufReader<omnikin_plan::limits::LineLimit<std::fs::File>>,
+    /// The line number of the last line read (1-based).
+    line: usize,
+    rows: usize,
+    buf: String,
 }
 
 impl Table {
-    fn load(path: &Path) -> Result<Self> {
+    /// Opens `path` (at most [`MAX_INPUT_BYTES`]) and reads its header row.
+    fn open(path: &Path) -> Result<Self> {
         let file = path.display().to_string();
-        let text = String::from_utf8(read_limited(path)?)
-            .map_err(|_| anyhow::anyhow!("{file}: not UTF-8 text"))?;
-        let mut lines = text
-            .lines()
-            .enumerate()
-            .filter(|(_, l)| !l.trim().is_empty());
-        let Some((_, head)) = lines.next() else {
-            bail!("{file}:1: empty file, expected a header row");
+        let f = std::fs::File::open(path).with_context(|| format!("{file}: cannot open"))?;
+        let size = f
+            .metadata()
+            .with_context(|| format!("{file}: cannot read"))?
+            .len();
+        if size > MAX_INPUT_BYTES {
+            bail!(
+                "{file}: larger than {MAX_INPUT_BYTES} bytes (MAX_INPUT_BYTES of omnikin convert)"
+            );
+        }
+        let limited = omnikin_plan::limits::LineLimit::new(f, omnikin_plan::limits::MAX_CSV_LINE);
+        let mut t = Self {
+            file,
+            header: Vec::new(),
+            lines: std::io::BufReader::new(limited),
+            line: 0,
+            rows: 0,
+            buf: String::new(),
         };
-        let header: Vec<String> = head
+        if !t.next_line()? {
+            bail!("{}:1: empty file, expected a header row", t.file);
+        }
+        t.header = t
+            .buf
             .trim_start_matches('\u{feff}')
             .split(',')
             .map(|h| h.trim().to_string())
             .collect();
-        let mut rows = Vec::new();
-        for (i, l) in lines {
-            let cells =
-                split_csv(l).with_context(|| format!("{file}:{}: unterminated quote", i + 1))?;
-            if cells.len() != header.len() {
-                bail!(
-                    "{file}:{}: {} values, but the header has {} columns",
-                    i + 1,
-                    cells.len(),
-                    header.len()
-                );
+        Ok(t)
+    }
+
+    /// Reads the next line that is not blank into `buf` (without its line break); `false` at
+    /// the end of the file.
+    fn next_line(&mut self) -> Result<bool> {
+        use std::io::BufRead;
+        loop {
+            self.buf.clear();
+            self.line += 1;
+            let n = self.lines.read_line(&mut self.buf).map_err(|e| {
+                if e.kind() == std::io::ErrorKind::InvalidData {
+                    anyhow::anyhow!("{}:{}: {e} (or not UTF-8 text)", self.file, self.line)
+                } else {
+                    anyhow::anyhow!("{}:{}: cannot read: {e}", self.file, self.line)
+                }
+            })?;
+            if n == 0 {
+                return Ok(false);
             }
-            rows.push((i + 1, cells));
+            let l = self.buf.trim_end_matches(['\n', '\r']).len();
+            self.buf.truncate(l);
+            if !self.buf.trim().is_empty() {
+                return Ok(true);
+            }
         }
-        Ok(Self { file, header, rows })
+    }
+
+    /// The next row `(line, cells)`, `None` at the end of the file; an error for a row whose
+    /// cell count differs from the header's, an unterminated quote, or more than
+    /// [`MAX_CSV_ROWS`] rows.
+    fn next_row(&mut self) -> Result<Option<(usize, Vec<String>)>> {
+        if !self.next_line()? {
+            return Ok(None);
+        }
+        if self.rows.is_multiple_of(4096) {
+            crate::output::check_interrupted()?;
+        }
+        self.rows += 1;
+        if self.rows > MAX_CSV_ROWS {
+            bail!(
+                "{}:{}: more than {MAX_CSV_ROWS} rows (the limit MAX_CSV_ROWS of omnikin convert); split the log",
+                self.file,
+                self.line
+            );
+        }
+        let cells = split_csv(&self.buf)
+            .with_context(|| format!("{}:{}: unterminated quote", self.file, self.line))?;
+        if cells.len() != self.header.len() {
+            bail!(
+                "{}:{}: {} values, but the header has {} columns",
+                self.file,
+                self.line,
+                cells.len(),
+                self.header.len()
+            );
+        }
+        Ok(Some((self.line, cells)))
     }
 
     fn col(&self, name: &str) -> Option<usize> {
@@ -555,7 +681,7 @@ fn require(t: &Table, cols: &[&str], what: &str) -> Result<Vec<usize>> {
 }
 
 /// One CSV log (robot, drive telemetry, trials.csv, a pose CSV) as samples on `log`.
-fn log_to_mcap(t: &Table, log: &mut McapLog) -> Result<usize> {
+fn log_to_mcap(t: &mut Table, log: &mut McapLog) -> Result<usize> {
     let base = require(t, &["t", "x", "y", "heading"], "a CSV log")?;
     let tri = |a: &str, b: &str, c: &str| -> Option<[usize; 3]> {
         Some([t.col(a)?, t.col(b)?, t.col(c)?])
@@ -573,11 +699,11 @@ fn log_to_mcap(t: &Table, log: &mut McapLog) -> Result<usize> {
     let mode = t.col("mode").zip(t.col("faults"));
     let link: Vec<Option<usize>> = LINK_COLUMNS.iter().map(|c| t.col(c)).collect();
     let has_link = t.col("rx_ok").is_some();
-    for (line, cells) in &t.rows {
+    while let Some((line, cells)) = t.next_row()? {
         let r = Row {
-            t,
-            line: *line,
-            cells,
+            t: &*t,
+            line,
+            cells: &cells,
         };
         let time = r.num(base[0])?;
         r.ns(base[0])?;
@@ -639,211 +765,233 @@ fn log_to_mcap(t: &Table, log: &mut McapLog) -> Result<usize> {
             },
         )?;
     }
-    Ok(t.rows.len())
+    Ok(t.rows)
 }
 
-/// One `convert --csv` file back to messages `(log time, topic, value)`.
-fn channel_messages(t: &Table, prefix: &str, topic: Topic) -> Result<Vec<(u64, String, Value)>> {
-    let name = format!("{prefix}{}", topic.name);
-    let mut out = Vec::new();
-    let what = format!("the {name} CSV");
-    match topic.schema.name {
-        "foxglove.PoseInFrame" => {
-            let c = require(t, &["t", "x", "y", "heading"], &what)?;
-            for (line, cells) in &t.rows {
-                let r = Row {
-                    t,
-                    line: *line,
-                    cells,
-                };
-                let ns = r.ns(c[0])?;
-                out.push((
-                    ns,
-                    name.clone(),
-                    fg::pose_in_frame(ns, r.pose([c[1], c[2], c[3]])?),
-                ));
-            }
+/// Most poses in one `/plan` message read back from a `plan.csv`: the plan sample limit
+/// (`MAX_PLAN_SAMPLES`, 2·10⁶).
+pub const MAX_PLAN_POSES: usize = omnikin_plan::limits::MAX_PLAN_SAMPLES;
+
+/// One `convert --csv` file read back as messages, one at a time
+/// ([`next_message`](Self::next_message)).
+struct ChannelSource {
+    t: Table,
+    topic: Topic,
+    /// The columns the topic needs (see [`ChannelSource::open`]).
+    cols: Vec<usize>,
+    /// Wheel-rate groups `w`, `sd`, `mw`, `msd`, or the link counters' columns.
+    groups: Vec<Vec<usize>>,
+    link: Vec<Option<usize>>,
+    /// `/plan`: the first pose of the next plan message, read ahead.
+    ahead: Option<(u64, Pose2<f64>)>,
+}
+
+impl ChannelSource {
+    /// Opens the channel file `path` of `prefix` + `topic` and checks its header.
+    fn open(path: &Path, prefix: &str, topic: Topic) -> Result<Self> {
+        let t = Table::open(path)?;
+        let name = format!("{prefix}{}", topic.name);
+        let what = format!("the {name} CSV");
+        let need: &[&str] = match topic.schema.name {
+            "foxglove.PoseInFrame" | "foxglove.FrameTransform" => &["t", "x", "y", "heading"],
+            "foxglove.PosesInFrame" => &["t", "i", "x", "y", "heading"],
+            "foxglove.Log" => &["t", "level", "name", "message"],
+            "omnikin.WheelRates" | "omnikin.LinkCounters" => &["t"],
+            other => bail!("no CSV form for schema {other}"),
+        };
+        let cols = require(&t, need, &what)?;
+        let groups = ["w", "sd", "mw", "msd"].map(|p| t.numbered(p)).to_vec();
+        let link = LINK_COLUMNS.iter().map(|c| t.col(c)).collect();
+        Ok(Self {
+            t,
+            topic,
+            cols,
+            groups,
+            link,
+            ahead: None,
+        })
+    }
+
+    /// The next message `(log time, value)`, `None` at the end of the file.
+    fn next_message(&mut self) -> Result<Option<(u64, Value)>> {
+        if self.topic.schema.name == "foxglove.PosesInFrame" {
+            return self.next_plan();
         }
-        "foxglove.FrameTransform" => {
-            let c = require(t, &["t", "x", "y", "heading"], &what)?;
-            for (line, cells) in &t.rows {
-                let r = Row {
-                    t,
-                    line: *line,
-                    cells,
-                };
-                let ns = r.ns(c[0])?;
+        let Some((line, cells)) = self.t.next_row()? else {
+            return Ok(None);
+        };
+        let r = Row {
+            t: &self.t,
+            line,
+            cells: &cells,
+        };
+        let c = &self.cols;
+        let ns = r.ns(c[0])?;
+        let v = match self.topic.schema.name {
+            "foxglove.PoseInFrame" => fg::pose_in_frame(ns, r.pose([c[1], c[2], c[3]])?),
+            "foxglove.FrameTransform" => {
                 let mut v = fg::frame_transform(ns, r.pose([c[1], c[2], c[3]])?);
                 for k in ["parent_frame_id", "child_frame_id"] {
-                    if let Some(i) = t.col(k) {
+                    if let Some(i) = self.t.col(k) {
                         v[k] = Value::from(r.text(i));
                     }
                 }
-                out.push((ns, name.clone(), v));
+                v
             }
-        }
-        "foxglove.PosesInFrame" => {
-            let c = require(t, &["t", "i", "x", "y", "heading"], &what)?;
-            let mut cur: Option<(u64, Vec<Pose2<f64>>)> = None;
-            for (line, cells) in &t.rows {
-                let r = Row {
-                    t,
-                    line: *line,
-                    cells,
-                };
-                let ns = r.ns(c[0])?;
-                let i = r.count(c[1])?.ok_or_else(|| r.err(c[1], "is empty"))?;
-                let p = r.pose([c[2], c[3], c[4]])?;
-                match &mut cur {
-                    Some((n, poses)) if *n == ns && i == poses.len() as u64 => poses.push(p),
-                    _ => {
-                        if i != 0 {
-                            return Err(r.err(c[1], "must be 0 where a plan starts, then count up"));
-                        }
-                        if let Some((n, poses)) = cur.take() {
-                            out.push((n, name.clone(), fg::poses_in_frame(n, &poses)));
-                        }
-                        cur = Some((ns, vec![p]));
-                    }
-                }
-            }
-            if let Some((n, poses)) = cur {
-                out.push((n, name.clone(), fg::poses_in_frame(n, &poses)));
-            }
-        }
-        "foxglove.Log" => {
-            let c = require(t, &["t", "level", "name", "message"], &what)?;
-            for (line, cells) in &t.rows {
-                let r = Row {
-                    t,
-                    line: *line,
-                    cells,
-                };
-                let ns = r.ns(c[0])?;
+            "foxglove.Log" => {
                 let level = r
                     .count(c[1])?
                     .filter(|l| *l <= 5)
                     .ok_or_else(|| r.err(c[1], "is not a log level 0-5"))?;
-                out.push((
-                    ns,
-                    name.clone(),
-                    serde_json::json!({
-                        "timestamp": fg::timestamp(ns), "level": level,
-                        "message": r.text(c[3]), "name": r.text(c[2]), "file": "", "line": 0,
-                    }),
-                ));
+                serde_json::json!({
+                    "timestamp": fg::timestamp(ns), "level": level,
+                    "message": r.text(c[3]), "name": r.text(c[2]), "file": "", "line": 0,
+                })
             }
-        }
-        "omnikin.WheelRates" => {
-            let tc = require(t, &["t"], &what)?[0];
-            let g = [
-                t.numbered("w"),
-                t.numbered("sd"),
-                t.numbered("mw"),
-                t.numbered("msd"),
-            ];
-            for (line, cells) in &t.rows {
-                let r = Row {
-                    t,
-                    line: *line,
-                    cells,
-                };
-                let ns = r.ns(tc)?;
+            "omnikin.WheelRates" => {
+                let g = &self.groups;
                 let w = fg::WheelRates {
                     commanded: r.list(&g[0])?,
                     commanded_steer: r.list(&g[1])?,
                     measured: r.list(&g[2])?,
                     measured_steer: r.list(&g[3])?,
                 };
-                out.push((ns, name.clone(), fg::wheel_rates(ns, &w)));
+                fg::wheel_rates(ns, &w)
             }
-        }
-        "omnikin.LinkCounters" => {
-            let tc = require(t, &["t"], &what)?[0];
-            let cols: Vec<Option<usize>> = LINK_COLUMNS.iter().map(|c| t.col(c)).collect();
-            for (line, cells) in &t.rows {
-                let r = Row {
-                    t,
-                    line: *line,
-                    cells,
-                };
-                let ns = r.ns(tc)?;
+            _ => {
                 let mut v = [None; 11];
-                for (o, c) in v.iter_mut().zip(&cols) {
+                for (o, c) in v.iter_mut().zip(&self.link) {
                     if let Some(c) = c {
                         *o = r.count(*c)?;
                     }
                 }
-                out.push((
-                    ns,
-                    name.clone(),
-                    fg::link_counters(ns, &Counters::from_values(v)),
-                ));
+                fg::link_counters(ns, &Counters::from_values(v))
+            }
+        };
+        Ok(Some((ns, v)))
+    }
+
+    /// `/plan`: the rows of one plan message (same `t`, `i` counting up from 0), read up to
+    /// the first row of the next.
+    fn next_plan(&mut self) -> Result<Option<(u64, Value)>> {
+        let c = self.cols.clone();
+        let mut cur: Option<(u64, Vec<Pose2<f64>>)> = self.ahead.take().map(|(n, p)| (n, vec![p]));
+        while let Some((line, cells)) = self.t.next_row()? {
+            let r = Row {
+                t: &self.t,
+                line,
+                cells: &cells,
+            };
+            let ns = r.ns(c[0])?;
+            let i = r.count(c[1])?.ok_or_else(|| r.err(c[1], "is empty"))?;
+            let p = r.pose([c[2], c[3], c[4]])?;
+            match &mut cur {
+                Some((n, poses)) if *n == ns && i == poses.len() as u64 => {
+                    if poses.len() == MAX_PLAN_POSES {
+                        return Err(r.err(
+                            c[1],
+                            &format!("is beyond the {MAX_PLAN_POSES} poses a plan may have (MAX_PLAN_POSES)"),
+                        ));
+                    }
+                    poses.push(p);
+                }
+                _ => {
+                    if i != 0 {
+                        return Err(r.err(c[1], "must be 0 where a plan starts, then count up"));
+                    }
+                    match cur {
+                        Some((n, poses)) => {
+                            self.ahead = Some((ns, p));
+                            return Ok(Some((n, fg::poses_in_frame(n, &poses))));
+                        }
+                        None => cur = Some((ns, vec![p])),
+                    }
+                }
             }
         }
-        other => bail!("no CSV form for schema {other}"),
+        Ok(cur.map(|(n, poses)| (n, fg::poses_in_frame(n, &poses))))
     }
-    Ok(out)
 }
 
 fn to_mcap(input: &Path, out: &Path) -> Result<()> {
-    if input.is_dir() {
-        let mut files: Vec<(String, String, Topic)> = Vec::new();
-        for e in
-            std::fs::read_dir(input).with_context(|| format!("{}: cannot list", input.display()))?
-        {
-            let e = e.with_context(|| format!("{}: cannot list", input.display()))?;
-            let name = e.file_name().to_string_lossy().to_string();
-            match topic_of(&name) {
-                Some((prefix, t)) => files.push((name, prefix, t)),
-                None if name.ends_with(".csv") => {
-                    crate::errln!("warning: {name}: not a channel file of `convert --csv`, skipped")
-                }
-                None => {}
-            }
-        }
-        if files.is_empty() {
-            bail!(
-                "{}: no channel CSV files (pose.csv, tf.csv, wheels.csv, … as `omnikin convert --csv` writes them)",
-                input.display()
-            );
-        }
-        // Channels in the canonical order, then all messages by log time (stable).
-        files.sort_by_key(|(n, p, t)| {
-            (p.clone(), fg::TOPICS.iter().position(|x| x == t), n.clone())
-        });
-        for (name, _, _) in &files {
-            crate::output::input("IN", &input.join(name));
-        }
+    crate::output::catch_signals()?;
+    if !input.is_dir() {
+        let mut t = Table::open(input)?;
         let mut log = McapLog::create("--mcap", out, "omnikin convert", false)?;
-        let mut msgs = Vec::new();
-        for (name, prefix, topic) in &files {
-            let t = Table::load(&input.join(name))?;
-            msgs.extend(channel_messages(&t, prefix, *topic)?);
-        }
-        msgs.sort_by_key(|m| m.0);
-        let n = msgs.len();
-        for (ns, topic, v) in msgs {
-            let (prefix, t) = match topic.rfind('/') {
-                Some(i) if i > 0 => (&topic[..i], fg::topic(&topic)),
-                _ => ("", fg::topic(&topic)),
-            };
-            let t = t.with_context(|| format!("topic {topic}"))?;
-            log.message(prefix, t, ns, &v)?;
-        }
-        log.finish()?;
-        crate::errln!(
-            "{n} messages from {} files -> {}",
-            files.len(),
-            out.display()
-        );
-    } else {
-        let t = Table::load(input)?;
-        let mut log = McapLog::create("--mcap", out, "omnikin convert", false)?;
-        let n = log_to_mcap(&t, &mut log)?;
+        let n = log_to_mcap(&mut t, &mut log)?;
+        // A signal during the last rows: the temporary file goes with `log`.
+        crate::output::check_interrupted()?;
         log.finish()?;
         crate::errln!("{n} rows of {} -> {}", input.display(), out.display());
+        return Ok(());
     }
+    let mut files: Vec<(String, String, Topic)> = Vec::new();
+    for e in
+        std::fs::read_dir(input).with_context(|| format!("{}: cannot list", input.display()))?
+    {
+        let e = e.with_context(|| format!("{}: cannot list", input.display()))?;
+        let name = e.file_name().to_string_lossy().to_string();
+        match topic_of(&name) {
+            Some((prefix, t)) => {
+                if files.len() == super::scan::MAX_CHANNELS {
+                    bail!(
+                        "{}: more than {} channel CSV files (MAX_CHANNELS of omnikin convert)",
+                        input.display(),
+                        super::scan::MAX_CHANNELS
+                    );
+                }
+                files.push((name, prefix, t))
+            }
+            None if name.ends_with(".csv") => crate::errln!(
+                "warning: {}: not a channel file of `convert --csv`, skipped",
+                name.escape_debug()
+            ),
+            None => {}
+        }
+    }
+    if files.is_empty() {
+        bail!(
+            "{}: no channel CSV files (pose.csv, tf.csv, wheels.csv, … as `omnikin convert --csv` writes them)",
+            input.display()
+        );
+    }
+    // By prefix (trial 0, then each `/trial-NNN` in turn, as `simulate` writes them), channels
+    // in the canonical order.
+    files.sort_by_key(|(n, p, t)| (p.clone(), fg::TOPICS.iter().position(|x| x == t), n.clone()));
+    for (name, _, _) in &files {
+        crate::output::input("IN", &input.join(name));
+    }
+    let mut log = McapLog::create("--mcap", out, "omnikin convert", false)?;
+    let mut n = 0usize;
+    for group in files.chunk_by(|a, b| a.1 == b.1) {
+        // One prefix's files (at most one per topic) merged by log time: the next message is
+        // the earliest of the files' next ones, ties in the canonical channel order.
+        let mut sources = group
+            .iter()
+            .map(|(name, prefix, topic)| ChannelSource::open(&input.join(name), prefix, *topic))
+            .collect::<Result<Vec<_>>>()?;
+        let mut next = sources
+            .iter_mut()
+            .map(ChannelSource::next_message)
+            .collect::<Result<Vec<_>>>()?;
+        while let Some(k) = (0..next.len())
+            .filter(|&k| next[k].is_some())
+            .min_by_key(|&k| next[k].as_ref().map(|m| m.0))
+        {
+            if let Some((ns, v)) = next[k].take() {
+                let prefix = &group[k].1;
+                log.message(prefix, sources[k].topic, ns, &v)?;
+                n += 1;
+            }
+            next[k] = sources[k].next_message()?;
+        }
+    }
+    log.finish()?;
+    crate::errln!(
+        "{n} messages from {} files -> {}",
+        files.len(),
+        out.display()
+    );
     Ok(())
 }
 

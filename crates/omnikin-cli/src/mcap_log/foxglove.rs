@@ -190,10 +190,23 @@ pub const EVENTS: Topic = Topic {
 /// Every channel the logs may have, in this order.
 pub const TOPICS: [Topic; 8] = [POSE, TRUTH, REFERENCE, TF, PLAN, WHEELS, LINK, EVENTS];
 
-/// The topic named `name` (one of [`TOPICS`]), ignoring a `/trial-NNN` prefix.
+/// Most digits of the trial number in a `/trial-NNN` prefix.
+pub const MAX_TRIAL_DIGITS: usize = 9;
+
+/// The topic named `name` (one of [`TOPICS`]), ignoring a `/trial-NNN` prefix (`NNN` one to
+/// [`MAX_TRIAL_DIGITS`] ASCII digits, as `simulate --mcap-trials` writes it; any other prefix
+/// is no topic of ours, so a name that reaches a file name is digits and one of [`TOPICS`]).
 pub fn topic(name: &str) -> Option<Topic> {
     let base = match name.strip_prefix("/trial-") {
-        Some(rest) => &rest[rest.find('/')?..],
+        Some(rest) => {
+            let slash = rest.find('/')?;
+            let n = &rest[..slash];
+            if n.is_empty() || n.len() > MAX_TRIAL_DIGITS || !n.bytes().all(|b| b.is_ascii_digit())
+            {
+                return None;
+            }
+            &rest[slash..]
+        }
         None => name,
     };
     TOPICS.into_iter().find(|t| t.name == base)

@@ -17,6 +17,7 @@
 
 pub mod convert;
 pub mod foxglove;
+pub mod scan;
 
 use std::collections::HashMap;
 use std::io::{self, Write};
@@ -517,14 +518,18 @@ pub fn trial(
     Ok(())
 }
 
-/// `odometry`: the whole output at once (`/pose` the estimate, `/tf`; `/truth` is absent: a
-/// recorded log has none).
-pub fn poses(flag: &str, path: &Path, t: &[f64], estimate: &[Pose2<f64>]) -> Result<()> {
+/// `odometry`: the estimate `(t, pose)` row by row (`/pose` the estimate, `/tf`; `/truth` is
+/// absent: a recorded log has none).
+pub fn poses(
+    flag: &str,
+    path: &Path,
+    estimate: impl IntoIterator<Item = (f64, Pose2<f64>)>,
+) -> Result<()> {
     let mut log = McapLog::create(flag, path, "omnikin odometry", false)?;
-    for (t, p) in t.iter().zip(estimate) {
+    for (t, p) in estimate {
         log.sample(&Sample {
-            t: *t,
-            pose: *p,
+            t,
+            pose: p,
             ..Default::default()
         })?;
     }
