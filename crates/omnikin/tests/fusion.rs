@@ -305,3 +305,40 @@ proptest! {
         }
     }
 }
+
+/// The covariance step runs once per history entry: the variances read every cycle (the
+/// sparse quadratic forms of `pose_variances`) equal the diagonal of the full covariance step
+/// at every step, with the wheels' and a gyro's heading, before and after a fix; the settled
+/// variances are never ahead of them.
+#[test]
+fn variances_every_step_equal_the_full_covariance_step() {
+    for heading in [StepHeading::Wheels, StepHeading::Gyro] {
+        let mut f = filter();
+        let tw = Twist2::new(0.4, -0.1, 0.7);
+        let mut truth = Pose2::new(0.0, 0.0, 0.0);
+        for k in 1..=3000u32 {
+            let t = f64::from(k) * 1e-3;
+            let delta = se2::twist_exp(tw, 1e-3);
+            truth = se2::compose(truth, delta);
+            f.predict(t, delta, heading).unwrap();
+            if k == 1500 {
+                f.add_fix(&fix(t, truth.x + 0.02, truth.y)).unwrap();
+            }
+            let full = f.pose_covariance();
+            let fast = f.pose_variances();
+            let settled = f.settled_pose_variances();
+            for i in 0..3 {
+                let d = full[(i, i)];
+                assert!(
+                    (fast[i] - d).abs() <= 1e-12 * d.abs().max(1e-12),
+                    "{heading:?} step {k} [{i}]: {} vs {d}",
+                    fast[i]
+                );
+                assert!(
+                    settled[i] <= d * (1.0 + 1e-12),
+                    "{heading:?} step {k} [{i}]"
+                );
+            }
+        }
+    }
+}

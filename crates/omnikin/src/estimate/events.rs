@@ -205,6 +205,9 @@ pub struct EventDetector<T> {
     slip: Episode<T>,
     collision: Episode<T>,
     counters: EventCounters,
+    /// The low-pass gain `1 − exp(−dt/smoothing)` of the last step's `dt` (a fixed-rate loop
+    /// computes the exponential once).
+    gain: (T, T),
 }
 
 impl<T: Real> EventDetector<T> {
@@ -223,6 +226,7 @@ impl<T: Real> EventDetector<T> {
             slip: Episode { active: None },
             collision: Episode { active: None },
             counters: EventCounters::default(),
+            gain: (z, z),
         }
     }
 
@@ -256,7 +260,8 @@ impl<T: Real> EventDetector<T> {
             started: [None; 2],
             finished: [None; 2],
         };
-        let speed = s.twist.vx.hypot(s.twist.vy);
+        // A speed: no overflow to guard against (`hypot`'s extra cost).
+        let speed = (s.twist.vx * s.twist.vx + s.twist.vy * s.twist.vy).sqrt();
         if !(s.dt > T::zero()
             && s.t.is_finite()
             && speed.is_finite()
@@ -266,7 +271,10 @@ impl<T: Real> EventDetector<T> {
         {
             return out;
         }
-        let a = T::one() - (-s.dt / self.th.smoothing).exp();
+        if s.dt != self.gain.0 {
+            self.gain = (s.dt, T::one() - (-s.dt / self.th.smoothing).exp());
+        }
+        let a = self.gain.1;
         let mut yaw_over = false;
         if let Some(w) = imu_yaw_rate {
             let mismatch = (w - s.wheel_heading_change / s.dt).abs();

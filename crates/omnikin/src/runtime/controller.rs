@@ -358,10 +358,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             fault_history: self.history,
             pose,
             odometry: self.odo.pose(),
-            covariance: {
-                let p = self.fusion.pose_covariance();
-                [p[(0, 0)], p[(1, 1)], p[(2, 2)]]
-            },
+            covariance: self.fusion.settled_pose_variances(),
             fixes: self.fixes,
             twist: self.twist,
             command: twist_cmd,
@@ -451,7 +448,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 _ => StepHeading::Wheels,
             };
             // Cannot fail for a finite step at a later time; the filter is left as it was.
-            let _ = self.fusion.predict(t, step.delta, sh);
+            let _ = self.fusion.advance(t, step.delta, sh);
             // Events: slip (the least-squares residual of the fit on over-determined kinds,
             // the gyro against the wheels' yaw rate) and collision (the wheel speed's
             // deceleration), the detector `omnikin odometry` runs.
