@@ -6,7 +6,7 @@ use nalgebra::Matrix3;
 
 use crate::drive::Rot2;
 use crate::estimate::estimator::Fix;
-use crate::estimate::events::EventDetector;
+use crate::estimate::events::{EventDecimator, EventDetector};
 use crate::estimate::fusion::{FusionError, FusionOutcome, PoseFusion, StepHeading};
 use crate::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use crate::{Pose2, Real, Robot, Twist2};
@@ -17,6 +17,11 @@ use super::hal::{EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOut
 use super::limits::Slew;
 use super::plan::{PlanBuffer, zero_twist};
 use super::status::{Faults, FixCounters, Mode, Status};
+
+/// Longest sample of the event detector, s: odometry steps are merged up to this (and up to a
+/// quarter of the detector's smoothing time), so a 1 kHz loop runs it at 400 Hz; a loop at
+/// 400 Hz or slower feeds it every step.
+const EVENT_SAMPLE_PERIOD_S: f64 = 0.0025;
 
 /// Re-base the odometry time every this many seconds so `T = f32` keeps µs resolution.
 const REBASE_S: f64 = 256.0;
@@ -70,6 +75,9 @@ pub struct Runtime<T, const N: usize> {
     slip_residual: T,
     /// Slip and collision events ([`Config::events`]).
     events: EventDetector<T>,
+    /// The odometry steps merged for the event detector ([`EVENT_SAMPLE_PERIOD_S`], at most
+    /// a quarter of the smoothing time).
+    event_steps: EventDecimator<T>,
     rejected: u32,
 }
 
@@ -107,6 +115,9 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             twist: zero_twist(),
             slip_residual: z,
             events: EventDetector::new(config.events, robot.motors() > 3),
+            event_steps: EventDecimator::new(
+                (config.events.smoothing * T::of(0.25)).min(T::of(EVENT_SAMPLE_PERIOD_S)),
+            ),
             rejected: 0,
         })
     }
@@ -451,10 +462,14 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             let _ = self.fusion.advance(t, step.delta, sh);
             // Events: slip (the least-squares residual of the fit on over-determined kinds,
             // the gyro against the wheels' yaw rate) and collision (the wheel speed's
-            // deceleration), the detector `omnikin odometry` runs.
+            // deceleration), the detector `omnikin odometry` runs, on steps merged over a
+            // quarter of its smoothing time.
             self.twist = step.twist;
             self.slip_residual = step.slip_residual;
-            self.events.step(&step, self.imu.map(|s| s.gyro[2]));
+            if let Some((sample, gyro)) = self.event_steps.push(&step, self.imu.map(|s| s.gyro[2]))
+            {
+                self.events.sample(&sample, gyro);
+            }
         }
         if t > T::of(REBASE_S) {
             // Re-base: a fresh odometry at the current pose whose reference is this very
