@@ -349,38 +349,34 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         cov: Matrix3<T>,
         config: FusionConfig<T>,
     ) -> Result<Self, FusionError> {
-        const { assert!(N >= 8, "PoseFusion needs N >= 8 history entries") };
+        Self::check_inputs(t, pose, cov, &config)?;
+        Ok(Self::new_checked(t, pose, cov, config))
+    }
+
+    /// The checks of [`PoseFusion::new`], without building the filter.
+    ///
+    /// # Errors
+    /// As [`PoseFusion::new`].
+    pub(crate) fn check_inputs(
+        t: T,
+        pose: Pose2<T>,
+        cov: Matrix3<T>,
+        config: &FusionConfig<T>,
+    ) -> Result<(), FusionError> {
         config.check()?;
-        for (v, field) in [
-            (t, "t"),
-            (pose.x, "pose.x"),
-            (pose.y, "pose.y"),
-            (pose.heading, "pose.heading"),
-        ] {
-            finite(v, field)?;
-        }
-        if !cov.iter().all(|v| v.is_finite()) {
-            return Err(FusionError::NonFinite { field: "cov" });
-        }
-        for i in 0..3 {
-            if cov[(i, i)] < T::zero() {
-                return Err(FusionError::BadParameter {
-                    field: "cov",
-                    rule: "diagonal must be >= 0",
-                    value: cov[(i, i)].to_f64(),
-                });
-            }
-        }
-        let mut p = Mat5::zeros();
-        p.fixed_view_mut::<3, 3>(0, 0).copy_from(&cov);
-        p[(3, 3)] = config.gyro_bias_std * config.gyro_bias_std;
-        p[(4, 4)] = config.scale_std * config.scale_std;
-        let x = Vec5::from([pose.x, pose.y, pose.heading, T::zero(), T::one()]);
-        let base = State {
-            t,
-            x,
-            p: symmetric(p),
-        };
+        check_initial(t, pose, cov)
+    }
+
+    /// [`PoseFusion::new`] for inputs [`PoseFusion::check_inputs`] accepted: no `Result`
+    /// around the `N`-entry filter, which the runtime builds inside its own constructor.
+    pub(crate) fn new_checked(
+        t: T,
+        pose: Pose2<T>,
+        cov: Matrix3<T>,
+        config: FusionConfig<T>,
+    ) -> Self {
+        const { assert!(N >= 8, "PoseFusion needs N >= 8 history entries") };
+        let base = initial_state(t, pose, cov, &config);
         let entry = Entry {
             t,
             dt: T::zero(),
@@ -391,7 +387,7 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
             event: None,
             post: base,
         };
-        Ok(Self {
+        Self {
             config,
             slot: config.max_latency / T::of((N / 2) as f64),
             base,
@@ -403,7 +399,25 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
             innovations: [Vector2::zeros(); MAX_RECOVERY_COUNT as usize],
             open: false,
             open_rot: (T::zero(), T::one()),
-        })
+        }
+    }
+
+    /// Restarts the filter in place at time `t` (s) with the known pose `pose` and its
+    /// covariance `cov`, as [`PoseFusion::new`] with the same configuration would (gyro bias and
+    /// scale back at their priors, the history forgotten) — without building a second filter
+    /// (its history is `N` entries: on a microcontroller's stack that matters).
+    ///
+    /// # Errors
+    /// As [`PoseFusion::new`] for `t`, `pose` and `cov`; the filter is then unchanged.
+    pub fn restart(&mut self, t: T, pose: Pose2<T>, cov: Matrix3<T>) -> Result<(), FusionError> {
+        check_initial(t, pose, cov)?;
+        self.base = initial_state(t, pose, cov, &self.config);
+        self.head = 0;
+        self.len = 0;
+        self.open = false;
+        self.initialised = true;
+        self.rejected_in_a_row = 0;
+        Ok(())
     }
 
     /// A filter at time `t` (s) that does not know where it is: the first fix sets the
@@ -1083,6 +1097,52 @@ enum Split<T> {
     At,
     /// Inside entry k: its two parts.
     Inside(Entry<T>, Entry<T>),
+}
+
+/// The input checks of [`initial_state`].
+fn check_initial<T: Real>(t: T, pose: Pose2<T>, cov: Matrix3<T>) -> Result<(), FusionError> {
+    for (v, field) in [
+        (t, "t"),
+        (pose.x, "pose.x"),
+        (pose.y, "pose.y"),
+        (pose.heading, "pose.heading"),
+    ] {
+        finite(v, field)?;
+    }
+    if !cov.iter().all(|v| v.is_finite()) {
+        return Err(FusionError::NonFinite { field: "cov" });
+    }
+    for i in 0..3 {
+        if cov[(i, i)] < T::zero() {
+            return Err(FusionError::BadParameter {
+                field: "cov",
+                rule: "diagonal must be >= 0",
+                value: cov[(i, i)].to_f64(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The state of a filter at time `t` that knows it is at `pose` with covariance `cov`, the gyro
+/// bias at 0 and the scale at 1 with `config`'s prior standard deviations (inputs checked by
+/// [`check_initial`]).
+fn initial_state<T: Real>(
+    t: T,
+    pose: Pose2<T>,
+    cov: Matrix3<T>,
+    config: &FusionConfig<T>,
+) -> State<T> {
+    let mut p = Mat5::zeros();
+    p.fixed_view_mut::<3, 3>(0, 0).copy_from(&cov);
+    p[(3, 3)] = config.gyro_bias_std * config.gyro_bias_std;
+    p[(4, 4)] = config.scale_std * config.scale_std;
+    let x = Vec5::from([pose.x, pose.y, pose.heading, T::zero(), T::one()]);
+    State {
+        t,
+        x,
+        p: symmetric(p),
+    }
 }
 
 /// The mean after entry `e` from the state `x` whose heading has sine `sn` and cosine `cs`,

@@ -88,7 +88,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
     /// [`ConfigError`] from [`Config::validate`].
     pub fn new(robot: Robot<T>, config: Config<T>, pose: Pose2<T>) -> Result<Self, ConfigError> {
         config.validate()?;
-        let fusion = Self::filter(T::zero(), pose, &config)?;
+        Self::check_filter(pose, &config)?;
         let z = T::zero();
         Ok(Self {
             robot,
@@ -101,7 +101,8 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             slew: Slew::new(),
             odo: Odometry::new(robot, pose),
             odo_base_us: None,
-            fusion,
+            // Checked above; built without a `Result` around its history.
+            fusion: PoseFusion::new_checked(T::zero(), pose, Matrix3::zeros(), config.fusion),
             fixes: FixCounters::default(),
             odo_us: None,
             last_us: None,
@@ -122,13 +123,16 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         })
     }
 
-    /// A fusion filter at time `t` (odometry clock, s) that knows it is at `pose`.
-    fn filter(
-        t: T,
-        pose: Pose2<T>,
-        config: &Config<T>,
-    ) -> Result<PoseFusion<T, FIX_HISTORY>, ConfigError> {
-        PoseFusion::new(t, pose, Matrix3::zeros(), config.fusion).map_err(|e| match e {
+    /// The checks of the fusion filter [`Runtime::new`] builds at `pose`, as configuration
+    /// errors.
+    fn check_filter(pose: Pose2<T>, config: &Config<T>) -> Result<(), ConfigError> {
+        PoseFusion::<T, FIX_HISTORY>::check_inputs(
+            T::zero(),
+            pose,
+            Matrix3::zeros(),
+            &config.fusion,
+        )
+        .map_err(|e| match e {
             FusionError::BadParameter { field, rule, .. } => ConfigError { field, rule },
             FusionError::NonFinite { field } => ConfigError {
                 field,
@@ -260,10 +264,8 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 }
                 self.odo.reset_pose(p);
                 // The filter restarts at the set pose, known exactly (bias and scale
-                // estimates restart at their priors).
-                if let Ok(f) = Self::filter(self.fusion.time(), p, &self.config) {
-                    self.fusion = f;
-                }
+                // estimates restart at their priors), in place: no second filter on the stack.
+                let _ = self.fusion.restart(self.fusion.time(), p, Matrix3::zeros());
                 Ok(())
             }
             Command::Fix(fix) => self.fix(&fix),
