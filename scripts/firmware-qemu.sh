@@ -43,6 +43,7 @@ if command -v size >/dev/null; then
         $1 == ".data" { flash += $2; ram += $2 }
         $1 == ".bss" || $1 == ".uninit" { ram += $2 }
         END { printf "firmware-qemu: image: flash %d bytes, static RAM %d bytes (plus the stack, reported below)\n", flash, ram }'
+    flash_bytes=$(size -A "$elf" | awk '$1 == ".vector_table" || $1 == ".text" || $1 == ".rodata" || $1 == ".data" { f += $2 } END { print f }')
 fi
 
 echo "firmware-qemu: running under qemu-system-arm -M mps2-an386"
@@ -60,4 +61,32 @@ if [ "$n" -ne 5 ]; then
     echo "firmware-qemu: FAILED: expected 5 checks to pass (4 robots, the ballbot balance controller), saw $n"
     exit 1
 fi
+# Memory budgets (bench/budgets.toml [firmware]): the Runtime's size, the peak stack and the
+# image's flash, each a limit in bytes.
+runtime=$(sed -n 's/.*Runtime \([0-9]*\) bytes.*/\1/p' <<<"$out" | head -n1)
+stack=$(sed -n 's/^peak stack since reset: \([0-9]*\) bytes.*/\1/p' <<<"$out" | head -n1)
+budget() {
+    python3 -c "import sys, tomllib; print(tomllib.load(open(sys.argv[1], 'rb'))['firmware'][sys.argv[2]])" \
+        "$root/bench/budgets.toml" "$1"
+}
+over=0
+for item in "runtime_bytes:${runtime:-}:Runtime<f32, 256>" "peak_stack_bytes:${stack:-}:peak stack" "flash_bytes:${flash_bytes:-}:flash"; do
+    key=${item%%:*}
+    rest=${item#*:}
+    value=${rest%%:*}
+    what=${rest#*:}
+    if [ -z "$value" ]; then
+        [ "$key" = flash_bytes ] && continue # no `size` tool: the image's flash is not measured
+        echo "firmware-qemu: FAILED: the run printed no $what figure"
+        exit 1
+    fi
+    limit=$(budget "$key")
+    if [ "$value" -gt "$limit" ]; then
+        echo "firmware-qemu: FAILED: $what $value bytes > budget $limit bytes (bench/budgets.toml [firmware] $key)"
+        over=1
+    else
+        echo "firmware-qemu: budget: $what $value bytes <= $limit bytes"
+    fi
+done
+[ "$over" -eq 0 ] || exit 1
 echo "firmware-qemu: OK (4 robots and the ballbot balance controller passed on the Cortex-M4F)"

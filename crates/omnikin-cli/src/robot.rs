@@ -71,12 +71,14 @@ pub struct RobotArgs {
     /// Largest linear jerk, m/s³ (default: unlimited).
     #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
     pub max_jerk: Option<f64>,
-    /// Commands faster than this (m/s) are rejected as malformed.
-    #[arg(long, default_value_t = 2.0, allow_hyphen_values = true, value_parser = finite_f64)]
-    pub max_speed: f64,
-    /// Commands with a larger yaw rate (rad/s) are rejected as malformed.
-    #[arg(long, default_value_t = 10.0, allow_hyphen_values = true, value_parser = finite_f64)]
-    pub max_yaw_rate: f64,
+    /// Commands faster than this (m/s) are rejected as malformed [default: 2; ballbot --plant
+    /// dynamic: 1, and a larger value is refused unless the robot's model holds it].
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub max_speed: Option<f64>,
+    /// Commands with a larger yaw rate (rad/s) are rejected as malformed [default: 10; ballbot
+    /// --plant dynamic: 1, and a larger value is refused unless the robot's model holds it].
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub max_yaw_rate: Option<f64>,
     /// Heading from the simulated gyro instead of the wheels.
     #[arg(long)]
     pub gyro_heading: bool,
@@ -128,6 +130,10 @@ fn obstacle(s: &str) -> Result<(f64, f64), String> {
 
 /// Control rate when `--rate` is not given (the rate runtime), Hz.
 pub const DEFAULT_RATE_HZ: f64 = 100.0;
+/// `--max-speed` of the rate runtime when not given, m/s.
+pub const DEFAULT_MAX_SPEED: f64 = 2.0;
+/// `--max-yaw-rate` of the rate runtime when not given, rad/s.
+pub const DEFAULT_MAX_YAW_RATE: f64 = 10.0;
 
 /// The disturbance profile `--disturbances` names.
 pub(crate) fn profile(name: Option<&str>) -> Result<Profile> {
@@ -152,8 +158,8 @@ pub fn config(a: &RobotArgs, desc: &RobotDescription) -> Result<Config<f64>> {
     c.slew.accel = a.max_accel;
     c.slew.yaw_accel = a.max_yaw_accel;
     c.slew.jerk = a.max_jerk;
-    c.max_speed = a.max_speed;
-    c.max_yaw_rate = a.max_yaw_rate;
+    c.max_speed = a.max_speed.unwrap_or(DEFAULT_MAX_SPEED);
+    c.max_yaw_rate = a.max_yaw_rate.unwrap_or(DEFAULT_MAX_YAW_RATE);
     c.watchdog = a.watchdog;
     c.heading_from_gyro = a.gyro_heading;
     // Slip and collision thresholds: the robot file's [events] (defaults where absent), the

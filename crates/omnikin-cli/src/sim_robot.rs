@@ -19,7 +19,7 @@ use omnikin::link::{
 use omnikin::runtime::{BalanceRuntime, BalanceRuntimeConfig, BalanceStatus, Runtime, Status};
 use omnikin::{Pose2, Robot};
 use omnikin_sim::dynamics::ballbot::sil::BallbotSil;
-use omnikin_sim::dynamics::ballbot::{BallbotDynamics, BallbotPlant};
+use omnikin_sim::dynamics::ballbot::{BallbotDynamics, BallbotPlant, capability};
 use omnikin_sim::sil::SilPlant;
 use serde_json::{Value, json};
 
@@ -143,18 +143,31 @@ impl SimRobot {
         if let Some(r) = a.rate {
             c.rate_hz = r;
         }
-        let (lean_accel, ..) = desc
+        let (lean_accel, max_tilt_deg, lean_margin) = desc
             .lean_acceleration_limit()
             .context("--plant dynamic: the robot file has no ballbot geometry")?;
         let mut cfg = BalanceRuntimeConfig::new(c, lean_accel.min(a.max_accel));
-        cfg.max_speed = a.max_speed;
-        cfg.max_yaw_rate = a.max_yaw_rate;
+        // The library's limits (1 m/s, 1 rad/s) unless given; either way checked against what
+        // the robot's model holds before it starts (issue 31).
+        if let Some(v) = a.max_speed {
+            cfg.max_speed = v;
+        }
+        if let Some(w) = a.max_yaw_rate {
+            cfg.max_yaw_rate = w;
+        }
         cfg.watchdog = a.watchdog;
         // The robot file's [events] (only the collision test applies to this runtime).
         let ev = desc.events.thresholds();
         cfg.events.slip_yaw_rate = ev.slip_yaw_rate;
         cfg.events.slip_residual = ev.slip_residual;
         cfg.events.collision_decel = ev.collision_decel;
+        capability::check_limits(&cfg, max_tilt_deg.to_radians(), lean_margin).map_err(|e| {
+            let flag = match e.limit {
+                capability::Limit::YawRate => "--max-yaw-rate",
+                capability::Limit::Speed => "--max-speed",
+            };
+            anyhow::anyhow!("{flag} {}: robot {}: {e}", e.value, desc.name)
+        })?;
         let rt = BalanceRuntime::new(cfg, Pose2::default()).map_err(|e| {
             anyhow::anyhow!(
                 "--plant dynamic: robot {}: balance controller: {e}",

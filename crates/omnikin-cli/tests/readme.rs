@@ -529,6 +529,21 @@ fn bless(path: &Path, lines: &[&str], blocks: &[Block], outputs: &[Vec<Vec<Strin
     fs::write(path, out.join("\n") + "\n").unwrap();
 }
 
+/// The manual's bound on the README's length (issue 31): history and detail go to
+/// bench/README.md and docs/.
+const README_MAX_LINES: usize = 400;
+
+#[test]
+fn the_readme_is_at_most_400_lines() {
+    let text = fs::read_to_string(Path::new(ROOT).join("README.md")).unwrap();
+    let n = text.lines().count();
+    assert!(
+        n <= README_MAX_LINES,
+        "README.md has {n} lines, more than {README_MAX_LINES}: move history to bench/README.md \
+         or detail to docs/"
+    );
+}
+
 #[test]
 fn the_readme_names_only_files_that_exist() {
     // Every relative link target and every `examples/...`, `docs/...`, `bench/...` path.

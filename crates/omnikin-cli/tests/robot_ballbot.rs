@@ -190,6 +190,12 @@ fn flags_that_do_not_apply_to_the_balance_runtime_are_refused() {
             &["--disturbances", "hardware"][..],
             "takes no --disturbances",
         ),
+        // Issue 31: the default of the rate runtime, 10 rad/s, made the balancing robot fall;
+        // its model holds about 6 rad/s with the lean margin kept.
+        (
+            &["--max-yaw-rate", "10"][..],
+            "--max-yaw-rate 10: robot ballbot: max_yaw_rate 10 rad/s: the balancing ballbot cannot hold it",
+        ),
     ] {
         let out = Command::new(BIN)
             .args(["robot", "--sim", "--robot", "ballbot", "--plant", "dynamic"])

@@ -52,6 +52,18 @@ pub fn twist_exp<T: Real>(twist: Twist2<T>, dt: T) -> Pose2<T> {
     Pose2::new(a * ux - b * uy, b * ux + a * uy, theta)
 }
 
+/// `(sin θ, cos θ)` through the series of [`sinc_cosc`] for `|θ| < 0.25` rad — the heading
+/// of an odometry increment, without a call to `sin_cos` — and from `sin_cos` beyond.
+#[inline]
+pub(crate) fn sin_cos_near_zero<T: Real>(theta: T) -> (T, T) {
+    if theta.abs() < T::of(0.25) {
+        let (a, b) = sinc_cosc(theta);
+        (theta * a, T::one() - theta * b)
+    } else {
+        theta.sin_cos()
+    }
+}
+
 /// Composes a world pose with a pose change expressed in that pose's frame (`pose ⊕ delta`).
 /// The heading is added without wrapping.
 #[inline]

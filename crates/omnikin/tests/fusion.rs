@@ -305,3 +305,70 @@ proptest! {
         }
     }
 }
+
+/// The covariance step runs once per history entry: the variances read every cycle (the
+/// sparse quadratic forms of `pose_variances`) equal the diagonal of the full covariance step
+/// at every step, with the wheels' and a gyro's heading, before and after a fix; the settled
+/// variances are never ahead of them.
+#[test]
+fn variances_every_step_equal_the_full_covariance_step() {
+    for heading in [StepHeading::Wheels, StepHeading::Gyro] {
+        let mut f = filter();
+        let tw = Twist2::new(0.4, -0.1, 0.7);
+        let mut truth = Pose2::new(0.0, 0.0, 0.0);
+        for k in 1..=3000u32 {
+            let t = f64::from(k) * 1e-3;
+            let delta = se2::twist_exp(tw, 1e-3);
+            truth = se2::compose(truth, delta);
+            f.predict(t, delta, heading).unwrap();
+            if k == 1500 {
+                f.add_fix(&fix(t, truth.x + 0.02, truth.y)).unwrap();
+            }
+            let full = f.pose_covariance();
+            let fast = f.pose_variances();
+            let settled = f.settled_pose_variances();
+            for i in 0..3 {
+                let d = full[(i, i)];
+                assert!(
+                    (fast[i] - d).abs() <= 1e-12 * d.abs().max(1e-12),
+                    "{heading:?} step {k} [{i}]: {} vs {d}",
+                    fast[i]
+                );
+                assert!(
+                    settled[i] <= d * (1.0 + 1e-12),
+                    "{heading:?} step {k} [{i}]"
+                );
+            }
+        }
+    }
+}
+
+/// `restart` (the runtime's `SetPose`, in place) leaves the filter as `new` builds it, and a
+/// bad input leaves it unchanged.
+#[test]
+fn restart_in_place_equals_a_new_filter() {
+    let mut f = filter();
+    let mut truth = Pose2::new(0.0, 0.0, 0.0);
+    let t = drive(&mut f, 1000.0, 0.0, 1.0, &mut truth);
+    f.add_fix(&fix(t, truth.x + 0.01, truth.y)).unwrap();
+    let before = f.state();
+    assert!(matches!(
+        f.restart(t, Pose2::new(f64::NAN, 0.0, 0.0), Matrix3::zeros()),
+        Err(FusionError::NonFinite { field: "pose.x" })
+    ));
+    assert_eq!(f.state(), before);
+    let (pose, cov) = (Pose2::new(1.0, -2.0, 0.5), Matrix3::identity() * 1e-3);
+    f.restart(t, pose, cov).unwrap();
+    let fresh = Filter::new(t, pose, cov, FusionConfig::default()).unwrap();
+    assert_eq!(f.state(), fresh.state());
+    assert_eq!(
+        (f.time(), f.oldest_time()),
+        (fresh.time(), fresh.oldest_time())
+    );
+    // Both go on alike.
+    let (mut a, mut b) = (Pose2::new(0.0, 0.0, 0.0), Pose2::new(0.0, 0.0, 0.0));
+    let mut g = fresh;
+    drive(&mut f, 1000.0, t, t + 0.5, &mut a);
+    drive(&mut g, 1000.0, t, t + 0.5, &mut b);
+    assert_eq!(f.state(), g.state());
+}

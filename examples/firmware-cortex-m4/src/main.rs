@@ -232,7 +232,11 @@ struct Outcome {
 }
 
 fn run(robot: Robot<f32>, config: Config<f32>, steps_per_rad: Option<f32>) -> Option<Outcome> {
-    let mut rt = Runtime::<f32, PLAN_CAPACITY>::new(robot, config, Pose2::default()).ok()?;
+    // Taken out of the Result in place: `.ok()?` would move the 22 kB runtime into an Option
+    // first, a second copy on the stack.
+    let Ok(mut rt) = Runtime::<f32, PLAN_CAPACITY>::new(robot, config, Pose2::default()) else {
+        return None;
+    };
     let key = Key::new(b"omnikin firmware example key!!").ok()?;
     let info = robot_info(&rt, true);
     let mut wire = Wire {

@@ -130,12 +130,16 @@ impl<T: Real> ProcessNoise<T> {
 
     /// Robot-frame variances `(σ²_xy, σ²_θ)` of a step.
     pub(crate) fn variances(&self, delta: Pose2<T>, dt: T) -> (T, T) {
-        let s = delta.x.hypot(delta.y);
+        self.variances_over(delta.x.hypot(delta.y), delta.heading, dt)
+    }
+
+    /// [`Self::variances`] of a step whose chord `s = |(Δx, Δy)|` (m) the caller already has.
+    pub(crate) fn variances_over(&self, s: T, dheading: T, dt: T) -> (T, T) {
         let sq = |x: T| x * x;
         (
             sq(self.translation) * s + sq(self.translation_per_time) * dt,
             sq(self.heading_per_distance) * s
-                + sq(self.heading_per_turn) * delta.heading.abs()
+                + sq(self.heading_per_turn) * dheading.abs()
                 + sq(self.heading_per_time) * dt,
         )
     }

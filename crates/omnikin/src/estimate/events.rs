@@ -205,6 +205,9 @@ pub struct EventDetector<T> {
     slip: Episode<T>,
     collision: Episode<T>,
     counters: EventCounters,
+    /// The low-pass gain `1 − exp(−dt/smoothing)` of the last step's `dt` (a fixed-rate loop
+    /// computes the exponential once).
+    gain: (T, T),
 }
 
 impl<T: Real> EventDetector<T> {
@@ -223,6 +226,7 @@ impl<T: Real> EventDetector<T> {
             slip: Episode { active: None },
             collision: Episode { active: None },
             counters: EventCounters::default(),
+            gain: (z, z),
         }
     }
 
@@ -250,13 +254,26 @@ impl<T: Real> EventDetector<T> {
     /// robot frame z) when there is one — without it the yaw-rate slip test is off. Steps with
     /// `dt ≤ 0` (the first sample) or a non-finite value change nothing.
     pub fn step(&mut self, s: &OdometryStep<T>, imu_yaw_rate: Option<T>) -> EventStep<T> {
+        let sample = EventSample {
+            t: s.t,
+            dt: s.dt,
+            speed: (s.twist.vx * s.twist.vx + s.twist.vy * s.twist.vy).sqrt(),
+            slip_residual: s.slip_residual,
+            wheel_heading_change: s.wheel_heading_change,
+        };
+        self.sample(&sample, imu_yaw_rate)
+    }
+
+    /// [`EventDetector::step`] on what it takes from an odometry step (for a caller that
+    /// feeds merged steps, [`EventDecimator`]).
+    pub fn sample(&mut self, s: &EventSample<T>, imu_yaw_rate: Option<T>) -> EventStep<T> {
         let mut out = EventStep {
             slipping: false,
             colliding: false,
             started: [None; 2],
             finished: [None; 2],
         };
-        let speed = s.twist.vx.hypot(s.twist.vy);
+        let speed = s.speed;
         if !(s.dt > T::zero()
             && s.t.is_finite()
             && speed.is_finite()
@@ -266,7 +283,10 @@ impl<T: Real> EventDetector<T> {
         {
             return out;
         }
-        let a = T::one() - (-s.dt / self.th.smoothing).exp();
+        if s.dt != self.gain.0 {
+            self.gain = (s.dt, T::one() - (-s.dt / self.th.smoothing).exp());
+        }
+        let a = self.gain.1;
         let mut yaw_over = false;
         if let Some(w) = imu_yaw_rate {
             let mismatch = (w - s.wheel_heading_change / s.dt).abs();
@@ -339,5 +359,95 @@ impl<T: Real> EventDetector<T> {
     /// Ends the open events (at the end of a log): slip first, then collision.
     pub fn finish(&mut self) -> [Option<Event<T>>; 2] {
         [self.slip.active.take(), self.collision.active.take()]
+    }
+}
+
+/// What the detector takes from one odometry step (or several merged,
+/// [`EventDecimator`]). Times on the odometry's clock.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EventSample<T> {
+    /// Time at the end of the sample, s.
+    pub t: T,
+    /// Length of the sample, s.
+    pub dt: T,
+    /// Mean wheel speed `|(vx, vy)|` over the sample, m/s.
+    pub speed: T,
+    /// Mean least-squares slip residual over the sample, m/s.
+    pub slip_residual: T,
+    /// Heading change implied by the wheels over the sample, rad.
+    pub wheel_heading_change: T,
+}
+
+/// Sums consecutive odometry steps into one [`EventSample`] until they span `period`: a
+/// control loop at 1 kHz runs the detector at `1/period` instead of every cycle. With the
+/// runtime's period (2.5 ms, and at most a quarter of [`EventThresholds::smoothing`]) the
+/// low-pass (exact for any sample length) and the deceleration window see the same signals
+/// up to that resolution; an event is flagged at most one period later.
+///
+/// Merging: speed and yaw rate are means over the merged time (the speed of the mean
+/// robot-frame velocity), the slip residual its time-weighted mean, the wheels' heading change
+/// the sum; the IMU's yaw rate is used only when every merged step had one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EventDecimator<T> {
+    period: T,
+    dt: T,
+    vx_dt: T,
+    vy_dt: T,
+    residual_dt: T,
+    wheel_heading_change: T,
+    gyro_dt: T,
+    gyro_every_step: bool,
+}
+
+impl<T: Real> EventDecimator<T> {
+    /// Samples of at least `period` seconds (`period ≤ 0`: every step is a sample).
+    pub fn new(period: T) -> Self {
+        let z = T::zero();
+        Self {
+            period,
+            dt: z,
+            vx_dt: z,
+            vy_dt: z,
+            residual_dt: z,
+            wheel_heading_change: z,
+            gyro_dt: z,
+            gyro_every_step: true,
+        }
+    }
+
+    /// Adds one step (`dt > 0`; others are ignored) and the IMU's yaw rate over it; returns the
+    /// merged sample and its mean IMU yaw rate once the steps span the period.
+    pub fn push(
+        &mut self,
+        s: &OdometryStep<T>,
+        imu_yaw_rate: Option<T>,
+    ) -> Option<(EventSample<T>, Option<T>)> {
+        if s.dt.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
+            return None;
+        }
+        self.dt += s.dt;
+        self.vx_dt += s.twist.vx * s.dt;
+        self.vy_dt += s.twist.vy * s.dt;
+        self.residual_dt += s.slip_residual * s.dt;
+        self.wheel_heading_change += s.wheel_heading_change;
+        match imu_yaw_rate {
+            Some(w) => self.gyro_dt += w * s.dt,
+            None => self.gyro_every_step = false,
+        }
+        // Not finite: emitted at once, and the detector ignores it.
+        if self.dt < self.period {
+            return None;
+        }
+        let dt = self.dt;
+        let sample = EventSample {
+            t: s.t,
+            dt,
+            speed: (self.vx_dt * self.vx_dt + self.vy_dt * self.vy_dt).sqrt() / dt,
+            slip_residual: self.residual_dt / dt,
+            wheel_heading_change: self.wheel_heading_change,
+        };
+        let gyro = self.gyro_every_step.then(|| self.gyro_dt / dt);
+        *self = Self::new(self.period);
+        Some((sample, gyro))
     }
 }

@@ -30,6 +30,17 @@
 //! applied **at its time** (the entry containing it split on SE(2), the later entries
 //! replayed, as WPILib's pose estimator does); an older one is [`FusionError::TooLate`].
 //!
+//! **Covariance at the slot rate.** The steps merged into the newest entry move only its
+//! increment (a composition on SE(2) and a few sums); the pose after it is the mean of one
+//! prediction through the merged increment from the state before the entry (with that state's
+//! heading rotation kept from when the entry opened), and its 5 × 5 covariance step runs
+//! **once per entry** — when the entry closes, or when a fix or a caller asks for it
+//! ([`PoseFusion::pose_covariance`], [`PoseFusion::state`]). This is the prediction a replay
+//! after a fix makes anyway (replays go through whole entries), so a filter that receives no
+//! fix ends exactly where one that fused a fix of zero weight would. The pose variances alone
+//! ([`PoseFusion::pose_variances`]) cost three quadratic forms of the sparse Jacobian, cheap
+//! enough for every control cycle.
+//!
 //! **Gate and recovery.** A fix whose squared Mahalanobis distance exceeds the χ² gate is
 //! rejected (Bar-Shalom, Li & Kirubarajan 2001, §5.4). After
 //! [`FusionConfig::recovery_count`] rejections in a row the filter recovers: when their
@@ -297,6 +308,23 @@ pub struct PoseFusion<T, const N: usize> {
     rejected_in_a_row: u32,
     /// Position innovations of the current run of rejections (ring).
     innovations: [Vector2<T>; MAX_RECOVERY_COUNT as usize],
+    /// The newest entry still takes steps and its `post` is not computed yet (module docs:
+    /// it is computed from the state before the entry when the entry closes or on demand).
+    open: bool,
+    /// Sine and cosine of the heading of the state before the open entry.
+    open_rot: (T, T),
+}
+
+/// The non-zero off-diagonal entries of a prediction's Jacobian `F = ∂x⁺/∂x` (its diagonal
+/// is 1): rows x, y against θ and k, row θ against b (gyro heading) or k (wheel heading).
+#[derive(Clone, Copy, Debug)]
+struct Jacobian<T> {
+    f02: T,
+    f12: T,
+    f04: T,
+    f14: T,
+    f23: T,
+    f24: T,
 }
 
 fn finite<T: Real>(v: T, field: &'static str) -> Result<(), FusionError> {
@@ -321,38 +349,34 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         cov: Matrix3<T>,
         config: FusionConfig<T>,
     ) -> Result<Self, FusionError> {
-        const { assert!(N >= 8, "PoseFusion needs N >= 8 history entries") };
+        Self::check_inputs(t, pose, cov, &config)?;
+        Ok(Self::new_checked(t, pose, cov, config))
+    }
+
+    /// The checks of [`PoseFusion::new`], without building the filter.
+    ///
+    /// # Errors
+    /// As [`PoseFusion::new`].
+    pub(crate) fn check_inputs(
+        t: T,
+        pose: Pose2<T>,
+        cov: Matrix3<T>,
+        config: &FusionConfig<T>,
+    ) -> Result<(), FusionError> {
         config.check()?;
-        for (v, field) in [
-            (t, "t"),
-            (pose.x, "pose.x"),
-            (pose.y, "pose.y"),
-            (pose.heading, "pose.heading"),
-        ] {
-            finite(v, field)?;
-        }
-        if !cov.iter().all(|v| v.is_finite()) {
-            return Err(FusionError::NonFinite { field: "cov" });
-        }
-        for i in 0..3 {
-            if cov[(i, i)] < T::zero() {
-                return Err(FusionError::BadParameter {
-                    field: "cov",
-                    rule: "diagonal must be >= 0",
-                    value: cov[(i, i)].to_f64(),
-                });
-            }
-        }
-        let mut p = Mat5::zeros();
-        p.fixed_view_mut::<3, 3>(0, 0).copy_from(&cov);
-        p[(3, 3)] = config.gyro_bias_std * config.gyro_bias_std;
-        p[(4, 4)] = config.scale_std * config.scale_std;
-        let x = Vec5::from([pose.x, pose.y, pose.heading, T::zero(), T::one()]);
-        let base = State {
-            t,
-            x,
-            p: symmetric(p),
-        };
+        check_initial(t, pose, cov)
+    }
+
+    /// [`PoseFusion::new`] for inputs [`PoseFusion::check_inputs`] accepted: no `Result`
+    /// around the `N`-entry filter, which the runtime builds inside its own constructor.
+    pub(crate) fn new_checked(
+        t: T,
+        pose: Pose2<T>,
+        cov: Matrix3<T>,
+        config: FusionConfig<T>,
+    ) -> Self {
+        const { assert!(N >= 8, "PoseFusion needs N >= 8 history entries") };
+        let base = initial_state(t, pose, cov, &config);
         let entry = Entry {
             t,
             dt: T::zero(),
@@ -363,7 +387,7 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
             event: None,
             post: base,
         };
-        Ok(Self {
+        Self {
             config,
             slot: config.max_latency / T::of((N / 2) as f64),
             base,
@@ -373,7 +397,27 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
             initialised: true,
             rejected_in_a_row: 0,
             innovations: [Vector2::zeros(); MAX_RECOVERY_COUNT as usize],
-        })
+            open: false,
+            open_rot: (T::zero(), T::one()),
+        }
+    }
+
+    /// Restarts the filter in place at time `t` (s) with the known pose `pose` and its
+    /// covariance `cov`, as [`PoseFusion::new`] with the same configuration would (gyro bias and
+    /// scale back at their priors, the history forgotten) — without building a second filter
+    /// (its history is `N` entries: on a microcontroller's stack that matters).
+    ///
+    /// # Errors
+    /// As [`PoseFusion::new`] for `t`, `pose` and `cov`; the filter is then unchanged.
+    pub fn restart(&mut self, t: T, pose: Pose2<T>, cov: Matrix3<T>) -> Result<(), FusionError> {
+        check_initial(t, pose, cov)?;
+        self.base = initial_state(t, pose, cov, &self.config);
+        self.head = 0;
+        self.len = 0;
+        self.open = false;
+        self.initialised = true;
+        self.rejected_in_a_row = 0;
+        Ok(())
     }
 
     /// A filter at time `t` (s) that does not know where it is: the first fix sets the
@@ -399,15 +443,58 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         Ok(f)
     }
 
-    /// The current pose (world frame; m, m, rad unwrapped).
+    /// The current pose (world frame; m, m, rad unwrapped). Cheap: no covariance step.
     pub fn pose(&self) -> Pose2<T> {
-        let x = self.current().x;
+        let x = self.current_mean();
         Pose2::new(x[0], x[1], x[2])
     }
 
-    /// The current pose covariance (m², rad²; order x, y, heading).
+    /// The current pose covariance (m², rad²; order x, y, heading). While the newest history
+    /// entry is open this runs its 5 × 5 covariance step (module docs); for the variances
+    /// alone, [`PoseFusion::pose_variances`] is cheaper.
     pub fn pose_covariance(&self) -> Matrix3<T> {
         self.current().p.fixed_view::<3, 3>(0, 0).into_owned()
+    }
+
+    /// The pose variances (m², m², rad²) as of the newest **closed** history entry: at most
+    /// one history slot (`max_latency / (N/2)`) older than [`PoseFusion::pose`], and free —
+    /// what a control loop reports every cycle.
+    pub fn settled_pose_variances(&self) -> [T; 3] {
+        let p = match self.open_entry() {
+            Some((prev, _)) => &prev.p,
+            None => &self.current_ref().p,
+        };
+        [p[(0, 0)], p[(1, 1)], p[(2, 2)]]
+    }
+
+    /// The diagonal of [`PoseFusion::pose_covariance`] (m², m², rad²), without the full
+    /// covariance step: `Fᵢ P Fᵢᵀ + Qᵢᵢ` for the three pose rows `Fᵢ` of the sparse Jacobian of
+    /// the open entry. Equal to the diagonal of [`PoseFusion::pose_covariance`] up to rounding.
+    pub fn pose_variances(&self) -> [T; 3] {
+        let Some((prev, e)) = self.open_entry() else {
+            let p = &self.current_ref().p;
+            return [p[(0, 0)], p[(1, 1)], p[(2, 2)]];
+        };
+        let (sn, cs) = self.open_rot;
+        let (_, j) = mean_and_jacobian(&prev.x, sn, cs, e);
+        let q = self.noise_diagonal(prev.x[4], e);
+        let p = &prev.p;
+        // Fᵢ P Fᵢᵀ over the row's non-zero columns.
+        let form = |cols: [(usize, T); 3]| {
+            let mut acc = T::zero();
+            for &(a, va) in &cols {
+                for &(b, vb) in &cols {
+                    acc += va * vb * p[(a, b)];
+                }
+            }
+            acc
+        };
+        let one = T::one();
+        [
+            form([(0, one), (2, j.f02), (4, j.f04)]) + q[0],
+            form([(1, one), (2, j.f12), (4, j.f14)]) + q[1],
+            form([(2, one), (3, j.f23), (4, j.f24)]) + q[2],
+        ]
     }
 
     /// The full state `(x, y, θ, b, k)` and its 5 × 5 covariance.
@@ -430,7 +517,11 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
 
     /// Time of the current estimate, s.
     pub fn time(&self) -> T {
-        self.current().t
+        if self.len == 0 {
+            self.base.t
+        } else {
+            self.buf[self.index(self.len - 1)].t
+        }
     }
 
     /// Whether a pose is known (always, except before the first fix of
@@ -466,11 +557,63 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         }
     }
 
-    fn current(&self) -> &State<T> {
+    /// The current state, with the open entry's covariance step run if there is one.
+    fn current(&self) -> State<T> {
+        match self.open_entry() {
+            Some((prev, e)) => self.propagate(prev, e.t, e),
+            None => *self.current_ref(),
+        }
+    }
+
+    /// The newest settled state (the open entry's `post` is not one).
+    fn current_ref(&self) -> &State<T> {
         if self.len == 0 {
             &self.base
         } else {
             &self.buf[self.index(self.len - 1)].post
+        }
+    }
+
+    /// The current mean (no covariance step).
+    fn current_mean(&self) -> Vec5<T> {
+        match self.open_entry() {
+            Some((prev, e)) => {
+                let (sn, cs) = self.open_rot;
+                mean_and_jacobian(&prev.x, sn, cs, e).0
+            }
+            None => self.current_ref().x,
+        }
+    }
+
+    /// The open entry and the state before it.
+    fn open_entry(&self) -> Option<(&State<T>, &Entry<T>)> {
+        if self.open && self.len > 0 {
+            Some((
+                self.before_ref(self.len - 1),
+                &self.buf[self.index(self.len - 1)],
+            ))
+        } else {
+            None
+        }
+    }
+
+    /// Runs the open entry's covariance step and stores its `post`: the history is settled.
+    fn settle(&mut self) {
+        if let Some((prev, e)) = self.open_entry() {
+            let post = self.propagate(prev, e.t, e);
+            let i = self.index(self.len - 1);
+            self.buf[i].post = post;
+        }
+        self.open = false;
+    }
+
+    /// Marks the newest entry open (it takes the next steps), keeping the rotation of the
+    /// state before it.
+    fn reopen(&mut self) {
+        if !self.open && self.len > 0 {
+            let h = self.before_ref(self.len - 1).x[2];
+            self.open_rot = h.sin_cos();
+            self.open = true;
         }
     }
 
@@ -480,10 +623,14 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
     }
 
     fn before(&self, k: usize) -> State<T> {
+        *self.before_ref(k)
+    }
+
+    fn before_ref(&self, k: usize) -> &State<T> {
         if k == 0 {
-            self.base
+            &self.base
         } else {
-            self.buf[self.index(k - 1)].post
+            &self.buf[self.index(k - 1)].post
         }
     }
 
@@ -497,47 +644,43 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
 
     /// EKF prediction of `s` through entry `e`'s increment, ending at time `t`.
     fn propagate(&self, s: &State<T>, t: T, e: &Entry<T>) -> State<T> {
-        let (z, x) = (T::zero(), s.x);
-        let (sn, cs) = x[2].sin_cos();
-        let (b, k) = (x[3], x[4]);
-        let (dx, dy) = (k * e.delta.x, k * e.delta.y);
-        let dth = match e.heading {
-            StepHeading::Wheels => k * e.delta.heading,
-            StepHeading::Gyro => e.delta.heading - b * e.dt,
-            StepHeading::Absolute => e.delta.heading,
-        };
-        let mut xn = x;
-        xn[0] = x[0] + cs * dx - sn * dy;
-        xn[1] = x[1] + sn * dx + cs * dy;
-        xn[2] = x[2] + dth;
+        let (sn, cs) = s.x[2].sin_cos();
+        let (xn, j) = mean_and_jacobian(&s.x, sn, cs, e);
         let mut f = Mat5::identity();
-        f[(0, 2)] = -sn * dx - cs * dy;
-        f[(1, 2)] = cs * dx - sn * dy;
-        f[(0, 4)] = cs * e.delta.x - sn * e.delta.y;
-        f[(1, 4)] = sn * e.delta.x + cs * e.delta.y;
-        match e.heading {
-            StepHeading::Wheels => f[(2, 4)] = e.delta.heading,
-            StepHeading::Gyro => f[(2, 3)] = -e.dt,
-            StepHeading::Absolute => {}
-        }
-        // Process noise: the increment's (isotropic in x, y, so rotation-free) and the walks,
-        // only for the states that are on.
-        let c = &self.config;
-        let mut q = Mat5::zeros();
-        q[(0, 0)] = e.q.0 * k * k;
-        q[(1, 1)] = e.q.0 * k * k;
-        q[(2, 2)] = e.q.1;
-        if c.gyro_bias_std > z {
-            q[(3, 3)] = c.gyro_bias_walk * c.gyro_bias_walk * e.dt;
-        }
-        if c.scale_std > z {
-            q[(4, 4)] = c.scale_walk * c.scale_walk * e.dist;
-        }
+        f[(0, 2)] = j.f02;
+        f[(1, 2)] = j.f12;
+        f[(0, 4)] = j.f04;
+        f[(1, 4)] = j.f14;
+        f[(2, 3)] = j.f23;
+        f[(2, 4)] = j.f24;
+        let q = Mat5::from_diagonal(&Vec5::from(self.noise_diagonal(s.x[4], e)));
         State {
             t,
             x: xn,
             p: symmetric(f * s.p * f.transpose() + q),
         }
+    }
+
+    /// Process noise of entry `e` at wheel scale `k` (diagonal): the increment's (isotropic in
+    /// x, y, so rotation-free) and the walks, only for the states that are on.
+    fn noise_diagonal(&self, k: T, e: &Entry<T>) -> [T; STATES] {
+        let (z, c) = (T::zero(), &self.config);
+        let qxy = e.q.0 * k * k;
+        [
+            qxy,
+            qxy,
+            e.q.1,
+            if c.gyro_bias_std > z {
+                c.gyro_bias_walk * c.gyro_bias_walk * e.dt
+            } else {
+                z
+            },
+            if c.scale_std > z {
+                c.scale_walk * c.scale_walk * e.dist
+            } else {
+                z
+            },
+        ]
     }
 
     /// Gate distance and innovation of `fix` against `s`.
@@ -653,6 +796,21 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         delta: Pose2<T>,
         heading: StepHeading,
     ) -> Result<Pose2<T>, FusionError> {
+        self.advance(t, delta, heading)?;
+        Ok(self.pose())
+    }
+
+    /// [`PoseFusion::predict`] without computing the new pose (a control loop that reads the
+    /// pose only when it needs it).
+    ///
+    /// # Errors
+    /// As [`PoseFusion::predict`].
+    pub fn advance(
+        &mut self,
+        t: T,
+        delta: Pose2<T>,
+        heading: StepHeading,
+    ) -> Result<(), FusionError> {
         for (v, field) in [
             (t, "t"),
             (delta.x, "delta.x"),
@@ -661,54 +819,56 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         ] {
             finite(v, field)?;
         }
-        let cur = *self.current();
-        let dt = t - cur.t;
+        let previous = self.time();
+        let dt = t - previous;
         if dt.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
             return Err(FusionError::NonMonotonicTime {
                 t: t.to_f64(),
-                previous: cur.t.to_f64(),
+                previous: previous.to_f64(),
             });
         }
-        let dist = delta.x.hypot(delta.y);
-        let step = Entry {
-            t,
-            dt,
-            delta,
-            dist,
-            q: self.config.noise.variances(delta, dt),
-            heading,
-            event: None,
-            post: cur,
-        };
-        let post = self.propagate(&cur, t, &step);
-        // Merge into the last entry while it is shorter than a slot and carries no fix.
+        // The chord of one step: no overflow to guard against (`hypot`'s extra cost).
+        let dist = (delta.x * delta.x + delta.y * delta.y).sqrt();
+        let q = self.config.noise.variances_over(dist, delta.heading, dt);
+        // Merge into the last entry while it is shorter than a slot and carries no fix: only
+        // its increment moves (module docs, "covariance at the slot rate").
         if self.len > 0 {
             let i = self.index(self.len - 1);
-            let last = self.buf[i];
-            if last.event.is_none() && last.heading == heading && last.dt + dt <= self.slot {
-                self.buf[i] = Entry {
-                    t,
-                    dt: last.dt + dt,
-                    delta: se2::compose(last.delta, delta),
-                    dist: last.dist + dist,
-                    q: (last.q.0 + step.q.0, last.q.1 + step.q.1),
-                    heading,
-                    event: None,
-                    post,
-                };
+            let slot = self.slot;
+            let last = &mut self.buf[i];
+            if last.event.is_none() && last.heading == heading && last.dt + dt <= slot {
+                last.t = t;
+                last.dt += dt;
+                let (sn, cs) = se2::sin_cos_near_zero(last.delta.heading);
+                last.delta = se2::compose_rotated(last.delta, sn, cs, delta);
+                last.dist += dist;
+                last.q = (last.q.0 + q.0, last.q.1 + q.1);
+                self.reopen();
                 self.forget(t);
-                return Ok(self.pose());
+                return Ok(());
             }
         }
+        self.settle();
         // One slot stays free so that a fix can always split an entry.
         while self.len >= N - 1 {
             self.evict();
         }
         let i = self.index(self.len);
-        self.buf[i] = Entry { post, ..step };
+        self.buf[i] = Entry {
+            t,
+            dt,
+            delta,
+            dist,
+            q,
+            heading,
+            event: None,
+            // Computed when the entry closes (`settle`).
+            post: *self.current_ref(),
+        };
         self.len += 1;
+        self.reopen();
         self.forget(t);
-        Ok(self.pose())
+        Ok(())
     }
 
     /// Forgets entries that end more than `max_latency` before `latest`.
@@ -743,13 +903,15 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
                 });
             }
         }
-        let latest = self.current().t;
+        let latest = self.time();
         if fix.t > latest {
             return Err(FusionError::InFuture {
                 t: fix.t.to_f64(),
                 latest: latest.to_f64(),
             });
         }
+        // The history is about to be read at the fix's time and replayed: settled first.
+        self.settle();
         // A fix may add an entry: make room first (the fix may then be too late).
         if self.len == N {
             self.evict();
@@ -935,6 +1097,78 @@ enum Split<T> {
     At,
     /// Inside entry k: its two parts.
     Inside(Entry<T>, Entry<T>),
+}
+
+/// The input checks of [`initial_state`].
+fn check_initial<T: Real>(t: T, pose: Pose2<T>, cov: Matrix3<T>) -> Result<(), FusionError> {
+    for (v, field) in [
+        (t, "t"),
+        (pose.x, "pose.x"),
+        (pose.y, "pose.y"),
+        (pose.heading, "pose.heading"),
+    ] {
+        finite(v, field)?;
+    }
+    if !cov.iter().all(|v| v.is_finite()) {
+        return Err(FusionError::NonFinite { field: "cov" });
+    }
+    for i in 0..3 {
+        if cov[(i, i)] < T::zero() {
+            return Err(FusionError::BadParameter {
+                field: "cov",
+                rule: "diagonal must be >= 0",
+                value: cov[(i, i)].to_f64(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The state of a filter at time `t` that knows it is at `pose` with covariance `cov`, the gyro
+/// bias at 0 and the scale at 1 with `config`'s prior standard deviations (inputs checked by
+/// [`check_initial`]).
+fn initial_state<T: Real>(
+    t: T,
+    pose: Pose2<T>,
+    cov: Matrix3<T>,
+    config: &FusionConfig<T>,
+) -> State<T> {
+    let mut p = Mat5::zeros();
+    p.fixed_view_mut::<3, 3>(0, 0).copy_from(&cov);
+    p[(3, 3)] = config.gyro_bias_std * config.gyro_bias_std;
+    p[(4, 4)] = config.scale_std * config.scale_std;
+    let x = Vec5::from([pose.x, pose.y, pose.heading, T::zero(), T::one()]);
+    State {
+        t,
+        x,
+        p: symmetric(p),
+    }
+}
+
+/// The mean after entry `e` from the state `x` whose heading has sine `sn` and cosine `cs`,
+/// and the Jacobian of that step (module docs, the prediction equations).
+fn mean_and_jacobian<T: Real>(x: &Vec5<T>, sn: T, cs: T, e: &Entry<T>) -> (Vec5<T>, Jacobian<T>) {
+    let z = T::zero();
+    let (b, k) = (x[3], x[4]);
+    let (dx, dy) = (k * e.delta.x, k * e.delta.y);
+    let (dth, f23, f24) = match e.heading {
+        StepHeading::Wheels => (k * e.delta.heading, z, e.delta.heading),
+        StepHeading::Gyro => (e.delta.heading - b * e.dt, -e.dt, z),
+        StepHeading::Absolute => (e.delta.heading, z, z),
+    };
+    let mut xn = *x;
+    xn[0] = x[0] + cs * dx - sn * dy;
+    xn[1] = x[1] + sn * dx + cs * dy;
+    xn[2] = x[2] + dth;
+    let j = Jacobian {
+        f02: -sn * dx - cs * dy,
+        f12: cs * dx - sn * dy,
+        f04: cs * e.delta.x - sn * e.delta.y,
+        f14: sn * e.delta.x + cs * e.delta.y,
+        f23,
+        f24,
+    };
+    (xn, j)
 }
 
 fn symmetric<T: Real>(m: Mat5<T>) -> Mat5<T> {

@@ -6,7 +6,7 @@ use nalgebra::Matrix3;
 
 use crate::drive::Rot2;
 use crate::estimate::estimator::Fix;
-use crate::estimate::events::EventDetector;
+use crate::estimate::events::{EventDecimator, EventDetector};
 use crate::estimate::fusion::{FusionError, FusionOutcome, PoseFusion, StepHeading};
 use crate::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use crate::{Pose2, Real, Robot, Twist2};
@@ -17,6 +17,11 @@ use super::hal::{EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOut
 use super::limits::Slew;
 use super::plan::{PlanBuffer, zero_twist};
 use super::status::{Faults, FixCounters, Mode, Status};
+
+/// Longest sample of the event detector, s: odometry steps are merged up to this (and up to a
+/// quarter of the detector's smoothing time), so a 1 kHz loop runs it at 400 Hz; a loop at
+/// 400 Hz or slower feeds it every step.
+const EVENT_SAMPLE_PERIOD_S: f64 = 0.0025;
 
 /// Re-base the odometry time every this many seconds so `T = f32` keeps µs resolution.
 const REBASE_S: f64 = 256.0;
@@ -70,6 +75,9 @@ pub struct Runtime<T, const N: usize> {
     slip_residual: T,
     /// Slip and collision events ([`Config::events`]).
     events: EventDetector<T>,
+    /// The odometry steps merged for the event detector ([`EVENT_SAMPLE_PERIOD_S`], at most
+    /// a quarter of the smoothing time).
+    event_steps: EventDecimator<T>,
     rejected: u32,
 }
 
@@ -80,7 +88,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
     /// [`ConfigError`] from [`Config::validate`].
     pub fn new(robot: Robot<T>, config: Config<T>, pose: Pose2<T>) -> Result<Self, ConfigError> {
         config.validate()?;
-        let fusion = Self::filter(T::zero(), pose, &config)?;
+        Self::check_filter(pose, &config)?;
         let z = T::zero();
         Ok(Self {
             robot,
@@ -93,7 +101,8 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             slew: Slew::new(),
             odo: Odometry::new(robot, pose),
             odo_base_us: None,
-            fusion,
+            // Checked above; built without a `Result` around its history.
+            fusion: PoseFusion::new_checked(T::zero(), pose, Matrix3::zeros(), config.fusion),
             fixes: FixCounters::default(),
             odo_us: None,
             last_us: None,
@@ -107,17 +116,23 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             twist: zero_twist(),
             slip_residual: z,
             events: EventDetector::new(config.events, robot.motors() > 3),
+            event_steps: EventDecimator::new(
+                (config.events.smoothing * T::of(0.25)).min(T::of(EVENT_SAMPLE_PERIOD_S)),
+            ),
             rejected: 0,
         })
     }
 
-    /// A fusion filter at time `t` (odometry clock, s) that knows it is at `pose`.
-    fn filter(
-        t: T,
-        pose: Pose2<T>,
-        config: &Config<T>,
-    ) -> Result<PoseFusion<T, FIX_HISTORY>, ConfigError> {
-        PoseFusion::new(t, pose, Matrix3::zeros(), config.fusion).map_err(|e| match e {
+    /// The checks of the fusion filter [`Runtime::new`] builds at `pose`, as configuration
+    /// errors.
+    fn check_filter(pose: Pose2<T>, config: &Config<T>) -> Result<(), ConfigError> {
+        PoseFusion::<T, FIX_HISTORY>::check_inputs(
+            T::zero(),
+            pose,
+            Matrix3::zeros(),
+            &config.fusion,
+        )
+        .map_err(|e| match e {
             FusionError::BadParameter { field, rule, .. } => ConfigError { field, rule },
             FusionError::NonFinite { field } => ConfigError {
                 field,
@@ -249,10 +264,8 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 }
                 self.odo.reset_pose(p);
                 // The filter restarts at the set pose, known exactly (bias and scale
-                // estimates restart at their priors).
-                if let Ok(f) = Self::filter(self.fusion.time(), p, &self.config) {
-                    self.fusion = f;
-                }
+                // estimates restart at their priors), in place: no second filter on the stack.
+                let _ = self.fusion.restart(self.fusion.time(), p, Matrix3::zeros());
                 Ok(())
             }
             Command::Fix(fix) => self.fix(&fix),
@@ -358,10 +371,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             fault_history: self.history,
             pose,
             odometry: self.odo.pose(),
-            covariance: {
-                let p = self.fusion.pose_covariance();
-                [p[(0, 0)], p[(1, 1)], p[(2, 2)]]
-            },
+            covariance: self.fusion.settled_pose_variances(),
             fixes: self.fixes,
             twist: self.twist,
             command: twist_cmd,
@@ -451,13 +461,17 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 _ => StepHeading::Wheels,
             };
             // Cannot fail for a finite step at a later time; the filter is left as it was.
-            let _ = self.fusion.predict(t, step.delta, sh);
+            let _ = self.fusion.advance(t, step.delta, sh);
             // Events: slip (the least-squares residual of the fit on over-determined kinds,
             // the gyro against the wheels' yaw rate) and collision (the wheel speed's
-            // deceleration), the detector `omnikin odometry` runs.
+            // deceleration), the detector `omnikin odometry` runs, on steps merged over a
+            // quarter of its smoothing time.
             self.twist = step.twist;
             self.slip_residual = step.slip_residual;
-            self.events.step(&step, self.imu.map(|s| s.gyro[2]));
+            if let Some((sample, gyro)) = self.event_steps.push(&step, self.imu.map(|s| s.gyro[2]))
+            {
+                self.events.sample(&sample, gyro);
+            }
         }
         if t > T::of(REBASE_S) {
             // Re-base: a fresh odometry at the current pose whose reference is this very

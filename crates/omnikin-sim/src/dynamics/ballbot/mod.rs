@@ -57,11 +57,13 @@
 //! friction, products of inertia of the body, motor dynamics (torques are applied as
 //! commanded, held over the control period), and the body hitting the floor after a fall.
 //!
-//! Files: [`closed_loop`] (the balance controller on this model), [`plan_run`] (a plan
+//! Files: [`capability`] (the command limits the balancing robot holds),
+//! [`closed_loop`] (the balance controller on this model), [`plan_run`] (a plan
 //! through the balancing robot, with noise and pushes: `simulate --plant dynamic`), [`preview`] (a previewed
 //! lean a plan can be followed with), [`sil`] (the model as a board for the runtime's balance mode), [`params`] (the parameters and the preset's values), [`model`] (equations, energy,
 //! wheels, pushes, measurements), [`state`] (state and integration).
 
+pub mod capability;
 pub mod closed_loop;
 pub mod model;
 pub mod params;
