@@ -89,7 +89,7 @@ pub(super) struct Move {
 impl Ctx<'_> {
     /// Builds a move's grid starting from heading `psi_start` and steer angles `gamma0`. The
     /// grid has a node at every kink `kinks` (σ where `A'` may jump: the joins of the path's
-    /// pieces) and, between kinks, equal cells of at most `step`, refined (once, by the factor
+    /// pieces; strictly increasing) and, between kinks, equal cells of at most `step`, refined (once, by the factor
     /// the error estimate asks for) until the linear interpolation of every motor's `A(σ)`
     /// between nodes is within [`Ctx::grid_tol`] of that motor's largest `|A|` on the move, or
     /// the cells are [`GRID_MIN`].
@@ -102,6 +102,10 @@ impl Ctx<'_> {
         step: f64,
         kinks: &[f64],
     ) -> Result<Move, PlanningError> {
+        debug_assert!(
+            kinks.windows(2).all(|w| w[0] < w[1]),
+            "kinks must increase strictly: {kinks:?}"
+        );
         // Stretches between kinks, each with its number of cells.
         let mut bounds = vec![0.0];
         bounds.extend(

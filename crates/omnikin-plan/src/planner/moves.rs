@@ -125,13 +125,7 @@ pub(super) fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, Pl
             }
         }
         let kind = Kind::Travel { s0, s1 };
-        let kinks: Vec<f64> = path
-            .piece_starts()
-            .iter()
-            .chain(ctx.heading.knots())
-            .filter(|&&k| k > s0 && k < s1)
-            .map(|k| k - s0)
-            .collect();
+        let kinks = move_kinks(path.piece_starts(), ctx.heading.knots(), s0, s1);
         if ctx.set_point {
             let c = ctx.config(&kind, s1 - s0, 0.0, Hint::angle(psi));
             if let Some(mv) = resteer(ctx, &c, gamma, step)? {
@@ -149,6 +143,27 @@ pub(super) fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, Pl
         }
     }
     Ok(moves)
+}
+
+/// Closest two kinks of a move may be (m): nearer ones are one node (a stretch between them
+/// would be a cell of rounding error, and the one-sided derivatives there meaningless).
+pub(super) const KINK_TOL: f64 = 1e-9;
+
+/// The kinks of the travel move from `s0` to `s1` (σ = s − s0, where `A'` may jump): the
+/// path's piece starts and the heading profile's knots strictly inside the move, merged into
+/// one increasing sequence without duplicates (within [`KINK_TOL`], and not within it of
+/// either end). Both lists are increasing on their own but interleave: chained unsorted, a
+/// waypoint profile's knots (the spline's own joins again) made the grid run backwards.
+fn move_kinks(piece_starts: &[f64], knots: &[f64], s0: f64, s1: f64) -> Vec<f64> {
+    let mut kinks: Vec<f64> = piece_starts
+        .iter()
+        .chain(knots)
+        .filter(|&&k| k > s0 + KINK_TOL && k < s1 - KINK_TOL)
+        .map(|k| k - s0)
+        .collect();
+    kinks.sort_by(f64::total_cmp);
+    kinks.dedup_by(|b, a| *b - *a <= KINK_TOL);
+    kinks
 }
 
 /// For set-point steering (swerve): the re-steer at rest that turns the modules from `gamma`
@@ -205,5 +220,25 @@ fn too_many_plan_cells(len: f64, moves: usize, cells: f64) -> PlanningError {
         limit: "MAX_PLAN_GRID_CELLS",
         max: MAX_PLAN_GRID_CELLS,
         hint: "shorten the path or cut it into several plans",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kinks_are_merged_in_order_without_duplicates() {
+        // A spline's joins and a waypoint profile's knots at (almost) the same arc lengths.
+        let pieces = [0.0, 0.858, 1.481, 2.339];
+        let knots = [0.0, 0.858 + 1e-12, 1.481, 2.0, 2.339];
+        assert_eq!(
+            move_kinks(&pieces, &knots, 0.0, 2.339),
+            vec![0.858, 1.481, 2.0]
+        );
+        // Relative to the move's start, only those strictly inside it.
+        let k = move_kinks(&pieces, &knots, 0.858, 2.0);
+        assert_eq!(k.len(), 1);
+        assert!((k[0] - (1.481 - 0.858)).abs() < 1e-15);
     }
 }
