@@ -1,0 +1,152 @@
+//! The limits between the samples (module docs, step 4): a time-optimal move's continuous
+//! timing checked against every motor's rate and acceleration limit with the exact
+//! kinematics inside each grid cell, not only at the nodes the pass constrains and the
+//! samples the final check sees.
+//!
+//! On a cell `[σ_k, σ_{k+1}]` of length `h` the timing has the constant path acceleration
+//! `u = (x_{k+1} − x_k)/(2h)`, so `x(σ) = σ̇² = x_k + 2u(σ − σ_k)` is linear, and each motor's
+//! rate is `A(σ) √x(σ)` and its acceleration `A(σ) u + A'(σ) x(σ)` (module docs, step 2).
+//! Here `A` comes from the kinematics at the point itself ([`Ctx::state`],
+//! [`Ctx::rates_per_speed`]) and `A'` from a central difference of it over
+//! ±[`DIFF`] inside the cell, at [`POINTS`] points per cell from just inside one end to just
+//! inside the other (one-sided at a kink, where `A'` jumps). Cells whose tabulated node
+//! values are far from every limit ([`SCREEN`]) are not evaluated.
+
+use crate::PlanningError;
+use crate::robot::MAX_CHANNELS;
+
+use super::geometry::Ctx;
+use super::grid::Move;
+use super::timing::MoveTiming;
+
+/// Points per cell at which the continuous timing is evaluated (both ends included, from
+/// inside the cell).
+const POINTS: usize = 5;
+
+/// Half-width of the central difference for `A'` (m or rad); the end points lie
+/// [`INSET`] of it inside the cell. A set-point steering's `A` is itself a central difference
+/// over ±[`super::geometry::DIFF_STEP`] (the twist's rate), so no point of either difference
+/// may lie within that of a node, where `A'` may jump (on a small cell both shrink with it).
+const DIFF: f64 = 1e-5;
+
+/// How far inside the cell the end points lie, in [`DIFF`]s: the central difference around
+/// them, and the twist-rate difference of a set-point steering around each of its ends, stay
+/// inside the cell.
+const INSET: f64 = 2.5;
+
+/// A cell is evaluated when the tabulated rate or acceleration of some motor at one of its
+/// ends reaches this fraction of its limit (the tabulated `A'` at a kink can be off by tens
+/// of percent, so the screen is wide), or when it touches a kink.
+const SCREEN: f64 = 0.7;
+
+/// The worst excess found inside a cell: the time into the move, the ratio of the value to
+/// its limit (> 1), and the motor channel and quantity.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Excess {
+    pub(super) t: f64,
+    pub(super) ratio: f64,
+    pub(super) channel: usize,
+    pub(super) accel: bool,
+}
+
+impl Ctx<'_> {
+    /// Every cell of a time-optimal move `mv` where some motor's rate or acceleration exceeds
+    /// its limit (by more than a relative 1e-9) between or at the nodes, with the worst ratio
+    /// in the cell (see the module docs). Moves with another timing give none.
+    pub(super) fn continuous_excesses(&self, mv: &Move) -> Result<Vec<Excess>, PlanningError> {
+        let MoveTiming::Grid { x, t } = &mv.timing else {
+            return Ok(Vec::new());
+        };
+        let robot = self.robot;
+        let chans = robot.channels();
+        let rate: [Option<f64>; MAX_CHANNELS] = core::array::from_fn(|ch| robot.rate_limit(ch));
+        let accel: [Option<f64>; MAX_CHANNELS] = core::array::from_fn(|ch| robot.accel_limit(ch));
+        let sig = &mv.sig;
+        let mut out = Vec::new();
+        // Node indices that are kinks (stretch ends).
+        let mut kink = vec![false; sig.len()];
+        let mut at = 0;
+        kink[0] = true;
+        for &c in &mv.cells {
+            at += c;
+            kink[at.min(sig.len() - 1)] = true;
+        }
+        for k in 0..sig.len() - 1 {
+            let h = sig[k + 1] - sig[k];
+            if h.is_nan() || h <= 0.0 {
+                continue;
+            }
+            let u = (x[k + 1] - x[k]) / (2.0 * h);
+            if !kink[k] && !kink[k + 1] && !near_limit(mv, k, x, u, &rate, &accel, chans) {
+                continue;
+            }
+            let mut worst: Option<Excess> = None;
+            let d = DIFF.min(0.02 * h);
+            let inset = INSET * d;
+            for j in 0..POINTS {
+                // From `inset` inside the start to `inset` inside the end.
+                let f = j as f64 / (POINTS - 1) as f64;
+                let sigma = sig[k] + inset + (h - 2.0 * inset) * f;
+                let lo = self.a_at(mv, k, sigma - d)?;
+                let hi = self.a_at(mv, k, sigma + d)?;
+                let xs = (x[k] + 2.0 * u * (sigma - sig[k])).max(0.0);
+                for ch in 0..chans {
+                    let a = 0.5 * (lo[ch] + hi[ch]);
+                    let b = (hi[ch] - lo[ch]) / (2.0 * d);
+                    let checks = [
+                        (rate[ch], (a * xs.sqrt()).abs(), false),
+                        (accel[ch], (a * u + b * xs).abs(), true),
+                    ];
+                    for (limit, value, is_accel) in checks {
+                        let Some(l) = limit else { continue };
+                        let r = value / l;
+                        if r > 1.0 + 1e-9 && worst.is_none_or(|w| r > w.ratio) {
+                            // The time at σ within the cell: x is linear in σ, so the time
+                            // is that of the mean speed over [σ_k, σ].
+                            let ds = sigma - sig[k];
+                            let den = x[k].max(0.0).sqrt() + xs.sqrt();
+                            let dt = if den > 0.0 { 2.0 * ds / den } else { 0.0 };
+                            worst = Some(Excess {
+                                t: (t[k] + dt).min(t[k + 1]),
+                                ratio: r,
+                                channel: ch,
+                                accel: is_accel,
+                            });
+                        }
+                    }
+                }
+            }
+            out.extend(worst);
+        }
+        Ok(out)
+    }
+
+    /// `A(σ)` at `sigma` inside cell `k` of `mv`, from the exact kinematics.
+    fn a_at(&self, mv: &Move, k: usize, sigma: f64) -> Result<[f64; MAX_CHANNELS], PlanningError> {
+        let (c, gamma) = self.state(mv, sigma, k)?;
+        self.rates_per_speed(&mv.kind, mv.len, sigma, &c, &gamma)
+    }
+}
+
+/// `true` when the tabulated values at either end of cell `k` bring some motor's rate or
+/// acceleration to [`SCREEN`] of its limit.
+fn near_limit(
+    mv: &Move,
+    k: usize,
+    x: &[f64],
+    u: f64,
+    rate: &[Option<f64>; MAX_CHANNELS],
+    accel: &[Option<f64>; MAX_CHANNELS],
+    chans: usize,
+) -> bool {
+    let ends = [
+        (&mv.a[k], &mv.b_out[k], x[k]),
+        (&mv.a[k + 1], &mv.b_in[k + 1], x[k + 1]),
+    ];
+    ends.iter().any(|&(a, b, xs)| {
+        (0..chans).any(|ch| {
+            rate[ch].is_some_and(|l| (a[ch] * xs.max(0.0).sqrt()).abs() >= SCREEN * l)
+                || accel[ch].is_some_and(|l| (a[ch] * u + b[ch] * xs).abs() >= SCREEN * l)
+        })
+    })
+}
