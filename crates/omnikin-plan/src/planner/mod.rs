@@ -81,6 +81,7 @@
 //! | `steer.rs` | step 2: the steer state along a move (caster: RK4 of paper 003, eq. 5; swerve: set-points), aligned start, grid step |
 //! | `timing.rs` | step 3: a move's timing, its first timing (dilation or rejection), the requested limits |
 //! | `time_optimal.rs` | step 3: the time-optimal reachability pass |
+//! | `switches.rs` | step 3: the grid stretches where the time-optimal profile switches (refined before the final check) |
 //! | `sample.rs` | step 4: sampling the timed moves |
 //! | `continuous.rs` | step 4: the time-optimal timing checked between the samples, inside each cell |
 //! | `report.rs` | the result: [`Planned`], [`PlanReport`], [`plan_peaks`] |
@@ -94,6 +95,7 @@ mod options;
 mod report;
 mod sample;
 mod steer;
+mod switches;
 mod time_optimal;
 mod timing;
 
@@ -114,6 +116,7 @@ use grid::Move;
 use moves::build_moves;
 use report::report;
 use sample::sample;
+use switches::{SWITCH_ROUNDS, switch_stretches};
 use time_optimal::time_optimal;
 use timing::{MoveTiming, initial_timing, note_retime, user_limits};
 
@@ -191,7 +194,24 @@ fn plan_moves(
     let mut t0 = 0.0;
     for (i, mv) in moves.iter_mut().enumerate() {
         mv.t0 = t0;
-        let (timing, limiters) = initial_timing(robot, mv, opts, i, &mut retimed)?;
+        let (mut timing, mut limiters) = initial_timing(robot, mv, opts, i, &mut retimed)?;
+        if matches!(opts.timing, Timing::TimeOptimal { .. }) {
+            // Finer cells where the profile switches (see `switches.rs`).
+            let (_, a_user, _) = user_limits(robot, opts, &mv.kind);
+            for _ in 0..SWITCH_ROUNDS {
+                mv.timing = timing.clone();
+                let js = switch_stretches(mv, a_user);
+                let Some(finer) = (if js.is_empty() {
+                    None
+                } else {
+                    ctx.refine(mv, &js)?
+                }) else {
+                    break;
+                };
+                *mv = finer;
+                (timing, limiters) = initial_timing(robot, mv, opts, i, &mut retimed)?;
+            }
+        }
         mv.timing = timing;
         t0 += mv.timing.duration(mv.len);
         active_w.extend(limiters);
