@@ -10,7 +10,8 @@
 //! [`Ctx::rates_per_speed`]) and `A'` from a central difference of it over
 //! ±[`DIFF`] inside the cell, at [`POINTS`] points per cell from just inside one end to just
 //! inside the other (one-sided at a kink, where `A'` jumps). Cells whose tabulated node
-//! values are far from every limit ([`SCREEN`]) are not evaluated.
+//! values are far from every limit ([`SCREEN`]) are not evaluated, and the planner checks a
+//! move again only after its timing changed.
 
 use crate::PlanningError;
 use crate::robot::MAX_CHANNELS;
@@ -21,7 +22,7 @@ use super::timing::MoveTiming;
 
 /// Points per cell at which the continuous timing is evaluated (both ends included, from
 /// inside the cell).
-const POINTS: usize = 5;
+const POINTS: usize = 3;
 
 /// Half-width of the central difference for `A'` (m or rad); the end points lie
 /// [`INSET`] of it inside the cell. A set-point steering's `A` is itself a central difference
@@ -34,10 +35,11 @@ const DIFF: f64 = 1e-5;
 /// inside the cell.
 const INSET: f64 = 2.5;
 
-/// A cell is evaluated when the tabulated rate or acceleration of some motor at one of its
-/// ends reaches this fraction of its limit (the tabulated `A'` at a kink can be off by tens
-/// of percent, so the screen is wide), or when it touches a kink.
-const SCREEN: f64 = 0.7;
+/// A cell is evaluated when the tabulated rate or acceleration of some motor on it (see
+/// [`near_limit`]) reaches this fraction of its limit, or when it touches a kink, where the
+/// tabulated `A'` is one-sided and can be off by tens of percent. (Inside a stretch it is a
+/// central difference on a grid refined to the interpolation tolerance.)
+const SCREEN: f64 = 0.97;
 
 /// The worst excess found inside a cell: the time into the move, the ratio of the value to
 /// its limit (> 1), and the motor channel and quantity.
@@ -128,8 +130,9 @@ impl Ctx<'_> {
     }
 }
 
-/// `true` when the tabulated values at either end of cell `k` bring some motor's rate or
-/// acceleration to [`SCREEN`] of its limit.
+/// `true` when the tabulated values bring some motor's rate or acceleration to [`SCREEN`] of
+/// its limit anywhere on cell `k`: at its ends and at three points between, with `A` by cubic
+/// Hermite interpolation of the nodes' `A` and `A'`, and `A'` linear (no kinematics).
 fn near_limit(
     mv: &Move,
     k: usize,
@@ -139,14 +142,22 @@ fn near_limit(
     accel: &[Option<f64>; MAX_CHANNELS],
     chans: usize,
 ) -> bool {
-    let ends = [
-        (&mv.a[k], &mv.b_out[k], x[k]),
-        (&mv.a[k + 1], &mv.b_in[k + 1], x[k + 1]),
-    ];
-    ends.iter().any(|&(a, b, xs)| {
+    let h = mv.sig[k + 1] - mv.sig[k];
+    let (a0, a1, b0, b1) = (&mv.a[k], &mv.a[k + 1], &mv.b_out[k], &mv.b_in[k + 1]);
+    [0.0, 0.25, 0.5, 0.75, 1.0].iter().any(|&f| {
+        let (f2, f3) = (f * f, f * f * f);
+        let (h00, h10, h01, h11) = (
+            2.0 * f3 - 3.0 * f2 + 1.0,
+            f3 - 2.0 * f2 + f,
+            -2.0 * f3 + 3.0 * f2,
+            f3 - f2,
+        );
+        let xs = (x[k] + 2.0 * u * h * f).max(0.0);
         (0..chans).any(|ch| {
-            rate[ch].is_some_and(|l| (a[ch] * xs.max(0.0).sqrt()).abs() >= SCREEN * l)
-                || accel[ch].is_some_and(|l| (a[ch] * u + b[ch] * xs).abs() >= SCREEN * l)
+            let a = a0[ch] * h00 + h * b0[ch] * h10 + a1[ch] * h01 + h * b1[ch] * h11;
+            let b = b0[ch] * (1.0 - f) + b1[ch] * f;
+            rate[ch].is_some_and(|l| (a * xs.sqrt()).abs() >= SCREEN * l)
+                || accel[ch].is_some_and(|l| (a * u + b * xs).abs() >= SCREEN * l)
         })
     })
 }

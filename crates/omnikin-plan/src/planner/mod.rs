@@ -217,6 +217,7 @@ fn plan_moves(
         active_w.extend(limiters);
     }
     // Sample, check strictly, slow down what still exceeds (grid approximation), repeat.
+    let mut checked = vec![false; moves.len()];
     for round in 0..25 {
         let mut t0 = 0.0;
         for mv in moves.iter_mut() {
@@ -232,12 +233,17 @@ fn plan_moves(
             .max_by(|a, b| a.1.total_cmp(&b.1));
         // The time-optimal timing between the samples too (the other timings' first timing
         // comes from dense peaks of the whole move): (plan time, ratio) of every cell's worst.
+        // A move is checked again only after its timing changed.
         let mut between: Vec<(f64, f64, Excess)> = Vec::new();
         if matches!(opts.timing, Timing::TimeOptimal { .. }) {
-            for mv in &moves {
+            for (mv, done) in moves.iter().zip(checked.iter_mut()) {
+                if *done {
+                    continue;
+                }
                 for e in ctx.continuous_excesses(mv)? {
                     between.push((mv.t0 + e.t, e.ratio, e));
                 }
+                *done = true;
             }
         }
         match worst {
@@ -254,7 +260,9 @@ fn plan_moves(
                 return Ok((moves, Planned { plan, report }));
             }
             _ if round < 24 && matches!(opts.timing, Timing::TimeOptimal { .. }) => {
-                slow_down_locally(&ctx, opts, &mut moves, &plan, &between)?
+                for m in slow_down_locally(&ctx, opts, &mut moves, &plan, &between)? {
+                    checked[m] = false;
+                }
             }
             Some((p, ratio)) if round < 24 => slow_down(opts, &mut moves, &mut retimed, *p, ratio)?,
             None => {
@@ -327,7 +335,7 @@ const SLOW_CELLS: usize = 2;
 /// cells ([`Ctx::refine`]: the excess is the grid's interpolation residue, which shrinks with
 /// the cells); where a stretch is already at [`grid::GRID_MIN`], the motor limits of the cells
 /// within [`SLOW_CELLS`] of the excess are lowered by its ratio (and 0.5 % more). Then the pass
-/// of each move concerned runs again. Lowering the whole move's limits (as [`slow_down`] does
+/// of each move concerned runs again (their indices are returned). Lowering the whole move's limits (as [`slow_down`] does
 /// for the other timings) would slow every stretch for a local residue.
 fn slow_down_locally(
     ctx: &Ctx,
@@ -335,7 +343,7 @@ fn slow_down_locally(
     moves: &mut [Move],
     plan: &crate::Plan,
     between: &[(f64, f64, Excess)],
-) -> Result<(), PlanningError> {
+) -> Result<Vec<usize>, PlanningError> {
     let robot = ctx.robot;
     let n = robot.wheels();
     let chans = robot.channels();
@@ -386,10 +394,12 @@ fn slow_down_locally(
     for &(t, ratio, _) in between {
         note(t, ratio, moves);
     }
-    for ((mv, f), js) in moves.iter_mut().zip(factor).zip(stretches) {
+    let mut retimed = Vec::new();
+    for (m, ((mv, f), js)) in moves.iter_mut().zip(factor).zip(stretches).enumerate() {
         if f.is_empty() {
             continue;
         }
+        retimed.push(m);
         if let Some(finer) = ctx.refine(mv, &js)? {
             *mv = finer;
         } else if mv.limit_scale.is_empty() {
@@ -403,7 +413,7 @@ fn slow_down_locally(
         let (timing, _) = time_optimal(robot, mv, v_user, a_user, user)?;
         mv.timing = timing;
     }
-    Ok(())
+    Ok(retimed)
 }
 
 /// Slows down the move that holds the worst excess `p` (`ratio` = peak / limit, > 1) found on
