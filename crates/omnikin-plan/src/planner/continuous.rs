@@ -9,9 +9,9 @@
 //! Here `A` comes from the kinematics at the point itself ([`Ctx::state`],
 //! [`Ctx::rates_per_speed`]) and `A'` from a central difference of it over
 //! ±[`DIFF`] inside the cell, at [`POINTS`] points per cell from just inside one end to just
-//! inside the other (one-sided at a kink, where `A'` jumps). Cells whose tabulated node
-//! values are far from every limit ([`SCREEN`]) are not evaluated, and the planner checks a
-//! move again only after its timing changed.
+//! inside the other (one-sided at a kink, where `A'` jumps); a cell whose table values stay
+//! clear of every limit ([`SCREEN`]) is evaluated only at an end that is a kink, or not at
+//! all; the planner checks a move again only after its timing changed.
 
 use crate::PlanningError;
 use crate::robot::MAX_CHANNELS;
@@ -79,13 +79,20 @@ impl Ctx<'_> {
                 continue;
             }
             let u = (x[k + 1] - x[k]) / (2.0 * h);
-            if !kink[k] && !kink[k + 1] && !near_limit(mv, k, x, u, &rate, &accel, chans) {
+            // Every point when the table comes near a limit on the cell; else only an end at
+            // a kink, where the table's one-sided `A'` may be off.
+            let all = near_limit(mv, k, x, u, &rate, &accel, chans);
+            if !all && !kink[k] && !kink[k + 1] {
                 continue;
             }
             let mut worst: Option<Excess> = None;
             let d = DIFF.min(0.02 * h);
             let inset = INSET * d;
             for j in 0..POINTS {
+                let at_kink = (j == 0 && kink[k]) || (j == POINTS - 1 && kink[k + 1]);
+                if !(all || at_kink) {
+                    continue;
+                }
                 // From `inset` inside the start to `inset` inside the end.
                 let f = j as f64 / (POINTS - 1) as f64;
                 let sigma = sig[k] + inset + (h - 2.0 * inset) * f;
