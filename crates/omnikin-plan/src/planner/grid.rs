@@ -126,7 +126,7 @@ impl Ctx<'_> {
             n.iter_mut().for_each(|c| *c *= f);
         }
         too_many_cells(len, &n)?;
-        self.grid_on(kind, len, psi_start, gamma0, bounds, n)
+        self.grid_on(kind, len, psi_start, gamma0, bounds, n, None)
     }
 
     /// A move's grid again with four times the cells (at most [`GRID_MIN`] apart) in the
@@ -160,13 +160,18 @@ impl Ctx<'_> {
             mv.gamma[0],
             mv.bounds.clone(),
             n,
+            Some(mv),
         )?;
         out.t0 = mv.t0;
         Ok(Some(out))
     }
 
     /// The grid of a move on the stretches between `bounds` with `n` equal cells each, refined
-    /// where the interpolation error asks for it (see [`Ctx::build_move`]).
+    /// where the interpolation error asks for it (see [`Ctx::build_move`]). With `old` (the same
+    /// move on the same `bounds`), a stretch whose cell count is unchanged takes its nodes from
+    /// `old` instead of the kinematics, unless it is steered and follows a changed stretch (its
+    /// steer angles carry over from there).
+    #[allow(clippy::too_many_arguments)]
     fn grid_on(
         &self,
         kind: Kind,
@@ -175,6 +180,7 @@ impl Ctx<'_> {
         gamma0: Steer,
         bounds: Vec<f64>,
         mut n: Vec<usize>,
+        old: Option<&Move>,
     ) -> Result<Move, PlanningError> {
         let cells = |l: f64, h: f64| ((l / h).ceil() as usize).max(1);
         // Each stretch starts from the end state (heading, steer angles) of the one before.
@@ -187,8 +193,45 @@ impl Ctx<'_> {
             let start = start_of(parts, arena, j, psi_start, gamma0);
             self.stretch(arena, &kind, len, bounds[j], bounds[j + 1], cells, start)
         };
+        // Where stretch j's nodes start in `old`, and whether a stretch before it changed.
+        let mut old_first = 0;
+        let mut changed = false;
         for j in 0..n.len() {
-            let part = build(&mut arena, &parts, j, n[j])?;
+            let keep = old.filter(|o| {
+                o.cells.len() == n.len() && o.cells[j] == n[j] && !(steered && changed)
+            });
+            let part = match keep {
+                Some(o) => {
+                    let first = arena.len();
+                    // The first node is the previous stretch's last (the same parameter).
+                    let skip = if j > 0 {
+                        arena.push(*parts[j - 1].last(&arena));
+                        1
+                    } else {
+                        0
+                    };
+                    arena.extend((old_first + skip..=old_first + n[j]).map(|i| Node {
+                        psi: o.psi[i],
+                        cs: o.cs[i],
+                        a: o.a[i],
+                        gamma: o.gamma[i],
+                        piece: o.piece[i],
+                    }));
+                    Stretch {
+                        s0: bounds[j],
+                        s1: bounds[j + 1],
+                        cells: n[j],
+                        first,
+                    }
+                }
+                None => {
+                    changed = true;
+                    build(&mut arena, &parts, j, n[j])?
+                }
+            };
+            if let Some(o) = old {
+                old_first += o.cells.get(j).copied().unwrap_or(0);
+            }
             parts.push(part);
         }
         // Refine the stretches whose interpolation error is too large, rebuilding only them (and,
