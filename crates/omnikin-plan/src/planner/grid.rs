@@ -172,7 +172,7 @@ impl Ctx<'_> {
     /// `old` instead of the kinematics, unless it is steered and follows a changed stretch (its
     /// steer angles carry over from there).
     #[allow(clippy::too_many_arguments)]
-    fn grid_on(
+    pub(super) fn grid_on(
         &self,
         kind: Kind,
         len: f64,
