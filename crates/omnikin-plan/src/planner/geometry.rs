@@ -368,7 +368,7 @@ impl Ctx<'_> {
 }
 
 /// Half-width of the central difference of [`Ctx::twist_rate_per_speed`] (m or rad).
-const DIFF_STEP: f64 = 1e-5;
+pub(super) const DIFF_STEP: f64 = 1e-5;
 
 /// The robot-frame twist per unit speed of a configuration, `(Q(ψ)ᵀ (dx/dσ, dy/dσ), dψ/dσ)`.
 pub(super) fn body_per_speed(c: &Config) -> Twist2<f64> {

@@ -89,7 +89,7 @@ pub(super) struct Move {
 impl Ctx<'_> {
     /// Builds a move's grid starting from heading `psi_start` and steer angles `gamma0`. The
     /// grid has a node at every kink `kinks` (σ where `A'` may jump: the joins of the path's
-    /// pieces) and, between kinks, equal cells of at most `step`, refined (once, by the factor
+    /// pieces; strictly increasing) and, between kinks, equal cells of at most `step`, refined (once, by the factor
     /// the error estimate asks for) until the linear interpolation of every motor's `A(σ)`
     /// between nodes is within [`Ctx::grid_tol`] of that motor's largest `|A|` on the move, or
     /// the cells are [`GRID_MIN`].
@@ -102,6 +102,10 @@ impl Ctx<'_> {
         step: f64,
         kinks: &[f64],
     ) -> Result<Move, PlanningError> {
+        debug_assert!(
+            kinks.windows(2).all(|w| w[0] < w[1]),
+            "kinks must increase strictly: {kinks:?}"
+        );
         // Stretches between kinks, each with its number of cells.
         let mut bounds = vec![0.0];
         bounds.extend(
@@ -122,7 +126,7 @@ impl Ctx<'_> {
             n.iter_mut().for_each(|c| *c *= f);
         }
         too_many_cells(len, &n)?;
-        self.grid_on(kind, len, psi_start, gamma0, bounds, n)
+        self.grid_on(kind, len, psi_start, gamma0, bounds, n, None)
     }
 
     /// A move's grid again with four times the cells (at most [`GRID_MIN`] apart) in the
@@ -156,14 +160,19 @@ impl Ctx<'_> {
             mv.gamma[0],
             mv.bounds.clone(),
             n,
+            Some(mv),
         )?;
         out.t0 = mv.t0;
         Ok(Some(out))
     }
 
     /// The grid of a move on the stretches between `bounds` with `n` equal cells each, refined
-    /// where the interpolation error asks for it (see [`Ctx::build_move`]).
-    fn grid_on(
+    /// where the interpolation error asks for it (see [`Ctx::build_move`]). With `old` (the same
+    /// move on the same `bounds`), a stretch whose cell count is unchanged takes its nodes from
+    /// `old` instead of the kinematics, unless it is steered and follows a changed stretch (its
+    /// steer angles carry over from there).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn grid_on(
         &self,
         kind: Kind,
         len: f64,
@@ -171,6 +180,7 @@ impl Ctx<'_> {
         gamma0: Steer,
         bounds: Vec<f64>,
         mut n: Vec<usize>,
+        old: Option<&Move>,
     ) -> Result<Move, PlanningError> {
         let cells = |l: f64, h: f64| ((l / h).ceil() as usize).max(1);
         // Each stretch starts from the end state (heading, steer angles) of the one before.
@@ -183,8 +193,45 @@ impl Ctx<'_> {
             let start = start_of(parts, arena, j, psi_start, gamma0);
             self.stretch(arena, &kind, len, bounds[j], bounds[j + 1], cells, start)
         };
+        // Where stretch j's nodes start in `old`, and whether a stretch before it changed.
+        let mut old_first = 0;
+        let mut changed = false;
         for j in 0..n.len() {
-            let part = build(&mut arena, &parts, j, n[j])?;
+            let keep = old.filter(|o| {
+                o.cells.len() == n.len() && o.cells[j] == n[j] && !(steered && changed)
+            });
+            let part = match keep {
+                Some(o) => {
+                    let first = arena.len();
+                    // The first node is the previous stretch's last (the same parameter).
+                    let skip = if j > 0 {
+                        arena.push(*parts[j - 1].last(&arena));
+                        1
+                    } else {
+                        0
+                    };
+                    arena.extend((old_first + skip..=old_first + n[j]).map(|i| Node {
+                        psi: o.psi[i],
+                        cs: o.cs[i],
+                        a: o.a[i],
+                        gamma: o.gamma[i],
+                        piece: o.piece[i],
+                    }));
+                    Stretch {
+                        s0: bounds[j],
+                        s1: bounds[j + 1],
+                        cells: n[j],
+                        first,
+                    }
+                }
+                None => {
+                    changed = true;
+                    build(&mut arena, &parts, j, n[j])?
+                }
+            };
+            if let Some(o) = old {
+                old_first += o.cells.get(j).copied().unwrap_or(0);
+            }
             parts.push(part);
         }
         // Refine the stretches whose interpolation error is too large, rebuilding only them (and,

@@ -8,8 +8,9 @@
 //! 1. **Moves.** The path is cut into *moves* that start and end at rest: at its stops
 //!    ([`crate::path::Corners::Stop`]) and wherever the wheel rates per unit speed jump (the
 //!    tangent or the heading rate `dψ/ds` jumps — e.g. where a fillet meets a leg under the
-//!    tangent heading law); a jump in wheel rate at non-zero speed would need infinite wheel
-//!    acceleration. Under the tangent law (paper 000, eq. 5.5) a stop where the direction
+//!    tangent heading law; for set-point steering also where the curvature or the heading
+//!    acceleration `ψ''` jumps, which a swerve's steer rates per unit speed follow); a jump in
+//!    a motor rate at non-zero speed would need infinite motor acceleration. Under the tangent law (paper 000, eq. 5.5) a stop where the direction
 //!    changes gets a **turn in place** from the old to the new direction. For set-point
 //!    steering (swerve) a move whose start needs other module directions than the previous
 //!    move ended with (a square's corner, a turn in place, given initial angles) is preceded
@@ -65,7 +66,9 @@
 //!    consecutive samples); a residual excess from the grid approximation is removed by slowing
 //!    the offending move further (profiles, constant speed), or, for the time-optimal timing,
 //!    where it occurs: the grid stretch holding it gets four times the cells (or, at the finest
-//!    cells, the limits of the cells around it are lowered) and the pass runs again.
+//!    cells, the limits of the cells around it are lowered) and the pass runs again. The
+//!    time-optimal timing is also checked **between** the samples, cell by cell with the exact
+//!    kinematics (`continuous.rs`), and an excess there is mended the same way.
 //!
 //! # Where each step lives
 //!
@@ -78,10 +81,13 @@
 //! | `steer.rs` | step 2: the steer state along a move (caster: RK4 of paper 003, eq. 5; swerve: set-points), aligned start, grid step |
 //! | `timing.rs` | step 3: a move's timing, its first timing (dilation or rejection), the requested limits |
 //! | `time_optimal.rs` | step 3: the time-optimal reachability pass |
+//! | `switches.rs` | step 3: the grid stretches where the time-optimal profile switches (refined before the final check) |
 //! | `sample.rs` | step 4: sampling the timed moves |
+//! | `continuous.rs` | step 4: the time-optimal timing checked between the samples, inside each cell |
 //! | `report.rs` | the result: [`Planned`], [`PlanReport`], [`plan_peaks`] |
 //! | this file | [`plan`]: the steps in order, the final check and slow-down |
 
+mod continuous;
 mod geometry;
 mod grid;
 mod moves;
@@ -89,6 +95,7 @@ mod options;
 mod report;
 mod sample;
 mod steer;
+mod switches;
 mod time_optimal;
 mod timing;
 
@@ -103,11 +110,13 @@ use crate::path::Path;
 use crate::profile::ProfileKind;
 use crate::robot::RobotModel;
 
+use continuous::Excess;
 use geometry::Ctx;
 use grid::Move;
 use moves::build_moves;
 use report::report;
 use sample::sample;
+use switches::{SWITCH_ROUNDS, switch_stretches};
 use time_optimal::time_optimal;
 use timing::{MoveTiming, initial_timing, note_retime, user_limits};
 
@@ -133,7 +142,17 @@ pub fn plan(
     robot: &RobotModel,
     opts: &PlanOptions,
 ) -> Result<Planned, PlanningError> {
-    validate_request(heading, opts)?;
+    plan_moves(path, heading, robot, opts).map(|(_, planned)| planned)
+}
+
+/// The context of a plan: the request's path, heading law and robot with what is derived
+/// from them once.
+fn context<'a>(
+    path: &'a Path,
+    heading: &'a HeadingLaw,
+    robot: &'a RobotModel,
+    opts: &PlanOptions,
+) -> Ctx<'a> {
     let heading_cs = match heading {
         HeadingLaw::Constant(a) | HeadingLaw::Tangent { offset: a } => {
             let (s, c) = a.sin_cos();
@@ -141,7 +160,7 @@ pub fn plan(
         }
         HeadingLaw::Profile(_) => [1.0, 0.0],
     };
-    let ctx = Ctx {
+    Ctx {
         path,
         heading,
         robot,
@@ -150,7 +169,19 @@ pub fn plan(
         grid_tol: grid::grid_tol(&opts.timing),
         grid_max: grid::grid_max(&opts.timing),
         linear: geometry::linear_inverse(robot),
-    };
+    }
+}
+
+/// [`plan`], also returning the timed moves (the plan's continuous timing, which the tests
+/// evaluate between the samples).
+fn plan_moves(
+    path: &Path,
+    heading: &HeadingLaw,
+    robot: &RobotModel,
+    opts: &PlanOptions,
+) -> Result<(Vec<Move>, Planned), PlanningError> {
+    validate_request(heading, opts)?;
+    let ctx = context(path, heading, robot, opts);
     let mut moves = build_moves(&ctx, opts)?;
     if matches!(opts.timing, Timing::ConstantSpeed { .. }) && moves.len() != 1 {
         return Err(PlanningError::Infeasible(format!(
@@ -163,12 +194,30 @@ pub fn plan(
     let mut t0 = 0.0;
     for (i, mv) in moves.iter_mut().enumerate() {
         mv.t0 = t0;
-        let (timing, limiters) = initial_timing(robot, mv, opts, i, &mut retimed)?;
+        let (mut timing, mut limiters) = initial_timing(robot, mv, opts, i, &mut retimed)?;
+        if matches!(opts.timing, Timing::TimeOptimal { .. }) {
+            // Finer cells where the profile switches (see `switches.rs`).
+            let (_, a_user, _) = user_limits(robot, opts, &mv.kind);
+            for _ in 0..SWITCH_ROUNDS {
+                mv.timing = timing.clone();
+                let js = switch_stretches(mv, a_user);
+                let Some(finer) = (if js.is_empty() {
+                    None
+                } else {
+                    ctx.refine(mv, &js)?
+                }) else {
+                    break;
+                };
+                *mv = finer;
+                (timing, limiters) = initial_timing(robot, mv, opts, i, &mut retimed)?;
+            }
+        }
         mv.timing = timing;
         t0 += mv.timing.duration(mv.len);
         active_w.extend(limiters);
     }
     // Sample, check strictly, slow down what still exceeds (grid approximation), repeat.
+    let mut checked = vec![false; moves.len()];
     for round in 0..25 {
         let mut t0 = 0.0;
         for mv in moves.iter_mut() {
@@ -182,8 +231,23 @@ pub fn plan(
             .filter_map(|p| p.limit.map(|l| (p, p.value / l)))
             .filter(|(_, r)| *r > 1.0 + 1e-9)
             .max_by(|a, b| a.1.total_cmp(&b.1));
+        // The time-optimal timing between the samples too (the other timings' first timing
+        // comes from dense peaks of the whole move): (plan time, ratio) of every cell's worst.
+        // A move is checked again only after its timing changed.
+        let mut between: Vec<(f64, f64, Excess)> = Vec::new();
+        if matches!(opts.timing, Timing::TimeOptimal { .. }) {
+            for (mv, done) in moves.iter().zip(checked.iter_mut()) {
+                if *done {
+                    continue;
+                }
+                for e in ctx.continuous_excesses(mv)? {
+                    between.push((mv.t0 + e.t, e.ratio, e));
+                }
+                *done = true;
+            }
+        }
         match worst {
-            None => {
+            None if between.is_empty() => {
                 let report = report(
                     path,
                     &moves,
@@ -193,14 +257,28 @@ pub fn plan(
                     active_w,
                     &plan,
                 );
-                return Ok(Planned { plan, report });
+                return Ok((moves, Planned { plan, report }));
             }
-            Some((p, ratio)) if round < 24 => {
-                if matches!(opts.timing, Timing::TimeOptimal { .. }) {
-                    slow_down_locally(&ctx, opts, &mut moves, &plan)?
-                } else {
-                    slow_down(opts, &mut moves, &mut retimed, *p, ratio)?
+            _ if round < 24 && matches!(opts.timing, Timing::TimeOptimal { .. }) => {
+                for m in slow_down_locally(&ctx, opts, &mut moves, &plan, &between)? {
+                    checked[m] = false;
                 }
+            }
+            Some((p, ratio)) if round < 24 => slow_down(opts, &mut moves, &mut retimed, *p, ratio)?,
+            None => {
+                let (t, _, e) = between
+                    .iter()
+                    .max_by(|a, b| a.1.total_cmp(&b.1))
+                    .expect("an excess between the samples");
+                let (quantity, motor) = robot.channel(e.channel, e.accel);
+                return Err(PlanningError::Infeasible(format!(
+                    "could not bring {} {} within {} between the samples after repeated \
+                     slow-downs ({:.4} times the limit at t = {t:.4} s)",
+                    quantity.motor(),
+                    motor,
+                    quantity.key(),
+                    e.ratio,
+                )));
             }
             Some((p, _)) => {
                 return Err(PlanningError::Infeasible(format!(
@@ -252,18 +330,20 @@ const SLOW_CELLS: usize = 2;
 
 /// For the time-optimal timing: removes **every** residual excess the samples show (a rate above
 /// its limit at a sample, an acceleration — the difference of two samples over their time
-/// step — above its limit), each where it is. The grid stretches that hold one get twice the
+/// step — above its limit) and every one `between` them (plan time, ratio; from
+/// [`Ctx::continuous_excesses`]), each where it is. The grid stretches that hold one get twice the
 /// cells ([`Ctx::refine`]: the excess is the grid's interpolation residue, which shrinks with
 /// the cells); where a stretch is already at [`grid::GRID_MIN`], the motor limits of the cells
 /// within [`SLOW_CELLS`] of the excess are lowered by its ratio (and 0.5 % more). Then the pass
-/// of each move concerned runs again. Lowering the whole move's limits (as [`slow_down`] does
+/// of each move concerned runs again (their indices are returned). Lowering the whole move's limits (as [`slow_down`] does
 /// for the other timings) would slow every stretch for a local residue.
 fn slow_down_locally(
     ctx: &Ctx,
     opts: &PlanOptions,
     moves: &mut [Move],
     plan: &crate::Plan,
-) -> Result<(), PlanningError> {
+    between: &[(f64, f64, Excess)],
+) -> Result<Vec<usize>, PlanningError> {
     let robot = ctx.robot;
     let n = robot.wheels();
     let chans = robot.channels();
@@ -311,10 +391,15 @@ fn slow_down_locally(
             }
         }
     }
-    for ((mv, f), js) in moves.iter_mut().zip(factor).zip(stretches) {
+    for &(t, ratio, _) in between {
+        note(t, ratio, moves);
+    }
+    let mut retimed = Vec::new();
+    for (m, ((mv, f), js)) in moves.iter_mut().zip(factor).zip(stretches).enumerate() {
         if f.is_empty() {
             continue;
         }
+        retimed.push(m);
         if let Some(finer) = ctx.refine(mv, &js)? {
             *mv = finer;
         } else if mv.limit_scale.is_empty() {
@@ -328,7 +413,7 @@ fn slow_down_locally(
         let (timing, _) = time_optimal(robot, mv, v_user, a_user, user)?;
         mv.timing = timing;
     }
-    Ok(())
+    Ok(retimed)
 }
 
 /// Slows down the move that holds the worst excess `p` (`ratio` = peak / limit, > 1) found on
@@ -382,5 +467,7 @@ fn slow_down(
     Ok(())
 }
 
+#[cfg(test)]
+mod continuous_tests;
 #[cfg(test)]
 mod tests;

@@ -5,6 +5,7 @@
 use crate::PlanningError;
 use crate::heading::{HeadingLaw, Side};
 use crate::limits::MAX_PLAN_GRID_CELLS;
+use crate::path::Path;
 use omnikin::{Actuators, MAX_WHEELS, wrap_angle};
 
 use super::geometry::{Config, Ctx, Hint, Kind, Steer, body_per_speed};
@@ -21,6 +22,17 @@ pub(super) fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, Pl
         HeadingLaw::Tangent { .. } => curvature,
         HeadingLaw::Profile(p) => p.at(s, side).1,
     };
+    // A set-point steering's (a swerve's) steer rates per unit speed follow the robot-frame
+    // twist's rate along the path, which holds the curvature: where it jumps (a fillet meeting
+    // a leg) the steer rates would jump at speed, an infinite steer acceleration, so the
+    // curvature counts as part of `q'` for those kinds.
+    let steer_curvature = |curvature: f64| if ctx.set_point { curvature } else { 0.0 };
+    // Likewise the heading acceleration `ψ''`: under the tangent law it is `dκ/ds`, which
+    // jumps at a C² spline's waypoints (a profile's `ψ''` is continuous, a constant's 0).
+    let heading_accel = |s: f64, side: Side| match ctx.heading {
+        HeadingLaw::Tangent { .. } if ctx.set_point => curvature_rate(path, s, side),
+        _ => 0.0,
+    };
     // Cut points: stops, and joins where q' jumps.
     let mut cuts: Vec<f64> = Vec::new();
     for j in path.joins() {
@@ -28,11 +40,15 @@ pub(super) fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, Pl
             j.before.tangent[0],
             j.before.tangent[1],
             heading_rate(j.s, Side::Before, j.before.curvature),
+            steer_curvature(j.before.curvature),
+            heading_accel(j.s, Side::Before),
         ];
         let after = [
             j.after.tangent[0],
             j.after.tangent[1],
             heading_rate(j.s, Side::After, j.after.curvature),
+            steer_curvature(j.after.curvature),
+            heading_accel(j.s, Side::After),
         ];
         if j.stop || jumps(before, after) {
             cuts.push(j.s);
@@ -46,11 +62,15 @@ pub(super) fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, Pl
                 p_before.tangent[0],
                 p_before.tangent[1],
                 heading_rate(s, Side::Before, p_before.curvature),
+                steer_curvature(p_before.curvature),
+                heading_accel(s, Side::Before),
             ];
             let after = [
                 p_after.tangent[0],
                 p_after.tangent[1],
                 heading_rate(s, Side::After, p_after.curvature),
+                steer_curvature(p_after.curvature),
+                heading_accel(s, Side::After),
             ];
             if jumps(before, after) {
                 cuts.push(s);
@@ -125,13 +145,7 @@ pub(super) fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, Pl
             }
         }
         let kind = Kind::Travel { s0, s1 };
-        let kinks: Vec<f64> = path
-            .piece_starts()
-            .iter()
-            .chain(ctx.heading.knots())
-            .filter(|&&k| k > s0 && k < s1)
-            .map(|k| k - s0)
-            .collect();
+        let kinks = move_kinks(path.piece_starts(), ctx.heading.knots(), s0, s1);
         if ctx.set_point {
             let c = ctx.config(&kind, s1 - s0, 0.0, Hint::angle(psi));
             if let Some(mv) = resteer(ctx, &c, gamma, step)? {
@@ -149,6 +163,27 @@ pub(super) fn build_moves(ctx: &Ctx, opts: &PlanOptions) -> Result<Vec<Move>, Pl
         }
     }
     Ok(moves)
+}
+
+/// Closest two kinks of a move may be (m): nearer ones are one node (a stretch between them
+/// would be a cell of rounding error, and the one-sided derivatives there meaningless).
+pub(super) const KINK_TOL: f64 = 1e-9;
+
+/// The kinks of the travel move from `s0` to `s1` (σ = s − s0, where `A'` may jump): the
+/// path's piece starts and the heading profile's knots strictly inside the move, merged into
+/// one increasing sequence without duplicates (within [`KINK_TOL`], and not within it of
+/// either end). Both lists are increasing on their own but interleave: chained unsorted, a
+/// waypoint profile's knots (the spline's own joins again) made the grid run backwards.
+fn move_kinks(piece_starts: &[f64], knots: &[f64], s0: f64, s1: f64) -> Vec<f64> {
+    let mut kinks: Vec<f64> = piece_starts
+        .iter()
+        .chain(knots)
+        .filter(|&&k| k > s0 + KINK_TOL && k < s1 - KINK_TOL)
+        .map(|k| k - s0)
+        .collect();
+    kinks.sort_by(f64::total_cmp);
+    kinks.dedup_by(|b, a| *b - *a <= KINK_TOL);
+    kinks
 }
 
 /// For set-point steering (swerve): the re-steer at rest that turns the modules from `gamma`
@@ -192,9 +227,30 @@ fn resteer(ctx: &Ctx, c: &Config, gamma: Steer, step: f64) -> Result<Option<Move
 /// samples of the motion turn the modules (well within any steer-rate limit at 1 kHz).
 const RESTEER_MIN: f64 = 1e-6;
 
-/// `true` when two derivative vectors `q'` differ (a jump in the wheel rates per unit speed).
-fn jumps(a: [f64; 3], b: [f64; 3]) -> bool {
-    (0..3).any(|i| (a[i] - b[i]).abs() > 1e-9 * (1.0 + a[i].abs().max(b[i].abs())))
+/// `true` when two derivative vectors `q'` (with the curvature and heading acceleration for
+/// set-point steering) differ (a jump in the motor rates per unit speed). The heading
+/// acceleration is a finite difference ([`curvature_rate`]), so its tolerance is wider.
+fn jumps(a: [f64; 5], b: [f64; 5]) -> bool {
+    let tol = [1e-9, 1e-9, 1e-9, 1e-9, 1e-6];
+    (0..5).any(|i| (a[i] - b[i]).abs() > tol[i] * (1.0 + a[i].abs().max(b[i].abs())))
+}
+
+/// Step of the one-sided difference of [`curvature_rate`], m.
+const CURVATURE_STEP: f64 = 1e-5;
+
+/// `dκ/ds` at `s` seen from `side` (1/m²): a second-order one-sided difference of the
+/// curvature over [`CURVATURE_STEP`] on that side, within the path (0 at an end it faces).
+fn curvature_rate(path: &Path, s: f64, side: Side) -> f64 {
+    let h = match side {
+        Side::Before => -CURVATURE_STEP,
+        Side::After => CURVATURE_STEP,
+    };
+    let (s1, s2) = (s + h, s + 2.0 * h);
+    if s2 < 0.0 || s2 > path.length() {
+        return 0.0;
+    }
+    let k = |s: f64| path.at_side(s, side).curvature;
+    (-3.0 * k(s) + 4.0 * k(s1) - k(s2)) / (2.0 * h)
 }
 
 fn too_many_plan_cells(len: f64, moves: usize, cells: f64) -> PlanningError {
@@ -205,5 +261,25 @@ fn too_many_plan_cells(len: f64, moves: usize, cells: f64) -> PlanningError {
         limit: "MAX_PLAN_GRID_CELLS",
         max: MAX_PLAN_GRID_CELLS,
         hint: "shorten the path or cut it into several plans",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kinks_are_merged_in_order_without_duplicates() {
+        // A spline's joins and a waypoint profile's knots at (almost) the same arc lengths.
+        let pieces = [0.0, 0.858, 1.481, 2.339];
+        let knots = [0.0, 0.858 + 1e-12, 1.481, 2.0, 2.339];
+        assert_eq!(
+            move_kinks(&pieces, &knots, 0.0, 2.339),
+            vec![0.858, 1.481, 2.0]
+        );
+        // Relative to the move's start, only those strictly inside it.
+        let k = move_kinks(&pieces, &knots, 0.858, 2.0);
+        assert_eq!(k.len(), 1);
+        assert!((k[0] - (1.481 - 0.858)).abs() < 1e-15);
     }
 }

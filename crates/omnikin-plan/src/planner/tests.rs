@@ -211,3 +211,70 @@ proptest! {
         }
     }
 }
+
+/// A refined grid copies the nodes of the stretches it keeps ([`Ctx::refine`]); it must equal
+/// the grid built afresh from the kinematics on the same cells, for a robot without steering
+/// and for one whose steer angles carry over from stretch to stretch (a caster; a swerve
+/// move is cut at every waypoint of a spline, one stretch each).
+#[test]
+fn a_refined_grid_equals_one_built_afresh() {
+    let w = crate::waypoints::Waypoints::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/waypoints.toml"),
+    )
+    .expect("examples/waypoints.toml");
+    let path = Path::spline(&w.points).expect("path");
+    let heading = HeadingLaw::Tangent { offset: 0.0 };
+    for name in ["kiwi", "mecanum", "caster3"] {
+        let robot = RobotModel::from_description(
+            &omnikin::description::RobotDescription::preset(name).expect("preset"),
+        )
+        .expect("model");
+        let opts = PlanOptions {
+            timing: Timing::TimeOptimal {
+                limits: MotionLimits {
+                    max_speed: 2.0,
+                    max_accel: 4.0,
+                    ..MotionLimits::default()
+                },
+            },
+            on_limit: OnLimit::Retime,
+            rate: 100.0,
+            initial_steer: InitialSteer::Aligned,
+        };
+        let ctx = context(&path, &heading, &robot, &opts);
+        let moves = build_moves(&ctx, &opts).expect("moves");
+        let mut compared = 0;
+        for mv in moves.iter().filter(|m| m.cells.len() > 1) {
+            // Every other stretch refined, the first kept.
+            let js: Vec<usize> = (1..mv.cells.len()).step_by(2).collect();
+            let Some(refined) = ctx.refine(mv, &js).expect("refine") else {
+                continue;
+            };
+            let fresh = ctx
+                .grid_on(
+                    mv.kind.clone(),
+                    mv.len,
+                    mv.psi[0],
+                    mv.gamma[0],
+                    refined.bounds.clone(),
+                    refined.cells.clone(),
+                    None,
+                )
+                .expect("grid");
+            assert_eq!(refined.cells, fresh.cells, "{name}");
+            assert_eq!(refined.sig, fresh.sig, "{name}");
+            assert_eq!(refined.psi, fresh.psi, "{name}");
+            assert_eq!(refined.a, fresh.a, "{name}");
+            assert_eq!(refined.b_in, fresh.b_in, "{name}");
+            assert_eq!(refined.b_out, fresh.b_out, "{name}");
+            assert_eq!(refined.piece, fresh.piece, "{name}");
+            assert_eq!(
+                format!("{:?}", refined.gamma),
+                format!("{:?}", fresh.gamma),
+                "{name}"
+            );
+            compared += 1;
+        }
+        assert!(compared > 0, "{name}: no move with stretches to refine");
+    }
+}
