@@ -535,18 +535,18 @@ impl Session {
             while Instant::now() < step_end {
                 let established = self.op.info().is_some();
                 self.pump(step_end.saturating_duration_since(Instant::now()))?;
+                if let Some(b) = self.op.busy() {
+                    return Err(RobotBusy {
+                        holder: b.holder,
+                        idle_ms: b.idle_ms,
+                        held_s: b.held_s,
+                    }
+                    .into());
+                }
                 if let Some(info) = self.op.info() {
                     if self.op.confirmed() {
                         self.last_telemetry = Some(Instant::now());
                         return Ok(info);
-                    }
-                    if let Some(b) = self.op.busy() {
-                        return Err(RobotBusy {
-                            holder: b.holder,
-                            idle_ms: b.idle_ms,
-                            held_s: b.held_s,
-                        }
-                        .into());
                     }
                     if !established {
                         // The answer came: the first open frame goes now.

@@ -785,8 +785,21 @@ fn takeover_only_through_a_valid_handshake() {
         r => panic!("{r:?}"),
     }
     assert!(!b.confirmed());
-    // Its user acts: B takes over, A is told.
+    // The handshake is used up: B's first frame again gets nothing (a copy replayed once A
+    // goes quiet opens nothing either).
+    assert!(matches!(bot.rx(&open).0, Err(DropReason::Replay(_))));
+    bot.now += LIVE_US;
+    assert!(matches!(bot.rx(&open).0, Err(DropReason::Replay(_))));
+    bot.now -= LIVE_US;
+    assert_eq!(bot.link.session_id(), Some(first));
+    // Its user acts: a new handshake that takes over; A is told.
     b.set_take_over(true);
+    let (_, ack) = bot.rx(&op_hello(&mut b, &mut rng));
+    assert!(b.busy().is_none(), "a new handshake");
+    assert!(matches!(
+        op_rx(&mut b, &ack),
+        Ok(OperatorEvent::Established(_))
+    ));
     let (r, notice) = bot.rx(&op_tx(&mut b, &Message::Heartbeat));
     assert!(matches!(
         r,

@@ -101,7 +101,7 @@ impl HandshakeSecrets {
         client_nonce: &[u8; NONCE_LEN],
         peer: &[u8],
     ) -> [u8; NONCE_LEN] {
-        let len = [peer.len().min(255) as u8];
+        let len = (peer.len() as u32).to_le_bytes();
         let full = secret.full(&[b"omnikin-v3 robot nonce", client_nonce, &len, peer]);
         let mut n = [0u8; NONCE_LEN];
         n.copy_from_slice(&full[..NONCE_LEN]);
@@ -123,9 +123,12 @@ impl HandshakeSecrets {
         rng: &mut impl Entropy,
     ) -> Result<(u32, [u8; NONCE_LEN]), EntropyError> {
         let cur = &self.epochs[self.current];
+        // A clock that went back (set, or a boot at 0 after a correction) ends the epoch too:
+        // an age is never taken as 0 for a time before the epoch began.
         let due = !self.started
             || cur.secret.is_none()
-            || now_us.saturating_sub(cur.started_us) >= EPOCH_US;
+            || now_us < cur.started_us
+            || now_us - cur.started_us >= EPOCH_US;
         if due {
             self.rotate(now_us, rng)?;
         }
@@ -168,13 +171,14 @@ impl HandshakeSecrets {
         }
         let cur = self.current;
         let prev = 1 - cur;
-        let age = |i: usize| now_us.saturating_sub(self.epochs[i].started_us);
+        // `None` for a time before the epoch began (a clock that went back): not live.
+        let age = |i: usize| now_us.checked_sub(self.epochs[i].started_us);
         [cur, prev].into_iter().find(|&i| {
             let e = &self.epochs[i];
             e.secret.is_some()
                 && e.number == epoch
-                && age(i) < 2 * EPOCH_US
-                && (i == cur || age(cur) < EPOCH_US)
+                && age(i).is_some_and(|a| a < 2 * EPOCH_US)
+                && (i == cur || age(cur).is_some_and(|a| a < EPOCH_US))
         })
     }
 
@@ -312,6 +316,23 @@ mod tests {
             s.check(e1, &[99; NONCE_LEN], b"", 4),
             FirstFrame::Fresh(_)
         ));
+    }
+
+    #[test]
+    fn a_clock_that_goes_back_ends_the_epoch() {
+        let mut s = HandshakeSecrets::new();
+        let mut rng = Counter(0);
+        let cn = [5u8; NONCE_LEN];
+        let (e0, _) = s.answer(5 * EPOCH_US, &cn, b"", &mut rng).unwrap();
+        assert!(matches!(
+            s.check(e0, &cn, b"", 5 * EPOCH_US),
+            FirstFrame::Fresh(_)
+        ));
+        // Back to boot time: the epoch is not live, and the next Hello starts another.
+        assert_eq!(s.check(e0, &cn, b"", 0), FirstFrame::UnknownEpoch);
+        let (e1, _) = s.answer(0, &cn, b"", &mut rng).unwrap();
+        assert_ne!(e1, e0);
+        assert_eq!(s.check(e0, &cn, b"", 1), FirstFrame::UnknownEpoch);
     }
 
     #[test]

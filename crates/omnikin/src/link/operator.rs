@@ -17,7 +17,8 @@ pub enum OperatorEvent {
     /// robot opens it when the first open frame reaches it (see [`OperatorLink::confirmed`]).
     Established(RobotInfo),
     /// The robot did not open the session: another operator's session is live and this
-    /// operator did not ask to take over ([`OperatorLink::set_take_over`]).
+    /// operator did not ask to take over ([`OperatorLink::set_take_over`]). The handshake is
+    /// over: the next [`OperatorLink::hello`] starts a new one.
     Busy(Busy),
     /// A message of this operator's session.
     Message {
@@ -89,7 +90,7 @@ impl OperatorLink {
         )
     }
 
-    /// The robot's newest [`Message::Busy`] answer, while the session is not confirmed.
+    /// The robot's newest [`Message::Busy`] answer, until the next handshake begins.
     pub fn busy(&self) -> Option<Busy> {
         self.busy
     }
@@ -233,7 +234,9 @@ impl OperatorLink {
                         // answers (at the open frames' numbers): they must not move the window.
                         let msg = session.peek(&p)?;
                         if let Message::Busy(b) = msg {
+                            // The robot used this handshake up: the next `hello` starts anew.
                             self.busy = Some(b);
+                            self.state = OpState::Idle;
                             return Ok(OperatorEvent::Busy(b));
                         }
                     }

@@ -24,7 +24,8 @@ pub enum RobotEvent {
     Hello(usize),
     /// An authentic open frame of a session that did not take over because another session is
     /// live: `reply[..n]` holds the [`Message::Busy`] answer for its sender (smaller than the
-    /// frame). Nothing else changed.
+    /// frame). The handshake is used up (its first frames are refused from now on: the
+    /// operator starts a new one to try again); nothing else changed.
     Busy(usize),
     /// A message of the active session.
     Message {
@@ -232,6 +233,12 @@ impl RobotLink {
                         held_s: (now_us.saturating_sub(self.opened_us) / 1_000_000)
                             .min(u32::MAX as u64) as u32,
                     };
+                    // One answer per handshake: its nonce is used up, so a copy of this frame
+                    // replayed later (when the holder goes quiet) opens nothing; the operator
+                    // starts a new handshake to try again.
+                    if !self.secrets.mark_used(o.epoch, &o.client_nonce, now_us) {
+                        return Err(DropReason::Session(id));
+                    }
                     let n = session
                         .encode_at(seq, &Message::Busy(busy), reply)
                         .map_err(|_| DropReason::Malformed)?;
@@ -279,9 +286,13 @@ impl RobotLink {
     /// telemetry's `estop_seq`). [`serve`] calls it.
     pub fn note(&mut self, seq: u64, msg: &Message, accepted: bool) {
         match msg {
-            Message::EStop if accepted => {
-                self.estop_seq = seq;
+            Message::EStop => {
+                // Every authentic e-stop is a barrier, whether the runtime took it or was in
+                // e-stop already.
                 self.estop_barrier = self.estop_barrier.max(seq);
+                if accepted {
+                    self.estop_seq = seq;
+                }
             }
             Message::Clear if accepted => {
                 if self.estop_seq != 0 {
