@@ -1,16 +1,20 @@
 //! Fuzzes both ends' receive paths with arbitrary bytes: the stream reader, COBS, CRC,
-//! version, kind, tag, session lookup, replay window, handshake and postcard body decoding,
-//! with and without a key, as a byte stream (serial) and as datagrams (UDP). Checks that it
-//! never panics and never allocates, that every frame it reports is counted exactly once, and
-//! that a message that decodes re-encodes to a frame that decodes to the same bytes. Random
-//! bytes rarely pass the CRC: the seeds (valid frames of every kind) and `link_session` (which
-//! fixes the CRC and the MAC up) go past it.
+//! version, kind, an open frame's opening, tag, session lookup, replay window, handshake and
+//! postcard body decoding, with and without a key, as a byte stream (serial) and as datagrams
+//! (UDP), the robot's clock advancing 1 ms per frame. Checks that it never panics and never
+//! allocates, that every frame it reports is counted exactly once, that `peek_kind` names the
+//! kind of every frame `parse_frame` accepts (and nothing it rejects as not v3), that
+//! `parse_frame` returns an opening exactly for open frames and that an open frame re-encodes
+//! (`encode_open`) to a frame that parses to the same opening, and that a message that decodes
+//! re-encodes to a frame that decodes to the same bytes. Random bytes rarely pass the CRC: the
+//! seeds (valid frames of every kind) and `link_session` (which fixes the CRC and the MAC up)
+//! go past it.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use omnikin::link::{
-    FrameReader, Key, MAX_FRAME, OperatorLink, PROTOCOL_VERSION, RobotEvent, RobotInfo, RobotKind,
-    RobotLink, decode_message, encode_message, parse_frame, v1,
+    FrameReader, Key, Kind, MAX_FRAME, OperatorLink, PROTOCOL_VERSION, RobotEvent, RobotInfo,
+    RobotKind, RobotLink, decode_message, encode_message, encode_open, parse_frame, peek_kind, v1,
 };
 use omnikin::runtime::hal::{Entropy, EntropyError};
 use omnikin_fuzz::alloc::{Counting, measure};
@@ -24,6 +28,47 @@ impl Entropy for Fixed {
     fn fill(&mut self, buf: &mut [u8]) -> Result<(), EntropyError> {
         buf.fill(0x5a);
         Ok(())
+    }
+}
+
+/// Robot time between two frames, µs.
+const FRAME_US: u64 = 1_000;
+
+/// What `peek_kind` and `parse_frame` say of one frame (still COBS-encoded, without its
+/// delimiter) must agree: a frame that parses was visibly of its kind; an open frame, and only
+/// one, has an opening, and it survives re-encoding. No allocation.
+fn check_parse(frame: &[u8], mac: Option<&omnikin::link::MacKey>) {
+    let peeked = peek_kind(frame);
+    let mut copy = [0u8; MAX_FRAME];
+    let Some(copy) = copy.get_mut(..frame.len()) else {
+        return;
+    };
+    copy.copy_from_slice(frame);
+    let Ok(p) = parse_frame(copy) else {
+        return;
+    };
+    assert_eq!(
+        peeked,
+        Some(p.header.kind),
+        "peek_kind of a frame that parses"
+    );
+    assert_eq!(
+        p.opening.is_some(),
+        p.header.kind == Kind::Open,
+        "opening of {p:?}"
+    );
+    if let (Some(o), Ok(m)) = (p.opening, decode_message(p.body)) {
+        let mut buf = [0u8; MAX_FRAME];
+        let n = encode_open(p.header.session, p.header.seq, &o, &m, mac, &mut buf)
+            .expect("a decoded open frame re-encodes");
+        assert_eq!(peek_kind(&buf[..n - 1]), Some(Kind::Open));
+        let q = parse_frame(&mut buf[..n - 1]).expect("and parses again");
+        assert_eq!(q.opening, Some(o));
+        assert_eq!(
+            (q.header.session, q.header.seq),
+            (p.header.session, p.header.seq)
+        );
+        assert!(q.verify(mac).is_ok());
     }
 }
 
@@ -48,15 +93,19 @@ fuzz_target!(|data: &[u8]| {
         let mut decoded = Vec::with_capacity(data.len() + 1);
         let mut reply = [0u8; MAX_FRAME];
         let mut copy = [0u8; MAX_FRAME];
+        let mut now = 0u64;
+        let mac = k.as_ref().map(Key::mac);
         let ((), usage) = measure(|| {
             reader.feed(data, |f| {
                 reported += 1;
+                now += FRAME_US;
                 match f {
                     Some(f) => {
                         let n = f.len();
                         copy[..n].copy_from_slice(f);
+                        check_parse(f, mac);
                         if let Ok(RobotEvent::Message { seq, msg, .. }) =
-                            robot.receive(f, &INFO, &mut Fixed, &mut reply)
+                            robot.receive(f, now, &INFO, &mut Fixed, &mut reply)
                         {
                             decoded.push((seq, msg));
                         }
@@ -96,12 +145,14 @@ fuzz_target!(|data: &[u8]| {
         // Datagrams: the same bytes cut every 64 bytes; each cut frame is one framing drop.
         let mut robot = RobotLink::new(k.clone());
         let mut reported = 0u32;
+        let mut now = 0u64;
         for chunk in data.chunks(64) {
             reader.feed(chunk, |f| {
                 reported += 1;
+                now += FRAME_US;
                 match f {
                     Some(f) => {
-                        let _ = robot.receive(f, &INFO, &mut Fixed, &mut reply);
+                        let _ = robot.receive(f, now, &INFO, &mut Fixed, &mut reply);
                     }
                     None => robot.count_framing_drop(),
                 }
@@ -114,6 +165,7 @@ fuzz_target!(|data: &[u8]| {
         let c = *robot.counters();
         assert_eq!(c.ok + c.dropped(), reported);
         // The stateless decoders on the raw input.
+        check_parse(data, k.as_ref().map(Key::mac));
         let mut copy = data.to_vec();
         let _ = parse_frame(&mut copy);
         let mut copy = data.to_vec();

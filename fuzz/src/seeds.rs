@@ -4,13 +4,16 @@
 
 use omnikin::estimate::events::EventCounters;
 use omnikin::link::{
-    EndReason, Estimate, Hello, HelloAck, KIND_TAGGED, Key, LinkCounters, MAX_FRAME, MacKey,
-    Message, NONCE_LEN, PROTOCOL_VERSION, RobotInfo, RobotKind, SimTruth, Telemetry, WireFix,
-    WirePoint, encode_hello, encode_message,
+    Busy, EndReason, Estimate, Hello, HelloAck, KIND_TAGGED, Key, LinkCounters, MAX_FRAME, MacKey,
+    Message, NONCE_LEN, Opening, PROTOCOL_VERSION, RobotInfo, RobotKind, SimTruth, Telemetry,
+    WireFix, WirePoint, encode_hello, encode_message, encode_open,
 };
 use omnikin::runtime::{Faults, FixCounters, Frame, Mode, PlanStatus};
 
-use crate::link::{FUZZ_KEY, cycles, derive, hello_record, record};
+use crate::link::{
+    FUZZ_KEY, clock, clock_us, cycles, derive, hello_record, open_record, record, record_to,
+    robot_nonce,
+};
 
 /// One seed: target, file name, content.
 pub type Seed = (&'static str, String, Vec<u8>);
@@ -68,10 +71,13 @@ fn telemetry() -> Telemetry {
             auth: 3,
             replay: 1,
             session: 2,
+            throttled: 5,
+            stale: 2,
             ..LinkCounters::default()
         },
         ack_seq: 41,
         estop_seq: 39,
+        clear_seq: 12,
     }
 }
 
@@ -185,6 +191,14 @@ pub fn messages() -> Vec<(&'static str, Message)> {
                 pose: [0.40, -0.10, 0.30],
             }),
         ),
+        (
+            "busy-answer",
+            Message::Busy(Busy {
+                holder: 0x0123_4567_89ab_cdef,
+                idle_ms: 250,
+                held_s: 42,
+            }),
+        ),
     ]
 }
 
@@ -216,34 +230,39 @@ fn plan_upload(id: u16, len: u16, first_seq: u64) -> Vec<u8> {
     out
 }
 
-/// Structured inputs of the `link_session` target (see [`crate::link`]): a handshake, then
-/// session frames of every message type, driving, plan upload, e-stop, replays, a second
-/// operator taking over, and each corruption the format can express.
+/// Structured inputs of the `link_session` target (see [`crate::link`]): a v3 handshake (Hello,
+/// then the open frame that proves the key), then session frames of every message type,
+/// driving, plan upload, e-stop, replays; a second operator answered Busy, then taking over;
+/// a replayed first frame; epochs that age and retire; an e-stop then a held-back clear and
+/// motion; and each corruption the format can express.
 pub fn link_session() -> Vec<Seed> {
     let mut out = Vec::new();
     let hello = hello_record(0x11);
     let hb = |seq| record(&Message::Heartbeat, seq);
-    for setup in [0u8, 1, 2, 3, 4, 5, 8, 9, 11] {
-        for (name, m) in messages() {
-            let s = session(setup, &[&hello, &hb(1), &record(&m, 2), &cycles(3)]);
-            out.push(("link_session", format!("seed-{setup}-{name}"), s));
-        }
-        let velocity = record(
+    let open = open_record(0, &Message::Heartbeat, 1, false);
+    let velocity = |seq| {
+        record(
             &Message::SetVelocity {
                 frame: Frame::Robot,
                 vx: 0.5,
                 vy: 0.2,
                 yaw_rate: 1.0,
             },
-            2,
-        );
+            seq,
+        )
+    };
+    for setup in [0u8, 1, 2, 3, 4, 5, 8, 9, 11] {
+        for (name, m) in messages() {
+            let s = session(setup, &[&hello, &open, &record(&m, 2), &cycles(3)]);
+            out.push(("link_session", format!("seed-{setup}-{name}"), s));
+        }
         // Drive, keep alive, then let the watchdog stop the robot.
         let s = session(
             setup,
             &[
                 &hello,
-                &hb(1),
-                &velocity,
+                &open,
+                &velocity(2),
                 &cycles(10),
                 &hb(3),
                 &cycles(10),
@@ -260,7 +279,8 @@ pub fn link_session() -> Vec<Seed> {
             setup,
             &[
                 &hello,
-                &plan_upload(7, 11, 1),
+                &open,
+                &plan_upload(7, 11, 2),
                 &cycles(16),
                 &plan_upload(8, 3, 20),
                 &cycles(8),
@@ -271,12 +291,14 @@ pub fn link_session() -> Vec<Seed> {
             ],
         );
         out.push(("link_session", format!("seed-{setup}-plan"), s));
-        // Duplicates, an old frame, a jump ahead, and what the window then refuses.
+        // Duplicates, an old frame, a jump ahead, and what the window then refuses; the open
+        // frame repeated once the session is open (a duplicate, too).
         let s = session(
             setup,
             &[
                 &hello,
-                &hb(5),
+                &open_record(0, &Message::Heartbeat, 5, false),
+                &open_record(0, &Message::Heartbeat, 5, false),
                 &hb(5),
                 &hb(3),
                 &hb(100),
@@ -287,67 +309,178 @@ pub fn link_session() -> Vec<Seed> {
             ],
         );
         out.push(("link_session", format!("seed-{setup}-replay"), s));
-        // A second operator takes over; the first one's frames are then refused; the first
-        // one's Hello, repeated, opens a new session; five Hellos overflow the pending slots.
-        let mut old = vec![1u8 | 64, 1];
-        old.extend_from_slice(&9u64.to_le_bytes());
-        old.extend_from_slice(&[1, 0, 0]);
+        // A second operator is answered Busy while the first is live, then takes over (the
+        // first gets SessionEnd); the first one's frames and its replayed first frame are
+        // then refused; its Hello, repeated in the same epoch, gets the same answer.
         let s = session(
             setup,
             &[
                 &hello,
-                &hb(1),
+                &open,
                 &record(&Message::EStop, 2),
                 &cycles(2),
                 &hello_record(0x22),
                 &hello_record(0x22),
-                &hb(1),
+                &open_record(0, &Message::Heartbeat, 1, false),
+                &open_record(0, &Message::Heartbeat, 2, true),
                 &cycles(2),
-                &old,
+                &record_to(1, &Message::Heartbeat, 9),
+                &open_record(1, &Message::Heartbeat, 1, true),
                 &hello_record(0x11),
-                &hello_record(0x33),
-                &hello_record(0x44),
-                &hello_record(0x55),
-                &hello_record(0x66),
-                &hb(1),
+                &hb(3),
                 &cycles(1),
             ],
         );
         out.push(("link_session", format!("seed-{setup}-takeover"), s));
+        // Busy, then the holder falls silent for LIVE_US: the newcomer opens without asking.
+        let s = session(
+            setup,
+            &[
+                &hello,
+                &open,
+                &hello_record(0x22),
+                &open_record(0, &Message::Heartbeat, 1, false),
+                &clock(5),
+                &open_record(0, &Message::Heartbeat, 2, false),
+                &clock(5),
+                &open_record(0, &Message::Heartbeat, 3, false),
+                &hb(4),
+                &cycles(2),
+            ],
+        );
+        out.push(("link_session", format!("seed-{setup}-busy"), s));
+        // Epochs age: a HelloAck of the previous epoch is still good after a rotation, one
+        // two epochs old is not; a Hello answered just before the epoch ends and opened just
+        // after.
+        let s = session(
+            setup,
+            &[
+                &hello,
+                &clock(100),
+                &hello_record(0x22),
+                &open_record(1, &Message::Heartbeat, 1, true),
+                &hello_record(0x33),
+                &clock(200),
+                &open_record(0, &Message::Heartbeat, 1, true),
+                &hello_record(0x44),
+                &clock_us(9_999_999),
+                &hello_record(0x55),
+                &clock_us(2),
+                &open_record(0, &Message::Heartbeat, 1, true),
+                &hb(2),
+                &cycles(1),
+            ],
+        );
+        out.push(("link_session", format!("seed-{setup}-epochs"), s));
+        // A replayed first frame: opened, taken over, then replayed (its nonce is used).
+        let s = session(
+            setup,
+            &[
+                &hello,
+                &open,
+                &hb(2),
+                &hello_record(0x22),
+                &open_record(0, &Message::Heartbeat, 1, true),
+                &open_record(1, &Message::Heartbeat, 1, true),
+                &hb(2),
+                &cycles(1),
+            ],
+        );
+        out.push(("link_session", format!("seed-{setup}-replayed-open"), s));
+        // An epoch opens USED_PER_EPOCH sessions and retires; the next Hello starts another.
+        let mut parts: Vec<Vec<u8>> = Vec::new();
+        for i in 0..=omnikin::link::USED_PER_EPOCH as u8 {
+            parts.push(hello_record(0x40 + i));
+            parts.push(open_record(0, &Message::Heartbeat, 1, true));
+        }
+        parts.push(open_record(3, &Message::Heartbeat, 1, true));
+        parts.push(cycles(1).to_vec());
+        let refs: Vec<&[u8]> = parts.iter().map(|p| &p[..]).collect();
+        out.push((
+            "link_session",
+            format!("seed-{setup}-retire"),
+            session(setup, &refs),
+        ));
+        // Issue 30, observation 3: the operator's clear (3), velocity (4) and set-pose (5) are
+        // held back and delivered after its e-stop (6): all stale, the robot stays in e-stop;
+        // a newer clear (7) ends it and the telemetry names it; a newer velocity (8) drives.
+        let s = session(
+            setup,
+            &[
+                &hello,
+                &open,
+                &velocity(2),
+                &cycles(2),
+                &record(&Message::EStop, 6),
+                &cycles(1),
+                &record(&Message::Clear, 3),
+                &velocity(4),
+                &record(
+                    &Message::SetPose {
+                        x: 1.0,
+                        y: 1.0,
+                        heading: 0.0,
+                    },
+                    5,
+                ),
+                &cycles(2),
+                &record(&Message::Clear, 7),
+                &velocity(8),
+                &cycles(2),
+            ],
+        );
+        out.push(("link_session", format!("seed-{setup}-estop-held-back"), s));
     }
-    // Each corruption, on a Hello and on a heartbeat: CRC, tag, tag presence, PSK instead of
-    // K_s, an unpadded Hello, another protocol, failing entropy, junk; and an arbitrary frame.
-    let hbr = hb(1);
+    // Each corruption, on a Hello, an open frame and a heartbeat: CRC, tag, tag presence, PSK
+    // instead of K_s, an unpadded Hello, another protocol, failing entropy, a throttled Hello,
+    // an open frame's unknown flag, wrong epoch and wrong nonce, junk; and an arbitrary frame.
+    let hbr = hb(2);
     let flip = |r: &[u8], bits: u8| {
         let mut r = r.to_vec();
         r[0] |= bits;
         r
     };
+    let opening = |flags: u8, epoch_delta: u8| {
+        let mut r = open.clone();
+        r[10] = flags;
+        r[11] = epoch_delta;
+        r
+    };
     let mut unpadded = flip(&hello, 128);
-    unpadded.extend_from_slice(&[PROTOCOL_VERSION, 0]);
-    let mut v3 = flip(&hello, 128);
-    v3.extend_from_slice(&[3, 46]);
+    unpadded.extend_from_slice(&[PROTOCOL_VERSION, 0, 0]);
+    let mut v2 = flip(&hello, 128);
+    v2.extend_from_slice(&[2, 51, 0]);
+    let mut throttled = flip(&hello, 128);
+    throttled.extend_from_slice(&[PROTOCOL_VERSION, 51, 1]);
     let mut any = vec![2u8, PROTOCOL_VERSION, 3 | KIND_TAGGED];
     any.extend_from_slice(&5u64.to_le_bytes());
     any.extend_from_slice(&1u64.to_le_bytes());
     any.extend_from_slice(&[1, 1, 0, 0]);
+    let ho = [&hello[..], &open[..]].concat();
     for setup in [0u8, 1, 2, 3] {
-        let cases: [(&str, Vec<u8>); 12] = [
+        let cases: [(&str, Vec<u8>); 19] = [
             ("hello-crc", flip(&hello, 8)),
             ("hello-tag", flip(&hello, 16)),
             ("hello-tag-presence", flip(&hello, 32)),
             ("hello-entropy", flip(&hello, 64)),
             ("hello-unpadded", unpadded.clone()),
-            ("hello-v3", v3.clone()),
-            ("crc", [&hello[..], &flip(&hbr, 8)].concat()),
-            ("tag", [&hello[..], &flip(&hbr, 16)].concat()),
-            ("tag-presence", [&hello[..], &flip(&hbr, 32)].concat()),
-            ("psk-tag", [&hello[..], &flip(&hbr, 128)].concat()),
-            ("any", [&hello[..], &any].concat()),
+            ("hello-v2", v2.clone()),
+            ("hello-throttled", throttled.clone()),
+            ("open-crc", [&hello[..], &flip(&open, 8)].concat()),
+            ("open-tag", [&hello[..], &flip(&open, 16)].concat()),
+            ("open-psk-tag", [&hello[..], &flip(&open, 128)].concat()),
+            ("open-flag", [&hello[..], &opening(4, 0)].concat()),
+            ("open-epoch", [&hello[..], &opening(0, 1)].concat()),
+            ("open-nonce", [&hello[..], &opening(2, 0)].concat()),
+            ("crc", [&ho[..], &flip(&hbr, 8)].concat()),
+            ("tag", [&ho[..], &flip(&hbr, 16)].concat()),
+            ("tag-presence", [&ho[..], &flip(&hbr, 32)].concat()),
+            ("psk-tag", [&ho[..], &flip(&hbr, 128)].concat()),
+            ("any", [&ho[..], &any].concat()),
             (
                 "junk",
                 [
-                    &hello[..],
+                    &ho[..],
                     &[4u8, 4, 1, 2, 3, 0][..],
                     &[12, 2, 9, 9][..],
                     &hbr[..],
@@ -366,40 +499,85 @@ pub fn link_session() -> Vec<Seed> {
     out
 }
 
-/// The robot nonce of the raw target's robot (its entropy source fills with 0x5a).
-const RAW_ROBOT_NONCE: [u8; NONCE_LEN] = [0x5a; NONCE_LEN];
+/// The raw target's robot: its entropy source fills with 0x5a, so its first epoch's secret
+/// is 32 such bytes and its number `0x5a5a5a5a`.
+pub const RAW_SECRET: [u8; 32] = [0x5a; 32];
+/// The raw target's first epoch number.
+pub const RAW_EPOCH: u32 = 0x5a5a_5a5a;
 
 /// Wire frames as a robot reads them, keyed and not, for the raw `frame_decoder` target: a
-/// Hello, then session frames of every message type in the session that Hello opens with the
-/// target's fixed robot nonce (so they are accepted), singly and as one stream; a HelloAck.
+/// Hello, then frames of every message type in the session that Hello opens with the target's
+/// fixed epoch secret (so they are accepted) — singly as open frames, and as one stream whose
+/// first frame is an open frame; a second operator's open frame answered Busy; a HelloAck.
 pub fn frame_decoder() -> Vec<Seed> {
     let key = Key::new(FUZZ_KEY).expect("key");
     let mut out = Vec::new();
     for (k, kname) in [(None, "plain"), (Some(key), "keyed")] {
-        let nonce = [0x11; NONCE_LEN];
         let mut buf = [0u8; MAX_FRAME];
-        let hello = Hello {
-            protocol: PROTOCOL_VERSION,
-            client_nonce: nonce,
+        let psk: &[u8] = if k.is_some() { FUZZ_KEY } else { &[] };
+        // A Hello and the session it opens, for the client nonce `c`.
+        let handshake = |c: u8| {
+            let nonce = [c; NONCE_LEN];
+            let hello = Hello {
+                protocol: PROTOCOL_VERSION,
+                client_nonce: nonce,
+            };
+            let mut buf = [0u8; MAX_FRAME];
+            let n = encode_hello(&hello, k.as_ref(), &mut buf).expect("a Hello encodes");
+            let rn = robot_nonce(&RAW_SECRET, &nonce);
+            let (id, ks) = derive(psk, &nonce, &rn);
+            let opening = Opening {
+                client_nonce: nonce,
+                epoch: RAW_EPOCH,
+                take_over: false,
+            };
+            (buf[..n].to_vec(), id, ks, opening, rn)
         };
-        let n = encode_hello(&hello, k.as_ref(), &mut buf).expect("a Hello encodes");
-        let hello = buf[..n].to_vec();
+        let (hello, id, ks, opening, rn) = handshake(0x11);
         out.push((
             "frame_decoder",
             format!("seed-{kname}-hello"),
             hello.clone(),
         ));
-        let psk: &[u8] = if k.is_some() { FUZZ_KEY } else { &[] };
-        let (id, ks) = derive(psk, &nonce, &RAW_ROBOT_NONCE);
         let mac = k.as_ref().map(|_| MacKey::new(&ks));
         let mut stream = hello.clone();
         for (seq, (name, m)) in (1u64..).zip(messages()) {
-            let n = encode_message(id, seq, &m, mac.as_ref(), &mut buf).expect("encodes");
+            let n = encode_open(id, seq, &opening, &m, mac.as_ref(), &mut buf).expect("encodes");
             let frame = [&hello[..], &buf[..n]].concat();
             out.push(("frame_decoder", format!("seed-{kname}-{name}"), frame));
+            let n = if seq == 1 {
+                n
+            } else {
+                encode_message(id, seq, &m, mac.as_ref(), &mut buf).expect("encodes")
+            };
             stream.extend_from_slice(&buf[..n]);
         }
         out.push(("frame_decoder", format!("seed-{kname}-stream"), stream));
+        // A second operator, while the first is live: Busy.
+        let (hello2, id2, ks2, opening2, _) = handshake(0x22);
+        let mac2 = k.as_ref().map(|_| MacKey::new(&ks2));
+        let n = encode_open(id, 1, &opening, &Message::Heartbeat, mac.as_ref(), &mut buf)
+            .expect("encodes");
+        let mut busy = [&hello[..], &buf[..n], &hello2[..]].concat();
+        let n = encode_open(
+            id2,
+            1,
+            &opening2,
+            &Message::Heartbeat,
+            mac2.as_ref(),
+            &mut buf,
+        )
+        .expect("encodes");
+        busy.extend_from_slice(&buf[..n]);
+        // And then with take-over.
+        let over = Opening {
+            take_over: true,
+            ..opening2
+        };
+        let n = encode_open(id2, 2, &over, &Message::Heartbeat, mac2.as_ref(), &mut buf)
+            .expect("encodes");
+        busy.extend_from_slice(&buf[..n]);
+        out.push(("frame_decoder", format!("seed-{kname}-busy"), busy));
         // The answer an operator reads (the raw target feeds its operator end too).
         let ack = HelloAck {
             info: RobotInfo {
@@ -410,12 +588,13 @@ pub fn frame_decoder() -> Vec<Seed> {
                 watchdog: 0.5,
                 authenticated: k.is_some(),
             },
-            client_nonce: nonce,
-            robot_nonce: RAW_ROBOT_NONCE,
+            client_nonce: [0x11; NONCE_LEN],
+            robot_nonce: rn,
+            epoch: RAW_EPOCH,
         };
         let n = omnikin::link::encode_frame_with(
             omnikin::link::Kind::HelloAck,
-            id,
+            0,
             0,
             k.as_ref().map(Key::mac),
             |b| {

@@ -8,10 +8,10 @@
 use std::path::PathBuf;
 
 use libfuzzer_sys as _;
-use omnikin::link::{Key, MAX_FRAME, RobotLink, parse_frame};
+use omnikin::link::{Key, MAX_FRAME, RobotEvent, RobotLink, parse_frame};
 use omnikin::runtime::hal::{Entropy, EntropyError};
 use omnikin_fuzz::alloc::Counting;
-use omnikin_fuzz::link::{FUZZ_KEY, run_session};
+use omnikin_fuzz::link::{FUZZ_KEY, run_summary};
 use omnikin_fuzz::{seeds, text};
 
 #[global_allocator]
@@ -42,15 +42,31 @@ fn valid(target: &str, name: &str, data: &[u8]) -> Result<(), String> {
             let mut robot = RobotLink::new(key);
             let info = omnikin_fuzz::link::raw_info();
             let mut reply = [0u8; MAX_FRAME];
-            for frame in data.split(|&b| b == 0).filter(|f| !f.is_empty()) {
+            let mut busy = 0;
+            // The target's clock: 1 ms per frame.
+            for (i, frame) in (1u64..).zip(data.split(|&b| b == 0).filter(|f| !f.is_empty())) {
                 ok(parse_frame(&mut frame.to_vec()))?;
-                let r = robot.receive(&mut frame.to_vec(), &info, &mut Fixed, &mut reply);
-                // A robot → operator message (telemetry, session end, estimate, truth; the
-                // stream seed has the first two) is dropped by the robot as malformed: a
+                let r = robot.receive(
+                    &mut frame.to_vec(),
+                    i * 1_000,
+                    &info,
+                    &mut Fixed,
+                    &mut reply,
+                );
+                busy += usize::from(matches!(r, Ok(RobotEvent::Busy(_))));
+                // A robot → operator message (telemetry, session end, estimate, truth, busy;
+                // the stream seed has them all) is dropped by the robot as malformed: a
                 // reflected frame.
-                let to_operator = ["telemetry", "session-end", "stream", "estimate", "truth"]
-                    .iter()
-                    .any(|m| name.contains(m));
+                let to_operator = [
+                    "telemetry",
+                    "session-end",
+                    "stream",
+                    "estimate",
+                    "truth",
+                    "busy-answer",
+                ]
+                .iter()
+                .any(|m| name.contains(m));
                 let reflected = to_operator
                     && r.as_ref()
                         .err()
@@ -59,18 +75,47 @@ fn valid(target: &str, name: &str, data: &[u8]) -> Result<(), String> {
                     ok(r)?;
                 }
             }
+            if name.ends_with("-busy") && busy != 1 {
+                return Err(format!("{busy} Busy answers, not 1"));
+            }
             Ok(())
         }
         "link_session" => {
-            let accepted = run_session(data);
+            let s = run_summary(data);
+            let accepted = s.accepted;
             // A robot → operator message sent to the robot (a reflected frame) verifies under
-            // the shared K_s but is dropped: only the handshake's confirming frame is taken.
-            let reflected = ["-telemetry", "-session-end", "-estimate", "-truth"]
-                .iter()
-                .any(|m| name.ends_with(m));
+            // the shared K_s but is dropped: only the handshake's open frame is taken.
+            let reflected = [
+                "-telemetry",
+                "-session-end",
+                "-estimate",
+                "-truth",
+                "-busy-answer",
+            ]
+            .iter()
+            .any(|m| name.ends_with(m));
             let needed = if reflected { 1 } else { 2 };
             if !name.contains("-bad-") && accepted < needed {
                 return Err(format!("only {accepted} frames accepted"));
+            }
+            // Each scenario reaches the path it is for.
+            let c = s.counters;
+            let reached = match name {
+                n if n.ends_with("-busy") => s.busy == 2,
+                n if n.ends_with("-takeover") => s.busy == 1 && c.replay == 1 && c.session == 1,
+                n if n.ends_with("-replayed-open") => c.replay == 1,
+                n if n.ends_with("-estop-held-back") => c.stale == 3,
+                n if n.ends_with("-epochs") => c.session == 1 && accepted == 3,
+                n if n.ends_with("-retire") => c.session == 1 && accepted == 9,
+                n if n.ends_with("-bad-hello-throttled") => c.throttled == 1 && c.ok == 0,
+                n if n.ends_with("-bad-open-flag") => c.malformed == 1,
+                n if n.ends_with("-bad-open-epoch") || n.ends_with("-bad-open-nonce") => {
+                    c.session == 1
+                }
+                _ => true,
+            };
+            if !reached {
+                return Err(format!("did not reach its path: {s:?}"));
             }
             Ok(())
         }
