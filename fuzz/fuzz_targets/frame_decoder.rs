@@ -105,7 +105,7 @@ fuzz_target!(|data: &[u8]| {
                         copy[..n].copy_from_slice(f);
                         check_parse(f, mac);
                         if let Ok(RobotEvent::Message { seq, msg, .. }) =
-                            robot.receive(f, now, &INFO, &mut Fixed, &mut reply)
+                            robot.receive(f, now, &[], &INFO, &mut Fixed, &mut reply)
                         {
                             decoded.push((seq, msg));
                         }
@@ -152,7 +152,7 @@ fuzz_target!(|data: &[u8]| {
                 now += FRAME_US;
                 match f {
                     Some(f) => {
-                        let _ = robot.receive(f, now, &INFO, &mut Fixed, &mut reply);
+                        let _ = robot.receive(f, now, &[], &INFO, &mut Fixed, &mut reply);
                     }
                     None => robot.count_framing_drop(),
                 }

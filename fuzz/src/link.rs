@@ -107,9 +107,13 @@ pub fn derive(psk: &[u8], client: &[u8; NONCE_LEN], robot: &[u8; NONCE_LEN]) -> 
 
 /// The robot's nonce for `client` in the epoch whose secret is `secret`, per the docs of
 /// `omnikin::link::HandshakeSecrets`: `HMAC(secret, "omnikin-v3 robot nonce" |
-/// client_nonce)[..16]`.
+/// client_nonce | len(peer) as u32 LE | peer)[..16]`; the harness's robot is on a point-to-point
+/// link (no transport address: `peer` empty).
 pub fn robot_nonce(secret: &[u8], client: &[u8; NONCE_LEN]) -> [u8; NONCE_LEN] {
-    let full = hmac(secret, &[b"omnikin-v3 robot nonce", client]);
+    let full = hmac(
+        secret,
+        &[b"omnikin-v3 robot nonce", client, &0u32.to_le_bytes()],
+    );
     let mut n = [0u8; NONCE_LEN];
     n.copy_from_slice(&full[..NONCE_LEN]);
     n
@@ -644,6 +648,8 @@ pub struct Session {
     /// Robot time the active session opened and last had a frame accepted, µs.
     opened_us: u64,
     heard_us: u64,
+    /// The active session's newest frame was a `Bye`: not live.
+    left: bool,
     /// Sessions that were taken over: never again accepted.
     dead: BTreeSet<u64>,
     /// Every (session, seq) the robot accepted.
@@ -699,6 +705,7 @@ impl Session {
             active: None,
             opened_us: 0,
             heard_us: 0,
+            left: false,
             dead: BTreeSet::new(),
             accepted_seqs: BTreeSet::new(),
             ack_seq: 0,
@@ -926,9 +933,10 @@ impl Session {
         }
     }
 
-    /// Whether the active session is live (a frame accepted within [`LIVE_US`]).
+    /// Whether the active session is live (a frame accepted within [`LIVE_US`], its newest
+    /// not a `Bye`).
     fn live(&self) -> bool {
-        self.active.is_some() && self.now_us.saturating_sub(self.heard_us) < LIVE_US
+        self.active.is_some() && !self.left && self.now_us.saturating_sub(self.heard_us) < LIVE_US
     }
 
     /// The model's prediction for a session or open frame to known session `k`.
@@ -1142,6 +1150,18 @@ impl Session {
             assert_eq!(rseq, seq, "Busy echoes the open frame's seq");
         }
         self.busy += 1;
+        // A Busy answer uses the handshake up: its nonce opens nothing later.
+        let (epoch, nonce) = (s.epoch, s.client_nonce);
+        let e = self
+            .epochs
+            .live(epoch, self.now_us)
+            .expect("a Busy answer in an epoch that is not live");
+        let e = &mut self.epochs.all[e];
+        assert!(!e.used.contains(&nonce), "Busy to a used client nonce");
+        e.used.push(nonce);
+        if e.used.len() >= USED_PER_EPOCH {
+            e.secret = None;
+        }
         let m: Message = postcard::from_bytes(&body).expect("a message");
         let want = Busy {
             holder: self.known[a].id,
@@ -1185,7 +1205,6 @@ impl Session {
                 seq,
                 msg,
                 new_session,
-                newest,
                 replaced,
             }) => {
                 let id = self
@@ -1209,7 +1228,6 @@ impl Session {
                     self.known[k].window.fresh(seq),
                     "accepted a stale seq {seq}"
                 );
-                assert_eq!(newest, seq > self.known[k].window.top(), "newest flag");
                 if let Some(spec) = spec {
                     assert_eq!((spec.session, spec.seq), (id, seq));
                     if self.keyed {
@@ -1260,6 +1278,7 @@ impl Session {
                     self.active = Some(k);
                     self.opened_us = self.now_us;
                     self.heard_us = self.now_us;
+                    self.left = matches!(msg, Message::Bye);
                     self.ack_seq = seq;
                     self.estop_seq = 0;
                     self.clear_seq = 0;
@@ -1268,6 +1287,7 @@ impl Session {
                     assert!(replaced.is_none());
                     self.ack_seq = self.ack_seq.max(seq);
                     self.heard_us = self.heard_us.max(self.now_us);
+                    self.left = matches!(msg, Message::Bye);
                 }
                 self.serve(seq, &msg);
             }
@@ -1312,7 +1332,7 @@ impl Session {
                     results.push((Err(Reason::Throttled), 0, 0));
                 }
                 Some(f) => {
-                    let r = link.receive(f, now, info, rng, &mut reply[..]);
+                    let r = link.receive(f, now, &[], info, rng, &mut reply[..]);
                     let n = match &r {
                         Ok(RobotEvent::Hello(n) | RobotEvent::Busy(n)) => *n,
                         Ok(RobotEvent::Message {
@@ -1385,7 +1405,12 @@ impl Session {
             "the stale counter"
         );
         assert_eq!(total(&after), total(&before), "serve counted a frame");
+        if matches!(m, Message::EStop) {
+            // Every authentic e-stop raises the barrier, taken by the runtime or not.
+            self.barrier = self.barrier.max(seq);
+        }
         match r {
+            Served::Ignored if matches!(m, Message::Bye) => {}
             Served::Ignored => panic!("an accepted operator message was ignored: {m:?}"),
             Served::Stale => {
                 assert_eq!(self.runtime.mode(), mode, "a stale {m:?} changed the mode");
@@ -1394,7 +1419,6 @@ impl Session {
             Served::Accepted => match m {
                 Message::EStop => {
                     self.estop_seq = seq;
-                    self.barrier = self.barrier.max(seq);
                 }
                 Message::Clear => {
                     if self.estop_seq != 0 {

@@ -309,9 +309,10 @@ pub fn link_session() -> Vec<Seed> {
             ],
         );
         out.push(("link_session", format!("seed-{setup}-replay"), s));
-        // A second operator is answered Busy while the first is live, then takes over (the
-        // first gets SessionEnd); the first one's frames and its replayed first frame are
-        // then refused; its Hello, repeated in the same epoch, gets the same answer.
+        // A second operator is answered Busy while the first is live (its handshake is then
+        // used up), then takes over with a new handshake (the first gets SessionEnd); the first
+        // one's frames and its replayed first frame are then refused; its Hello, repeated in
+        // the same epoch, gets the same answer.
         let s = session(
             setup,
             &[
@@ -322,17 +323,22 @@ pub fn link_session() -> Vec<Seed> {
                 &hello_record(0x22),
                 &hello_record(0x22),
                 &open_record(0, &Message::Heartbeat, 1, false),
+                // The Busy answer used that handshake up: its take-over frame is a replay.
                 &open_record(0, &Message::Heartbeat, 2, true),
+                // A new handshake asks to take over.
+                &hello_record(0x33),
+                &open_record(0, &Message::Heartbeat, 1, true),
                 &cycles(2),
-                &record_to(1, &Message::Heartbeat, 9),
-                &open_record(1, &Message::Heartbeat, 1, true),
+                &record_to(2, &Message::Heartbeat, 9),
+                &open_record(2, &Message::Heartbeat, 1, true),
                 &hello_record(0x11),
                 &hb(3),
                 &cycles(1),
             ],
         );
         out.push(("link_session", format!("seed-{setup}-takeover"), s));
-        // Busy, then the holder falls silent for LIVE_US: the newcomer opens without asking.
+        // Busy (the handshake is used up: its next first frame is a replay), then the holder
+        // falls silent for LIVE_US: the newcomer's next handshake opens without asking.
         let s = session(
             setup,
             &[
@@ -343,7 +349,8 @@ pub fn link_session() -> Vec<Seed> {
                 &clock(5),
                 &open_record(0, &Message::Heartbeat, 2, false),
                 &clock(5),
-                &open_record(0, &Message::Heartbeat, 3, false),
+                &hello_record(0x33),
+                &open_record(0, &Message::Heartbeat, 1, false),
                 &hb(4),
                 &cycles(2),
             ],
@@ -569,12 +576,15 @@ pub fn frame_decoder() -> Vec<Seed> {
         )
         .expect("encodes");
         busy.extend_from_slice(&buf[..n]);
-        // And then with take-over.
+        // And then a new handshake with take-over (the Busy one is used up).
+        let (hello3, id3, ks3, opening3, _) = handshake(0x33);
+        let mac3 = k.as_ref().map(|_| MacKey::new(&ks3));
         let over = Opening {
             take_over: true,
-            ..opening2
+            ..opening3
         };
-        let n = encode_open(id2, 2, &over, &Message::Heartbeat, mac2.as_ref(), &mut buf)
+        busy.extend_from_slice(&hello3);
+        let n = encode_open(id3, 1, &over, &Message::Heartbeat, mac3.as_ref(), &mut buf)
             .expect("encodes");
         busy.extend_from_slice(&buf[..n]);
         out.push(("frame_decoder", format!("seed-{kname}-busy"), busy));
