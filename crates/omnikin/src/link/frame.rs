@@ -40,7 +40,7 @@ impl Kind {
     }
 }
 
-/// The fixed fields of a v2 frame.
+/// The fixed fields of a v3 frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Header {
     /// Frame kind.
@@ -195,7 +195,7 @@ pub fn parse_frame(frame: &mut [u8]) -> Result<Parsed<'_>, DropReason> {
     })
 }
 
-/// Encodes one v2 frame: `header` (its `tagged` is taken from `mac`), then the body that
+/// Encodes one v3 frame: `header` (its `tagged` is taken from `mac`), then the body that
 /// `body` writes into the slice it is given (returning its length), the tag under `mac` and
 /// the CRC; COBS-stuffed and `0x00`-terminated into `out`. Returns the bytes written.
 ///

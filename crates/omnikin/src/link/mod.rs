@@ -44,7 +44,7 @@
 //!   |<--------------------------------------------------------|  the active session, at the
 //!   | Session frames (id P) from the first robot frame on     |  address that proved it
 //! ```
-//! `prk = HMAC(PSK, "omnikin-v2 session" | client_nonce | robot_nonce)`,
+//! `prk = HMAC(PSK, "omnikin-v2 session" | client_nonce | robot_nonce)` (the labels kept from v2),
 //! `K_s = HMAC(prk, "omnikin-v2 key")`, `P = HMAC(prk, "omnikin-v2 id")[..8]` (LE, never 0);
 //! without a key the PSK is empty. The robot answers a Hello without keeping anything
 //! ([`HandshakeSecrets`]): a replayed or spoofed Hello gets an answer no larger than itself
@@ -77,7 +77,7 @@
 //!
 //! ## Layout
 //! Every item is re-exported here (`omnikin::link::X`); the files hold one concept each:
-//! `frame.rs` the v2 frame codec and [`FrameReader`], `cobs.rs` byte stuffing, `message.rs`
+//! `frame.rs` the v3 frame codec and [`FrameReader`], `cobs.rs` byte stuffing, `message.rs`
 //! the messages and wire types, `auth.rs` keys and the replay window, `handshake.rs` the
 //! robot's rotating handshake secrets, `error.rs` drop reasons and counters, `session.rs` the
 //! shared session state, `robot.rs` and `operator.rs` the two ends, [`v1`] the v1

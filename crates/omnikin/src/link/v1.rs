@@ -1,6 +1,6 @@
 //! Protocol v1 (`COBS(version=1 | flags | seq:u64 | body | tag[8] | crc32c)`), kept only so
-//! that v1 and v2 peers tell each other apart: a v2 robot answers a v1 frame with a v1 HelloAck
-//! saying `protocol: 2`; a v2 operator that gets no answer probes with a v1 Hello, so a v1
+//! that v1 and later peers tell each other apart: a v3 robot answers a v1 frame with a v1
+//! HelloAck saying `protocol: 3`; a v3 operator that gets no answer probes with a v1 Hello, so a v1
 //! robot's HelloAck (`protocol: 1`) names the mismatch.
 
 use serde::Serialize;
