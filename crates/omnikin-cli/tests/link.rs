@@ -1335,8 +1335,10 @@ fn an_idle_console_takes_nothing_over() {
     let robot = Robot::start(&["--max-time", "40"]);
     let a = robot.addr.clone();
     let driver =
-        std::thread::spawn(move || drive_with(&a, "2", &["velocity", "--vx", "0.1", "--for", "3"]));
-    std::thread::sleep(Duration::from_millis(300));
+        std::thread::spawn(move || drive_with(&a, "2", &["velocity", "--vx", "0.1", "--for", "4"]));
+    // The operator's session is open well before the console starts (a handshake takes
+    // milliseconds), and lasts past the console's end.
+    std::thread::sleep(Duration::from_millis(1000));
     let console = Command::new(BIN)
         .args([
             "console",
