@@ -12,12 +12,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use common::{BIN, Robot, num, read_rows, square_plan};
+use common::{BIN, Robot, clock_rng, num, read_rows, square_plan};
 use omnikin::link::{
     FrameReader, Kind, MAX_FRAME, Message, OperatorEvent, OperatorLink, Telemetry, WirePoint,
     encode_message, heapless, parse_frame,
 };
-use omnikin::runtime::hal::{Entropy, EntropyError};
+use omnikin::runtime::hal::Entropy;
 use omnikin::runtime::{Frame, Mode};
 
 mod common;
@@ -371,28 +371,6 @@ fn link_cut_mid_motion_stops_within_watchdog_plus_braking() {
     for w in rows.windows(2) {
         assert!((num(&w[1], "cmd_vx") - num(&w[0], "cmd_vx")).abs() <= 0.01 + 1e-6);
     }
-}
-
-/// The OS entropy of a test operator (getrandom through std's hasher is not enough: use the
-/// same crate the CLI uses, via a tiny xorshift seeded from the clock — a test client only).
-struct ClockRng(u64);
-impl Entropy for ClockRng {
-    fn fill(&mut self, buf: &mut [u8]) -> Result<(), EntropyError> {
-        for b in buf {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            *b = (self.0 >> 40) as u8;
-        }
-        Ok(())
-    }
-}
-fn clock_rng() -> ClockRng {
-    let t = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap()
-        .as_nanos() as u64;
-    ClockRng(t | 1)
 }
 
 /// A hand-made operator: the v3 handshake and session frames built with the library (it takes

@@ -13,28 +13,14 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use common::{BIN, Robot};
+use common::{BIN, ClockRng, Robot};
 use omnikin::link::{
     FrameReader, Key, Kind, MAX_FRAME, Message, OperatorEvent, OperatorLink, Telemetry, parse_frame,
 };
-use omnikin::runtime::hal::{Entropy, EntropyError};
 
 mod common;
 
 const KEY: &[u8] = b"0123456789abcdef0123456789abcdef";
-
-struct ClockRng(u64);
-impl Entropy for ClockRng {
-    fn fill(&mut self, buf: &mut [u8]) -> Result<(), EntropyError> {
-        for b in buf {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            *b = (self.0 >> 40) as u8;
-        }
-        Ok(())
-    }
-}
 
 /// The handshake datagrams (Hellos and open frames) of `drive hello` runs through a
 /// recording proxy in front of `robot`.

@@ -161,3 +161,27 @@ pub fn read_rows(path: &Path) -> Vec<HashMap<String, String>> {
 pub fn num(r: &HashMap<String, String>, k: &str) -> f64 {
     r[k].parse().unwrap_or_else(|_| panic!("{k} = {:?}", r[k]))
 }
+
+/// A test operator's entropy: a xorshift generator (a test client only, never a robot).
+pub struct ClockRng(pub u64);
+
+impl omnikin::runtime::hal::Entropy for ClockRng {
+    fn fill(&mut self, buf: &mut [u8]) -> Result<(), omnikin::runtime::hal::EntropyError> {
+        for b in buf {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            *b = (self.0 >> 40) as u8;
+        }
+        Ok(())
+    }
+}
+
+/// A [`ClockRng`] seeded from the clock (each run's nonces differ).
+pub fn clock_rng() -> ClockRng {
+    let t = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_nanos() as u64;
+    ClockRng(t | 1)
+}
