@@ -161,18 +161,32 @@ impl SimRobot {
         cfg.events.slip_yaw_rate = ev.slip_yaw_rate;
         cfg.events.slip_residual = ev.slip_residual;
         cfg.events.collision_decel = ev.collision_decel;
+        // The runtime's own rules first (positive, finite), a ceiling no ballbot reaches (its
+        // simulated check is not to be trusted for absurd values), then what the model holds.
+        for (flag, v, unit) in [
+            ("--max-yaw-rate", cfg.max_yaw_rate, "rad/s"),
+            ("--max-speed", cfg.max_speed, "m/s"),
+        ] {
+            if v > capability::SEARCH_CEILING {
+                bail!(
+                    "{flag} {v:e}: robot {}: beyond any balancing ballbot (at most {} {unit} is checked against its model; a unit error?)",
+                    desc.name,
+                    capability::SEARCH_CEILING
+                );
+            }
+        }
+        let rt = BalanceRuntime::new(cfg, Pose2::default()).map_err(|e| {
+            anyhow::anyhow!(
+                "--plant dynamic: robot {}: balance controller: {e}",
+                desc.name
+            )
+        })?;
         capability::check_limits(&cfg, max_tilt_deg.to_radians(), lean_margin).map_err(|e| {
             let flag = match e.limit {
                 capability::Limit::YawRate => "--max-yaw-rate",
                 capability::Limit::Speed => "--max-speed",
             };
             anyhow::anyhow!("{flag} {}: robot {}: {e}", e.value, desc.name)
-        })?;
-        let rt = BalanceRuntime::new(cfg, Pose2::default()).map_err(|e| {
-            anyhow::anyhow!(
-                "--plant dynamic: robot {}: balance controller: {e}",
-                desc.name
-            )
         })?;
         let plant = BallbotPlant::new(BallbotDynamics::from_config(&c))
             .map_err(|e| anyhow::anyhow!("--plant dynamic: robot {}: {e}", desc.name))?;

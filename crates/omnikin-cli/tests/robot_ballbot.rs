@@ -196,6 +196,24 @@ fn flags_that_do_not_apply_to_the_balance_runtime_are_refused() {
             &["--max-yaw-rate", "10"][..],
             "--max-yaw-rate 10: robot ballbot: max_yaw_rate 10 rad/s: the balancing ballbot cannot hold it",
         ),
+        // Odd values: named by the runtime's rule, or refused as beyond any ballbot (its
+        // simulated check once passed 1e300 rad/s: the model's state went non-finite).
+        (
+            &["--max-yaw-rate", "0"][..],
+            "max_yaw_rate = 0: must be finite and > 0",
+        ),
+        (
+            &["--max-yaw-rate", "-1"][..],
+            "max_yaw_rate = -1: must be finite and > 0",
+        ),
+        (
+            &["--max-yaw-rate", "1e300"][..],
+            "--max-yaw-rate 1e300: robot ballbot: beyond any balancing ballbot",
+        ),
+        (
+            &["--max-speed", "1e9"][..],
+            "--max-speed 1e9: robot ballbot: beyond any balancing ballbot",
+        ),
     ] {
         let out = Command::new(BIN)
             .args(["robot", "--sim", "--robot", "ballbot", "--plant", "dynamic"])

@@ -142,12 +142,20 @@ pub fn hold(
     };
     for _ in 0..cycles {
         let now = board.time_us();
-        // A command the runtime refuses leaves it at rest: the run then shows no tilt, and the
-        // caller's limit is checked elsewhere (`BalanceRuntime::new`).
-        let _ = rt.handle(command, now);
+        // A command the runtime refuses cannot be held; neither can one that drives the model
+        // to a non-finite state (`f64::max` would pass over a NaN tilt).
+        if rt.handle(command, now).is_err() {
+            max_tilt = f64::INFINITY;
+            break;
+        }
         board.run_cycle(&mut rt);
         board.advance(dt);
-        max_tilt = max_tilt.max(board.tilt());
+        let tilt = board.tilt();
+        if !tilt.is_finite() {
+            max_tilt = f64::INFINITY;
+            break;
+        }
+        max_tilt = max_tilt.max(tilt);
     }
     HoldRun {
         max_tilt,
@@ -174,8 +182,12 @@ fn passes(
     (run.max_tilt <= max_tilt, tried, run)
 }
 
-/// The largest `limit` the rule accepts, within 1 % (bisection between 0 and `upper`; `upper`
-/// itself when it passes).
+/// Where [`largest_accepted`] starts its search when the limit asked for is larger (rad/s or
+/// m/s).
+pub const SEARCH_CEILING: f64 = 1e3;
+
+/// The largest `limit` the rule accepts, within 1 % (bisection between 0 and `upper`, or
+/// [`SEARCH_CEILING`] when `upper` is larger; `upper` itself when it passes).
 pub fn largest_accepted(
     config: &BalanceRuntimeConfig<f64>,
     limit: Limit,
@@ -186,7 +198,13 @@ pub fn largest_accepted(
     if passes(config, limit, upper, max_tilt, lean_margin).0 {
         return upper;
     }
-    let (mut lo, mut hi) = (0.0, upper);
+    // No ballbot turns or rolls faster than SEARCH_CEILING: a larger refused limit (a typo, a
+    // unit error) is searched from there, in a bounded number of runs.
+    let hi = upper.min(SEARCH_CEILING);
+    if hi < upper && passes(config, limit, hi, max_tilt, lean_margin).0 {
+        return hi;
+    }
+    let (mut lo, mut hi) = (0.0, hi);
     while hi - lo > 0.01 * hi {
         let mid = 0.5 * (lo + hi);
         if passes(config, limit, mid, max_tilt, lean_margin).0 {
