@@ -145,6 +145,11 @@ test('dead-man teleop moves the robot; release stops it within the watchdog time
 test('e-stop button and Space key: the robot reports the e-stop', async () => {
   await page.click('[data-testid="estop"]');
   await until('mode estop', async () => (await text('mode')) === 'estop');
+  // Latched: a full-width banner says so.
+  const banner = await page.$eval('[data-testid="estop-banner"]', (e) => ({
+    hidden: e.hidden, w: e.getBoundingClientRect().width, page: document.documentElement.clientWidth,
+  }));
+  assert.ok(!banner.hidden && banner.w >= banner.page - 1, `banner while latched: ${JSON.stringify(banner)}`);
   await until('the confirmation event', async () => (await events()).some((e) => e.includes('e-stop confirmed by the robot')));
   await page.screenshot({ path: join(shots, 'console-estop.png'), fullPage: true });
   await page.click('#clear');
@@ -159,6 +164,91 @@ test('e-stop button and Space key: the robot reports the e-stop', async () => {
   await page.keyboard.up('Shift');
   await page.click('#clear');
   await until('cleared', async () => (await text('mode')) === 'idle' && (await text('faults')) === 'none');
+  assert.ok(await page.$eval('[data-testid="estop-banner"]', (e) => e.hidden), 'no banner after Clear');
+});
+
+// E-STOP on screen, inside the viewport, at every size and wherever the page is scrolled; no
+// sideways scrolling; at 1280x800 the wheel plot starts on the first screen.
+const SIZES = [[390, 844, 'phone'], [800, 600, 'laptop'], [1280, 800, 'desktop']];
+test('E-STOP stays on screen at phone, laptop and desktop sizes', async () => {
+  for (const [w, h, name] of SIZES) {
+    await page.setViewportSize({ width: w, height: h });
+    for (const at of ['top', 'bottom']) {
+      await page.evaluate((y) => window.scrollTo(0, y), at === 'top' ? 0 : 1e6);
+      await new Promise((r) => setTimeout(r, 100));
+      const box = await page.$eval('[data-testid="estop"]', (e) => {
+        const r = e.getBoundingClientRect();
+        const hit = document.elementFromPoint(r.left + r.width / 2, r.top + r.height / 2);
+        return { l: r.left, r: r.right, t: r.top, b: r.bottom, onTop: hit === e };
+      });
+      assert.ok(box.l >= 0 && box.r <= w && box.t >= 0 && box.b <= h && box.onTop,
+        `${name} ${w}x${h}, scrolled to the ${at}: E-STOP at ${JSON.stringify(box)}`);
+      if (at === 'top') await page.screenshot({ path: join(shots, `console-${name}.png`) });
+    }
+    const sideways = await page.evaluate(() => document.documentElement.scrollWidth - window.innerWidth);
+    assert.ok(sideways <= 0, `${name}: the page is ${sideways} px wider than the screen`);
+    const touch = await page.$eval('[data-testid="touch-pad"]', (e) => e.getBoundingClientRect().width > 0);
+    assert.equal(touch, w <= 700, `${name}: touch pad shown ${touch}`);
+  }
+  await page.evaluate(() => window.scrollTo(0, 0));
+  const plotTop = await page.$eval('#wheels', (e) => e.getBoundingClientRect().top);
+  assert.ok(plotTop < 800 - 60, `desktop: the wheel plot starts at ${plotTop} px, below the first screen`);
+});
+
+test('touch teleop on a phone: holding the pad drives, lifting stops', async () => {
+  await page.setViewportSize({ width: 390, height: 844 });
+  await page.$eval('[data-testid="touch-pad"]', (e) => e.scrollIntoView({ block: 'center' }));
+  const r = await page.$eval('[data-testid="touch-pad"]', (e) => { const b = e.getBoundingClientRect(); return { x: b.left, y: b.top, w: b.width, h: b.height }; });
+  const p0 = await pose();
+  // A finger in the pad's upper half: forward (robot +x; heading 0 here).
+  await page.mouse.move(r.x + r.w / 2, r.y + r.h / 2);
+  await page.mouse.down();
+  await page.mouse.move(r.x + r.w / 2, r.y + r.h * 0.1, { steps: 4 });
+  await until('the robot to move forward', async () => (await pose()).x > p0.x + 0.03, 10000);
+  await until('mode velocity', async () => (await text('mode')) === 'velocity', 3000, 20);
+  const before = await pose();
+  await page.mouse.up();
+  const stopped = await until('mode idle after lifting', async () => { const p = await pose(); return (await text('mode')) === 'idle' && p; }, 5000, 20);
+  assert.ok(stopped.t - before.t <= WATCHDOG_S + 0.1, `stopped ${(stopped.t - before.t).toFixed(3)} s after lifting`);
+  await page.screenshot({ path: join(shots, 'console-phone-teleop.png') });
+  await page.setViewportSize({ width: 1280, height: 900 });
+  await page.evaluate(() => window.scrollTo(0, 0));
+});
+
+test('one page holds the controls; another sees who, can only e-stop, and can take them', async () => {
+  await until('this page holds the controls', async () => (await text('controls')) === 'you');
+  const other = await context.newPage();
+  other.on('pageerror', (e) => { console.error('page error (second page):', e); });
+  try {
+    await other.goto(url);
+    const t2 = (id) => other.$eval(`[data-testid="${id}"]`, (e) => e.textContent);
+    await until('the second page sees the holder', async () => /^page \d+ \(127\.0\.0\.1:\d+\)$/.test(await t2('controls')));
+    assert.equal(await other.$eval('[data-testid="take-control"]', (e) => e.hidden), false);
+    // Its dead-man teleop drives nothing.
+    const p0 = await pose();
+    await other.keyboard.down('Shift');
+    await other.keyboard.down('ArrowUp');
+    await new Promise((r) => setTimeout(r, 1000));
+    assert.match(await other.textContent('#deadman'), /^view only: page \d+ .* holds the controls$/);
+    await other.keyboard.up('ArrowUp');
+    await other.keyboard.up('Shift');
+    const p1 = await pose();
+    assert.ok(Math.hypot(p1.x - p0.x, p1.y - p0.y) < 0.002, `a viewing page moved the robot: ${p0.text} → ${p1.text}`);
+    // Its e-stop always works; the holder clears it.
+    await other.click('[data-testid="estop"]');
+    await until('mode estop from the second page', async () => (await text('mode')) === 'estop');
+    await page.click('#clear');
+    await until('cleared by the holder', async () => (await text('mode')) === 'idle' && (await text('faults')) === 'none');
+    // An explicit take-over, told to the first page.
+    await other.click('[data-testid="take-control"]');
+    await until('the second page holds the controls', async () => (await t2('controls')) === 'you');
+    await until('the first page is told', async () => /^page \d+ /.test(await text('controls')));
+    assert.ok((await events()).some((e) => /took the controls from page/.test(e)));
+    await page.screenshot({ path: join(shots, 'console-view-only.png') });
+  } finally {
+    await other.close();
+  }
+  await until('the controls free once the holder closed', async () => (await text('controls')) === 'free');
 });
 
 test('a square plan is uploaded, previewed and driven', async () => {
@@ -188,4 +278,23 @@ test('a square plan is uploaded, previewed and driven', async () => {
   assert.ok(Math.abs(maxY - 0.4) < 0.05 && Math.abs(maxX - 0.4) < 0.05, `corners reached: max x ${maxX}, max y ${maxY}`);
   assert.ok(Math.hypot(end.x, end.y) < 0.05, `back at the start: ${end.text}`);
   await page.screenshot({ path: join(shots, 'console-done.png'), fullPage: true });
+});
+
+// Last (it ends the robot): a robot that stops sending is shown as lost within two heartbeat
+// periods (the console's default 20 Hz: 0.1 s) plus the page's 50 ms check; mode and faults
+// become unknown instead of their last values.
+test('a killed robot is shown as lost, mode and faults unknown', async () => {
+  await until('link connected', async () => (await text('link-state')) === 'connected');
+  const robot = children.find((c) => c.name === 'robot');
+  const killed = Date.now();
+  robot.kill('SIGKILL');
+  await until('the lost banner', async () => !(await page.$eval('[data-testid="lost-banner"]', (e) => e.hidden)), 5000, 10);
+  const after = Date.now() - killed;
+  assert.ok(after < 2000, `shown ${after} ms after the kill`);
+  assert.equal(await text('mode'), 'unknown');
+  assert.equal(await text('faults'), 'unknown');
+  assert.equal(await text('link-state'), 'robot lost');
+  const age = await page.$eval('[data-testid="lost-banner"]', (e) => +e.dataset.ageS);
+  assert.ok(age > 0.1, `lost only once the data is older than two heartbeat periods (age ${age} s)`);
+  await page.screenshot({ path: join(shots, 'console-lost.png') });
 });

@@ -20,6 +20,23 @@ const HISTORY_S = 20;      // plot window, s (robot time)
 const hist = [];           // { t, cmd[], meas[], err, twistErr }
 const HIST_MAX = 2000;
 const EVENTS_MAX = 200;
+// Liveness: the robot is shown as lost when no telemetry has arrived for this many heartbeat
+// periods of the console (--heartbeat, 20 Hz by default: 0.1 s).
+const LOST_PERIODS = 2;
+let lastDataAt = null;     // performance.now() of the newest telemetry
+let lost = false;
+// Control ownership: one page holds the controls (the hub decides); the others view and e-stop.
+let me = null, holder = null, holderName = null;
+const viewOnly = () => holder != null && holder !== me;
+function showControls() {
+  const el = $('controls');
+  el.textContent = holder == null ? 'free' : holder === me ? 'you' : holderName;
+  $('controls-pill').className = 'pill ' + (holder === me ? 'ok' : holder == null ? '' : 'warn');
+  $('take-control').hidden = !viewOnly();
+  for (const id of ['clear', 'stop', 'plan-upload']) $(id).disabled = viewOnly();
+  $('plan-run').disabled = viewOnly() || !plan || planState === 'uploading' || planState === 'running';
+  if (viewOnly()) releaseAll();
+}
 
 // ---- websocket ----
 function send(obj) {
@@ -41,6 +58,8 @@ function connect() {
 
 function handle(m) {
   switch (m.type) {
+    case 'page': me = m.id; showControls(); break;
+    case 'control': holder = m.holder; holderName = m.name; showControls(); break;
     case 'config': config = m; $('record').disabled = !m.mcap; break;
     case 'record': recordState(m); break;
     case 'link': robot = m.robot || robot; setLink(m.state, m.detail, m); break;
@@ -57,13 +76,49 @@ function fix3(v) { const s = v.toFixed(3); return s === '-0.000' ? '0.000' : s; 
 
 // ---- link / status ----
 let linkMsg = null;
+let linkState = 'connecting';
+// The link pill: the relay's state, unless the page has had no telemetry for too long.
+function showLink() {
+  const el = $('link-state');
+  const state = lost && linkState === 'connected' ? 'robot lost' : linkState;
+  el.textContent = state === 'held' ? 'held by another operator' : state;
+  $('link-pill').className = 'pill ' + (state === 'connected' ? 'ok' : (state === 'connecting' || state === 'held') ? 'warn' : 'bad');
+}
+
+// Called every 50 ms: the robot is lost when its newest data is older than LOST_PERIODS
+// heartbeat periods. Mode and faults are then unknown, not their last values.
+function liveness() {
+  if (lastDataAt == null) return;
+  const age = (performance.now() - lastDataAt) / 1000;
+  const limit = LOST_PERIODS / (config.heartbeat_hz || 20);
+  const nowLost = age > limit;
+  if (nowLost) {
+    $('lost-age').textContent = `${age.toFixed(1)} s`;
+    $('lost-banner').dataset.ageS = age.toFixed(3);
+  }
+  if (nowLost === lost) return;
+  lost = nowLost;
+  document.body.classList.toggle('lost', lost);
+  $('lost-banner').hidden = !lost;
+  if (lost) {
+    $('mode').textContent = 'unknown';
+    $('faults').textContent = 'unknown';
+    $('mode-pill').className = 'pill'; $('faults-pill').className = 'pill';
+    $('estop-banner').hidden = true;
+    addEvent('error', `robot lost: no telemetry for more than ${limit.toFixed(2)} s`, null);
+  } else {
+    addEvent('info', 'telemetry again', last ? last.t : null);
+  }
+  showLink();
+}
+setInterval(liveness, 50);
 function setLink(state, detail, m) {
   const el = $('link-state');
   el.title = detail || '';
   // 'held': another operator's session is live; a control (or E-STOP) here takes it over.
-  el.textContent = state === 'held' ? 'held by another operator' : state;
-  $('link-pill').className = 'pill ' + (state === 'connected' ? 'ok' : (state === 'connecting' || state === 'held') ? 'warn' : 'bad');
+  linkState = state;
   if (m) linkMsg = m;
+  showLink();
   linkTable();
 }
 
@@ -98,6 +153,8 @@ function linkTable() {
 
 function telemetry(m) {
   last = m;
+  lastDataAt = performance.now();
+  if (lost) liveness();
   const [x, y, h] = m.pose;
   $('pose').textContent = `x ${fix3(x)} m, y ${fix3(y)} m, heading ${fix3(h)} rad`;
   $('pose').dataset.x = x; $('pose').dataset.y = y; $('pose').dataset.heading = h; $('pose').dataset.t = m.t;
@@ -106,6 +163,7 @@ function telemetry(m) {
   $('faults').textContent = m.fault_history;
   $('faults-pill').className = 'pill ' + (m.fault_history === 'none' ? '' : 'warn');
   $('estop').classList.toggle('latched', m.mode === 'estop');
+  $('estop-banner').hidden = m.mode !== 'estop';
   if (m.truth) {
     const [tx, ty, th] = m.truth;
     $('truth').hidden = false;
@@ -151,8 +209,7 @@ function addEvent(level, text, t) {
 function estop() {
   // Sent even if the socket is still opening (then the server has no page yet: say so).
   if (!send({ type: 'estop' })) addEvent('error', 'e-stop NOT sent: the page is not connected to the console', null);
-  held.clear();
-  deadman = false;
+  releaseAll();
 }
 $('estop').addEventListener('pointerdown', (e) => { e.preventDefault(); estop(); });
 $('estop').addEventListener('click', (e) => { if (e.detail === 0) estop(); }); // keyboard activation
@@ -160,6 +217,7 @@ window.addEventListener('keydown', (e) => {
   if (e.code === 'Space') { e.preventDefault(); e.stopImmediatePropagation(); if (!e.repeat) estop(); }
 }, true);
 $('clear').addEventListener('click', () => send({ type: 'clear' }));
+$('take-control').addEventListener('click', () => send({ type: 'take_control' }));
 $('stop').addEventListener('click', () => send({ type: 'stop' }));
 
 // ---- teleop: keyboard and gamepad, dead-man held ----
@@ -181,8 +239,48 @@ window.addEventListener('keyup', (e) => {
   if (e.key === 'Shift') deadman = false;
   held.delete(e.code);
 });
-window.addEventListener('blur', () => { held.clear(); deadman = false; });
-document.addEventListener('visibilitychange', () => { if (document.hidden) { held.clear(); deadman = false; } });
+function releaseAll() { held.clear(); deadman = false; padRelease(); turn = 0; $('turn-left').classList.remove('on'); $('turn-right').classList.remove('on'); }
+window.addEventListener('blur', releaseAll);
+document.addEventListener('visibilitychange', () => { if (document.hidden) releaseAll(); });
+
+// ---- touch teleop: holding the pad or a turn button is the dead-man; lifting stops ----
+const padEl = $('touch-pad');
+let padPointer = null;      // the pointer holding the pad
+let padV = [0, 0];          // forward, left: fractions of --speed
+let turn = 0;               // counter-clockwise: fraction of --turn
+function padMove(e) {
+  const r = padEl.getBoundingClientRect();
+  const dz = (v) => (Math.abs(v) < 0.12 ? 0 : v);
+  const fx = Math.max(-1, Math.min(1, (e.clientX - r.left - r.width / 2) / (r.width / 2)));
+  const fy = Math.max(-1, Math.min(1, (e.clientY - r.top - r.height / 2) / (r.height / 2)));
+  padV = [-dz(fy), -dz(fx)]; // screen up = forward (robot +x), screen left = robot +y
+  $('touch-dot').style.transform = `translate(${fx * r.width / 2}px, ${fy * r.height / 2}px)`;
+}
+function padRelease() {
+  padPointer = null; padV = [0, 0];
+  padEl.classList.remove('on');
+  $('touch-dot').style.transform = '';
+}
+padEl.addEventListener('pointerdown', (e) => {
+  e.preventDefault();
+  padPointer = e.pointerId;
+  padEl.setPointerCapture(e.pointerId);
+  padEl.classList.add('on');
+  padMove(e);
+});
+padEl.addEventListener('pointermove', (e) => { if (e.pointerId === padPointer) padMove(e); });
+for (const ev of ['pointerup', 'pointercancel', 'lostpointercapture']) {
+  padEl.addEventListener(ev, (e) => { if (e.pointerId === padPointer) padRelease(); });
+}
+padEl.addEventListener('contextmenu', (e) => e.preventDefault());
+for (const [id, dir] of [['turn-left', 1], ['turn-right', -1]]) {
+  const b = $(id);
+  b.addEventListener('pointerdown', (e) => { e.preventDefault(); b.setPointerCapture(e.pointerId); turn = dir; b.classList.add('on'); });
+  for (const ev of ['pointerup', 'pointercancel', 'lostpointercapture']) {
+    b.addEventListener(ev, () => { if (turn === dir) turn = 0; b.classList.remove('on'); });
+  }
+  b.addEventListener('contextmenu', (e) => e.preventDefault());
+}
 
 function gamepadAxes() {
   const pads = navigator.getGamepads ? navigator.getGamepads() : [];
@@ -203,12 +301,17 @@ function teleopTick() {
   for (const k of held) { const d = KEYS[k]; v = [v[0] + d[0], v[1] + d[1], v[2] + d[2]]; }
   let dm = deadman;
   if (pad && pad.dm) { dm = true; v = [v[0] + pad.v[0], v[1] + pad.v[1], v[2] + pad.v[2]]; }
+  if (padPointer != null || turn !== 0) { dm = true; v = [v[0] + padV[0], v[1] + padV[1], v[2] + turn]; }
   v = v.map((a) => Math.max(-1, Math.min(1, a)));
   const d = $('deadman');
   d.textContent = dm ? 'dead-man held' : 'dead-man released';
   d.className = 'state ' + (dm ? 'on' : 'off');
   $('teleop-cmd').textContent = `${(v[0] * config.speed).toFixed(2)} m/s, ${(v[1] * config.speed).toFixed(2)} m/s, ${(v[2] * config.turn).toFixed(2)} rad/s`;
-  if (dm) {
+  if (viewOnly()) {
+    d.textContent = `view only: ${holderName} holds the controls`;
+    d.className = 'state off';
+    wasDriving = false;
+  } else if (dm) {
     send({ type: 'teleop', vx: v[0], vy: v[1], yaw: v[2] });
     wasDriving = true;
   } else if (wasDriving) {
@@ -246,7 +349,7 @@ $('plan-run').addEventListener('click', () => send({ type: 'plan_run', set_pose:
 
 function planInfo() {
   $('plan-info').textContent = `${plan.name}: ${plan.samples} samples, ${plan.duration_s.toFixed(1)} s, ${plan.length_m.toFixed(2)} m`;
-  $('plan-run').disabled = false;
+  $('plan-run').disabled = viewOnly();
 }
 function planStatus(m) {
   planState = m.state;
@@ -254,7 +357,7 @@ function planStatus(m) {
   if (m.len) s += ` ${m.received}/${m.len} points`;
   if (m.detail) s += ` — ${m.detail}`;
   $('plan-state').textContent = s;
-  $('plan-run').disabled = !plan || m.state === 'uploading' || m.state === 'running';
+  $('plan-run').disabled = viewOnly() || !plan || m.state === 'uploading' || m.state === 'running';
 }
 
 // ---- drawing ----

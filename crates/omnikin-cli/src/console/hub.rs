@@ -1,6 +1,13 @@
 //! What the relay and the browsers share: the stream of JSON messages to the pages (bounded
 //! ring, plus the newest message of each "sticky" kind that a page opened later needs first),
 //! the bounded command queue to the relay, and the e-stop request, which bypasses the queue.
+//!
+//! **One page holds the controls.** Teleop, stop, clear and plans are taken from the page that
+//! holds them; the first page to send one holds them while nobody does, and keeps them until
+//! it closes, releases them, or another page takes them over explicitly (`take_control`, an
+//! act its user makes, announced to every page). Every other page sees who holds them and can
+//! only e-stop: an e-stop from any page always goes through. Recording is open to every page
+//! (it does not move the robot).
 
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -63,6 +70,24 @@ enum PageMessage {
     Plan { name: String, csv: String },
     PlanRun { set_pose: bool },
     Record { on: bool },
+    TakeControl,
+    ReleaseControl,
+}
+
+/// A page, as the hub knows it: its number (from 1, in the order pages opened) and address.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Page {
+    /// Number of the page, from 1.
+    pub id: u64,
+    /// Its TCP peer address.
+    pub addr: String,
+}
+
+impl Page {
+    /// "page 2 (127.0.0.1:41234)": how pages and events name it.
+    pub fn name(&self) -> String {
+        format!("page {} ({})", self.id, self.addr)
+    }
 }
 
 /// Longest plan file name kept (the rest is cut).
@@ -90,6 +115,8 @@ struct Inner {
     ring: VecDeque<(u64, Arc<str>)>,
     sticky: BTreeMap<&'static str, Arc<str>>,
     events: VecDeque<Arc<str>>,
+    pages: u64,
+    holder: Option<Page>,
 }
 
 impl Hub {
@@ -103,6 +130,8 @@ impl Hub {
                     ring: VecDeque::with_capacity(RING),
                     sticky: BTreeMap::new(),
                     events: VecDeque::with_capacity(EVENTS),
+                    pages: 0,
+                    holder: None,
                 }),
                 estop: AtomicBool::new(false),
                 shutdown: AtomicBool::new(false),
@@ -121,8 +150,11 @@ impl Hub {
     /// Sends `msg` to every page; `sticky` keeps it as the newest of its kind for pages that
     /// connect later; events are kept for them too.
     pub fn publish(&self, msg: &serde_json::Value, sticky: Option<&'static str>) {
+        Self::push(&mut self.lock(), msg, sticky);
+    }
+
+    fn push(g: &mut Inner, msg: &serde_json::Value, sticky: Option<&'static str>) {
         let text: Arc<str> = msg.to_string().into();
-        let mut g = self.lock();
         let seq = g.next;
         g.next += 1;
         if g.ring.len() == RING {
@@ -138,6 +170,48 @@ impl Hub {
             }
             g.events.push_back(text);
         }
+    }
+
+    /// A page opened: its number and address (for "held by page 2 (127.0.0.1:41234)").
+    pub fn join(&self, addr: String) -> Page {
+        let mut g = self.lock();
+        g.pages += 1;
+        Page { id: g.pages, addr }
+    }
+
+    /// A page closed: if it held the controls, they are free.
+    pub fn leave(&self, page: &Page) {
+        let mut g = self.lock();
+        if g.holder.as_ref() == Some(page) {
+            Self::set_holder(
+                &mut g,
+                None,
+                &format!("{} closed: the controls are free", page.name()),
+            );
+        }
+    }
+
+    /// Who holds the controls now.
+    #[cfg(test)]
+    pub fn holder(&self) -> Option<Page> {
+        self.lock().holder.clone()
+    }
+
+    /// Changes the holder and tells every page (a sticky `control` message and an event).
+    fn set_holder(g: &mut Inner, to: Option<Page>, why: &str) {
+        g.holder = to;
+        let h = g.holder.as_ref();
+        let msg = serde_json::json!({
+            "type": "control",
+            "holder": h.map(|p| p.id),
+            "name": h.map(Page::name),
+        });
+        Self::push(g, &msg, Some("control"));
+        Self::push(
+            g,
+            &serde_json::json!({"type": "event", "level": "info", "text": why}),
+            None,
+        );
     }
 
     /// What a new page gets first (the sticky messages, then the kept events) and the
@@ -162,13 +236,32 @@ impl Hub {
         (out, g.next)
     }
 
-    /// Handles one text message of a page; `Err` is the answer for that page alone (never
+    /// Handles one text message of `page`; `Err` is the answer for that page alone (never
     /// a crash: every field is checked, a plan is parsed here, outside the relay's loop).
-    pub fn handle(&self, text: &str) -> Result<(), String> {
+    pub fn handle(&self, page: &Page, text: &str) -> Result<(), String> {
         let m: PageMessage = serde_json::from_str(text).map_err(|e| format!("bad message: {e}"))?;
         let cmd = match m {
             PageMessage::Estop => {
                 self.estop.store(true, Ordering::SeqCst);
+                return Ok(());
+            }
+            PageMessage::TakeControl => {
+                let mut g = self.lock();
+                if g.holder.as_ref() != Some(page) {
+                    let why = match &g.holder {
+                        Some(h) => format!("{} took the controls from {}", page.name(), h.name()),
+                        None => format!("{} holds the controls", page.name()),
+                    };
+                    Self::set_holder(&mut g, Some(page.clone()), &why);
+                }
+                return Ok(());
+            }
+            PageMessage::ReleaseControl => {
+                let mut g = self.lock();
+                if g.holder.as_ref() == Some(page) {
+                    let why = format!("{} released the controls", page.name());
+                    Self::set_holder(&mut g, None, &why);
+                }
                 return Ok(());
             }
             PageMessage::Teleop { vx, vy, yaw } => match (axis(vx), axis(vy), axis(yaw)) {
@@ -196,6 +289,24 @@ impl Hub {
                 }
             }
         };
+        // A valid command that moves the robot or changes what it will do: only from the holder
+        // (recording is open to every page).
+        if !matches!(cmd, Command::Record(_)) {
+            let mut g = self.lock();
+            match &g.holder {
+                Some(h) if h != page => {
+                    return Err(format!(
+                        "refused: the controls are held by {} (take control first; E-STOP always works)",
+                        h.name()
+                    ));
+                }
+                Some(_) => {}
+                None => {
+                    let why = format!("{} holds the controls", page.name());
+                    Self::set_holder(&mut g, Some(page.clone()), &why);
+                }
+            }
+        }
         match self.tx.try_send(cmd) {
             Ok(()) => Ok(()),
             Err(TrySendError::Full(_)) => {
@@ -209,6 +320,72 @@ impl Hub {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn p1() -> Page {
+        Page {
+            id: 1,
+            addr: "127.0.0.1:1".into(),
+        }
+    }
+
+    #[test]
+    fn one_page_holds_the_controls_and_any_page_can_estop() {
+        let (hub, rx) = Hub::new();
+        let (a, b) = (
+            hub.join("127.0.0.1:1001".into()),
+            hub.join("127.0.0.1:1002".into()),
+        );
+        assert_eq!((a.id, b.id), (1, 2));
+        assert_eq!(hub.holder(), None);
+        // A bad command claims nothing.
+        assert!(
+            hub.handle(&b, r#"{"type":"teleop","vx":"x","vy":0,"yaw":0}"#)
+                .is_err()
+        );
+        assert_eq!(hub.holder(), None);
+        // The first valid control claims them.
+        hub.handle(&a, r#"{"type":"teleop","vx":1,"vy":0,"yaw":0}"#)
+            .unwrap();
+        assert_eq!(hub.holder(), Some(a.clone()));
+        assert!(matches!(rx.try_recv(), Ok(Command::Teleop { .. })));
+        // The other page: refused, told who holds them, nothing reaches the relay.
+        for m in [
+            r#"{"type":"teleop","vx":1,"vy":0,"yaw":0}"#,
+            r#"{"type":"stop"}"#,
+            r#"{"type":"clear"}"#,
+            r#"{"type":"plan_run","set_pose":false}"#,
+        ] {
+            let e = hub.handle(&b, m).unwrap_err();
+            assert!(e.contains("held by page 1 (127.0.0.1:1001)"), "{e}");
+        }
+        assert!(rx.try_recv().is_err());
+        // ...but its e-stop goes through, and so does recording.
+        hub.handle(&b, r#"{"type":"estop"}"#).unwrap();
+        assert!(hub.estop.load(Ordering::SeqCst));
+        hub.handle(&b, r#"{"type":"record","on":true}"#).unwrap();
+        assert!(matches!(rx.try_recv(), Ok(Command::Record(true))));
+        // An explicit take-over, announced; then the first page is refused.
+        hub.handle(&b, r#"{"type":"take_control"}"#).unwrap();
+        assert_eq!(hub.holder(), Some(b.clone()));
+        assert!(hub.handle(&a, r#"{"type":"stop"}"#).is_err());
+        let (first, _) = hub.subscribe();
+        assert!(
+            first.iter().any(|m| m.contains(r#""holder":2"#)),
+            "{first:?}"
+        );
+        assert!(
+            first
+                .iter()
+                .any(|m| m.contains("page 2 (127.0.0.1:1002) took the controls from page 1"))
+        );
+        // Releasing (only by the holder) and closing free them.
+        hub.handle(&a, r#"{"type":"release_control"}"#).unwrap();
+        assert_eq!(hub.holder(), Some(b.clone()));
+        hub.leave(&b);
+        assert_eq!(hub.holder(), None);
+        hub.handle(&a, r#"{"type":"stop"}"#).unwrap();
+        assert_eq!(hub.holder(), Some(a));
+    }
 
     #[test]
     fn hostile_messages_are_answered_not_obeyed() {
@@ -227,7 +404,7 @@ mod tests {
             r#"{"type":"plan","name":"x.csv","csv":"\u0000\u0001"}"#,
             r#"{"type":"plan_run","set_pose":"yes"}"#,
         ] {
-            assert!(hub.handle(m).is_err(), "{m}");
+            assert!(hub.handle(&p1(), m).is_err(), "{m}");
         }
         assert!(rx.try_recv().is_err(), "nothing reached the relay");
         assert!(!hub.estop.load(Ordering::SeqCst));
@@ -236,7 +413,7 @@ mod tests {
     #[test]
     fn teleop_is_clamped_to_full_scale() {
         let (hub, rx) = Hub::new();
-        hub.handle(r#"{"type":"teleop","vx":50,"vy":-3,"yaw":0.25}"#)
+        hub.handle(&p1(), r#"{"type":"teleop","vx":50,"vy":-3,"yaw":0.25}"#)
             .unwrap();
         match rx.try_recv().unwrap() {
             Command::Teleop { vx, vy, yaw } => assert_eq!((vx, vy, yaw), (1.0, -1.0, 0.25)),
@@ -248,14 +425,14 @@ mod tests {
     fn estop_bypasses_a_full_queue() {
         let (hub, _rx) = Hub::new();
         for _ in 0..QUEUE {
-            hub.handle(r#"{"type":"stop"}"#).unwrap();
+            hub.handle(&p1(), r#"{"type":"stop"}"#).unwrap();
         }
         assert!(
-            hub.handle(r#"{"type":"stop"}"#)
+            hub.handle(&p1(), r#"{"type":"stop"}"#)
                 .unwrap_err()
                 .contains("busy")
         );
-        hub.handle(r#"{"type":"estop"}"#).unwrap();
+        hub.handle(&p1(), r#"{"type":"estop"}"#).unwrap();
         assert!(hub.estop.load(Ordering::SeqCst));
     }
 

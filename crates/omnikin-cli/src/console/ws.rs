@@ -11,7 +11,16 @@ use std::time::Duration;
 use tungstenite::protocol::{Role, WebSocketConfig};
 use tungstenite::{Error, Message, WebSocket};
 
-use super::hub::{Hub, MAX_MESSAGE};
+use super::hub::{Hub, MAX_MESSAGE, Page};
+
+/// A page's place in the hub, given up however [`serve`] ends (its controls are freed).
+struct Joined<'a>(&'a Hub, Page);
+
+impl Drop for Joined<'_> {
+    fn drop(&mut self) {
+        self.0.leave(&self.1);
+    }
+}
 
 /// How long one read waits before the stream is checked for messages to send.
 pub const POLL: Duration = Duration::from_millis(20);
@@ -35,10 +44,16 @@ pub fn serve(stream: TcpStream, leftover: Vec<u8>, hub: Arc<Hub>) {
         .max_write_buffer_size(MAX_QUEUED)
         .max_message_size(Some(MAX_MESSAGE))
         .max_frame_size(Some(MAX_MESSAGE));
+    let addr = stream
+        .peer_addr()
+        .map_or_else(|_| "unknown address".into(), |a| a.to_string());
     let mut ws = WebSocket::from_partially_read(stream, leftover, Role::Server, Some(cfg));
+    let page = Joined(&hub, hub.join(addr));
+    // The page learns its own number first (to tell "you hold the controls" from another page).
+    let you = serde_json::json!({"type": "page", "id": page.1.id, "name": page.1.name()});
     let (first, mut cursor) = hub.subscribe();
-    if first
-        .into_iter()
+    if std::iter::once(Arc::from(you.to_string()))
+        .chain(first)
         .try_for_each(|m| ws.write(Message::text(&*m)))
         .and_then(|()| ws.flush())
         .is_err()
@@ -53,7 +68,7 @@ pub fn serve(stream: TcpStream, leftover: Vec<u8>, hub: Arc<Hub>) {
         }
         match ws.read() {
             Ok(Message::Text(t)) => {
-                if let Err(e) = hub.handle(t.as_str()) {
+                if let Err(e) = hub.handle(&page.1, t.as_str()) {
                     let m = serde_json::json!({"type": "error", "text": e});
                     if ws.write(Message::text(m.to_string())).is_err() {
                         return;
