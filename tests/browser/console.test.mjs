@@ -9,7 +9,7 @@
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { spawn, execFileSync } from 'node:child_process';
-import { mkdtempSync, mkdirSync, rmSync, existsSync } from 'node:fs';
+import { mkdtempSync, mkdirSync, rmSync, existsSync, readFileSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join, resolve, dirname } from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -262,6 +262,8 @@ test('a square plan is uploaded, previewed and driven', async () => {
   await until('recording', async () => (await page.textContent('#record-note')).startsWith('recording to'));
   await page.click('#plan-run');
   await until('plan running', async () => (await text('plan-state')).startsWith('running'), 15000);
+  // Progress along the plan in plan time and percent (841 samples at 100 Hz: 8.4 s).
+  await until('progress', async () => /^running \d+\.\d \/ 8\.4 s \(\d+ %\)$/.test(await text('plan-state')), 5000, 20);
   let maxX = -Infinity, maxY = -Infinity;
   let shot = false;
   await until('plan done', async () => {
@@ -271,6 +273,8 @@ test('a square plan is uploaded, previewed and driven', async () => {
     return (await text('plan-state')).startsWith('done');
   }, 60000, 100);
   const end = await pose();
+  // The set-pose broke the trail (no line drawn across the jump).
+  assert.ok(+(await page.$eval('#map', (e) => e.dataset.trailBreaks)) >= 1, 'the trail was not broken at the set-pose');
   await page.click('[data-testid="record"]');
   const rec = await until('the recording closed', async () => (await events()).find((e) => /recorded \d+ telemetry frames to .*\.mcap/.test(e)));
   assert.ok(existsSync(rec.match(/to (\S+\.mcap)/)[1]), rec);
@@ -278,6 +282,28 @@ test('a square plan is uploaded, previewed and driven', async () => {
   assert.ok(Math.abs(maxY - 0.4) < 0.05 && Math.abs(maxX - 0.4) < 0.05, `corners reached: max x ${maxX}, max y ${maxY}`);
   assert.ok(Math.hypot(end.x, end.y) < 0.05, `back at the start: ${end.text}`);
   await page.screenshot({ path: join(shots, 'console-done.png'), fullPage: true });
+});
+
+test('a plan far from the robot runs only after a second click', async () => {
+  // The square shifted 0.5 m along x: its start is 0.5 m from the robot (back at the square's start).
+  const src = join(tmp, 'square.csv'), far = join(tmp, 'far.csv');
+  const lines = readFileSync(src, 'utf8').trim().split('\n');
+  const ix = lines[0].split(',').indexOf('x');
+  assert.ok(ix >= 0, lines[0]);
+  writeFileSync(far, [lines[0], ...lines.slice(1).map((l) => { const c = l.split(','); c[ix] = String(+c[ix] + 0.5); return c.join(','); })].join('\n') + '\n');
+  await page.setInputFiles('[data-testid="plan-upload"]', far);
+  await until('the far preview', async () => (await page.textContent('#plan-info')).startsWith('far.csv'));
+  await page.uncheck('#set-pose');
+  await page.click('#plan-run');
+  const warning = await until('the warning', async () => { const w = await page.$eval('[data-testid="plan-warning"]', (e) => !e.hidden && e.textContent); return w; });
+  assert.match(warning, /is 0\.5\d m from the plan's start .* Click again/);
+  await new Promise((r) => setTimeout(r, 500));
+  assert.equal(await text('mode'), 'idle', 'the first click drove');
+  assert.ok(!(await text('plan-state')).startsWith('uploading'));
+  await page.click('#plan-run');
+  await until('the plan runs after the second click', async () => (await text('plan-state')).startsWith('running'), 15000);
+  await page.click('#stop');
+  await until('stopped', async () => (await text('mode')) === 'idle', 10000);
 });
 
 // Last (it ends the robot): a robot that stops sending is shown as lost within two heartbeat

@@ -14,7 +14,8 @@ let last = null;           // newest telemetry
 let plan = null;           // plan being run / loaded: { name, points: [[x,y,h],...] }
 let planState = '';
 const TRAIL_MAX = 4000;    // trail points kept
-const trail = [];
+const trail = [];          // [x, y], or null where the estimate was set (no line across)
+let trailBreaks = 0;
 const truthTrail = [];
 const HISTORY_S = 20;      // plot window, s (robot time)
 const hist = [];           // { t, cmd[], meas[], err, twistErr }
@@ -64,7 +65,8 @@ function handle(m) {
     case 'record': recordState(m); break;
     case 'link': robot = m.robot || robot; setLink(m.state, m.detail, m); break;
     case 'telemetry': telemetry(m); break;
-    case 'plan': plan = m; planInfo(); break;
+    case 'plan': plan = m; disarm(); planInfo(); break;
+    case 'pose_set': trail.push(null); trailBreaks++; $('map').dataset.trailBreaks = trailBreaks; break;
     case 'plan_status': planStatus(m); break;
     case 'event': addEvent(m.level, m.text, m.robot_t); break;
     case 'error': addEvent('error', m.text, null); break;
@@ -178,6 +180,7 @@ function telemetry(m) {
   }
   const tl = trail.length ? trail[trail.length - 1] : null;
   if (!tl || Math.hypot(tl[0] - x, tl[1] - y) > 0.002) {
+    while (trail.length && trail[0] === null) trail.shift();
     trail.push([x, y]);
     if (trail.length > TRAIL_MAX) trail.shift();
   }
@@ -345,7 +348,29 @@ const drop = $('drop');
 drop.addEventListener('dragover', (e) => { e.preventDefault(); drop.classList.add('over'); });
 drop.addEventListener('dragleave', () => drop.classList.remove('over'));
 drop.addEventListener('drop', (e) => { e.preventDefault(); drop.classList.remove('over'); loadPlanFile(e.dataTransfer.files[0]); });
-$('plan-run').addEventListener('click', () => send({ type: 'plan_run', set_pose: $('set-pose').checked }));
+// A plan that starts away from the robot (beyond the console's --start-tolerance, without
+// "set pose") runs only after a second click: the robot would first drive itself to the start.
+// No modal dialog: E-STOP stays usable while the page asks.
+let armedUntil = 0;
+function disarm() { armedUntil = 0; $('plan-run').textContent = 'Run plan'; $('plan-warning').hidden = true; }
+$('set-pose').addEventListener('change', disarm);
+$('plan-run').addEventListener('click', () => {
+  const setPose = $('set-pose').checked;
+  const tol = config.start_tolerance_m ?? 0.1;
+  if (!setPose && plan && plan.points.length && last && performance.now() > armedUntil) {
+    const p0 = plan.points[0];
+    const d = Math.hypot(last.pose[0] - p0[0], last.pose[1] - p0[1]);
+    if (d > tol) {
+      armedUntil = performance.now() + 10000;
+      $('plan-warning').hidden = false;
+      $('plan-warning').textContent = `The robot is ${d.toFixed(2)} m from the plan's start (more than ${tol} m): it would first drive itself there. Click again within 10 s to drive anyway, or tick "set pose to the plan's start".`;
+      $('plan-run').textContent = 'Drive anyway';
+      return;
+    }
+  }
+  disarm();
+  send({ type: 'plan_run', set_pose: setPose });
+});
 
 function planInfo() {
   $('plan-info').textContent = `${plan.name}: ${plan.samples} samples, ${plan.duration_s.toFixed(1)} s, ${plan.length_m.toFixed(2)} m`;
@@ -354,9 +379,17 @@ function planInfo() {
 function planStatus(m) {
   planState = m.state;
   let s = m.state;
-  if (m.len) s += ` ${m.received}/${m.len} points`;
+  const el = $('plan-state');
+  if (m.state === 'running' && m.duration_s != null) {
+    // Progress along the plan, in plan time (the robot's clock since it began the plan).
+    const pc = m.duration_s > 0 ? Math.round(100 * m.elapsed_s / m.duration_s) : 100;
+    s += ` ${m.elapsed_s.toFixed(1)} / ${m.duration_s.toFixed(1)} s (${pc} %)`;
+    el.dataset.percent = pc;
+  } else if (m.state === 'uploading' && m.len) {
+    s += ` ${m.received}/${m.len} points`;
+  }
   if (m.detail) s += ` — ${m.detail}`;
-  $('plan-state').textContent = s;
+  el.textContent = s;
   $('plan-run').disabled = viewOnly() || !plan || m.state === 'uploading' || m.state === 'running';
 }
 
@@ -379,7 +412,7 @@ function drawMap() {
   // View: everything of interest, at least 1 m across, equal scale on both axes.
   const pts = [];
   if (plan) for (const p of plan.points) pts.push(p);
-  for (const p of trail) pts.push(p);
+  for (const p of trail) if (p) pts.push(p);
   if (last) pts.push(last.pose, last.reference);
   if (last && last.truth) pts.push(last.truth);
   let x0 = -0.5, x1 = 0.5, y0 = -0.5, y1 = 0.5;
@@ -411,7 +444,12 @@ function drawMap() {
   // Trail.
   if (trail.length > 1) {
     ctx.strokeStyle = 'rgba(13, 148, 136, 0.75)'; ctx.lineWidth = 4; ctx.beginPath();
-    trail.forEach((p, i) => (i ? ctx.lineTo(X(p[0]), Y(p[1])) : ctx.moveTo(X(p[0]), Y(p[1]))));
+    let pen = false;
+    for (const p of trail) {
+      if (!p) { pen = false; continue; }
+      if (pen) ctx.lineTo(X(p[0]), Y(p[1])); else ctx.moveTo(X(p[0]), Y(p[1]));
+      pen = true;
+    }
     ctx.stroke();
   }
   // The simulated truth's trail: thin and dashed under the estimate's.

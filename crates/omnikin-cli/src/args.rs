@@ -61,6 +61,11 @@ pub fn run_for_s(s: &str) -> Result<f64, String> {
     in_range(s, 0.0, 604_800.0, "s")
 }
 
+/// `drive plan --start-tolerance`, `console --start-tolerance`: 0 to 1000 m.
+pub fn start_tolerance_m(s: &str) -> Result<f64, String> {
+    in_range(s, 0.0, 1000.0, "m")
+}
+
 /// `robot --rate`: the control rate, 1 to 10000 Hz.
 pub fn control_rate_hz(s: &str) -> Result<f64, String> {
     in_range(s, 1.0, 10_000.0, "Hz")

@@ -94,6 +94,14 @@ pub enum DriveAction {
         /// Before starting, set the robot's pose estimate to the plan's first pose.
         #[arg(long)]
         set_pose: bool,
+        /// Without --set-pose, a robot whose estimate is farther than this from the plan's
+        /// start (m) would first drive itself there: `drive` asks before it does (or refuses
+        /// when it cannot ask: stdin is not a terminal), unless --yes.
+        #[arg(long, value_name = "METERS", default_value_t = 0.1, allow_hyphen_values = true, value_parser = crate::args::start_tolerance_m)]
+        start_tolerance: f64,
+        /// Drive a plan whose start is beyond --start-tolerance without asking.
+        #[arg(long)]
+        yes: bool,
     },
     /// Controlled stop within the acceleration limits.
     Stop,
@@ -774,9 +782,16 @@ pub fn run(a: &DriveArgs) -> Result<()> {
             plan,
             out,
             set_pose,
+            start_tolerance,
+            yes,
         } => {
             s.record(out.as_deref())?;
-            follow_plan(&mut s, plan, *set_pose)?;
+            let start = StartCheck {
+                set_pose: *set_pose,
+                tolerance_m: *start_tolerance,
+                yes: *yes,
+            };
+            follow_plan(&mut s, plan, start)?;
         }
         DriveAction::Stop => {
             s.hello()?;
@@ -874,12 +889,69 @@ pub fn plan_points(plan: &Plan, cap: usize) -> Vec<WirePoint> {
         .collect()
 }
 
-fn follow_plan(s: &mut Session, path: &Path, set_pose: bool) -> Result<()> {
+/// How `drive plan` treats a plan that does not start where the robot is.
+#[derive(Debug, Clone, Copy)]
+struct StartCheck {
+    /// `--set-pose`: the pose estimate becomes the plan's start (nothing to check).
+    set_pose: bool,
+    /// `--start-tolerance`, m.
+    tolerance_m: f64,
+    /// `--yes`: drive without asking.
+    yes: bool,
+}
+
+/// Before a plan is driven without `--set-pose`: the robot's estimate (from its telemetry)
+/// against the plan's first pose. Beyond the tolerance the robot would first drive itself
+/// across to the start, so the operator is asked (a terminal) or the run is refused.
+/// Waits for the robot's telemetry first (its pose, and its clock for the `/plan` message of
+/// `--mcap`).
+fn check_plan_start(s: &mut Session, start: [f64; 2], c: StartCheck) -> Result<()> {
+    s.until(&Message::Heartbeat, "telemetry (the robot's pose)", |s| {
+        s.latest.is_some()
+    })?;
+    if c.set_pose {
+        return Ok(());
+    }
+    let t = s.latest.context("no telemetry")?;
+    let d = (f64::from(t.pose[0]) - start[0]).hypot(f64::from(t.pose[1]) - start[1]);
+    if d <= c.tolerance_m {
+        return Ok(());
+    }
+    let what = format!(
+        "the robot's estimate ({:.3}, {:.3}) is {d:.3} m from the plan's start ({:.3}, {:.3}), more than --start-tolerance {} m: it would first drive itself there",
+        t.pose[0], t.pose[1], start[0], start[1], c.tolerance_m
+    );
+    if c.yes {
+        crate::errln!("drive: {what} (--yes: driving anyway)");
+        return Ok(());
+    }
+    use std::io::IsTerminal;
+    if !std::io::stdin().is_terminal() {
+        bail!(
+            "{what}. Refused: pass --set-pose to start from the plan's first pose, --yes to drive there, or a larger --start-tolerance"
+        );
+    }
+    crate::errln!("drive: {what}. Drive anyway? [y/N] ");
+    let mut answer = String::new();
+    // The robot's watchdog stops it while we wait: nothing moves before the answer.
+    std::io::stdin()
+        .read_line(&mut answer)
+        .context("reading the answer")?;
+    if !matches!(answer.trim(), "y" | "Y" | "yes") {
+        bail!("not driven: the plan's start is {d:.3} m from the robot");
+    }
+    Ok(())
+}
+
+fn follow_plan(s: &mut Session, path: &Path, start: StartCheck) -> Result<()> {
+    let set_pose = start.set_pose;
     let plan = Plan::load_csv(path).with_context(|| format!("plan {}", path.display()))?;
     if plan.samples.len() < 2 {
         bail!("plan {}: needs at least 2 samples", path.display());
     }
     let info = s.hello()?;
+    let p0 = plan.samples[0].pose;
+    check_plan_start(s, [p0.x, p0.y], start)?;
     if info.plan_capacity == 0 {
         return stream_plan(s, &plan, set_pose);
     }

@@ -419,6 +419,40 @@ fn robot_and_drive_mcap_match_their_csv_logs_and_convert_round_trips() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `drive plan --mcap`: the `/plan` message is stamped at the robot's clock when the plan
+/// was sent, within the telemetry's times (issue 33 saw it at 0 while the robot's clock was at
+/// 2.05 s; since protocol 3 the session is confirmed by telemetry, so the stamp is known, and
+/// `drive plan` now waits for telemetry before it sends anything: this guards both).
+#[test]
+fn drive_plan_mcap_stamps_the_plan_at_robot_time() {
+    let dir = tmp("drive-plan");
+    let plan = square_plan(&dir);
+    let robot = Robot::start(&["--max-time", "24"]);
+    // Let the robot's clock run (8x real time: about 2.4 s of robot time).
+    std::thread::sleep(Duration::from_millis(300));
+    let dmcap = dir.join("drive.mcap");
+    let out = common::drive(
+        &robot.addr,
+        "2",
+        &["--mcap", p(&dmcap), "plan", p(&plan), "--set-pose"],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    robot.summary();
+    let msgs = read(&dmcap);
+    let plans = on(&msgs, "/plan");
+    assert_eq!(plans.len(), 1);
+    let first_pose = on(&msgs, "/pose")[0].log_time;
+    assert!(
+        first_pose > 1_000_000_000 && plans[0].log_time >= first_pose,
+        "/plan at {} ns, first /pose at {first_pose} ns",
+        plans[0].log_time
+    );
+}
+
 #[test]
 fn killed_robot_leaves_an_mcap_readable_to_its_last_chunk() {
     let dir = tmp("kill");

@@ -95,6 +95,55 @@ fn square_plan_is_followed_over_the_link() {
     assert!(tp[0].as_f64().unwrap().abs() < 1e-4 && tp[1].as_f64().unwrap().abs() < 1e-4);
 }
 
+/// A plan whose start is 0.5 m from the robot: without --set-pose, `drive plan` refuses it
+/// (stdin is not a terminal, so it cannot ask) and the robot does not move; --yes drives it.
+#[test]
+fn a_plan_far_from_the_robot_is_asked_for() {
+    let dir = tmp("far");
+    let square = square_plan(&dir);
+    // The square moved 0.5 m along +x (the robot starts at the origin).
+    let text = std::fs::read_to_string(&square).unwrap();
+    let mut lines = text.lines();
+    let head = lines.next().unwrap();
+    let ix = head.split(',').position(|c| c == "x").unwrap();
+    let mut far = format!("{head}\n");
+    for l in lines {
+        let mut c: Vec<String> = l.split(',').map(str::to_string).collect();
+        c[ix] = (c[ix].parse::<f64>().unwrap() + 0.5).to_string();
+        far.push_str(&c.join(","));
+        far.push('\n');
+    }
+    let far_csv = dir.join("far.csv");
+    std::fs::write(&far_csv, far).unwrap();
+    let robot = Robot::start(&["--max-time", "24"]);
+    let out = drive(&robot.addr, &["plan", far_csv.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains(
+            "is 0.500 m from the plan's start (0.500, 0.000), more than --start-tolerance 0.1 m"
+        ) && err.contains("--set-pose")
+            && err.contains("--yes"),
+        "{err}"
+    );
+    assert!(!String::from_utf8_lossy(&out.stdout).contains("uploaded plan"));
+    // A larger tolerance, or --yes: driven (the robot first drives itself to the start).
+    let out = drive(&robot.addr, &["plan", far_csv.to_str().unwrap(), "--yes"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--yes: driving anyway"));
+    let summary = robot.summary();
+    assert_eq!(summary["plan"]["done"], true);
+    let tp = &summary["true_pose"];
+    assert!(
+        (tp[0].as_f64().unwrap() - 0.5).abs() < 0.05 && tp[1].as_f64().unwrap().abs() < 0.05,
+        "ends at the far square's start: {tp}"
+    );
+}
+
 #[test]
 fn hardware_disturbances_odometry_follows_truth_drifts() {
     let dir = tmp("hardware");

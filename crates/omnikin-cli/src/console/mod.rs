@@ -69,6 +69,11 @@ pub struct ConsoleArgs {
     /// (e.g. 127.0.0.1:8765; port 0: any free port), with the channels of the MCAP logs.
     #[arg(long, value_name = "ADDR")]
     pub foxglove: Option<String>,
+    /// A plan whose start is farther than this from the robot's estimate (m) runs only after
+    /// a second click on the page (the robot would first drive itself there), unless "set
+    /// pose to the plan's start" is ticked.
+    #[arg(long, value_name = "METERS", default_value_t = 0.1, allow_hyphen_values = true, value_parser = crate::args::start_tolerance_m)]
+    pub start_tolerance: f64,
     /// Stop after this many seconds (wall clock; default: until Ctrl-C).
     #[arg(long = "for", value_name = "SECONDS", allow_hyphen_values = true, value_parser = crate::args::run_for_s)]
     pub duration: Option<f64>,
@@ -155,7 +160,7 @@ pub fn run(a: &ConsoleArgs) -> Result<()> {
     let (hub, rx) = Hub::new();
     hub.publish(
         &serde_json::json!({"type": "config", "speed": a.speed, "turn": a.turn,
-            "heartbeat_hz": a.heartbeat, "mcap": true,
+            "heartbeat_hz": a.heartbeat, "mcap": true, "start_tolerance_m": a.start_tolerance,
             "record_dir": a.record_dir.display().to_string()}),
         Some("config"),
     );

@@ -97,7 +97,16 @@ struct Upload {
 struct Follow {
     id: u16,
     max_dev: f32,
+    /// Robot time when the robot began the plan, µs.
+    start_us: u64,
+    /// The plan's duration, s (its last point's time).
+    duration_s: f64,
+    /// Plan time of the last progress sent to the pages, s.
+    shown_s: f64,
 }
+
+/// Progress along a plan is sent to the pages at most this often, s of plan time.
+const PROGRESS_EVERY_S: f64 = 0.1;
 
 /// A message sent until telemetry confirms it: the first sequence number it went out with.
 #[derive(Clone, Copy)]
@@ -569,6 +578,19 @@ impl Relay {
             if t.mode == Mode::Trajectory {
                 let d = (t.pose[0] - t.reference[0]).hypot(t.pose[1] - t.reference[1]);
                 f.max_dev = f.max_dev.max(d);
+                // Progress in plan time: the robot's clock since it began the plan.
+                let elapsed =
+                    (t.time_us.saturating_sub(f.start_us) as f64 * 1e-6).min(f.duration_s);
+                if elapsed - f.shown_s >= PROGRESS_EVERY_S {
+                    f.shown_s = elapsed;
+                    let (elapsed_s, duration_s) = (elapsed, f.duration_s);
+                    self.hub.publish(
+                        &json!({"type": "plan_status", "state": "running", "detail": "",
+                            "received": t.plan.received, "len": t.plan.len,
+                            "elapsed_s": elapsed_s, "duration_s": duration_s}),
+                        Some("plan_status"),
+                    );
+                }
             } else if t.plan.id == f.id && t.plan.done && t.mode == Mode::Idle {
                 let msg = format!(
                     "plan {} done: max |pose - reference| {:.4} m; end pose ({:.3}, {:.3}, {:.3})",
@@ -638,8 +660,13 @@ impl Relay {
             }),
             Step::SetPose => {
                 let p = u.pts[0].pose;
-                ((t.pose[0] - p[0]).abs() < 1e-4 && (t.pose[1] - p[1]).abs() < 1e-4)
-                    .then_some(Step::Begin)
+                let set = (t.pose[0] - p[0]).abs() < 1e-4 && (t.pose[1] - p[1]).abs() < 1e-4;
+                if set {
+                    // The estimate jumped on purpose: the pages break the trail here.
+                    self.hub
+                        .publish(&json!({"type": "pose_set", "pose": p}), None);
+                }
+                set.then_some(Step::Begin)
             }
             Step::Begin => (t.plan.id == u.id && t.plan.len == n).then_some(Step::Chunk(0)),
             Step::Chunk(have) => {
@@ -659,8 +686,15 @@ impl Relay {
             Step::Start => {
                 if t.mode == Mode::Trajectory || (t.plan.done && t.plan.id == u.id) {
                     let (id, secs) = (u.id, u.began.elapsed().as_secs_f64());
+                    let duration_s = u.pts.last().map_or(0.0, |p| f64::from(p.t - u.pts[0].t));
                     self.upload = None;
-                    self.follow = Some(Follow { id, max_dev: 0.0 });
+                    self.follow = Some(Follow {
+                        id,
+                        max_dev: 0.0,
+                        start_us: t.time_us,
+                        duration_s,
+                        shown_s: 0.0,
+                    });
                     self.event(
                         "info",
                         &format!("plan {id} uploaded in {secs:.2} s and started"),
