@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use omnikin::link::{
     CHUNK_POINTS, DropReason, EndReason, Estimate, Key, MAX_FRAME, Message, OperatorEvent,
-    OperatorLink, PROTOCOL_VERSION, RobotInfo, SimTruth, Telemetry, WirePoint, v1,
+    OperatorLink, PROTOCOL_VERSION, RobotInfo, RobotKind, SimTruth, Telemetry, WirePoint, v1,
 };
 use omnikin::runtime::{Frame, Mode};
 use omnikin_plan::Plan;
@@ -286,10 +286,23 @@ struct Session {
     /// operator's key or came from the robot's own address.
     v1_answer: Option<V1Answer>,
     log: Option<crate::output::OutFile>,
+    /// The `--out` log's columns: (wheels, steer motors), from the first telemetry frame and
+    /// the robot's kind; the header is written then.
+    log_layout: Option<(usize, bool)>,
     mcap: Option<crate::mcap_log::McapLog>,
     frames: u64,
     heartbeat: Duration,
     timeout: Duration,
+}
+
+impl Drop for Session {
+    /// On every other exit path (an error, Ctrl-C): the log's header if it has none yet; the
+    /// log itself is then kept by its own drop (crate::output).
+    fn drop(&mut self) {
+        if let Err(e) = self.log_header_if_none() {
+            crate::errln!("warning: --out: cannot write: {e}");
+        }
+    }
 }
 
 impl Session {
@@ -323,6 +336,7 @@ impl Session {
             last_telemetry: None,
             v1_answer: None,
             log: None,
+            log_layout: None,
             mcap,
             frames: 0,
             heartbeat: crate::args::duration("--heartbeat", 1.0 / a.heartbeat)?,
@@ -332,13 +346,10 @@ impl Session {
 
     fn record(&mut self, out: Option<&Path>) -> Result<()> {
         if let Some(p) = out {
-            // The log is kept on every exit path, Ctrl-C included (see crate::output).
-            // Every kind in one layout: MAX_WHEELS wheel and steer columns (zero past the
-            // robot's wheel count, which telemetry's `wheels` names).
-            let mut w = crate::output::OutFile::log("--out", p)?;
-            writeln!(w, "{}", telemetry_header(omnikin::MAX_WHEELS, true))
-                .context("--out: cannot write")?;
-            self.log = Some(w);
+            // The log is kept on every exit path, Ctrl-C included (see crate::output). Its
+            // header waits for the first telemetry frame: one column per wheel the robot has
+            // (telemetry's `wheels`), steer columns only for kinds with steer motors.
+            self.log = Some(crate::output::OutFile::log("--out", p)?);
             crate::output::catch_signals()?;
         }
         Ok(())
@@ -388,11 +399,24 @@ impl Session {
                         self.latest = Some(t);
                     }
                     if let Some(w) = self.log.as_mut() {
+                        let (wheels, steer) = match self.log_layout {
+                            Some(l) => l,
+                            None => {
+                                let steer = self.op.info().is_some_and(|i| {
+                                    matches!(i.kind, RobotKind::Caster | RobotKind::Swerve)
+                                });
+                                let l = (usize::from(t.wheels).min(omnikin::MAX_WHEELS), steer);
+                                writeln!(w, "{}", telemetry_header(l.0, l.1))
+                                    .context("--out: cannot write")?;
+                                self.log_layout = Some(l);
+                                l
+                            }
+                        };
                         let e = self.estimate.as_ref().filter(|e| e.time_us == t.time_us);
                         writeln!(
                             w,
                             "{}{}",
-                            telemetry_row(&t, omnikin::MAX_WHEELS, true),
+                            telemetry_row(&t, wheels, steer),
                             estimate_cells(e)
                         )
                         .context("--out: cannot write")?;
@@ -637,9 +661,22 @@ impl Session {
         if let Some(m) = self.mcap.take() {
             m.finish()?;
         }
+        self.log_header_if_none().context("--out: cannot write")?;
         match self.log.take() {
             Some(w) => w.commit(),
             None => Ok(()),
+        }
+    }
+
+    /// A log that never saw telemetry still gets a header (no wheel columns: none is known),
+    /// so that an interrupted or failed run leaves a well-formed, empty CSV.
+    fn log_header_if_none(&mut self) -> std::io::Result<()> {
+        match (self.log.as_mut(), self.log_layout) {
+            (Some(w), None) => {
+                self.log_layout = Some((0, false));
+                writeln!(w, "{}", telemetry_header(0, false))
+            }
+            _ => Ok(()),
         }
     }
 

@@ -458,13 +458,11 @@ fn mecanum_and_swerve_drive_velocity_and_plans_over_the_link() {
             rows[0].contains_key(&format!("w{wheels}")),
             "{name}: wheel columns"
         );
-        // One log layout for every kind (MAX_WHEELS columns each, zero past the wheel count).
-        assert!(rows[0].contains_key(&format!("s{wheels}")), "{name}");
-        assert!(
-            rows.iter()
-                .all(|r| num(r, &format!("w{}", omnikin::MAX_WHEELS)) == 0.0),
-            "{name}: columns past the wheel count are zero"
-        );
+        // One column per wheel the robot has, steer columns only for kinds with steer motors.
+        assert!(!rows[0].contains_key(&format!("w{}", wheels + 1)), "{name}");
+        assert!(!rows[0].contains_key(&format!("q{}", wheels + 1)), "{name}");
+        assert_eq!(rows[0].contains_key(&format!("s{wheels}")), steer, "{name}");
+        assert_eq!(rows[0].contains_key("s1"), steer, "{name}");
         let fastest = rows.iter().map(|r| num(r, "vx")).fold(0.0, f64::max);
         assert!(
             (fastest - 0.2).abs() < 2e-3,
@@ -480,6 +478,7 @@ fn mecanum_and_swerve_drive_velocity_and_plans_over_the_link() {
             &[
                 "plan",
                 plan.to_str().unwrap(),
+                "--set-pose",
                 "--out",
                 ptele.to_str().unwrap(),
             ],
