@@ -676,7 +676,9 @@ pub struct ReproduceArgs {
     pub experiment: Experiment,
     /// Output directory (created): table.md, table.csv, metrics.json, one figure per series.
     /// Default: the per-user data directory, `$XDG_DATA_HOME/omnikin/reproduce-sphere-2019`
-    /// (`~/.local/share/omnikin/…` on Linux), never the current directory.
+    /// (`~/.local/share/omnikin/…` on Linux), never the current directory; a run there
+    /// replaces the previous run's files (a directory given here is never replaced without
+    /// --force).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Monte-Carlo trials per series and disturbance profile (the paper ran 3).
@@ -756,10 +758,23 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
         );
     }
     let start = std::time::Instant::now();
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| crate::data_dir::reproduce_default("sphere-2019"));
+    let out = match &a.out {
+        Some(p) => p.clone(),
+        None => {
+            // The default directory is omnikin's own: a new run replaces the files the last
+            // run wrote there (an --out of the user's keeps the rule: nothing replaced
+            // without --force).
+            let d = crate::data_dir::reproduce_default("sphere-2019");
+            if std::fs::read_dir(&d).is_ok_and(|mut e| e.next().is_some()) {
+                crate::errln!(
+                    "reproduce: replacing the previous results in {} (the default --out)",
+                    d.display()
+                );
+                crate::output::set_force(true);
+            }
+            d
+        }
+    };
     let d = RobotDescription::preset("sphere-omni").context("the sphere-omni preset is missing")?;
     let robot = d.build::<f64>()?;
     let series = rp::sphere_2019_series(&d, a.rate)?;

@@ -326,6 +326,43 @@ fn reproduce_sphere_2019_writes_the_table_and_figures() {
     assert!(out.join("table.md").exists() && out.join("metrics.json").exists());
 }
 
+/// The README's first command runs twice in a row: without --out, reproduce replaces its own
+/// previous results in the per-user data directory; an --out of the user's is not replaced
+/// without --force.
+#[test]
+fn reproduce_twice_replaces_its_own_default_output_only() {
+    let d = tmp("repro-twice");
+    let quick = [
+        "reproduce",
+        "sphere-2019",
+        "--trials",
+        "1",
+        "--dynamic-trials",
+        "0",
+        "--profiles",
+        "ideal",
+    ];
+    let run = || omnikin().env("XDG_DATA_HOME", &d).args(quick).assert();
+    run().success();
+    let table = d.join("omnikin/reproduce-sphere-2019/table.md");
+    let first = std::fs::metadata(&table).unwrap().modified().unwrap();
+    run().success().stderr(predicate::str::contains(
+        "replacing the previous results in",
+    ));
+    assert!(std::fs::metadata(&table).unwrap().modified().unwrap() >= first);
+    let mine = d.join("mine");
+    let with_out = || {
+        omnikin()
+            .args(quick)
+            .args(["--out", mine.to_str().unwrap()])
+            .assert()
+    };
+    with_out().success();
+    with_out()
+        .failure()
+        .stderr(predicate::str::contains("not replaced without --force"));
+}
+
 #[test]
 fn reproduce_profiles_selects_what_runs_without_changing_its_numbers() {
     let d = tmp("repro-profiles");
