@@ -12,9 +12,20 @@ use crate::{CheckArgs, ForwardArgs, InverseArgs, TorquesArgs};
 
 /// Loads `ROBOT` (preset or file) and builds its f64 model.
 fn load(robot: &str) -> Result<(RobotDescription, Robot<f64>)> {
-    let d = RobotDescription::resolve(robot)?;
+    let d = resolve_robot(robot)?;
     let m = d.build::<f64>()?;
     Ok((d, m))
+}
+
+/// `ROBOT` (a preset name or a robot file), with its plausibility warnings printed on stderr
+/// (radians in a `_deg` key, proportions no robot has: see
+/// [`RobotDescription::plausibility`]). Every command that reads a robot goes through here.
+pub fn resolve_robot(robot: &str) -> Result<RobotDescription> {
+    let d = RobotDescription::resolve(robot)?;
+    for w in d.plausibility() {
+        crate::errln!("warning: {}: {w}", d.source_name);
+    }
+    Ok(d)
 }
 
 fn fmt3(label: &str, v: [f64; 3]) -> String {
@@ -357,15 +368,21 @@ fn print_limits(l: &Limits) -> Result<()> {
 
 pub fn check(a: &CheckArgs) -> Result<()> {
     let (d, robot) = load(&a.robot)?;
+    let warnings = d.plausibility();
     let mut j = json!({
         "name": d.name, "kind": d.kind(), "source": d.source_name, "valid": true,
-        "wheels": robot.wheels(), "motors": robot.motors(),
+        "wheels": robot.wheels(), "motors": robot.motors(), "warnings": warnings,
     });
     let mut text = format!(
-        "robot: {} ({}, {}): valid\n",
+        "robot: {} ({}, {}): valid{}\n",
         d.name,
         d.kind(),
-        d.source_name
+        d.source_name,
+        match warnings.len() {
+            0 => String::new(),
+            1 => ", with 1 warning (above)".into(),
+            n => format!(", with {n} warnings (above)"),
+        }
     );
     robot
         .describe(&mut text)

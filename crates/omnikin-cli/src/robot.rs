@@ -188,7 +188,7 @@ pub fn run(a: &RobotArgs) -> Result<()> {
             "--sim is required: on a real robot the runtime runs in firmware (examples/firmware-cortex-m4)"
         );
     }
-    let desc = RobotDescription::resolve(&a.robot)?;
+    let desc = crate::kinematics::resolve_robot(&a.robot)?;
     let mut sim = SimRobot::new(a, &desc)?;
     let key = a.key.as_deref().map(load_key).transpose()?;
     let addr = parse_address(&a.listen, "--listen")?;

@@ -374,7 +374,7 @@ pub fn warn_unused_sections(profile: &Profile, robot: &omnikin::Robot<f64>, file
 }
 
 pub fn simulate(a: &SimulateArgs) -> Result<()> {
-    let d = RobotDescription::resolve(&a.robot)?;
+    let d = crate::kinematics::resolve_robot(&a.robot)?;
     let robot = d.build::<f64>()?;
     let plan = Plan::load_csv(&a.plan)?;
     if a.shard.is_some() && a.plant == PlantKind::Dynamic {

@@ -90,6 +90,7 @@ pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
     let (d, robot) = load_robot(&a.common.robot)?;
     let file = a.file.display().to_string();
     let wp = Waypoints::load(&a.file)?;
+    heading_unit_warning(&wp, &file);
     let path = match (a.path, a.corners) {
         (PathArg::Spline, _) => Path::spline(&wp.points),
         (PathArg::Polyline, CornerArg::Stop) => Path::polyline(&wp.points, Corners::Stop),
@@ -165,6 +166,25 @@ pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
         })
     })?;
     finish_leaning(&a.common, &d, &robot, &what, &planned, lean)
+}
+
+/// A waypoint heading beyond ±2π is valid (the planner turns that far) but is far more often
+/// degrees typed where radians are read: said once, for the first such waypoint.
+fn heading_unit_warning(wp: &Waypoints, file: &str) {
+    let Some(h) = &wp.headings else { return };
+    if let Some((i, v)) = h
+        .iter()
+        .enumerate()
+        .find(|(_, v)| v.abs() > std::f64::consts::TAU)
+    {
+        crate::errln!(
+            "warning: {file}:{}: heading {v} is read in radians ({:.1}°, {:.1} turns); headings are radians: if {v}° was meant, write {:.4}",
+            wp.lines[i],
+            v.to_degrees(),
+            v / std::f64::consts::TAU,
+            v.to_radians()
+        );
+    }
 }
 
 /// The heading law of `omnikin plan waypoints` and its description: `--heading-law` (by
@@ -247,7 +267,7 @@ fn finish_leaning(
 }
 
 fn load_robot(robot: &str) -> Result<(RobotDescription, RobotModel)> {
-    let d = RobotDescription::resolve(robot)?;
+    let d = crate::kinematics::resolve_robot(robot)?;
     let m = RobotModel::from_description(&d)?;
     Ok((d, m))
 }

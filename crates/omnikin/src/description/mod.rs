@@ -49,6 +49,7 @@ use crate::{Kind, Real, Robot};
 mod ballbot_dynamics;
 mod dynamics;
 pub mod events;
+mod plausibility;
 mod schema;
 
 pub use ballbot_dynamics::{
