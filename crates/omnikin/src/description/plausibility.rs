@@ -179,6 +179,8 @@ mod tests {
     }
 
     #[test]
+    // The approximations are the point: what people type for π/2 and π/4.
+    #[allow(clippy::approx_constant)]
     fn small_degree_angles_that_are_not_radian_idioms_pass() {
         // A 5° tilt and zero roller angles: all below 2π, but no π/12 multiple.
         assert_eq!(looks_like_radians(5.0), None);
