@@ -377,11 +377,14 @@ proptest! {
         connect(&mut op, &mut bot, &mut rng);
         let mut f = op_tx(&mut op, &msg);
         let i = pos.index(f.len() - 1);
+        let was = f[i];
         f[i] ^= x;
         if f[i] == 0 {
-            // A new delimiter would make two frames; keep it one corrupt frame.
-            f[i] = 0x80;
+            // A new delimiter would make two frames; keep it one corrupt frame (and a changed
+            // one: 0x80 ^ 0x80 turned back into 0x80 once, an unchanged frame rightly accepted).
+            f[i] = if was == 0x80 { 0x81 } else { 0x80 };
         }
+        prop_assert_ne!(f[i], was);
         let (r, _) = bot.rx(&f);
         prop_assert!(r.is_err(), "corrupt frame accepted: {:?}", r);
         prop_assert_eq!(bot.link.counters().dropped(), 1);
