@@ -644,3 +644,51 @@ fn set_pose_restarts_the_fusion_filter() {
     assert_eq!(st.fixes.rejected, fused.rejected);
     assert!(st.pose.x > st.odometry.x, "pulled toward the fix");
 }
+
+/// `reset` makes a used runtime (a plan uploaded and followed, fixes fused, an e-stop latched,
+/// rejections counted) exactly the one `new` builds for another robot, configuration and
+/// pose — every field, as its debug form shows; a bad configuration changes nothing.
+#[test]
+fn reset_in_place_equals_a_new_runtime() {
+    use omnikin::runtime::CameraFix;
+    let mut rig = Rig::new(sphere(), Config::new(100.0));
+    upload(&mut rig, 1, &plan_points(0.05));
+    rig.cmd(Command::PlanStart { id: 1 }).unwrap();
+    rig.run(50, true);
+    for _ in 0..5 {
+        let st = rig.run(10, true);
+        rig.cmd(Command::Fix(CameraFix {
+            capture_us: rig.now - 5 * DT_US,
+            x: st.odometry.x,
+            y: st.odometry.y + 0.01,
+            heading: Some(st.odometry.heading),
+            std_xy: 0.01,
+            std_heading: 0.05,
+        }))
+        .unwrap();
+    }
+    assert!(rig.cmd(vel(f64::NAN, 0.0, 0.0)).is_err());
+    rig.cmd(Command::EStop).unwrap();
+    let st = rig.run(5, true);
+    assert!(st.fixes.accepted > 0 && st.rejected > 0 && st.mode == Mode::EStop);
+
+    let caster = Robot::Caster(Caster3::new(CasterParams::preset()).unwrap());
+    let mut cfg = Config::new(200.0);
+    cfg.watchdog = 0.3;
+    cfg.fusion.max_latency = 0.5;
+    let pose = Pose2::new(1.0, -2.0, 0.5);
+    let fresh = Runtime::<f64, 512>::new(caster, cfg, pose).unwrap();
+    assert_ne!(format!("{:?}", rig.rt), format!("{fresh:?}"));
+    rig.rt.reset(caster, cfg, pose).unwrap();
+    assert_eq!(format!("{:?}", rig.rt), format!("{fresh:?}"));
+
+    let mut bad = cfg;
+    bad.rate_hz = -1.0;
+    let before = format!("{:?}", rig.rt);
+    assert!(rig.rt.reset(sphere(), bad, Pose2::default()).is_err());
+    assert_eq!(
+        format!("{:?}", rig.rt),
+        before,
+        "unchanged by a refused reset"
+    );
+}

@@ -11,9 +11,15 @@
 //! 0.2 m/s and cut the link. Then the ballbot's balance controller ([`balance`]) balances its
 //! linearised planar models from a 5° lean. The results go out over semihosting; the exit code says whether
 //! every check passed.
+//!
+//! **Memory.** The runtime and the link state live in `static`s (`.bss`), built once at boot
+//! ([`boot`]) and reset in place for each robot ([`Runtime::reset`]), so the robots' runs keep
+//! only the cycle's frames on the stack. The report gives the peak stack of the boot
+//! (building the runtime) and of the runs separately.
 #![no_std]
 #![no_main]
 
+use core::mem::MaybeUninit;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use omnikin::ballbot::{Ballbot, BallbotParams};
@@ -26,7 +32,7 @@ use omnikin::runtime::hal::{
     EncoderAngles, Encoders, Entropy, EntropyError, MotorCommand, MotorOutputs, NoImu, StepOutputs,
     Steppers,
 };
-use omnikin::runtime::{Config, Frame, Mode, PlanPoint, Runtime};
+use omnikin::runtime::{Config, ConfigError, Frame, Mode, PlanPoint, Runtime};
 use omnikin::sphere::{SphereOmni, SphereParams};
 use omnikin::{MAX_WHEELS, Pose2, Robot, Twist2, se2};
 use panic_semihosting as _;
@@ -137,7 +143,8 @@ impl Entropy for TestOnlyEntropy {
     }
 }
 
-/// The operator's frames, delivered byte by byte through the robot's frame reader.
+/// The operator's frames, delivered byte by byte through the robot's frame reader: the link
+/// state, in a `static` beside the runtime ([`main`]).
 struct Wire {
     operator: OperatorLink,
     robot: RobotLink,
@@ -149,6 +156,30 @@ struct Wire {
 }
 
 impl Wire {
+    /// Both ends of a new link with `key` (no session), for a robot that answers `info`.
+    fn new(key: Key, info: RobotInfo) -> Self {
+        Wire {
+            operator: OperatorLink::new(Some(key.clone())),
+            robot: RobotLink::new(Some(key)),
+            info,
+            rng: TestOnlyEntropy(0x2545_f491),
+            reader: FrameReader::new(),
+            buf: [0; MAX_FRAME],
+            reply: [0; MAX_FRAME],
+        }
+    }
+
+    /// [`Wire::new`] in place (no second link state on the stack).
+    fn restart(&mut self, key: Key, info: RobotInfo) {
+        self.operator = OperatorLink::new(Some(key.clone()));
+        self.robot = RobotLink::new(Some(key));
+        self.info = info;
+        self.rng = TestOnlyEntropy(0x2545_f491);
+        self.reader = FrameReader::new();
+        self.buf.fill(0);
+        self.reply.fill(0);
+    }
+
     /// Feeds `self.buf[..n]` to the robot; returns the length of a HelloAck it answered.
     fn deliver(&mut self, n: usize, rt: &mut Runtime<f32, PLAN_CAPACITY>, now: u64) -> usize {
         let (robot, info, rng, reply) =
@@ -231,23 +262,18 @@ struct Outcome {
     rejected: u32,
 }
 
-fn run(robot: Robot<f32>, config: Config<f32>, steps_per_rad: Option<f32>) -> Option<Outcome> {
-    // Taken out of the Result in place: `.ok()?` would move the 22 kB runtime into an Option
-    // first, a second copy on the stack.
-    let Ok(mut rt) = Runtime::<f32, PLAN_CAPACITY>::new(robot, config, Pose2::default()) else {
-        return None;
-    };
+/// One robot's drive on the runtime and link that live in `static`s ([`main`]): `rt` is reset
+/// in place for `robot`, `wire` restarted with a new link.
+fn run(
+    rt: &mut Runtime<f32, PLAN_CAPACITY>,
+    wire: &mut Wire,
+    robot: Robot<f32>,
+    config: Config<f32>,
+    steps_per_rad: Option<f32>,
+) -> Option<Outcome> {
+    rt.reset(robot, config, Pose2::default()).ok()?;
     let key = Key::new(b"omnikin firmware example key!!").ok()?;
-    let info = robot_info(&rt, true);
-    let mut wire = Wire {
-        operator: OperatorLink::new(Some(key.clone())),
-        robot: RobotLink::new(Some(key)),
-        info,
-        rng: TestOnlyEntropy(0x2545_f491),
-        reader: FrameReader::new(),
-        buf: [0; MAX_FRAME],
-        reply: [0; MAX_FRAME],
-    };
+    wire.restart(key, robot_info(rt, true));
     let mut plant = Plant::new(steps_per_rad);
     let mut now = 0u64;
     let cycle = |rt: &mut Runtime<f32, PLAN_CAPACITY>, plant: &mut Plant, now: &mut u64| {
@@ -267,7 +293,7 @@ fn run(robot: Robot<f32>, config: Config<f32>, steps_per_rad: Option<f32>) -> Op
 
     // Upload and follow the plan.
     let pts = plan();
-    if !wire.connect(&mut rt, now) {
+    if !wire.connect(rt, now) {
         return None;
     }
     wire.send(
@@ -275,7 +301,7 @@ fn run(robot: Robot<f32>, config: Config<f32>, steps_per_rad: Option<f32>) -> Op
             id: 1,
             len: PLAN_POINTS as u16,
         },
-        &mut rt,
+        rt,
         now,
     );
     for (k, c) in pts.chunks(CHUNK_POINTS).enumerate() {
@@ -288,16 +314,16 @@ fn run(robot: Robot<f32>, config: Config<f32>, steps_per_rad: Option<f32>) -> Op
             offset: (k * CHUNK_POINTS) as u16,
             points: v,
         };
-        wire.send(&m, &mut rt, now);
+        wire.send(&m, rt, now);
     }
-    wire.send(&Message::PlanStart { id: 1 }, &mut rt, now);
+    wire.send(&Message::PlanStart { id: 1 }, rt, now);
     if rt.mode() != Mode::Trajectory {
         return None;
     }
     let mut max_err = 0.0f32;
     for _ in 0..450 {
-        wire.send(&Message::Heartbeat, &mut rt, now);
-        let st = cycle(&mut rt, &mut plant, &mut now);
+        wire.send(&Message::Heartbeat, rt, now);
+        let st = cycle(rt, &mut plant, &mut now);
         if st.mode == Mode::Trajectory {
             let (dx, dy) = (st.pose.x - st.reference.x, st.pose.y - st.reference.y);
             let e = (dx * dx + dy * dy).sqrt_f32();
@@ -318,13 +344,13 @@ fn run(robot: Robot<f32>, config: Config<f32>, steps_per_rad: Option<f32>) -> Op
         yaw_rate: 0.0,
     };
     for _ in 0..100 {
-        wire.send(&v, &mut rt, now);
-        cycle(&mut rt, &mut plant, &mut now);
+        wire.send(&v, rt, now);
+        cycle(rt, &mut plant, &mut now);
     }
     let last = now - DT_US;
     let mut stop_s = -1.0;
     for _ in 0..200 {
-        let st = cycle(&mut rt, &mut plant, &mut now);
+        let st = cycle(rt, &mut plant, &mut now);
         if st.mode == Mode::Idle {
             stop_s = (st.time_us - last) as f32 * 1e-6;
             break;
@@ -376,8 +402,8 @@ unsafe extern "C" {
 }
 
 /// Peak stack use since reset, bytes: from the stack top down to the deepest word of the
-/// painted region that was overwritten (`main`'s own frame, which holds the inlined runtime,
-/// sits above the painted region and is included).
+/// painted region that was overwritten (`main`'s own frame sits above the painted region and
+/// is included).
 fn stack_used((low, high): (usize, usize)) -> usize {
     let mut a = low;
     // SAFETY: reads of the same painted stack region.
@@ -388,19 +414,89 @@ fn stack_used((low, high): (usize, usize)) -> usize {
     top - a
 }
 
+/// A robot of the example: its name, its model (`None`: rejected) and, for steppers, the
+/// microsteps per radian.
+type RobotCase = (&'static str, Option<Robot<f32>>, Option<f32>);
+
+/// What [`Runtime::new`] returns for the firmware's runtime.
+type RuntimeResult = Result<Runtime<f32, PLAN_CAPACITY>, ConfigError>;
+
+/// Builds the runtime into its `static` slot, once, at boot. The result stays a `Result`
+/// (unwrapping it would move the runtime once more). Rust has no placement construction and
+/// the core has no `unsafe`: `Runtime::new` builds its value in this function's frame, which
+/// is then copied into `slot` (LLVM does not build a call's result in a `static` directly), so
+/// the boot's stack peak is about one `Runtime` plus this frame's other temporaries; the
+/// robots' runs after it use much less (both are reported).
+#[inline(never)]
+fn build_runtime(
+    slot: &'static mut MaybeUninit<RuntimeResult>,
+    robot: Robot<f32>,
+    config: Config<f32>,
+) -> &'static mut RuntimeResult {
+    slot.write(Runtime::new(robot, config, Pose2::default()))
+}
+
+/// Builds the runtime and the link state into their `static`s (`.bss`), once: the runtime
+/// for the first robot, reset in place for each robot after. `None` if either cannot be built.
+#[inline(never)]
+fn boot(cfg: Config<f32>) -> Option<(&'static mut Runtime<f32, PLAN_CAPACITY>, &'static mut Wire)> {
+    let sphere = SphereOmni::new(SphereParams::preset()).ok()?;
+    let slot = cortex_m::singleton!(RUNTIME: MaybeUninit<RuntimeResult> = MaybeUninit::uninit())?;
+    let rt = build_runtime(slot, Robot::Sphere(sphere), cfg)
+        .as_mut()
+        .ok()?;
+    let key = Key::new(b"omnikin firmware example key!!").ok()?;
+    let wire = cortex_m::singleton!(WIRE: Wire = Wire::new(key, robot_info(rt, true)))?;
+    Some((rt, wire))
+}
+
 #[entry]
 fn main() -> ! {
     let painted = paint_stack();
     hprintln!(
-        "omnikin firmware: Cortex-M4F, f32, plan buffer {} points, Runtime {} bytes, frame buffer {} bytes",
+        "omnikin firmware: Cortex-M4F, f32, plan buffer {} points, Runtime {} bytes, link state {} bytes (frame buffer {} bytes), both static",
         PLAN_CAPACITY,
         core::mem::size_of::<Runtime<f32, PLAN_CAPACITY>>(),
+        core::mem::size_of::<Wire>(),
         MAX_FRAME
     );
     let mut cfg = Config::<f32>::new(100.0);
     cfg.watchdog = 0.5;
     cfg.slew.accel = 1.0;
-    let robots: [(&str, Option<Robot<f32>>, Option<f32>); 4] = [
+    let Some((rt, wire)) = boot(cfg) else {
+        hprintln!("runtime or link state: not built");
+        debug::exit(debug::EXIT_FAILURE);
+        loop {
+            cortex_m::asm::wfi();
+        }
+    };
+    let boot_stack = stack_used(painted);
+    // Painted again: the peak of the robots' runs alone.
+    let painted = paint_stack();
+    let all = drive_all(rt, wire, cfg);
+    let run_stack = stack_used(painted);
+    hprintln!(
+        "peak stack since reset: {} bytes (the only RAM in use besides .data + .bss): building the runtime at boot {} bytes, the robots' runs {} bytes",
+        boot_stack.max(run_stack),
+        boot_stack,
+        run_stack
+    );
+    hprintln!("{}", if all { "ALL PASS" } else { "SOME FAILED" });
+    debug::exit(if all {
+        debug::EXIT_SUCCESS
+    } else {
+        debug::EXIT_FAILURE
+    });
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// Each robot's run on the static runtime and link, then the ballbot's balance controller.
+/// Whether every check passed.
+#[inline(never)]
+fn drive_all(rt: &mut Runtime<f32, PLAN_CAPACITY>, wire: &mut Wire, cfg: Config<f32>) -> bool {
+    let robots: [RobotCase; 4] = [
         (
             "sphere-omni (steppers)",
             SphereOmni::new(SphereParams::preset())
@@ -433,7 +529,7 @@ fn main() -> ! {
             all = false;
             continue;
         };
-        match run(robot, cfg, steps) {
+        match run(rt, wire, robot, cfg, steps) {
             Some(o) => {
                 // Stop: watchdog 0.5 s + braking 0.2 s at 1 m/s², within two cycles.
                 let pass = o.max_err < 2e-3
@@ -477,17 +573,5 @@ fn main() -> ! {
             all = false;
         }
     }
-    hprintln!(
-        "peak stack since reset: {} bytes (the only RAM in use besides .data + .bss)",
-        stack_used(painted)
-    );
-    hprintln!("{}", if all { "ALL PASS" } else { "SOME FAILED" });
-    debug::exit(if all {
-        debug::EXIT_SUCCESS
-    } else {
-        debug::EXIT_FAILURE
-    });
-    loop {
-        cortex_m::asm::wfi();
-    }
+    all
 }

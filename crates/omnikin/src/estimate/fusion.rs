@@ -56,6 +56,7 @@
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector2, Vector3};
 
 use super::estimator::{Fix, Gate, ProcessNoise, se2_log};
+use super::posterior::Posterior;
 use crate::{Pose2, Real, se2, wrap_angle};
 
 /// Number of states: x, y, θ, gyro bias, wheel scale.
@@ -260,11 +261,63 @@ pub enum FusionOutcome<T> {
     },
 }
 
+/// A filter state while it is computed on (the history stores it as a [`Posterior`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct State<T> {
     t: T,
     x: Vec5<T>,
     p: Mat5<T>,
+}
+
+impl<T: Real> State<T> {
+    /// The stored form (mean, covariance triangle; the time is the entry's).
+    fn packed(&self) -> Posterior<T> {
+        Posterior::pack(&self.x, &self.p)
+    }
+
+    /// The state stored as `post` at time `t`.
+    fn at(t: T, post: &Posterior<T>) -> Self {
+        Self {
+            t,
+            x: post.x,
+            p: post.covariance(),
+        }
+    }
+}
+
+/// A fix kept in the history: [`Fix`] without its time, which is the end time of the entry
+/// that holds it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct StoredFix<T> {
+    x: T,
+    y: T,
+    heading: Option<T>,
+    std_xy: T,
+    std_heading: T,
+}
+
+impl<T: Real> StoredFix<T> {
+    fn of(f: &Fix<T>) -> Self {
+        Self {
+            x: f.x,
+            y: f.y,
+            heading: f.heading,
+            std_xy: f.std_xy,
+            std_heading: f.std_heading,
+        }
+    }
+
+    /// The fix, taken at `t`.
+    fn at(&self, t: T) -> Fix<T> {
+        Fix {
+            t,
+            x: self.x,
+            y: self.y,
+            heading: self.heading,
+            std_xy: self.std_xy,
+            std_heading: self.std_heading,
+        }
+    }
 }
 
 /// What a fix did at its time, re-applied on every replay.
@@ -290,17 +343,22 @@ struct Entry<T> {
     /// Accumulated robot-frame variances `(σ²_xy, σ²_θ)`.
     q: (T, T),
     heading: StepHeading,
-    event: Option<(Fix<T>, Action<T>)>,
-    post: State<T>,
+    /// A fix applied at the entry's end time `t`, and what it did.
+    event: Option<(StoredFix<T>, Action<T>)>,
+    /// The state at `t` (after the event).
+    post: Posterior<T>,
 }
 
-/// The fusion filter; `N ≥ 8` history entries of about 60 scalars each (`N = 256`, f64:
-/// ≈ 120 kB). See the module docs.
+/// The fusion filter; `N ≥ 8` history entries of 37 scalars each (an increment with its
+/// noise, a fix, the mean and covariance triangle after it: 148 bytes in `f32`, 288 in `f64`;
+/// `N = 256`, f64: ≈ 74 kB). See the module docs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PoseFusion<T, const N: usize> {
     config: FusionConfig<T>,
     slot: T,
-    base: State<T>,
+    /// The state before the oldest kept entry, and its time.
+    base: Posterior<T>,
+    base_t: T,
     buf: [Entry<T>; N],
     head: usize,
     len: usize,
@@ -376,7 +434,7 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         config: FusionConfig<T>,
     ) -> Self {
         const { assert!(N >= 8, "PoseFusion needs N >= 8 history entries") };
-        let base = initial_state(t, pose, cov, &config);
+        let base = initial_state(t, pose, cov, &config).packed();
         let entry = Entry {
             t,
             dt: T::zero(),
@@ -391,6 +449,7 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
             config,
             slot: config.max_latency / T::of((N / 2) as f64),
             base,
+            base_t: t,
             buf: [entry; N],
             head: 0,
             len: 0,
@@ -411,13 +470,51 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
     /// As [`PoseFusion::new`] for `t`, `pose` and `cov`; the filter is then unchanged.
     pub fn restart(&mut self, t: T, pose: Pose2<T>, cov: Matrix3<T>) -> Result<(), FusionError> {
         check_initial(t, pose, cov)?;
-        self.base = initial_state(t, pose, cov, &self.config);
+        self.base = initial_state(t, pose, cov, &self.config).packed();
+        self.base_t = t;
         self.head = 0;
         self.len = 0;
         self.open = false;
         self.initialised = true;
         self.rejected_in_a_row = 0;
         Ok(())
+    }
+
+    /// [`PoseFusion::new_checked`] in place: the filter becomes the one `new_checked` would
+    /// build, its whole history cleared, without a second `N`-entry filter on the stack (a
+    /// firmware's runtime lives in a `static`, [`crate::runtime::Runtime::reset`]).
+    pub(crate) fn reset_checked(
+        &mut self,
+        t: T,
+        pose: Pose2<T>,
+        cov: Matrix3<T>,
+        config: FusionConfig<T>,
+    ) {
+        let base = initial_state(t, pose, cov, &config).packed();
+        let entry = Entry {
+            t,
+            dt: T::zero(),
+            delta: Pose2::new(T::zero(), T::zero(), T::zero()),
+            dist: T::zero(),
+            q: (T::zero(), T::zero()),
+            heading: StepHeading::Wheels,
+            event: None,
+            post: base,
+        };
+        self.config = config;
+        self.slot = config.max_latency / T::of((N / 2) as f64);
+        self.base = base;
+        self.base_t = t;
+        for e in self.buf.iter_mut() {
+            *e = entry;
+        }
+        self.head = 0;
+        self.len = 0;
+        self.initialised = true;
+        self.rejected_in_a_row = 0;
+        self.innovations = [Vector2::zeros(); MAX_RECOVERY_COUNT as usize];
+        self.open = false;
+        self.open_rot = (T::zero(), T::one());
     }
 
     /// A filter at time `t` (s) that does not know where it is: the first fix sets the
@@ -461,10 +558,10 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
     /// what a control loop reports every cycle.
     pub fn settled_pose_variances(&self) -> [T; 3] {
         let p = match self.open_entry() {
-            Some((prev, _)) => &prev.p,
-            None => &self.current_ref().p,
+            Some((prev, _)) => prev,
+            None => self.current_ref(),
         };
-        [p[(0, 0)], p[(1, 1)], p[(2, 2)]]
+        [p.cov(0, 0), p.cov(1, 1), p.cov(2, 2)]
     }
 
     /// The diagonal of [`PoseFusion::pose_covariance`] (m², m², rad²), without the full
@@ -472,19 +569,18 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
     /// the open entry. Equal to the diagonal of [`PoseFusion::pose_covariance`] up to rounding.
     pub fn pose_variances(&self) -> [T; 3] {
         let Some((prev, e)) = self.open_entry() else {
-            let p = &self.current_ref().p;
-            return [p[(0, 0)], p[(1, 1)], p[(2, 2)]];
+            let p = self.current_ref();
+            return [p.cov(0, 0), p.cov(1, 1), p.cov(2, 2)];
         };
         let (sn, cs) = self.open_rot;
         let (_, j) = mean_and_jacobian(&prev.x, sn, cs, e);
         let q = self.noise_diagonal(prev.x[4], e);
-        let p = &prev.p;
         // Fᵢ P Fᵢᵀ over the row's non-zero columns.
         let form = |cols: [(usize, T); 3]| {
             let mut acc = T::zero();
             for &(a, va) in &cols {
                 for &(b, vb) in &cols {
-                    acc += va * vb * p[(a, b)];
+                    acc += va * vb * prev.cov(a, b);
                 }
             }
             acc
@@ -518,7 +614,7 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
     /// Time of the current estimate, s.
     pub fn time(&self) -> T {
         if self.len == 0 {
-            self.base.t
+            self.base_t
         } else {
             self.buf[self.index(self.len - 1)].t
         }
@@ -537,7 +633,7 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
 
     /// Oldest time a fix may carry, s: the state before the oldest kept entry.
     pub fn oldest_time(&self) -> T {
-        self.base.t
+        self.base_t
     }
 
     /// Moves the filter's clock: every stored time (the state, the history, the fixes in it)
@@ -545,28 +641,27 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
     /// resolution as time grows (`f32`) re-bases the clock with it; the runtime does so every
     /// 256 s.
     pub fn shift_time(&mut self, offset: T) {
-        self.base.t -= offset;
+        self.base_t -= offset;
         for k in 0..self.len {
             let i = self.index(k);
-            let e = &mut self.buf[i];
-            e.t -= offset;
-            e.post.t -= offset;
-            if let Some((fix, _)) = e.event.as_mut() {
-                fix.t -= offset;
-            }
+            // The posterior's and the fix's time are the entry's.
+            self.buf[i].t -= offset;
         }
     }
 
     /// The current state, with the open entry's covariance step run if there is one.
     fn current(&self) -> State<T> {
         match self.open_entry() {
-            Some((prev, e)) => self.propagate(prev, e.t, e),
-            None => *self.current_ref(),
+            Some((prev, e)) => {
+                self.propagate(&State::at(self.before_time(self.len - 1), prev), e.t, e)
+            }
+            None => State::at(self.time(), self.current_ref()),
         }
     }
 
-    /// The newest settled state (the open entry's `post` is not one).
-    fn current_ref(&self) -> &State<T> {
+    /// The newest settled state (the open entry's `post` is not one), without its time
+    /// ([`PoseFusion::time`] when no entry is open).
+    fn current_ref(&self) -> &Posterior<T> {
         if self.len == 0 {
             &self.base
         } else {
@@ -586,7 +681,7 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
     }
 
     /// The open entry and the state before it.
-    fn open_entry(&self) -> Option<(&State<T>, &Entry<T>)> {
+    fn open_entry(&self) -> Option<(&Posterior<T>, &Entry<T>)> {
         if self.open && self.len > 0 {
             Some((
                 self.before_ref(self.len - 1),
@@ -600,7 +695,8 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
     /// Runs the open entry's covariance step and stores its `post`: the history is settled.
     fn settle(&mut self) {
         if let Some((prev, e)) = self.open_entry() {
-            let post = self.propagate(prev, e.t, e);
+            let prev = State::at(self.before_time(self.len - 1), prev);
+            let post = self.propagate(&prev, e.t, e).packed();
             let i = self.index(self.len - 1);
             self.buf[i].post = post;
         }
@@ -622,11 +718,21 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         (self.head + k) % N
     }
 
+    /// The state before entry `k`, with its time.
     fn before(&self, k: usize) -> State<T> {
-        *self.before_ref(k)
+        State::at(self.before_time(k), self.before_ref(k))
     }
 
-    fn before_ref(&self, k: usize) -> &State<T> {
+    /// The time of the state before entry `k`.
+    fn before_time(&self, k: usize) -> T {
+        if k == 0 {
+            self.base_t
+        } else {
+            self.buf[self.index(k - 1)].t
+        }
+    }
+
+    fn before_ref(&self, k: usize) -> &Posterior<T> {
         if k == 0 {
             &self.base
         } else {
@@ -637,6 +743,7 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
     fn evict(&mut self) {
         if self.len > 0 {
             self.base = self.buf[self.head].post;
+            self.base_t = self.buf[self.head].t;
             self.head = (self.head + 1) % N;
             self.len -= 1;
         }
@@ -916,18 +1023,18 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         if self.len == N {
             self.evict();
         }
-        if fix.t < self.base.t {
+        if fix.t < self.base_t {
             return Err(FusionError::TooLate {
                 t: fix.t.to_f64(),
-                oldest: self.base.t.to_f64(),
+                oldest: self.base_t.to_f64(),
             });
         }
         // The prior at the fix time, and where it goes in the history.
         let (k, split) = self.locate(fix.t);
         let prior = match split {
-            Split::Base => self.base,
+            Split::Base => State::at(self.base_t, &self.base),
             // The entry's post already includes its own fix, if any.
-            Split::At => self.buf[self.index(k)].post,
+            Split::At => State::at(fix.t, &self.buf[self.index(k)].post),
             Split::Inside(ref first, _) => self.propagate(&self.before(k), fix.t, first),
         };
         let c = self.config;
@@ -989,7 +1096,7 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
 
     /// Where a fix at `t` (base.t ≤ t ≤ latest) goes: entry `k` and how.
     fn locate(&self, t: T) -> (usize, Split<T>) {
-        if t == self.base.t {
+        if t == self.base_t {
             return (0, Split::Base);
         }
         let mut k = 0;
@@ -1000,8 +1107,8 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         if e.t == t {
             return (k, Split::At);
         }
-        let prev = self.before(k);
-        let f = (t - prev.t) / e.dt;
+        let prev_t = self.before_time(k);
+        let f = (t - prev_t) / e.dt;
         let xi = se2_log(e.delta);
         let part = |delta: Pose2<T>, g: T, dt: T, t: T| Entry {
             t,
@@ -1013,7 +1120,7 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
             event: None,
             post: e.post,
         };
-        let first = part(se2::twist_exp(xi, f), f, t - prev.t, t);
+        let first = part(se2::twist_exp(xi, f), f, t - prev_t, t);
         let mut second = part(se2::twist_exp(xi, T::one() - f), T::one() - f, e.t - t, e.t);
         second.event = e.event;
         (k, Split::Inside(first, second))
@@ -1023,7 +1130,8 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         match split {
             Split::Base => {
                 // Applied to the base itself (its own event is not kept: the base is a state).
-                self.base = self.apply(&self.base, fix, action);
+                let base = State::at(self.base_t, &self.base);
+                self.base = self.apply(&base, fix, action).packed();
                 self.replay(0);
             }
             Split::At => {
@@ -1041,18 +1149,18 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
                         dist: T::zero(),
                         q: (T::zero(), T::zero()),
                         heading: e.heading,
-                        event: Some((*fix, action)),
+                        event: Some((StoredFix::of(fix), action)),
                         post: e.post,
                     };
                     self.replay(k + 1);
                 } else {
-                    self.buf[i].event = Some((*fix, action));
+                    self.buf[i].event = Some((StoredFix::of(fix), action));
                     self.replay(k);
                 }
             }
             Split::Inside(mut first, second) => {
                 self.shift_from(k);
-                first.event = Some((*fix, action));
+                first.event = Some((StoredFix::of(fix), action));
                 let (i0, i1) = (self.index(k), self.index(k + 1));
                 self.buf[i0] = first;
                 self.buf[i1] = second;
@@ -1082,9 +1190,9 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
                 s = self.propagate(&s, e.t, &e);
             }
             if let Some((fix, action)) = e.event {
-                s = self.apply(&s, &fix, action);
+                s = self.apply(&s, &fix.at(e.t), action);
             }
-            self.buf[i].post = s;
+            self.buf[i].post = s.packed();
         }
     }
 }
@@ -1173,4 +1281,17 @@ fn mean_and_jacobian<T: Real>(x: &Vec5<T>, sn: T, cs: T, e: &Entry<T>) -> (Vec5<
 
 fn symmetric<T: Real>(m: Mat5<T>) -> Mat5<T> {
     (m + m.transpose()) * T::of(0.5)
+}
+
+#[cfg(test)]
+mod layout {
+    use super::*;
+
+    /// The history entry's size, which sets the firmware runtime's RAM (`FIX_HISTORY` of
+    /// them): 8 scalars of increment and noise, the step's heading source, a 6-scalar fix with
+    /// what it did, the 20-scalar posterior.
+    #[test]
+    fn an_f32_history_entry_is_148_bytes() {
+        assert_eq!(core::mem::size_of::<Entry<f32>>(), 148);
+    }
 }

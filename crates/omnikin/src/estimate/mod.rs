@@ -18,3 +18,4 @@ pub mod estimator;
 pub mod events;
 pub mod fusion;
 pub mod odometry;
+mod posterior;

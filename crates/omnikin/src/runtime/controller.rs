@@ -116,11 +116,61 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             twist: zero_twist(),
             slip_residual: z,
             events: EventDetector::new(config.events, robot.motors() > 3),
-            event_steps: EventDecimator::new(
-                (config.events.smoothing * T::of(0.25)).min(T::of(EVENT_SAMPLE_PERIOD_S)),
-            ),
+            event_steps: EventDecimator::new(Self::event_period(&config)),
             rejected: 0,
         })
+    }
+
+    /// Makes this runtime the one [`Runtime::new`] would build for `robot`, `config` and
+    /// `pose`, **in place**: a firmware keeps its runtime in a `static` (the plan buffer and
+    /// the fusion history are most of its size) and never builds a second one on the stack.
+    /// Everything is forgotten — mode, e-stop latch, fault history, plan, fusion history,
+    /// counters.
+    ///
+    /// # Errors
+    /// As [`Runtime::new`]; the runtime is then unchanged.
+    pub fn reset(
+        &mut self,
+        robot: Robot<T>,
+        config: Config<T>,
+        pose: Pose2<T>,
+    ) -> Result<(), ConfigError> {
+        config.validate()?;
+        Self::check_filter(pose, &config)?;
+        let z = T::zero();
+        self.robot = robot;
+        self.wheels = robot.wheels();
+        self.steer_set_point = robot.kind().steer_is_set_point();
+        self.config = config;
+        self.mode = Mode::Idle;
+        self.estop = false;
+        self.history = Faults::NONE;
+        self.slew = Slew::new();
+        self.odo = Odometry::new(robot, pose);
+        self.odo_base_us = None;
+        self.fusion
+            .reset_checked(T::zero(), pose, Matrix3::zeros(), config.fusion);
+        self.fixes = FixCounters::default();
+        self.odo_us = None;
+        self.last_us = None;
+        self.last_rx_us = None;
+        self.velocity = (zero_twist(), Frame::Robot);
+        self.plan.reset(pose);
+        self.last_motor = MotorCommand::zero();
+        self.last_command = zero_twist();
+        self.encoders = EncoderAngles::zero();
+        self.imu = None;
+        self.twist = zero_twist();
+        self.slip_residual = z;
+        self.events = EventDetector::new(config.events, robot.motors() > 3);
+        self.event_steps = EventDecimator::new(Self::event_period(&config));
+        self.rejected = 0;
+        Ok(())
+    }
+
+    /// Length of the event detector's samples, s (at most a quarter of its smoothing time).
+    fn event_period(config: &Config<T>) -> T {
+        (config.events.smoothing * T::of(0.25)).min(T::of(EVENT_SAMPLE_PERIOD_S))
     }
 
     /// The checks of the fusion filter [`Runtime::new`] builds at `pose`, as configuration

@@ -40,6 +40,16 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         }
     }
 
+    /// [`PlanBuffer::new`] in place (no second `N`-point buffer on the stack).
+    pub(super) fn reset(&mut self, pose: Pose2<T>) {
+        self.points.fill(PlanPoint::zero());
+        self.status = PlanStatus::default();
+        self.time = T::zero();
+        self.reference_time = T::zero();
+        self.index = 0;
+        self.reference = pose;
+    }
+
     /// `PlanBegin`: clears the buffer for plan `id` of `len` points.
     pub(super) fn begin(&mut self, id: u16, len: u16, running: bool) -> Result<(), CommandError> {
         if len as usize > N {

@@ -180,7 +180,7 @@ pub struct Status<T> {
     /// Variances of the fused pose `[σ²x, σ²y, σ²θ]` (m², m², rad²), growing with the
     /// odometry's noise model between fixes. As of the filter's newest closed history entry
     /// ([`crate::estimate::fusion::PoseFusion::settled_pose_variances`]): at most one history
-    /// slot (`max_latency / (FIX_HISTORY/2)`, 31 ms with the default 1 s) behind the pose —
+    /// slot (`max_latency / (FIX_HISTORY/2)`, 62.5 ms with the default 1 s) behind the pose —
     /// the covariance step runs at that rate, not every cycle.
     pub covariance: [T; 3],
     /// External fixes so far.
