@@ -144,6 +144,34 @@ fn a_plan_far_from_the_robot_is_asked_for() {
     );
 }
 
+/// An e-stop at speed stops the wheels at once: braking the robot commanded, not a collision
+/// (it was reported as one: `faults estop|collision`, `events: {collisions: 1}`). The obstacle
+/// test in mcap.rs keeps a real blow at exactly one.
+#[test]
+fn an_estop_at_speed_is_no_collision() {
+    let robot = Robot::start(&["--max-time", "40"]);
+    let a = robot.addr.clone();
+    // A drive at 0.3 m/s (8x real time), e-stopped by a second operator while it moves.
+    let mut moving = Command::new(BIN)
+        .args(["drive", "--connect", &a, "--timeout", "2"])
+        .args(["velocity", "--vx", "0.3", "--for", "5"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(800));
+    let out = drive(&a, &["estop"]);
+    let _ = moving.kill();
+    let _ = moving.wait();
+    let s = String::from_utf8_lossy(&out.stdout);
+    assert!(s.contains("mode estop"), "{s}");
+    assert!(!s.contains("collision"), "{s}");
+    let summary = robot.summary();
+    let tp = &summary["true_pose"];
+    assert!(tp[0].as_f64().unwrap() > 0.1, "it was moving: {tp}");
+    assert_eq!(summary["events"]["collisions"], 0, "{summary}");
+}
+
 #[test]
 fn hardware_disturbances_odometry_follows_truth_drifts() {
     let dir = tmp("hardware");

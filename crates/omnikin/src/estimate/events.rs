@@ -10,9 +10,15 @@
 //!   [`EventThresholds::slip_residual`]. Both signals are smoothed by a first-order low-pass
 //!   of time constant [`EventThresholds::smoothing`] (encoder quantisation at 1 kHz is
 //!   otherwise larger than a slip).
-//! * **Collision** (a sudden stop): the smoothed wheel speed `|(vx, vy)|` falls faster than
-//!   [`EventThresholds::collision_decel`] over [`EventThresholds::window`], while no slip is
-//!   under way (the end of a wheel spin is also a sudden drop of the wheel speed).
+//! * **Collision** (a sudden stop the robot did not command): the smoothed wheel speed
+//!   `|(vx, vy)|` falls faster than [`EventThresholds::collision_decel`] over
+//!   [`EventThresholds::window`], beyond what the commanded speed fell in the same window,
+//!   while no slip is under way (the end of a wheel spin is also a sudden drop of the wheel
+//!   speed). The detector tests the **unexplained speed** `v_measured − v_commanded`, both
+//!   through the same low-pass: braking the robot commanded (an e-stop's motors off, a stop, the
+//!   watchdog, a plan's end) drops both together and is no collision; an obstacle drops only
+//!   the measured one. Without commands (a log, `omnikin odometry`) the commanded speed is 0
+//!   and the test is the measured deceleration alone.
 //!
 //! An event starts on the first sample over its threshold and ends once the signal has stayed
 //! below it for [`EventThresholds::hold`]: **one event per episode**, however long it lasts
@@ -200,7 +206,9 @@ pub struct EventDetector<T> {
     yaw_mismatch: T,
     residual: T,
     speed: T,
-    /// (t, smoothed speed) over the last window.
+    /// Smoothed commanded speed (0 without commands).
+    commanded: T,
+    /// (t, smoothed measured − commanded speed) over the last window.
     speeds: Deque<(T, T), WINDOW_SAMPLES>,
     slip: Episode<T>,
     collision: Episode<T>,
@@ -222,6 +230,7 @@ impl<T: Real> EventDetector<T> {
             yaw_mismatch: z,
             residual: z,
             speed: z,
+            commanded: z,
             speeds: Deque::new(),
             slip: Episode { active: None },
             collision: Episode { active: None },
@@ -260,6 +269,7 @@ impl<T: Real> EventDetector<T> {
             speed: (s.twist.vx * s.twist.vx + s.twist.vy * s.twist.vy).sqrt(),
             slip_residual: s.slip_residual,
             wheel_heading_change: s.wheel_heading_change,
+            commanded_speed: None,
         };
         self.sample(&sample, imu_yaw_rate)
     }
@@ -279,6 +289,7 @@ impl<T: Real> EventDetector<T> {
             && speed.is_finite()
             && s.slip_residual.is_finite()
             && s.wheel_heading_change.is_finite()
+            && s.commanded_speed.is_none_or(|v| v.is_finite())
             && imu_yaw_rate.is_none_or(|w| w.is_finite()))
         {
             return out;
@@ -295,6 +306,7 @@ impl<T: Real> EventDetector<T> {
         }
         self.residual += a * (s.slip_residual - self.residual);
         self.speed += a * (speed - self.speed);
+        self.commanded += a * (s.commanded_speed.unwrap_or(T::zero()) - self.commanded);
         let (slip_over, slip_value) = if yaw_over {
             (true, self.yaw_mismatch)
         } else if self.redundant && self.residual > self.th.slip_residual {
@@ -311,12 +323,13 @@ impl<T: Real> EventDetector<T> {
         }
         out.finished[0] = done;
         out.slipping = self.slip.active.is_some();
-        // Deceleration over the window, from the oldest smoothed speed kept.
+        // The unexplained deceleration over the window, from the oldest value kept.
+        let unexplained = self.speed - self.commanded;
         if self.speeds.is_full() {
             self.speeds.pop_front();
         }
         // Cannot fail: one slot was just made free.
-        let _ = self.speeds.push_back((s.t, self.speed));
+        let _ = self.speeds.push_back((s.t, unexplained));
         while self
             .speeds
             .front()
@@ -325,7 +338,7 @@ impl<T: Real> EventDetector<T> {
             self.speeds.pop_front();
         }
         let decel = match self.speeds.front() {
-            Some(&(t0, v0)) if s.t > t0 => (v0 - self.speed) / (s.t - t0),
+            Some(&(t0, v0)) if s.t > t0 => (v0 - unexplained) / (s.t - t0),
             _ => T::zero(),
         };
         let over = self.slip.active.is_none() && decel > self.th.collision_decel;
@@ -376,6 +389,9 @@ pub struct EventSample<T> {
     pub slip_residual: T,
     /// Heading change implied by the wheels over the sample, rad.
     pub wheel_heading_change: T,
+    /// Mean commanded speed `|(vx, vy)|` over the sample, m/s (the runtime's command; `None`
+    /// without commands: a log).
+    pub commanded_speed: Option<T>,
 }
 
 /// Sums consecutive odometry steps into one [`EventSample`] until they span `period`: a
@@ -386,7 +402,8 @@ pub struct EventSample<T> {
 ///
 /// Merging: speed and yaw rate are means over the merged time (the speed of the mean
 /// robot-frame velocity), the slip residual its time-weighted mean, the wheels' heading change
-/// the sum; the IMU's yaw rate is used only when every merged step had one.
+/// the sum; the IMU's yaw rate and the commanded speed are used only when every merged step
+/// had one.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EventDecimator<T> {
     period: T,
@@ -397,6 +414,8 @@ pub struct EventDecimator<T> {
     wheel_heading_change: T,
     gyro_dt: T,
     gyro_every_step: bool,
+    commanded_dt: T,
+    commanded_every_step: bool,
 }
 
 impl<T: Real> EventDecimator<T> {
@@ -412,15 +431,19 @@ impl<T: Real> EventDecimator<T> {
             wheel_heading_change: z,
             gyro_dt: z,
             gyro_every_step: true,
+            commanded_dt: z,
+            commanded_every_step: true,
         }
     }
 
-    /// Adds one step (`dt > 0`; others are ignored) and the IMU's yaw rate over it; returns the
-    /// merged sample and its mean IMU yaw rate once the steps span the period.
+    /// Adds one step (`dt > 0`; others are ignored), the IMU's yaw rate over it and the speed
+    /// commanded over it (m/s); returns the merged sample and its mean IMU yaw rate once the
+    /// steps span the period.
     pub fn push(
         &mut self,
         s: &OdometryStep<T>,
         imu_yaw_rate: Option<T>,
+        commanded_speed: Option<T>,
     ) -> Option<(EventSample<T>, Option<T>)> {
         if s.dt.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
             return None;
@@ -434,6 +457,10 @@ impl<T: Real> EventDecimator<T> {
             Some(w) => self.gyro_dt += w * s.dt,
             None => self.gyro_every_step = false,
         }
+        match commanded_speed {
+            Some(v) => self.commanded_dt += v * s.dt,
+            None => self.commanded_every_step = false,
+        }
         // Not finite: emitted at once, and the detector ignores it.
         if self.dt < self.period {
             return None;
@@ -445,6 +472,7 @@ impl<T: Real> EventDecimator<T> {
             speed: (self.vx_dt * self.vx_dt + self.vy_dt * self.vy_dt).sqrt() / dt,
             slip_residual: self.residual_dt / dt,
             wheel_heading_change: self.wheel_heading_change,
+            commanded_speed: self.commanded_every_step.then(|| self.commanded_dt / dt),
         };
         let gyro = self.gyro_every_step.then(|| self.gyro_dt / dt);
         *self = Self::new(self.period);

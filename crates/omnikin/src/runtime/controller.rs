@@ -518,7 +518,13 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             // quarter of its smoothing time.
             self.twist = step.twist;
             self.slip_residual = step.slip_residual;
-            if let Some((sample, gyro)) = self.event_steps.push(&step, self.imu.map(|s| s.gyro[2]))
+            // The speed commanded over this step: the last cycle's command (an e-stop's zero
+            // included), so the braking the robot commanded is not taken for a collision.
+            let c = self.last_command;
+            let commanded = (c.vx * c.vx + c.vy * c.vy).sqrt();
+            if let Some((sample, gyro)) =
+                self.event_steps
+                    .push(&step, self.imu.map(|s| s.gyro[2]), Some(commanded))
             {
                 self.events.sample(&sample, gyro);
             }
