@@ -191,6 +191,8 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
             l.push(&row);
         }
     }
+    // A signal after the last row still stops the command before its outputs appear.
+    crate::output::check_interrupted()?;
     let r = stream.finish()?;
     if let Some(file) = &fix_file {
         for f in &r.fixes {
