@@ -312,7 +312,7 @@ fn bad_logs_name_the_file_line_and_column() {
     ];
     let names = ["time", "q", "nan", "word", "steer", "imu"];
     for ((text, robot, message, extra), name) in cases.iter().zip(names) {
-        let path = dir.join(&format!("{name}.csv"));
+        let path = dir.join(format!("{name}.csv"));
         std::fs::write(&path, text).unwrap();
         let mut cmd = omnikin();
         cmd.current_dir(&dir)
@@ -445,7 +445,7 @@ fn tilt_compensation_and_event_threshold_sources_in_the_summary() {
             .args(["odometry", log.to_str().unwrap(), "--imu", "--robot"])
             .arg(&file)
             .arg("--out")
-            .arg(dir.join(&format!("p{}.csv", extra.len())))
+            .arg(dir.join(format!("p{}.csv", extra.len())))
             .args(extra)
             .output()
             .unwrap();

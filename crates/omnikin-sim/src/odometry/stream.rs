@@ -661,7 +661,7 @@ impl OdometryStream {
                 "the heading comes from the wheels, so the spin is assumed (0), not measured: use --imu",
             ),
             fixes: fix_summary,
-            event_thresholds: self.thresholds.clone(),
+            event_thresholds: self.thresholds,
         };
         Ok(OdometryEnd {
             fixes: self.fixes.map(|l| l.records).unwrap_or_default(),
