@@ -162,12 +162,17 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     let fix_file = fixes.as_ref().map(|f| f.file.clone());
     let mut stream =
         OdometryStream::new(&description, &log.file, &log.header, fixes, &args.options())?;
-    // The figure's lines are thinned as the rows come, which needs their number first.
+    // The figure's lines are thinned as the rows come, which needs their number first: a
+    // first pass over the file counts them. A pipe or FIFO cannot be read twice: its lines
+    // are kept whole (16 bytes per point) and thinned when drawn, as before.
     let mut lines = match &args.plot {
-        Some(_) => Some(FigureLines::new(
-            NumericRows::open(&args.log)?.count_rows()?,
-            fix_file.is_some(),
-        )),
+        Some(_) if std::fs::metadata(&args.log).is_ok_and(|m| m.is_file()) => {
+            Some(FigureLines::new(
+                NumericRows::open(&args.log)?.count_rows()?,
+                fix_file.is_some(),
+            ))
+        }
+        Some(_) => Some(FigureLines::new(0, fix_file.is_some())),
         None => None,
     };
     crate::output::catch_signals()?;
@@ -379,7 +384,8 @@ struct FigureLines {
 }
 
 impl FigureLines {
-    /// Lines of `rows` points; the fused ones only when `fused`.
+    /// Lines of `rows` points (0: not known, every point kept); the fused ones only when
+    /// `fused`.
     fn new(rows: usize, fused: bool) -> Self {
         let pair = || [Decimator::new(rows), Decimator::new(rows)];
         Self {

@@ -481,7 +481,8 @@ pub struct Decimator {
 }
 
 impl Decimator {
-    /// A decimator for a line of `n` points.
+    /// A decimator for a line of `n` points. With `n` ≤ [`MAX_FIGURE_POINTS`] (0 when the
+    /// number is not known) every point is kept, for [`decimate`] to thin when drawn.
     pub fn new(n: usize) -> Self {
         let chunk = if n <= MAX_FIGURE_POINTS {
             usize::MAX

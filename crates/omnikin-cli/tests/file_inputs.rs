@@ -529,3 +529,42 @@ fn sigterm_and_sigint_during_odometry_remove_its_temporary_files() {
         assert!(!dir.join("o.mcap").exists(), "a partial output was kept");
     }
 }
+
+/// `--plot` counts the log's rows in a first pass to thin the figure as the rows come; a
+/// pipe cannot be read twice, so its figure lines are kept and thinned when drawn.
+#[test]
+fn odometry_of_a_fifo_log_with_a_figure_reads_it_once() {
+    let dir = tmp("odometry-fifo-plot");
+    let fifo = dir.join("log.csv");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let child = spawn(
+        &dir,
+        &[
+            "odometry", "log.csv", "--robot", "kiwi", "--out", "o.csv", "--plot", "o.svg",
+        ],
+        GIB3,
+        Stdio::null(),
+    );
+    // More rows than a figure line draws (MAX_FIGURE_POINTS = 10 000).
+    let rows = 20_000;
+    let mut w =
+        std::io::BufWriter::new(std::fs::OpenOptions::new().write(true).open(&fifo).unwrap());
+    w.write_all(b"t,q1,q2,q3\n").unwrap();
+    for i in 0..rows {
+        let t = i as f64 * 0.01;
+        writeln!(w, "{t:.2},{:.5},{:.5},0", -2.0 * t, 2.0 * t).unwrap();
+    }
+    drop(w);
+    let (code, err) = wait(child);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains(&format!("{rows} samples")), "{err}");
+    let poses = std::fs::read_to_string(dir.join("o.csv")).unwrap();
+    assert_eq!(poses.lines().count(), rows + 1);
+    assert!(std::fs::metadata(dir.join("o.svg")).unwrap().len() > 0);
+}
