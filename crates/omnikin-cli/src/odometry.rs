@@ -1,7 +1,7 @@
 //! `omnikin odometry LOG.csv --robot R [--imu] [--fixes FIXES.csv] --out poses.csv [--plot F.svg]`:
 //! wheel odometry (and camera fusion) over a recorded encoder log. The pipeline is
-//! [`omnikin_sim::odometry::run`]; this file parses the arguments, reads and writes the files,
-//! prints the summary and draws the plot.
+//! [`omnikin_sim::odometry::OdometryStream`]; this file parses the arguments, streams the log
+//! through it row by row into the outputs, prints the summary and draws the plot.
 //!
 //! Input: the encoder log of conventions.md (`t,q1..qN` cumulative wheel angles in rad, or
 //! counts with `--counts-per-rev`, one per wheel of the robot; `s1..sN` steer angles for the
@@ -15,17 +15,19 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use omnikin::Pose2;
 use omnikin::description::RobotDescription;
 use omnikin::estimate::fusion::Recovery;
 use omnikin_sim::odometry::{
-    EventOverrides, FixResult, OdometryOptions, OdometryRun, ThresholdSource, TiltReport,
+    EventOverrides, FixResult, OdometryOptions, OdometryRow, OdometryStream, ThresholdSource,
+    TiltReport, read_fix_rows,
 };
 // The log and fixes parser lives in the library so that it can be fuzzed (fuzz/).
-use omnikin_sim::table::NumericTable as Table;
+use omnikin_sim::table::NumericRows;
 
 use crate::args::{Triple, finite_f64};
+use crate::plot::Decimator;
 
 /// `omnikin odometry`.
 #[derive(clap::Args, Debug)]
@@ -145,27 +147,70 @@ impl OdometryArgs {
     }
 }
 
-/// Runs `omnikin odometry`.
+/// Runs `omnikin odometry`: the log is read, estimated and written one row at a time (the
+/// outputs to temporary files, moved into place at the end, removed on an error or on
+/// SIGINT/SIGTERM), so the memory does not grow with the log: the fixes (80 bytes each) and,
+/// with `--plot`, the thinned figure lines (at most `MAX_FIGURE_POINTS` points each) are what
+/// is held.
 pub fn run(args: &OdometryArgs) -> Result<()> {
     let description = RobotDescription::resolve(&args.robot)?;
-    let log = Table::load(&args.log)?;
+    let mut log = NumericRows::open(&args.log)?;
     let fixes = match &args.fixes {
-        Some(path) => Some(Table::load(path)?),
+        Some(path) => Some(read_fix_rows(NumericRows::open(path)?)?),
         None => None,
     };
-    let r = omnikin_sim::odometry::run(&description, &log, fixes.as_ref(), &args.options())?;
-    if let Some(table) = &fixes {
+    let fix_file = fixes.as_ref().map(|f| f.file.clone());
+    let mut stream =
+        OdometryStream::new(&description, &log.file, &log.header, fixes, &args.options())?;
+    // The figure's lines are thinned as the rows come, which needs their number first: a
+    // first pass over the file counts them. A pipe or FIFO cannot be read twice: its lines
+    // are kept whole (16 bytes per point) and thinned when drawn, as before.
+    let mut lines = match &args.plot {
+        Some(_) if std::fs::metadata(&args.log).is_ok_and(|m| m.is_file()) => {
+            Some(FigureLines::new(
+                NumericRows::open(&args.log)?.count_rows()?,
+                fix_file.is_some(),
+            ))
+        }
+        Some(_) => Some(FigureLines::new(0, fix_file.is_some())),
+        None => None,
+    };
+    crate::output::catch_signals()?;
+    let cannot = |flag: &str, path: &Path| format!("{flag} {}: cannot write", path.display());
+    let mut out = crate::output::OutFile::create("--out", &args.out)?;
+    writeln!(out, "t,x,y,heading").with_context(|| cannot("--out", &args.out))?;
+    let mut mcap = match &args.mcap {
+        Some(p) => Some(crate::mcap_log::PoseLog::create("--mcap", p)?),
+        None => None,
+    };
+    while let Some((line, values)) = log.next_row()? {
+        crate::output::check_interrupted()?;
+        let row = stream.push(line, values)?;
+        let p = row.estimate;
+        writeln!(out, "{},{},{},{}", row.t, p.x, p.y, p.heading)
+            .with_context(|| cannot("--out", &args.out))?;
+        if let Some(m) = mcap.as_mut() {
+            m.push(row.t, p)?;
+        }
+        if let Some(l) = lines.as_mut() {
+            l.push(&row);
+        }
+    }
+    // A signal after the last row still stops the command before its outputs appear.
+    crate::output::check_interrupted()?;
+    let r = stream.finish()?;
+    if let Some(file) = &fix_file {
         for f in &r.fixes {
             match f.result {
                 FixResult::Rejected { mahalanobis2, gate } => crate::errln!(
                     "warning: {}:{}: fix at t = {} s rejected as an outlier (d² = {mahalanobis2:.1} > {gate:.1})",
-                    table.file,
+                    file,
                     f.line,
                     f.t
                 ),
                 FixResult::Recovered { recovery, rejected } => crate::errln!(
                     "event: {}:{}: fix at t = {} s ends {rejected} rejections in a row: {}",
-                    table.file,
+                    file,
                     f.line,
                     f.t,
                     match recovery {
@@ -175,7 +220,7 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
                 ),
                 FixResult::Initialised => crate::errln!(
                     "event: {}:{}: fix at t = {} s sets the initial pose (no --initial-pose)",
-                    table.file,
+                    file,
                     f.line,
                     f.t
                 ),
@@ -183,20 +228,9 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
             }
         }
     }
-
-    // Streamed row by row: a 10⁷-row log (MAX_TRACK_ROWS) made a 940 MB string here.
-    let c = &r.columns;
-    crate::output::write_file("--out", &args.out, |w| {
-        let mut w = std::io::BufWriter::new(w);
-        writeln!(w, "t,x,y,heading")?;
-        for i in 0..c.len() {
-            writeln!(w, "{},{},{},{}", c.t[i], c.x[i], c.y[i], c.heading[i])?;
-        }
-        w.flush()
-    })?;
-    if let Some(p) = &args.mcap {
-        let estimate = (0..c.len()).map(|i| (c.t[i], Pose2::new(c.x[i], c.y[i], c.heading[i])));
-        crate::mcap_log::poses("--mcap", p, estimate)?;
+    out.commit()?;
+    if let Some(m) = mcap {
+        m.finish()?;
     }
 
     let sum = &r.summary;
@@ -332,33 +366,54 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         })?;
         crate::errln!("wrote {}", path.display());
     }
-    if let Some(svg) = &args.plot {
+    if let (Some(svg), Some(lines)) = (&args.plot, lines) {
         let fix_points: Vec<(f64, f64)> = r.fixes.iter().map(|f| (f.x, f.y)).collect();
-        figure("--plot", svg, &r, &fix_points, fixes.is_some())?;
+        figure("--plot", svg, lines, &fix_points)?;
         crate::errln!("wrote {}", svg.display());
     }
     Ok(())
 }
 
-fn figure(
-    flag: &str,
-    svg: &Path,
-    out: &OdometryRun,
-    fixes: &[(f64, f64)],
-    fused: bool,
-) -> Result<()> {
-    crate::plot::svg_file(flag, svg, (1300, 640), |root| draw(root, out, fixes, fused))
+/// The figure's lines, thinned as the rows come ([`crate::plot::Decimator`]): the same points
+/// as the whole lines thinned at drawing time.
+struct FigureLines {
+    /// The wheel odometry: path (x, y) and heading (t, heading).
+    odometry: [Decimator; 2],
+    /// The fused estimate, when there are fixes: path and heading.
+    fused: Option<[Decimator; 2]>,
 }
 
-fn draw(
-    root: &crate::plot::Area,
-    out: &OdometryRun,
-    fixes: &[(f64, f64)],
-    fused: bool,
-) -> Result<()> {
+impl FigureLines {
+    /// Lines of `rows` points (0: not known, every point kept); the fused ones only when
+    /// `fused`.
+    fn new(rows: usize, fused: bool) -> Self {
+        let pair = || [Decimator::new(rows), Decimator::new(rows)];
+        Self {
+            odometry: pair(),
+            fused: fused.then(pair),
+        }
+    }
+
+    fn push(&mut self, row: &OdometryRow) {
+        let (o, e) = (row.odometry, row.estimate);
+        self.odometry[0].push((o.x, o.y));
+        self.odometry[1].push((row.t, o.heading));
+        if let Some(f) = self.fused.as_mut() {
+            f[0].push((e.x, e.y));
+            f[1].push((row.t, e.heading));
+        }
+    }
+}
+
+fn figure(flag: &str, svg: &Path, lines: FigureLines, fixes: &[(f64, f64)]) -> Result<()> {
+    crate::plot::svg_file(flag, svg, (1300, 640), |root| draw(root, lines, fixes))
+}
+
+fn draw(root: &crate::plot::Area, lines: FigureLines, fixes: &[(f64, f64)]) -> Result<()> {
     use crate::plot::{PALETTE, Series, draw_err, time_panel, xy_panel};
     use plotters::prelude::*;
     root.fill(&WHITE).map_err(draw_err)?;
+    let fused = lines.fused.is_some();
     let title = if fused {
         "odometry fused with camera fixes"
     } else {
@@ -366,35 +421,17 @@ fn draw(
     };
     let root = root.titled(title, ("sans-serif", 22)).map_err(draw_err)?;
     let (left, right) = root.split_horizontally(700);
-    let c = &out.columns;
-    let xy = |x: &[f64], y: &[f64]| x.iter().copied().zip(y.iter().copied()).collect::<Vec<_>>();
-    let th = |h: &[f64]| {
-        c.t.iter()
-            .copied()
-            .zip(h.iter().copied())
-            .collect::<Vec<_>>()
-    };
-    let mut paths = vec![Series::solid(
-        "wheel odometry",
-        xy(&c.odometry_x, &c.odometry_y),
-        PALETTE[0],
-    )];
+    let [odometry_path, odometry_heading] = lines.odometry.map(Decimator::finish);
+    let mut paths = vec![Series::solid("wheel odometry", odometry_path, PALETTE[0])];
     let mut headings = vec![Series::solid(
         "wheel odometry",
-        th(&c.odometry_heading),
+        odometry_heading,
         PALETTE[0],
     )];
-    if fused {
-        paths.push(Series::solid(
-            "fused with fixes",
-            xy(&c.x, &c.y),
-            PALETTE[1],
-        ));
-        headings.push(Series::solid(
-            "fused with fixes",
-            th(&c.heading),
-            PALETTE[1],
-        ));
+    if let Some(f) = lines.fused {
+        let [path, heading] = f.map(Decimator::finish);
+        paths.push(Series::solid("fused with fixes", path, PALETTE[1]));
+        headings.push(Series::solid("fused with fixes", heading, PALETTE[1]));
         if !fixes.is_empty() {
             paths.push(Series::markers("camera fixes", fixes.to_vec(), PALETTE[3]));
         }

@@ -4,7 +4,11 @@
 //! edge now enforces (an error naming the file, the line or field, and the rule; exit code
 //! non-zero; no output written from bad input).
 
-use std::path::{Path, PathBuf};
+#[path = "common/test_dir.rs"]
+mod test_dir;
+use test_dir::TestDir;
+
+use std::path::Path;
 
 use assert_cmd::Command;
 
@@ -13,11 +17,8 @@ fn omnikin() -> Command {
 }
 
 /// A fresh directory for one test's files.
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("omnikin-attack-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> TestDir {
+    TestDir::new("attack", name)
 }
 
 fn path(p: &Path) -> &str {

@@ -11,6 +11,10 @@
 //! threads, and the number sweep) and [`battery_limits_and_metrics`] (observations 5, 6, 7 and
 //! 9: memory and work bounds, hangs, quadratic metrics, quietly wrong inputs).
 
+#[path = "common/test_dir.rs"]
+mod test_dir;
+use test_dir::TestDir;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -234,7 +238,6 @@ fn battery(tag: &str, cases: &[Case], extra: Option<fn(&Path)>) -> Vec<String> {
                     .join("\n            ")
             ));
         }
-        let _ = std::fs::remove_dir_all(&dir);
     }
     failures
 }
@@ -271,9 +274,8 @@ fn plan_csv() -> &'static str {
 
 /// A fresh working directory: `in/` holds every input (checked unchanged after each run),
 /// `out/` is an empty output directory, `full/` a non-empty one.
-fn fixtures(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("omnikin-battery-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
+fn fixtures(name: &str) -> TestDir {
+    let d = TestDir::new("battery", name);
     let i = d.join("in");
     std::fs::create_dir_all(i.join("dir")).unwrap();
     std::fs::create_dir_all(d.join("out")).unwrap();

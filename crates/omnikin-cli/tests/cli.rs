@@ -1,6 +1,10 @@
 //! The command-line contract of conventions.md: every command, JSON keys, negative values
 //! after flags, and errors on stderr with a non-zero exit code naming the bad field.
 
+#[path = "common/test_dir.rs"]
+mod test_dir;
+use test_dir::TestDir;
+
 use assert_cmd::Command;
 use predicates::prelude::*;
 use serde_json::Value;
@@ -277,8 +281,7 @@ fn check_every_preset_and_a_file() {
 
 #[test]
 fn bad_robot_files_are_reported_with_file_field_and_rule() {
-    let dir = std::env::temp_dir().join(format!("omnikin-cli-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = TestDir::new("cli-test", "bad-robot");
     let bad = dir.join("bad.toml");
     std::fs::write(&bad, "kind = \"ballbot\"\n[geometry]\nball_radius = -0.1\nwheel_radius = 0.05\nzenith_deg = 45.0\nazimuths_deg = [0.0, 120.0, -120.0]\n").unwrap();
     omnikin()
@@ -390,4 +393,27 @@ fn help_lists_the_commands() {
         .stdout(predicate::str::contains("forward"))
         .stdout(predicate::str::contains("torques"))
         .stdout(predicate::str::contains("check"));
+}
+
+/// The scratch directories of the suites (tests/common/test_dir.rs) are removed when a test
+/// passes and kept when it fails: /tmp grew by some 100 MB per run of the test command.
+#[test]
+fn a_passing_test_removes_its_directory_and_a_failing_one_keeps_it() {
+    let d = TestDir::new("test-dir", "passes");
+    std::fs::write(d.join("f.txt"), "x").unwrap();
+    let removed = d.to_path_buf();
+    drop(d);
+    assert!(!removed.exists(), "removed when the test passes");
+
+    let f = TestDir::file("test-dir", "out.csv");
+    assert_eq!(f.file_name().unwrap(), "out.csv");
+    let dir = f.parent().unwrap().to_path_buf();
+    assert!(dir.is_dir() && !f.exists());
+    let failing = std::thread::spawn(move || {
+        let _f = f;
+        panic!("a failing test (expected)");
+    });
+    assert!(failing.join().is_err());
+    assert!(dir.is_dir(), "kept when the test fails");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

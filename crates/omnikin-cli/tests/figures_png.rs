@@ -4,6 +4,10 @@
 //! sub-pixel coordinates, and the legends sit outside the plotting areas. The PNGs are kept in
 //! `target/figures-png/` to be looked at.
 
+#[path = "common/test_dir.rs"]
+mod test_dir;
+use test_dir::TestDir;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -14,10 +18,8 @@ fn examples() -> PathBuf {
     Path::new(ROOT).join("examples")
 }
 
-fn out_dir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("omnikin-figures-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn out_dir() -> TestDir {
+    TestDir::new("figures", "png")
 }
 
 fn omnikin(args: &[&str]) {

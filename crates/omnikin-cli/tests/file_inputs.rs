@@ -6,8 +6,12 @@
 //! safety net against a hang, not a timing assertion); it must end with exit status 0 or an
 //! `error:` line, never `panicked at` or a signal death, and leave its input unchanged.
 
+#[path = "common/test_dir.rs"]
+mod test_dir;
+use test_dir::TestDir;
+
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -18,11 +22,8 @@ const GIB3: u64 = 3 << 30;
 /// Deadline of one run (a hang is killed and fails the test; no run comes near it).
 const WALL: Duration = Duration::from_secs(120);
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("omnikin-files-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> TestDir {
+    TestDir::new("files", name)
 }
 
 fn has_prlimit() -> bool {
@@ -428,4 +429,142 @@ fn sigterm_and_sigint_during_convert_remove_its_temporary_file() {
         );
         assert!(!dir.join("out.mcap").exists(), "a partial output was kept");
     }
+}
+
+/// A kiwi encoder log of `rows` samples at 100 Hz (`t,q1,q2,q3`: a slow drive with a turn),
+/// written row by row.
+fn kiwi_log(path: &Path, rows: usize) {
+    let mut w = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    w.write_all(b"t,q1,q2,q3\n").unwrap();
+    for i in 0..rows {
+        let t = i as f64 * 0.01;
+        // Wheel angles (rad) of a drive forward with a slow turn.
+        let q = [-2.0 * t, 2.0 * t + 0.1 * t.sin(), 0.1 * t.sin()];
+        writeln!(w, "{t:.2},{:.5},{:.5},{:.5}", q[0], q[1], q[2]).unwrap();
+    }
+    w.flush().unwrap();
+}
+
+/// `odometry` held the whole log and ten columns per row: 174 MB of RSS at 10⁶ rows, some 1.7
+/// GB at the documented limit of 10⁷ (MAX_TRACK_ROWS). Streamed, a 10⁶-row log with the figure
+/// runs in 16 MiB of address space (measured; 10⁷ rows peak at 11 MB of RSS); the test allows
+/// 48 MiB, which the whole-log version exceeded (it aborted even at 64 MiB).
+#[test]
+fn odometry_streams_a_large_log_in_bounded_memory() {
+    let dir = tmp("odometry-large");
+    let rows = 1_000_000;
+    kiwi_log(&dir.join("log.csv"), rows);
+    let (code, err) = run(
+        &dir,
+        &[
+            "odometry",
+            "log.csv",
+            "--robot",
+            "kiwi",
+            "--out",
+            "poses.csv",
+            "--plot",
+            "o.svg",
+        ],
+        48 << 20,
+        &dir.join("log.csv"),
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains(&format!("{rows} samples")), "{err}");
+    let poses = std::fs::read_to_string(dir.join("poses.csv")).unwrap();
+    assert_eq!(poses.lines().count(), rows + 1);
+    assert!(poses.starts_with("t,x,y,heading\n0,"), "{}", &poses[..40]);
+    assert!(std::fs::metadata(dir.join("o.svg")).unwrap().len() > 0);
+}
+
+#[test]
+fn sigterm_and_sigint_during_odometry_remove_its_temporary_files() {
+    for (sig, status) in [("-TERM", 143), ("-INT", 130)] {
+        let dir = tmp(&format!("odometry-signal{status}"));
+        // The log is a FIFO: odometry blocks on it with its outputs open, deterministically.
+        let fifo = dir.join("log.csv");
+        assert!(
+            Command::new("mkfifo")
+                .arg(&fifo)
+                .status()
+                .unwrap()
+                .success()
+        );
+        let child = spawn(
+            &dir,
+            &[
+                "odometry", "log.csv", "--robot", "kiwi", "--out", "o.csv", "--mcap", "o.mcap",
+            ],
+            GIB3,
+            Stdio::null(),
+        );
+        let mut w = std::fs::OpenOptions::new().write(true).open(&fifo).unwrap();
+        w.write_all(b"t,q1,q2,q3\n0,0,0,0\n0.01,0.001,0.001,0.001\n")
+            .unwrap();
+        w.flush().unwrap();
+        // Both temporary outputs appear once the header is read (deadline, not a timing
+        // assertion).
+        let start = Instant::now();
+        while temp_files(&dir).len() < 2 {
+            assert!(start.elapsed() < WALL, "no temporary files appeared");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let ok = Command::new("kill")
+            .args([sig, &child.id().to_string()])
+            .status()
+            .unwrap()
+            .success();
+        assert!(ok);
+        // End of input: odometry finds the signal before it finishes the files.
+        drop(w);
+        let (code, err) = wait(child);
+        assert_eq!(code, Some(status), "{err}");
+        assert!(err.contains("stopped by SIG"), "{err}");
+        assert_eq!(
+            temp_files(&dir),
+            Vec::<String>::new(),
+            "temporary file left"
+        );
+        assert!(!dir.join("o.csv").exists(), "a partial output was kept");
+        assert!(!dir.join("o.mcap").exists(), "a partial output was kept");
+    }
+}
+
+/// `--plot` counts the log's rows in a first pass to thin the figure as the rows come; a
+/// pipe cannot be read twice, so its figure lines are kept and thinned when drawn.
+#[test]
+fn odometry_of_a_fifo_log_with_a_figure_reads_it_once() {
+    let dir = tmp("odometry-fifo-plot");
+    let fifo = dir.join("log.csv");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let child = spawn(
+        &dir,
+        &[
+            "odometry", "log.csv", "--robot", "kiwi", "--out", "o.csv", "--plot", "o.svg",
+        ],
+        GIB3,
+        Stdio::null(),
+    );
+    // More rows than a figure line draws (MAX_FIGURE_POINTS = 10 000).
+    let rows = 20_000;
+    let mut w =
+        std::io::BufWriter::new(std::fs::OpenOptions::new().write(true).open(&fifo).unwrap());
+    w.write_all(b"t,q1,q2,q3\n").unwrap();
+    for i in 0..rows {
+        let t = i as f64 * 0.01;
+        writeln!(w, "{t:.2},{:.5},{:.5},0", -2.0 * t, 2.0 * t).unwrap();
+    }
+    drop(w);
+    let (code, err) = wait(child);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains(&format!("{rows} samples")), "{err}");
+    let poses = std::fs::read_to_string(dir.join("o.csv")).unwrap();
+    assert_eq!(poses.lines().count(), rows + 1);
+    assert!(std::fs::metadata(dir.join("o.svg")).unwrap().len() > 0);
 }

@@ -478,10 +478,11 @@ fn drive_forwards_fixes_from_a_csv_and_the_robot_counts_them() {
 #[test]
 fn a_bad_fix_line_on_stdin_names_its_line() {
     let robot = common::Robot::start(&["--max-time", "16"]);
+    let dir = common::tmp("fixes", "stdin");
     let mut child = std::process::Command::new(common::BIN)
         .args(["drive", "--connect", &robot.addr, "--fixes", "-"])
         .args(["telemetry", "--out"])
-        .arg(common::tmp("fixes", "stdin").join("t.csv"))
+        .arg(dir.join("t.csv"))
         .args(["--for", "1"])
         .stdin(std::process::Stdio::piped())
         .stdout(std::process::Stdio::piped())

@@ -5,17 +5,18 @@
 //! Every command runs under the same 3 GiB address-space limit (`ulimit -v`) and a generous
 //! timeout, so a regression fails the test instead of taking the machine down or hanging.
 
+#[path = "common/test_dir.rs"]
+mod test_dir;
+use test_dir::TestDir;
+
 use std::path::{Path, PathBuf};
 use std::process::Output;
 use std::time::Duration;
 
 const BIN: &str = env!("CARGO_BIN_EXE_omnikin");
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("omnikin-limits-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> TestDir {
+    TestDir::new("limits", name)
 }
 
 /// Runs `omnikin ARGS` with at most 3 GiB of address space and a 300 s guard.

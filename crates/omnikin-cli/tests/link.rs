@@ -5,7 +5,6 @@
 //! themselves (`--max-time`), the proxy by a deadline.
 
 use std::net::{SocketAddr, UdpSocket};
-use std::path::PathBuf;
 use std::process::{Command, Output, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -22,7 +21,7 @@ use omnikin::runtime::{Frame, Mode};
 
 mod common;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::test_dir::TestDir {
     common::tmp("link", name)
 }
 

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use common::{BIN, Robot, num, read_rows, square_plan};
 use serde_json::Value;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::test_dir::TestDir {
     common::tmp("mcap", name)
 }
 

@@ -3,6 +3,10 @@
 //! camera fixes with latency and outliers pull a drifting odometry back; bad logs are rejected
 //! with the file, the line and the column.
 
+#[path = "common/test_dir.rs"]
+mod test_dir;
+use test_dir::TestDir;
+
 use std::f64::consts::{PI, TAU};
 use std::path::PathBuf;
 
@@ -21,32 +25,9 @@ fn omnikin() -> Command {
     Command::cargo_bin("omnikin").unwrap()
 }
 
-/// A fresh scratch directory per test, removed when the test ends.
-struct Scratch(PathBuf);
-
-impl Scratch {
-    fn join(&self, name: &str) -> PathBuf {
-        self.0.join(name)
-    }
-}
-
-impl AsRef<std::path::Path> for Scratch {
-    fn as_ref(&self) -> &std::path::Path {
-        &self.0
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn scratch(name: &str) -> Scratch {
-    let d = std::env::temp_dir().join(format!("omnikin-odometry-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    Scratch(d)
+/// A fresh directory for one test's files, removed when the test passes.
+fn scratch(name: &str) -> TestDir {
+    TestDir::new("odometry", name)
 }
 
 /// The sphere on a 0.25 m circle, heading tangent, starting at (0.25, 0) facing +y.
@@ -331,7 +312,7 @@ fn bad_logs_name_the_file_line_and_column() {
     ];
     let names = ["time", "q", "nan", "word", "steer", "imu"];
     for ((text, robot, message, extra), name) in cases.iter().zip(names) {
-        let path = dir.join(&format!("{name}.csv"));
+        let path = dir.join(format!("{name}.csv"));
         std::fs::write(&path, text).unwrap();
         let mut cmd = omnikin();
         cmd.current_dir(&dir)
@@ -464,7 +445,7 @@ fn tilt_compensation_and_event_threshold_sources_in_the_summary() {
             .args(["odometry", log.to_str().unwrap(), "--imu", "--robot"])
             .arg(&file)
             .arg("--out")
-            .arg(dir.join(&format!("p{}.csv", extra.len())))
+            .arg(dir.join(format!("p{}.csv", extra.len())))
             .args(extra)
             .output()
             .unwrap();

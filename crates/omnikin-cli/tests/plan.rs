@@ -1,6 +1,10 @@
 //! `omnikin plan`: the paper's experiments from one command each, waypoint files, output
 //! formats, figures, and errors that name the file, line, wheel and excess.
 
+#[path = "common/test_dir.rs"]
+mod test_dir;
+use test_dir::TestDir;
+
 use assert_cmd::Command;
 use omnikin::Twist2;
 use omnikin::sphere::{SphereOmni, SphereParams};
@@ -11,10 +15,9 @@ fn omnikin() -> Command {
     Command::cargo_bin("omnikin").unwrap()
 }
 
-fn tmp(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("omnikin-plan-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+/// The output file `name` in a directory of its own, removed when the test passes.
+fn tmp(name: &str) -> TestDir {
+    TestDir::file("plan-cli", name)
 }
 
 /// Runs a plan command that writes CSV to stdout and reads the plan back.
@@ -125,7 +128,7 @@ fn too_fast_square_is_retimed_or_rejected() {
             "1.5",
             "--out",
         ])
-        .arg(&out)
+        .arg(out.path())
         .assert()
         .success()
         .stderr(
@@ -162,7 +165,7 @@ fn waypoints_csv_and_toml_with_json_and_plot() {
     let svg = tmp("wp.svg");
     omnikin()
         .args(["plan", "waypoints"])
-        .arg(&csv)
+        .arg(csv.path())
         .args([
             "--robot",
             "ballbot",
@@ -177,9 +180,9 @@ fn waypoints_csv_and_toml_with_json_and_plot() {
             "json",
             "--out",
         ])
-        .arg(&json)
+        .arg(json.path())
         .arg("--plot")
-        .arg(&svg)
+        .arg(svg.path())
         .assert()
         .success()
         .stderr(
@@ -252,7 +255,7 @@ fn bad_waypoint_files_name_file_and_line() {
     std::fs::write(&bad, "x,y\n0,0\n1,oops\n").unwrap();
     omnikin()
         .args(["plan", "waypoints"])
-        .arg(&bad)
+        .arg(bad.path())
         .args(["--robot", "sphere-omni"])
         .assert()
         .failure()
@@ -264,7 +267,7 @@ fn bad_waypoint_files_name_file_and_line() {
     std::fs::write(&dup, "0,0\n1,0\n\n1,0\n").unwrap();
     omnikin()
         .args(["plan", "waypoints"])
-        .arg(&dup)
+        .arg(dup.path())
         .args(["--robot", "sphere-omni"])
         .assert()
         .failure()
@@ -280,7 +283,7 @@ fn bad_waypoint_files_name_file_and_line() {
     .unwrap();
     omnikin()
         .args(["plan", "waypoints"])
-        .arg(&badtoml)
+        .arg(badtoml.path())
         .args(["--robot", "sphere-omni"])
         .assert()
         .failure()
@@ -293,7 +296,7 @@ fn bad_waypoint_files_name_file_and_line() {
     std::fs::write(&rev, "0,0\n1,0\n0,0\n").unwrap();
     omnikin()
         .args(["plan", "waypoints"])
-        .arg(&rev)
+        .arg(rev.path())
         .args(["--robot", "sphere-omni", "--corners", "fillet"])
         .assert()
         .failure()

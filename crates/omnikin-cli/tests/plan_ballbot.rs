@@ -1,7 +1,11 @@
 //! A ballbot's plans stay within the acceleration its lean limit allows (robot file
 //! `[dynamics] max_tilt_deg` less `lean_margin`), and the plan report says so.
 
-use std::path::{Path, PathBuf};
+#[path = "common/test_dir.rs"]
+mod test_dir;
+use test_dir::TestDir;
+
+use std::path::Path;
 
 use assert_cmd::Command;
 use predicates::prelude::*;
@@ -10,11 +14,8 @@ fn omnikin() -> Command {
     Command::cargo_bin("omnikin").unwrap()
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("omnikin-plan-lean-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> TestDir {
+    TestDir::new("plan-lean", name)
 }
 
 /// Largest change of the world velocity between samples, m/s².

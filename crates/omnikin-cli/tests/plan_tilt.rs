@@ -1,6 +1,10 @@
 //! `omnikin plan` on a sphere: the quasi-static platform tilt in the summary, the warning past
 //! the robot file's `dynamics.max_tilt_deg`, and `--max-tilt`, which slows the plan.
 
+#[path = "common/test_dir.rs"]
+mod test_dir;
+use test_dir::TestDir;
+
 use assert_cmd::Command;
 use omnikin_plan::Plan;
 use predicates::prelude::*;
@@ -9,11 +13,8 @@ fn omnikin() -> Command {
     Command::cargo_bin("omnikin").unwrap()
 }
 
-fn tmp(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("omnikin-plan-tilt-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> TestDir {
+    TestDir::new("plan-tilt", name)
 }
 
 fn circle(out: &std::path::Path, extra: &[&str]) -> String {

@@ -9,7 +9,7 @@ use std::process::{Command, Output, Stdio};
 
 use common::{BIN, Robot, num, read_rows, square_plan};
 
-fn tmp(name: &str) -> std::path::PathBuf {
+fn tmp(name: &str) -> common::test_dir::TestDir {
     common::tmp("robot", name)
 }
 

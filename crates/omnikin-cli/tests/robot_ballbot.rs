@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use common::{BIN, free_port, num, read_rows};
 
-fn tmp(name: &str) -> std::path::PathBuf {
+fn tmp(name: &str) -> common::test_dir::TestDir {
     common::tmp("robot-ballbot", name)
 }
 

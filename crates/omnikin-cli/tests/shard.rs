@@ -1,6 +1,10 @@
 //! `simulate`/`reproduce --shard K/N` and `omnikin merge`: the merged shards write exactly what
 //! one run writes, and a merge refuses shards that are not one whole run.
 
+#[path = "common/test_dir.rs"]
+mod test_dir;
+use test_dir::TestDir;
+
 use std::path::{Path, PathBuf};
 
 use assert_cmd::Command;
@@ -17,11 +21,8 @@ fn examples() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples")
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("omnikin-shard-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> TestDir {
+    TestDir::new("shard-cli", name)
 }
 
 fn s(p: &Path) -> &str {

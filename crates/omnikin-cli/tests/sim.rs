@@ -1,5 +1,9 @@
 //! `omnikin simulate` and `omnikin evaluate`: outputs, determinism, and bad input.
 
+#[path = "common/test_dir.rs"]
+mod test_dir;
+use test_dir::TestDir;
+
 use std::path::{Path, PathBuf};
 
 use assert_cmd::Command;
@@ -13,11 +17,8 @@ fn omnikin() -> Command {
     Command::cargo_bin("omnikin").unwrap()
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("omnikin-sim-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> TestDir {
+    TestDir::new("sim-cli", name)
 }
 
 /// Paper 000, eq. 6.3 at ω0 = 1 rad/s, Rt = 0.2 m, 50 Hz, written as a plan CSV.

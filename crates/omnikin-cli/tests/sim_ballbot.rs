@@ -1,6 +1,10 @@
 //! `omnikin simulate --robot ballbot --plant dynamic`: the balance controller on the 3D model
 //! follows a plan, settles from a lean, survives a push and reports a fall.
 
+#[path = "common/test_dir.rs"]
+mod test_dir;
+use test_dir::TestDir;
+
 use std::path::{Path, PathBuf};
 
 use assert_cmd::Command;
@@ -11,11 +15,8 @@ fn omnikin() -> Command {
     Command::cargo_bin("omnikin").unwrap()
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("omnikin-ballbot-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> TestDir {
+    TestDir::new("ballbot-cli", name)
 }
 
 /// `plan square --robot ballbot --side 0.4 --speed 0.2 --ramp-fraction 0.25`.

@@ -1,6 +1,10 @@
 //! `omnikin simulate --plant dynamic`: the sphere's shell + platform dynamics behind the same
 //! command and files as the kinematic plant.
 
+#[path = "common/test_dir.rs"]
+mod test_dir;
+use test_dir::TestDir;
+
 use std::path::PathBuf;
 
 use assert_cmd::Command;
@@ -11,11 +15,8 @@ fn omnikin() -> Command {
     Command::cargo_bin("omnikin").unwrap()
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("omnikin-dyn-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> TestDir {
+    TestDir::new("dyn-cli", name)
 }
 
 fn circle(dir: &std::path::Path, omega: &str) -> PathBuf {

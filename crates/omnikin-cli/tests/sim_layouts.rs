@@ -3,6 +3,10 @@
 //! odometry, and errors that name the columns a robot needs. The plans are written from the
 //! robots' own inverse kinematics (the planner is tested on its own).
 
+#[path = "common/test_dir.rs"]
+mod test_dir;
+use test_dir::TestDir;
+
 use std::path::{Path, PathBuf};
 
 use assert_cmd::Command;
@@ -16,11 +20,8 @@ fn omnikin() -> Command {
     Command::cargo_bin("omnikin").unwrap()
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("omnikin-sim-layouts-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> TestDir {
+    TestDir::new("sim-layouts", name)
 }
 
 fn preset(name: &str) -> Robot<f64> {

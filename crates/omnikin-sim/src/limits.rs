@@ -22,9 +22,9 @@ pub const REPRODUCE_RATE_RANGE: (f64, f64) = (1.0, 1e4);
 /// `omnikin odometry` reads): 10⁷ rows are 28 h at 100 Hz.
 pub const MAX_TRACK_ROWS: usize = 10_000_000;
 
-/// Largest encoder log or camera-fix file ([`crate::table::NumericTable::load`]), bytes: 1 GiB
-/// (about [`MAX_TRACK_ROWS`] rows). The file is read whole: a larger one is refused before it
-/// is read instead of exhausting memory.
+/// Largest encoder log or camera-fix file ([`crate::table::NumericRows::open`]), bytes: 1 GiB
+/// (about [`MAX_TRACK_ROWS`] rows). A larger one is refused before it is read. The file is
+/// streamed row by row (`omnikin odometry`); a [`crate::table::NumericTable`] holds it whole.
 pub const MAX_LOG_BYTES: usize = 1 << 30;
 
 /// Plant integration rate (`rate`), Hz.

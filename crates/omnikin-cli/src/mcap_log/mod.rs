@@ -518,22 +518,30 @@ pub fn trial(
     Ok(())
 }
 
-/// `odometry`: the estimate `(t, pose)` row by row (`/pose` the estimate, `/tf`; `/truth` is
-/// absent: a recorded log has none).
-pub fn poses(
-    flag: &str,
-    path: &Path,
-    estimate: impl IntoIterator<Item = (f64, Pose2<f64>)>,
-) -> Result<()> {
-    let mut log = McapLog::create(flag, path, "omnikin odometry", false)?;
-    for (t, p) in estimate {
-        log.sample(&Sample {
-            t,
-            pose: p,
-            ..Default::default()
-        })?;
+/// `odometry`'s log: the estimate `(t, pose)` row by row as it is computed (`/pose` the
+/// estimate, `/tf`; `/truth` is absent: a recorded log has none). The file appears at
+/// [`finish`](Self::finish); dropped before, its temporary file is removed.
+pub struct PoseLog(McapLog);
+
+impl PoseLog {
+    /// Starts the MCAP output `path` named by `flag`.
+    pub fn create(flag: &str, path: &Path) -> Result<Self> {
+        McapLog::create(flag, path, "omnikin odometry", false).map(Self)
     }
-    log.finish()
+
+    /// Writes the estimate `pose` at log time `t` (s).
+    pub fn push(&mut self, t: f64, pose: Pose2<f64>) -> Result<()> {
+        self.0.sample(&Sample {
+            t,
+            pose,
+            ..Default::default()
+        })
+    }
+
+    /// Finishes the file and moves it into place.
+    pub fn finish(self) -> Result<()> {
+        self.0.finish()
+    }
 }
 
 #[cfg(test)]

@@ -15,11 +15,12 @@ use omnikin_plan::planner::{OnLimit, plan};
 
 pub const BIN: &str = env!("CARGO_BIN_EXE_omnikin");
 
-/// A fresh directory for one test's files (`suite` keeps the test binaries apart).
-pub fn tmp(suite: &str, name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("omnikin-{suite}-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+pub mod test_dir;
+
+/// A fresh directory for one test's files (`suite` keeps the test binaries apart), removed
+/// when the test passes.
+pub fn tmp(suite: &str, name: &str) -> test_dir::TestDir {
+    test_dir::TestDir::new(suite, name)
 }
 
 pub fn free_port() -> u16 {

@@ -1,11 +1,15 @@
 //! # Odometry over a recorded encoder log, optionally fused with camera fixes
 //!
 //! The pipeline behind `omnikin odometry`, as a library so that the command line and the Python
-//! bindings run the same code on in-memory tables (no files): a parsed encoder log
-//! ([`NumericTable`], conventions.md "Encoder log CSV for odometry") and optional camera fixes
-//! go through the core's [`Odometry`] and [`PoseFusion`] (pose, gyro bias, wheel scale); the
-//! result is one row per log sample ([`OdometryColumns`]), every fix's fate ([`FixRecord`]),
-//! the slip and collision events ([`events`]) and an [`OdometrySummary`].
+//! bindings run the same code: an encoder log (conventions.md "Encoder log CSV for odometry")
+//! and optional camera fixes go through the core's
+//! [`Odometry`](omnikin::estimate::odometry::Odometry) and
+//! [`PoseFusion`](omnikin::estimate::fusion::PoseFusion) (pose, gyro bias, wheel scale); the
+//! result is one row per log sample, every fix's fate ([`FixRecord`]), the slip and collision
+//! events ([`events`]) and an [`OdometrySummary`]. [`OdometryStream`] takes the log one row at
+//! a time (the command line reads it with [`NumericRows`] and writes each row as it comes, so
+//! its memory does not grow with the log); [`run`] is that stream over a whole
+//! [`NumericTable`], its rows kept as [`OdometryColumns`].
 //!
 //! * Log: `t,q1..qN` cumulative wheel angles (rad, or counts with
 //!   [`OdometryOptions::counts_per_rev`]), one per wheel of the robot; `s1..sN` steer angles for
@@ -19,22 +23,19 @@
 //!
 //! Errors name the table, the line and the column ([`OdometryError`]).
 
+use omnikin::Pose2;
 use omnikin::description::RobotDescription;
-use omnikin::estimate::estimator::Fix;
-use omnikin::estimate::fusion::{
-    FusionConfig, FusionError, FusionOutcome, PoseFusion, Recovery, StepHeading,
-};
-use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
-use omnikin::nalgebra::{Matrix3, Vector3};
-use omnikin::{MAX_WHEELS, Pose2};
+use omnikin::estimate::fusion::Recovery;
 
-use crate::table::{NumericTable, TableError};
+use crate::table::{NumericRows, NumericTable, TableError};
 
 pub mod events;
+pub mod stream;
 pub mod tilt;
 pub use events::{
     EventKind, EventOverrides, EventThresholds, OdometryEvent, ResolvedThresholds, ThresholdSource,
 };
+pub use stream::{FixList, OdometryEnd, OdometryRow, OdometryStream};
 
 /// Entries of the filter's history (sized by time: half of them cover
 /// [`OdometryOptions::max_latency`] whatever the encoder rate).
@@ -174,7 +175,14 @@ impl OdometryColumns {
         ))
     }
 
-    fn push(&mut self, t: f64, estimate: Pose2<f64>, std: [f64; 3], odometry: Pose2<f64>) {
+    /// Appends one row of [`OdometryStream::push`].
+    pub fn push(&mut self, row: &OdometryRow) {
+        let OdometryRow {
+            t,
+            estimate,
+            std,
+            odometry,
+        } = *row;
         self.t.push(t);
         self.x.push(estimate.x);
         self.y.push(estimate.y);
@@ -465,36 +473,80 @@ fn check_options(o: &OdometryOptions) -> Result<(), OdometryError> {
 /// [`OdometryError::Table`] for missing columns, [`OdometryError::Input`] for an arrival
 /// before the fix was taken.
 pub fn read_fixes(table: &NumericTable) -> Result<Vec<FixRecord>, OdometryError> {
-    let c = table.require(&["t", "x", "y"], "fixes need t,x,y")?;
-    let heading = table.col("heading");
-    let arrival = table.col("arrival");
+    let columns = FixColumns::of(table.require(&["t", "x", "y"], FIX_COLUMNS)?, |n| {
+        table.col(n)
+    });
     let mut fixes = Vec::with_capacity(table.rows.len());
     for (line, v) in &table.rows {
-        let t = v[c[0]];
-        let arr = arrival.map_or(t, |a| v[a]);
-        if arr < t {
-            return Err(input(
-                &table.file,
-                Some(*line),
-                format!("column arrival: {arr} is before the fix was taken (t = {t})"),
-            ));
-        }
-        fixes.push(FixRecord {
-            line: *line,
-            t,
-            arrival: arr,
-            x: v[c[1]],
-            y: v[c[2]],
-            heading: heading.map(|h| v[h]),
-            result: FixResult::AfterLog,
-        });
+        fixes.push(columns.record(&table.file, *line, v)?);
     }
     fixes.sort_by(|a, b| a.arrival.total_cmp(&b.arrival));
     Ok(fixes)
 }
 
+/// [`read_fixes`] from a table read row by row: the fixes are held (80 bytes each, so 800 MB
+/// at [`MAX_TRACK_ROWS`](crate::limits::MAX_TRACK_ROWS)), not the table.
+///
+/// # Errors
+/// As [`read_fixes`], and the table's own errors (a bad row, a time that does not increase).
+pub fn read_fix_rows<R: std::io::BufRead>(
+    mut rows: NumericRows<R>,
+) -> Result<FixList, OdometryError> {
+    let columns = FixColumns::of(rows.require(&["t", "x", "y"], FIX_COLUMNS)?, |n| {
+        rows.col(n)
+    });
+    let file = rows.file.clone();
+    let mut records = Vec::new();
+    while let Some((line, v)) = rows.next_row()? {
+        records.push(columns.record(&file, line, v)?);
+    }
+    records.sort_by(|a, b| a.arrival.total_cmp(&b.arrival));
+    Ok(FixList { file, records })
+}
+
+const FIX_COLUMNS: &str = "fixes need t,x,y";
+
+/// Where a fixes table keeps each field.
+struct FixColumns {
+    txy: Vec<usize>,
+    heading: Option<usize>,
+    arrival: Option<usize>,
+}
+
+impl FixColumns {
+    fn of(txy: Vec<usize>, col: impl Fn(&str) -> Option<usize>) -> Self {
+        Self {
+            txy,
+            heading: col("heading"),
+            arrival: col("arrival"),
+        }
+    }
+
+    /// The fix of row `v` (line `line` of `file`), its result not yet known.
+    fn record(&self, file: &str, line: usize, v: &[f64]) -> Result<FixRecord, OdometryError> {
+        let t = v[self.txy[0]];
+        let arr = self.arrival.map_or(t, |a| v[a]);
+        if arr < t {
+            return Err(input(
+                file,
+                Some(line),
+                format!("column arrival: {arr} is before the fix was taken (t = {t})"),
+            ));
+        }
+        Ok(FixRecord {
+            line,
+            t,
+            arrival: arr,
+            x: v[self.txy[1]],
+            y: v[self.txy[2]],
+            heading: self.heading.map(|h| v[h]),
+            result: FixResult::AfterLog,
+        })
+    }
+}
+
 /// Runs wheel odometry over `log` for the robot `description`, fusing `fixes` (a table as
-/// [`read_fixes`] reads) when given.
+/// [`read_fixes`] reads) when given: [`OdometryStream`] over every row, the rows kept.
 ///
 /// # Errors
 /// [`OdometryError`] naming the table, line and column: missing wheel or steer columns, a log
@@ -506,458 +558,23 @@ pub fn run(
     fixes: Option<&NumericTable>,
     options: &OdometryOptions,
 ) -> Result<OdometryRun, OdometryError> {
-    check_options(options)?;
-    let robot = description.build::<f64>()?;
-    let n = robot.wheels();
-    let steerable = robot.steerable();
-    let wheel_cols: Vec<String> = std::iter::once("t".to_string())
-        .chain((1..=n).map(|i| format!("q{i}")))
-        .collect();
-    let q = log.require(
-        &wheel_cols.iter().map(String::as_str).collect::<Vec<_>>(),
-        &format!(
-            "an encoder log of {} ({}, {n} wheels) needs {}",
-            description.name,
-            description.kind(),
-            wheel_cols.join(",")
-        ),
-    )?;
-    let s = if steerable {
-        let steer_cols: Vec<String> = (1..=n).map(|i| format!("s{i}")).collect();
-        log.require(
-            &steer_cols.iter().map(String::as_str).collect::<Vec<_>>(),
-            &format!(
-                "{} ({}) steers its wheels: it needs its steer angles {}",
-                description.name,
-                description.kind(),
-                steer_cols.join(",")
-            ),
-        )?
-    } else {
-        Vec::new()
-    };
-    // A log of another robot: more wheel columns, or steer angles the robot does not have,
-    // were ignored and the odometry of the wrong robot written without a word.
-    let extra = if steerable {
-        format!("s{}", n + 1)
-    } else {
-        "s1".to_string()
-    };
-    for col in [format!("q{}", n + 1), extra] {
-        if log.col(&col).is_some() {
-            return Err(input(
-                &log.file,
-                Some(1),
-                format!(
-                    "column {col}: {} ({}) has {n} wheels{}, but the log has {col}: is it \
-                     the log of another robot? (header: {})",
-                    description.name,
-                    description.kind(),
-                    if steerable {
-                        " with steering"
-                    } else {
-                        " and no steering"
-                    },
-                    omnikin::description::excerpt(&log.header.join(","))
-                ),
-            ));
-        }
-    }
-    #[derive(Clone, Copy)]
-    enum Source {
-        Wheels,
-        Gyro(usize),
-        Yaw(usize),
-    }
-    let inertial_cols = ["gyro_x", "gyro_y", "accel_x", "accel_y", "accel_z"].map(|c| log.col(c));
-    let source = match (options.imu, log.col("yaw"), log.col("gyro_z")) {
-        (false, _, _) => Source::Wheels,
-        (true, Some(y), _) => Source::Yaw(y),
-        (true, None, Some(g)) => Source::Gyro(g),
-        (true, None, None) => {
-            return Err(input(
-                &log.file,
-                Some(1),
-                format!(
-                    "--imu needs a yaw or gyro_z column (header: {})",
-                    log.header.join(",")
-                ),
-            ));
-        }
-    };
-    let has_accel = inertial_cols[2..].iter().all(Option::is_some);
-    let has_gyro_xy = inertial_cols[..2].iter().all(Option::is_some);
-    // The columns of the 3-axis gyro and the accelerometer, when the tilt is compensated.
-    let (inertial, tilt_note) = match source {
-        Source::Wheels => (None, "the heading comes from the wheels"),
-        Source::Yaw(_) => (
-            None,
-            "the yaw column is taken as the heading about the vertical as given",
-        ),
-        Source::Gyro(_) if !has_accel => (
-            None,
-            "no accel_x,accel_y,accel_z columns: gyro_z taken as the heading rate",
-        ),
-        Source::Gyro(_) if !has_gyro_xy => (
-            None,
-            "accel columns but no gyro_x,gyro_y: the body rate cannot be projected on the \
-             vertical",
-        ),
-        Source::Gyro(_) if !options.tilt_compensation => (None, "switched off"),
-        Source::Gyro(_) => (Some(inertial_cols.map(|c| c.unwrap_or(0))), ""),
-    };
-    if log.rows.is_empty() {
-        return Err(input(&log.file, None, "no samples after the header".into()));
-    }
-    let scale = options
-        .counts_per_rev
-        .map_or(1.0, |n| std::f64::consts::TAU / n as f64);
-    let start = options
-        .initial_pose
-        .unwrap_or_else(|| Pose2::new(0.0, 0.0, 0.0));
-
-    let (fix_file, mut fix_list) = match fixes {
-        Some(table) => (table.file.clone(), Some(read_fixes(table)?)),
-        None => (String::new(), None),
-    };
-    let t0 = log.rows[0].1[q[0]];
-    let estimator_error =
-        |file: &str, line: usize, e: FusionError| input(file, Some(line), e.to_string());
-    let step_heading = match source {
-        Source::Wheels => StepHeading::Wheels,
-        Source::Gyro(_) => StepHeading::Gyro,
-        Source::Yaw(_) => StepHeading::Absolute,
-    };
-    let defaults = FusionConfig::<f64>::default();
-    let config = FusionConfig {
-        gyro_bias_std: if options.estimate_gyro_bias && step_heading == StepHeading::Gyro {
-            defaults.gyro_bias_std
-        } else {
-            0.0
-        },
-        scale_std: if options.estimate_wheel_scale {
-            defaults.scale_std
-        } else {
-            0.0
-        },
-        max_latency: options.max_latency,
-        recovery_count: options.recovery_count,
-        recovery_spread: options.recovery_spread,
-        ..defaults
-    };
-    let est = match options.initial_pose {
-        Some(p) => PoseFusion::<f64, HISTORY>::new(
-            t0,
-            p,
-            Matrix3::from_diagonal(&Vector3::new(1e-4, 1e-4, 1e-4)),
-            config,
-        ),
-        None => PoseFusion::awaiting_fix(t0, 0.0, config),
-    };
-    // About 100 kB: on the heap.
-    let mut est = Box::new(est.map_err(|e| estimator_error(&log.file, log.rows[0].0, e))?);
-    let mut odo = Odometry::new(robot, start);
-    let mut columns = OdometryColumns::default();
-    let mut counts = FixSummary::default();
-    let mut next_fix = 0;
-    let mut max_slip = (0.0f64, t0);
-    let mut spin_sum = (0.0f64, 0usize);
-    // Mean wheel heading rate at zero spin, and per-second means of Ω3 (their scatter).
-    let mut wheel_rate_sum = 0.0f64;
-    let mut blocks: Vec<f64> = Vec::new();
-    let mut block = (0.0f64, 0usize, t0);
-    let mut path = 0.0;
-    let mut tilt_tracker = inertial.map(|_| tilt::TiltTracker::new());
-    // A sphere's or ballbot's wheels on a tilted platform measure the relative rate in the
-    // tilted frame: with the tilt tracked, their increments are de-tilted before the level
-    // kinematics (tilt::shell_maps). (previous raw angles, de-tilted cumulative angles).
-    let shell_maps = tilt_tracker
-        .as_ref()
-        .and_then(|_| tilt::shell_maps(odo.robot()));
-    let mut detilted: Option<([f64; 3], [f64; 3], f64)> = None;
-    // The de-tilting's change of the wheels' relative spin ω̃_z over the last step, rad/s.
-    let mut wheel_difference = 0.0f64;
-    // Sum of (vertical rate − gyro_z) and of the de-tilted minus raw wheel spin over the
-    // samples with a spin: their difference to the uncompensated Ω3.
-    let mut tilt_difference_sum = 0.0f64;
-    let thresholds = ResolvedThresholds::resolve(&options.events, &description.events);
-    let mut detector = events::Detector::new(
-        thresholds.thresholds,
-        !matches!(source, Source::Wheels),
-        odo.robot().motors() > 3,
-    );
-    for (line, v) in &log.rows {
-        let line = *line;
-        let at = |i: usize| v[i];
-        let t = at(q[0]);
-        let mut reading = EncoderReading::new(t, [0.0; MAX_WHEELS]);
-        for i in 0..n {
-            reading.wheel_angles[i] = at(q[i + 1]) * scale;
-        }
-        for (i, &c) in s.iter().enumerate() {
-            reading.steer_angles[i] = at(c) * scale;
-        }
-        // Finite but meaningless angles and rates (a steer angle of 1e308 rad was used as
-        // is): held to the plan file's bounds, naming the line and column.
-        let bounded = |col: usize, max: f64, unit: &str| -> Result<(), OdometryError> {
-            if at(col).abs() > max {
-                return Err(input(
-                    &log.file,
-                    Some(line),
-                    format!(
-                        "column {}: {} {unit} is outside the plausible range [-{max:e}, \
-                         {max:e}] {unit} (omnikin_plan::limits)",
-                        log.header[col],
-                        num(at(col))
-                    ),
-                ));
-            }
-            Ok(())
-        };
-        for &c in &s {
-            let unit = if options.counts_per_rev.is_some() {
-                "counts"
-            } else {
-                "rad"
-            };
-            bounded(c, omnikin_plan::limits::MAX_HEADING / scale.min(1.0), unit)?;
-        }
-        match source {
-            Source::Wheels => {}
-            Source::Gyro(g) => bounded(g, omnikin_plan::limits::MAX_PLAN_RATE, "rad/s")?,
-            Source::Yaw(y) => bounded(y, omnikin_plan::limits::MAX_HEADING, "rad")?,
-        }
-        if let Some(c) = inertial {
-            for &col in &c[..2] {
-                bounded(col, omnikin_plan::limits::MAX_PLAN_RATE, "rad/s")?;
-            }
-            for &col in &c[2..] {
-                bounded(col, omnikin_plan::limits::ACCEL_RANGE.1, "m/s²")?;
-            }
-        }
-        let heading = match (source, inertial, tilt_tracker.as_mut()) {
-            (Source::Wheels, _, _) => HeadingInput::Wheels,
-            (Source::Gyro(g), Some(c), Some(tracker)) => {
-                let gyro = [at(c[0]), at(c[1]), at(g) - options.gyro_bias];
-                let rate = tracker
-                    .step(t, gyro, [at(c[2]), at(c[3]), at(c[4])])
-                    .map_err(|e| {
-                        input(
-                            &log.file,
-                            Some(line),
-                            format!("columns accel_x,accel_y,accel_z: {e}"),
-                        )
-                    })?;
-                HeadingInput::GyroRate(rate)
-            }
-            (Source::Gyro(g), _, _) => HeadingInput::GyroRate(at(g) - options.gyro_bias),
-            (Source::Yaw(y), _, _) => HeadingInput::Absolute(at(y)),
-        };
-        if let (Some(maps), Some(tracker)) = (&shell_maps, tilt_tracker.as_mut()) {
-            let raw = [
-                reading.wheel_angles[0],
-                reading.wheel_angles[1],
-                reading.wheel_angles[2],
-            ];
-            let level = match detilted {
-                None => raw,
-                Some((prev, level, t0)) => {
-                    let dq = [raw[0] - prev[0], raw[1] - prev[1], raw[2] - prev[2]];
-                    let d = tracker.level_increments(maps, dq, t - t0);
-                    if t > t0 {
-                        let z = |v: [f64; 3]| (maps.1 * omnikin::nalgebra::Vector3::from(v)).z;
-                        wheel_difference = (z(d) - z(dq)) / (t - t0);
-                    }
-                    [level[0] + d[0], level[1] + d[1], level[2] + d[2]]
-                }
-            };
-            detilted = Some((raw, level, t));
-            reading.wheel_angles[..3].copy_from_slice(&level);
-        }
-        let step = odo
-            .update(&reading, heading)
-            .map_err(|e| input(&log.file, Some(line), e.to_string()))?;
-        path += step.delta.x.hypot(step.delta.y);
-        detector.step(&step);
-        if let Some(tracker) = tilt_tracker.as_mut() {
-            tracker.after_step(&step);
-        }
-        if step.slip_residual > max_slip.0 {
-            max_slip = (step.slip_residual, t);
-        }
-        if let Some(x) = step.shell_spin {
-            spin_sum = (spin_sum.0 + x, spin_sum.1 + 1);
-            wheel_rate_sum += step.twist.yaw_rate - x;
-            if let Some(tracker) = &tilt_tracker {
-                tilt_difference_sum += tracker.last_difference + wheel_difference;
-            }
-            block = (block.0 + x, block.1 + 1, block.2);
-            if t - block.2 >= 1.0 {
-                blocks.push(block.0 / block.1 as f64);
-                block = (0.0, 0, t);
-            }
-        }
-        if step.dt > 0.0 {
-            est.predict(t, step.delta, step_heading)
-                .map_err(|e| estimator_error(&log.file, line, e))?;
-        }
-        if let Some(list) = fix_list.as_mut() {
-            while next_fix < list.len() && list[next_fix].arrival <= t {
-                let rec = &mut list[next_fix];
-                next_fix += 1;
-                let fix = Fix {
-                    t: rec.t,
-                    x: rec.x,
-                    y: rec.y,
-                    heading: rec.heading,
-                    std_xy: options.fix_std,
-                    std_heading: options.fix_heading_std,
-                };
-                rec.result = match est.add_fix(&fix) {
-                    Ok(FusionOutcome::Accepted { mahalanobis2 }) => {
-                        counts.accepted += 1;
-                        FixResult::Accepted { mahalanobis2 }
-                    }
-                    Ok(FusionOutcome::Rejected { mahalanobis2, gate }) => {
-                        counts.rejected += 1;
-                        FixResult::Rejected { mahalanobis2, gate }
-                    }
-                    Ok(FusionOutcome::Initialised) => {
-                        counts.accepted += 1;
-                        counts.initialised_at = Some(rec.t);
-                        FixResult::Initialised
-                    }
-                    Ok(FusionOutcome::Recovered { recovery, rejected }) => {
-                        counts.accepted += 1;
-                        match recovery {
-                            Recovery::Reinitialised => counts.reinitialised += 1,
-                            Recovery::Inflated => counts.inflated += 1,
-                        }
-                        FixResult::Recovered { recovery, rejected }
-                    }
-                    Err(FusionError::TooLate { .. }) => {
-                        counts.too_late += 1;
-                        FixResult::TooLate
-                    }
-                    Err(e) => return Err(estimator_error(&fix_file, rec.line, e)),
-                };
-            }
-        }
-        let (estimate, std) = if fix_list.is_some() {
-            let p = est.pose_covariance();
-            let sd = |i: usize| p[(i, i)].max(0.0).sqrt();
-            (est.pose(), [sd(0), sd(1), sd(2)])
-        } else {
-            (step.pose, [0.0; 3])
-        };
-        columns.push(t, estimate, std, step.pose);
-    }
-
-    let end = columns.pose(columns.len() - 1).unwrap_or(start);
-    let duration = columns.t.last().copied().unwrap_or(t0) - t0;
-    let fixes_out = fix_list.unwrap_or_default();
-    let fix_summary = fixes.map(|_| {
-        let p = odo.pose();
-        let (b, sb) = est.gyro_bias();
-        FixSummary {
-            after_log: fixes_out.len() - next_fix,
-            fused_minus_odometry: (p.x - end.x).hypot(p.y - end.y),
-            gyro_bias: (config.gyro_bias_std > 0.0).then_some((options.gyro_bias + b, sb)),
-            wheel_scale: (config.scale_std > 0.0).then(|| est.wheel_scale()),
-            ..counts
-        }
-    });
-    let summary = OdometrySummary {
-        robot: description.name.clone(),
-        kind: description.kind(),
-        heading_source: match source {
-            Source::Wheels => HeadingSource::Wheels,
-            Source::Gyro(_) => HeadingSource::Gyro,
-            Source::Yaw(_) => HeadingSource::Yaw,
-        },
-        samples: columns.len(),
-        duration,
-        path_length: path,
-        end,
-        max_slip: (odo.robot().motors() > 3).then_some(max_slip),
-        mean_shell_spin: (spin_sum.1 > 0).then(|| spin_sum.0 / spin_sum.1 as f64),
-        shell_spin: (spin_sum.1 > 0).then(|| {
-            let n = spin_sum.1 as f64;
-            let (raw, w) = (spin_sum.0 / n, wheel_rate_sum / n);
-            // Scatter of the per-second means (the samples themselves are correlated).
-            let scatter = if blocks.len() >= 2 {
-                let m = blocks.iter().sum::<f64>() / blocks.len() as f64;
-                let var = blocks.iter().map(|b| (b - m).powi(2)).sum::<f64>()
-                    / (blocks.len() - 1) as f64;
-                (var / blocks.len() as f64).sqrt()
-            } else {
-                0.0
-            };
-            let gyro = step_heading == StepHeading::Gyro;
-            let from_fixes = fixes.is_some() && est.initialised();
-            let (xs, p) = est.state();
-            let (b, k, vb, vk, cbk) = if from_fixes {
-                (
-                    if gyro { xs[3] } else { 0.0 },
-                    xs[4],
-                    if gyro { p[(3, 3)] } else { 0.0 },
-                    p[(4, 4)],
-                    if gyro { p[(3, 4)] } else { 0.0 },
-                )
-            } else {
-                let d = FusionConfig::<f64>::default();
-                let vb = if gyro { d.gyro_bias_std.powi(2) } else { 0.0 };
-                (0.0, 1.0, vb, d.scale_std.powi(2), 0.0)
-            };
-            // A state switched off has no variance: its prior is the honest bound.
-            let d = FusionConfig::<f64>::default();
-            let vb = if gyro && config.gyro_bias_std == 0.0 {
-                d.gyro_bias_std.powi(2)
-            } else {
-                vb
-            };
-            let vk = if config.scale_std == 0.0 {
-                d.scale_std.powi(2)
-            } else {
-                vk
-            };
-            // Ω3 = raw − b − (k − 1)·w;  ∂/∂b = −1, ∂/∂k = −w.
-            let mut var = vb + w * w * vk + 2.0 * w * cbk + scatter * scatter;
-            let mean = raw - b - (k - 1.0) * w;
-            let tilt = match tilt_tracker.as_ref().and_then(tilt::TiltTracker::figures) {
-                Some(f) => {
-                    let spin_std = f.rate_std();
-                    var += spin_std * spin_std;
-                    TiltReport::Compensated {
-                        mean_tilt: f.mean_tilt,
-                        max_tilt: f.max_tilt,
-                        tilt_std: f.tilt_std,
-                        spin_std,
-                        uncompensated: mean - tilt_difference_sum / n,
-                    }
-                }
-                None => TiltReport::NotCompensated(tilt_note),
-            };
-            ShellSpin {
-                mean,
-                std: var.max(0.0).sqrt(),
-                uncorrected: raw,
-                from_fixes,
-                tilt,
-            }
+    let fixes = match fixes {
+        Some(table) => Some(FixList {
+            file: table.file.clone(),
+            records: read_fixes(table)?,
         }),
-        shell_spin_unobservable: (odo.robot().kind().has_vertical_spin()
-            && matches!(source, Source::Wheels))
-        .then_some(
-            "the heading comes from the wheels, so the spin is assumed (0), not measured: use --imu",
-        ),
-        fixes: fix_summary,
-        event_thresholds: thresholds,
+        None => None,
     };
+    let mut stream = OdometryStream::new(description, &log.file, &log.header, fixes, options)?;
+    let mut columns = OdometryColumns::default();
+    for (line, v) in &log.rows {
+        columns.push(&stream.push(*line, v)?);
+    }
+    let end = stream.finish()?;
     Ok(OdometryRun {
         columns,
-        fixes: fixes_out,
-        summary,
-        events: detector.finish(),
+        fixes: end.fixes,
+        summary: end.summary,
+        events: end.events,
     })
 }
