@@ -123,7 +123,7 @@ fn check(case: &Case) -> Result<(), TestCaseError> {
         }
         prop_assert!(s.twist.vx.hypot(s.twist.vy) <= v * (1.0 + 1e-9));
     }
-    for w in p.samples.windows(2) {
+    for (k, w) in p.samples.windows(2).enumerate() {
         let dt = w[1].t - w[0].t;
         prop_assert!(dt > 0.0);
         for i in 0..3 {
@@ -150,13 +150,26 @@ fn check(case: &Case) -> Result<(), TestCaseError> {
         }
         let max_yaw = w[0].twist.yaw_rate.abs().max(w[1].twist.yaw_rate.abs());
         let dpsi = (w[1].pose.heading - w[0].pose.heading).abs();
-        // Heading continuous: the change over a step is bounded by the yaw rates around it
-        // (a generous factor covers yaw accelerating within the step).
+        // Heading continuous: the change over a step is what the yaw rates around it allow.
+        // With |ψ̈| ≤ α on the step, |ψ̇(t)| ≤ |ψ̇ at the nearer end| + α·(time to it), whose
+        // integral is at most max_yaw·dt + α·dt²/4. α is estimated from the yaw rates of
+        // the samples around the step (k − 1 … k + 2): a yaw rate that crosses zero between two
+        // samples (a C² spline's curvature turning at a waypoint) shows there, while a turn no
+        // sample sees (a move shorter than the step, all yaw rates around it zero) does not.
+        // Twice both terms is the margin for α varying over the steps.
+        let around = &p.samples[k.saturating_sub(1)..(k + 3).min(p.samples.len())];
+        let alpha = around
+            .windows(2)
+            .map(|v| ((v[1].twist.yaw_rate - v[0].twist.yaw_rate) / (v[1].t - v[0].t)).abs())
+            .fold(0.0_f64, f64::max);
         prop_assert!(
-            dpsi <= 2.0 * max_yaw * dt + 1e-6,
-            "heading jumps by {} at t {}",
+            dpsi <= 2.0 * (max_yaw * dt + alpha * dt * dt / 4.0) + 1e-6,
+            "heading jumps by {} at t {} (yaw rates {} and {}, yaw acceleration around {})",
             dpsi,
-            w[1].t
+            w[1].t,
+            w[0].twist.yaw_rate,
+            w[1].twist.yaw_rate,
+            alpha
         );
     }
     let end = p.samples.last().unwrap();
@@ -216,6 +229,59 @@ fn a_nearly_straight_fillet_keeps_the_tangent_heading_continuous() {
         v: 0.05,
         a: 3.9668507561572426,
         j: 1.0,
+    })
+    .unwrap();
+}
+
+/// The same for a turn in place: a stop corner that turns by 20 µrad under the tangent law is a
+/// turn in place of 6.3 ms at the default 2 rad/s² (`2√(θ/α)`), shorter than the 10 ms
+/// between samples, which every timing (trapezoid, S-curve, time-optimal) and every robot must
+/// show in its samples' yaw rates, not only in their poses.
+#[test]
+fn a_tiny_turn_in_place_shows_in_the_samples() {
+    for robot_i in 0..3 {
+        for timing_i in 0..3 {
+            check(&Case {
+                pts: vec![[0.0, 0.0], [0.5, 0.0], [1.0, 0.5 * 2e-5]],
+                path_kind: 0,
+                fillet: 0.02,
+                robot_i,
+                timing_i,
+                heading_kind: 1,
+                v: 0.5,
+                a: 2.0,
+                j: 20.0,
+            })
+            .unwrap_or_else(|e| panic!("robot {robot_i}, timing {timing_i}: {e}"));
+        }
+    }
+}
+
+/// A C² spline whose curvature changes sign between two samples, steeply at a waypoint
+/// (ballbot, tangent law, S-curve): the yaw rate dips to −0.005 rad/s between samples that
+/// show −0.0014 and −0.0021, so the heading turns by 5.2e-5 rad over the step — continuous
+/// motion that a bound on the two samples' yaw rates alone took for a jump (found with
+/// `PROPTEST_CASES=20000 PROPTEST_RNG_SEED=100`).
+#[test]
+fn a_yaw_rate_crossing_zero_between_samples_is_no_jump() {
+    check(&Case {
+        pts: vec![
+            [0.0, 0.0],
+            [0.19106729782512122, 0.05910404133226791],
+            [0.38213459565024244, 0.11820808266453582],
+            [0.21324872406432865, 0.38070176296165054],
+            [0.5399462208327312, 1.3029409709812878],
+            [0.6739702016450089, 1.6581621887009717],
+            [1.2568240620997333, 1.1197714957392082],
+        ],
+        path_kind: 2,
+        fillet: 0.02,
+        robot_i: 1,
+        timing_i: 1,
+        heading_kind: 1,
+        v: 0.8950076599193258,
+        a: 4.351525792099517,
+        j: 44.87864407141541,
     })
     .unwrap();
 }
