@@ -191,8 +191,14 @@ fn cases(default: u32) -> u32 {
 
 proptest! {
     // 64 cases unless `PROPTEST_CASES` says otherwise (a literal count alone would override
-    // the variable, and a raised count would silently run 64).
-    #![proptest_config(ProptestConfig { cases: cases(64), ..ProptestConfig::default() })]
+    // the variable, and a raised count would silently run 64). About 5 % of the random walks
+    // make a path that is rejected (a spline cusp, a fillet that does not fit): the rejects
+    // allowed grow with the cases (the default 1024 aborted a 20 000-case run at 18 528 passes).
+    #![proptest_config(ProptestConfig {
+        cases: cases(64),
+        max_global_rejects: cases(64) / 4 + 1024,
+        ..ProptestConfig::default()
+    })]
 
     #[test]
     fn random_plans_respect_every_limit(
