@@ -53,19 +53,11 @@ fn time_optimal_plans_are_never_slower_than_a_profile_and_stay_within_the_limits
                     rate: 1000.0,
                     initial_steer: InitialSteer::Aligned,
                 };
-                // A set-point swerve under the tangent law is left out: its steer rate steps
-                // at every waypoint of a C² spline (the curvature's derivative jumps), which
-                // the final check cannot bring within the steer acceleration limit (a known
-                // defect, see bench/README.md, 3 Dec 2026).
-                let laws: &[HeadingLaw] = if name == "swerve4" {
-                    &[HeadingLaw::Constant(0.4)]
-                } else {
-                    &[
-                        HeadingLaw::Tangent { offset: 0.2 },
-                        HeadingLaw::Constant(0.4),
-                    ]
-                };
-                for law in laws {
+                let laws = [
+                    HeadingLaw::Tangent { offset: 0.2 },
+                    HeadingLaw::Constant(0.4),
+                ];
+                for law in &laws {
                     let fast = plan(&path, law, &robot, &opts(Timing::TimeOptimal { limits }))
                         .expect("time-optimal plan");
                     let profile = plan(
@@ -99,4 +91,66 @@ fn time_optimal_plans_are_never_slower_than_a_profile_and_stay_within_the_limits
         }
     }
     assert!(compared >= 50, "{compared} plans compared");
+}
+
+/// A set-point swerve under the tangent law along the 20-waypoint C² spline, time-optimal:
+/// its steer rates per unit speed follow the curvature's derivative, which jumps at every
+/// waypoint. The planner once kept slowing such a plan without end (87 s at 50 Hz, 663 s at
+/// 200 Hz, too many samples at 1 kHz, against 18.66 s under a constant heading; bench/README.md,
+/// 3 Dec 2026); it now stops the robot where the steer rates per unit speed jump (`moves.rs`,
+/// the heading acceleration among the cut criteria), so the plan is the same at every sampling
+/// rate, every sample within every limit, and the stops cost what braking and starting again
+/// cost.
+#[test]
+fn a_swerve_under_the_tangent_law_plans_a_c2_spline_the_same_at_every_rate() {
+    let robot = RobotModel::from_description(&RobotDescription::preset("swerve4").expect("preset"))
+        .expect("model");
+    let path = Path::spline(&splines()[0]).expect("spline");
+    let limits = MotionLimits {
+        max_speed: 0.6,
+        max_accel: 1.0,
+        ..MotionLimits::default()
+    };
+    let law = HeadingLaw::Tangent { offset: 0.0 };
+    let mut durations = Vec::new();
+    for rate in [50.0, 200.0, 1000.0] {
+        let opts = PlanOptions {
+            timing: Timing::TimeOptimal { limits },
+            on_limit: OnLimit::Retime,
+            rate,
+            initial_steer: InitialSteer::Aligned,
+        };
+        let planned = plan(&path, &law, &robot, &opts).expect("time-optimal plan");
+        for p in plan_peaks(&planned.plan, &robot) {
+            if let Some(l) = p.limit {
+                assert!(p.value <= l * (1.0 + 1e-9), "{rate} Hz: {p:?}");
+            }
+        }
+        durations.push(planned.report.duration);
+    }
+    let (lo, hi) = durations
+        .iter()
+        .fold((f64::INFINITY, 0.0_f64), |(lo, hi), &d| {
+            (lo.min(d), hi.max(d))
+        });
+    // The continuous timing does not depend on the sampling rate (29.462 s at all three).
+    assert!(hi - lo <= 1e-6 * hi, "durations {durations:?} s");
+    // Against the same plan under a constant heading (18.66 s, no stops): each of the 18
+    // interior waypoints is now a stop, a brake from and a start to 0.6 m/s at 1 m/s², which
+    // costs v/a = 0.6 s against cruising through (the defect's plans took 87–663 s).
+    let opts = PlanOptions {
+        timing: Timing::TimeOptimal { limits },
+        on_limit: OnLimit::Retime,
+        rate: 50.0,
+        initial_steer: InitialSteer::Aligned,
+    };
+    let constant = plan(&path, &HeadingLaw::Constant(0.0), &robot, &opts)
+        .expect("constant-heading plan")
+        .report
+        .duration;
+    let stops = 18.0 * limits.max_speed / limits.max_accel;
+    assert!(
+        (hi - (constant + stops)).abs() <= 5e-3 * hi,
+        "tangent {durations:?} s, constant {constant} s + stops {stops} s"
+    );
 }

@@ -63,6 +63,10 @@ impl Ctx<'_> {
         let chans = robot.channels();
         let rate: [Option<f64>; MAX_CHANNELS] = core::array::from_fn(|ch| robot.rate_limit(ch));
         let accel: [Option<f64>; MAX_CHANNELS] = core::array::from_fn(|ch| robot.accel_limit(ch));
+        // The screen's thresholds once per move (a missing limit never binds).
+        let screen = |l: Option<f64>| l.map_or(f64::INFINITY, |l| SCREEN * l);
+        let screen_rate: [f64; MAX_CHANNELS] = core::array::from_fn(|ch| screen(rate[ch]));
+        let screen_accel: [f64; MAX_CHANNELS] = core::array::from_fn(|ch| screen(accel[ch]));
         let sig = &mv.sig;
         let mut out = Vec::new();
         // Node indices that are kinks (stretch ends).
@@ -81,7 +85,7 @@ impl Ctx<'_> {
             let u = (x[k + 1] - x[k]) / (2.0 * h);
             // Every point when the table comes near a limit on the cell; else only an end at
             // a kink, where the table's one-sided `A'` may be off.
-            let all = near_limit(mv, k, x, u, &rate, &accel, chans);
+            let all = near_limit(mv, k, x, u, &screen_rate, &screen_accel, chans);
             if !all && !kink[k] && !kink[k + 1] {
                 continue;
             }
@@ -139,24 +143,20 @@ impl Ctx<'_> {
 
 /// `true` when the tabulated values bring some motor's rate or acceleration to [`SCREEN`] of
 /// its limit anywhere on cell `k`: at its ends and at three points between, with `A` by cubic
-/// Hermite interpolation of the nodes' `A` and `A'`, and `A'` linear (no kinematics).
+/// Hermite interpolation of the nodes' `A` and `A'`, and `A'` linear (no kinematics); `rl`,
+/// `al` are [`SCREEN`] times each channel's rate and acceleration limit (infinite without one).
 fn near_limit(
     mv: &Move,
     k: usize,
     x: &[f64],
     u: f64,
-    rate: &[Option<f64>; MAX_CHANNELS],
-    accel: &[Option<f64>; MAX_CHANNELS],
+    rl: &[f64; MAX_CHANNELS],
+    al: &[f64; MAX_CHANNELS],
     chans: usize,
 ) -> bool {
     let h = mv.sig[k + 1] - mv.sig[k];
     let (a0, a1, b0, b1) = (&mv.a[k], &mv.a[k + 1], &mv.b_out[k], &mv.b_in[k + 1]);
-    // The limits once per cell (a missing one never binds), then each point: its speed
-    // squared and root once, every channel against them.
-    let rl: [f64; MAX_CHANNELS] =
-        core::array::from_fn(|ch| rate[ch].map_or(f64::INFINITY, |l| SCREEN * l));
-    let al: [f64; MAX_CHANNELS] =
-        core::array::from_fn(|ch| accel[ch].map_or(f64::INFINITY, |l| SCREEN * l));
+    // Each point: its speed squared and root once, every channel against the thresholds.
     let chans = chans.min(MAX_CHANNELS);
     // A bound over the whole cell first (on [0, 1] the Hermite weights h00, h01 are
     // non-negative with sum 1 and |h10|, |h11| ≤ 4/27; x is linear): when it stays clear,

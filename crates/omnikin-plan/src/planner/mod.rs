@@ -61,7 +61,9 @@
 //!      this mode.
 //! 4. **Sampling** at the requested rate: pose, world twist, motor rates from the core
 //!    inverse kinematics ([`omnikin::Robot::inverse_accel`]; a swerve's steer angles from the
-//!    previous sample's, so a stopped module keeps its angle). Finally every sample is
+//!    previous sample's, so a stopped module keeps its angle). A move shorter than two sample periods
+//!    (a tiny fillet arc or turn in place) is first slowed uniformly to last two, so some
+//!    sample sees its motion. Finally every sample is
 //!    checked against the limits (rates at each sample, accelerations as differences between
 //!    consecutive samples); a residual excess from the grid approximation is removed by slowing
 //!    the offending move further (profiles, constant speed), or, for the time-optimal timing,
@@ -115,7 +117,7 @@ use geometry::Ctx;
 use grid::Move;
 use moves::build_moves;
 use report::report;
-use sample::sample;
+use sample::{resolve_short_moves, sample};
 use switches::{SWITCH_ROUNDS, switch_stretches};
 use time_optimal::time_optimal;
 use timing::{MoveTiming, initial_timing, note_retime, user_limits};
@@ -219,6 +221,7 @@ fn plan_moves(
     // Sample, check strictly, slow down what still exceeds (grid approximation), repeat.
     let mut checked = vec![false; moves.len()];
     for round in 0..25 {
+        resolve_short_moves(&mut moves, opts.rate);
         let mut t0 = 0.0;
         for mv in moves.iter_mut() {
             mv.t0 = t0;

@@ -13,6 +13,26 @@ use super::geometry::{AT_REST, Ctx, body_per_speed};
 use super::grid::{self, Move};
 use super::timing::MoveTiming;
 
+/// Fewest sample periods a move lasts. A move shorter than one period can fall between two
+/// samples: its motion (a 5.7 µm fillet arc turning the tangent heading by 2.8e-4 rad in
+/// 2.4 ms, between two samples at rest 10 ms apart) would be in the poses but in no sample's
+/// rates, so commands played back at the plan's rate would never make it. A move of two
+/// periods or more has a sample in its middle half, wherever the sample clock falls.
+pub(super) const MIN_MOVE_PERIODS: f64 = 2.0;
+
+/// Slows every move shorter than [`MIN_MOVE_PERIODS`] sample periods at `rate` Hz uniformly
+/// ([`MoveTiming::dilate`]) to last exactly that long; its rates and accelerations only
+/// shrink, so no limit it kept is lost.
+pub(super) fn resolve_short_moves(moves: &mut [Move], rate: f64) {
+    let min = MIN_MOVE_PERIODS / rate;
+    for mv in moves {
+        let d = mv.timing.duration(mv.len);
+        if d > 0.0 && d < min {
+            mv.timing.dilate(d / min);
+        }
+    }
+}
+
 /// Samples the timed moves at `rate` Hz (plus the exact end time).
 pub(super) fn sample(ctx: &Ctx, moves: &[Move], rate: f64) -> Result<Plan, PlanningError> {
     let last = moves.last().expect("a path has at least one move");

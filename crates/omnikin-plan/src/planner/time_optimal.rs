@@ -186,10 +186,12 @@ pub(super) fn time_optimal_storing(
         let (quantity, motor) = robot.channel(ch, accel);
         Limiter::Motor { quantity, motor }
     };
-    let rate_limits: [Option<f64>; MAX_CHANNELS] =
-        core::array::from_fn(|ch| robot.rate_limit(ch).map(|l| l * MARGIN));
-    let accel_limits: [Option<f64>; MAX_CHANNELS] =
-        core::array::from_fn(|ch| robot.accel_limit(ch).map(|l| l * MARGIN));
+    // The limits the pass aims at, once per move and infinite for a motor without one: then
+    // neither its speed cap `(l/|A|)²` nor its acceleration test `… > l` below ever binds.
+    let rate_limits: [f64; MAX_CHANNELS] =
+        core::array::from_fn(|ch| robot.rate_limit(ch).map_or(f64::INFINITY, |l| l * MARGIN));
+    let accel_limits: [f64; MAX_CHANNELS] =
+        core::array::from_fn(|ch| robot.accel_limit(ch).map_or(f64::INFINITY, |l| l * MARGIN));
     // Speed caps on x = σ̇²: the requested speed and every motor's rate limit.
     let mut cap = vec![0.0; n + 1];
     let mut cap_src = vec![user.0; n + 1];
@@ -207,10 +209,8 @@ pub(super) fn time_optimal_storing(
                 0.0
             };
             let a = mv.a[k][ch].abs() + bulge;
-            if let Some(l) = rate_limits[ch].map(|l| l * ks)
-                && a > 0.0
-                && (l / a).powi(2) < c
-            {
+            let l = rate_limits[ch] * ks;
+            if a > 0.0 && (l / a).powi(2) < c {
                 c = (l / a).powi(2);
                 src = motor(ch, false);
             }
@@ -231,13 +231,12 @@ pub(super) fn time_optimal_storing(
         c.clear();
         c.add(i2h, -i2h, a_user, 0);
         for ch in 0..chans {
-            if let Some(l) = accel_limits[ch].map(|l| l * ks) {
-                if a0[ch].abs() * a_user + b0[ch].abs() * x0 > l {
-                    c.add(a0[ch] * i2h, b0[ch] - a0[ch] * i2h, l, 1 + ch as u8);
-                }
-                if a1[ch].abs() * a_user + b1[ch].abs() * x1 > l {
-                    c.add(a1[ch] * i2h + b1[ch], -a1[ch] * i2h, l, 1 + ch as u8);
-                }
+            let l = accel_limits[ch] * ks;
+            if a0[ch].abs() * a_user + b0[ch].abs() * x0 > l {
+                c.add(a0[ch] * i2h, b0[ch] - a0[ch] * i2h, l, 1 + ch as u8);
+            }
+            if a1[ch].abs() * a_user + b1[ch].abs() * x1 > l {
+                c.add(a1[ch] * i2h + b1[ch], -a1[ch] * i2h, l, 1 + ch as u8);
             }
         }
     };

@@ -43,6 +43,20 @@ impl MoveTiming {
         }
     }
 
+    /// Slows the timing uniformly by `lambda` (in (0, 1]): the same path at `λ` times the
+    /// speed, so every motor rate scales with `λ` and every acceleration with `λ²` (both stay
+    /// within any limit they kept) and the duration with `1/λ`.
+    pub(super) fn dilate(&mut self, lambda: f64) {
+        match self {
+            MoveTiming::Profile { lambda: l, .. } => *l *= lambda,
+            MoveTiming::Constant { v } => *v *= lambda,
+            MoveTiming::Grid { x, t } => {
+                x.iter_mut().for_each(|x| *x *= lambda * lambda);
+                t.iter_mut().for_each(|t| *t /= lambda);
+            }
+        }
+    }
+
     /// `(σ, σ̇, σ̈)` at time `t` into the move whose grid nodes are `sig`; `from` is the grid
     /// cell of the previous call (for times that mostly increase) and is updated.
     pub(super) fn eval(&self, t: f64, len: f64, sig: &[f64], from: &mut usize) -> (f64, f64, f64) {
