@@ -17,7 +17,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use omnikin::Pose2;
-use omnikin::description::RobotDescription;
 use omnikin::estimate::fusion::Recovery;
 use omnikin_sim::odometry::{
     EventOverrides, FixResult, OdometryOptions, OdometryRow, OdometryStream, ThresholdSource,
@@ -153,7 +152,7 @@ impl OdometryArgs {
 /// with `--plot`, the thinned figure lines (at most `MAX_FIGURE_POINTS` points each) are what
 /// is held.
 pub fn run(args: &OdometryArgs) -> Result<()> {
-    let description = RobotDescription::resolve(&args.robot)?;
+    let description = crate::kinematics::resolve_robot(&args.robot)?;
     let mut log = NumericRows::open(&args.log)?;
     let fixes = match &args.fixes {
         Some(path) => Some(read_fix_rows(NumericRows::open(path)?)?),
