@@ -354,8 +354,14 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         }
         let pose = self.pose();
         self.watchdog(now_us, &mut faults);
-        // One `sin_cos` of the heading serves every frame change of the cycle.
-        let rot = Rot2::from_angle(pose.heading);
+        // One `sin_cos` of the heading serves every frame change of the cycle: the odometry's
+        // (computed with its pose, which it composes the next step with) until a fix moves
+        // the control to the fused pose.
+        let rot = if self.fixes.accepted > 0 {
+            Rot2::from_angle(pose.heading)
+        } else {
+            self.odo.rotation()
+        };
         let target = self.target(pose, rot, dt);
         let (command, twist_cmd) = self.actuate(target, rot, dt, hw_ok, &mut faults);
         if motors.set_rates(&command).is_err() {
