@@ -206,6 +206,16 @@ impl<T: Real> Ballbot<T> {
         finite_out((self.kb * w).into(), "wheel_rates")
     }
 
+    /// [`Ballbot::wheel_rates`] at zero ball spin without its input and output checks: the
+    /// same arithmetic, the same bits, for a caller that checks the rates itself (a
+    /// non-finite twist gives non-finite rates).
+    #[inline(always)]
+    pub(crate) fn wheel_rates_unchecked(&self, twist: Twist2<T>) -> [T; 3] {
+        let inv = T::one() / self.params.ball_radius;
+        let w = Vector3::new(-twist.vy * inv, twist.vx * inv, T::zero() - twist.yaw_rate);
+        (self.kb * w).into()
+    }
+
     /// [`Ballbot::wheel_rates`] for a **world-frame** ball velocity and body yaw `yaw = β`
     /// (rad).
     pub fn wheel_rates_world(
