@@ -266,7 +266,11 @@ impl<T: Real> SphereOmni<T> {
     #[inline(always)]
     pub(crate) fn wheel_rates_unchecked(&self, twist: Twist2<T>) -> [T; 3] {
         let inv_r = T::one() / self.params.shell_radius;
-        let w = Vector3::new(-twist.vy * inv_r, twist.vx * inv_r, T::zero() - twist.yaw_rate);
+        let w = Vector3::new(
+            -twist.vy * inv_r,
+            twist.vx * inv_r,
+            T::zero() - twist.yaw_rate,
+        );
         (self.g * w).into()
     }
 

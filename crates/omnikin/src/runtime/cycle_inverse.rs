@@ -112,7 +112,14 @@ mod tests {
 
     #[test]
     fn equals_motor_rates_bit_for_bit_on_every_kind() {
-        for name in ["sphere-omni", "ballbot", "caster3", "kiwi", "mecanum", "swerve4"] {
+        for name in [
+            "sphere-omni",
+            "ballbot",
+            "caster3",
+            "kiwi",
+            "mecanum",
+            "swerve4",
+        ] {
             let r = robot(name);
             for (twist, steer) in cases() {
                 let inverse = CycleInverse::new(&r, &steer).expect("finite steer");

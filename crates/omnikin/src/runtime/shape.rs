@@ -29,8 +29,8 @@ use crate::drive::Rot2;
 use crate::{Actuators, MAX_WHEELS, Real, Twist2, wrap_angle};
 
 use super::controller::Runtime;
-use super::hal::MotorCommand;
 use super::cycle_inverse::CycleInverse;
+use super::hal::MotorCommand;
 use super::limits::saturation_scale;
 use super::status::Faults;
 
