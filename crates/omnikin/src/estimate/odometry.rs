@@ -497,6 +497,33 @@ impl<T: Real> crate::drive::KindVisitor<T> for KindStep<'_, T> {
 mod tests {
     use super::*;
 
+    /// The cached rotation is the heading's `sin_cos` after every step and pose reset.
+    #[test]
+    fn rotation_follows_the_heading() {
+        use crate::ballbot::{Ballbot, BallbotParams};
+        use crate::sphere::{SphereOmni, SphereParams};
+        let robots = [
+            Robot::Sphere(SphereOmni::new(SphereParams::preset()).unwrap()),
+            Robot::Ballbot(Ballbot::new(BallbotParams::preset()).unwrap()),
+        ];
+        for robot in robots {
+            let mut odo = Odometry::new(robot, Pose2::new(0.5, -0.2, 2.9));
+            assert_eq!(odo.rotation(), Rot2::from_angle(2.9));
+            for k in 0..400 {
+                let f = k as f64;
+                let q = [0.31 * f, -0.07 * f * f * 1e-2, 0.2 * (0.1 * f).sin()];
+                let r = EncoderReading::new(f * 1e-2, q);
+                odo.update(&r, HeadingInput::Wheels).unwrap();
+                assert_eq!(odo.rotation(), Rot2::from_angle(odo.pose().heading));
+                if k == 200 {
+                    odo.reset_pose(Pose2::new(1.0, 1.0, -7.0));
+                    assert_eq!(odo.rotation(), Rot2::from_angle(-7.0));
+                }
+            }
+            assert!(odo.pose().heading.abs() > 0.1, "the heading moved");
+        }
+    }
+
     #[test]
     fn counts() {
         let cpr = NonZeroU32::new(4096).unwrap();
