@@ -119,11 +119,28 @@ impl Loop {
         }
     }
 
-    /// One cycle: a new velocity command from the table (`handle`), then `cycle` (encoders →
-    /// odometry → watchdog → desaturation → slew → inverse kinematics → acceleration limit →
-    /// motors); then the simulated motors turn for one period.
+    /// One cycle: the simulated motors turn for the period since the previous cycle, a new
+    /// velocity command from the table arrives (`handle`), then `cycle` (encoders → odometry
+    /// → watchdog → desaturation → slew → inverse kinematics → acceleration limit → motors).
+    ///
+    /// The simulated motors turn for the period **before** the cycle: the same sequence of
+    /// encoder readings as turning them after it, and the cycle builds its status directly
+    /// in the caller's slot (no copy of the ~600-byte value after it).
     #[inline(never)]
     pub fn step(&mut self, inputs: &Inputs) -> Status<f64> {
+        self.prepare(inputs);
+        self.rt
+            .cycle(self.now_us, &mut self.enc, &mut NoImu, &mut self.motors)
+    }
+
+    /// The motors turn for one period at the previous cycle's set-points, the clock advances
+    /// and the next command from the table arrives.
+    #[inline(always)]
+    fn prepare(&mut self, inputs: &Inputs) {
+        for i in 0..3 {
+            self.enc.0.wheel[i] += self.motors.0.wheel[i] * 1e-3;
+            self.enc.0.steer[i] += self.motors.0.steer[i] * 1e-3;
+        }
         self.k = (self.k + 1) & (K - 1);
         self.now_us += 1000;
         let cmd = Command::Velocity {
@@ -131,14 +148,6 @@ impl Loop {
             frame: Frame::Robot,
         };
         let _ = black_box(self.rt.handle(cmd, self.now_us));
-        let st = self
-            .rt
-            .cycle(self.now_us, &mut self.enc, &mut NoImu, &mut self.motors);
-        for i in 0..3 {
-            self.enc.0.wheel[i] += self.motors.0.wheel[i] * 1e-3;
-            self.enc.0.steer[i] += self.motors.0.steer[i] * 1e-3;
-        }
-        st
     }
 }
 

@@ -94,7 +94,7 @@ fn collisions_when_stopped(commanded: impl Fn(f64) -> Option<f64>) -> u32 {
         let t = k as f64 * 1e-3;
         let v = if t <= 0.5 { 0.3 } else { 0.0 };
         let s = step(t, 1e-3, Twist2::new(v, 0.0, 0.0), 0.0);
-        if let Some((sample, gyro)) = d.push(&s, None, commanded(t)) {
+        if let Some((sample, gyro)) = d.push(&s, None, commanded(t).map(|v| [v, 0.0])) {
             det.sample(&sample, gyro);
         }
     }

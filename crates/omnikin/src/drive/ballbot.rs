@@ -206,6 +206,16 @@ impl<T: Real> Ballbot<T> {
         finite_out((self.kb * w).into(), "wheel_rates")
     }
 
+    /// [`Ballbot::wheel_rates`] at zero ball spin without its input and output checks: the
+    /// same arithmetic, the same bits, for a caller that checks the rates itself (a
+    /// non-finite twist gives non-finite rates).
+    #[inline(always)]
+    pub(crate) fn wheel_rates_unchecked(&self, twist: Twist2<T>) -> [T; 3] {
+        let inv = T::one() / self.params.ball_radius;
+        let w = Vector3::new(-twist.vy * inv, twist.vx * inv, T::zero() - twist.yaw_rate);
+        (self.kb * w).into()
+    }
+
     /// [`Ballbot::wheel_rates`] for a **world-frame** ball velocity and body yaw `yaw = β`
     /// (rad).
     pub fn wheel_rates_world(
@@ -328,14 +338,25 @@ impl<T: Real> Ballbot<T> {
     ) -> Result<[T; 2], InputError> {
         finite(yaw_start, "yaw_start")?;
         finite(yaw_end, "yaw_end")?;
+        let step = self.ball_step(delta_wheel_angles, yaw_end - yaw_start)?;
+        let p = se2::compose(Pose2::new(T::zero(), T::zero(), yaw_start), step);
+        finite_out([p.x, p.y], "ball displacement")
+    }
+
+    /// [`Ballbot::ball_displacement`] in the body frame at the step's start: the pose change
+    /// `exp(R_b Δω_y, −R_b Δω_x, yaw_change)` (m, m, rad; the heading change is
+    /// `yaw_change` exactly), which the caller rotates by the start yaw it already has.
+    pub(crate) fn ball_step(
+        &self,
+        delta_wheel_angles: [T; 3],
+        yaw_change: T,
+    ) -> Result<Pose2<T>, InputError> {
         let dw = self.relative_rate_from_wheels(delta_wheel_angles)?;
         let rb = self.params.ball_radius;
-        let body_step = Twist2::new(rb * dw.y, -rb * dw.x, yaw_end - yaw_start);
-        let p = se2::compose(
-            Pose2::new(T::zero(), T::zero(), yaw_start),
-            se2::twist_exp(body_step, T::one()),
-        );
-        finite_out([p.x, p.y], "ball displacement")
+        let body_step = Twist2::new(rb * dw.y, -rb * dw.x, yaw_change);
+        let d = se2::twist_exp(body_step, T::one());
+        let [x, y] = finite_out([d.x, d.y], "ball displacement")?;
+        Ok(Pose2::new(x, y, yaw_change))
     }
 }
 

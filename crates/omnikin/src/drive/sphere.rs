@@ -260,6 +260,20 @@ impl<T: Real> SphereOmni<T> {
         finite_out((self.g * w).into(), "wheel_rates")
     }
 
+    /// [`SphereOmni::wheel_rates`] at zero shell spin without its input and output checks: the
+    /// same arithmetic, the same bits, for a caller that checks the rates itself (a
+    /// non-finite twist gives non-finite rates).
+    #[inline(always)]
+    pub(crate) fn wheel_rates_unchecked(&self, twist: Twist2<T>) -> [T; 3] {
+        let inv_r = T::one() / self.params.shell_radius;
+        let w = Vector3::new(
+            -twist.vy * inv_r,
+            twist.vx * inv_r,
+            T::zero() - twist.yaw_rate,
+        );
+        (self.g * w).into()
+    }
+
     /// [`SphereOmni::wheel_rates`] for a **world-frame** velocity `ṙ_C` and platform heading
     /// `ψ` (rad): `V = Q(ψ)ᵀ ṙ_C` (paper 000, eq. 5.4 and §5).
     pub fn wheel_rates_world(

@@ -402,8 +402,8 @@ pub struct EventSample<T> {
 ///
 /// Merging: speed and yaw rate are means over the merged time (the speed of the mean
 /// robot-frame velocity), the slip residual its time-weighted mean, the wheels' heading change
-/// the sum; the IMU's yaw rate and the commanded speed are used only when every merged step
-/// had one.
+/// the sum, the commanded speed that of the mean commanded velocity; the IMU's yaw rate and the
+/// command are used only when every merged step had one.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EventDecimator<T> {
     period: T,
@@ -414,7 +414,8 @@ pub struct EventDecimator<T> {
     wheel_heading_change: T,
     gyro_dt: T,
     gyro_every_step: bool,
-    commanded_dt: T,
+    commanded_vx_dt: T,
+    commanded_vy_dt: T,
     commanded_every_step: bool,
 }
 
@@ -431,19 +432,20 @@ impl<T: Real> EventDecimator<T> {
             wheel_heading_change: z,
             gyro_dt: z,
             gyro_every_step: true,
-            commanded_dt: z,
+            commanded_vx_dt: z,
+            commanded_vy_dt: z,
             commanded_every_step: true,
         }
     }
 
-    /// Adds one step (`dt > 0`; others are ignored), the IMU's yaw rate over it and the speed
-    /// commanded over it (m/s); returns the merged sample and its mean IMU yaw rate once the
-    /// steps span the period.
+    /// Adds one step (`dt > 0`; others are ignored), the IMU's yaw rate over it and the
+    /// velocity `[vx, vy]` commanded over it (m/s, robot frame); returns the merged sample and
+    /// its mean IMU yaw rate once the steps span the period.
     pub fn push(
         &mut self,
         s: &OdometryStep<T>,
         imu_yaw_rate: Option<T>,
-        commanded_speed: Option<T>,
+        commanded: Option<[T; 2]>,
     ) -> Option<(EventSample<T>, Option<T>)> {
         if s.dt.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
             return None;
@@ -457,8 +459,11 @@ impl<T: Real> EventDecimator<T> {
             Some(w) => self.gyro_dt += w * s.dt,
             None => self.gyro_every_step = false,
         }
-        match commanded_speed {
-            Some(v) => self.commanded_dt += v * s.dt,
+        match commanded {
+            Some([vx, vy]) => {
+                self.commanded_vx_dt += vx * s.dt;
+                self.commanded_vy_dt += vy * s.dt;
+            }
             None => self.commanded_every_step = false,
         }
         // Not finite: emitted at once, and the detector ignores it.
@@ -472,7 +477,12 @@ impl<T: Real> EventDecimator<T> {
             speed: (self.vx_dt * self.vx_dt + self.vy_dt * self.vy_dt).sqrt() / dt,
             slip_residual: self.residual_dt / dt,
             wheel_heading_change: self.wheel_heading_change,
-            commanded_speed: self.commanded_every_step.then(|| self.commanded_dt / dt),
+            commanded_speed: self.commanded_every_step.then(|| {
+                (self.commanded_vx_dt * self.commanded_vx_dt
+                    + self.commanded_vy_dt * self.commanded_vy_dt)
+                    .sqrt()
+                    / dt
+            }),
         };
         let gyro = self.gyro_every_step.then(|| self.gyro_dt / dt);
         *self = Self::new(self.period);

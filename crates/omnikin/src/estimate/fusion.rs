@@ -918,13 +918,17 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         delta: Pose2<T>,
         heading: StepHeading,
     ) -> Result<(), FusionError> {
-        for (v, field) in [
-            (t, "t"),
-            (delta.x, "delta.x"),
-            (delta.y, "delta.y"),
-            (delta.heading, "delta.heading"),
-        ] {
-            finite(v, field)?;
+        // One test of the sum for the usual case (a sum of finite terms may still overflow:
+        // the field-by-field pass then finds nothing and the step goes on).
+        if !(t + delta.x + delta.y + delta.heading).is_finite() {
+            for (v, field) in [
+                (t, "t"),
+                (delta.x, "delta.x"),
+                (delta.y, "delta.y"),
+                (delta.heading, "delta.heading"),
+            ] {
+                finite(v, field)?;
+            }
         }
         let previous = self.time();
         let dt = t - previous;
@@ -978,8 +982,17 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         Ok(())
     }
 
-    /// Forgets entries that end more than `max_latency` before `latest`.
+    /// Forgets entries that end more than `max_latency` before `latest` (the test inline,
+    /// the eviction, once per history slot, out of line).
+    #[inline(always)]
     fn forget(&mut self, latest: T) {
+        if self.len > 1 && self.buf[self.head].t < latest - self.config.max_latency {
+            self.forget_old(latest);
+        }
+    }
+
+    #[inline(never)]
+    fn forget_old(&mut self, latest: T) {
         while self.len > 1 && self.buf[self.head].t < latest - self.config.max_latency {
             self.evict();
         }

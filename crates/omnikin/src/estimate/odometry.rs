@@ -33,6 +33,7 @@
 
 use core::num::NonZeroU32;
 
+use crate::drive::Rot2;
 use crate::{EncoderAngles, InputError, MAX_WHEELS, Pose2, Real, Robot, Twist2, wrap_angle};
 
 /// Why an odometry (or estimator) update was rejected. The state is left unchanged.
@@ -173,6 +174,10 @@ pub struct OdometryStep<T> {
 pub struct Odometry<T> {
     robot: Robot<T>,
     pose: Pose2<T>,
+    /// `Rot2::from_angle(pose.heading)`, kept with the pose: the next step composes with it
+    /// and a control loop turns its commands with it ([`Odometry::rotation`]), so one
+    /// `sin_cos` per step serves both.
+    rot: Rot2<T>,
     last: Option<EncoderReading<T>>,
     last_gyro: Option<T>,
     last_yaw: Option<T>,
@@ -196,6 +201,7 @@ impl<T: Real> Odometry<T> {
         Self {
             robot,
             pose,
+            rot: Rot2::from_angle(pose.heading),
             last: None,
             last_gyro: None,
             last_yaw: None,
@@ -229,6 +235,14 @@ impl<T: Real> Odometry<T> {
     /// gyro and yaw references (WPILib `resetPosition`): the next step continues from there.
     pub fn reset_pose(&mut self, pose: Pose2<T>) {
         self.pose = pose;
+        self.rot = Rot2::from_angle(pose.heading);
+    }
+
+    /// The rotation of the current heading, `Rot2::from_angle(self.pose().heading)` (kept
+    /// with the pose, so free).
+    #[inline]
+    pub fn rotation(&self) -> Rot2<T> {
+        self.rot
     }
 
     /// Advances the odometry by one encoder sample.
@@ -274,6 +288,7 @@ impl<T: Real> Odometry<T> {
             start: &start,
             end: &end,
             pose: self.pose,
+            rot: self.rot,
             heading,
             spin_step: self.assumed_spin * dt,
             dt,
@@ -306,6 +321,7 @@ impl<T: Real> Odometry<T> {
         };
         // Commit only after everything succeeded.
         self.pose = pose;
+        self.rot = Rot2::from_angle(pose.heading);
         self.last = Some(*reading);
         match heading {
             HeadingInput::GyroRate(g) => self.last_gyro = Some(g),
@@ -421,6 +437,8 @@ struct KindStep<'a, T> {
     start: &'a EncoderAngles<T>,
     end: &'a EncoderAngles<T>,
     pose: Pose2<T>,
+    /// The rotation of `pose.heading`.
+    rot: Rot2<T>,
     heading: HeadingInput<T>,
     /// The assumed vertical spin's heading change over the step (sphere, ballbot), rad.
     spin_step: T,
@@ -463,7 +481,7 @@ impl<T: Real> crate::drive::KindVisitor<T> for KindStep<'_, T> {
             },
         };
         let body = Twist2::new(inc.twist.vx, inc.twist.vy, dtheta);
-        let (delta, pose) = m.step_pose(self.pose, body, self.start, self.end)?;
+        let (delta, pose) = m.step_pose(self.pose, self.rot, body, self.start, self.end)?;
         Ok(KindStepOut {
             inc,
             wheel_heading,
@@ -478,6 +496,33 @@ impl<T: Real> crate::drive::KindVisitor<T> for KindStep<'_, T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The cached rotation is the heading's `sin_cos` after every step and pose reset.
+    #[test]
+    fn rotation_follows_the_heading() {
+        use crate::ballbot::{Ballbot, BallbotParams};
+        use crate::sphere::{SphereOmni, SphereParams};
+        let robots = [
+            Robot::Sphere(SphereOmni::new(SphereParams::preset()).unwrap()),
+            Robot::Ballbot(Ballbot::new(BallbotParams::preset()).unwrap()),
+        ];
+        for robot in robots {
+            let mut odo = Odometry::new(robot, Pose2::new(0.5, -0.2, 2.9));
+            assert_eq!(odo.rotation(), Rot2::from_angle(2.9));
+            for k in 0..400 {
+                let f = k as f64;
+                let q = [0.31 * f, -0.07 * f * f * 1e-2, 0.2 * (0.1 * f).sin()];
+                let r = EncoderReading::new(f * 1e-2, q);
+                odo.update(&r, HeadingInput::Wheels).unwrap();
+                assert_eq!(odo.rotation(), Rot2::from_angle(odo.pose().heading));
+                if k == 200 {
+                    odo.reset_pose(Pose2::new(1.0, 1.0, -7.0));
+                    assert_eq!(odo.rotation(), Rot2::from_angle(-7.0));
+                }
+            }
+            assert!(odo.pose().heading.abs() > 0.1, "the heading moved");
+        }
+    }
 
     #[test]
     fn counts() {

@@ -404,8 +404,14 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         }
         let pose = self.pose();
         self.watchdog(now_us, &mut faults);
-        // One `sin_cos` of the heading serves every frame change of the cycle.
-        let rot = Rot2::from_angle(pose.heading);
+        // One `sin_cos` of the heading serves every frame change of the cycle: the odometry's
+        // (computed with its pose, which it composes the next step with) until a fix moves
+        // the control to the fused pose.
+        let rot = if self.fixes.accepted > 0 {
+            Rot2::from_angle(pose.heading)
+        } else {
+            self.odo.rotation()
+        };
         let target = self.target(pose, rot, dt);
         let (command, twist_cmd) = self.actuate(target, rot, dt, hw_ok, &mut faults);
         if motors.set_rates(&command).is_err() {
@@ -518,13 +524,12 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             // quarter of its smoothing time.
             self.twist = step.twist;
             self.slip_residual = step.slip_residual;
-            // The speed commanded over this step: the last cycle's command (an e-stop's zero
+            // The velocity commanded over this step: the last cycle's command (an e-stop's zero
             // included), so the braking the robot commanded is not taken for a collision.
             let c = self.last_command;
-            let commanded = (c.vx * c.vx + c.vy * c.vy).sqrt();
             if let Some((sample, gyro)) =
                 self.event_steps
-                    .push(&step, self.imu.map(|s| s.gyro[2]), Some(commanded))
+                    .push(&step, self.imu.map(|s| s.gyro[2]), Some([c.vx, c.vy]))
             {
                 self.events.sample(&sample, gyro);
             }

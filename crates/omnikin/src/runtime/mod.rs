@@ -105,6 +105,7 @@ pub mod limits;
 mod command;
 mod config;
 mod controller;
+mod cycle_inverse;
 mod plan;
 mod shape;
 mod status;

@@ -29,8 +29,9 @@ use crate::drive::Rot2;
 use crate::{Actuators, MAX_WHEELS, Real, Twist2, wrap_angle};
 
 use super::controller::Runtime;
+use super::cycle_inverse::CycleInverse;
 use super::hal::MotorCommand;
-use super::limits::{motor_rates, saturation_scale};
+use super::limits::saturation_scale;
 use super::status::Faults;
 
 impl<T: Real, const N: usize> Runtime<T, N> {
@@ -55,12 +56,11 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 sin: -rot.sin,
             })
         };
+        // The inverse of this cycle, prepared once for its two uses (`CycleInverse`).
+        let inverse = CycleInverse::new(&self.robot, steer)?;
         // Desaturation (limits::desaturate without scaling the rates, which are not used).
         let mut want = to_robot(target_world);
-        let scale = saturation_scale(
-            &motor_rates(&self.robot, want, steer).map_err(|_| ())?,
-            &cfg.rate_limits,
-        );
+        let scale = saturation_scale(&inverse.rates(want)?, &cfg.rate_limits);
         if scale < T::one() {
             faults.insert(Faults::LIMIT);
             want = Twist2::new(want.vx * scale, want.vy * scale, want.yaw_rate * scale);
@@ -91,7 +91,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 steer: [T::zero(); MAX_WHEELS],
             }
         } else {
-            motor_rates(&self.robot, v, steer).map_err(|_| ())?
+            inverse.rates(v)?
         };
         // Motor acceleration limit: scale the change of all rates by one factor (the steer
         // motors take part when they are rate-driven).

@@ -133,18 +133,18 @@ impl<T: Real> KindModel<T> for Ballbot<T> {
     fn step_pose(
         &self,
         pose: Pose2<T>,
+        rot: Rot2<T>,
         body: Twist2<T>,
         start: &EncoderAngles<T>,
         end: &EncoderAngles<T>,
     ) -> Result<(Pose2<T>, Pose2<T>), InputError> {
         let yaw0 = pose.heading;
-        let d = self.ball_displacement(increments(start, end), yaw0, yaw0 + body.yaw_rate)?;
-        let r = Rot2::from_angle(yaw0);
-        let delta = Pose2::new(
-            r.cos * d[0] + r.sin * d[1],
-            -r.sin * d[0] + r.cos * d[1],
-            body.yaw_rate,
-        );
+        // `ball_displacement` at the start yaw `yaw0` whose rotation `rot` is given.
+        let delta = self.ball_step(increments(start, end), body.yaw_rate)?;
+        let d = [
+            rot.cos * delta.x - rot.sin * delta.y,
+            rot.sin * delta.x + rot.cos * delta.y,
+        ];
         Ok((
             delta,
             Pose2::new(pose.x + d[0], pose.y + d[1], yaw0 + body.yaw_rate),

@@ -333,7 +333,7 @@ impl<T: Real> Robot<T> {
         dispatch!(self, m => KindModel::<T>::displacement(m, start, end))
     }
 
-    /// See [`KindModel::step_pose`].
+    /// See [`KindModel::step_pose`] (the rotation of `pose.heading` is computed here).
     ///
     /// # Errors
     /// As [`KindModel::step_pose`].
@@ -345,7 +345,8 @@ impl<T: Real> Robot<T> {
         start: &EncoderAngles<T>,
         end: &EncoderAngles<T>,
     ) -> Result<(Pose2<T>, Pose2<T>), InputError> {
-        dispatch!(self, m => KindModel::<T>::step_pose(m, pose, body, start, end))
+        let rot = Rot2::from_angle(pose.heading);
+        dispatch!(self, m => KindModel::<T>::step_pose(m, pose, rot, body, start, end))
     }
 
     /// Scales every wheel rate by one factor so the largest magnitude is at most

@@ -101,8 +101,10 @@ pub trait KindModel<T: Real> {
 
     /// The pose after a step of robot-frame displacement `body` (heading change already
     /// chosen: wheels or gyro) from `pose`, and the step as a robot-frame pose change:
-    /// `(delta, pose ⊕ delta)`. Default: the exact SE(2) exponential. The ballbot overrides it
-    /// with paper 001's ball displacement between the two yaws.
+    /// `(delta, pose ⊕ delta)`. `rot` is the rotation of `pose.heading`
+    /// (`Rot2::from_angle(pose.heading)`), which the caller keeps from the previous step so
+    /// the step needs no `sin_cos` of its own. Default: the exact SE(2) exponential. The
+    /// ballbot overrides it with paper 001's ball displacement between the two yaws.
     ///
     /// # Errors
     /// [`InputError`] from the kind's own step.
@@ -110,12 +112,13 @@ pub trait KindModel<T: Real> {
     fn step_pose(
         &self,
         pose: Pose2<T>,
+        rot: Rot2<T>,
         body: Twist2<T>,
         _start: &EncoderAngles<T>,
         _end: &EncoderAngles<T>,
     ) -> Result<(Pose2<T>, Pose2<T>), InputError> {
         let delta = se2::twist_exp(body, T::one());
-        Ok((delta, se2::compose(pose, delta)))
+        Ok((delta, se2::compose_rotated(pose, rot.sin, rot.cos, delta)))
     }
 
     /// The kind's torque map, if it has one.
