@@ -24,17 +24,9 @@ fn step(t: f64, dt: f64, twist: Twist2<f64>, residual: f64) -> OdometryStep<f64>
 fn merged_steps_are_the_long_step_they_stand_for() {
     let mut d = EventDecimator::new(0.0025);
     let tw = Twist2::new(0.3, -0.4, 0.5);
-    assert!(
-        d.push(&step(0.001, 0.001, tw, 0.02), Some(0.7), None)
-            .is_none()
-    );
-    assert!(
-        d.push(&step(0.002, 0.001, tw, 0.04), Some(0.9), None)
-            .is_none()
-    );
-    let (s, gyro) = d
-        .push(&step(0.003, 0.001, tw, 0.06), Some(0.8), None)
-        .unwrap();
+    assert!(d.push(&step(0.001, 0.001, tw, 0.02), Some(0.7)).is_none());
+    assert!(d.push(&step(0.002, 0.001, tw, 0.04), Some(0.9)).is_none());
+    let (s, gyro) = d.push(&step(0.003, 0.001, tw, 0.06), Some(0.8)).unwrap();
     assert!((s.t - 0.003).abs() < 1e-15 && (s.dt - 0.003).abs() < 1e-15);
     assert!((s.speed - 0.5).abs() < 1e-12, "{}", s.speed);
     assert!((s.slip_residual - 0.04).abs() < 1e-12);
@@ -42,15 +34,10 @@ fn merged_steps_are_the_long_step_they_stand_for() {
     assert!((gyro.unwrap() - 0.8).abs() < 1e-12);
     // A step without the IMU's rate: the merged sample has none; the first sample (dt = 0)
     // is no step.
-    assert!(
-        d.push(&step(0.003, 0.0, tw, 0.0), Some(0.8), None)
-            .is_none()
-    );
-    d.push(&step(0.004, 0.001, tw, 0.0), Some(0.8), None);
-    d.push(&step(0.005, 0.001, tw, 0.0), None, None);
-    let (_, gyro) = d
-        .push(&step(0.006, 0.001, tw, 0.0), Some(0.8), None)
-        .unwrap();
+    assert!(d.push(&step(0.003, 0.0, tw, 0.0), Some(0.8)).is_none());
+    d.push(&step(0.004, 0.001, tw, 0.0), Some(0.8));
+    d.push(&step(0.005, 0.001, tw, 0.0), None);
+    let (_, gyro) = d.push(&step(0.006, 0.001, tw, 0.0), Some(0.8)).unwrap();
     assert_eq!(gyro, None);
 }
 
@@ -69,7 +56,7 @@ fn a_slip_is_flagged_within_one_merge_period_of_the_per_step_detector() {
         if every.step(&s, Some(gyro)).slipping && first_every.is_none() {
             first_every = Some(t);
         }
-        if let Some((m, g)) = dec.push(&s, Some(gyro), None)
+        if let Some((m, g)) = dec.push(&s, Some(gyro))
             && merged.sample(&m, g).slipping
             && first_merged.is_none()
         {
@@ -94,7 +81,8 @@ fn collisions_when_stopped(commanded: impl Fn(f64) -> Option<f64>) -> u32 {
         let t = k as f64 * 1e-3;
         let v = if t <= 0.5 { 0.3 } else { 0.0 };
         let s = step(t, 1e-3, Twist2::new(v, 0.0, 0.0), 0.0);
-        if let Some((sample, gyro)) = d.push(&s, None, commanded(t).map(|v| [v, 0.0])) {
+        if let Some((mut sample, gyro)) = d.push(&s, None) {
+            sample.commanded_speed = commanded(t);
             det.sample(&sample, gyro);
         }
     }

@@ -402,8 +402,7 @@ pub struct EventSample<T> {
 ///
 /// Merging: speed and yaw rate are means over the merged time (the speed of the mean
 /// robot-frame velocity), the slip residual its time-weighted mean, the wheels' heading change
-/// the sum, the commanded speed that of the mean commanded velocity; the IMU's yaw rate and the
-/// command are used only when every merged step had one.
+/// the sum; the IMU's yaw rate is used only when every merged step had one.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EventDecimator<T> {
     period: T,
@@ -414,9 +413,6 @@ pub struct EventDecimator<T> {
     wheel_heading_change: T,
     gyro_dt: T,
     gyro_every_step: bool,
-    commanded_vx_dt: T,
-    commanded_vy_dt: T,
-    commanded_every_step: bool,
 }
 
 impl<T: Real> EventDecimator<T> {
@@ -432,20 +428,17 @@ impl<T: Real> EventDecimator<T> {
             wheel_heading_change: z,
             gyro_dt: z,
             gyro_every_step: true,
-            commanded_vx_dt: z,
-            commanded_vy_dt: z,
-            commanded_every_step: true,
         }
     }
 
-    /// Adds one step (`dt > 0`; others are ignored), the IMU's yaw rate over it and the
-    /// velocity `[vx, vy]` commanded over it (m/s, robot frame); returns the merged sample and
-    /// its mean IMU yaw rate once the steps span the period.
+    /// Adds one step (`dt > 0`; others are ignored) and the IMU's yaw rate over it; returns the
+    /// merged sample and its mean IMU yaw rate once the steps span the period. The sample's
+    /// [`EventSample::commanded_speed`] is `None`: a caller with commands sets it (the command
+    /// at the sample's end is within one merge period of its mean, well inside the smoothing).
     pub fn push(
         &mut self,
         s: &OdometryStep<T>,
         imu_yaw_rate: Option<T>,
-        commanded: Option<[T; 2]>,
     ) -> Option<(EventSample<T>, Option<T>)> {
         if s.dt.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
             return None;
@@ -459,13 +452,6 @@ impl<T: Real> EventDecimator<T> {
             Some(w) => self.gyro_dt += w * s.dt,
             None => self.gyro_every_step = false,
         }
-        match commanded {
-            Some([vx, vy]) => {
-                self.commanded_vx_dt += vx * s.dt;
-                self.commanded_vy_dt += vy * s.dt;
-            }
-            None => self.commanded_every_step = false,
-        }
         // Not finite: emitted at once, and the detector ignores it.
         if self.dt < self.period {
             return None;
@@ -477,12 +463,7 @@ impl<T: Real> EventDecimator<T> {
             speed: (self.vx_dt * self.vx_dt + self.vy_dt * self.vy_dt).sqrt() / dt,
             slip_residual: self.residual_dt / dt,
             wheel_heading_change: self.wheel_heading_change,
-            commanded_speed: self.commanded_every_step.then(|| {
-                (self.commanded_vx_dt * self.commanded_vx_dt
-                    + self.commanded_vy_dt * self.commanded_vy_dt)
-                    .sqrt()
-                    / dt
-            }),
+            commanded_speed: None,
         };
         let gyro = self.gyro_every_step.then(|| self.gyro_dt / dt);
         *self = Self::new(self.period);

@@ -524,13 +524,13 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             // quarter of its smoothing time.
             self.twist = step.twist;
             self.slip_residual = step.slip_residual;
-            // The velocity commanded over this step: the last cycle's command (an e-stop's zero
-            // included), so the braking the robot commanded is not taken for a collision.
-            let c = self.last_command;
-            if let Some((sample, gyro)) =
-                self.event_steps
-                    .push(&step, self.imu.map(|s| s.gyro[2]), Some([c.vx, c.vy]))
+            if let Some((mut sample, gyro)) =
+                self.event_steps.push(&step, self.imu.map(|s| s.gyro[2]))
             {
+                // The speed commanded now: the last cycle's command (an e-stop's zero
+                // included), so the braking the robot commanded is not taken for a collision.
+                let c = self.last_command;
+                sample.commanded_speed = Some((c.vx * c.vx + c.vy * c.vy).sqrt());
                 self.events.sample(&sample, gyro);
             }
         }
