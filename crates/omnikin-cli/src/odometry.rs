@@ -153,6 +153,15 @@ impl OdometryArgs {
 /// is held.
 pub fn run(args: &OdometryArgs) -> Result<()> {
     let description = crate::kinematics::resolve_robot(&args.robot)?;
+    if let Some(Triple([_, _, h])) = args.initial_pose
+        && h.abs() > std::f64::consts::TAU
+    {
+        crate::errln!(
+            "warning: --initial-pose: heading {h} is read in radians ({:.1}°); if {h}° was meant, write {:.4}",
+            h.to_degrees(),
+            h.to_radians()
+        );
+    }
     let mut log = NumericRows::open(&args.log)?;
     let fixes = match &args.fixes {
         Some(path) => Some(read_fix_rows(NumericRows::open(path)?)?),

@@ -90,3 +90,19 @@ fn waypoint_headings_beyond_a_turn_are_named_with_their_line() {
         .success()
         .stderr(predicate::str::contains("warning").not());
 }
+
+#[test]
+fn an_initial_pose_heading_in_degrees_is_named() {
+    let d = tmp("initial-pose");
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let log = root.join("examples/logs/kiwi-encoders.csv");
+    let out = d.join("poses.csv");
+    omnikin()
+        .args(["odometry", log.to_str().unwrap(), "--robot", "kiwi"])
+        .args(["--initial-pose", "0,0,90", "--out", out.to_str().unwrap()])
+        .assert()
+        .success()
+        .stderr(predicate::str::contains(
+            "--initial-pose: heading 90 is read in radians (5156.6°); if 90° was meant, write 1.5708",
+        ));
+}
