@@ -343,7 +343,7 @@ fn reproduce_twice_replaces_its_own_default_output_only() {
         "--profiles",
         "ideal",
     ];
-    let run = || omnikin().env("XDG_DATA_HOME", &d).args(quick).assert();
+    let run = || omnikin().env("XDG_DATA_HOME", &*d).args(quick).assert();
     run().success();
     let table = d.join("omnikin/reproduce-sphere-2019/table.md");
     let first = std::fs::metadata(&table).unwrap().modified().unwrap();
