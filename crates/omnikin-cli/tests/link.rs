@@ -585,6 +585,11 @@ fn serial_transport_over_a_pty_pair() {
     let mut robot = Command::new(BIN)
         .args(["robot", "--sim", "--robot", "caster3", "--time-scale", "8"])
         .args(["--listen", &robot_side, "--max-time", "16"])
+        // The watchdog outlasts the run (robot time): at --time-scale 8 the default 0.5 s is
+        // 62 ms of wall time against `drive`'s 50 ms heartbeat, which a loaded machine broke
+        // ("the robot did not take the command", "did not confirm the stop"). This test is
+        // about the serial transport; the watchdog has its own tests.
+        .args(["--watchdog", "30"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
