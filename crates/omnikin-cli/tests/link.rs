@@ -172,6 +172,16 @@ fn proxy(
     (addr, h)
 }
 
+/// Frames the robot's link refused, from its summary: `dropped` less `throttled`. A throttled
+/// frame is a repeat of an operator's Hello read over its sender's rate: the operator repeats
+/// its Hello at its heartbeat rate (20 Hz, the limiter's own rate) until answered, and a robot
+/// that a loaded machine keeps off the CPU reads the queued repeats in one burst (seen: 6 and 8
+/// throttled, every other counter 0, on a loaded 2-core machine). How many depends on the load;
+/// the answer to any one of them opens the session.
+fn refused(s: &serde_json::Value) -> u64 {
+    s["link"]["dropped"].as_u64().unwrap() - s["link"]["throttled"].as_u64().unwrap()
+}
+
 fn link_counts(s: &serde_json::Value) -> [u64; 8] {
     [
         "ok",
@@ -223,7 +233,7 @@ fn twenty_percent_packet_loss_plan_still_followed() {
         s["rejected"], 0,
         "a lost chunk is re-sent, never out of place"
     );
-    assert_eq!(s["link"]["dropped"], 0, "lost frames never reach the robot");
+    assert_eq!(refused(&s), 0, "lost frames never reach the robot: {s}");
     // The plan was followed as without loss (feedback is on the robot, not over the link).
     let rows = read_rows(&tele);
     let dev = rows
@@ -466,7 +476,12 @@ impl Client {
 
 #[test]
 fn malformed_and_replayed_commands_are_never_executed() {
-    let robot = Robot::start(&["--max-time", "24"]);
+    // The watchdog outlasts the run (robot time): at --time-scale 8 its default 0.5 s is 62 ms
+    // of wall time, which a loaded machine can keep this test's heartbeats off the CPU for —
+    // the robot then stops, and the last command reads Idle (seen once in 10 runs on a loaded
+    // 2-core machine; the likely cause, the failure printed no telemetry to confirm it). The
+    // watchdog has its own tests; this one is about what gets executed.
+    let robot = Robot::start(&["--max-time", "24", "--watchdog", "30"]);
     let mut c = Client::new(robot.socket_addr());
     c.connect();
     let t = c.wait(100);
@@ -525,7 +540,7 @@ fn malformed_and_replayed_commands_are_never_executed() {
     // And a valid command still works.
     c.send(&vel(0.2, 0.0));
     let t = c.wait(200);
-    assert_eq!(t.mode, Mode::Velocity);
+    assert_eq!(t.mode, Mode::Velocity, "{t:?}");
     assert!(t.pose[0] > 0.0);
     drop(c);
     let s = robot.summary();
@@ -570,6 +585,11 @@ fn serial_transport_over_a_pty_pair() {
     let mut robot = Command::new(BIN)
         .args(["robot", "--sim", "--robot", "caster3", "--time-scale", "8"])
         .args(["--listen", &robot_side, "--max-time", "16"])
+        // The watchdog outlasts the run (robot time): at --time-scale 8 the default 0.5 s is
+        // 62 ms of wall time against `drive`'s 50 ms heartbeat, which a loaded machine broke
+        // ("the robot did not take the command", "did not confirm the stop"). This test is
+        // about the serial transport; the watchdog has its own tests.
+        .args(["--watchdog", "30"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -599,7 +619,7 @@ fn serial_transport_over_a_pty_pair() {
         )
     });
     println!("serial: {s}");
-    assert_eq!(s["link"]["dropped"], 0);
+    assert_eq!(refused(&s), 0, "{s}");
     let p = &s["true_pose"];
     assert!(p[0].as_f64().unwrap() > 0.1 && p[1].as_f64().unwrap() > 0.1);
 }

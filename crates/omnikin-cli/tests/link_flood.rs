@@ -6,6 +6,15 @@
 //! sockets then replay them at 50 000 datagrams a second or more, while (a) `omnikin drive`
 //! connects 20 times — at least 19 must connect within 1 s each — and (b) an open session sends
 //! 200 commands one at a time, each acknowledged by the robot before the next: none is lost.
+//!
+//! UDP loses datagrams: when the machine's load keeps the robot off the CPU for a few
+//! milliseconds, the flood fills its socket's receive buffer and the kernel drops what arrives
+//! next, the operator's frames among them (seen on a loaded 2-core machine: 6 commands in
+//! 9 000 went unacknowledged; the two watched for 3 s more never were, while the robot socket's
+//! drop count in /proc/net/udp rose). An operator therefore sends an unacknowledged command again, as a new
+//! frame; a command is lost when [`TRIES`] sends all go unacknowledged — what happens when the
+//! robot's link itself drops the session's frames (the session displaced by a replayed first
+//! frame, its frames refused or crowded out by the flood's handling), whatever the load.
 
 use std::net::{SocketAddr, UdpSocket};
 use std::process::Command;
@@ -21,6 +30,14 @@ use omnikin::link::{
 mod common;
 
 const KEY: &[u8] = b"0123456789abcdef0123456789abcdef";
+
+/// Sends of one command, each waiting [`TRY_WAIT`] for its acknowledgement, before the command
+/// counts as lost. The kernel's drops under load are independent from one send to the next; 20
+/// consecutive ones (5 s) do not happen unless the robot drops the session's frames itself.
+const TRIES: u32 = 20;
+
+/// How long one send of a command waits for the robot's acknowledgement.
+const TRY_WAIT: Duration = Duration::from_millis(250);
 
 /// The handshake datagrams (Hellos and open frames) of `drive hello` runs through a
 /// recording proxy in front of `robot`.
@@ -160,6 +177,13 @@ impl Operator {
             self.reader.end_of_datagram();
         }
     }
+    /// Sends `m` until the robot's telemetry acknowledges it, at most [`TRIES`] times (each a
+    /// new frame: a repeat of a frame is a replay); the number of sends it took, `None` if
+    /// none was acknowledged.
+    fn deliver(&mut self, m: &Message) -> Option<u32> {
+        (1..=TRIES).find(|_| self.once(m, TRY_WAIT))
+    }
+
     /// Sends `m` once; `true` when the robot's telemetry acknowledges it within `wait`.
     fn once(&mut self, m: &Message, wait: Duration) -> bool {
         let mut buf = [0u8; MAX_FRAME];
@@ -237,14 +261,13 @@ fn a_flood_of_recorded_hellos_and_first_frames_neither_locks_out_nor_loses_comma
     }
     // (b) an open session: 200 commands, one at a time.
     let mut op = Operator::connect(target);
-    let mut lost = 0;
+    let (mut lost, mut resent) = (0, 0);
     for i in 0..200u16 {
         // A plan message: the robot answers it with telemetry at once.
-        if !op.once(
-            &Message::PlanBegin { id: i, len: 1 },
-            Duration::from_millis(500),
-        ) {
-            lost += 1;
+        match op.deliver(&Message::PlanBegin { id: i, len: 1 }) {
+            None => lost += 1,
+            Some(1) => {}
+            Some(_) => resent += 1,
         }
     }
     let elapsed = start.elapsed().as_secs_f64();
@@ -260,7 +283,7 @@ fn a_flood_of_recorded_hellos_and_first_frames_neither_locks_out_nor_loses_comma
         .filter(|t| t.is_some_and(|d| d < Duration::from_secs(1)))
         .count();
     println!(
-        "flood: {sent} datagrams in {elapsed:.1} s ({rate:.0}/s); connects {:?}; {fast}/20 within 1 s; {lost}/200 commands lost; robot {s}",
+        "flood: {sent} datagrams in {elapsed:.1} s ({rate:.0}/s); connects {:?}; {fast}/20 within 1 s; {lost}/200 commands lost ({resent} needed more than one send); robot {s}",
         times
             .iter()
             .map(|t| t.map_or(-1.0, |d| (d.as_secs_f64() * 1000.0).round()))
@@ -275,4 +298,8 @@ fn a_flood_of_recorded_hellos_and_first_frames_neither_locks_out_nor_loses_comma
         "Hellos over the rate dropped unread"
     );
     assert!(link["replay"].as_u64().unwrap() + link["session"].as_u64().unwrap() > 0);
+    // Replayed first frames open nothing: the 6 recorded sessions, at most 20 of `drive` and
+    // the operator's.
+    let sessions = link["sessions"].as_u64().unwrap();
+    assert!(sessions <= 6 + 20 + 1, "{sessions} sessions opened");
 }
