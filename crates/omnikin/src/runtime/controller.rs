@@ -504,7 +504,10 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         if !self.odo.time().is_none_or(|t0| t > t0) {
             return true;
         }
-        let Ok(step) = self.odo.update_angles(t, &a, heading) else {
+        // The step read in place, in the `Result` the odometry wrote (moving it out would copy
+        // its 168 bytes every cycle).
+        let result = self.odo.update_angles(t, &a, heading);
+        let Ok(step) = &result else {
             faults.insert(Faults::HARDWARE);
             return false;
         };
@@ -527,7 +530,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             let c = self.last_command;
             if let Some((sample, gyro)) =
                 self.event_steps
-                    .push(&step, self.imu.map(|s| s.gyro[2]), Some([c.vx, c.vy]))
+                    .push(step, self.imu.map(|s| s.gyro[2]), Some([c.vx, c.vy]))
             {
                 self.events.sample(&sample, gyro);
             }
