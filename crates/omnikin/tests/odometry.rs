@@ -543,3 +543,61 @@ fn errors_name_the_first_bad_field_and_overflowing_increments() {
         .unwrap();
     assert!((s.pose.heading - 0.1).abs() < 1e-15, "{s:?}");
 }
+
+/// `Odometry::update_angles` (the control cycle's path, angles read in place) is
+/// `Odometry::update` bit for bit: the same steps, poses and errors (naming the same field),
+/// and the same state after each, for every preset kind and heading source, with wrapped
+/// steer angles, a non-finite angle and a repeated time in the sequence.
+#[test]
+fn update_angles_is_update_bit_for_bit() {
+    use omnikin::EncoderAngles;
+    let robots = [
+        Robot::Sphere(SphereOmni::new(SphereParams::preset()).unwrap()),
+        Robot::Ballbot(Ballbot::new(BallbotParams::preset()).unwrap()),
+        Robot::Caster(Caster3::new(CasterParams::preset()).unwrap()),
+    ];
+    for robot in robots {
+        for h in 0..3 {
+            let start = Pose2::new(0.3, -1.2, 2.6);
+            let mut by_reading = Odometry::new(robot, start);
+            let mut by_angles = Odometry::new(robot, start);
+            for k in 0..300 {
+                let f = k as f64;
+                let mut wheel = [0.21 * f, -0.05 * f - 1e-3 * f * f, 0.3 * (0.07 * f).sin()];
+                let steer = [
+                    (0.9 * f).rem_euclid(TAU) - PI,
+                    0.4 * (0.05 * f).cos(),
+                    -0.02 * f,
+                ];
+                if k == 97 {
+                    wheel[1] = f64::NAN;
+                }
+                // A repeated time (refused) at k = 150.
+                let t = if k == 150 { 149e-3 } else { f * 1e-3 };
+                let heading = match h {
+                    0 => HeadingInput::Wheels,
+                    1 => HeadingInput::GyroRate(0.8 * (0.03 * f).sin()),
+                    _ => HeadingInput::Absolute((0.01 * f).rem_euclid(TAU) - PI),
+                };
+                let reading = EncoderReading::with_steer(t, wheel, steer);
+                let angles = EncoderAngles::new(&wheel, &steer);
+                let a = by_reading.update(&reading, heading);
+                let b = by_angles.update_angles(t, &angles, heading);
+                // Debug formatting shows every bit of a float (shortest round trip) and NaN.
+                assert_eq!(
+                    format!("{a:?}"),
+                    format!("{b:?}"),
+                    "step {k}, heading source {h}"
+                );
+                assert_eq!(
+                    by_reading, by_angles,
+                    "state after step {k}, heading source {h}"
+                );
+            }
+            assert!(
+                by_reading.pose().x != start.x,
+                "the sequence moved the robot"
+            );
+        }
+    }
+}

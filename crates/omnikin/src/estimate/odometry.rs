@@ -178,7 +178,11 @@ pub struct Odometry<T> {
     /// and a control loop turns its commands with it ([`Odometry::rotation`]), so one
     /// `sin_cos` per step serves both.
     rot: Rot2<T>,
-    last: Option<EncoderReading<T>>,
+    /// Time of the last accepted sample, s (`None` before the first).
+    last_t: Option<T>,
+    /// Its angles (all zero before the first sample): kept as the [`EncoderAngles`] the
+    /// kinematics take, so a step reads them in place instead of rebuilding them.
+    last_angles: EncoderAngles<T>,
     last_gyro: Option<T>,
     last_yaw: Option<T>,
     assumed_spin: T,
@@ -202,7 +206,8 @@ impl<T: Real> Odometry<T> {
             robot,
             pose,
             rot: Rot2::from_angle(pose.heading),
-            last: None,
+            last_t: None,
+            last_angles: EncoderAngles::zero(),
             last_gyro: None,
             last_yaw: None,
             assumed_spin: T::zero(),
@@ -228,7 +233,7 @@ impl<T: Real> Odometry<T> {
 
     /// Time of the last accepted sample, s (`None` before the first).
     pub fn time(&self) -> Option<T> {
-        self.last.map(|r| r.t)
+        self.last_t
     }
 
     /// Moves the pose to `pose` (e.g. after an external fix) without touching the encoder,
@@ -264,18 +269,36 @@ impl<T: Real> Odometry<T> {
         reading: &EncoderReading<T>,
         heading: HeadingInput<T>,
     ) -> Result<OdometryStep<T>, OdometryError> {
-        self.check_finite(reading, heading)?;
-        let Some(prev) = self.last else {
-            return Ok(self.first_sample(reading, heading));
+        self.update_angles(reading.t, &reading.angles(), heading)
+    }
+
+    /// [`Odometry::update`] of a sample given as its time `t` (s) and the HAL's
+    /// [`EncoderAngles`] (rad), read in place: a control cycle that already holds the angles
+    /// steps without building an [`EncoderReading`] (two 6-wide array copies fewer). Same
+    /// result, same errors (an angle is named `wheel_angles[i]` / `steer_angles[i]`), same
+    /// state on error.
+    ///
+    /// # Errors
+    /// As [`Odometry::update`].
+    #[inline]
+    pub fn update_angles(
+        &mut self,
+        t: T,
+        end: &EncoderAngles<T>,
+        heading: HeadingInput<T>,
+    ) -> Result<OdometryStep<T>, OdometryError> {
+        self.check_finite(t, end, heading)?;
+        let Some(t0) = self.last_t else {
+            return Ok(self.first_sample(t, end, heading));
         };
-        let dt = reading.t - prev.t;
+        let dt = t - t0;
         if dt.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
             return Err(OdometryError::NonMonotonicTime {
-                t: reading.t.to_f64(),
-                previous: prev.t.to_f64(),
+                t: t.to_f64(),
+                previous: t0.to_f64(),
             });
         }
-        let (start, end) = (prev.angles(), reading.angles());
+        let start = &self.last_angles;
         // One dispatch on the kind for the whole kinematic step (see `KindStep`).
         let KindStepOut {
             inc,
@@ -285,8 +308,8 @@ impl<T: Real> Odometry<T> {
             delta,
             pose,
         } = self.robot.visit(KindStep {
-            start: &start,
-            end: &end,
+            start,
+            end,
             pose: self.pose,
             rot: self.rot,
             heading,
@@ -305,7 +328,7 @@ impl<T: Real> Odometry<T> {
             None
         };
         let step = OdometryStep {
-            t: reading.t,
+            t,
             dt,
             pose,
             delta,
@@ -322,7 +345,8 @@ impl<T: Real> Odometry<T> {
         // Commit only after everything succeeded.
         self.pose = pose;
         self.rot = Rot2::from_angle(pose.heading);
-        self.last = Some(*reading);
+        self.last_t = Some(t);
+        self.last_angles = *end;
         match heading {
             HeadingInput::GyroRate(g) => self.last_gyro = Some(g),
             HeadingInput::Absolute(y) => self.last_yaw = Some(y),
@@ -335,17 +359,19 @@ impl<T: Real> Odometry<T> {
     #[cold]
     fn first_sample(
         &mut self,
-        reading: &EncoderReading<T>,
+        t: T,
+        angles: &EncoderAngles<T>,
         heading: HeadingInput<T>,
     ) -> OdometryStep<T> {
-        self.last = Some(*reading);
+        self.last_t = Some(t);
+        self.last_angles = *angles;
         match heading {
             HeadingInput::GyroRate(g) => self.last_gyro = Some(g),
             HeadingInput::Absolute(y) => self.last_yaw = Some(y),
             HeadingInput::Wheels => {}
         }
         OdometryStep {
-            t: reading.t,
+            t,
             dt: T::zero(),
             pose: self.pose,
             delta: Pose2::new(T::zero(), T::zero(), T::zero()),
@@ -362,7 +388,8 @@ impl<T: Real> Odometry<T> {
     #[inline(always)]
     fn check_finite(
         &self,
-        reading: &EncoderReading<T>,
+        t: T,
+        angles: &EncoderAngles<T>,
         heading: HeadingInput<T>,
     ) -> Result<(), OdometryError> {
         let (n, steer) = (self.robot.wheels(), self.robot.steerable());
@@ -371,11 +398,11 @@ impl<T: Real> Odometry<T> {
             HeadingInput::GyroRate(g) => g,
             HeadingInput::Absolute(y) => y,
         };
-        let mut sum = reading.t + h;
+        let mut sum = t + h;
         for i in 0..n {
-            sum += reading.wheel_angles[i];
+            sum += angles.wheel[i];
             if steer {
-                sum += reading.steer_angles[i];
+                sum += angles.steer[i];
             }
         }
         // One test for the usual case: a sum is finite if every term is (it may also be
@@ -383,14 +410,15 @@ impl<T: Real> Odometry<T> {
         if sum.is_finite() {
             return Ok(());
         }
-        Self::first_non_finite(reading, heading, n, steer)
+        Self::first_non_finite(t, angles, heading, n, steer)
     }
 
     /// The field-by-field pass of [`Odometry::check_finite`].
     #[cold]
     #[inline(never)]
     fn first_non_finite(
-        reading: &EncoderReading<T>,
+        t: T,
+        angles: &EncoderAngles<T>,
         heading: HeadingInput<T>,
         n: usize,
         steer: bool,
@@ -411,11 +439,11 @@ impl<T: Real> Odometry<T> {
             "steer_angles[4]",
             "steer_angles[5]",
         ];
-        finite(reading.t, "t")?;
+        finite(t, "t")?;
         for i in 0..n {
-            finite(reading.wheel_angles[i], WHEEL[i])?;
+            finite(angles.wheel[i], WHEEL[i])?;
             if steer {
-                finite(reading.steer_angles[i], STEER[i])?;
+                finite(angles.steer[i], STEER[i])?;
             }
         }
         match heading {

@@ -8,7 +8,7 @@ use crate::drive::Rot2;
 use crate::estimate::estimator::Fix;
 use crate::estimate::events::{EventDecimator, EventDetector};
 use crate::estimate::fusion::{FusionError, FusionOutcome, PoseFusion, StepHeading};
-use crate::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
+use crate::estimate::odometry::{HeadingInput, Odometry};
 use crate::{Pose2, Real, Robot, Twist2};
 
 use super::command::{CameraFix, Command, CommandError, FIX_HISTORY, Frame, check_motion};
@@ -413,11 +413,10 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             self.odo.rotation()
         };
         let target = self.target(pose, rot, dt);
-        let (command, twist_cmd) = self.actuate(target, rot, dt, hw_ok, &mut faults);
-        if motors.set_rates(&command).is_err() {
+        let twist_cmd = self.actuate(target, rot, dt, hw_ok, &mut faults);
+        if motors.set_rates(&self.last_motor).is_err() {
             faults.insert(Faults::HARDWARE);
         }
-        self.last_motor = command;
         self.last_command = twist_cmd;
         self.history.insert(faults);
         Status {
@@ -432,7 +431,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             twist: self.twist,
             command: twist_cmd,
             wheels: self.wheels as u8,
-            motors: command,
+            motors: self.last_motor,
             encoders: self.encoders,
             imu: self.imu,
             plan: self.plan.status,
@@ -505,8 +504,10 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         if !self.odo.time().is_none_or(|t0| t > t0) {
             return true;
         }
-        let reading = EncoderReading::with_steer(t, a.wheel, a.steer);
-        let Ok(step) = self.odo.update(&reading, heading) else {
+        // The step read in place, in the `Result` the odometry wrote (moving it out would copy
+        // its 168 bytes every cycle).
+        let result = self.odo.update_angles(t, &a, heading);
+        let Ok(step) = &result else {
             faults.insert(Faults::HARDWARE);
             return false;
         };
@@ -525,7 +526,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             self.twist = step.twist;
             self.slip_residual = step.slip_residual;
             if let Some((mut sample, gyro)) =
-                self.event_steps.push(&step, self.imu.map(|s| s.gyro[2]))
+                self.event_steps.push(step, self.imu.map(|s| s.gyro[2]))
             {
                 // The speed commanded now: the last cycle's command (an e-stop's zero
                 // included), so the braking the robot commanded is not taken for a collision.
@@ -538,8 +539,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             // Re-base: a fresh odometry at the current pose whose reference is this very
             // reading, so no increment is lost.
             let mut fresh = Odometry::new(self.robot, self.odo.pose());
-            let r0 = EncoderReading::with_steer(T::zero(), a.wheel, a.steer);
-            if fresh.update(&r0, heading).is_ok() {
+            if fresh.update_angles(T::zero(), &a, heading).is_ok() {
                 self.odo = fresh;
                 self.odo_base_us = Some(now_us);
                 self.fusion.shift_time(t);
@@ -586,7 +586,8 @@ impl<T: Real, const N: usize> Runtime<T, N> {
     }
 
     /// Step 5, actuation: zero motors on an e-stop or unreadable encoders, otherwise the
-    /// shaped command ([`Runtime::shape`]); a mode at rest after a stop becomes idle.
+    /// shaped command ([`Runtime::shape`]); a mode at rest after a stop becomes idle. The
+    /// motor set-points are left in `self.last_motor`; returns the commanded twist.
     #[inline(always)]
     fn actuate(
         &mut self,
@@ -595,21 +596,19 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         dt: T,
         hw_ok: bool,
         faults: &mut Faults,
-    ) -> (MotorCommand<T>, Twist2<T>) {
-        let mut command = MotorCommand::zero();
+    ) -> Twist2<T> {
         let mut twist_cmd = zero_twist();
         if self.mode == Mode::EStop || self.estop || !hw_ok {
+            self.last_motor = MotorCommand::zero();
             self.slew.reset();
             if self.estop {
                 faults.insert(Faults::ESTOP);
             }
         } else {
             match self.shape(target, rot, dt, faults) {
-                Ok((c, tw)) => {
-                    command = c;
-                    twist_cmd = tw;
-                }
+                Ok(tw) => twist_cmd = tw,
                 Err(()) => {
+                    self.last_motor = MotorCommand::zero();
                     faults.insert(Faults::HARDWARE);
                     self.slew.reset();
                     self.mode = Mode::Stopping;
@@ -619,6 +618,6 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 self.mode = Mode::Idle;
             }
         }
-        (command, twist_cmd)
+        twist_cmd
     }
 }

@@ -37,7 +37,10 @@ use super::status::Faults;
 impl<T: Real, const N: usize> Runtime<T, N> {
     /// Desaturation → slew → inverse kinematics → motor-acceleration limit → final rate
     /// clamp (→ steer-angle loop). `rot` is `{cos, sin}` of the heading: every frame change
-    /// here shares it. Returns the motor set-points and the commanded robot-frame twist.
+    /// here shares it. Writes the motor set-points to `self.last_motor` (read here as the
+    /// previous cycle's, and by the cycle for the motors and its status: no copy of the
+    /// 96-byte command through the return value) and returns the commanded robot-frame twist.
+    /// On `Err` `self.last_motor` is unchanged.
     #[inline(always)]
     pub(super) fn shape(
         &mut self,
@@ -45,7 +48,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         rot: Rot2<T>,
         dt: T,
         faults: &mut Faults,
-    ) -> Result<(MotorCommand<T>, Twist2<T>), ()> {
+    ) -> Result<Twist2<T>, ()> {
         let cfg = &self.config;
         let steer = &self.encoders.steer;
         let n = self.wheels;
@@ -152,7 +155,8 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         if zero != T::zero() {
             return Err(());
         }
-        Ok((rates, v))
+        self.last_motor = rates;
+        Ok(v)
     }
 
     /// The steer-motor rates (rad/s) that drive the measured steer angles to the set-points of
