@@ -60,6 +60,12 @@ async function pose() {
     text: e.textContent, x: +e.dataset.x, y: +e.dataset.y, heading: +e.dataset.heading, t: +e.dataset.t,
   }));
 }
+// A full-page screenshot from the top (the header is sticky: taken scrolled, it would be drawn
+// in the middle of the page).
+async function fullShot(name) {
+  await page.evaluate(() => window.scrollTo(0, 0));
+  await page.screenshot({ path: join(shots, name), fullPage: true });
+}
 const text = (id) => page.$eval(`[data-testid="${id}"]`, (e) => e.textContent);
 const events = () => page.$$eval('#events li', (l) => l.map((e) => e.textContent));
 
@@ -139,7 +145,7 @@ test('dead-man teleop moves the robot; release stops it within the watchdog time
   const later = await pose();
   assert.ok(Math.hypot(later.x - stopped.x, later.y - stopped.y) < 0.002, `still moving: ${stopped.text} → ${later.text}`);
   assert.ok(later.x > p0.x + 0.05, 'moved forward (+x, robot frame = world frame at heading 0)');
-  await page.screenshot({ path: join(shots, 'console-teleop.png'), fullPage: true });
+  await fullShot('console-teleop.png');
 });
 
 test('e-stop button and Space key: the robot reports the e-stop', async () => {
@@ -151,7 +157,7 @@ test('e-stop button and Space key: the robot reports the e-stop', async () => {
   }));
   assert.ok(!banner.hidden && banner.w >= banner.page - 1, `banner while latched: ${JSON.stringify(banner)}`);
   await until('the confirmation event', async () => (await events()).some((e) => e.includes('e-stop confirmed by the robot')));
-  await page.screenshot({ path: join(shots, 'console-estop.png'), fullPage: true });
+  await fullShot('console-estop.png');
   await page.click('#clear');
   await until('mode idle after clear', async () => (await text('mode')) === 'idle' && (await text('faults')) === 'none');
   // Space while the dead-man and an arrow are held (other controls busy).
@@ -256,7 +262,7 @@ test('a square plan is uploaded, previewed and driven', async () => {
   execFileSync(BIN, ['plan', 'square', '--robot', 'sphere-omni', '--speed', '0.2', '--out', plan], { stdio: 'ignore' });
   await page.setInputFiles('[data-testid="plan-upload"]', plan);
   await until('the preview', async () => (await page.textContent('#plan-info')).includes('841 samples'));
-  await page.screenshot({ path: join(shots, 'console-preview.png'), fullPage: true });
+  await fullShot('console-preview.png');
   await page.check('#set-pose');
   await page.click('[data-testid="record"]');
   await until('recording', async () => (await page.textContent('#record-note')).startsWith('recording to'));
@@ -269,7 +275,7 @@ test('a square plan is uploaded, previewed and driven', async () => {
   await until('plan done', async () => {
     const p = await pose();
     maxX = Math.max(maxX, p.x); maxY = Math.max(maxY, p.y);
-    if (!shot && maxX > 0.3 && p.y < 0.2) { shot = true; await page.screenshot({ path: join(shots, 'console.png'), fullPage: true }); }
+    if (!shot && maxX > 0.3 && p.y < 0.2) { shot = true; await fullShot('console.png'); }
     return (await text('plan-state')).startsWith('done');
   }, 60000, 100);
   const end = await pose();
@@ -281,7 +287,7 @@ test('a square plan is uploaded, previewed and driven', async () => {
   // Paper 000's square: legs +y, +x, -y, -x of 0.4 m from the plan's start (set as the pose).
   assert.ok(Math.abs(maxY - 0.4) < 0.05 && Math.abs(maxX - 0.4) < 0.05, `corners reached: max x ${maxX}, max y ${maxY}`);
   assert.ok(Math.hypot(end.x, end.y) < 0.05, `back at the start: ${end.text}`);
-  await page.screenshot({ path: join(shots, 'console-done.png'), fullPage: true });
+  await fullShot('console-done.png');
 });
 
 test('a plan far from the robot runs only after a second click', async () => {
