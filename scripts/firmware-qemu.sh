@@ -33,6 +33,12 @@ if ! command -v qemu-system-arm >/dev/null; then
     command -v qemu-system-arm >/dev/null || skip "qemu-system-arm is not installed and cannot be installed here"
 fi
 
+# No local paths in the image: the core's panic locations (a path dependency outside this
+# crate's workspace) would carry the checkout's absolute path. The flash figure still moves by
+# about 0.1 % between checkouts (code layout follows the crates' metadata hashes, which include
+# their paths): bench/budgets.toml's flash budget keeps that headroom. (RUSTFLAGS replaces the
+# config's rustflags, so the linker script is named here.)
+export RUSTFLAGS="-C link-arg=-Tlink.x --remap-path-prefix=$root=/omnikin --remap-path-prefix=${CARGO_HOME:-$HOME/.cargo}=/cargo"
 echo "firmware-qemu: building (release)"
 (cd "$crate" && cargo build --release --locked)
 elf="$CARGO_TARGET_DIR/$target/release/omnikin-firmware-cortex-m4"
