@@ -412,6 +412,45 @@ fn plan_upload_validates_chunks() {
     assert_eq!(rig.rt.mode(), Mode::Idle);
 }
 
+/// An operator resends `PlanStart` until telemetry shows the plan running; when that telemetry
+/// is lost, a second copy arrives while the plan runs (and a late one after it ended). Neither
+/// may restart it: under 20 % loss a restart put the reference 1.6 mm behind the robot.
+#[test]
+fn a_repeated_plan_start_neither_restarts_nor_reruns_the_plan() {
+    let mut rig = Rig::new(sphere(), Config::new(100.0));
+    let pts = plan_points(0.05);
+    upload(&mut rig, 7, &pts);
+    rig.cmd(Command::PlanStart { id: 7 }).unwrap();
+    for _ in 0..30 {
+        rig.cmd(Command::Heartbeat).unwrap();
+        rig.step();
+    }
+    let before = rig.log.last().unwrap().reference;
+    rig.cmd(Command::PlanStart { id: 7 }).unwrap();
+    rig.cmd(Command::Heartbeat).unwrap();
+    let st = rig.step();
+    assert_eq!(st.mode, Mode::Trajectory);
+    assert!(
+        st.reference.x >= before.x && st.reference.y >= before.y,
+        "the reference went back: {before:?} -> {:?}",
+        st.reference
+    );
+    for _ in 0..450 {
+        rig.cmd(Command::Heartbeat).unwrap();
+        rig.step();
+    }
+    let st = *rig.log.last().unwrap();
+    assert!(st.plan.done && st.mode == Mode::Idle);
+    // A late copy after the end does not run it again.
+    rig.cmd(Command::PlanStart { id: 7 }).unwrap();
+    rig.cmd(Command::Heartbeat).unwrap();
+    assert_eq!(rig.step().mode, Mode::Idle);
+    // A new upload starts as before.
+    upload(&mut rig, 8, &pts);
+    rig.cmd(Command::PlanStart { id: 8 }).unwrap();
+    assert_eq!(rig.rt.mode(), Mode::Trajectory);
+}
+
 #[test]
 fn trajectory_is_followed_nearly_exactly_on_an_ideal_plant() {
     let mut rig = Rig::new(sphere(), Config::new(100.0));

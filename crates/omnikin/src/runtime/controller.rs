@@ -284,8 +284,10 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 self.plan.chunk(id, offset, points, running, &self.config)
             }
             Command::PlanStart { id } => {
-                self.plan.start(id, self.estop)?;
-                self.mode = Mode::Trajectory;
+                // A retransmitted start of the running (or finished) plan changes nothing.
+                if self.plan.start(id, self.estop)? {
+                    self.mode = Mode::Trajectory;
+                }
                 Ok(())
             }
             Command::Stop => {

@@ -21,6 +21,8 @@ pub(super) struct PlanBuffer<T, const N: usize> {
     index: usize,
     /// Reference pose at `reference_time` (world).
     pub(super) reference: Pose2<T>,
+    /// The uploaded plan has been started: a later `PlanStart` of it is a retransmission.
+    started: bool,
 }
 
 pub(super) fn zero_twist<T: Real>() -> Twist2<T> {
@@ -37,6 +39,7 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
             reference_time: T::zero(),
             index: 0,
             reference: pose,
+            started: false,
         }
     }
 
@@ -48,6 +51,7 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         self.reference_time = T::zero();
         self.index = 0;
         self.reference = pose;
+        self.started = false;
     }
 
     /// `PlanBegin`: clears the buffer for plan `id` of `len` points.
@@ -58,6 +62,7 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         if running {
             return Err(CommandError::Busy);
         }
+        self.started = false;
         self.status = PlanStatus {
             id,
             received: 0,
@@ -128,14 +133,22 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
     }
 
     /// `PlanStart`: checks the plan is complete and strictly increasing in time, and rewinds
-    /// to its first point. `estop`: the e-stop is latched (then refused).
-    pub(super) fn start(&mut self, id: u16, estop: bool) -> Result<(), CommandError> {
+    /// to its first point: `Ok(true)`. `estop`: the e-stop is latched (then refused).
+    ///
+    /// Once per upload: a `PlanStart` of a plan already started (running or done) is an operator's
+    /// retransmission whose first copy was answered by telemetry the operator lost, and is
+    /// ignored, `Ok(false)` (it restarted a running plan from its first point, 1.6 mm behind
+    /// the robot, under 20 % loss). Running a plan again takes a new `PlanBegin`.
+    pub(super) fn start(&mut self, id: u16, estop: bool) -> Result<bool, CommandError> {
         let st = self.status;
         if id != st.id {
             return Err(CommandError::PlanIdMismatch {
                 expected: st.id,
                 got: id,
             });
+        }
+        if self.started {
+            return Ok(false);
         }
         if st.received != st.len || st.len < 2 {
             return Err(CommandError::PlanIncomplete {
@@ -158,7 +171,8 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         self.reference_time = self.points[0].t;
         self.index = 0;
         self.status.done = false;
-        Ok(())
+        self.started = true;
+        Ok(true)
     }
 
     /// The world-frame target twist of one trajectory cycle of `dt` s at the measured `pose`:
