@@ -349,23 +349,6 @@ struct Entry<T> {
     post: Posterior<T>,
 }
 
-impl<T: Real> Entry<T> {
-    /// An empty history slot at `t` holding the posterior `post` (the filling of a new or
-    /// reset history).
-    fn blank(t: T, post: Posterior<T>) -> Self {
-        Entry {
-            t,
-            dt: T::zero(),
-            delta: Pose2::new(T::zero(), T::zero(), T::zero()),
-            dist: T::zero(),
-            q: (T::zero(), T::zero()),
-            heading: StepHeading::Wheels,
-            event: None,
-            post,
-        }
-    }
-}
-
 /// The fusion filter; `N ≥ 8` history entries of 37 scalars each (an increment with its
 /// noise, a fix, the mean and covariance triangle after it: 148 bytes in `f32`, 288 in `f64`;
 /// `N = 256`, f64: ≈ 74 kB). See the module docs.
@@ -452,7 +435,16 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
     ) -> Self {
         const { assert!(N >= 8, "PoseFusion needs N >= 8 history entries") };
         let base = initial_state(t, pose, cov, &config).packed();
-        let entry = Entry::blank(t, base);
+        let entry = Entry {
+            t,
+            dt: T::zero(),
+            delta: Pose2::new(T::zero(), T::zero(), T::zero()),
+            dist: T::zero(),
+            q: (T::zero(), T::zero()),
+            heading: StepHeading::Wheels,
+            event: None,
+            post: base,
+        };
         Self {
             config,
             slot: config.max_latency / T::of((N / 2) as f64),
@@ -499,7 +491,16 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         config: FusionConfig<T>,
     ) {
         let base = initial_state(t, pose, cov, &config).packed();
-        let entry = Entry::blank(t, base);
+        let entry = Entry {
+            t,
+            dt: T::zero(),
+            delta: Pose2::new(T::zero(), T::zero(), T::zero()),
+            dist: T::zero(),
+            q: (T::zero(), T::zero()),
+            heading: StepHeading::Wheels,
+            event: None,
+            post: base,
+        };
         self.config = config;
         self.slot = config.max_latency / T::of((N / 2) as f64);
         self.base = base;
