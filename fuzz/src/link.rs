@@ -1436,9 +1436,9 @@ impl Session {
         let dt_us = (1e6 / RATE_HZ) as u64;
         self.now_us += dt_us;
         let mut board = self.board;
-        let st = self
-            .runtime
+        self.runtime
             .cycle(self.now_us, &mut board, &mut NoImu, &mut self.board);
+        let st = self.runtime.status();
         let cmd = self.board.command.expect("cycle sets the motors");
         assert_eq!(cmd, st.motors);
         let dt = 1.0 / RATE_HZ;

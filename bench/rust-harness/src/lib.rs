@@ -10,7 +10,7 @@ use omnikin::ballbot::{Ballbot, BallbotParams};
 use omnikin::caster::{Caster3, CasterParams};
 use omnikin::runtime::hal::{EncoderAngles, Encoders, MotorCommand, MotorOutputs, NoImu};
 use omnikin::runtime::limits::RateLimits;
-use omnikin::runtime::{Command, Config, Frame, Runtime, Status};
+use omnikin::runtime::{Command, Config, Faults, Frame, Runtime, Status};
 use omnikin::sphere::{SphereOmni, SphereParams};
 use omnikin::{Pose2, Robot, Twist2};
 
@@ -122,15 +122,22 @@ impl Loop {
     /// One cycle: the simulated motors turn for the period since the previous cycle, a new
     /// velocity command from the table arrives (`handle`), then `cycle` (encoders → odometry
     /// → watchdog → desaturation → slew → inverse kinematics → acceleration limit → motors).
+    /// Returns the cycle's faults; the full status is [`Loop::status`] (telemetry, built at
+    /// the link's rate, not every cycle).
     ///
     /// The simulated motors turn for the period **before** the cycle: the same sequence of
-    /// encoder readings as turning them after it, and the cycle builds its status directly
-    /// in the caller's slot (no copy of the ~600-byte value after it).
+    /// encoder readings as turning them after it.
     #[inline(never)]
-    pub fn step(&mut self, inputs: &Inputs) -> Status<f64> {
+    pub fn step(&mut self, inputs: &Inputs) -> Faults {
         self.prepare(inputs);
         self.rt
             .cycle(self.now_us, &mut self.enc, &mut NoImu, &mut self.motors)
+    }
+
+    /// The runtime's status after the latest cycle (a telemetry frame's content).
+    #[inline(never)]
+    pub fn status(&self) -> Status<f64> {
+        self.rt.status()
     }
 
     /// The motors turn for one period at the previous cycle's set-points, the clock advances

@@ -186,7 +186,8 @@ impl SilPlant {
             Ok(i) => i,
             Err(e) => match e {},
         };
-        runtime.cycle(now, &mut Held(enc), &mut Held(imu), self)
+        runtime.cycle(now, &mut Held(enc), &mut Held(imu), self);
+        runtime.status()
     }
 
     /// Puts an obstacle in the robot's way from `from_s` for `for_s` seconds of plant time

@@ -609,12 +609,13 @@ impl Plant {
         }
     }
     fn cycle(&mut self) -> omnikin::runtime::Status<f32> {
-        let st = self.rt.cycle(
+        self.rt.cycle(
             self.now,
             &mut Enc(self.wheel),
             &mut NoImu,
             &mut Out(&mut self.rates),
         );
+        let st = self.rt.status();
         for i in 0..3 {
             self.wheel[i] += self.rates[i] * 0.01;
         }

@@ -88,9 +88,9 @@ impl Rig {
             true_yaw_rate: self.board.true_yaw_rate,
             ..Default::default()
         };
-        let st = self
-            .rt
+        self.rt
             .cycle(self.now, &mut self.board, &mut imu, &mut Board::default());
+        let st = self.rt.status();
         for i in 0..MAX_WHEELS {
             if !self.board.stalled {
                 self.board.wheel[i] += st.motors.wheel[i] * DT;

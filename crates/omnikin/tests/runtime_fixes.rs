@@ -82,7 +82,8 @@ fn drive(period: usize, latency: usize) -> Run {
     for k in 0..cycles {
         let now = k as u64 * DT_US;
         let mut read = Reading(board.wheel.map(|a| (a * READ_SCALE) as f32));
-        let st = rt.cycle(now, &mut read, &mut NoImu, &mut board);
+        rt.cycle(now, &mut read, &mut NoImu, &mut board);
+        let st = rt.status();
         let reading = EncoderReading {
             t: k as f64 / RATE_HZ,
             wheel_angles: board.wheel,

@@ -64,7 +64,8 @@ fn drive(
     for k in 0..cycles as u64 {
         let now = k * DT_US;
         rt.handle(cmd, now).unwrap();
-        let st = rt.cycle(now, &mut board, &mut NoImu, &mut Sink);
+        rt.cycle(now, &mut board, &mut NoImu, &mut Sink);
+        let st = rt.status();
         for i in 0..MAX_WHEELS {
             board.wheel[i] += st.motors.wheel[i] * DT;
             board.steer[i] += st.motors.steer[i] * DT;
@@ -207,7 +208,8 @@ fn swerve_at_rest_keeps_its_steer_angles_and_stops_with_the_watchdog() {
     board.steer[..4].copy_from_slice(&[0.3, -0.2, 1.0, 2.0]);
     // Idle: nothing moves, the modules keep their angles.
     for k in 0..10u64 {
-        let st = rt.cycle(k * DT_US, &mut board, &mut NoImu, &mut Sink);
+        rt.cycle(k * DT_US, &mut board, &mut NoImu, &mut Sink);
+        let st = rt.status();
         assert_eq!(st.motors, MotorCommand::zero());
     }
     // A command, then silence: the watchdog brakes to rest within the limits.
@@ -221,7 +223,8 @@ fn swerve_at_rest_keeps_its_steer_angles_and_stops_with_the_watchdog() {
     .unwrap();
     let mut log = Vec::new();
     for k in 10..400u64 {
-        let st = rt.cycle(k * DT_US, &mut board, &mut NoImu, &mut Sink);
+        rt.cycle(k * DT_US, &mut board, &mut NoImu, &mut Sink);
+        let st = rt.status();
         for i in 0..MAX_WHEELS {
             board.wheel[i] += st.motors.wheel[i] * DT;
             board.steer[i] += st.motors.steer[i] * DT;

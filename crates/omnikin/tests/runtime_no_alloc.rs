@@ -189,7 +189,8 @@ fn session_allocates_nothing(robot: Robot<f32>) {
     let (n, ()) = allocations(|| {
         let mut cycle = |rt: &mut Runtime<f32, 128>, board: &mut Board, now: &mut u64| {
             let mut out = MotorCommand::zero();
-            let st = rt.cycle(*now, board, &mut NoImu, &mut Out(&mut out));
+            rt.cycle(*now, board, &mut NoImu, &mut Out(&mut out));
+            let st = rt.status();
             for i in 0..MAX_WHEELS {
                 board.angles.wheel[i] += out.wheel[i] * 0.01;
                 board.angles.steer[i] += out.steer[i] * 0.01;

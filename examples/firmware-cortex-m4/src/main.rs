@@ -278,17 +278,21 @@ fn run(
     let mut now = 0u64;
     let cycle = |rt: &mut Runtime<f32, PLAN_CAPACITY>, plant: &mut Plant, now: &mut u64| {
         let mut enc = plant.reading();
-        let st = match plant.steps_per_rad {
+        match plant.steps_per_rad {
             Some(k) => {
                 let mut steppers = Steppers::new(StepPins(plant), 200, 16, 1.0e5);
                 steppers.steps_per_rad = [k; 2 * MAX_WHEELS];
-                rt.cycle(*now, &mut enc, &mut NoImu, &mut steppers)
+                rt.cycle(*now, &mut enc, &mut NoImu, &mut steppers);
             }
-            None => rt.cycle(*now, &mut enc, &mut NoImu, plant),
-        };
+            None => {
+                rt.cycle(*now, &mut enc, &mut NoImu, plant);
+            }
+        }
         plant.advance();
         *now += DT_US;
-        st
+        // This test drive reads the state every cycle; a robot's loop builds it at its
+        // telemetry rate.
+        rt.status()
     };
 
     // Upload and follow the plan.

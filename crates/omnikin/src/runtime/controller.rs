@@ -52,6 +52,8 @@ pub struct Runtime<T, const N: usize> {
     mode: Mode,
     estop: bool,
     history: Faults,
+    /// The faults of the latest cycle ([`Status::faults`]).
+    faults: Faults,
     pub(super) slew: Slew<T>,
     odo: Odometry<T>,
     odo_base_us: Option<u64>,
@@ -98,6 +100,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             mode: Mode::Idle,
             estop: false,
             history: Faults::NONE,
+            faults: Faults::NONE,
             slew: Slew::new(),
             odo: Odometry::new(robot, pose),
             odo_base_us: None,
@@ -145,6 +148,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         self.mode = Mode::Idle;
         self.estop = false;
         self.history = Faults::NONE;
+        self.faults = Faults::NONE;
         self.slew = Slew::new();
         self.odo = Odometry::new(robot, pose);
         self.odo_base_us = None;
@@ -377,7 +381,9 @@ impl<T: Real, const N: usize> Runtime<T, N> {
 
     /// One control cycle at clock time `now_us`: read the encoders and the IMU, update the
     /// odometry, run the watchdog, shape the newest command (desaturation, acceleration and
-    /// jerk limits, wheel-acceleration limit), inverse kinematics, write the motors.
+    /// jerk limits, wheel-acceleration limit), inverse kinematics, write the motors. Returns
+    /// the cycle's faults; the whole state is [`Runtime::status`], built when it is asked for
+    /// (a telemetry frame at the link's rate), not every cycle.
     ///
     /// Never panics and never allocates; hardware errors become [`Faults::HARDWARE`] and a
     /// controlled stop (zero motor command if the encoders cannot be read).
@@ -387,7 +393,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         encoders: &mut E,
         imu: &mut I,
         motors: &mut M,
-    ) -> Status<T>
+    ) -> Faults
     where
         E: Encoders<T>,
         I: Imu<T>,
@@ -421,17 +427,26 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         }
         self.last_command = twist_cmd;
         self.history.insert(faults);
+        self.faults = faults;
+        faults
+    }
+
+    /// The state after the latest [`Runtime::cycle`] (the content of telemetry): mode, this
+    /// cycle's and the latched faults, the control's pose (fused once a fix was accepted) and
+    /// the wheel odometry's, the command, the motors, the plan. Before the first cycle: time 0,
+    /// the initial pose, no faults.
+    pub fn status(&self) -> Status<T> {
         Status {
-            time_us: now_us,
+            time_us: self.last_us.unwrap_or(0),
             mode: self.mode,
-            faults,
+            faults: self.faults,
             fault_history: self.history,
-            pose,
+            pose: self.pose(),
             odometry: self.odo.pose(),
             covariance: self.fusion.settled_pose_variances(),
             fixes: self.fixes,
             twist: self.twist,
-            command: twist_cmd,
+            command: self.last_command,
             wheels: self.wheels as u8,
             motors: self.last_motor,
             encoders: self.encoders,

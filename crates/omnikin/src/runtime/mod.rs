@@ -90,8 +90,9 @@
 //! for k in 0..100u64 {
 //!     let now = k * 10_000; // µs
 //!     rt.handle(Command::Heartbeat, now).unwrap(); // the link feeds the watchdog
-//!     let st = rt.cycle(now, &mut Enc(board.angles), &mut NoImu, &mut board);
-//!     assert_eq!(st.mode, Mode::Velocity);
+//!     let faults = rt.cycle(now, &mut Enc(board.angles), &mut NoImu, &mut board);
+//!     assert!(faults.is_empty());
+//!     assert_eq!(rt.status().mode, Mode::Velocity); // telemetry: built when asked for
 //!     for i in 0..3 { board.angles[i] += board.rates[i] * 0.01; }
 //! }
 //! // 0.1 s ramp at 1 m/s², then 0.1 m/s; the estimate lags one cycle: about 9.4 cm.
