@@ -359,6 +359,15 @@ impl Ctx<'_> {
         Ok(out)
     }
 
+    /// Node `k` of `mv` as the heading (and path piece) hint of the points in its cell.
+    pub(super) fn hint_at(&self, mv: &Move, k: usize) -> Hint {
+        Hint {
+            psi: mv.psi[k],
+            cs: Some(mv.cs[k]),
+            piece: mv.piece[k],
+        }
+    }
+
     /// Steer angles at `sigma` within a move (integrated ones; for set-points those of the
     /// cell's start node), and the configuration there; `k` is the grid cell holding `sigma`
     /// (its start node is the heading hint and the steer integration's start).
@@ -368,11 +377,7 @@ impl Ctx<'_> {
         sigma: f64,
         k: usize,
     ) -> Result<(Config, Steer), PlanningError> {
-        let hint = Hint {
-            psi: mv.psi[k],
-            cs: Some(mv.cs[k]),
-            piece: mv.piece[k],
-        };
+        let hint = self.hint_at(mv, k);
         let c = self.config(&mv.kind, mv.len, sigma, hint);
         if self.set_point || !self.robot.steerable() {
             // Set-points come from the inverse at each sample (see `sample`); kinds without
