@@ -129,21 +129,23 @@ impl Ctx<'_> {
         self.grid_on(kind, len, psi_start, gamma0, bounds, n, None)
     }
 
-    /// A move's grid again with four times the cells (at most [`GRID_MIN`] apart) in the
-    /// stretches `stretches` (indices into `mv.bounds`), for a residual excess the final check
-    /// found there; `None` when none of them can be refined further. (Four: a doubling took
-    /// about twice the rounds, each a full sampling, for the same plans.)
+    /// A move's grid again with `factor` times the cells (at most [`GRID_MIN`] apart) in the
+    /// stretches `stretches` (indices into `mv.bounds`): four for a residual excess the final
+    /// check found there (a doubling took about twice the rounds, each a full sampling, for
+    /// the same plans), [`super::switches::SWITCH_FACTOR`] where the profile switches; `None`
+    /// when none of them can be refined further.
     pub(super) fn refine(
         &self,
         mv: &Move,
         stretches: &[usize],
+        factor: usize,
     ) -> Result<Option<Move>, PlanningError> {
         let mut n = mv.cells.clone();
         let mut changed = false;
         for &j in stretches {
             let l = mv.bounds[j + 1] - mv.bounds[j];
             let finest = ((l / GRID_MIN).ceil() as usize).max(1);
-            let want = (4 * n[j]).min(finest);
+            let want = (factor * n[j]).min(finest);
             if want > n[j] {
                 n[j] = want;
                 changed = true;

@@ -247,7 +247,7 @@ fn a_refined_grid_equals_one_built_afresh() {
         for mv in moves.iter().filter(|m| m.cells.len() > 1) {
             // Every other stretch refined, the first kept.
             let js: Vec<usize> = (1..mv.cells.len()).step_by(2).collect();
-            let Some(refined) = ctx.refine(mv, &js).expect("refine") else {
+            let Some(refined) = ctx.refine(mv, &js, 4).expect("refine") else {
                 continue;
             };
             let fresh = ctx
