@@ -125,13 +125,21 @@ impl HeadingProfile {
     /// spline's slope ([`Side::After`] at the start, [`Side::Before`] at the end) or the held
     /// value's zero slope.
     pub fn at(&self, s: f64, side: Side) -> (f64, f64) {
+        let (psi, dpsi, _) = self.at_with_second(s, side);
+        (psi, dpsi)
+    }
+
+    /// `(ψ, dψ/ds, d²ψ/ds²)` at arc length `s` (rad, rad/m, rad/m²), the ends as in
+    /// [`HeadingProfile::at`] (0 where the value is held). The second derivative is the
+    /// spline's, linear between the points.
+    pub(crate) fn at_with_second(&self, s: f64, side: Side) -> (f64, f64, f64) {
         let n = self.s.len();
         let (lo, hi) = self.range();
         if n == 1 || s < lo || (s == lo && side == Side::Before) {
-            return (self.psi[0], 0.0);
+            return (self.psi[0], 0.0, 0.0);
         }
         if s > hi || (s == hi && side == Side::After) {
-            return (self.psi[n - 1], 0.0);
+            return (self.psi[n - 1], 0.0, 0.0);
         }
         let i = match self.s.binary_search_by(|x| x.total_cmp(&s)) {
             Ok(i) => i.min(n - 2),
@@ -146,7 +154,7 @@ impl HeadingProfile {
             + ((a * a * a - a) * m0 + (b * b * b - b) * m1) * h * h / 6.0;
         let dpsi = (self.psi[i + 1] - self.psi[i]) / h
             + (-(3.0 * a * a - 1.0) * m0 + (3.0 * b * b - 1.0) * m1) * h / 6.0;
-        (psi, dpsi)
+        (psi, dpsi, a * m0 + b * m1)
     }
 }
 

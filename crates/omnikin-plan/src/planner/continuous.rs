@@ -6,9 +6,11 @@
 //! On a cell `[σ_k, σ_{k+1}]` of length `h` the timing has the constant path acceleration
 //! `u = (x_{k+1} − x_k)/(2h)`, so `x(σ) = σ̇² = x_k + 2u(σ − σ_k)` is linear, and each motor's
 //! rate is `A(σ) √x(σ)` and its acceleration `A(σ) u + A'(σ) x(σ)` (module docs, step 2).
-//! Here `A` comes from the kinematics at the point itself ([`Ctx::state`],
-//! [`Ctx::rates_per_speed`]) and `A'` from a central difference of it over
-//! ±[`DIFF`] inside the cell, at [`POINTS`] points per cell from just inside one end to just
+//! Here `A` and `A'` come from the kinematics at the point itself: for a robot without
+//! steering from the configuration's first and second derivatives along the move (one
+//! evaluation; [`Ctx::config_with_rate`]), for the steerable kinds `A` from
+//! [`Ctx::state`] and [`Ctx::rates_per_speed`] and `A'` from a central difference of it over
+//! ±[`DIFF`] inside the cell; at [`POINTS`] points per cell from just inside one end to just
 //! inside the other (one-sided at a kink, where `A'` jumps); a cell whose table values stay
 //! clear of every limit ([`SCREEN`]) is evaluated only at an end that is a kink, or not at
 //! all; the planner checks a move again only after its timing changed.
@@ -100,12 +102,10 @@ impl Ctx<'_> {
                 // From `inset` inside the start to `inset` inside the end.
                 let f = j as f64 / (POINTS - 1) as f64;
                 let sigma = sig[k] + inset + (h - 2.0 * inset) * f;
-                let lo = self.a_at(mv, k, sigma - d)?;
-                let hi = self.a_at(mv, k, sigma + d)?;
+                let (av, bv) = self.a_and_rate_at(mv, k, sigma, d)?;
                 let xs = (x[k] + 2.0 * u * (sigma - sig[k])).max(0.0);
                 for ch in 0..chans {
-                    let a = 0.5 * (lo[ch] + hi[ch]);
-                    let b = (hi[ch] - lo[ch]) / (2.0 * d);
+                    let (a, b) = (av[ch], bv[ch]);
                     let checks = [
                         (rate[ch], (a * xs.sqrt()).abs(), false),
                         (accel[ch], (a * u + b * xs).abs(), true),
@@ -134,8 +134,43 @@ impl Ctx<'_> {
         Ok(out)
     }
 
+    /// `A(σ)` and `A'(σ)` at `sigma` inside cell `k` of `mv`, from the exact kinematics: for a
+    /// robot without steering both at once from the configuration's derivatives
+    /// ([`Ctx::config_with_rate`], [`super::geometry::Linear::wheel_rates_with_rate`]), else
+    /// `A` as the mean and `A'` as the central difference of `A` at `sigma ± d`.
+    pub(super) fn a_and_rate_at(
+        &self,
+        mv: &Move,
+        k: usize,
+        sigma: f64,
+        d: f64,
+    ) -> Result<([f64; MAX_CHANNELS], [f64; MAX_CHANNELS]), PlanningError> {
+        if let Some(lin) = &self.linear {
+            let hint = self.hint_at(mv, k);
+            let (c, ddq) = self.config_with_rate(&mv.kind, mv.len, sigma, hint);
+            if let Some((a, b)) = lin.wheel_rates_with_rate(c.cs, c.dq, ddq) {
+                let (mut av, mut bv) = ([0.0; MAX_CHANNELS], [0.0; MAX_CHANNELS]);
+                av[..a.len()].copy_from_slice(&a);
+                bv[..b.len()].copy_from_slice(&b);
+                return Ok((av, bv));
+            }
+            // A value that is not finite: the core call below names it.
+        }
+        let lo = self.a_at(mv, k, sigma - d)?;
+        let hi = self.a_at(mv, k, sigma + d)?;
+        Ok((
+            core::array::from_fn(|ch| 0.5 * (lo[ch] + hi[ch])),
+            core::array::from_fn(|ch| (hi[ch] - lo[ch]) / (2.0 * d)),
+        ))
+    }
+
     /// `A(σ)` at `sigma` inside cell `k` of `mv`, from the exact kinematics.
-    fn a_at(&self, mv: &Move, k: usize, sigma: f64) -> Result<[f64; MAX_CHANNELS], PlanningError> {
+    pub(super) fn a_at(
+        &self,
+        mv: &Move,
+        k: usize,
+        sigma: f64,
+    ) -> Result<[f64; MAX_CHANNELS], PlanningError> {
         let (c, gamma) = self.state(mv, sigma, k)?;
         self.rates_per_speed(&mv.kind, mv.len, sigma, &c, &gamma)
     }

@@ -151,6 +151,34 @@ impl Linear {
         }
         out.iter().sum::<f64>().is_finite().then_some(out)
     }
+
+    /// [`Linear::wheel_rates`] and their derivative along the move, `A'(σ)`, from `q''(σ)`
+    /// = `ddq` ([`Ctx::config_with_rate`]): the robot-frame twist per unit speed
+    /// `b = (c ẋ + s ẏ, −s ẋ + c ẏ, ψ')` has the derivative
+    /// `b' = (c ẍ + s ÿ + ψ' b_y, −s ẍ + c ÿ − ψ' b_x, ψ'')` (`c, s` turn with `ψ'`), and the
+    /// wheel rates are linear in it. `None` if a value is not finite.
+    #[inline(always)]
+    pub(super) fn wheel_rates_with_rate(
+        &self,
+        cs: [f64; 2],
+        dq: [f64; 3],
+        ddq: [f64; 3],
+    ) -> Option<([f64; MAX_WHEELS], [f64; MAX_WHEELS])> {
+        let [c, s] = cs;
+        let (vx, vy) = (c * dq[0] + s * dq[1], -s * dq[0] + c * dq[1]);
+        let (dvx, dvy) = (
+            c * ddq[0] + s * ddq[1] + dq[2] * vy,
+            -s * ddq[0] + c * ddq[1] - dq[2] * vx,
+        );
+        let mut a = [0.0; MAX_WHEELS];
+        let mut b = [0.0; MAX_WHEELS];
+        for ((w, d), r) in a.iter_mut().zip(b.iter_mut()).zip(&self.rows[..self.n]) {
+            *w = r[0] * vx + r[1] * vy + r[2] * dq[2];
+            *d = r[0] * dvx + r[1] * dvy + r[2] * ddq[2];
+        }
+        let sum = a.iter().sum::<f64>() + b.iter().sum::<f64>();
+        sum.is_finite().then_some((a, b))
+    }
 }
 
 /// Steer angles `γ_i` of a steer state (rad), entries `0..N` used (0 for kinds without
@@ -235,6 +263,33 @@ impl Ctx<'_> {
     /// Configuration at parameter `sigma` of a move; `hint` is an unwrapped heading within
     /// ±π of the answer (for the tangent law).
     pub(super) fn config(&self, kind: &Kind, len: f64, sigma: f64, hint: Hint) -> Config {
+        self.config_at::<false>(kind, len, sigma, hint).0
+    }
+
+    /// [`Ctx::config`] and the second derivative `q''(σ) = (d²x/dσ², d²y/dσ², d²ψ/dσ²)`: on
+    /// the path the tangent's rate `κ n` (`n` the left normal) and the heading law's `ψ''`
+    /// (the tangent law's `dκ/ds`, a heading profile's spline value, 0 for a constant), 0 for
+    /// a turn in place (constant rate) and a re-steer at rest. At a join it is the same side's
+    /// as the configuration's, where the curvature's rate may jump.
+    pub(super) fn config_with_rate(
+        &self,
+        kind: &Kind,
+        len: f64,
+        sigma: f64,
+        hint: Hint,
+    ) -> (Config, [f64; 3]) {
+        self.config_at::<true>(kind, len, sigma, hint)
+    }
+
+    /// [`Ctx::config`], and with `RATE` [`Ctx::config_with_rate`]'s `q''` (zeros without).
+    #[inline(always)]
+    fn config_at<const RATE: bool>(
+        &self,
+        kind: &Kind,
+        len: f64,
+        sigma: f64,
+        hint: Hint,
+    ) -> (Config, [f64; 3]) {
         match *kind {
             Kind::Travel { s0, s1 } => {
                 // The end is evaluated exactly at `s1` on the incoming side (`s0 + len` can
@@ -246,52 +301,75 @@ impl Ctx<'_> {
                     (s, Side::After)
                 };
                 // Inside the piece of a neighbouring node no piece search is needed.
-                let (piece, p) = match hint.piece.and_then(|k| self.path.inside_piece(k, s)) {
-                    Some(p) => (hint.piece, p),
-                    None => {
-                        let (k, p) = self.path.at_side_piece(s, side);
-                        (Some(k), p)
+                let (piece, (p, dk)) = if RATE {
+                    match hint
+                        .piece
+                        .and_then(|k| self.path.inside_piece_with_rate(k, s))
+                    {
+                        Some(p) => (hint.piece, p),
+                        None => {
+                            let (k, p) = self.path.at_side_piece_with_rate(s, side);
+                            (Some(k), p)
+                        }
+                    }
+                } else {
+                    match hint.piece.and_then(|k| self.path.inside_piece(k, s)) {
+                        Some(p) => (hint.piece, (p, 0.0)),
+                        None => {
+                            let (k, p) = self.path.at_side_piece(s, side);
+                            (Some(k), (p, 0.0))
+                        }
                     }
                 };
-                let (psi, cs, dpsi) = match self.heading {
-                    HeadingLaw::Constant(c) => (*c, self.heading_cs, 0.0),
+                let (psi, cs, dpsi, ddpsi) = match self.heading {
+                    HeadingLaw::Constant(c) => (*c, self.heading_cs, 0.0, 0.0),
                     HeadingLaw::Tangent { .. } => {
                         let [c, s] = self.heading_cs;
                         let [tx, ty] = p.tangent;
                         let d = [c * tx - s * ty, s * tx + c * ty];
-                        (hint.unwrap(d), d, p.curvature)
+                        (hint.unwrap(d), d, p.curvature, dk)
                     }
                     HeadingLaw::Profile(prof) => {
-                        let (psi, dpsi) = prof.at(s, side);
+                        let (psi, dpsi, ddpsi) = if RATE {
+                            prof.at_with_second(s, side)
+                        } else {
+                            let (psi, dpsi) = prof.at(s, side);
+                            (psi, dpsi, 0.0)
+                        };
                         let (s, c) = psi.sin_cos();
-                        (psi, [c, s], dpsi)
+                        (psi, [c, s], dpsi, ddpsi)
                     }
                 };
-                Config {
+                let [tx, ty] = p.tangent;
+                let k = p.curvature;
+                let config = Config {
                     pose: Pose2::new(p.point[0], p.point[1], psi),
                     cs,
-                    dq: [p.tangent[0], p.tangent[1], dpsi],
+                    dq: [tx, ty, dpsi],
                     piece,
-                }
+                };
+                (config, [-k * ty, k * tx, ddpsi])
             }
             Kind::Turn { x, y, psi0, dir } => {
                 let psi = psi0 + dir * sigma.clamp(0.0, len);
                 let (s, c) = psi.sin_cos();
-                Config {
+                let config = Config {
                     pose: Pose2::new(x, y, psi),
                     cs: [c, s],
                     dq: [0.0, 0.0, dir],
                     piece: None,
-                }
+                };
+                (config, [0.0; 3])
             }
             Kind::Resteer { x, y, psi, .. } => {
                 let (s, c) = psi.sin_cos();
-                Config {
+                let config = Config {
                     pose: Pose2::new(x, y, psi),
                     cs: [c, s],
                     dq: [0.0, 0.0, 0.0],
                     piece: None,
-                }
+                };
+                (config, [0.0; 3])
             }
         }
     }

@@ -129,21 +129,23 @@ impl Ctx<'_> {
         self.grid_on(kind, len, psi_start, gamma0, bounds, n, None)
     }
 
-    /// A move's grid again with four times the cells (at most [`GRID_MIN`] apart) in the
-    /// stretches `stretches` (indices into `mv.bounds`), for a residual excess the final check
-    /// found there; `None` when none of them can be refined further. (Four: a doubling took
-    /// about twice the rounds, each a full sampling, for the same plans.)
+    /// A move's grid again with `factor` times the cells (at most [`GRID_MIN`] apart) in the
+    /// stretches `stretches` (indices into `mv.bounds`): four for a residual excess the final
+    /// check found there (a doubling took about twice the rounds, each a full sampling, for
+    /// the same plans), [`super::switches::SWITCH_FACTOR`] where the profile switches; `None`
+    /// when none of them can be refined further.
     pub(super) fn refine(
         &self,
         mv: &Move,
         stretches: &[usize],
+        factor: usize,
     ) -> Result<Option<Move>, PlanningError> {
         let mut n = mv.cells.clone();
         let mut changed = false;
         for &j in stretches {
             let l = mv.bounds[j + 1] - mv.bounds[j];
             let finest = ((l / GRID_MIN).ceil() as usize).max(1);
-            let want = (4 * n[j]).min(finest);
+            let want = (factor * n[j]).min(finest);
             if want > n[j] {
                 n[j] = want;
                 changed = true;
@@ -359,6 +361,15 @@ impl Ctx<'_> {
         Ok(out)
     }
 
+    /// Node `k` of `mv` as the heading (and path piece) hint of the points in its cell.
+    pub(super) fn hint_at(&self, mv: &Move, k: usize) -> Hint {
+        Hint {
+            psi: mv.psi[k],
+            cs: Some(mv.cs[k]),
+            piece: mv.piece[k],
+        }
+    }
+
     /// Steer angles at `sigma` within a move (integrated ones; for set-points those of the
     /// cell's start node), and the configuration there; `k` is the grid cell holding `sigma`
     /// (its start node is the heading hint and the steer integration's start).
@@ -368,11 +379,7 @@ impl Ctx<'_> {
         sigma: f64,
         k: usize,
     ) -> Result<(Config, Steer), PlanningError> {
-        let hint = Hint {
-            psi: mv.psi[k],
-            cs: Some(mv.cs[k]),
-            piece: mv.piece[k],
-        };
+        let hint = self.hint_at(mv, k);
         let c = self.config(&mv.kind, mv.len, sigma, hint);
         if self.set_point || !self.robot.steerable() {
             // Set-points come from the inverse at each sample (see `sample`); kinds without

@@ -206,7 +206,7 @@ fn plan_moves(
                 let Some(finer) = (if js.is_empty() {
                     None
                 } else {
-                    ctx.refine(mv, &js)?
+                    ctx.refine(mv, &js, switches::SWITCH_FACTOR)?
                 }) else {
                     break;
                 };
@@ -331,11 +331,14 @@ fn validate_request(heading: &HeadingLaw, opts: &PlanOptions) -> Result<(), Plan
 /// between two samples, which may straddle a node.
 const SLOW_CELLS: usize = 2;
 
+/// The factor on the cells of a grid stretch holding a residual excess ([`slow_down_locally`]).
+const EXCESS_FACTOR: usize = 4;
+
 /// For the time-optimal timing: removes **every** residual excess the samples show (a rate above
 /// its limit at a sample, an acceleration — the difference of two samples over their time
 /// step — above its limit) and every one `between` them (plan time, ratio; from
-/// [`Ctx::continuous_excesses`]), each where it is. The grid stretches that hold one get twice the
-/// cells ([`Ctx::refine`]: the excess is the grid's interpolation residue, which shrinks with
+/// [`Ctx::continuous_excesses`]), each where it is. The grid stretches that hold one get
+/// [`EXCESS_FACTOR`] times the cells ([`Ctx::refine`]: the excess is the grid's interpolation residue, which shrinks with
 /// the cells); where a stretch is already at [`grid::GRID_MIN`], the motor limits of the cells
 /// within [`SLOW_CELLS`] of the excess are lowered by its ratio (and 0.5 % more). Then the pass
 /// of each move concerned runs again (their indices are returned). Lowering the whole move's limits (as [`slow_down`] does
@@ -403,7 +406,7 @@ fn slow_down_locally(
             continue;
         }
         retimed.push(m);
-        if let Some(finer) = ctx.refine(mv, &js)? {
+        if let Some(finer) = ctx.refine(mv, &js, EXCESS_FACTOR)? {
             *mv = finer;
         } else if mv.limit_scale.is_empty() {
             mv.limit_scale = f;

@@ -4,8 +4,8 @@
 //! 10 cm cell at the end of a move braked at `x_k/(2h)` instead of the full deceleration over
 //! the last few centimetres (5.6 % of the duration at 0.66 m/s and 5 m/s² against the
 //! reference solver of `tests/reference.rs`). [`switch_stretches`] finds the grid stretches
-//! holding such a switch, which the planner refines ([`super::Ctx::refine`]) before the final
-//! check, so the lost time shrinks with the cells.
+//! holding such a switch, which the planner refines ([`super::Ctx::refine`], [`SWITCH_FACTOR`]
+//! times the cells) before the final check, so the lost time shrinks with the cells.
 
 use super::grid::Move;
 use super::timing::MoveTiming;
@@ -17,11 +17,17 @@ const CRUISE: f64 = 1e-6;
 /// is at it (it loses nothing where it meets a cruise).
 const FULL: f64 = 0.999;
 
-/// Rounds of refinement at the switches (each four times the cells of the stretches holding
-/// one, so the time lost at a switch shrinks four-fold). Two rounds brought the reference
+/// Rounds of refinement at the switches (each [`SWITCH_FACTOR`] times the cells of the
+/// stretches holding one, so the time lost at a switch shrinks as many times). Two rounds of 4× brought the reference
 /// test's median from +0.023 % to +0.004 % (worst +0.53 % either way) but cost 2.3 times the
 /// instructions of one on the 20-waypoint benchmark plan.
 pub(super) const SWITCH_ROUNDS: usize = 1;
+
+/// The factor on the cells of a stretch holding a switch. Against `tests/reference.rs`'s 40
+/// cases: 4× gave median +0.023 %, worst +0.530 %; 3× median +0.044 %, worst +0.530 % (the same
+/// case, not a switch's loss), for 11 % fewer instructions on the 20-waypoint benchmark plan
+/// (1 107 k → 1 001 k; 3 ms longer of 18.68 s); 2× worst +1.250 %, over the test's 1 %.
+pub(super) const SWITCH_FACTOR: usize = 3;
 
 /// The stretches (indices into `mv.bounds`) holding a switch: a cell neither cruising nor at the full requested path acceleration `a_user`
 /// next to a cell that cruises ([`CRUISE`]) or accelerates the other way (empty for timings other than the time-optimal one).

@@ -247,7 +247,7 @@ fn a_refined_grid_equals_one_built_afresh() {
         for mv in moves.iter().filter(|m| m.cells.len() > 1) {
             // Every other stretch refined, the first kept.
             let js: Vec<usize> = (1..mv.cells.len()).step_by(2).collect();
-            let Some(refined) = ctx.refine(mv, &js).expect("refine") else {
+            let Some(refined) = ctx.refine(mv, &js, 4).expect("refine") else {
                 continue;
             };
             let fresh = ctx
@@ -277,4 +277,82 @@ fn a_refined_grid_equals_one_built_afresh() {
         }
         assert!(compared > 0, "{name}: no move with stretches to refine");
     }
+}
+
+/// `A'` from the configuration's derivatives (what the between-sample check uses for robots
+/// without steering) is the central difference of the exact `A` over ±1e-5, on every travel
+/// move of the shipped waypoints as a spline and as a filleted polyline, under each heading
+/// law, for two robots without steering.
+#[test]
+fn the_rate_of_a_from_the_derivatives_is_its_difference() {
+    let w = crate::waypoints::Waypoints::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/waypoints.toml"),
+    )
+    .expect("examples/waypoints.toml");
+    let profile = crate::heading::HeadingProfile::new(&[(0.0, 0.3), (0.9, -0.4), (2.2, 1.1)])
+        .expect("profile");
+    let opts = PlanOptions {
+        timing: Timing::TimeOptimal {
+            limits: MotionLimits::default(),
+        },
+        on_limit: OnLimit::Retime,
+        rate: 100.0,
+        initial_steer: InitialSteer::Aligned,
+    };
+    let mut compared = 0;
+    let mut largest = 0.0_f64;
+    for name in ["kiwi", "sphere-omni"] {
+        let robot = RobotModel::from_description(
+            &omnikin::description::RobotDescription::preset(name).expect("preset"),
+        )
+        .expect("model");
+        for path in [
+            Path::spline(&w.points).expect("spline"),
+            Path::polyline(&w.points, crate::path::Corners::Fillet { radius: 0.15 })
+                .expect("fillet"),
+        ] {
+            for heading in [
+                HeadingLaw::Constant(0.4),
+                HeadingLaw::Tangent { offset: 0.2 },
+                HeadingLaw::Profile(profile.clone()),
+            ] {
+                let ctx = context(&path, &heading, &robot, &opts);
+                for mv in build_moves(&ctx, &opts).expect("moves") {
+                    for k in 0..mv.sig.len() - 1 {
+                        let h = mv.sig[k + 1] - mv.sig[k];
+                        let d = 1e-5_f64.min(0.02 * h);
+                        for f in [0.1, 0.5, 0.9] {
+                            let sigma = mv.sig[k] + f * h;
+                            let (a, b) = ctx.a_and_rate_at(&mv, k, sigma, d).expect("exact");
+                            let lo = ctx.a_at(&mv, k, sigma - d).expect("lo");
+                            let hi = ctx.a_at(&mv, k, sigma + d).expect("hi");
+                            let at = ctx.a_at(&mv, k, sigma).expect("at");
+                            for ch in 0..robot.channels() {
+                                let fd = (hi[ch] - lo[ch]) / (2.0 * d);
+                                assert!(
+                                    (a[ch] - at[ch]).abs() <= 1e-12 * (1.0 + at[ch].abs()),
+                                    "{name} {heading:?}: A {} vs {} at {sigma}",
+                                    a[ch],
+                                    at[ch]
+                                );
+                                assert!(
+                                    (b[ch] - fd).abs() <= 1e-5 * (1.0 + fd.abs()),
+                                    "{name} {heading:?} channel {ch}: A' {} vs the difference \
+                                     {fd} at {sigma} of a move of {}",
+                                    b[ch],
+                                    mv.len
+                                );
+                                largest = largest.max(fd.abs());
+                            }
+                            compared += 1;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        compared > 1000 && largest > 1.0,
+        "{compared} points, largest |A'| {largest}"
+    );
 }
