@@ -427,7 +427,10 @@ fn robot_and_drive_mcap_match_their_csv_logs_and_convert_round_trips() {
 fn drive_plan_mcap_stamps_the_plan_at_robot_time() {
     let dir = tmp("drive-plan");
     let plan = square_plan(&dir);
-    let robot = Robot::start(&["--max-time", "24"]);
+    // 40 s of robot time: the plan takes ~17 s after a start that, at 8x real time, moves by
+    // 8 s of robot time per second drive takes to start on a loaded machine (24 s was seen to
+    // end the robot mid-plan under a load of 12 on 2 cores).
+    let robot = Robot::start(&["--max-time", "40"]);
     // Let the robot's clock run (8x real time: about 2.4 s of robot time).
     std::thread::sleep(Duration::from_millis(300));
     let dmcap = dir.join("drive.mcap");

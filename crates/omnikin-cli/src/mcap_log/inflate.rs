@@ -19,8 +19,10 @@
 //! compressed chunks. A file without any is returned as it is (borrowed). A chunk that breaks a
 //! rule ends the copy before it, as damage that names the chunk's byte offset in the file and
 //! the rule (the records before it are read, as for a truncated file); a broken limit refuses
-//! the file. Records are otherwise copied as they are: the pre-scan checks them. Byte offsets
-//! that the pre-scan names are offsets in the copy once a compressed chunk has been replaced.
+//! the file. Records are otherwise copied as they are: the pre-scan checks them. Once a chunk
+//! was decompressed, a record that runs past the end of the file and a file without a footer
+//! are named here, at the file's byte offsets; other damage the pre-scan names at offsets in
+//! the copy.
 //! The copy is for reading in file order only: the summary section's offsets (chunk indexes)
 //! still point into the original file, and the data section CRC is cleared (0: "not
 //! computed").
@@ -89,8 +91,10 @@ pub fn inflate(buf: &[u8]) -> Result<Inflated<'_>, String> {
     let mut out: Option<Vec<u8>> = None;
     let mut at = magic.min(buf.len());
     let mut damage = None;
+    let mut footer = false;
     while let Some(head) = buf.get(at..at + RECORD_HEAD) {
         let opcode = head[0];
+        footer |= opcode == op::FOOTER;
         let len = u64::from_le_bytes(head[1..].try_into().unwrap_or([0; 8]));
         let body_at = at + RECORD_HEAD;
         let Some(end) = usize::try_from(len)
@@ -98,7 +102,15 @@ pub fn inflate(buf: &[u8]) -> Result<Inflated<'_>, String> {
             .and_then(|l| body_at.checked_add(l))
             .filter(|&e| e <= buf.len())
         else {
-            break; // Framing damage: copied as it is, for the pre-scan to name.
+            if out.is_some() {
+                // Offsets in the copy no longer are the file's: name the damage here.
+                damage = Some(format!(
+                    "the {} at byte {at}: its length {len} runs past the end of the file ({} bytes left)",
+                    super::scan::name(opcode),
+                    buf.len() - body_at
+                ));
+            }
+            break; // Otherwise copied as it is, for the pre-scan to name.
         };
         let body = &buf[body_at..end];
         let fields = (opcode == op::CHUNK)
@@ -158,6 +170,12 @@ pub fn inflate(buf: &[u8]) -> Result<Inflated<'_>, String> {
         o.extend_from_slice(&size.to_le_bytes());
         o.extend_from_slice(&plain);
         at = end;
+    }
+    if damage.is_none() && out.is_some() && !footer {
+        // A file cut at a record boundary (or inside a record's opcode and length).
+        damage = Some(format!(
+            "byte {at}: the file ends before its footer record and closing magic"
+        ));
     }
     let bytes = match out {
         Some(mut o) => {
@@ -319,10 +337,27 @@ mod tests {
             d.contains("\"lz4!\"") && d.contains("zstd and uncompressed"),
             "{d}"
         );
-        // Every cut: never a panic, and the copy never longer than the limit allows.
+        // Every cut: never a panic; once a chunk was decompressed, the damage is named at a
+        // byte of the cut file, not of the larger copy.
         for cut in 0..packed.len() {
             let i = inflate(&packed[..cut]).unwrap();
             assert!(i.bytes.len() as u64 <= MAX_INFLATED_BYTES);
+            if let (Cow::Owned(_), Some(d)) = (&i.bytes, &i.damage) {
+                let at: usize = d
+                    .split("byte ")
+                    .nth(1)
+                    .and_then(|r| r.split(|c: char| !c.is_ascii_digit()).next())
+                    .and_then(|n| n.parse().ok())
+                    .unwrap_or_else(|| panic!("cut {cut}: {d}"));
+                assert!(at <= cut, "cut {cut}: {d}");
+            }
         }
+        // Cut before its footer record (29 bytes) and closing magic (8): damage, though every
+        // record left is whole.
+        let d = inflate(&packed[..packed.len() - 37])
+            .unwrap()
+            .damage
+            .unwrap();
+        assert!(d.contains("ends before its footer"), "{d}");
     }
 }

@@ -58,7 +58,7 @@ pub struct Scan {
 }
 
 /// The name of a record opcode in messages.
-fn name(opcode: u8) -> String {
+pub fn name(opcode: u8) -> String {
     let n = match opcode {
         op::HEADER => "header",
         op::FOOTER => "footer",
