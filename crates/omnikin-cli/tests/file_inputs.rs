@@ -176,13 +176,58 @@ fn crafted() -> Vec<(&'static str, Vec<u8>, &'static str)> {
         footer_and_magic(),
     ]);
     out.push(("chunk-inner.mcap", f, "at chunk offset 0"));
-    // A compressed chunk (its uncompressed size is what a decompressor would allocate).
+    // A zstd chunk whose records are not zstd data.
     let f = file(&[
         header(),
         record(0x06, &chunk(b"zstd", &[0; 16])),
         footer_and_magic(),
     ]);
-    out.push(("zstd.mcap", f, "compression \"zstd\""));
+    out.push(("zstd.mcap", f, "its zstd data does not decompress"));
+    // zstd chunks that lie about their uncompressed size (the size a decompressor would
+    // allocate): more than MAX_CHUNK_BYTES is refused before anything is allocated; a small
+    // lie is damage at the chunk (byte 25, after the magic and the header record).
+    let zchunk = |declared: u64, plain: &[u8]| {
+        let z = zstd::bulk::compress(plain, 3).unwrap();
+        let mut c = chunk(b"zstd", &z);
+        c[16..24].copy_from_slice(&declared.to_le_bytes());
+        c
+    };
+    let plain = [record(0x05, &[0; 22]), record(0x05, &[0; 22])].concat();
+    for (name, declared, says) in [
+        ("zstd-huge.mcap", u64::MAX, "MAX_CHUNK_BYTES"),
+        ("zstd-2tb.mcap", 1 << 41, "MAX_CHUNK_BYTES"),
+        (
+            "zstd-short.mcap",
+            10,
+            "does not decompress into the 10 bytes it declares",
+        ),
+        (
+            "zstd-long.mcap",
+            100,
+            "decompresses to 62 bytes, but it declares 100",
+        ),
+    ] {
+        let f = file(&[
+            header(),
+            record(0x06, &zchunk(declared, &plain)),
+            footer_and_magic(),
+        ]);
+        out.push((name, f, says));
+    }
+    assert_eq!(plain.len(), 62, "the size zstd-long.mcap's error names");
+    // A zstd bomb: 64 MiB of zeros in a few KiB, declared as 16 MiB (the largest chunk
+    // allowed): the decompressor stops at the declared size.
+    let f = file(&[
+        header(),
+        record(0x06, &zchunk(16 << 20, &vec![0; 64 << 20])),
+        footer_and_magic(),
+    ]);
+    assert!(f.len() < 64 << 10, "{} bytes", f.len());
+    out.push((
+        "zstd-bomb.mcap",
+        f,
+        "does not decompress into the 16777216 bytes it declares",
+    ));
     // A metadata record with more map entries than MAX_MAP_ENTRIES (each one a BTreeMap entry
     // of two Strings: ten times its bytes in memory).
     let entries: Vec<u8> = (0..5000)

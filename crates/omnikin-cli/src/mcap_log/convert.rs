@@ -9,7 +9,8 @@
 //! then `mw1..mwN,msd1..msdN` (measured), `/link` `t,rx_ok,…,rx_entropy,rx_dropped,rejected`
 //! (as in the telemetry log), `/events` `t,level,name,message`. A cell the message does not
 //! have is empty. A truncated file (a killed process) is converted up to its last complete
-//! chunk, with a warning.
+//! chunk, with a warning. zstd chunks (what omnikin writes) are decompressed first, each
+//! bounded by its declared size ([`super::inflate`]).
 //!
 //! CSV → MCAP (`convert IN --mcap out.mcap`): IN is a directory of such files (the round trip),
 //! or one CSV log: `robot --log`, `drive … --out`, `simulate`'s `trials.csv` or a pose CSV
@@ -112,7 +113,8 @@ pub struct Channels {
 }
 
 /// Every message of the MCAP file `buf` (at most [`MAX_INPUT_BYTES`]; named `shown` in
-/// errors), by channel, and why reading stopped early, if it did (a truncated or damaged file:
+/// errors; uncompressed chunks only, so a file with zstd chunks goes through
+/// [`super::inflate::inflate`] first), by channel, and why reading stopped early, if it did (a truncated or damaged file:
 /// the messages before the damage are returned).
 ///
 /// Three passes, none of which trusts a length it has not checked: [`super::scan::scan`]
@@ -417,8 +419,14 @@ fn channel_csv(
 fn to_csv(input: &Path, dir: &Path) -> Result<()> {
     crate::output::catch_signals()?;
     let shown = input.display().to_string();
-    let buf = read_limited(input)?;
-    let (channels, stopped) = read_mcap(&buf, &shown)?;
+    let raw = read_limited(input)?;
+    let inflated = super::inflate::inflate(&raw).map_err(|e| anyhow::anyhow!("{shown}: {e}"))?;
+    let buf: &[u8] = &inflated.bytes;
+    let (channels, mut stopped) = read_mcap(buf, &shown)?;
+    // A chunk that could not be decompressed ends the copy: that is the first damage.
+    if inflated.damage.is_some() {
+        stopped.clone_from(&inflated.damage);
+    }
     if let Some(why) = &stopped {
         if channels.messages == 0 {
             bail!("{shown}: no message could be read: {why}");
@@ -445,7 +453,7 @@ fn to_csv(input: &Path, dir: &Path) -> Result<()> {
     for ((topic, t, list), name) in channels.ours.iter().zip(&names) {
         let path = dir.join(name);
         let mut out = crate::output::OutFile::create("--csv", &path)?;
-        channel_csv(*t, &buf, list, &mut out)
+        channel_csv(*t, buf, list, &mut out)
             .with_context(|| format!("{shown} -> {}", path.display()))?;
         crate::output::check_interrupted()?;
         out.commit()?;

@@ -12,11 +12,13 @@
 //! and a chunk reaches the file only whole, so a process killed outright leaves a file that
 //! reads up to its last complete chunk; SIGINT/SIGTERM and errors close it properly (summary
 //! and footer) under the output rules of [`crate::output`] (temporary file renamed into place;
-//! a log is kept on every exit path). Chunks are not compressed: the `mcap` crate's zstd and
-//! lz4 features would build C libraries, and JSON logs of a few MB do not need them.
+//! a log is kept on every exit path). Chunks are zstd-compressed ([`COMPRESSION`]): a
+//! 100 Hz `robot --mcap` log is 58 MB (driven by velocity) to 83 MB (following a plan) per
+//! hour of robot time, about six times less than uncompressed (docs/seeing-the-robot.md); [`inflate`] reads them back with bounded memory.
 
 pub mod convert;
 pub mod foxglove;
+pub mod inflate;
 pub mod scan;
 
 use std::collections::HashMap;
@@ -36,6 +38,10 @@ use foxglove::{Counters, Level, Topic, WheelRates};
 /// Uncompressed size of a chunk, bytes: what a killed process can lose at most (with
 /// [`FLUSH_EVERY`]).
 pub const CHUNK_SIZE: u64 = 64 * 1024;
+/// Chunk compression of every MCAP file omnikin writes: zstd at its default level (3). Level
+/// 9 was measured 2 % smaller on a 30 s `robot --mcap` log (57.7 against 58.7 MB per hour) at
+/// a quarter of the speed: what is left after compression is the f64 values' low bits.
+pub const COMPRESSION: mcap::Compression = mcap::Compression::Zstd;
 /// Wall-clock time after which the open chunk is closed and written even if not full.
 pub const FLUSH_EVERY: Duration = Duration::from_secs(1);
 
@@ -184,7 +190,7 @@ impl McapLog {
         };
         let shown = path.display().to_string();
         let writer = mcap::WriteOptions::new()
-            .compression(None)
+            .compression(Some(COMPRESSION))
             .chunk_size(Some(CHUNK_SIZE))
             .disable_seeking(true)
             .profile("")

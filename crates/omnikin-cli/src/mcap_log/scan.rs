@@ -11,8 +11,8 @@
 //! - its length fits in the bytes left in the file (or in its chunk);
 //! - every string, byte array and map inside it fits in the record's body, strings are UTF-8,
 //!   maps hold whole entries and at most [`MAX_MAP_ENTRIES`] of them;
-//! - a chunk is uncompressed (omnikin writes no compressed chunks and reads none: the crate is
-//!   built without zstd and lz4), its records field fills the rest of its body and equals its
+//! - a chunk is uncompressed (`omnikin convert` first replaces zstd chunks by their
+//!   uncompressed records, with bounded memory: [`super::inflate`]), its records field fills the rest of its body and equals its
 //!   uncompressed size, and it holds only schema, channel and message records;
 //! - at most [`MAX_CHANNELS`] distinct channel ids and [`MAX_SCHEMAS`] distinct schema ids,
 //!   with at most [`MAX_SCHEMA_BYTES`] of schema data in all (the crate keeps a copy of each);
@@ -58,7 +58,7 @@ pub struct Scan {
 }
 
 /// The name of a record opcode in messages.
-fn name(opcode: u8) -> String {
+pub fn name(opcode: u8) -> String {
     let n = match opcode {
         op::HEADER => "header",
         op::FOOTER => "footer",
@@ -237,7 +237,7 @@ fn record(opcode: u8, b: &[u8], in_chunk: bool, c: &mut Counts) -> Result<(), St
             let compression = r.string("the compression")?;
             if !compression.is_empty() {
                 return Err(format!(
-                    "compression {compression:?}: omnikin reads only uncompressed chunks (it writes no others)"
+                    "compression {compression:?}: the pre-scan reads only uncompressed chunks (zstd chunks are decompressed before it)"
                 ));
             }
             let records = r.bytes64("the chunk's records")?;
