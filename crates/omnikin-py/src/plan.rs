@@ -321,7 +321,7 @@ pub fn plan_columns<'py>(
                 step.cause()
             ))
             .unwrap_or_default(),
-            1,
+            2,
         )?;
     }
     columns(py, &planned.plan)

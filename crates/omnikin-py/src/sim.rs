@@ -229,13 +229,14 @@ fn trial_columns(k: usize) -> Vec<String> {
     cols
 }
 
-/// A user warning with `msg`.
+/// A user warning with `msg`, attributed to the caller's line: stack level 2 skips the
+/// wrapper in `omnikin/__init__.py` that called the native function.
 pub(crate) fn warn(py: Python<'_>, msg: &str) -> PyResult<()> {
     PyErr::warn(
         py,
         &py.get_type::<pyo3::exceptions::PyUserWarning>(),
         &std::ffi::CString::new(msg).unwrap_or_default(),
-        1,
+        2,
     )
 }
 
