@@ -28,7 +28,7 @@ pub enum TrackArg<'py> {
 
 impl TrackArg<'_> {
     /// The track, checked as a CSV file is; its name for messages.
-    fn load(&self) -> PyResult<(Track, String)> {
+    pub(crate) fn load(&self) -> PyResult<(Track, String)> {
         let as_slice = |a: &PyReadonlyArray1<'_, f64>| -> PyResult<Vec<f64>> {
             Ok(a.as_array().iter().copied().collect())
         };

@@ -152,14 +152,17 @@ def simulate(
 
 def evaluate(
     plan: PlanLike,
-    tracks: Sequence[Union[str, "os.PathLike[str]"]],
+    tracks: Union[TrackLike, Sequence[TrackLike]],
     *,
     motion_threshold: float = 0.005,
     align_position: bool = True,
     tracking_offset: Optional[Sequence[float]] = None,
 ) -> Dict[str, Any]:
-    """The metrics of tracked runs (CSV files ``t,x,y[,heading]``, world frame, m) against
-    ``plan``, as ``omnikin evaluate``: ``motion_threshold`` (m) marks the start of motion,
+    """The metrics of tracked runs against ``plan``, as ``omnikin evaluate``. ``tracks``: one
+    run or a list of runs, each a CSV path (``str``, ``pathlib.Path``), a dict or DataFrame of
+    columns ``t, x, y[, heading]`` (s, m, rad; world frame) or an ``(n, 3)``/``(n, 4)`` array,
+    converted with ``numpy.asarray(..., float64)``; a table with a ``trial`` column
+    (``simulate(...)["trials"]``) is one run per trial (per-run figures: ``pose_error``). ``motion_threshold`` (m) marks the start of motion,
     ``align_position`` translates each run to start at the plan's start, ``tracking_offset``
     is the marker's position ``(x, y)`` in the robot frame (m).
 
@@ -167,7 +170,7 @@ def evaluate(
     (``run, t, x, y``) and ``mean.csv``, and ``metrics.json`` as a dict.
     """
     runs, mean, metrics = _native.evaluate_native(
-        [os.fspath(t) for t in tracks],
+        _estimates(tracks),
         motion_threshold=motion_threshold,
         align_position=align_position,
         tracking_offset=None if tracking_offset is None else tuple(tracking_offset),

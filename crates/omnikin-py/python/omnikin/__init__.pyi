@@ -109,7 +109,7 @@ def simulate(
 
 def evaluate(
     plan: PlanLike,
-    tracks: Sequence[Union[str, os.PathLike[str]]],
+    tracks: Any,
     *,
     motion_threshold: float = 0.005,
     align_position: bool = True,
