@@ -14,6 +14,7 @@ mod console;
 mod data_dir;
 mod drive;
 mod drive_fixes;
+mod evaluate_truth;
 mod figures;
 mod kinematics;
 mod link_io;
@@ -80,7 +81,8 @@ enum Command {
     /// Monte-Carlo simulation of a plan under motor and slip disturbances, with the paper's
     /// metrics and figure (paper 000 §6, paper 003 §4).
     Simulate(sim::SimulateArgs),
-    /// The same metrics and figure for real tracked runs (CSV t,x,y[,heading]) against a plan.
+    /// The same metrics and figure for real tracked runs (CSV t,x,y[,heading]) against a plan;
+    /// or pose estimates against ground truth (--truth): ATE and RPE, per run and overall.
     Evaluate(sim::EvaluateArgs),
     /// Re-run a paper's whole experiment design in simulation and tabulate our figures next
     /// to the paper's (sphere-2019: paper 000's squares and circles at four speeds).
@@ -256,9 +258,10 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             files.extend(a.mcap.as_deref().map(|p| ("--mcap", p)));
         }
         Command::Evaluate(a) => {
-            inputs.push(("--plan", &a.plan));
+            inputs.extend(a.plan.as_deref().map(|p| ("--plan", p)));
+            inputs.extend(a.truth.as_deref().map(|p| ("--truth", p)));
             inputs.extend(a.tracks.iter().map(|t| ("TRACK", t.as_path())));
-            dirs.push(("--out", &a.out));
+            dirs.extend(a.out.as_deref().map(|p| ("--out", p)));
         }
         Command::Reproduce(a) => dirs.extend(a.out.as_deref().map(|p| ("--out", p))),
         Command::Merge(a) => {

@@ -196,29 +196,50 @@ pub(crate) fn write_dynamic_run(
     write_mean(&out.join("mean.csv"), plan, &sim.evaluation.mean)
 }
 
-/// `omnikin evaluate`.
+/// `omnikin evaluate`: tracked runs against a plan (`--plan`), or pose estimates against
+/// ground truth (`--truth`, see [`crate::evaluate_truth`]).
 #[derive(clap::Args, Debug)]
 pub struct EvaluateArgs {
     /// The plan the runs followed (plan CSV).
-    #[arg(long)]
-    pub plan: PathBuf,
-    /// Tracked runs: CSV files with columns t,x,y and optionally heading.
+    #[arg(long, required_unless_present = "truth", conflicts_with = "truth")]
+    pub plan: Option<PathBuf>,
+    /// Ground truth (t,x,y[,heading] CSV): score each file as a pose estimate against it with
+    /// the absolute trajectory error and the relative pose error (Sturm et al. 2012, the TUM
+    /// RGB-D benchmark) instead of comparing runs with a plan.
+    #[arg(long, value_name = "TRUTH.csv")]
+    pub truth: Option<PathBuf>,
+    /// Tracked runs (with --plan) or pose estimates (with --truth): CSV files with columns
+    /// t,x,y and optionally heading (a pose CSV of `omnikin odometry`).
     #[arg(required = true, value_name = "TRACK.csv")]
     pub tracks: Vec<PathBuf>,
+    /// With --truth: the alignment before the ATE: `none` (the estimate's start pose is
+    /// known) or `se2` (the least-squares rotation and translation, Umeyama/Horn in 2-D).
+    #[arg(long, value_enum, default_value = "none", requires = "truth")]
+    pub align: crate::evaluate_truth::AlignArg,
+    /// With --truth: RPE over pairs of samples this many seconds apart.
+    #[arg(long, value_name = "S", requires = "truth", conflicts_with = "rpe_distance", value_parser = crate::args::finite_f64)]
+    pub rpe_time: Option<f64>,
+    /// With --truth: RPE over pairs of samples this many metres apart along the truth's path
+    /// (default: --rpe-time 1).
+    #[arg(long, value_name = "M", requires = "truth", value_parser = crate::args::finite_f64)]
+    pub rpe_distance: Option<f64>,
+    /// With --truth: print one JSON object (per-run and overall figures) instead of text.
+    #[arg(long, requires = "truth")]
+    pub json: bool,
     /// Displacement from the first tracked position that counts as the start of motion, m.
-    #[arg(long, default_value_t = 0.005)]
+    #[arg(long, default_value_t = 0.005, conflicts_with = "truth")]
     pub motion_threshold: f64,
     /// Keep the tracked coordinates as they are (default: translate each run so it starts
     /// moving from the plan's start point).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "truth")]
     pub no_align_position: bool,
     /// Where the tracked marker sits on the robot: X,Y in the robot frame, m (default 0,0:
     /// the centre). The runs are compared with the planned path of that point.
-    #[arg(long, allow_hyphen_values = true, value_name = "X,Y", value_parser = parse_pair)]
+    #[arg(long, allow_hyphen_values = true, value_name = "X,Y", value_parser = parse_pair, conflicts_with = "truth")]
     pub tracking_offset: Option<[f64; 2]>,
     /// Output directory (created): metrics.json, runs.csv, mean.csv, figure.svg.
-    #[arg(long)]
-    pub out: PathBuf,
+    #[arg(long, required_unless_present = "truth", conflicts_with = "truth")]
+    pub out: Option<PathBuf>,
 }
 
 /// Parses `X,Y` (two finite numbers).
@@ -581,6 +602,12 @@ pub(crate) fn finish_simulation(
 }
 
 pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
+    let (Some(plan_path), Some(out)) = (a.plan.as_deref(), a.out.as_deref()) else {
+        return match &a.truth {
+            Some(truth) => crate::evaluate_truth::run(a, truth),
+            None => bail!("evaluate needs --plan PLAN.csv --out DIR, or --truth TRUTH.csv"),
+        };
+    };
     if !(a.motion_threshold > 0.0 && a.motion_threshold <= 10.0) {
         bail!(
             "--motion-threshold must be > 0 and at most 10 m (got {})",
@@ -599,7 +626,7 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
         }
     }
     let plan = tracked_reference(
-        &Plan::load_csv(&a.plan)?,
+        &Plan::load_csv(plan_path)?,
         a.tracking_offset.unwrap_or([0.0; 2]),
     );
     let align = Alignment {
@@ -616,25 +643,22 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
     }
     let omnikin_sim::metrics::Evaluation { metrics, mean } = evaluate(&plan, &runs)?;
     finite(&metrics)?;
-    create_dir_for(
-        &a.out,
-        &["metrics.json", "runs.csv", "mean.csv", "figure.svg"],
-    )?;
+    create_dir_for(out, &["metrics.json", "runs.csv", "mean.csv", "figure.svg"])?;
     let mut j = serde_json::to_value(&metrics)?;
     j["evaluation"] = json!({
-        "plan": a.plan.display().to_string(),
+        "plan": plan_path.display().to_string(),
         "tracks": a.tracks.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
         "motion_threshold_m": a.motion_threshold, "align_position": !a.no_align_position,
         "tracking_offset_m": a.tracking_offset.unwrap_or([0.0; 2]),
     });
-    write_file(&a.out.join("metrics.json"), |w| {
+    write_file(&out.join("metrics.json"), |w| {
         writeln!(
             w,
             "{}",
             serde_json::to_string_pretty(&j).unwrap_or_default()
         )
     })?;
-    write_file(&a.out.join("runs.csv"), |w| {
+    write_file(&out.join("runs.csv"), |w| {
         writeln!(w, "run,t,x,y")?;
         for (i, r) in runs.iter().enumerate() {
             for (k, p) in r.xy.iter().enumerate() {
@@ -643,11 +667,11 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
         }
         Ok(())
     })?;
-    write_mean(&a.out.join("mean.csv"), &plan, &mean)?;
+    write_mean(&out.join("mean.csv"), &plan, &mean)?;
     crate::figures::trajectory_figure(
         "--out",
-        &a.out.join("figure.svg"),
-        &format!("{} tracked run(s) vs {}", runs.len(), a.plan.display()),
+        &out.join("figure.svg"),
+        &format!("{} tracked run(s) vs {}", runs.len(), plan_path.display()),
         &plan,
         &runs,
         &mean,
@@ -655,7 +679,7 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
     print_summary(&metrics);
     crate::errln!(
         "wrote {}/{{metrics.json, runs.csv, mean.csv, figure.svg}}",
-        a.out.display().to_string().trim_end_matches('/')
+        out.display().to_string().trim_end_matches('/')
     );
     Ok(())
 }

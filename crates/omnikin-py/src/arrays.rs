@@ -1,4 +1,5 @@
-//! Array arguments: any array-like of float64 checked for its dtype and shape (one row of
+//! Array arguments: any array-like converted with `numpy.asarray(x, float64)` (integer and
+//! float arrays of any width; other dtypes refused) and checked for its shape (one row of
 //! `width` values, or `N` rows), made C-contiguous and borrowed read-only for the kernels;
 //! results back as numpy arrays.
 
@@ -41,14 +42,18 @@ pub fn rows<'py>(
     let py = obj.py();
     let np = py.import("numpy")?;
     let arr = if let Ok(u) = obj.cast::<PyUntypedArray>() {
-        if u.cast::<PyArrayDyn<f64>>().is_err() {
+        // Integer and other float arrays convert exactly as numpy.asarray(x, float64) does
+        // (int64 points, float32 twists); anything else (complex, objects, strings) would
+        // lose data or mean nothing, and is refused by its dtype.
+        let kind: String = u.dtype().getattr("kind")?.extract()?;
+        if !matches!(kind.as_str(), "i" | "u" | "f") {
             return Err(value_error(format!(
                 "{name}: expected a float64 array of shape (N, {width}) or ({width},) ({what}), \
                  got dtype {}",
                 u.dtype()
             )));
         }
-        obj.clone()
+        np.call_method1("asarray", (obj, "float64"))?
     } else {
         np.call_method1("asarray", (obj, "float64")).map_err(|e| {
             value_error(format!(

@@ -4,13 +4,15 @@
 //!
 //! `robot` holds `omnikin.Robot` and its kinematics, `arrays` the argument checks,
 //! `kernels` the row-parallel loops, `options` the keyword options, `plan` `omnikin.plan`,
-//! `sim` `omnikin.simulate` and `omnikin.evaluate`, `odometry` `omnikin.odometry`.
+//! `sim` `omnikin.simulate` and `omnikin.evaluate`, `odometry` `omnikin.odometry`,
+//! `pose_error` `omnikin.pose_error`.
 
 mod arrays;
 mod kernels;
 mod odometry;
 mod options;
 mod plan;
+mod pose_error;
 mod robot;
 mod sim;
 
@@ -25,5 +27,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sim::simulate_native, m)?)?;
     m.add_function(wrap_pyfunction!(sim::evaluate_native, m)?)?;
     m.add_function(wrap_pyfunction!(odometry::odometry_native, m)?)?;
+    m.add_function(wrap_pyfunction!(pose_error::pose_error_native, m)?)?;
     Ok(())
 }

@@ -121,11 +121,24 @@ fn waypoint_heading(
 /// names the row as `points:ROW` (1-based).
 fn points_waypoints(points: &Bound<'_, PyAny>) -> PyResult<Waypoints> {
     let what = "waypoints (x, y[, heading]; m, rad)";
-    let r = match crate::arrays::rows(points, "points", 2, what) {
-        Ok(r) if !r.single => (r, 2),
-        _ => (crate::arrays::rows(points, "points", 3, what)?, 3),
+    // The width from the array's own shape, so an error names the shape that was meant.
+    let shape: Vec<usize> = points
+        .py()
+        .import("numpy")?
+        .call_method1("shape", (points,))?
+        .extract()
+        .unwrap_or_default();
+    let width = if shape.len() == 2 && shape[1] == 3 {
+        3
+    } else {
+        2
     };
-    let (rows, width) = r;
+    let rows = crate::arrays::rows(points, "points", width, what).map_err(|e| {
+        value_error(format!(
+            "points: expected shape (N, 2) of x, y or (N, 3) of x, y, heading; {}",
+            e.value(points.py())
+        ))
+    })?;
     if rows.single {
         return Err(value_error(
             "points: expected shape (N, 2) or (N, 3) with N >= 2, got one row",
@@ -321,7 +334,7 @@ pub fn plan_columns<'py>(
                 step.cause()
             ))
             .unwrap_or_default(),
-            1,
+            2,
         )?;
     }
     columns(py, &planned.plan)

@@ -15,7 +15,7 @@ use omnikin_sim::dynamic_run::{
 };
 use omnikin_sim::metrics::{MeanTrajectory, evaluate, tracked_reference};
 use omnikin_sim::sensors::SensorProfile;
-use omnikin_sim::track::{Alignment, Track};
+use omnikin_sim::track::Alignment;
 use omnikin_sim::{Profile, Trial};
 use pyo3::prelude::*;
 use serde_json::json;
@@ -229,13 +229,14 @@ fn trial_columns(k: usize) -> Vec<String> {
     cols
 }
 
-/// A user warning with `msg`.
+/// A user warning with `msg`, attributed to the caller's line: stack level 2 skips the
+/// wrapper in `omnikin/__init__.py` that called the native function.
 pub(crate) fn warn(py: Python<'_>, msg: &str) -> PyResult<()> {
     PyErr::warn(
         py,
         &py.get_type::<pyo3::exceptions::PyUserWarning>(),
         &std::ffi::CString::new(msg).unwrap_or_default(),
-        1,
+        2,
     )
 }
 
@@ -484,13 +485,13 @@ pub fn simulate_native<'py>(
 }
 
 /// `omnikin.evaluate`: `(runs, mean, metrics_json)` of tracked runs (`t,x,y[,heading]` CSV
-/// files) against a plan.
+/// files or columns, [`crate::pose_error::TrackArg`]) against a plan.
 #[pyfunction]
 #[pyo3(signature = (tracks, plan_path=None, plan_columns=None, motion_threshold=0.005, align_position=true, tracking_offset=None))]
 #[allow(clippy::type_complexity)]
 pub fn evaluate_native<'py>(
     py: Python<'py>,
-    tracks: Vec<String>,
+    tracks: Vec<crate::pose_error::TrackArg<'py>>,
     plan_path: Option<&str>,
     plan_columns: Option<(Vec<String>, PyReadonlyArray2<'py, f64>)>,
     motion_threshold: f64,
@@ -525,12 +526,14 @@ pub fn evaluate_native<'py>(
         align_position,
     };
     let mut runs = Vec::new();
-    for f in &tracks {
-        let track = Track::load(std::path::Path::new(f)).map_err(|e| value_error(e.to_string()))?;
+    let mut names = Vec::with_capacity(tracks.len());
+    for arg in &tracks {
+        let (track, f) = arg.load()?;
         if let Some(why) = track.did_not_move(&plan, align) {
             return Err(value_error(format!("{f}: {why}")));
         }
         runs.push(track.resample(&plan, align));
+        names.push(f);
     }
     let e = py
         .detach(|| evaluate(&plan, &runs))
@@ -542,7 +545,7 @@ pub fn evaluate_native<'py>(
     })?;
     let mut j = serde_json::to_value(&e.metrics).map_err(|e| value_error(e.to_string()))?;
     j["evaluation"] = json!({
-        "plan": plan_name, "tracks": tracks,
+        "plan": plan_name, "tracks": names,
         "motion_threshold_m": motion_threshold, "align_position": align_position,
         "tracking_offset_m": tracking_offset.unwrap_or([0.0; 2]),
     });

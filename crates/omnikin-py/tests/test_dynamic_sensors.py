@@ -142,8 +142,14 @@ def test_waypoints_from_an_array_match_the_file(cli, tmp_path):
         assert_table(got, read_csv(out))
     with pytest.raises(ValueError, match="points:2: .*repeat"):
         omnikin.plan("kiwi", "waypoints", points=[[0, 0], [0, 0], [1, 0]])
-    with pytest.raises(ValueError, match=r"points: expected shape \(N, 3\)"):
+    with pytest.raises(ValueError, match=r"points: expected shape \(N, 2\) of x, y or \(N, 3\)"):
         omnikin.plan("kiwi", "waypoints", points=np.zeros((3, 4)))
+    # int64 points (numpy's default for integers) plan as the same floats do.
+    ints = np.array([[0, 0], [1, 0], [1, 1]])
+    np.testing.assert_array_equal(
+        omnikin.plan("kiwi", "waypoints", points=ints)["x"],
+        omnikin.plan("kiwi", "waypoints", points=ints.astype(np.float64))["x"],
+    )
     with pytest.raises(ValueError, match="file or points, not both"):
         omnikin.plan("kiwi", "waypoints", points=pts, file=str(wp))
     with pytest.raises(ValueError, match="points:3: .*not finite"):

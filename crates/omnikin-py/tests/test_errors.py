@@ -22,8 +22,14 @@ def test_inverse_wrong_shape(caster, bad, shape):
 
 
 def test_inverse_wrong_dtype(caster):
-    with pytest.raises(ValueError, match="twists: expected a float64 array.*got dtype int64"):
-        caster.inverse(np.zeros((3, 3), dtype=np.int64))
+    # Integer and float32 arrays convert as numpy.asarray(x, float64) does (docs/python.md).
+    twists = np.array([[1, 0, 0], [0, 1, 2]])
+    want = caster.inverse(twists.astype(np.float64))["wheel_rates"]
+    for t in [twists, twists.astype(np.float32)]:
+        np.testing.assert_array_equal(caster.inverse(t)["wheel_rates"], want)
+    # A dtype that would lose data (the imaginary part) is refused by name.
+    with pytest.raises(ValueError, match="twists: expected a float64 array.*got dtype complex128"):
+        caster.inverse(np.zeros((3, 3), dtype=np.complex128))
     with pytest.raises(ValueError, match="twists"):
         caster.inverse([["a", "b", "c"]])
 

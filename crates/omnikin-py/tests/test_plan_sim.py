@@ -2,6 +2,7 @@
 the same columns as the CSV files, equal to 1e-12, and the same metrics.json."""
 
 import json
+import pathlib
 
 import numpy as np
 import pytest
@@ -144,3 +145,13 @@ def test_evaluate_matches_cli(cli, tmp_path):
     # The plan from omnikin.plan gives the same numbers (its CSV is written exactly).
     again = omnikin.evaluate(p, tracks, tracking_offset=[0.01, -0.02])
     assert again["metrics"]["max_deviation_m"] == got["metrics"]["max_deviation_m"]
+    # Runs as a pathlib.Path, a dict of columns and an (n, 3) array give the same numbers.
+    cols = read_csv(tracks[1])
+    array = np.column_stack([cols["t"], cols["x"], cols["y"]])
+    for second in [cols, array]:
+        mixed = omnikin.evaluate(p, [pathlib.Path(tracks[0]), second], tracking_offset=[0.01, -0.02])
+        for k in ["max_deviation_m", "rms_deviation_m", "end_point_error_m"]:
+            assert mixed["metrics"][k] == got["metrics"][k], k
+    # simulate's trials table is one run per trial.
+    sim = omnikin.simulate("kiwi", p, trials=3, seed=2, threads=1)
+    assert omnikin.evaluate(p, sim["trials"])["metrics"]["runs"] == 3

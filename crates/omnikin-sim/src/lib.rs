@@ -28,6 +28,8 @@
 //!   repeatability.
 //! * [`odometry`]: wheel odometry over a recorded encoder log, fused with delayed camera fixes
 //!   (the pipeline of `omnikin odometry`, on in-memory tables).
+//! * [`pose_error`]: an estimate scored against ground truth — absolute trajectory error and
+//!   relative pose error (Sturm et al. 2012, the TUM RGB-D benchmark), `omnikin evaluate --truth`.
 //! * [`limits`]: the stated limits — most plant steps per trial, rows of a track file — and the plausible range of every profile parameter.
 //! * [`reproduce`]: paper 000's whole experiment design re-run under three kinematic profiles and the dynamic one, with a
 //!   table of our figures next to the paper's.
@@ -45,6 +47,7 @@ pub mod odometry;
 mod path_index;
 mod plant;
 pub mod plant_step;
+pub mod pose_error;
 pub mod profile;
 pub mod reproduce;
 pub mod sensors;

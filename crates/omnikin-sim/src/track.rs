@@ -49,6 +49,14 @@ impl Default for Alignment {
     }
 }
 
+/// Removes the 2π jumps of a heading in place (trackers often report it in (−π, π]).
+fn unwrap_heading(h: &mut [f64]) {
+    for k in 1..h.len() {
+        let d = h[k] - h[k - 1];
+        h[k] = h[k - 1] + d - core::f64::consts::TAU * (d / core::f64::consts::TAU).round();
+    }
+}
+
 impl Track {
     /// Reads a tracked CSV file (see [`Track::read_csv`]).
     pub fn load(path: &Path) -> Result<Self, TrackError> {
@@ -146,13 +154,82 @@ impl Track {
         }
         // Unwrap the heading (trackers often report it in (−π, π]).
         if let Some(h) = track.heading.as_mut() {
-            for k in 1..h.len() {
-                let d = h[k] - h[k - 1];
-                h[k] = h[k - 1] + d - core::f64::consts::TAU * (d / core::f64::consts::TAU).round();
-            }
+            unwrap_heading(h);
         }
         if track.t.len() < 2 {
             return Err(err(None, "needs at least two samples".into()));
+        }
+        Ok(track)
+    }
+
+    /// A track from columns in memory (Python's arrays and data frames), with the rules of
+    /// [`Track::read_csv`]: equal lengths, finite values, strictly increasing time, at least
+    /// two and at most [`crate::limits::MAX_TRACK_ROWS`] samples. An error's line is the
+    /// row's line in the equivalent CSV (row 0 is line 2). The heading is unwrapped.
+    pub fn from_columns(
+        name: &str,
+        t: &[f64],
+        x: &[f64],
+        y: &[f64],
+        heading: Option<&[f64]>,
+    ) -> Result<Self, TrackError> {
+        let err = |line: Option<usize>, message: String| TrackError {
+            file: name.to_string(),
+            line,
+            message,
+        };
+        let n = t.len();
+        if x.len() != n || y.len() != n || heading.is_some_and(|h| h.len() != n) {
+            return Err(err(
+                None,
+                format!(
+                    "the columns t, x, y{} must have the same length (got {n}, {}, {}{})",
+                    if heading.is_some() { ", heading" } else { "" },
+                    x.len(),
+                    y.len(),
+                    heading
+                        .map(|h| format!(", {}", h.len()))
+                        .unwrap_or_default()
+                ),
+            ));
+        }
+        if n > crate::limits::MAX_TRACK_ROWS {
+            return Err(err(
+                None,
+                format!(
+                    "more than {} rows (the limit MAX_TRACK_ROWS of omnikin_sim::limits)",
+                    crate::limits::MAX_TRACK_ROWS
+                ),
+            ));
+        }
+        for k in 0..n {
+            let cols = [("t", t[k]), ("x", x[k]), ("y", y[k])];
+            for (c, v) in cols.into_iter().chain(heading.map(|h| ("heading", h[k]))) {
+                if !v.is_finite() {
+                    return Err(err(Some(k + 2), format!("column {c}: {v} is not finite")));
+                }
+            }
+            if k > 0 && t[k] <= t[k - 1] {
+                return Err(err(
+                    Some(k + 2),
+                    format!(
+                        "column t: time {} does not increase (previous {})",
+                        t[k],
+                        t[k - 1]
+                    ),
+                ));
+            }
+        }
+        if n < 2 {
+            return Err(err(None, "needs at least two samples".into()));
+        }
+        let mut track = Track {
+            t: t.to_vec(),
+            xy: x.iter().zip(y).map(|(&x, &y)| [x, y]).collect(),
+            heading: heading.map(<[f64]>::to_vec),
+        };
+        if let Some(h) = track.heading.as_mut() {
+            unwrap_heading(h);
         }
         Ok(track)
     }
@@ -368,5 +445,39 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.starts_with("a.csv:2:"), "{e}");
+    }
+
+    #[test]
+    fn columns_follow_the_csv_rules_and_name_the_row() {
+        let t = Track::from_columns(
+            "est",
+            &[0.0, 0.1, 0.2],
+            &[0.0; 3],
+            &[0.0; 3],
+            Some(&[3.1, -3.1, 3.1]),
+        )
+        .unwrap();
+        // Unwrapped as a file's heading is: −3.1 follows 3.1 as 2π − 3.1.
+        let h = t.heading.unwrap();
+        assert!(
+            (h[1] - (std::f64::consts::TAU - 3.1)).abs() < 1e-12,
+            "{h:?}"
+        );
+        let e = Track::from_columns("est", &[0.0, 0.1, 0.1], &[0.0; 3], &[0.0; 3], None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("est:4: column t: time 0.1 does not increase"),
+            "{e}"
+        );
+        let e = Track::from_columns("est", &[0.0, 0.1], &[0.0, f64::NAN], &[0.0; 2], None)
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("est:3: column x: NaN is not finite"), "{e}");
+        let e = Track::from_columns("est", &[0.0, 0.1], &[0.0], &[0.0; 2], None)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("same length (got 2, 1, 2)"), "{e}");
+        assert!(Track::from_columns("est", &[0.0], &[0.0], &[0.0], None).is_err());
     }
 }

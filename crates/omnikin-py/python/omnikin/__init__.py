@@ -17,7 +17,7 @@ import numpy as np
 from omnikin import _native
 from omnikin._native import Robot, __version__
 
-__all__ = ["Robot", "plan", "simulate", "evaluate", "odometry", "__version__"]
+__all__ = ["Robot", "plan", "simulate", "evaluate", "odometry", "pose_error", "__version__"]
 
 Table = Dict[str, np.ndarray]
 PlanLike = Union[Table, str, "os.PathLike[str]"]
@@ -152,14 +152,17 @@ def simulate(
 
 def evaluate(
     plan: PlanLike,
-    tracks: Sequence[Union[str, "os.PathLike[str]"]],
+    tracks: Union[TrackLike, Sequence[TrackLike]],
     *,
     motion_threshold: float = 0.005,
     align_position: bool = True,
     tracking_offset: Optional[Sequence[float]] = None,
 ) -> Dict[str, Any]:
-    """The metrics of tracked runs (CSV files ``t,x,y[,heading]``, world frame, m) against
-    ``plan``, as ``omnikin evaluate``: ``motion_threshold`` (m) marks the start of motion,
+    """The metrics of tracked runs against ``plan``, as ``omnikin evaluate``. ``tracks``: one
+    run or a list of runs, each a CSV path (``str``, ``pathlib.Path``), a dict or DataFrame of
+    columns ``t, x, y[, heading]`` (s, m, rad; world frame) or an ``(n, 3)``/``(n, 4)`` array,
+    converted with ``numpy.asarray(..., float64)``; a table with a ``trial`` column
+    (``simulate(...)["trials"]``) is one run per trial (per-run figures: ``pose_error``). ``motion_threshold`` (m) marks the start of motion,
     ``align_position`` translates each run to start at the plan's start, ``tracking_offset``
     is the marker's position ``(x, y)`` in the robot frame (m).
 
@@ -167,7 +170,7 @@ def evaluate(
     (``run, t, x, y``) and ``mean.csv``, and ``metrics.json`` as a dict.
     """
     runs, mean, metrics = _native.evaluate_native(
-        [os.fspath(t) for t in tracks],
+        _estimates(tracks),
         motion_threshold=motion_threshold,
         align_position=align_position,
         tracking_offset=None if tracking_offset is None else tuple(tracking_offset),
@@ -257,3 +260,101 @@ def odometry(
         "fixes": json.loads(r["fixes"]),
         "summary": json.loads(r["summary"]),
     }
+
+
+TrackLike = Union[Table, str, "os.PathLike[str]", np.ndarray, Any]
+
+
+def _track(name: str, track: Any) -> Any:
+    """A trajectory for the native module: a path, or ``(name, t, x, y, heading)`` float64
+    columns from a dict or DataFrame (columns ``t, x, y`` and optional ``heading``) or from a
+    2-D array of shape ``(n, 3)`` or ``(n, 4)`` (the same columns in that order)."""
+    if isinstance(track, (str, os.PathLike)):
+        return os.fspath(track)
+    if isinstance(track, dict) or hasattr(track, "columns"):
+        missing = [c for c in ("t", "x", "y") if c not in track]
+        if missing:
+            raise ValueError(
+                f"{name}: needs columns t, x, y (optional heading); missing {', '.join(missing)}"
+            )
+        cols = [np.asarray(track[c], dtype=np.float64) for c in ("t", "x", "y")]
+        heading = np.asarray(track["heading"], dtype=np.float64) if "heading" in track else None
+        for c, v in zip(("t", "x", "y", "heading"), cols + [heading]):
+            if v is not None and v.ndim != 1:
+                raise ValueError(f"{name}: column {c} must be 1-D, shape (n,); got {v.shape}")
+        return (name, *cols, heading)
+    a = np.asarray(track, dtype=np.float64)
+    if a.ndim != 2 or a.shape[1] not in (3, 4):
+        raise ValueError(
+            f"{name}: an array must have shape (n, 3) or (n, 4) (columns t, x, y[, heading]); "
+            f"got {a.shape}"
+        )
+    return (name, a[:, 0], a[:, 1], a[:, 2], a[:, 3] if a.shape[1] == 4 else None)
+
+
+def _estimates(estimates: Any) -> list:
+    """One trajectory or a list of them; a table with a ``trial`` column (the ``trials`` of
+    ``simulate``) is one trajectory per trial."""
+    if isinstance(estimates, (list, tuple)):
+        return [e for i, x in enumerate(estimates) for e in _split(f"estimates[{i}]", x)]
+    return _split("estimates", estimates)
+
+
+def _split(name: str, track: Any) -> list:
+    if (isinstance(track, dict) or hasattr(track, "columns")) and "trial" in track:
+        trial = np.asarray(track["trial"], dtype=np.float64)
+        out = []
+        for k in np.unique(trial):
+            rows = trial == k
+            out.append(
+                _track(
+                    f"{name} trial {int(k)}",
+                    {c: np.asarray(track[c])[rows] for c in ("t", "x", "y", "heading") if c in track},
+                )
+            )
+        return out
+    return [_track(name, track)]
+
+
+def pose_error(
+    truth: TrackLike,
+    estimates: Union[TrackLike, Sequence[TrackLike]],
+    *,
+    align: str = "none",
+    rpe_time: Optional[float] = None,
+    rpe_distance: Optional[float] = None,
+) -> Dict[str, Any]:
+    """Estimated trajectories scored against ground truth, as ``omnikin evaluate --truth``:
+    the absolute trajectory error (ATE) and the relative pose error (RPE) of Sturm et al.,
+    IROS 2012 (the TUM RGB-D benchmark), on SE(2) (``omnikin_sim::pose_error``).
+
+    ``truth`` and each estimate: a CSV path (``str`` or ``pathlib.Path``), a dict or pandas
+    DataFrame with columns ``t, x, y`` (s, m, world frame) and optional ``heading`` (rad), or
+    an array of shape ``(n, 3)`` or ``(n, 4)`` in that column order (several estimates: a list
+    of them); values are converted with
+    ``numpy.asarray(..., dtype=float64)`` (integer and float32 inputs are accepted). A table
+    with a ``trial`` column (``simulate(...)["trials"]``) gives one run per trial. The truth is
+    interpolated at each estimate's time. ``align``: ``"none"`` (the start pose is known) or
+    ``"se2"`` (least-squares rotation and translation first). RPE over ``rpe_time`` seconds
+    (default 1) or ``rpe_distance`` metres along the truth's path; it needs headings.
+
+    Returns ``{"runs": [...], "overall": {...}, "alignment", "rpe_delta"}``: per run (``name``)
+    and pooled, ``samples``, ``outside_truth``, and ``ate_m``, ``heading_error_rad``,
+    ``rpe_translation_m``, ``rpe_rotation_rad`` each as ``{count, rms, mean, median, max}``
+    (``None`` when not computable).
+    """
+    return json.loads(
+        _native.pose_error_native(
+            _track("truth", truth),
+            _estimates(estimates),
+            align=align,
+            rpe_time=rpe_time,
+            rpe_distance=rpe_distance,
+        )
+    )
+
+
+def __dir__() -> list:
+    """``dir(omnikin)``: the public names only (PEP 562), not the modules and typing names
+    this file imports."""
+    return sorted(__all__)

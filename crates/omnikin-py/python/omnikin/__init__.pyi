@@ -109,7 +109,7 @@ def simulate(
 
 def evaluate(
     plan: PlanLike,
-    tracks: Sequence[Union[str, os.PathLike[str]]],
+    tracks: Any,
     *,
     motion_threshold: float = 0.005,
     align_position: bool = True,
@@ -142,3 +142,12 @@ def odometry(
     """``{"poses": Table, "odometry": Table, "fixes": list, "summary": dict}`` as ``omnikin
     odometry``: ``poses`` the ``--out`` CSV's ``t, x, y, heading`` (world frame; s, m, rad),
     ``odometry`` the pure wheel odometry; ``log`` / ``fixes`` dicts of columns or CSV paths."""
+
+def pose_error(
+    truth: Any,
+    estimates: Any,
+    *,
+    align: str = "none",
+    rpe_time: Optional[float] = None,
+    rpe_distance: Optional[float] = None,
+) -> Dict[str, Any]: ...
