@@ -289,8 +289,7 @@ fn bad_robot_files_are_reported_with_file_field_and_rule() {
         .assert()
         .failure()
         .code(1)
-        .stderr(predicate::str::contains("bad.toml"))
-        .stderr(predicate::str::contains("geometry.ball_radius"))
+        .stderr(predicate::str::contains("bad.toml:3: geometry.ball_radius"))
         .stderr(predicate::str::contains("must be > 0"));
     std::fs::write(&bad, "kind = \"ballbot\"\n[geometry]\nball_radius = 0.1\nwheel_radius = 0.05\nzenith_deg = 45.0\nazimuths_deg = [0.0, 120.0, -120.0]\ncolour = \"red\"\n").unwrap();
     omnikin()
