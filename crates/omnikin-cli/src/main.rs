@@ -388,7 +388,10 @@ fn main() -> ExitCode {
             // A signal can also surface as another error (a wait cut short with EINTR).
             Some(sig) => {
                 if e.downcast_ref::<output::Interrupted>().is_some() {
-                    errln!("error: {e:#}");
+                    // The stop the operator asked for, carried out (logs flushed, summary
+                    // printed): not an error. The status stays 128 + signal, as for any
+                    // program stopped by a signal, so scripts still see that it was stopped.
+                    errln!("note: {e:#}");
                 } else {
                     errln!("error: {sig} ({e:#})");
                 }
