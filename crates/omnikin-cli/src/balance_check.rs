@@ -1,5 +1,5 @@
 //! `omnikin check` for a ballbot: the balance controller's design — LQR gains and closed-loop
-//! poles of each planar model (paper 001), and whether every loop is stable.
+//! poles of each planar model (Ballbot paper), and whether every loop is stable.
 
 use anyhow::{Context, Result};
 use omnikin::control::{BalanceConfig, BalanceController};

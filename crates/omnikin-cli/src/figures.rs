@@ -1,4 +1,4 @@
-//! Evaluation figures in paper 000's style: theoretical path dashed, mean path solid, 95 %
+//! Evaluation figures in the Sphere paper's style: theoretical path dashed, mean path solid, 95 %
 //! confidence band shaded — or, with fewer than [`MIN_RUNS_FOR_CI`] runs, their min/max
 //! envelope, and the legend says which (SVG, pure Rust).
 

@@ -58,9 +58,9 @@ struct Cli {
 enum Command {
     /// Wheel (and steer) rates that produce a body motion (inverse kinematics).
     ///
-    /// sphere-omni: shell-centre velocity and platform yaw rate (paper 000, eqs. 5.6-5.7).
-    /// ballbot: ball-centre velocity and body yaw rate (paper 001). caster3: roll and steer
-    /// rates for the given steer angles (paper 003, eq. 2). omni: one rate per wheel. swerve:
+    /// sphere-omni: shell-centre velocity and platform yaw rate (Sphere paper, eqs. 5.6-5.7).
+    /// ballbot: ball-centre velocity and body yaw rate (Ballbot paper). caster3: roll and steer
+    /// rates for the given steer angles (Caster paper, eq. 2). omni: one rate per wheel. swerve:
     /// wheel rates (≥ 0 unless the file optimises steering) and steer angles per module.
     Inverse(InverseArgs),
     /// Body motion produced by wheel (and steer) rates (forward kinematics).
@@ -70,22 +70,22 @@ enum Command {
     /// residual (m/s) says how inconsistent the rates are.
     Forward(ForwardArgs),
     /// Torque maps: the ballbot's model torques (Tx, Ty, Tz) <-> wheel torques (T1, T2, T3)
-    /// (paper 001, corrected per errata E2-E3), or an omni/swerve base's body wrench
+    /// (Ballbot paper, corrected per errata E2-E3), or an omni/swerve base's body wrench
     /// (Fx, Fy, Mz) <-> wheel torques (T1, …, TN).
     Torques(TorquesArgs),
     /// Validate a robot description and print its derived geometry, conditioning and limits.
     Check(CheckArgs),
-    /// Plan a trajectory (paper 000's square or circle, or a path through waypoints) within
+    /// Plan a trajectory (the Sphere paper's square or circle, or a path through waypoints) within
     /// the robot file's motor limits and write its wheel commands as CSV or JSON.
     Plan(plan::PlanArgs),
     /// Monte-Carlo simulation of a plan under motor and slip disturbances, with the paper's
-    /// metrics and figure (paper 000 §6, paper 003 §4).
+    /// metrics and figure (Sphere paper §6, Caster paper §4).
     Simulate(sim::SimulateArgs),
     /// The same metrics and figure for real tracked runs (CSV t,x,y[,heading]) against a plan;
     /// or pose estimates against ground truth (--truth): ATE and RPE, per run and overall.
     Evaluate(sim::EvaluateArgs),
     /// Re-run a paper's whole experiment design in simulation and tabulate our figures next
-    /// to the paper's (sphere-2019: paper 000's squares and circles at four speeds).
+    /// to the paper's (sphere-2019: the Sphere paper's squares and circles at four speeds).
     Reproduce(sim::ReproduceArgs),
     /// Combine the shard directories of `simulate … --shard K/N` or `reproduce … --shard K/N`
     /// (all N, from any machines) into exactly what one run writes, bit for bit.
@@ -391,7 +391,10 @@ fn main() -> ExitCode {
             // A signal can also surface as another error (a wait cut short with EINTR).
             Some(sig) => {
                 if e.downcast_ref::<output::Interrupted>().is_some() {
-                    errln!("error: {e:#}");
+                    // The stop the operator asked for, carried out (logs flushed, summary
+                    // printed): not an error. The status stays 128 + signal, as for any
+                    // program stopped by a signal, so scripts still see that it was stopped.
+                    errln!("note: {e:#}");
                 } else {
                     errln!("error: {sig} ({e:#})");
                 }

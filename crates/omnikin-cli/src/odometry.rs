@@ -195,7 +195,8 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         crate::output::check_interrupted()?;
         let row = stream.push(line, values)?;
         let p = row.estimate;
-        writeln!(out, "{},{},{},{}", row.t, p.x, p.y, p.heading)
+        let f = omnikin_plan::CsvFloat;
+        writeln!(out, "{},{},{},{}", f(row.t), f(p.x), f(p.y), f(p.heading))
             .with_context(|| cannot("--out", &args.out))?;
         if let Some(m) = mcap.as_mut() {
             m.push(row.t, p)?;

@@ -322,7 +322,7 @@ pub fn reproduce_shard(
         counts.iter().map(|(n, t)| (*n, shard.range(*t))).collect();
     crate::output::create_subdir("--out", &out.join("runs"))?;
     let total: u64 = series.len() as u64 * ranges.iter().map(|r| r.1.len() as u64).sum::<u64>();
-    let pb = crate::sim::progress_bar(total, "reproducing paper 000 (shard)");
+    let pb = crate::sim::progress_bar(total, "reproducing the Sphere paper (shard)");
     let mut m = Manifest::new(REPRODUCE, shard);
     m.inputs = reproduce_inputs(info, series);
     for s in series {
@@ -865,7 +865,7 @@ fn merge_reproduce(
         .collect();
     create_dir_for(&a.out, &["table.md", "table.csv", "metrics.json"])?;
     let total: u64 = series.len() as u64 * runs.iter().map(|r| r.1 as u64).sum::<u64>();
-    let pb = crate::sim::progress_bar(total, "merging paper 000");
+    let pb = crate::sim::progress_bar(total, "merging the Sphere paper's re-run");
     let mut report = crate::sim::Report::new(&a.out, info);
     for s in &series {
         let outcomes = pool

@@ -687,7 +687,7 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
 /// Experiments `omnikin reproduce` knows.
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
 pub enum Experiment {
-    /// Paper 000 (spherical robot, 2019): square at 0.1/0.2/0.4/0.5 m/s, circle at
+    /// The Sphere paper (spherical robot, 2019): square at 0.1/0.2/0.4/0.5 m/s, circle at
     /// ω0 = 0.5/1/2/2.5 rad/s.
     #[value(name = "sphere-2019")]
     Sphere2019,
@@ -855,7 +855,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
         return crate::shard::reproduce_shard(&out, shard, &info, &plants, &series, &pool);
     }
     let total: u64 = series.len() as u64 * runs.iter().map(|r| r.1 as u64).sum::<u64>();
-    let pb = progress_bar(total, "reproducing paper 000");
+    let pb = progress_bar(total, "reproducing the Sphere paper");
     let mut report = Report::new(&out, info);
     for s in &series {
         let outcomes = pool.install(|| {
@@ -934,7 +934,7 @@ impl<'a> Report<'a> {
                 String::new()
             };
             let title = format!(
-                "paper 000, {} at {:.1} m/s — {} profile, {} runs{shown}",
+                "Sphere paper, {} at {:.1} m/s — {} profile, {} runs{shown}",
                 s.experiment_name(),
                 s.speed,
                 o.profile,

@@ -159,8 +159,10 @@ fn omni_wheel_values_are_checked_by_name_and_line_before_the_model() {
         let file = d.join(format!("w{i}-{f}-{v}.toml"));
         std::fs::write(&file, omni_file(&kiwi_with(i, f, v))).unwrap();
         let err = error_of(&["check", path(&file)]);
-        // Wheel i's table starts on line 3 + 6 i.
-        let line = format!(".toml:{}: {key}: ", 3 + 6 * i);
+        // Wheel i's table starts on line 3 + 6 i; the error names the line of the bad value
+        // (position, drive angle, roller angle, radius on the next four lines), not the
+        // table's header.
+        let line = format!(".toml:{}: {key}: ", 3 + 6 * i + f.max(1));
         assert!(err.contains(&line), "{v} in wheel {i}: {err}");
         assert!(err.contains(rule), "{v} in wheel {i}: {err}");
         assert!(!err.contains("singular"), "{v} in wheel {i}: {err}");
@@ -193,7 +195,7 @@ fn coincident_or_microscopic_layouts_are_refused_naming_both_wheels() {
     .unwrap();
     let err = error_of(&["check", path(&dup)]);
     assert!(
-        err.contains("dup.toml:7: geometry.modules[1].position: is 0 m from geometry.modules[0].position (line 3)"),
+        err.contains("dup.toml:8: geometry.modules[1].position: is 0 m from geometry.modules[0].position (line 4)"),
         "{err}"
     );
     let tiny = d.join("tiny.toml");

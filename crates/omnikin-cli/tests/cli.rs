@@ -289,8 +289,7 @@ fn bad_robot_files_are_reported_with_file_field_and_rule() {
         .assert()
         .failure()
         .code(1)
-        .stderr(predicate::str::contains("bad.toml"))
-        .stderr(predicate::str::contains("geometry.ball_radius"))
+        .stderr(predicate::str::contains("bad.toml:3: geometry.ball_radius"))
         .stderr(predicate::str::contains("must be > 0"));
     std::fs::write(&bad, "kind = \"ballbot\"\n[geometry]\nball_radius = 0.1\nwheel_radius = 0.05\nzenith_deg = 45.0\nazimuths_deg = [0.0, 120.0, -120.0]\ncolour = \"red\"\n").unwrap();
     omnikin()
@@ -416,4 +415,29 @@ fn a_passing_test_removes_its_directory_and_a_failing_one_keeps_it() {
     assert!(failing.join().is_err());
     assert!(dir.is_dir(), "kept when the test fails");
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A missing input file is named once with the system's reason, never with the reason
+/// repeated ("No such file or directory (os error 2): No such file or directory (os error 2)").
+#[test]
+fn a_missing_input_file_is_reported_once() {
+    let dir = std::env::temp_dir().join("omnikin-cli-no-such-dir");
+    let missing = dir.join("none.csv");
+    let missing = missing.to_str().unwrap();
+    let reason = std::fs::File::open(missing).unwrap_err().to_string();
+    let out_dir = dir.join("out");
+    let out_dir = out_dir.to_str().unwrap();
+    for args in [
+        vec!["simulate", missing, "--robot", "kiwi", "--out", out_dir],
+        vec!["evaluate", "--plan", missing, missing, "--out", out_dir],
+        vec!["plan", "waypoints", missing, "--robot", "kiwi"],
+        vec!["check", missing],
+    ] {
+        let out = omnikin().args(&args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?}");
+        assert!(err.starts_with("error: "), "{args:?}: {err}");
+        assert!(err.contains(missing), "{args:?}: {err}");
+        assert_eq!(err.matches(&reason).count(), 1, "{args:?}: {err}");
+    }
 }

@@ -59,6 +59,16 @@ fn sphere_file(dir: &Path, file: &str, replace: (&str, &str)) -> PathBuf {
     p
 }
 
+/// The 1-based line of the file at `path` that starts with `start` (the line an error about
+/// that value names).
+fn line_of(path: &Path, start: &str) -> usize {
+    let text = std::fs::read_to_string(path).unwrap();
+    1 + text
+        .lines()
+        .position(|l| l.starts_with(start))
+        .unwrap_or_else(|| panic!("{}: no line starts with {start}", path.display()))
+}
+
 #[test]
 fn plans_that_would_not_fit_in_memory_are_refused() {
     fails_with(
@@ -116,7 +126,10 @@ fn plans_that_would_not_fit_in_memory_are_refused() {
     );
     fails_with(
         &["plan", "square", "--robot", slow.to_str().unwrap()],
-        &["slow.toml: limits.max_wheel_rate: 1e-308 rad/s is outside the plausible range"],
+        &[&format!(
+            "slow.toml:{}: limits.max_wheel_rate: 1e-308 rad/s is outside the plausible range",
+            line_of(&slow, "max_wheel_rate = 1e-308")
+        )],
     );
     let wp = d.join("w.csv");
     write(&wp, "x,y,heading\n0,0,0\n1,0,1e300\n");
@@ -372,7 +385,10 @@ fn robot_names_and_figure_text_cannot_break_the_svg() {
     );
     fails_with(
         &["check", bell.to_str().unwrap()],
-        &["bell.toml: name: must be printable: contains the control character U+0007"],
+        &[&format!(
+            "bell.toml:{}: name: must be printable: contains the control character U+0007",
+            line_of(&bell, "name = ")
+        )],
     );
     // XML-special characters are allowed in a name and escaped in the figure.
     let special = sphere_file(

@@ -17,6 +17,7 @@
 //! | [`steer_steps`] | a plan's steer-angle steps that its steer rates do not explain (a re-steer at rest between two samples) |
 //! | [`tilt`] | a sphere's quasi-static platform tilt along a plan, and slowing the moves that exceed a limit |
 //! | [`waypoints`] | waypoint files (CSV or TOML) with `file:line` errors |
+//! | [`csv_number`] | how a number is written into the CSV files: shortest round-trip digits, an exponent for tiny or huge magnitudes ([`CsvFloat`]) |
 //! | [`Plan`] / [`Sample`] | the sampled plan and its CSV/JSON format (conventions.md: `t,x,y,heading,vx,vy,yaw_rate,w1..wN`, steerable kinds adding `s1..sN,sd1..sdN`) |
 //!
 //! ```
@@ -39,6 +40,7 @@
 mod error;
 mod plan;
 
+pub mod csv_number;
 pub mod generators;
 pub mod heading;
 pub mod limits;
@@ -50,6 +52,7 @@ pub mod steer_steps;
 pub mod tilt;
 pub mod waypoints;
 
+pub use csv_number::CsvFloat;
 pub use error::{PlanningError, Violation};
 pub use plan::{COLUMNS, Plan, PlanError, Sample, per_wheel, wheel_columns};
 pub use robot::{MAX_CHANNELS, Quantity, RobotModel};

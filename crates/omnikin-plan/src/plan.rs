@@ -84,12 +84,13 @@ pub fn wheel_columns(wheels: usize, steer: bool) -> Vec<String> {
 #[derive(Debug, thiserror::Error)]
 pub enum PlanError {
     /// A file could not be opened, read or written.
-    #[error("{file}: {source}")]
+    #[error("{file}: {error}")]
     Io {
         /// The file.
         file: String,
-        /// The I/O error.
-        source: std::io::Error,
+        /// The I/O error. The message already shows it, so it is not also the error's
+        /// `source()`: a chain printer (anyhow's `{:#}`) would print it twice.
+        error: std::io::Error,
     },
     /// The content is malformed.
     #[error("{file}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
@@ -207,9 +208,9 @@ impl Plan {
 
     /// Writes CSV to `path`.
     pub fn save_csv(&self, path: &Path) -> Result<(), PlanError> {
-        let io = |source| PlanError::Io {
+        let io = |error| PlanError::Io {
             file: path.display().to_string(),
-            source,
+            error,
         };
         let f = std::fs::File::create(path).map_err(io)?;
         self.write_csv(std::io::BufWriter::new(f)).map_err(io)
@@ -218,9 +219,9 @@ impl Plan {
     /// Reads a plan CSV file (see [`Plan::read_csv`]).
     pub fn load_csv(path: &Path) -> Result<Self, PlanError> {
         let name = path.display().to_string();
-        let f = std::fs::File::open(path).map_err(|source| PlanError::Io {
+        let f = std::fs::File::open(path).map_err(|error| PlanError::Io {
             file: name.clone(),
-            source,
+            error,
         })?;
         Self::read_csv(f, &name)
     }
@@ -401,13 +402,9 @@ fn column_bound(name: &str) -> (f64, &'static str, &'static str) {
     }
 }
 
-/// Shortest representation that reads back exactly.
+/// Shortest representation that reads back exactly (see [`crate::csv_number`]).
 fn fmt(x: f64) -> String {
-    let mut s = format!("{x}");
-    if s == "-0" {
-        s = "0".into();
-    }
-    s
+    crate::CsvFloat(x).to_string()
 }
 
 #[cfg(test)]
@@ -478,6 +475,47 @@ mod tests {
             let back = Plan::read_csv(&buf[..], "mem").unwrap();
             assert_eq!(back, plan);
         }
+    }
+
+    #[test]
+    fn tiny_values_are_written_with_an_exponent_and_read_back_exactly() {
+        // sin(pi) is the floating-point rest of a zero (a heading of pi on a leg along -x);
+        // Rust's `{}` would print it as 0.00000000000000012246467991473532.
+        let tiny = std::f64::consts::PI.sin();
+        let mut s = sample(0.0, false);
+        s.pose.y = tiny;
+        s.twist.vy = -tiny;
+        s.wheel_rates[2] = 2.5e-300;
+        let plan = Plan {
+            wheels: 3,
+            samples: vec![s],
+        };
+        let mut buf = Vec::new();
+        plan.write_csv(&mut buf).unwrap();
+        let text = String::from_utf8(buf.clone()).unwrap();
+        let row = text.lines().nth(1).unwrap();
+        let cells: Vec<&str> = row.split(',').collect();
+        assert_eq!(cells[2], "1.2246467991473532e-16", "{row}");
+        assert_eq!(cells[5], "-1.2246467991473532e-16", "{row}");
+        assert_eq!(cells[9], "2.5e-300", "{row}");
+        assert!(row.len() < 120, "{row}");
+        assert_eq!(Plan::read_csv(&buf[..], "mem").unwrap(), plan);
+    }
+
+    #[test]
+    fn a_missing_file_is_reported_once() {
+        let path = std::env::temp_dir().join("omnikin-plan-no-such-dir/none.csv");
+        let e = Plan::load_csv(&path).unwrap_err();
+        // What a chain printer (anyhow's `{:#}`, as the CLI prints errors) shows.
+        let mut shown = e.to_string();
+        let mut cause = std::error::Error::source(&e);
+        while let Some(c) = cause {
+            shown.push_str(&format!(": {c}"));
+            cause = c.source();
+        }
+        let os = std::fs::File::open(&path).unwrap_err().to_string();
+        assert!(shown.starts_with(&path.display().to_string()), "{shown}");
+        assert_eq!(shown.matches(&os).count(), 1, "{shown}");
     }
 
     #[test]

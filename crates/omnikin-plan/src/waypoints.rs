@@ -210,9 +210,9 @@ impl Waypoints {
         #[derive(Deserialize)]
         #[serde(deny_unknown_fields)]
         struct Wp {
-            x: f64,
-            y: f64,
-            heading: Option<f64>,
+            x: toml::Spanned<f64>,
+            y: toml::Spanned<f64>,
+            heading: Option<toml::Spanned<f64>>,
         }
         #[derive(Deserialize)]
         #[serde(deny_unknown_fields)]
@@ -239,27 +239,31 @@ impl Waypoints {
             .first()
             .is_some_and(|w| w.get_ref().heading.is_some());
         for (i, w) in doc.waypoint.iter().enumerate() {
+            // The waypoint's own line (its `[[waypoint]]` header or inline table) identifies
+            // it; an error about one value names that value's line.
             let line = line_of(w.span().start);
             let wp = w.get_ref();
-            for (name, v) in [
-                ("x", wp.x),
-                ("y", wp.y),
-                ("heading", wp.heading.unwrap_or(0.0)),
-            ] {
+            let values = [Some(("x", &wp.x)), Some(("y", &wp.y))]
+                .into_iter()
+                .chain([wp.heading.as_ref().map(|h| ("heading", h))]);
+            for (name, v) in values.flatten() {
+                let (at, v) = (Some(line_of(v.span().start)), *v.get_ref());
                 if !v.is_finite() {
                     return Err(err(
                         file,
-                        Some(line),
+                        at,
                         format!("waypoint {}: {name} = {v} is not finite", i + 1),
                     ));
                 }
                 check_value(name, v)
-                    .map_err(|m| err(file, Some(line), format!("waypoint {}: {m}", i + 1)))?;
+                    .map_err(|m| err(file, at, format!("waypoint {}: {m}", i + 1)))?;
             }
             if wp.heading.is_some() != with_heading {
                 return Err(err(
                     file,
-                    Some(line),
+                    wp.heading
+                        .as_ref()
+                        .map_or(Some(line), |h| Some(line_of(h.span().start))),
                     format!(
                         "waypoint {}: give a heading on every waypoint or on none (waypoint 1 {})",
                         i + 1,
@@ -267,8 +271,8 @@ impl Waypoints {
                     ),
                 ));
             }
-            points.push([wp.x, wp.y]);
-            headings.push(wp.heading.unwrap_or(0.0));
+            points.push([*wp.x.get_ref(), *wp.y.get_ref()]);
+            headings.push(wp.heading.as_ref().map_or(0.0, |h| *h.get_ref()));
             lines.push(line);
         }
         Self::finish(file, points, with_heading.then_some(headings), lines)
@@ -383,5 +387,33 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.starts_with("w.toml:5: waypoint 2: give a heading"), "{e}");
+    }
+
+    /// An error about one value names that value's line, not its `[[waypoint]]` header's.
+    #[test]
+    fn toml_value_errors_name_the_value_line() {
+        let e = Waypoints::from_toml(
+            "[[waypoint]]\nx = 0.0\ny = 0.0\n\n[[waypoint]]\nx = 1.0\n\ny = nan\n",
+            "w.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert_eq!(e, "w.toml:8: waypoint 2: y = NaN is not finite");
+        let e = Waypoints::from_toml(
+            "[[waypoint]]\n# start\nx = 0.0\ny = 0.0\nheading = 0.0\n[[waypoint]]\n\
+             y = 0.5\nx = 1.0\nheading = 1e9\n",
+            "w.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.starts_with("w.toml:9: waypoint 2: heading = "), "{e}");
+        // A waypoint-level error still names the waypoint's header.
+        let e = Waypoints::from_toml(
+            "[[waypoint]]\nx = 0.0\ny = 0.0\n[[waypoint]]\nx = 0.0\ny = 0.0\n",
+            "w.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.starts_with("w.toml:4: waypoint (0, 0) repeats"), "{e}");
     }
 }

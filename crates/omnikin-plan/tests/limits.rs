@@ -219,7 +219,8 @@ fn a_waypoint_heading_of_1e300_names_the_line() {
     )
     .unwrap_err()
     .to_string();
-    assert!(e.starts_with("w.toml:6: waypoint 2: heading"), "{e}");
+    // The heading value is on line 9, below its `[[waypoint]]` header (line 6).
+    assert!(e.starts_with("w.toml:9: waypoint 2: heading"), "{e}");
     let e = Waypoints::from_csv("0,0\n1e7,0\n", "w.csv")
         .unwrap_err()
         .to_string();

@@ -585,8 +585,8 @@ pub fn emit(
 }
 
 fn num(x: f64) -> String {
-    // Shortest representation that reads back exactly.
-    format!("{x}")
+    // Shortest representation that reads back exactly, an exponent for tiny or huge values.
+    omnikin_plan::CsvFloat(x).to_string()
 }
 
 /// Writes the encoder log CSV of conventions.md: `t,q1..qN`, then `s1..sN` (steerable kinds),

@@ -65,6 +65,14 @@ fn error_of(text: &str) -> String {
         .to_string()
 }
 
+/// The 1-based line of `text` that starts with `start` (the line an error must name).
+fn line_of(text: &str, start: &str) -> usize {
+    1 + text
+        .lines()
+        .position(|l| l.trim_start().starts_with(start))
+        .unwrap_or_else(|| panic!("no line starts with {start}"))
+}
+
 #[test]
 fn unknown_key_names_the_line_and_key() {
     let text = sphere_with("tilt_deg = 45.0", "tilt_deg = 45.0\ntilt_degrees = 40.0");
@@ -99,10 +107,14 @@ fn wrong_type_names_the_line() {
 
 #[test]
 fn negative_radius_names_field_and_rule() {
-    let e = error_of(&sphere_with("wheel_radius = 0.07", "wheel_radius = -0.07"));
+    let text = sphere_with("wheel_radius = 0.07", "wheel_radius = -0.07");
     assert_eq!(
-        e,
-        "robots/test.toml: geometry.wheel_radius (wheel 1): wheel_radius[0] must be > 0 (got -0.07)"
+        error_of(&text),
+        format!(
+            "robots/test.toml:{}: geometry.wheel_radius (wheel 1): wheel_radius[0] must be > 0 \
+             (got -0.07)",
+            line_of(&text, "wheel_radius = -0.07")
+        )
     );
     // One radius per wheel: the third is bad.
     let e = error_of(&sphere_with(
@@ -265,14 +277,14 @@ fn a_fourth_value_in_a_per_wheel_list_is_an_error_naming_the_key() {
 #[test]
 fn implausible_lengths_and_motor_limits_name_field_value_and_range() {
     use omnikin::description::{LENGTH_RANGE, MOTOR_ACCEL_RANGE, MOTOR_RATE_RANGE};
-    let e = error_of(&sphere_with(
-        "max_wheel_rate = 12.0",
-        "max_wheel_rate = 1e-308",
-    ));
+    let text = sphere_with("max_wheel_rate = 12.0", "max_wheel_rate = 1e-308");
     assert_eq!(
-        e,
-        "robots/test.toml: limits.max_wheel_rate: 1e-308 rad/s is outside the plausible \
-         range [0.001, 100000] rad/s (omnikin::description)"
+        error_of(&text),
+        format!(
+            "robots/test.toml:{}: limits.max_wheel_rate: 1e-308 rad/s is outside the plausible \
+             range [0.001, 100000] rad/s (omnikin::description)",
+            line_of(&text, "max_wheel_rate = 1e-308")
+        )
     );
     assert_eq!(MOTOR_RATE_RANGE, (0.001, 100000.0));
     let e = error_of(&sphere_with(
@@ -388,4 +400,63 @@ fn events_table_is_read_checked_and_names_the_line() {
     let text = sphere_with("[limits]", "[events]\ncollision_decel = 5.0\n\n[limits]");
     let d = RobotDescription::from_toml_str(&text, "s.toml").unwrap();
     assert_eq!(d.events.collision_decel, Some(5.0));
+}
+
+/// An error about one value names the line where that value is written, not the line of its
+/// table's header (`[[geometry.wheels]]`, `[limits]`), and not no line at all.
+#[test]
+fn value_errors_name_the_value_line() {
+    let kiwi = PRESETS.iter().find(|(n, _)| *n == "kiwi").unwrap().1;
+    // The first wheel's roller angle, three lines below its `[[geometry.wheels]]` header.
+    let first = line_of(kiwi, "roller_angle_deg = 0.0");
+    let lines: Vec<&str> = kiwi.lines().collect();
+    let bad: String = lines
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            if i + 1 == first {
+                "roller_angle_deg = 90.0\n".to_string()
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    let e = error_of(&bad);
+    assert!(
+        e.starts_with(&format!(
+            "robots/test.toml:{first}: geometry.wheels[0].roller_angle_deg: 90 degrees"
+        )),
+        "{e}"
+    );
+    assert!(!lines[first - 1].starts_with('['), "{}", lines[first - 1]);
+    // A geometry value checked by the model (the ballbot's ball radius).
+    let ballbot = PRESETS.iter().find(|(n, _)| *n == "ballbot").unwrap().1;
+    let from = whole_line(ballbot, "ball_radius = ");
+    let text = ballbot.replacen(&from, "ball_radius = -0.1", 1);
+    let e = error_of(&text);
+    assert!(
+        e.starts_with(&format!(
+            "robots/test.toml:{}: geometry.ball_radius:",
+            line_of(&text, "ball_radius = -0.1")
+        )),
+        "{e}"
+    );
+    // A limit (no line before: the `[limits]` values were checked after deserialising).
+    let text = sphere_with("max_wheel_accel = 400.0", "max_wheel_accel = -1");
+    let e = error_of(&text);
+    assert_eq!(
+        e,
+        format!(
+            "robots/test.toml:{}: limits.max_wheel_accel: must be a finite number > 0 (got -1)",
+            line_of(&text, "max_wheel_accel = -1")
+        )
+    );
+}
+
+/// The whole line of `text` that starts with `start`, comment included.
+fn whole_line(text: &str, start: &str) -> String {
+    text.lines()
+        .find(|l| l.starts_with(start))
+        .unwrap_or_else(|| panic!("no line starts with {start}"))
+        .to_string()
 }

@@ -18,12 +18,12 @@ pub struct PlanArgs {
 /// What to plan.
 #[derive(Subcommand, Debug)]
 pub enum PlanKind {
-    /// Paper 000's square (eq. 6.1): legs +y, +x, -y, -x from the origin, heading 0, full stop
+    /// The Sphere paper's square (eq. 6.1): legs +y, +x, -y, -x from the origin, heading 0, full stop
     /// at each corner, ramps of --ramp-fraction of the leg time.
     ///
     /// Paper series (side 0.4 m): --speed 0.1, 0.2, 0.4, 0.5 (leg time 4/k s).
     Square(SquareArgs),
-    /// Paper 000's circle (eq. 6.3): x = R cos(w t), y = R sin(w t), heading = w t.
+    /// The Sphere paper's circle (eq. 6.3): x = R cos(w t), y = R sin(w t), heading = w t.
     ///
     /// Starts at full speed like the paper unless --ramp is given. omega is fixed by the
     /// request: a circle too fast for the robot is rejected with the wheel, rate and excess.
@@ -67,7 +67,7 @@ impl From<ProfileArg> for ProfileKind {
 pub enum HeadingArg {
     /// Constant heading --heading (plus --spin rad/m along the path).
     Constant,
-    /// Heading = direction of motion + --heading-offset (paper 000, eq. 5.5); turns in place
+    /// Heading = direction of motion + --heading-offset (Sphere paper, eq. 5.5); turns in place
     /// at stops.
     Tangent,
     /// Interpolate the waypoint file's heading column along the path (natural cubic spline).
@@ -160,7 +160,7 @@ pub struct CircleArgs {
     /// full speed.
     #[arg(long, allow_hyphen_values = true, value_parser = positive)]
     pub ramp: Option<f64>,
-    /// Face the direction of motion (paper 000, eq. 5.5: heading = omega t + pi/2) instead of
+    /// Face the direction of motion (Sphere paper, eq. 5.5: heading = omega t + pi/2) instead of
     /// eq. 6.3's heading = omega t.
     #[arg(long)]
     pub face_motion: bool,

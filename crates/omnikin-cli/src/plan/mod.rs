@@ -1,4 +1,4 @@
-//! `omnikin plan`: paper 000's square and circle, or a path through waypoints, planned within
+//! `omnikin plan`: the Sphere paper's square and circle, or a path through waypoints, planned within
 //! the robot file's motor limits and written as a plan CSV/JSON (conventions.md columns), with
 //! an optional SVG figure and a human summary on stderr.
 //!

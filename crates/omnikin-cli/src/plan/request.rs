@@ -33,7 +33,7 @@ pub(super) fn square(a: &SquareArgs) -> Result<()> {
     opts.initial_steer = initial_steer(&a.common, &robot)?;
     let lean = super::lean::apply(&d, &mut opts);
     let what = format!(
-        "square (paper 000, eq. 6.1): side {} m, speed {} m/s, ramps {} % of the leg time ({:.3} s), heading 0",
+        "square (Sphere paper, eq. 6.1): side {} m, speed {} m/s, ramps {} % of the leg time ({:.3} s), heading 0",
         a.side,
         a.speed,
         a.ramp_fraction * 100.0,
@@ -60,7 +60,7 @@ pub(super) fn circle(a: &CircleArgs) -> Result<()> {
     opts.initial_steer = initial_steer(&a.common, &robot)?;
     let lean = super::lean::apply(&d, &mut opts);
     let what = format!(
-        "circle (paper 000, eq. 6.3): radius {} m, omega {} rad/s ({:.3} m/s), {} turn(s), heading = {}, {}",
+        "circle (Sphere paper, eq. 6.3): radius {} m, omega {} rad/s ({:.3} m/s), {} turn(s), heading = {}, {}",
         a.radius,
         a.omega,
         c.speed(),
@@ -228,7 +228,7 @@ fn waypoint_heading(
                 offset: a.heading_offset,
             },
             format!(
-                "direction of motion + {} rad (paper 000, eq. 5.5)",
+                "direction of motion + {} rad (Sphere paper, eq. 5.5)",
                 a.heading_offset
             ),
         ),

@@ -193,7 +193,7 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
         && let Some(s) = planned.plan.samples.first()
     {
         crate::errln!(
-            "note: the plan starts at full speed (paper 000's law): at t = 0 the wheels must already turn at {} rad/s; use --ramp to start from rest",
+            "note: the plan starts at full speed (the Sphere paper's law): at t = 0 the wheels must already turn at {} rad/s; use --ramp to start from rest",
             list(&s.wheel_rates[..n], 3)
         );
     }

@@ -27,7 +27,7 @@
 //! ```
 //!
 //! Loading validates everything and reports the first problem as a [`DescriptionError`] that
-//! names the file, the line (for syntax and schema errors) or the field, and the rule broken:
+//! names the file, the line (of the offending value or syntax), the field, and the rule broken:
 //! unknown keys, missing fields, wrong types, a list without exactly three values (one per
 //! wheel), non-positive lengths, a wheel larger than the shell, out-of-range angles, singular
 //! geometry, and values that are finite but implausible: lengths outside [`LENGTH_RANGE`],
@@ -49,6 +49,7 @@ use crate::{Kind, Real, Robot};
 mod ballbot_dynamics;
 mod dynamics;
 pub mod events;
+mod locate;
 mod plausibility;
 mod schema;
 
@@ -151,8 +152,10 @@ fn num(v: f64) -> String {
 
 /// A robot description that failed to load: where, which field, which rule.
 ///
-/// Displayed as `FILE: FIELD: RULE`, or `FILE:LINE: RULE` for syntax and schema errors (the
-/// rule then names the key, e.g. "unknown field `colour`").
+/// Displayed as `FILE:LINE: FIELD: RULE`, the line being that of the field's value
+/// (`FILE: FIELD: RULE` when the field is not written in the file, e.g. a missing key), or
+/// `FILE:LINE: RULE` for syntax and schema errors (the rule then names the key, e.g.
+/// "unknown field `colour`").
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("{source_name}{}{}: {rule}",
     line.map(|l| format!(":{l}")).unwrap_or_default(),
@@ -160,7 +163,7 @@ fn num(v: f64) -> String {
 pub struct DescriptionError {
     /// The file path, or `preset <name>`.
     pub source_name: String,
-    /// 1-based line of the offending text, when known.
+    /// 1-based line of the offending text (the field's value), when known.
     pub line: Option<usize>,
     /// The field, as a TOML key path (`geometry.wheel_radius`), or `file` / `kind`; empty for
     /// syntax and schema errors, whose rule names the key.
@@ -270,9 +273,20 @@ impl RobotDescription {
     }
 
     /// Parses and validates a description from TOML text; `source_name` names it in errors.
+    /// An error about a field names the line of that field's value.
     pub fn from_toml_str(text: &str, source_name: &str) -> Result<Self, DescriptionError> {
         // A leading UTF-8 byte-order mark (editors on Windows write one) is not content.
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        Self::parse_checked(text, source_name).map_err(|mut e| {
+            if let Some(line) = locate::value_line(text, &e.field) {
+                e.line = Some(line);
+            }
+            e
+        })
+    }
+
+    /// [`RobotDescription::from_toml_str`] before the line of a field's value is looked up.
+    fn parse_checked(text: &str, source_name: &str) -> Result<Self, DescriptionError> {
         let err = |line, field: &str, rule: String| DescriptionError {
             source_name: source_name.to_string(),
             line,

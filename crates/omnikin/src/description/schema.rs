@@ -250,7 +250,14 @@ pub(super) fn parse(
                 wheel_lengths(position, w.radius, "radius")
                     .map_err(|(key, rule)| err(Some(lines[i]), &at(key), rule))?;
             }
-            distinct(&positions, "wheels", &lines, err)?;
+            // The positions' own lines: the error names both values where they are written.
+            let position_lines: std::vec::Vec<usize> = f
+                .geometry
+                .wheels
+                .iter()
+                .map(|w| line_of(w.get_ref().position.span().start))
+                .collect();
+            distinct(&positions, "wheels", &position_lines, err)?;
             let wheels: std::vec::Vec<OmniWheel<f64>> = f
                 .geometry
                 .wheels
@@ -292,7 +299,13 @@ pub(super) fn parse(
                 });
             }
             let positions: std::vec::Vec<[f64; 2]> = modules.iter().map(|m| m.position).collect();
-            distinct(&positions, "modules", &lines, err)?;
+            let position_lines: std::vec::Vec<usize> = f
+                .geometry
+                .modules
+                .iter()
+                .map(|m| line_of(m.get_ref().position.span().start))
+                .collect();
+            distinct(&positions, "modules", &position_lines, err)?;
             let optimize = f.geometry.optimize_steering;
             Robot::<f64>::swerve(&modules, optimize)
                 .map_err(|e| with_line(geometry_error(e, source_name, "swerve"), &lines))?;
