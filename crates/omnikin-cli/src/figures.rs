@@ -1,6 +1,10 @@
-//! Evaluation figures in the Sphere paper's style: theoretical path dashed, mean path solid, 95 %
-//! confidence band shaded — or, with fewer than [`MIN_RUNS_FOR_CI`] runs, their min/max
-//! envelope, and the legend says which (SVG, pure Rust).
+//! Trajectory figures in the Sphere paper's style: theoretical path dashed, mean path solid, and two
+//! bands named for what they are — the **runs' 95 % spread** (where 95 % of runs fall: the
+//! prediction interval mean ± t·s·√(1 + 1/n)) and the **95 % confidence interval of the mean**
+//! (mean ± t·s/√n, √(n + 1) times narrower); with fewer than [`MIN_RUNS_FOR_CI`] runs, their
+//! min/max envelope instead, and the legend says which. Beside the path: the deviation from the
+//! plan in x and y over time, and the distance |position − plan| over time, in mm, so that a
+//! 1 cm error fills a panel instead of a pixel.
 
 use std::path::Path;
 
@@ -12,6 +16,13 @@ use plotters::prelude::*;
 use crate::plot::{Arrow, Band, PALETTE, Series, draw_err, time_panel, xy_panel};
 
 const RUN_GREY: RGBColor = RGBColor(185, 185, 185);
+
+/// Colour of the runs' spread band (the confidence interval of the mean is drawn in the mean's
+/// blue).
+const SPREAD: RGBColor = PALETTE[1];
+
+/// Millimetres per metre (the time panels are in mm).
+const MM: f64 = 1000.0;
 
 /// One border of a band: points in data units.
 type Border = Vec<(f64, f64)>;
@@ -58,8 +69,80 @@ fn band_borders(mean: &[[f64; 2]], normal: &[[f64; 2]], off: &[(f64, f64)]) -> (
     (left, right)
 }
 
-/// Draws the trajectory figure: the XY path (runs faint, plan dashed, mean solid, band shaded,
-/// an arrow at the start) and x(t), y(t) with their bands.
+/// A band drawn around the mean: what it is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum BandKind {
+    /// Where 95 % of runs fall: mean ± t·s·√(1 + 1/n) (the prediction interval).
+    Spread,
+    /// The 95 % confidence interval of the mean: mean ± t·s/√n.
+    MeanCi,
+    /// Fewer than [`MIN_RUNS_FOR_CI`] runs: their min/max.
+    Envelope,
+}
+
+/// The bands of the runs around their mean at each plan sample.
+struct Bands<'a> {
+    runs: &'a [Run],
+    mean: &'a MeanTrajectory,
+    /// Runs behind `mean` (at least `runs.len()`: a large simulation draws its first runs).
+    n_runs: usize,
+}
+
+impl Bands<'_> {
+    /// The bands to draw, widest first, with their legend text and colour.
+    fn layers(&self) -> Vec<(BandKind, String, RGBColor)> {
+        if self.n_runs < MIN_RUNS_FOR_CI {
+            return vec![(
+                BandKind::Envelope,
+                format!(
+                    "min/max of the {} runs (fewer than {MIN_RUNS_FOR_CI}: too few for a 95 % band)",
+                    self.n_runs
+                ),
+                PALETTE[0],
+            )];
+        }
+        vec![
+            (
+                BandKind::Spread,
+                "runs' 95 % spread (prediction interval)".to_string(),
+                SPREAD,
+            ),
+            (
+                BandKind::MeanCi,
+                "95 % confidence interval of the mean".to_string(),
+                PALETTE[0],
+            ),
+        ]
+    }
+
+    /// The band's offsets `(lo, hi)` from the mean at sample `k` along the unit direction `n`
+    /// (a path's normal, or a coordinate axis), m. The statistical half-widths are per
+    /// coordinate, so across a path the band is `|n_x| h_x + |n_y| h_y` (conservative); the
+    /// spread follows from the confidence half-width `h = t·s/√n` as `h·√(n + 1)`.
+    fn offset(&self, kind: BandKind, k: usize, n: [f64; 2]) -> (f64, f64) {
+        let h = self.mean.half_width[k];
+        let across = |scale: f64| {
+            let w = scale * (n[0].abs() * h[0] + n[1].abs() * h[1]);
+            (-w, w)
+        };
+        match kind {
+            BandKind::MeanCi => across(1.0),
+            BandKind::Spread => across(((self.n_runs + 1) as f64).sqrt()),
+            BandKind::Envelope => {
+                let m = self.mean.mean[k];
+                self.runs.iter().fold((0.0_f64, 0.0_f64), |(lo, hi), r| {
+                    let d = (r.xy[k][0] - m[0]) * n[0] + (r.xy[k][1] - m[1]) * n[1];
+                    (lo.min(d), hi.max(d))
+                })
+            }
+        }
+    }
+}
+
+/// Draws the trajectory figure of `runs` (those drawn) and `mean` (over `n_runs` runs, at
+/// least as many): the XY path (runs faint, plan dashed, mean solid, bands shaded, an arrow at
+/// the start), the deviation from the plan in x and in y against time, and the distance from
+/// the plan against time.
 pub fn trajectory_figure(
     flag: &str,
     path: &Path,
@@ -67,9 +150,10 @@ pub fn trajectory_figure(
     plan: &Plan,
     runs: &[Run],
     mean: &MeanTrajectory,
+    n_runs: usize,
 ) -> Result<()> {
-    crate::plot::svg_file(flag, path, (1400, 700), |root| {
-        draw_trajectories(root, title, plan, runs, mean)
+    crate::plot::svg_file(flag, path, (1400, 960), |root| {
+        draw_trajectories(root, title, plan, runs, mean, n_runs.max(runs.len()))
     })
 }
 
@@ -79,6 +163,7 @@ fn draw_trajectories(
     plan: &Plan,
     runs: &[Run],
     mean: &MeanTrajectory,
+    n_runs: usize,
 ) -> Result<()> {
     root.fill(&WHITE).map_err(draw_err)?;
     let root = root
@@ -88,6 +173,11 @@ fn draw_trajectories(
     let blue = PALETTE[0];
     let several = runs.len() >= 2;
     let plan_xy: Vec<(f64, f64)> = plan.samples.iter().map(|s| (s.pose.x, s.pose.y)).collect();
+    let ts: Vec<f64> = plan.samples.iter().map(|s| s.t).collect();
+    // Runs on the plan's time grid (one position per plan sample) can be compared with it.
+    let on_grid: Vec<&Run> = runs.iter().filter(|r| r.xy.len() == ts.len()).collect();
+    let aligned = mean.mean.len() == ts.len() && on_grid.len() == runs.len();
+    let with_mean = several && aligned;
 
     let mut series: Vec<Series> = runs
         .iter()
@@ -109,43 +199,27 @@ fn draw_trajectories(
         plan_xy.clone(),
         BLACK,
     ));
-    let mut bands = Vec::new();
-    // Few runs: their min/max, said so in the legend; many: the 95 % band of the mean.
-    let envelope = runs.len() < MIN_RUNS_FOR_CI;
-    let band_label = if envelope {
-        format!(
-            "min/max of the {} runs (fewer than {MIN_RUNS_FOR_CI}: too few for a 95 % band)",
-            runs.len()
-        )
+    let stats = Bands { runs, mean, n_runs };
+    let layers = if with_mean {
+        stats.layers()
     } else {
-        "95 % band of the mean".to_string()
+        Vec::new()
     };
-    let aligned =
-        mean.mean.len() == plan_xy.len() && runs.iter().all(|r| r.xy.len() == mean.mean.len());
-    if several && aligned {
+    let mut bands = Vec::new();
+    if with_mean {
         series.push(Series::solid(
             "mean of runs",
             mean.mean.iter().map(|p| (p[0], p[1])).collect(),
             blue,
         ));
         let normal = normals(&plan_xy);
-        let off: Vec<(f64, f64)> = (0..mean.mean.len())
-            .map(|k| {
-                let (m, n) = (mean.mean[k], normal[k]);
-                if envelope {
-                    runs.iter().fold((0.0_f64, 0.0_f64), |(lo, hi), r| {
-                        let d = (r.xy[k][0] - m[0]) * n[0] + (r.xy[k][1] - m[1]) * n[1];
-                        (lo.min(d), hi.max(d))
-                    })
-                } else {
-                    let h = mean.half_width[k];
-                    let w = n[0].abs() * h[0] + n[1].abs() * h[1];
-                    (-w, w)
-                }
-            })
-            .collect();
-        let (upper, lower) = band_borders(&mean.mean, &normal, &off);
-        bands.push(Band::between(band_label.clone(), &upper, &lower, blue));
+        for (kind, label, colour) in &layers {
+            let off: Vec<(f64, f64)> = (0..mean.mean.len())
+                .map(|k| stats.offset(*kind, k, normal[k]))
+                .collect();
+            let (upper, lower) = band_borders(&mean.mean, &normal, &off);
+            bands.push(Band::between(label.clone(), &upper, &lower, *colour));
+        }
     }
     let arrows: Vec<Arrow> = match (
         plan_xy.first(),
@@ -170,58 +244,115 @@ fn draw_trajectories(
         &arrows,
     )?;
 
-    let panels = right.split_evenly((2, 1));
-    for (c, (panel, name)) in panels.iter().zip(["x", "y"]).enumerate() {
-        let t = plan.samples.iter().map(|s| s.t);
-        let planned: Vec<(f64, f64)> = plan
-            .samples
-            .iter()
-            .map(|s| (s.t, if c == 0 { s.pose.x } else { s.pose.y }))
-            .collect();
-        let mut series = vec![Series::dashed("planned", planned, BLACK)];
+    let panels = right.split_evenly((3, 1));
+    for (c, name) in ["x", "y"].into_iter().enumerate() {
+        let planned = |k: usize| if c == 0 { plan_xy[k].0 } else { plan_xy[k].1 };
+        let mut series = Vec::new();
         let mut bands = Vec::new();
-        if several && aligned {
-            let m: Vec<(f64, f64)> = t.clone().zip(&mean.mean).map(|(t, p)| (t, p[c])).collect();
-            let (up, lo): (Border, Border) = t
-                .enumerate()
-                .map(|(k, t)| {
-                    let (lo, hi) = if envelope {
-                        runs.iter()
-                            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
-                                (lo.min(r.xy[k][c]), hi.max(r.xy[k][c]))
-                            })
-                    } else {
-                        let (m, h) = (mean.mean[k][c], mean.half_width[k][c]);
-                        (m - h, m + h)
-                    };
-                    ((t, hi), (t, lo))
-                })
-                .unzip();
-            let label = if envelope {
-                "min/max of the runs"
-            } else {
-                "95 % band"
-            };
-            bands.push(Band::between(label, &up, &lo, blue));
-            series.push(Series::solid("mean", m, blue));
-        } else if let Some(r) = runs.first() {
+        if with_mean {
+            for (i, r) in on_grid.iter().enumerate() {
+                series.push(Series {
+                    width: 1,
+                    ..Series::solid(
+                        if i == 0 { "individual runs" } else { "" },
+                        ts.iter()
+                            .enumerate()
+                            .map(|(k, t)| (*t, MM * (r.xy[k][c] - planned(k))))
+                            .collect(),
+                        RUN_GREY,
+                    )
+                });
+            }
+            let axis = if c == 0 { [1.0, 0.0] } else { [0.0, 1.0] };
+            for (kind, label, colour) in &layers {
+                let (up, lo): (Border, Border) = ts
+                    .iter()
+                    .enumerate()
+                    .map(|(k, t)| {
+                        let m = MM * (mean.mean[k][c] - planned(k));
+                        let (lo, hi) = stats.offset(*kind, k, axis);
+                        ((*t, m + MM * hi), (*t, m + MM * lo))
+                    })
+                    .unzip();
+                bands.push(Band::between(label.clone(), &up, &lo, *colour));
+            }
+            series.push(Series::solid(
+                "mean",
+                ts.iter()
+                    .enumerate()
+                    .map(|(k, t)| (*t, MM * (mean.mean[k][c] - planned(k))))
+                    .collect(),
+                blue,
+            ));
+        } else if let Some(r) = on_grid.first() {
+            series.push(Series::solid(
+                "run",
+                ts.iter()
+                    .enumerate()
+                    .map(|(k, t)| (*t, MM * (r.xy[k][c] - planned(k))))
+                    .collect(),
+                blue,
+            ));
+        }
+        if let (Some(t0), Some(t1)) = (ts.first(), ts.last()) {
             series.push(Series {
                 width: 1,
-                ..Series::solid(
-                    "run",
-                    t.zip(&r.xy).map(|(t, p)| (t, p[c])).collect(),
-                    RUN_GREY,
-                )
+                ..Series::dashed("plan", vec![(*t0, 0.0), (*t1, 0.0)], BLACK)
             });
         }
         time_panel(
-            panel,
-            &format!("{name}(t)"),
-            &format!("{name} [m]"),
+            &panels[c],
+            &format!("deviation from the plan in {name}: {name}(t) − {name}_plan(t)"),
+            &format!("{name} − {name}_plan [mm]"),
             &series,
             &bands,
             None,
         )?;
     }
-    Ok(())
+    // |position − plan| against time: every run, and their mean distance.
+    let mut series: Vec<Series> = on_grid
+        .iter()
+        .enumerate()
+        .map(|(i, r)| Series {
+            width: 1,
+            ..Series::solid(
+                match (i, several) {
+                    (0, true) => "individual runs",
+                    (0, false) => "run",
+                    _ => "",
+                },
+                distance(&ts, &plan_xy, &r.xy),
+                if several { RUN_GREY } else { blue },
+            )
+        })
+        .collect();
+    if several && !on_grid.is_empty() {
+        let mean_distance: Vec<(f64, f64)> = (0..ts.len())
+            .map(|k| {
+                let sum: f64 = on_grid
+                    .iter()
+                    .map(|r| (r.xy[k][0] - plan_xy[k].0).hypot(r.xy[k][1] - plan_xy[k].1))
+                    .sum();
+                (ts[k], MM * sum / on_grid.len() as f64)
+            })
+            .collect();
+        series.push(Series::solid("mean over the runs", mean_distance, blue));
+    }
+    time_panel(
+        &panels[2],
+        "error against time: |position − plan| at the same time",
+        "|position − plan| [mm]",
+        &series,
+        &[],
+        None,
+    )
+}
+
+/// `(t, |p − plan| in mm)` at each plan sample.
+fn distance(ts: &[f64], plan_xy: &[(f64, f64)], xy: &[[f64; 2]]) -> Vec<(f64, f64)> {
+    ts.iter()
+        .zip(plan_xy)
+        .zip(xy)
+        .map(|((t, q), p)| (*t, MM * (p[0] - q.0).hypot(p[1] - q.1)))
+        .collect()
 }

@@ -276,6 +276,7 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             inputs.extend(robot(&a.robot));
             inputs.push(("LOG", &a.log));
             inputs.extend(a.fixes.as_deref().map(|p| ("--fixes", p)));
+            inputs.extend(a.truth.as_deref().map(|p| ("--truth", p)));
             files.push(("--out", &a.out));
             files.extend(a.plot.as_deref().map(|p| ("--plot", p)));
             files.extend(a.mcap.as_deref().map(|p| ("--mcap", p)));
@@ -327,6 +328,10 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
         output::input(flag, p);
     }
     for (flag, p) in &files {
+        if *flag == "--plot" {
+            // A figure format is known before anything runs (`--plot out/sq.jpg` fails at once).
+            plot::FigureFormat::of(flag, p)?;
+        }
         output::check_file(flag, p)?;
     }
     // Output directories are checked by `output::create_dir` once the inputs are read (so a

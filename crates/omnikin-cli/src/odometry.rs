@@ -1,4 +1,4 @@
-//! `omnikin odometry LOG.csv --robot R [--imu] [--fixes FIXES.csv] --out poses.csv [--plot F.svg]`:
+//! `omnikin odometry LOG.csv --robot R [--imu] [--fixes FIXES.csv] --out poses.csv [--plot F.svg|png|pdf]`:
 //! wheel odometry (and camera fusion) over a recorded encoder log. The pipeline is
 //! [`omnikin_sim::odometry::OdometryStream`]; this file parses the arguments, streams the log
 //! through it row by row into the outputs, prints the summary and draws the plot.
@@ -19,8 +19,8 @@ use anyhow::{Context, Result};
 use omnikin::Pose2;
 use omnikin::estimate::fusion::Recovery;
 use omnikin_sim::odometry::{
-    EventOverrides, FixResult, OdometryOptions, OdometryRow, OdometryStream, ThresholdSource,
-    TiltReport, read_fix_rows,
+    EventOverrides, FixRecord, FixResult, OdometryOptions, OdometryRow, OdometryStream,
+    ThresholdSource, TiltReport, read_fix_rows,
 };
 // The log and fixes parser lives in the library so that it can be fuzzed (fuzz/).
 use omnikin_sim::table::NumericRows;
@@ -50,9 +50,14 @@ pub struct OdometryArgs {
     /// Output pose CSV: t,x,y,heading (world frame, heading unwrapped).
     #[arg(long, value_name = "poses.csv")]
     pub out: PathBuf,
-    /// Also draw the path (odometry, fused estimate, fixes) and the heading to an SVG file.
-    #[arg(long, value_name = "FILE.svg")]
+    /// Also draw the path (odometry, fused estimate, fixes) and the heading as a figure; the
+    /// extension chooses the format: .svg, .png or .pdf.
+    #[arg(long, value_name = "FILE.svg|png|pdf")]
     pub plot: Option<PathBuf>,
+    /// Ground truth to draw in the --plot figure (a tracked trajectory CSV: t,x,y with optional
+    /// heading; e.g. a motion-capture record or a simulation's truth), as a dashed black line.
+    #[arg(long, value_name = "TRUTH.csv", requires = "plot")]
+    pub truth: Option<PathBuf>,
     /// The q (and s) columns are encoder counts with this many counts per revolution.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     pub counts_per_rev: Option<u32>,
@@ -168,6 +173,11 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         None => None,
     };
     let fix_file = fixes.as_ref().map(|f| f.file.clone());
+    // Read before the log is, so that a bad truth file fails before any output is written.
+    let truth = match &args.truth {
+        Some(path) => Some(omnikin_sim::track::Track::load(path)?),
+        None => None,
+    };
     let mut stream =
         OdometryStream::new(&description, &log.file, &log.header, fixes, &args.options())?;
     // The figure's lines are thinned as the rows come, which needs their number first: a
@@ -376,8 +386,7 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         crate::errln!("wrote {}", path.display());
     }
     if let (Some(svg), Some(lines)) = (&args.plot, lines) {
-        let fix_points: Vec<(f64, f64)> = r.fixes.iter().map(|f| (f.x, f.y)).collect();
-        figure("--plot", svg, lines, &fix_points)?;
+        figure("--plot", svg, lines, &r.fixes, truth.as_ref())?;
         crate::errln!("wrote {}", svg.display());
     }
     Ok(())
@@ -414,11 +423,64 @@ impl FigureLines {
     }
 }
 
-fn figure(flag: &str, svg: &Path, lines: FigureLines, fixes: &[(f64, f64)]) -> Result<()> {
-    crate::plot::svg_file(flag, svg, (1300, 640), |root| draw(root, lines, fixes))
+fn figure(
+    flag: &str,
+    svg: &Path,
+    lines: FigureLines,
+    fixes: &[FixRecord],
+    truth: Option<&omnikin_sim::track::Track>,
+) -> Result<()> {
+    crate::plot::svg_file(flag, svg, (1300, 640), |root| {
+        draw(root, lines, fixes, truth)
+    })
 }
 
-fn draw(root: &crate::plot::Area, lines: FigureLines, fixes: &[(f64, f64)]) -> Result<()> {
+/// The fixes' marks in the figure, by what became of them: fused (dots), rejected by the gate
+/// (crosses), and never used (rings: too late, or after the log). Empty groups are left out.
+fn fix_marks(fixes: &[FixRecord]) -> Vec<crate::plot::Series> {
+    use crate::plot::{Marker, PALETTE, Series};
+    let group = |keep: fn(&FixResult) -> bool| -> Vec<(f64, f64)> {
+        fixes
+            .iter()
+            .filter(|f| keep(&f.result))
+            .map(|f| (f.x, f.y))
+            .collect()
+    };
+    let fused = group(|r| {
+        matches!(
+            r,
+            FixResult::Accepted { .. } | FixResult::Initialised | FixResult::Recovered { .. }
+        )
+    });
+    let rejected = group(|r| matches!(r, FixResult::Rejected { .. }));
+    let unused = group(|r| matches!(r, FixResult::TooLate | FixResult::AfterLog));
+    [
+        (fused, "fixes fused", PALETTE[2], Marker::Dot),
+        (
+            rejected,
+            "fixes rejected (outliers)",
+            PALETTE[3],
+            Marker::Cross,
+        ),
+        (
+            unused,
+            "fixes not used (too late or after the log)",
+            PALETTE[5],
+            Marker::Ring,
+        ),
+    ]
+    .into_iter()
+    .filter(|(p, ..)| !p.is_empty())
+    .map(|(p, label, colour, marker)| Series::marks(label, p, colour, marker))
+    .collect()
+}
+
+fn draw(
+    root: &crate::plot::Area,
+    lines: FigureLines,
+    fixes: &[FixRecord],
+    truth: Option<&omnikin_sim::track::Track>,
+) -> Result<()> {
     use crate::plot::{PALETTE, Series, draw_err, time_panel, xy_panel};
     use plotters::prelude::*;
     root.fill(&WHITE).map_err(draw_err)?;
@@ -441,8 +503,14 @@ fn draw(root: &crate::plot::Area, lines: FigureLines, fixes: &[(f64, f64)]) -> R
         let [path, heading] = f.map(Decimator::finish);
         paths.push(Series::solid("fused with fixes", path, PALETTE[1]));
         headings.push(Series::solid("fused with fixes", heading, PALETTE[1]));
-        if !fixes.is_empty() {
-            paths.push(Series::markers("camera fixes", fixes.to_vec(), PALETTE[3]));
+        paths.extend(fix_marks(fixes));
+    }
+    if let Some(t) = truth {
+        let path = t.xy.iter().map(|p| (p[0], p[1])).collect();
+        paths.insert(0, Series::dashed("ground truth", path, BLACK));
+        if let Some(h) = &t.heading {
+            let heading = t.t.iter().copied().zip(h.iter().copied()).collect();
+            headings.insert(0, Series::dashed("ground truth", heading, BLACK));
         }
     }
     xy_panel(

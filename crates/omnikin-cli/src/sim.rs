@@ -162,6 +162,7 @@ fn simulate_dynamic(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Resu
         plan,
         &sim.runs,
         &sim.evaluation.mean,
+        sim.evaluation.metrics.runs,
     )?;
     print_summary(&sim.evaluation.metrics);
     for line in sim.summary_lines(&plant) {
@@ -592,6 +593,7 @@ pub(crate) fn finish_simulation(
         plan,
         &mc.figure_runs,
         &mean,
+        metrics.runs,
     )?;
     print_summary(&metrics);
     crate::errln!(
@@ -675,6 +677,7 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
         &plan,
         &runs,
         &mean,
+        metrics.runs,
     )?;
     print_summary(&metrics);
     crate::errln!(
@@ -947,6 +950,7 @@ impl<'a> Report<'a> {
                 &s.plan,
                 &o.runs,
                 &o.mean,
+                o.metrics.runs,
             )?;
             self.figures += 1;
         }

@@ -16,7 +16,7 @@ use omnikin_sim::dynamic_run::{
 use omnikin_sim::dynamics::ballbot::plan_run::PlanRun;
 use plotters::prelude::*;
 
-use crate::plot::{PALETTE, Series, draw_err, time_panel, xy_panel};
+use crate::plot::{Marker, PALETTE, Series, TimeAxis, TimeMark, draw_err, time_panel_on, xy_panel};
 use crate::sim::SimulateArgs;
 
 /// A `--push` value: `J@T` (an impulse of `J` N·s along world +x at closed-loop time `T` s) or
@@ -80,6 +80,7 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
             plan,
             run,
             config.fall_tilt.to_degrees(),
+            &a.push,
         )?;
     }
     crate::sim::print_summary(&sim.evaluation.metrics);
@@ -93,16 +94,51 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
     Ok(())
 }
 
-/// The figure: path (plan dashed, run solid), tilt against time (fall threshold dashed) and
-/// the distance from the plan.
+/// The figure: path (plan dashed, run solid, pushes marked), tilt against time (fall threshold
+/// dashed) and the distance from the plan, both panels on one time axis — the plan's, which
+/// starts at its first sample; the closed loop starts `plan_start` s earlier (the lead-in), so
+/// the tilt begins before 0 — with each push marked where and when it is applied.
 fn figure(
     path: &std::path::Path,
     title: &str,
     plan: &Plan,
     run: &PlanRun,
     fall_deg: f64,
+    pushes: &[PushArg],
 ) -> Result<()> {
     let t0 = plan.samples[0].t - run.plan_start;
+    let push_colour = PALETTE[3];
+    let marks: Vec<TimeMark> = pushes
+        .iter()
+        .enumerate()
+        .map(|(i, p)| TimeMark {
+            t: p.time + t0,
+            label: if i == 0 {
+                "push (impulse)".to_string()
+            } else {
+                String::new()
+            },
+            color: push_colour,
+        })
+        .collect();
+    // Where the ball centre is when each push is applied (the first control cycle at or after
+    // it).
+    let pushed_at: Vec<(f64, f64)> = pushes
+        .iter()
+        .filter_map(|p| {
+            let k = run.t.iter().position(|t| *t >= p.time)?;
+            run.position.get(k).map(|q| (q[0], q[1]))
+        })
+        .collect();
+    let times = run
+        .t
+        .iter()
+        .map(|t| t + t0)
+        .chain(plan.samples.iter().map(|s| s.t));
+    let axis = TimeAxis {
+        range: Some(crate::plot::range(times, 0.0, 1e-6, "time")?),
+        marks,
+    };
     crate::plot::svg_file("--out", path, (1400, 700), |root| {
         root.fill(&WHITE).map_err(draw_err)?;
         let root = root
@@ -111,15 +147,24 @@ fn figure(
         let (left, right) = root.split_horizontally(700);
         let planned: Vec<(f64, f64)> = plan.samples.iter().map(|s| (s.pose.x, s.pose.y)).collect();
         let ran: Vec<(f64, f64)> = run.position.iter().map(|p| (p[0], p[1])).collect();
+        let mut paths = vec![
+            Series::dashed("planned", planned, BLACK),
+            Series::solid("balancing robot", ran, PALETTE[0]),
+        ];
+        if !pushed_at.is_empty() {
+            paths.push(Series::marks(
+                "pushed here",
+                pushed_at.clone(),
+                push_colour,
+                Marker::Cross,
+            ));
+        }
         xy_panel(
             &left,
             "path (world frame): ball centre",
             "x [m]",
             "y [m]",
-            &[
-                Series::dashed("planned", planned, BLACK),
-                Series::solid("balancing robot", ran, PALETTE[0]),
-            ],
+            &paths,
             &[],
             &[],
         )?;
@@ -130,13 +175,14 @@ fn figure(
             .zip(&run.tilt)
             .map(|(t, v)| (t + t0, v.to_degrees()))
             .collect();
-        time_panel(
+        time_panel_on(
             &panels[0],
             "body tilt (angle from the vertical)",
             "tilt [deg]",
             &[Series::solid("tilt", tilt, PALETTE[1])],
             &[],
             Some((fall_deg, "fall threshold")),
+            &axis,
         )?;
         let err: Vec<(f64, f64)> = plan
             .samples
@@ -144,13 +190,14 @@ fn figure(
             .zip(&run.trial.tracked)
             .map(|(s, p)| (s.t, 100.0 * (p[0] - s.pose.x).hypot(p[1] - s.pose.y)))
             .collect();
-        time_panel(
+        time_panel_on(
             &panels[1],
             "distance from the plan",
             "error [cm]",
             &[Series::solid("|position − plan|", err, PALETTE[2])],
             &[],
             None,
+            &axis,
         )
     })
 }

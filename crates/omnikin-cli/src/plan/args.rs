@@ -108,8 +108,9 @@ pub struct Common {
     /// Output format.
     #[arg(long, value_enum, default_value_t = Format::Csv)]
     pub format: Format,
-    /// Also draw the plan as an SVG figure (path with arrows, wheel rates over time).
-    #[arg(long, value_name = "SVG")]
+    /// Also draw the plan as a figure (path with arrows, wheel rates over time); the
+    /// extension chooses the format: .svg, .png or .pdf.
+    #[arg(long, value_name = "FILE.svg|png|pdf")]
     pub plot: Option<PathBuf>,
     /// Robots with steering (caster3, swerve): initial steer angles G1,G2,…, rad, one per
     /// wheel (module) in the robot file's order (default: aligned with the first motion — a
