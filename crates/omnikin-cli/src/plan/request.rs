@@ -118,7 +118,13 @@ pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
             "m/s²",
             &d,
         )
-        .map(|v| if given.is_some() { v } else { v.min(DEFAULT_MAX_ACCEL) })?,
+        .map(|v| {
+            if given.is_some() {
+                v
+            } else {
+                v.min(DEFAULT_MAX_ACCEL)
+            }
+        })?,
     };
     let max_yaw_accel = flag(
         "--max-yaw-accel",

@@ -88,10 +88,13 @@ impl RobotDescription {
     /// The body acceleration and jerk limits (module doc: from `[limits]`, else derived from
     /// the motor acceleration limits, else the defaults).
     pub fn body_limits(&self) -> BodyLimits {
-        let derived = self
-            .build::<f64>()
-            .ok()
-            .and_then(|r| derive(&r, self.limits.max_wheel_accel?, self.limits.max_steer_accel));
+        let derived = self.build::<f64>().ok().and_then(|r| {
+            derive(
+                &r,
+                self.limits.max_wheel_accel?,
+                self.limits.max_steer_accel,
+            )
+        });
         let lean = self.lean_acceleration_limit().map(|(a, _, _)| a);
         let (max_accel, max_accel_source) = match (self.limits.max_accel, derived, lean) {
             (Some(a), _, _) => (a, LimitSource::File),

@@ -59,7 +59,9 @@ mod schema;
 pub use ballbot_dynamics::{
     BallbotDynamicsSpec, DEFAULT_LEAN_MARGIN, DEFAULT_MAX_TILT_DEG, WeightsSpec,
 };
-pub use body_limits::{BODY_ACCEL_RANGE, BODY_JERK_RANGE, BodyLimits, LimitSource, YAW_ACCEL_RANGE};
+pub use body_limits::{
+    BODY_ACCEL_RANGE, BODY_JERK_RANGE, BodyLimits, LimitSource, YAW_ACCEL_RANGE,
+};
 pub use dynamics::SphereDynamicsSpec;
 pub use events::{EventLevels, EventSpec};
 
@@ -375,7 +377,12 @@ impl RobotDescription {
                 MOTOR_ACCEL_RANGE,
                 "rad/s²",
             ),
-            ("limits.max_accel", limits.max_accel, BODY_ACCEL_RANGE, "m/s²"),
+            (
+                "limits.max_accel",
+                limits.max_accel,
+                BODY_ACCEL_RANGE,
+                "m/s²",
+            ),
             (
                 "limits.max_yaw_accel",
                 limits.max_yaw_accel,
