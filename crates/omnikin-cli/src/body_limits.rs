@@ -89,16 +89,24 @@ pub fn peaks(plan: &Plan) -> Peaks {
 }
 
 /// What the plan asks beyond `limits`, one sentence per limit naming it, where it came from,
-/// the plan's peak and its time; empty when the plan is within them.
+/// the plan's peak and its time; empty when the plan is within them. A limit of a robot file
+/// without any acceleration limit ([`LimitSource::Default`], the runtime's arbitrary default)
+/// is not held against a plan: the file states nothing to compare with.
 pub fn plan_excess(limits: &BodyLimits, p: &Peaks) -> Vec<String> {
     let mut out = Vec::new();
-    let mut check = |what: &str, (peak, at): (f64, f64), limit: f64, unit: &str, source: String| {
-        if peak > limit * (1.0 + TOLERANCE) {
+    let mut check = |what: &str,
+                     (peak, at): (f64, f64),
+                     limit: f64,
+                     unit: &str,
+                     source: LimitSource,
+                     key: &str| {
+        if source != LimitSource::Default && peak > limit * (1.0 + TOLERANCE) {
             out.push(format!(
                 "the plan asks {} {unit} of {what} at t = {at:.2} s, more than the robot's \
-                 {} {unit} ({source})",
+                 {} {unit} ({})",
                 round(peak),
-                round(limit)
+                round(limit),
+                source.describe(key)
             ));
         }
     };
@@ -107,23 +115,19 @@ pub fn plan_excess(limits: &BodyLimits, p: &Peaks) -> Vec<String> {
         p.accel,
         limits.max_accel,
         "m/s²",
-        limits.max_accel_source.describe("max_accel"),
+        limits.max_accel_source,
+        "max_accel",
     );
     check(
         "yaw acceleration",
         p.yaw_accel,
         limits.max_yaw_accel,
         "rad/s²",
-        limits.max_yaw_accel_source.describe("max_yaw_accel"),
+        limits.max_yaw_accel_source,
+        "max_yaw_accel",
     );
     if let Some(j) = limits.max_jerk {
-        check(
-            "jerk",
-            p.jerk,
-            j,
-            "m/s³",
-            LimitSource::File.describe("max_jerk"),
-        );
+        check("jerk", p.jerk, j, "m/s³", LimitSource::File, "max_jerk");
     }
     out
 }
