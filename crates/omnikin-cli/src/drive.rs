@@ -102,6 +102,12 @@ pub enum DriveAction {
         /// Drive a plan whose start is beyond --start-tolerance without asking.
         #[arg(long)]
         yes: bool,
+        /// The robot being driven (preset or robot file, as its `omnikin robot --robot`):
+        /// the plan is checked against its body limits (`omnikin check` prints them) before
+        /// it is uploaded, and refused, naming the limit and the plan's peak, when it asks for
+        /// more than the robot will do (the robot would lag behind it).
+        #[arg(long)]
+        robot: Option<String>,
     },
     /// Controlled stop within the acceleration limits.
     Stop,
@@ -821,6 +827,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
             set_pose,
             start_tolerance,
             yes,
+            robot,
         } => {
             s.record(out.as_deref())?;
             let start = StartCheck {
@@ -828,7 +835,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
                 tolerance_m: *start_tolerance,
                 yes: *yes,
             };
-            follow_plan(&mut s, plan, start)?;
+            follow_plan(&mut s, plan, start, robot.as_deref())?;
         }
         DriveAction::Stop => {
             s.hello()?;
@@ -980,11 +987,25 @@ fn check_plan_start(s: &mut Session, start: [f64; 2], c: StartCheck) -> Result<(
     Ok(())
 }
 
-fn follow_plan(s: &mut Session, path: &Path, start: StartCheck) -> Result<()> {
+fn follow_plan(s: &mut Session, path: &Path, start: StartCheck, robot: Option<&str>) -> Result<()> {
     let set_pose = start.set_pose;
     let plan = Plan::load_csv(path).with_context(|| format!("plan {}", path.display()))?;
     if plan.samples.len() < 2 {
         bail!("plan {}: needs at least 2 samples", path.display());
+    }
+    if let Some(r) = robot {
+        let d = crate::kinematics::resolve_robot(r)?;
+        let limits = d.body_limits();
+        let peaks = crate::body_limits::peaks(&plan);
+        let excess = crate::body_limits::plan_excess(&limits, &peaks);
+        if !excess.is_empty() {
+            bail!(
+                "plan {}: not uploaded: {}; the robot would lag behind it (re-plan slower, e.g. a longer --ramp-fraction or a lower --max-accel)",
+                path.display(),
+                excess.join("; ")
+            );
+        }
+        crate::outln!("{}", crate::body_limits::within_line(&d, &limits, &peaks))?;
     }
     let info = s.hello()?;
     let p0 = plan.samples[0].pose;

@@ -1,7 +1,7 @@
 //! `inverse`, `forward`, `torques` and `check`: the kinematics commands of the CLI contract.
 
 use anyhow::{Context, Result, bail};
-use omnikin::description::{Limits, RobotDescription};
+use omnikin::description::RobotDescription;
 use omnikin::drive::TorqueSpace;
 use omnikin::drive::report::REACH_DIRECTIONS_DEG;
 use omnikin::{Actuators, MAX_WHEELS, Robot, Twist2};
@@ -349,7 +349,8 @@ pub fn torques(a: &TorquesArgs) -> Result<()> {
     Ok(())
 }
 
-fn print_limits(l: &Limits) -> Result<()> {
+fn print_limits(d: &RobotDescription) -> Result<()> {
+    let l = &d.limits;
     let show = |name: &str, v: Option<f64>, unit: &str| -> Result<()> {
         match v {
             Some(x) => crate::outln!("  {name:<16} {x} {unit}"),
@@ -363,6 +364,19 @@ fn print_limits(l: &Limits) -> Result<()> {
         show("max_steer_rate", l.max_steer_rate, "rad/s")?;
         show("max_steer_accel", l.max_steer_accel, "rad/s²")?;
     }
+    // The body limits plan, simulate, robot and drive share (omnikin::description::BodyLimits).
+    let b = d.body_limits();
+    crate::outln!(
+        "  max_accel        {:.4} m/s² ({})",
+        b.max_accel,
+        b.max_accel_source.describe("max_accel")
+    )?;
+    crate::outln!(
+        "  max_yaw_accel    {:.4} rad/s² ({})",
+        b.max_yaw_accel,
+        b.max_yaw_accel_source.describe("max_yaw_accel")
+    )?;
+    show("max_jerk", b.max_jerk, "m/s³")?;
     Ok(())
 }
 
@@ -415,12 +429,14 @@ pub fn check(a: &CheckArgs) -> Result<()> {
     j["limits"] = json!({
         "max_wheel_rate": d.limits.max_wheel_rate, "max_wheel_accel": d.limits.max_wheel_accel,
         "max_steer_rate": d.limits.max_steer_rate, "max_steer_accel": d.limits.max_steer_accel,
+        "max_accel": d.body_limits().max_accel, "max_yaw_accel": d.body_limits().max_yaw_accel,
+        "max_jerk": d.body_limits().max_jerk,
     });
     if a.json {
         crate::outln!("{j}")?;
     } else {
         crate::outln!("{}", text.trim_end())?;
-        print_limits(&d.limits)?;
+        print_limits(&d)?;
     }
     Ok(())
 }

@@ -10,6 +10,7 @@ use clap::{Parser, Subcommand};
 
 mod args;
 mod balance_check;
+mod body_limits;
 mod console;
 mod data_dir;
 mod drive;

@@ -62,13 +62,17 @@ pub struct RobotArgs {
     /// Watchdog: no valid command or heartbeat for this long (s, robot time) → controlled stop.
     #[arg(long, default_value_t = 0.5, allow_hyphen_values = true, value_parser = finite_f64)]
     pub watchdog: f64,
-    /// Largest linear acceleration, m/s².
-    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = finite_f64)]
-    pub max_accel: f64,
-    /// Largest yaw acceleration, rad/s².
-    #[arg(long, default_value_t = 4.0, allow_hyphen_values = true, value_parser = finite_f64)]
-    pub max_yaw_accel: f64,
-    /// Largest linear jerk, m/s³ (default: unlimited).
+    /// Largest linear acceleration, m/s² [default: the robot file's body limit, [limits]
+    /// max_accel or derived from max_wheel_accel (`omnikin check` prints it); a larger value is
+    /// refused].
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub max_accel: Option<f64>,
+    /// Largest yaw acceleration, rad/s² [default: the robot file's max_yaw_accel or derived
+    /// from max_wheel_accel; a larger value is refused].
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub max_yaw_accel: Option<f64>,
+    /// Largest linear jerk, m/s³ [default: the robot file's max_jerk, else unlimited; a value
+    /// above the file's is refused].
     #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
     pub max_jerk: Option<f64>,
     /// Commands faster than this (m/s) are rejected as malformed [default: 2; ballbot --plant
@@ -155,9 +159,39 @@ pub fn config(a: &RobotArgs, desc: &RobotDescription) -> Result<Config<f64>> {
     c.rate_limits.steer = desc.limits.max_steer_rate;
     c.wheel_accel = desc.limits.max_wheel_accel;
     c.steer_accel = desc.limits.max_steer_accel;
-    c.slew.accel = a.max_accel;
-    c.slew.yaw_accel = a.max_yaw_accel;
-    c.slew.jerk = a.max_jerk;
+    // One set of body limits: the robot file's (what `plan` plans within), lowered by a flag.
+    let body = desc.body_limits();
+    let flag = crate::body_limits::flag;
+    c.slew.accel = flag(
+        "--max-accel",
+        a.max_accel,
+        body.max_accel,
+        body.max_accel_source,
+        "max_accel",
+        "m/s²",
+        desc,
+    )?;
+    c.slew.yaw_accel = flag(
+        "--max-yaw-accel",
+        a.max_yaw_accel,
+        body.max_yaw_accel,
+        body.max_yaw_accel_source,
+        "max_yaw_accel",
+        "rad/s²",
+        desc,
+    )?;
+    c.slew.jerk = match body.max_jerk {
+        Some(j) => Some(flag(
+            "--max-jerk",
+            a.max_jerk,
+            j,
+            omnikin::description::LimitSource::File,
+            "max_jerk",
+            "m/s³",
+            desc,
+        )?),
+        None => a.max_jerk,
+    };
     c.max_speed = a.max_speed.unwrap_or(DEFAULT_MAX_SPEED);
     c.max_yaw_rate = a.max_yaw_rate.unwrap_or(DEFAULT_MAX_YAW_RATE);
     c.watchdog = a.watchdog;

@@ -124,8 +124,8 @@ impl SimRobot {
     }
 
     /// `ballbot --plant dynamic`: the balance runtime at the robot file's `[dynamics]`
-    /// (control rate `control_rate_hz` unless `--rate` is given; acceleration the lean limit's,
-    /// or `--max-accel` if lower).
+    /// (control rate `control_rate_hz` unless `--rate` is given; acceleration the robot's body
+    /// limit, at most the lean limit's, or `--max-accel` if lower).
     fn balance(a: &RobotArgs, desc: &RobotDescription) -> Result<Self> {
         if a.gyro_heading {
             bail!(
@@ -146,7 +146,19 @@ impl SimRobot {
         let (lean_accel, max_tilt_deg, lean_margin) = desc
             .lean_acceleration_limit()
             .context("--plant dynamic: the robot file has no ballbot geometry")?;
-        let mut cfg = BalanceRuntimeConfig::new(c, lean_accel.min(a.max_accel));
+        // The robot's body limit (the lean limit, or lower from the wheel limits or the
+        // file), lowered by --max-accel; a flag above it is refused.
+        let body = desc.body_limits();
+        let accel = crate::body_limits::flag(
+            "--max-accel",
+            a.max_accel,
+            body.max_accel.min(lean_accel),
+            body.max_accel_source,
+            "max_accel",
+            "m/s²",
+            desc,
+        )?;
+        let mut cfg = BalanceRuntimeConfig::new(c, accel);
         // The library's limits (1 m/s, 1 rad/s) unless given; either way checked against what
         // the robot's model holds before it starts (issue 31).
         if let Some(v) = a.max_speed {

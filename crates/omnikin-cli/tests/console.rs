@@ -335,7 +335,7 @@ fn relay_drives_the_robot_and_survives_hostile_pages() {
     assert!(p.pose()[0] > x0 + 0.05, "moved: {:?}", p.pose());
     // Repeats stop (page gone quiet, no stop message): the console stops the robot once the
     // last command is older than its 0.3 s wall-clock hold (2.4 s of robot time at 8x), then
-    // the robot brakes (0.2 m/s at 1 m/s²: 0.2 s).
+    // the robot brakes (0.2 m/s at the sphere's body limit, 22.9 m/s²: 9 ms).
     let t_last = moving["t"].as_f64().unwrap();
     let idle = p.wait_for(Duration::from_secs(5), "idle", |m| {
         m["type"] == "telemetry" && m["mode"] == "idle"

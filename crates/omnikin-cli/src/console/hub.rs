@@ -107,6 +107,9 @@ pub struct Hub {
     pub shutdown: AtomicBool,
     /// Open websocket clients.
     pub clients: AtomicUsize,
+    /// `console --robot`: the robot's name and body limits; an uploaded plan asking for more
+    /// is refused ([`crate::body_limits::plan_excess`]).
+    pub robot_limits: std::sync::OnceLock<(String, omnikin::description::BodyLimits)>,
     tx: SyncSender<Command>,
 }
 
@@ -136,6 +139,7 @@ impl Hub {
                 estop: AtomicBool::new(false),
                 shutdown: AtomicBool::new(false),
                 clients: AtomicUsize::new(0),
+                robot_limits: std::sync::OnceLock::new(),
                 tx,
             }),
             rx,
@@ -282,6 +286,16 @@ impl Hub {
                     .map_err(|e| format!("plan {name}: {e}"))?;
                 if plan.samples.len() < 2 {
                     return Err(format!("plan {name}: needs at least 2 samples"));
+                }
+                if let Some((robot, limits)) = self.robot_limits.get() {
+                    let peaks = crate::body_limits::peaks(&plan);
+                    let excess = crate::body_limits::plan_excess(limits, &peaks);
+                    if !excess.is_empty() {
+                        return Err(format!(
+                            "plan {name}: refused for {robot}: {}; the robot would lag behind it",
+                            excess.join("; ")
+                        ));
+                    }
                 }
                 Command::Plan {
                     name,
@@ -454,5 +468,31 @@ mod tests {
         assert_eq!(cursor, next);
         assert!(first[0].contains("connected") && first[1].contains("\"x\""));
         assert!(hub.since(cursor).0.is_empty());
+    }
+
+    #[test]
+    fn a_plan_beyond_the_robots_limits_is_refused_at_upload() {
+        use omnikin::description::{BodyLimits, LimitSource};
+        let (hub, rx) = Hub::new();
+        let limits = BodyLimits {
+            max_accel: 0.5,
+            max_accel_source: LimitSource::File,
+            max_yaw_accel: 4.0,
+            max_yaw_accel_source: LimitSource::WheelLimits,
+            max_jerk: None,
+        };
+        // 0 → 0.2 m/s in 0.1 s: 2 m/s².
+        let msg = r#"{"type":"plan","name":"fast.csv","csv":"t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3\n0,0,0,0,0,0,0,0,0,0\n0.1,0.01,0,0,0.2,0,0,0,0,0\n0.2,0.03,0,0,0.2,0,0,0,0,0\n"}"#;
+        // Without --robot it is accepted (nothing to compare with).
+        hub.handle(&p1(), msg).unwrap();
+        assert!(matches!(rx.try_recv().unwrap(), Command::Plan { .. }));
+        hub.robot_limits.set(("kiwi".into(), limits)).unwrap();
+        let e = hub.handle(&p1(), msg).unwrap_err();
+        assert!(
+            e.contains("refused for kiwi: the plan asks 2 m/s² of acceleration")
+                && e.contains("the robot's 0.5 m/s² (the robot file's limits.max_accel)"),
+            "{e}"
+        );
+        assert!(rx.try_recv().is_err());
     }
 }

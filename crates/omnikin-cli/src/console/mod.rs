@@ -74,6 +74,11 @@ pub struct ConsoleArgs {
     /// pose to the plan's start" is ticked.
     #[arg(long, value_name = "METERS", default_value_t = 0.1, allow_hyphen_values = true, value_parser = crate::args::start_tolerance_m)]
     pub start_tolerance: f64,
+    /// The robot being driven (preset or robot file, as its `omnikin robot --robot`): an
+    /// uploaded plan asking more than its body limits (`omnikin check`) is refused, naming the
+    /// limit and the plan's peak.
+    #[arg(long)]
+    pub robot: Option<String>,
     /// Stop after this many seconds (wall clock; default: until Ctrl-C).
     #[arg(long = "for", value_name = "SECONDS", allow_hyphen_values = true, value_parser = crate::args::run_for_s)]
     pub duration: Option<f64>,
@@ -110,6 +115,14 @@ impl Drop for Slot {
 
 /// Runs the console until Ctrl-C or `--for`.
 pub fn run(a: &ConsoleArgs) -> Result<()> {
+    // `--robot`: its body limits, checked at every plan upload (a bad file fails here).
+    let robot_limits = match &a.robot {
+        Some(r) => {
+            let d = crate::kinematics::resolve_robot(r)?;
+            Some((d.name.clone(), d.body_limits()))
+        }
+        None => None,
+    };
     let listen: SocketAddr = a.listen.parse().with_context(|| {
         format!(
             "--listen: expected HOST:PORT (e.g. 127.0.0.1:8090), got \"{}\"",
@@ -158,6 +171,9 @@ pub fn run(a: &ConsoleArgs) -> Result<()> {
     );
 
     let (hub, rx) = Hub::new();
+    if let Some(l) = robot_limits {
+        let _ = hub.robot_limits.set(l);
+    }
     hub.publish(
         &serde_json::json!({"type": "config", "speed": a.speed, "turn": a.turn,
             "heartbeat_hz": a.heartbeat, "mcap": true, "start_tolerance_m": a.start_tolerance,

@@ -198,18 +198,21 @@ pub struct WaypointArgs {
     /// Max speed along the path, m/s.
     #[arg(long, default_value_t = 0.2, allow_hyphen_values = true, value_parser = positive)]
     pub max_speed: f64,
-    /// Max acceleration along the path, m/s².
-    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true, value_parser = positive)]
-    pub max_accel: f64,
+    /// Max acceleration along the path, m/s² [default: 0.5, or the robot's body limit if
+    /// lower; a value above the robot's limit (`omnikin check`) is refused, a ballbot's is
+    /// lowered to its lean limit].
+    #[arg(long, allow_hyphen_values = true, value_parser = positive)]
+    pub max_accel: Option<f64>,
     /// Max jerk along the path, m/s³ (s-curve profile).
     #[arg(long, default_value_t = 5.0, allow_hyphen_values = true, value_parser = positive, conflicts_with = "time_optimal")]
     pub max_jerk: f64,
     /// Max yaw rate of a turn in place, rad/s.
     #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = positive)]
     pub max_yaw_rate: f64,
-    /// Max yaw acceleration of a turn in place, rad/s².
-    #[arg(long, default_value_t = 2.0, allow_hyphen_values = true, value_parser = positive)]
-    pub max_yaw_accel: f64,
+    /// Max yaw acceleration of a turn in place, rad/s² [default: 2, or the robot's body limit
+    /// if lower; a value above the robot's limit is refused].
+    #[arg(long, allow_hyphen_values = true, value_parser = positive)]
+    pub max_yaw_accel: Option<f64>,
     /// Velocity profile shape.
     #[arg(long, value_enum, default_value_t = ProfileArg::Trapezoid, conflicts_with = "time_optimal")]
     pub profile: ProfileArg,

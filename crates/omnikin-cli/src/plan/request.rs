@@ -103,12 +103,51 @@ pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
     }
     .map_err(|e| wp.locate(&file, e))?;
     let (heading, heading_what) = waypoint_heading(a, &wp, &path, &file)?;
+    // The robot's body limits bound the request (a ballbot's acceleration is lowered to its
+    // lean limit below instead, with a note).
+    let body = d.body_limits();
+    let flag = crate::body_limits::flag;
+    let max_accel = match (a.max_accel, d.lean_acceleration_limit()) {
+        (Some(v), Some(_)) => v,
+        (given, _) => flag(
+            "--max-accel",
+            given,
+            body.max_accel,
+            body.max_accel_source,
+            "max_accel",
+            "m/s²",
+            &d,
+        )
+        .map(|v| {
+            if given.is_some() {
+                v
+            } else {
+                v.min(DEFAULT_MAX_ACCEL)
+            }
+        })?,
+    };
+    let max_yaw_accel = flag(
+        "--max-yaw-accel",
+        a.max_yaw_accel,
+        body.max_yaw_accel,
+        body.max_yaw_accel_source,
+        "max_yaw_accel",
+        "rad/s²",
+        &d,
+    )
+    .map(|v| {
+        if a.max_yaw_accel.is_some() {
+            v
+        } else {
+            v.min(DEFAULT_MAX_YAW_ACCEL)
+        }
+    })?;
     let limits = MotionLimits {
         max_speed: a.max_speed,
-        max_accel: a.max_accel,
+        max_accel,
         max_jerk: a.max_jerk,
         max_yaw_rate: a.max_yaw_rate,
-        max_yaw_accel: a.max_yaw_accel,
+        max_yaw_accel,
     };
     let timing = if a.time_optimal {
         Timing::TimeOptimal { limits }
@@ -140,7 +179,7 @@ pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
         if a.time_optimal {
             format!(
                 "time-optimal within {} m/s, {} m/s²",
-                a.max_speed, a.max_accel
+                a.max_speed, max_accel
             )
         } else {
             format!(
@@ -150,7 +189,7 @@ pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
                     ProfileArg::SCurve => "S-curve",
                 },
                 a.max_speed,
-                a.max_accel,
+                max_accel,
                 if a.profile == ProfileArg::SCurve {
                     format!(", {} m/s³", a.max_jerk)
                 } else {
@@ -263,8 +302,25 @@ fn finish_leaning(
     if let Some(l) = &lean {
         super::lean::report(l, &planned.plan);
     }
+    // What `omnikin robot` slews at: a plan asking for more is tracked with a lag (a
+    // ballbot's acceleration is the lean limit's, reported above).
+    let mut body = d.body_limits();
+    if lean.is_some() {
+        body.max_accel = f64::INFINITY;
+    }
+    let peaks = crate::body_limits::peaks(&planned.plan);
+    for e in crate::body_limits::plan_excess(&body, &peaks) {
+        crate::errln!(
+            "warning: {e}: `omnikin robot` holds the robot to that limit, so it will lag behind this plan"
+        );
+    }
     Ok(())
 }
+
+/// `plan waypoints --max-accel` when not given (or the robot's body limit if lower), m/s².
+const DEFAULT_MAX_ACCEL: f64 = 0.5;
+/// `plan waypoints --max-yaw-accel` when not given (or the robot's limit if lower), rad/s².
+const DEFAULT_MAX_YAW_ACCEL: f64 = 2.0;
 
 fn load_robot(robot: &str) -> Result<(RobotDescription, RobotModel)> {
     let d = crate::kinematics::resolve_robot(robot)?;

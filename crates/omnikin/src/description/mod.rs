@@ -16,6 +16,9 @@
 //! [limits]                        # optional, every key optional
 //! max_wheel_rate = 12.0           # rad/s
 //! max_wheel_accel = 60.0          # rad/s²
+//! max_accel = 2.0                 # m/s², body (default: from max_wheel_accel, BodyLimits)
+//! max_yaw_accel = 8.0             # rad/s² (default: from max_wheel_accel)
+//! max_jerk = 50.0                 # m/s³ (default: unlimited)
 //!
 //! [dynamics]                      # optional, sphere-omni and ballbot: see SphereDynamicsSpec,
 //!                                 # BallbotDynamicsSpec
@@ -47,6 +50,7 @@ use crate::sphere::SphereParams;
 use crate::{Kind, Real, Robot};
 
 mod ballbot_dynamics;
+mod body_limits;
 mod dynamics;
 pub mod events;
 mod locate;
@@ -55,6 +59,9 @@ mod schema;
 
 pub use ballbot_dynamics::{
     BallbotDynamicsSpec, DEFAULT_LEAN_MARGIN, DEFAULT_MAX_TILT_DEG, WeightsSpec,
+};
+pub use body_limits::{
+    BODY_ACCEL_RANGE, BODY_JERK_RANGE, BodyLimits, LimitSource, YAW_ACCEL_RANGE,
 };
 pub use dynamics::SphereDynamicsSpec;
 pub use events::{EventLevels, EventSpec};
@@ -184,6 +191,13 @@ pub struct Limits {
     pub max_steer_rate: Option<f64>,
     /// Largest steer acceleration magnitude (caster only), rad/s².
     pub max_steer_accel: Option<f64>,
+    /// Largest body (linear, world-frame) acceleration, m/s²; absent: derived from
+    /// `max_wheel_accel` ([`RobotDescription::body_limits`]).
+    pub max_accel: Option<f64>,
+    /// Largest yaw acceleration, rad/s²; absent: derived from `max_wheel_accel`.
+    pub max_yaw_accel: Option<f64>,
+    /// Largest body (linear) jerk, m/s³; absent: unlimited.
+    pub max_jerk: Option<f64>,
 }
 
 /// The geometry of a described robot, in SI units (radians), ready to build a model.
@@ -321,6 +335,9 @@ impl RobotDescription {
             ("limits.max_wheel_accel", limits.max_wheel_accel),
             ("limits.max_steer_rate", limits.max_steer_rate),
             ("limits.max_steer_accel", limits.max_steer_accel),
+            ("limits.max_accel", limits.max_accel),
+            ("limits.max_yaw_accel", limits.max_yaw_accel),
+            ("limits.max_jerk", limits.max_jerk),
         ] {
             if let Some(v) = value
                 && !(v.is_finite() && v > 0.0)
@@ -374,6 +391,19 @@ impl RobotDescription {
                 MOTOR_ACCEL_RANGE,
                 "rad/s²",
             ),
+            (
+                "limits.max_accel",
+                limits.max_accel,
+                BODY_ACCEL_RANGE,
+                "m/s²",
+            ),
+            (
+                "limits.max_yaw_accel",
+                limits.max_yaw_accel,
+                YAW_ACCEL_RANGE,
+                "rad/s²",
+            ),
+            ("limits.max_jerk", limits.max_jerk, BODY_JERK_RANGE, "m/s³"),
         ] {
             if let Some(v) = value {
                 range(field, v, r, unit)?;
