@@ -329,10 +329,6 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
         output::input(flag, p);
     }
     for (flag, p) in &files {
-        if *flag == "--plot" {
-            // A figure format is known before anything runs (`--plot out/sq.jpg` fails at once).
-            plot::FigureFormat::of(flag, p)?;
-        }
         output::check_file(flag, p)?;
     }
     // Output directories are checked by `output::create_dir` once the inputs are read (so a
@@ -342,7 +338,15 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             output::check_dir(flag, p)?;
         }
     }
-    output::check_distinct(&files)
+    output::check_distinct(&files)?;
+    // A figure format is known before anything runs (`--plot out/sq.jpg` fails at once), after
+    // the rules that protect files (an input named as the figure is reported as such).
+    for (flag, p) in &files {
+        if *flag == "--plot" {
+            plot::FigureFormat::of(flag, p)?;
+        }
+    }
+    Ok(())
 }
 
 fn run(command: Command) -> anyhow::Result<()> {
