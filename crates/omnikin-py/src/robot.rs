@@ -138,16 +138,23 @@ impl PyRobot {
         self.model.steerable()
     }
 
-    /// The `[limits]` table: `max_wheel_rate`, `max_wheel_accel` (rad/s, rad/s²),
-    /// `max_steer_rate`, `max_steer_accel`; `None` where the file sets none (unlimited).
+    /// The limits, as `omnikin check --json` gives them: the `[limits]` table's motor limits
+    /// `max_wheel_rate`, `max_wheel_accel` (rad/s, rad/s²), `max_steer_rate`,
+    /// `max_steer_accel` (`None` where the file sets none: unlimited), and the body limits
+    /// every command uses, `max_accel` (m/s²), `max_yaw_accel` (rad/s²) — from the file, else
+    /// derived from the motor limits — and `max_jerk` (m/s³, `None`: unlimited).
     #[getter]
     fn limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let l = &self.desc.limits;
+        let b = self.desc.body_limits();
         let d = PyDict::new(py);
         d.set_item("max_wheel_rate", l.max_wheel_rate)?;
         d.set_item("max_wheel_accel", l.max_wheel_accel)?;
         d.set_item("max_steer_rate", l.max_steer_rate)?;
         d.set_item("max_steer_accel", l.max_steer_accel)?;
+        d.set_item("max_accel", b.max_accel)?;
+        d.set_item("max_yaw_accel", b.max_yaw_accel)?;
+        d.set_item("max_jerk", b.max_jerk)?;
         Ok(d)
     }
 
