@@ -61,7 +61,8 @@ pub use ballbot_dynamics::{
     BallbotDynamicsSpec, DEFAULT_LEAN_MARGIN, DEFAULT_MAX_TILT_DEG, WeightsSpec,
 };
 pub use body_limits::{
-    BODY_ACCEL_RANGE, BODY_JERK_RANGE, BodyLimits, LimitSource, YAW_ACCEL_RANGE,
+    BODY_ACCEL_RANGE, BODY_JERK_RANGE, BodyLimits, DEFAULT_ACCEL, DEFAULT_YAW_ACCEL,
+    DIRECTION_STEP_DEG, LimitSource, YAW_ACCEL_RANGE,
 };
 pub use dynamics::SphereDynamicsSpec;
 pub use events::{EventLevels, EventSpec};
