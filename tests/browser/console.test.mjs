@@ -134,9 +134,11 @@ test('dead-man teleop moves the robot; release stops it within the watchdog time
   // Without the dead-man the arrow does nothing: the robot must stop while the arrow stays down.
   const before = await pose();
   await page.keyboard.up('Shift');
+  // The mode first, then the pose: a pose read before the mode could be an update older than
+  // the one that said idle (the robot still braking), and the check below would see it move.
   const stopped = await until('mode idle after release', async () => {
-    const p = await pose();
-    return (await text('mode')) === 'idle' && p;
+    if ((await text('mode')) !== 'idle') return null;
+    return pose();
   }, 5000, 20);
   await page.keyboard.up('ArrowUp');
   const dt = stopped.t - before.t;
