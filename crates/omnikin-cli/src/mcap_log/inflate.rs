@@ -196,29 +196,7 @@ mod tests {
 
     /// A file from the `mcap` crate's writer: `n` JSON messages on `/pose`, `compression`.
     fn written(n: u64, compression: Option<mcap::Compression>) -> Vec<u8> {
-        let mut buf = Vec::new();
-        let mut w = mcap::WriteOptions::new()
-            .compression(compression)
-            .chunk_size(Some(4096))
-            .create(std::io::Cursor::new(&mut buf))
-            .unwrap();
-        let s = w.add_schema("s", "jsonschema", b"{}").unwrap();
-        let c = w
-            .add_channel(s, "/pose", "json", &Default::default())
-            .unwrap();
-        for i in 0..n {
-            let h = mcap::records::MessageHeader {
-                channel_id: c,
-                sequence: i as u32,
-                log_time: 1000 + i,
-                publish_time: 0,
-            };
-            w.write_to_known_channel(&h, format!("{{\"i\":{i}}}").as_bytes())
-                .unwrap();
-        }
-        w.finish().unwrap();
-        drop(w);
-        buf
+        crate::mcap_log::scan::tests::written_with(n, 4096, compression)
     }
 
     /// The messages `(log time, data)` of a plain file, through the pre-scan's walk.

@@ -476,14 +476,24 @@ pub fn data(buf: &[u8], offset: usize) -> &[u8] {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    /// A file from the `mcap` crate's writer: `n` messages on `/pose`, chunks of `chunk` bytes.
+    /// A file from the `mcap` crate's writer: `n` JSON messages on `/pose`, chunks of `chunk`
+    /// bytes, uncompressed.
     fn written(n: u64, chunk: u64) -> Vec<u8> {
+        written_with(n, chunk, None)
+    }
+
+    /// [`written`] with chunks compressed by `compression` (also the inflate tests' file).
+    pub(in crate::mcap_log) fn written_with(
+        n: u64,
+        chunk: u64,
+        compression: Option<mcap::Compression>,
+    ) -> Vec<u8> {
         let mut buf = Vec::new();
         let mut w = mcap::WriteOptions::new()
-            .compression(None)
+            .compression(compression)
             .chunk_size(Some(chunk))
             .create(std::io::Cursor::new(&mut buf))
             .unwrap();
