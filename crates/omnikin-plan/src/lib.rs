@@ -13,6 +13,7 @@
 //! | [`profile`] | rest-to-rest 1-D velocity profiles: trapezoid and S-curve |
 //! | [`planner`] | timing under motor limits (re-timing, time-optimal forward–backward pass) and sampling |
 //! | [`generators`] | paper 000's experiments: the square (eq. 6.1) and the circle (eq. 6.3) |
+//! | [`map`] | maps (keep-out circles and polygons, keep-in polygon), the footprint, the shortest collision-free route and its smoothing |
 //! | [`limits`] | the stated limits: most samples, grid cells and waypoints, and the plausible range of every physical parameter |
 //! | [`steer_steps`] | a plan's steer-angle steps that its steer rates do not explain (a re-steer at rest between two samples) |
 //! | [`tilt`] | a sphere's quasi-static platform tilt along a plan, and slowing the moves that exceed a limit |
@@ -44,6 +45,7 @@ pub mod csv_number;
 pub mod generators;
 pub mod heading;
 pub mod limits;
+pub mod map;
 pub mod path;
 pub mod planner;
 pub mod profile;
