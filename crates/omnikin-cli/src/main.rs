@@ -244,7 +244,11 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
                 plan::PlanKind::Square(s) => (&s.common, None),
                 plan::PlanKind::Circle(c) => (&c.common, None),
                 plan::PlanKind::Waypoints(w) => (&w.common, Some(w.file.as_path())),
+                plan::PlanKind::Goal(g) => (&g.common, Some(g.map.as_path())),
             };
+            if let plan::PlanKind::Waypoints(w) = &a.kind {
+                inputs.extend(w.map.as_deref().map(|p| ("--map", p)));
+            }
             inputs.extend(robot(&common.robot));
             inputs.extend(file.map(|f| ("FILE", f)));
             files.extend(common.out.as_deref().map(|p| ("--out", p)));

@@ -1,4 +1,4 @@
-//! The command line of `omnikin plan`: its subcommands (square, circle, waypoints), their
+//! The command line of `omnikin plan`: its subcommands (square, circle, waypoints, goal), their
 //! flags with defaults and value checks, and the options every kind shares ([`Common`]).
 
 use std::path::PathBuf;
@@ -32,6 +32,9 @@ pub enum PlanKind {
     /// A path through waypoints from FILE: CSV `x,y[,heading]` (optional header) or TOML
     /// `[[waypoint]]` tables with x, y[, heading] (m, rad).
     Waypoints(WaypointArgs),
+    /// A collision-free path across a map (MAP.toml: keep-out circles and polygons, keep-in
+    /// polygon) from --from to --to, timed by the time-optimal planner.
+    Goal(GoalArgs),
 }
 
 /// Output format of the plan.
@@ -222,6 +225,53 @@ pub struct WaypointArgs {
     /// Reject instead of slowing down when a motor limit would be exceeded.
     #[arg(long, conflicts_with = "time_optimal")]
     pub no_retime: bool,
+    /// Check the path against this map (MAP.toml): every waypoint and every point of the path
+    /// must keep the footprint clear of every shape.
+    #[arg(long, value_name = "MAP.toml")]
+    pub map: Option<PathBuf>,
+    /// With --map: replace each leg that comes too close to a shape by the shortest
+    /// collision-free route between its waypoints (then filleted as `plan goal` does).
+    #[arg(long, requires = "map")]
+    pub repair: bool,
+    /// Footprint radius for --map, m [default: the robot file's geometry, see `plan goal`].
+    #[arg(long, allow_hyphen_values = true, value_parser = positive, requires = "map")]
+    pub footprint_radius: Option<f64>,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// `omnikin plan goal`.
+#[derive(Args, Debug)]
+pub struct GoalArgs {
+    /// The map: `[[keep_out]]` tables with circle = [x, y, radius] or polygon = [[x, y], …]
+    /// (counter-clockwise), optional `[keep_in] polygon` (world frame, m).
+    #[arg(long, value_name = "MAP.toml")]
+    pub map: PathBuf,
+    /// Start X,Y[,H] (m, m, rad; heading default 0).
+    #[arg(long, allow_hyphen_values = true, value_name = "X,Y[,H]")]
+    pub from: List,
+    /// Goal X,Y[,H] (m, m, rad; heading default the start's): the heading changes linearly
+    /// along the path.
+    #[arg(long, allow_hyphen_values = true, value_name = "X,Y[,H]")]
+    pub to: List,
+    /// Footprint radius, m: the robot's centre keeps this far from every shape [default: the
+    /// sphere's shell or the ballbot's ball radius; for wheeled bases the outermost wheel's
+    /// reach, a lower bound of the chassis].
+    #[arg(long, allow_hyphen_values = true, value_parser = positive)]
+    pub footprint_radius: Option<f64>,
+    /// Max speed along the path, m/s.
+    #[arg(long, default_value_t = 0.2, allow_hyphen_values = true, value_parser = positive)]
+    pub max_speed: f64,
+    /// Max acceleration along the path, m/s² [default: 0.5, or the robot's body limit if
+    /// lower; a value above the robot's limit is refused].
+    #[arg(long, allow_hyphen_values = true, value_parser = positive)]
+    pub max_accel: Option<f64>,
+    /// Max yaw rate, rad/s.
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = positive)]
+    pub max_yaw_rate: f64,
+    /// Max yaw acceleration, rad/s² [default: 2, or the robot's body limit if lower].
+    #[arg(long, allow_hyphen_values = true, value_parser = positive)]
+    pub max_yaw_accel: Option<f64>,
     #[command(flatten)]
     pub common: Common,
 }

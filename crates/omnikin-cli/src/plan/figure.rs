@@ -1,10 +1,12 @@
-//! The `--plot` figure of a plan (SVG): the path with direction arrows, the wheel rates over
+//! The `--plot` figure of a plan (SVG): the path with direction arrows (and the map's shapes
+//! for `plan goal` and `plan waypoints --map`), the wheel rates over
 //! time (one series per wheel), and the steer rates (one series per steer motor of robots
 //! with steering) or the speed and yaw rate.
 
 use std::path::Path as FsPath;
 
 use anyhow::Result;
+use omnikin_plan::map::{Map, Shape};
 use omnikin_plan::{Plan, RobotModel};
 
 use crate::plot::{self, Arrow, PALETTE, Series};
@@ -17,13 +19,48 @@ pub(super) fn plan_figure(
     title: &str,
     plan: &Plan,
     robot: &RobotModel,
+    map: Option<&Map>,
 ) -> Result<()> {
     plot::svg_file(flag, svg, (1300, 640), |root| {
-        draw_plan(root, title, plan, robot)
+        draw_plan(root, title, plan, robot, map)
     })
 }
 
-fn draw_plan(root: &plot::Area, title: &str, plan: &Plan, robot: &RobotModel) -> Result<()> {
+/// The outlines of a map's shapes (closed polylines; circles as 72-gons), keep-out first.
+fn map_outlines(map: &Map) -> Vec<Series> {
+    let outline = |shape: &Shape| -> Vec<(f64, f64)> {
+        match shape {
+            Shape::Circle { centre, radius } => (0..=72)
+                .map(|k| {
+                    let a = std::f64::consts::TAU * f64::from(k) / 72.0;
+                    (centre[0] + radius * a.cos(), centre[1] + radius * a.sin())
+                })
+                .collect(),
+            Shape::Polygon(v) => v.iter().chain(v.first()).map(|p| (p[0], p[1])).collect(),
+        }
+    };
+    let mut out: Vec<Series> = map
+        .keep_out
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            let label = if i == 0 { "keep-out" } else { "" };
+            Series::solid(label, outline(&o.shape), PALETTE[1])
+        })
+        .collect();
+    if let Some(k) = &map.keep_in {
+        out.push(Series::dashed("keep-in", outline(&k.shape), PALETTE[2]));
+    }
+    out
+}
+
+fn draw_plan(
+    root: &plot::Area,
+    title: &str,
+    plan: &Plan,
+    robot: &RobotModel,
+    map: Option<&Map>,
+) -> Result<()> {
     use plotters::prelude::*;
     root.fill(&WHITE).map_err(plot::draw_err)?;
     let root = root
@@ -58,7 +95,9 @@ fn draw_plan(root: &plot::Area, title: &str, plan: &Plan, robot: &RobotModel) ->
         "path (world frame), arrows = direction of motion",
         "x [m]",
         "y [m]",
-        &[Series::solid("planned path r_C", xy, PALETTE[0])],
+        &std::iter::once(Series::solid("planned path r_C", xy, PALETTE[0]))
+            .chain(map.map(map_outlines).unwrap_or_default())
+            .collect::<Vec<_>>(),
         &[],
         &arrows,
     )?;

@@ -2,13 +2,14 @@
 //! the robot file's motor limits and written as a plan CSV/JSON (conventions.md columns), with
 //! an optional SVG figure and a human summary on stderr.
 //!
-//! `args` holds the command line, `request` turns each kind into a planner call, `write`
+//! `args` holds the command line, `goal` plans across a map and checks a route against one, `request` turns each kind into a planner call, `write`
 //! writes the plan and the summary, `figure` draws the `--plot` SVG, `tilt` reports a sphere's
 //! platform tilt and applies `--max-tilt`, `lean` limits a ballbot's acceleration to its lean
 //! limit.
 
 mod args;
 mod figure;
+mod goal;
 mod lean;
 mod request;
 mod tilt;
@@ -27,6 +28,7 @@ pub fn run(a: &PlanArgs) -> Result<()> {
         PlanKind::Square(s) => square(s),
         PlanKind::Circle(c) => circle(c),
         PlanKind::Waypoints(w) => waypoints(w),
+        PlanKind::Goal(g) => goal::goal(g),
     }
     .map_err(name_the_flag)
 }

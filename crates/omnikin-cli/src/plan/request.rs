@@ -44,7 +44,7 @@ pub(super) fn square(a: &SquareArgs) -> Result<()> {
             format!("square at {} m/s is too fast for {}", a.speed, d.name)
         })
     })?;
-    finish_leaning(&a.common, &d, &robot, &what, &planned, lean)
+    finish_leaning(&a.common, &d, &robot, &what, &planned, lean, None)
 }
 
 pub(super) fn circle(a: &CircleArgs) -> Result<()> {
@@ -83,7 +83,7 @@ pub(super) fn circle(a: &CircleArgs) -> Result<()> {
             )
         })
     })?;
-    finish_leaning(&a.common, &d, &robot, &what, &planned, lean)
+    finish_leaning(&a.common, &d, &robot, &what, &planned, lean, None)
 }
 
 pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
@@ -102,53 +102,17 @@ pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
         ),
     }
     .map_err(|e| wp.locate(&file, e))?;
+    let (path, map) = super::goal::check_waypoints(a, &d, &wp, path)?;
     let (heading, heading_what) = waypoint_heading(a, &wp, &path, &file)?;
-    // The robot's body limits bound the request (a ballbot's acceleration is lowered to its
-    // lean limit below instead, with a note).
-    let body = d.body_limits();
-    let flag = crate::body_limits::flag;
-    let max_accel = match (a.max_accel, d.lean_acceleration_limit()) {
-        (Some(v), Some(_)) => v,
-        (given, _) => flag(
-            "--max-accel",
-            given,
-            body.max_accel,
-            body.max_accel_source,
-            "max_accel",
-            "m/s²",
-            &d,
-        )
-        .map(|v| {
-            if given.is_some() {
-                v
-            } else {
-                v.min(DEFAULT_MAX_ACCEL)
-            }
-        })?,
-    };
-    let max_yaw_accel = flag(
-        "--max-yaw-accel",
-        a.max_yaw_accel,
-        body.max_yaw_accel,
-        body.max_yaw_accel_source,
-        "max_yaw_accel",
-        "rad/s²",
+    let limits = motion_limits(
         &d,
-    )
-    .map(|v| {
-        if a.max_yaw_accel.is_some() {
-            v
-        } else {
-            v.min(DEFAULT_MAX_YAW_ACCEL)
-        }
-    })?;
-    let limits = MotionLimits {
-        max_speed: a.max_speed,
-        max_accel,
-        max_jerk: a.max_jerk,
-        max_yaw_rate: a.max_yaw_rate,
-        max_yaw_accel,
-    };
+        a.max_speed,
+        a.max_accel,
+        a.max_jerk,
+        a.max_yaw_rate,
+        a.max_yaw_accel,
+    )?;
+    let max_accel = limits.max_accel;
     let timing = if a.time_optimal {
         Timing::TimeOptimal { limits }
     } else {
@@ -204,7 +168,66 @@ pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
             format!("{file}: the requested timing is too fast for {}", d.name)
         })
     })?;
-    finish_leaning(&a.common, &d, &robot, &what, &planned, lean)
+    finish_leaning(&a.common, &d, &robot, &what, &planned, lean, map.as_ref())
+}
+
+/// The motion limits of a request: `--max-accel` and `--max-yaw-accel` bounded by the robot's
+/// body limits (their defaults lowered to them; a larger value given is refused, a ballbot's
+/// acceleration is left to its lean limit).
+pub(super) fn motion_limits(
+    d: &RobotDescription,
+    max_speed: f64,
+    max_accel_arg: Option<f64>,
+    max_jerk: f64,
+    max_yaw_rate: f64,
+    max_yaw_accel_arg: Option<f64>,
+) -> Result<MotionLimits> {
+    // The robot's body limits bound the request (a ballbot's acceleration is lowered to its
+    // lean limit below instead, with a note).
+    let body = d.body_limits();
+    let flag = crate::body_limits::flag;
+    let max_accel = match (max_accel_arg, d.lean_acceleration_limit()) {
+        (Some(v), Some(_)) => v,
+        (given, _) => flag(
+            "--max-accel",
+            given,
+            body.max_accel,
+            body.max_accel_source,
+            "max_accel",
+            "m/s²",
+            d,
+        )
+        .map(|v| {
+            if given.is_some() {
+                v
+            } else {
+                v.min(DEFAULT_MAX_ACCEL)
+            }
+        })?,
+    };
+    let max_yaw_accel = flag(
+        "--max-yaw-accel",
+        max_yaw_accel_arg,
+        body.max_yaw_accel,
+        body.max_yaw_accel_source,
+        "max_yaw_accel",
+        "rad/s²",
+        d,
+    )
+    .map(|v| {
+        if max_yaw_accel_arg.is_some() {
+            v
+        } else {
+            v.min(DEFAULT_MAX_YAW_ACCEL)
+        }
+    })?;
+    Ok(MotionLimits {
+        max_speed,
+        max_accel,
+        max_jerk,
+        max_yaw_rate,
+        max_yaw_accel,
+    })
 }
 
 /// A waypoint heading beyond ±2π is valid (the planner turns that far) but is far more often
@@ -290,15 +313,16 @@ fn waypoint_heading(
 }
 
 /// [`finish`], then a ballbot's lean-limit line.
-fn finish_leaning(
+pub(super) fn finish_leaning(
     c: &Common,
     d: &RobotDescription,
     robot: &RobotModel,
     what: &str,
     planned: &omnikin_plan::planner::Planned,
     lean: Option<super::lean::LeanLimit>,
+    map: Option<&omnikin_plan::map::Map>,
 ) -> Result<()> {
-    finish(c, d, robot, what, planned)?;
+    finish(c, d, robot, what, planned, map)?;
     if let Some(l) = &lean {
         super::lean::report(l, &planned.plan);
     }
@@ -322,13 +346,13 @@ const DEFAULT_MAX_ACCEL: f64 = 0.5;
 /// `plan waypoints --max-yaw-accel` when not given (or the robot's limit if lower), rad/s².
 const DEFAULT_MAX_YAW_ACCEL: f64 = 2.0;
 
-fn load_robot(robot: &str) -> Result<(RobotDescription, RobotModel)> {
+pub(super) fn load_robot(robot: &str) -> Result<(RobotDescription, RobotModel)> {
     let d = crate::kinematics::resolve_robot(robot)?;
     let m = RobotModel::from_description(&d)?;
     Ok((d, m))
 }
 
-fn initial_steer(c: &Common, robot: &RobotModel) -> Result<InitialSteer> {
+pub(super) fn initial_steer(c: &Common, robot: &RobotModel) -> Result<InitialSteer> {
     match &c.initial_steer {
         Some(g) if !robot.steerable() => bail!(
             "--initial-steer {:?} applies only to robot kinds with steering (caster3, swerve), not {}",

@@ -19,6 +19,7 @@ pub(super) fn finish(
     robot: &RobotModel,
     what: &str,
     planned: &Planned,
+    map: Option<&omnikin_plan::map::Map>,
 ) -> Result<()> {
     let (slowed, tilt_lines) = super::tilt::apply(d, c.max_tilt, planned)?;
     let planned = slowed.as_ref().unwrap_or(planned);
@@ -37,7 +38,7 @@ pub(super) fn finish(
     }
     if let Some(svg) = &c.plot {
         let title = format!("{} — {}", d.name, what.split(':').next().unwrap_or(what));
-        plan_figure("--plot", svg, &title, plan, robot)?;
+        plan_figure("--plot", svg, &title, plan, robot, map)?;
     }
     summary(c, d, robot, what, planned);
     for line in tilt_lines {
