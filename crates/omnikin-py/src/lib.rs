@@ -12,6 +12,7 @@ mod kernels;
 mod odometry;
 mod options;
 mod plan;
+mod plan_goal;
 mod pose_error;
 mod robot;
 mod sim;

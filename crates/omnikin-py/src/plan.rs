@@ -1,4 +1,5 @@
-//! `omnikin.plan(robot, "square" | "circle" | "waypoints", **options)`: the requests of
+//! `omnikin.plan(robot, "square" | "circle" | "waypoints" | "goal", **options)` (goal in
+//! [`crate::plan_goal`]): the requests of
 //! `omnikin plan` (crates/omnikin-cli/src/plan/request.rs) with the same options, defaults and
 //! checks, planned by [`omnikin_plan::planner::plan`] without the GIL; the plan comes back as
 //! its CSV columns.
@@ -49,7 +50,7 @@ fn on_limit(o: &mut Options) -> PyResult<OnLimit> {
     })
 }
 
-fn initial_steer(o: &mut Options, robot: &RobotModel) -> PyResult<InitialSteer> {
+pub(crate) fn initial_steer(o: &mut Options, robot: &RobotModel) -> PyResult<InitialSteer> {
     match o.list("initial_steer")? {
         Some(g) if !robot.steerable() => Err(value_error(format!(
             "initial_steer {g:?} applies only to robot kinds with steering (caster3, swerve), not {}",
@@ -155,7 +156,7 @@ fn points_waypoints(points: &Bound<'_, PyAny>) -> PyResult<Waypoints> {
 }
 
 /// The path, heading law and options of a request, and the context of a "too fast" error.
-type Request = (Path, HeadingLaw, PlanOptions, String);
+pub(crate) type Request = (Path, HeadingLaw, PlanOptions, String);
 
 fn square(o: &mut Options, d: &PyRobot, robot: &RobotModel) -> PyResult<Request> {
     let sq = Square {
@@ -312,9 +313,10 @@ pub fn plan_columns<'py>(
         "square" => square(&mut o, robot, &model)?,
         "circle" => circle(&mut o, robot, &model)?,
         "waypoints" => waypoints(&mut o, robot, &model)?,
+        "goal" => crate::plan_goal::goal(&mut o, robot, &model)?,
         k => {
             return Err(value_error(format!(
-                "kind {k:?}: plan square, circle or waypoints"
+                "kind {k:?}: plan square, circle, waypoints or goal"
             )));
         }
     };

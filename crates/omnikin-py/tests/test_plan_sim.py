@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import omnikin
-from conftest import nums, read_csv
+from conftest import ROOT, nums, read_csv
 
 TOL = 1e-12
 
@@ -155,3 +155,27 @@ def test_evaluate_matches_cli(cli, tmp_path):
     # simulate's trials table is one run per trial.
     sim = omnikin.simulate("kiwi", p, trials=3, seed=2, threads=1)
     assert omnikin.evaluate(p, sim["trials"])["metrics"]["runs"] == 3
+
+
+MAP = "examples/maps/cluttered.toml"
+
+
+def test_goal_plan_matches_cli(cli, tmp_path):
+    # issue 40: the same request as `omnikin plan goal` gives the same plan, and it ends at
+    # the goal with the goal's heading.
+    options = {"map": str(ROOT / MAP), "start": [0.5, 0.5], "goal": [9.5, 9.5, 1.5],
+               "footprint_radius": 0.2, "max_speed": 0.3}
+    got = omnikin.plan("kiwi", "goal", **options)
+    f = tmp_path / "plan.csv"
+    cli.run("plan", "goal", "--robot", "kiwi", "--map", MAP, "--from", "0.5,0.5",
+            "--to", "9.5,9.5,1.5", "--footprint-radius", "0.2", "--max-speed", "0.3", "--out", f)
+    assert_table(got, read_csv(f))
+    assert abs(got["x"][-1] - 9.5) < 1e-6 and abs(got["heading"][-1] - 1.5) < 1e-6
+
+
+def test_goal_errors_name_the_map_line():
+    with pytest.raises(ValueError, match=r"cluttered.toml:6: .*goal .*inside"):
+        omnikin.plan("sphere-omni", "goal", map=str(ROOT / MAP), start=[0.5, 0.5],
+                     goal=[4.65, 8.17])
+    with pytest.raises(ValueError, match="start: expected"):
+        omnikin.plan("sphere-omni", "goal", map=str(ROOT / MAP), start=[0.5], goal=[1, 1])

@@ -59,7 +59,7 @@ def _plan_args(plan_: PlanLike) -> dict:
 
 
 def plan(robot: Union[Robot, str], kind: str, **options: Any) -> Table:
-    """Plans ``kind`` ("square", "circle" or "waypoints") for ``robot`` within its motor limits,
+    """Plans ``kind`` ("square", "circle", "waypoints" or "goal") for ``robot`` within its motor limits,
     with the options of ``omnikin plan KIND`` (flag names with ``_`` for ``-``, same defaults):
 
     - every kind: ``rate`` (Hz, 100), ``initial_steer`` (steerable kinds: one angle per wheel,
@@ -73,7 +73,11 @@ def plan(robot: Union[Robot, str], kind: str, **options: Any) -> Table:
       "spline"), ``corners`` ("stop" | "fillet"), ``fillet_radius``, ``heading_law``
       ("constant" | "tangent" | "waypoints"), ``heading``, ``spin`` (rad/m),
       ``heading_offset``, ``max_speed``, ``max_accel``, ``max_jerk``, ``max_yaw_rate``,
-      ``max_yaw_accel``, ``profile``, ``time_optimal``, ``no_retime``.
+      ``max_yaw_accel``, ``profile``, ``time_optimal``, ``no_retime``;
+    - goal (``omnikin plan goal``): ``map`` (a MAP.toml path, required), ``start`` and ``goal``
+      (``[x, y]`` or ``[x, y, heading]``; m, rad, world frame; required), ``footprint_radius``
+      (m; default from the robot's geometry), ``max_speed``, ``max_accel``, ``max_yaw_rate``,
+      ``max_yaw_accel``: the shortest collision-free route, filleted, timed time-optimally.
 
     Returns the plan CSV's columns ``t, x, y, heading, vx, vy, yaw_rate, w1..wN`` (world frame;
     s, m, rad, m/s, rad/s) and, for steerable kinds, ``s1..sN, sd1..sdN`` (rad, rad/s). A

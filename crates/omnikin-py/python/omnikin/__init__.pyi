@@ -84,7 +84,7 @@ class Robot:
 
 def plan(robot: Union[Robot, str], kind: str, **options: Any) -> Table:
     """A plan's CSV columns (``t, x, y, heading, vx, vy, yaw_rate, w1..wN[, s1..sN, sd1..sdN]``;
-    world frame) for kind ``square``, ``circle`` or ``waypoints`` with ``omnikin plan``'s
+    world frame) for kind ``square``, ``circle``, ``waypoints`` or ``goal`` with ``omnikin plan``'s
     options."""
 
 def simulate(
