@@ -788,6 +788,63 @@ fn an_obstacle_is_one_collision_event_in_every_log() {
 /// uncompressed JSON was 460 MB).
 const MAX_BYTES_PER_HOUR: f64 = 50e6;
 
+/// The MCAP file `path` of a `robot --mcap` run of `max_time` s of robot time: every chunk
+/// zstd-compressed without message indexes, at most [`MAX_BYTES_PER_HOUR`].
+fn compressed_within_bound(path: &Path, max_time: f64) {
+    let bytes = std::fs::read(path).unwrap();
+    let summary = mcap::Summary::read(&bytes).unwrap().expect("a summary");
+    assert!(!summary.chunk_indexes.is_empty());
+    let (mut packed, mut plain) = (0, 0);
+    for c in &summary.chunk_indexes {
+        assert_eq!(c.compression, "zstd", "chunk at {}", c.chunk_start_offset);
+        // No message index records (mcap_log/mod.rs: 16 bytes a message, uncompressed).
+        assert!(c.message_index_offsets.is_empty());
+        packed += c.compressed_size;
+        plain += c.uncompressed_size;
+    }
+    // Compression pays over the file (the last chunk, a few messages, may not shrink).
+    assert!(3 * packed < plain, "{packed} of {plain} bytes");
+    let per_hour = bytes.len() as f64 * 3600.0 / max_time;
+    eprintln!(
+        "robot --mcap: {} bytes for {max_time} s, {:.1} MB per hour",
+        bytes.len(),
+        per_hour / 1e6
+    );
+    assert!(
+        per_hour <= MAX_BYTES_PER_HOUR,
+        "{:.1} MB per hour",
+        per_hour / 1e6
+    );
+}
+
+/// `robot --mcap` at 100 Hz following a plan (`/reference` on as well, the largest log: 83 MB
+/// per hour as JSON): within [`MAX_BYTES_PER_HOUR`], and the plan was followed to its end.
+#[test]
+fn robot_mcap_following_a_plan_is_within_the_bound() {
+    let dir = tmp("size-plan");
+    let plan = square_plan(&dir);
+    let rmcap = dir.join("robot.mcap");
+    let max_time = 40.0;
+    let robot = Robot::start(&["--max-time", "40", "--mcap", p(&rmcap)]);
+    let out = common::drive(&robot.addr, "2", &["plan", p(&plan), "--set-pose"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    robot.summary();
+    compressed_within_bound(&rmcap, max_time);
+    let msgs = read(&rmcap);
+    let reference = on(&msgs, "/reference");
+    let poses = on(&msgs, "/pose");
+    assert!(
+        reference.len() * 3 > poses.len(),
+        "{} /reference of {} /pose",
+        reference.len(),
+        poses.len()
+    );
+}
+
 /// `robot --mcap` at 100 Hz (a moving robot with the hardware profile's sensor noise, so the
 /// data is not constant): every chunk zstd-compressed, at most [`MAX_BYTES_PER_HOUR`] per hour
 /// of robot time (issue 33: uncompressed JSON was ~460 MB), and `convert` reads the compressed
@@ -817,36 +874,13 @@ fn robot_mcap_is_zstd_compressed_and_converts() {
     );
     assert!(out.status.success());
     robot.summary();
-    let bytes = std::fs::read(&rmcap).unwrap();
-    let summary = mcap::Summary::read(&bytes).unwrap().expect("a summary");
-    assert!(!summary.chunk_indexes.is_empty());
-    let (mut packed, mut plain) = (0, 0);
-    for c in &summary.chunk_indexes {
-        assert_eq!(c.compression, "zstd", "chunk at {}", c.chunk_start_offset);
-        // No message index records (mcap_log/mod.rs: 16 bytes a message, uncompressed).
-        assert!(c.message_index_offsets.is_empty());
-        packed += c.compressed_size;
-        plain += c.uncompressed_size;
-    }
-    // Compression pays over the file (the last chunk, a few messages, may not shrink).
-    assert!(3 * packed < plain, "{packed} of {plain} bytes");
+    compressed_within_bound(&rmcap, max_time);
     let rows = read_rows(&rlog);
     // 100 Hz: one row per control cycle over the whole run.
     assert!(
         rows.len() as f64 >= 0.99 * 100.0 * max_time,
         "{}",
         rows.len()
-    );
-    let per_hour = bytes.len() as f64 * 3600.0 / max_time;
-    eprintln!(
-        "robot --mcap: {} bytes for {max_time} s, {:.1} MB per hour",
-        bytes.len(),
-        per_hour / 1e6
-    );
-    assert!(
-        per_hour <= MAX_BYTES_PER_HOUR,
-        "{:.1} MB per hour",
-        per_hour / 1e6
     );
     // The compressed file converts: one /pose row per CSV log row, the same poses.
     let csv = dir.join("csv");
