@@ -34,7 +34,10 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 "$PY" -m venv "$tmp/venv" || skip "$PY -m venv failed (install python3-venv)"
 pip=("$tmp/venv/bin/pip" --disable-pip-version-check --quiet)
-"${pip[@]}" install pytest matplotlib || skip "cannot install pytest and matplotlib from PyPI"
+# mcap + mcap-protobuf-support: test_mcap_logs.py reads `robot --mcap` files with the standard
+# readers (issue 33).
+"${pip[@]}" install pytest matplotlib mcap mcap-protobuf-support \
+  || skip "cannot install pytest, matplotlib, mcap and mcap-protobuf-support from PyPI"
 # --locked: the extension builds against the committed Cargo.lock, like every other crate.
 MATURIN_PEP517_ARGS="--locked" "${pip[@]}" install ./crates/omnikin-py
 cargo build -p omnikin-cli --locked --quiet

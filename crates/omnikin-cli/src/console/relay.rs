@@ -137,6 +137,40 @@ struct Relay {
     held: Option<RobotBusy>,
     /// The next handshake takes the robot over (the user acted while it was held).
     take_over: bool,
+    /// A plan run before the robot's clock was known: `/plan` waits for it.
+    plan_msg: PlanMessage,
+}
+
+/// `/plan` (Foxglove and the recording) at the robot's clock: the plan's poses are held until
+/// a telemetry frame of the session says what time it is on the robot (issue 33: a plan run
+/// before any telemetry was stamped at t = 0), then stamped at that frame's time.
+#[derive(Debug, Default)]
+struct PlanMessage(Option<Vec<omnikin::Pose2<f64>>>);
+
+impl PlanMessage {
+    /// A plan is run at robot time `now_us` (`None`: no telemetry yet): the `(time, poses)` to
+    /// write now, or `None` when they wait for [`telemetry`](Self::telemetry).
+    fn run(
+        &mut self,
+        now_us: Option<u64>,
+        poses: Vec<omnikin::Pose2<f64>>,
+    ) -> Option<(u64, Vec<omnikin::Pose2<f64>>)> {
+        match now_us {
+            Some(t) => {
+                self.0 = None;
+                Some((t, poses))
+            }
+            None => {
+                self.0 = Some(poses);
+                None
+            }
+        }
+    }
+
+    /// A telemetry frame at robot time `time_us`: the held plan stamped at it, once.
+    fn telemetry(&mut self, time_us: u64) -> Option<(u64, Vec<omnikin::Pose2<f64>>)> {
+        self.0.take().map(|p| (time_us, p))
+    }
 }
 
 /// Runs the relay until the hub shuts down. `first` is the session opened (and its address
@@ -158,6 +192,7 @@ pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: Consol
         enc: crate::mcap_log::Encoder::new("omnikin console"),
         held: None,
         take_over: false,
+        plan_msg: PlanMessage::default(),
     };
     r.record_status();
     let mut op = Some(first);
@@ -213,6 +248,8 @@ pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: Consol
         last_error.clear();
         r.info = Some(info);
         r.prev = None;
+        // A plan held for the last session's clock is not this session's.
+        r.plan_msg = PlanMessage::default();
         r.enc = crate::mcap_log::Encoder::new("omnikin console");
         // An e-stop asked for before this session is sent in it, and confirmed by it
         // (sequence numbers start again with every session).
@@ -432,27 +469,14 @@ impl Relay {
                     return Ok(());
                 }
                 let id = (crate::link_io::epoch_seq() & 0xffff) as u16;
-                let now_us = self.prev.map_or(0, |t| t.time_us);
-                if let Some(fox) = &self.cfg.fox {
-                    use crate::mcap_log::foxglove as fg;
-                    let ns = now_us.saturating_mul(1000);
-                    let poses: Vec<omnikin::Pose2<f64>> = pts
-                        .iter()
-                        .map(|w| {
-                            omnikin::Pose2::new(
-                                w.pose[0].into(),
-                                w.pose[1].into(),
-                                w.pose[2].into(),
-                            )
-                        })
-                        .collect();
-                    fox.publish(fg::PLAN, ns, &fg::poses_in_frame(ns, &poses));
-                }
-                if let Some(r) = self.rec.as_mut()
-                    && let Err(e) = crate::mcap_log::drive_plan(&mut r.log, now_us, &pts)
-                {
-                    self.event("error", &format!("recording: {e:#}"));
-                    self.record(false);
+                let poses = pts
+                    .iter()
+                    .map(|w| {
+                        omnikin::Pose2::new(w.pose[0].into(), w.pose[1].into(), w.pose[2].into())
+                    })
+                    .collect();
+                if let Some((us, poses)) = self.plan_msg.run(self.prev.map(|t| t.time_us), poses) {
+                    self.write_plan(us, &poses);
                 }
                 self.event(
                     "info",
@@ -572,6 +596,9 @@ impl Relay {
         }
         if let Some(pr) = prev {
             self.events_between(&pr, &t);
+        }
+        if let Some((us, poses)) = self.plan_msg.telemetry(t.time_us) {
+            self.write_plan(us, &poses);
         }
         let next = self.advance_upload(&t);
         if let Some(f) = &mut self.follow {
@@ -771,6 +798,21 @@ impl Relay {
 
     /// Starts or stops the recording (a new file `console-<unix time>.mcap` in the record
     /// directory each time, never overwriting one).
+    /// `/plan` at robot time `time_us`: to Foxglove (`--foxglove`) and the recording.
+    fn write_plan(&mut self, time_us: u64, poses: &[omnikin::Pose2<f64>]) {
+        let ns = time_us.saturating_mul(1000);
+        if let Some(fox) = &self.cfg.fox {
+            use crate::mcap_log::foxglove as fg;
+            fox.publish(fg::PLAN, ns, &fg::poses_in_frame(ns, poses));
+        }
+        if let Some(r) = self.rec.as_mut()
+            && let Err(e) = r.log.plan(crate::mcap_log::foxglove::seconds(ns), poses)
+        {
+            self.event("error", &format!("recording: {e:#}"));
+            self.record(false);
+        }
+    }
+
     fn record(&mut self, on: bool) {
         match (on, self.rec.take()) {
             (true, Some(r)) => self.rec = Some(r),
@@ -1016,6 +1058,22 @@ mod tests {
             estop_seq: 0,
             clear_seq: 0,
         }
+    }
+
+    #[test]
+    fn plan_waits_for_the_robot_clock() {
+        let poses = vec![omnikin::Pose2::new(1.0, 2.0, 0.5)];
+        let mut m = PlanMessage::default();
+        // No telemetry yet: nothing at t = 0; the first frame stamps it, once.
+        assert_eq!(m.run(None, poses.clone()), None);
+        assert_eq!(m.telemetry(2_050_000), Some((2_050_000, poses.clone())));
+        assert_eq!(m.telemetry(2_060_000), None);
+        // The clock known: at once, at that time, and nothing held.
+        assert_eq!(
+            m.run(Some(3_000_000), poses.clone()),
+            Some((3_000_000, poses))
+        );
+        assert_eq!(m.telemetry(3_010_000), None);
     }
 
     #[test]

@@ -10,7 +10,9 @@
 //! (as in the telemetry log), `/events` `t,level,name,message`. A cell the message does not
 //! have is empty. A truncated file (a killed process) is converted up to its last complete
 //! chunk, with a warning. zstd chunks (what omnikin writes) are decompressed first, each
-//! bounded by its declared size ([`super::inflate`]).
+//! bounded by its declared size ([`super::inflate`]). Messages may be protobuf (what omnikin
+//! writes) or JSON (what it wrote before), per channel ([`super::proto::Encoding`]); a message
+//! that does not decode is named by its channel, log time and offset.
 //!
 //! CSV → MCAP (`convert IN --mcap out.mcap`): IN is a directory of such files (the round trip),
 //! or one CSV log: `robot --log`, `drive … --out`, `simulate`'s `trials.csv` or a pose CSV
@@ -27,6 +29,7 @@ use omnikin::runtime::{Faults, Mode};
 use serde_json::Value;
 
 use super::foxglove::{self as fg, Counters, Topic};
+use super::proto::Encoding;
 use super::{McapLog, Sample};
 
 /// Largest input file, bytes (read whole): 1 GiB, as the other logs' limit.
@@ -75,8 +78,10 @@ fn read_limited(path: &Path) -> Result<Vec<u8>> {
 pub struct Decoded<'a> {
     /// Log time, ns.
     pub log_time: u64,
-    /// The message bytes (JSON for omnikin's channels).
+    /// The message bytes.
     pub data: &'a [u8],
+    /// Where its record body starts in the (inflated) file.
+    pub offset: u32,
 }
 
 impl<'a> Decoded<'a> {
@@ -87,12 +92,8 @@ impl<'a> Decoded<'a> {
         Self {
             log_time: super::scan::log_time(buf, o),
             data: super::scan::data(buf, o),
+            offset,
         }
-    }
-
-    /// The JSON message (`Null` if it is not JSON).
-    pub fn value(&self) -> Value {
-        serde_json::from_slice(self.data).unwrap_or(Value::Null)
     }
 }
 
@@ -103,8 +104,9 @@ const _: () = assert!(MAX_INPUT_BYTES < u32::MAX as u64);
 #[derive(Default)]
 pub struct Channels {
     /// omnikin's channels, sorted by topic (also under `/trial-NNN`): topic, its [`Topic`],
-    /// the offsets of its messages' records in the file, in file order ([`Decoded::at`]).
-    pub ours: Vec<(String, Topic, Vec<u32>)>,
+    /// its messages' encoding, the offsets of its messages' records in the file, in file order
+    /// ([`Decoded::at`]).
+    pub ours: Vec<(String, Topic, Encoding, Vec<u32>)>,
     /// Other channels: `topic (schema)` with control characters escaped, and how many messages
     /// they have.
     pub skipped: BTreeMap<String, usize>,
@@ -149,11 +151,16 @@ pub fn read_mcap(buf: &[u8], shown: &str) -> Result<(Channels, Option<String>)> 
         let slot = by_id.entry(m.channel.id).or_insert_with(|| {
             let c = &m.channel;
             let schema = c.schema.as_ref().map_or("", |s| s.name.as_str());
+            let encoding = c
+                .schema
+                .as_ref()
+                .and_then(|s| Encoding::of(&c.message_encoding, &s.encoding));
             match fg::topic(&c.topic)
-                .filter(|t| t.schema.name == schema && c.message_encoding == fg::MESSAGE_ENCODING)
+                .filter(|t| t.schema.name == schema)
+                .zip(encoding)
             {
-                Some(t) => Ok(*by_topic.entry(c.topic.clone()).or_insert_with(|| {
-                    out.ours.push((c.topic.clone(), t, Vec::new()));
+                Some((t, e)) => Ok(*by_topic.entry(c.topic.clone()).or_insert_with(|| {
+                    out.ours.push((c.topic.clone(), t, e, Vec::new()));
                     out.ours.len() - 1
                 })),
                 None => Err(format!("{} ({schema})", c.topic.escape_debug())),
@@ -166,7 +173,7 @@ pub fn read_mcap(buf: &[u8], shown: &str) -> Result<(Channels, Option<String>)> 
     }
     super::scan::messages(buf, scan.end, out.messages, |id, offset| {
         if let Some(Ok(k)) = by_id.get(&id) {
-            out.ours[*k].2.push(offset as u32);
+            out.ours[*k].3.push(offset as u32);
         }
     });
     out.ours.sort_by(|a, b| a.0.cmp(&b.0));
@@ -271,20 +278,27 @@ type RatesField = fn(&fg::WheelRates) -> &Option<Vec<f64>>;
 /// columns); a wheel-rate list longer than [`omnikin::MAX_WHEELS`] is an error.
 fn channel_csv(
     topic: Topic,
+    encoding: Encoding,
     buf: &[u8],
     offsets: &[u32],
     w: &mut dyn std::io::Write,
 ) -> Result<()> {
     let msgs = || offsets.iter().map(|&o| Decoded::at(buf, o));
     let t = |m: &Decoded| fg::seconds(m.log_time);
+    // A message that does not decode, or decodes to something that is not its schema's.
     let bad = |m: &Decoded| {
+        let why = match encoding.decode(topic, m.data) {
+            Err(e) => e,
+            Ok(_) => format!("not a {} message", topic.schema.name),
+        };
         anyhow::anyhow!(
-            "{} message at log time {} ns: not a {} message",
+            "{} message at log time {} ns (record at offset {} of the decompressed file): {why}",
             topic.name,
             m.log_time,
-            topic.schema.name
+            m.offset
         )
     };
+    let value = |m: &Decoded| encoding.decode(topic, m.data).unwrap_or(Value::Null);
     // One row at a time: `s` holds it until it is written.
     let mut s = String::new();
     let mut row = |s: &mut String, i: usize| -> Result<()> {
@@ -300,7 +314,7 @@ fn channel_csv(
             s.push_str("t,x,y,heading\n");
             let mut prev = None;
             for (i, m) in msgs().enumerate() {
-                let p = fg::decode_pose_in_frame(&m.value()).ok_or_else(|| bad(&m))?;
+                let p = fg::decode_pose_in_frame(&value(&m)).ok_or_else(|| bad(&m))?;
                 let h = unwrap(p.heading, prev);
                 prev = Some(h);
                 let _ = writeln!(s, "{},{},{},{h}", t(&m), p.x, p.y);
@@ -311,7 +325,7 @@ fn channel_csv(
             s.push_str("t,x,y,heading,parent_frame_id,child_frame_id\n");
             let mut prev = None;
             for (i, m) in msgs().enumerate() {
-                let v = m.value();
+                let v = value(&m);
                 let (p, parent, child) = fg::decode_frame_transform(&v).ok_or_else(|| bad(&m))?;
                 let h = unwrap(p.heading, prev);
                 prev = Some(h);
@@ -330,7 +344,7 @@ fn channel_csv(
         "foxglove.PosesInFrame" => {
             s.push_str("t,i,x,y,heading\n");
             for (i, m) in msgs().enumerate() {
-                let poses = fg::decode_poses_in_frame(&m.value()).ok_or_else(|| bad(&m))?;
+                let poses = fg::decode_poses_in_frame(&value(&m)).ok_or_else(|| bad(&m))?;
                 let mut prev = None;
                 for (k, p) in poses.iter().enumerate() {
                     let h = unwrap(p.heading, prev);
@@ -343,7 +357,7 @@ fn channel_csv(
         "foxglove.Log" => {
             s.push_str("t,level,name,message\n");
             for (i, m) in msgs().enumerate() {
-                let v = m.value();
+                let v = value(&m);
                 let (level, name, text) = fg::decode_log(&v).ok_or_else(|| bad(&m))?;
                 let _ = writeln!(s, "{},{level},{},{}", t(&m), cell(name), cell(text));
                 row(&mut s, i)?;
@@ -359,7 +373,7 @@ fn channel_csv(
             // Two passes: the widest list of each group sets the columns.
             let mut widths = [0usize; 4];
             for m in msgs() {
-                let r = fg::decode_wheel_rates(&m.value()).ok_or_else(|| bad(&m))?;
+                let r = fg::decode_wheel_rates(&value(&m)).ok_or_else(|| bad(&m))?;
                 for ((p, f), n) in groups.iter().zip(&mut widths) {
                     let k = f(&r).as_ref().map_or(0, Vec::len);
                     if k > omnikin::MAX_WHEELS {
@@ -381,7 +395,7 @@ fn channel_csv(
             }
             s.push('\n');
             for (i, m) in msgs().enumerate() {
-                let r = fg::decode_wheel_rates(&m.value()).ok_or_else(|| bad(&m))?;
+                let r = fg::decode_wheel_rates(&value(&m)).ok_or_else(|| bad(&m))?;
                 let _ = write!(s, "{}", t(&m));
                 for ((_, f), n) in groups.iter().zip(&widths) {
                     let v = f(&r);
@@ -400,7 +414,7 @@ fn channel_csv(
             }
             s.push('\n');
             for (i, m) in msgs().enumerate() {
-                let c = fg::decode_link_counters(&m.value()).ok_or_else(|| bad(&m))?;
+                let c = fg::decode_link_counters(&value(&m)).ok_or_else(|| bad(&m))?;
                 let _ = write!(s, "{}", t(&m));
                 for v in c.values() {
                     let _ = write!(s, ",{}", v.map(|v| v.to_string()).unwrap_or_default());
@@ -439,7 +453,11 @@ fn to_csv(input: &Path, dir: &Path) -> Result<()> {
     for (k, n) in &channels.skipped {
         crate::errln!("warning: channel {k}: not an omnikin channel, {n} messages skipped");
     }
-    let names: Vec<String> = channels.ours.iter().map(|(t, _, _)| file_name(t)).collect();
+    let names: Vec<String> = channels
+        .ours
+        .iter()
+        .map(|(t, _, _, _)| file_name(t))
+        .collect();
     // Topics are checked (`/trial-` digits, then one of the TOPICS), so names cannot collide;
     // still, no file is written twice.
     let distinct: std::collections::HashSet<&String> = names.iter().collect();
@@ -450,10 +468,10 @@ fn to_csv(input: &Path, dir: &Path) -> Result<()> {
     for n in &names {
         crate::output::check_file("--csv", &dir.join(n))?;
     }
-    for ((topic, t, list), name) in channels.ours.iter().zip(&names) {
+    for ((topic, t, e, list), name) in channels.ours.iter().zip(&names) {
         let path = dir.join(name);
         let mut out = crate::output::OutFile::create("--csv", &path)?;
-        channel_csv(*t, buf, list, &mut out)
+        channel_csv(*t, *e, buf, list, &mut out)
             .with_context(|| format!("{shown} -> {}", path.display()))?;
         crate::output::check_interrupted()?;
         out.commit()?;

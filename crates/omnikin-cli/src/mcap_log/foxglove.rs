@@ -4,9 +4,10 @@
 //! (`omnikin.WheelRates`, `omnikin.LinkCounters`), in this one place, for the MCAP logs
 //! ([`super::McapLog`]) and for a live Foxglove WebSocket server (`omnikin console`).
 //!
-//! Encoding: every message is a JSON object (MCAP `message_encoding` [`MESSAGE_ENCODING`]),
-//! described by a JSON Schema (MCAP schema `encoding` [`SCHEMA_ENCODING`]) whose name is the
-//! schema name Foxglove recognises; the schema texts below carry the fields of Foxglove's
+//! Encoding: every message is built as a JSON object (MCAP `message_encoding`
+//! [`MESSAGE_ENCODING`]), described by a JSON Schema (MCAP schema `encoding`
+//! [`SCHEMA_ENCODING`]) whose name is the schema name Foxglove recognises; the live server
+//! publishes them so, the MCAP files hold their protobuf form ([`super::proto`]); the schema texts below carry the fields of Foxglove's
 //! published JSON schemas that we fill (the optional `message_id` and `lineage` are left out).
 //!
 //! Frames and units (conventions.md): the floor frame is [`WORLD`], the robot frame is [`BASE`]

@@ -12,13 +12,16 @@
 //! and a chunk reaches the file only whole, so a process killed outright leaves a file that
 //! reads up to its last complete chunk; SIGINT/SIGTERM and errors close it properly (summary
 //! and footer) under the output rules of [`crate::output`] (temporary file renamed into place;
-//! a log is kept on every exit path). Chunks are zstd-compressed ([`COMPRESSION`]): a
-//! 100 Hz `robot --mcap` log is 58 MB (driven by velocity) to 83 MB (following a plan) per
-//! hour of robot time, about six times less than uncompressed (docs/seeing-the-robot.md); [`inflate`] reads them back with bounded memory.
+//! a log is kept on every exit path). Messages are protobuf ([`ENCODING`], [`proto`]) in
+//! zstd-compressed chunks ([`COMPRESSION`]) without message index records: a 100 Hz
+//! `robot --mcap` log is about 19 MB per hour of robot time driven by velocity (JSON with
+//! message indexes was 58.7 MB, following a plan 83 MB; docs/seeing-the-robot.md); [`inflate`]
+//! reads them back with bounded memory.
 
 pub mod convert;
 pub mod foxglove;
 pub mod inflate;
+pub mod proto;
 pub mod scan;
 
 use std::collections::HashMap;
@@ -34,6 +37,7 @@ use serde_json::Value;
 
 use crate::output::OutFile;
 use foxglove::{Counters, Level, Topic, WheelRates};
+use proto::Encoding;
 
 /// Uncompressed size of a chunk, bytes: what a killed process can lose at most (with
 /// [`FLUSH_EVERY`]).
@@ -42,6 +46,9 @@ pub const CHUNK_SIZE: u64 = 64 * 1024;
 /// 9 was measured 2 % smaller on a 30 s `robot --mcap` log (57.7 against 58.7 MB per hour) at
 /// a quarter of the speed: what is left after compression is the f64 values' low bits.
 pub const COMPRESSION: mcap::Compression = mcap::Compression::Zstd;
+/// Message encoding of every MCAP file omnikin writes: protobuf with Foxglove's schemas
+/// ([`proto`]): a 30 s 100 Hz `robot --mcap` log's chunks are 152 kB, about 250 kB as JSON.
+pub const ENCODING: Encoding = Encoding::Protobuf;
 /// Wall-clock time after which the open chunk is closed and written even if not full.
 pub const FLUSH_EVERY: Duration = Duration::from_secs(1);
 
@@ -167,6 +174,7 @@ pub struct McapLog {
     flag: String,
     path: String,
     encoder: Encoder,
+    encoding: Encoding,
     schemas: HashMap<&'static str, u16>,
     channels: HashMap<String, u16>,
     sequence: u32,
@@ -193,6 +201,10 @@ impl McapLog {
             .compression(Some(COMPRESSION))
             .chunk_size(Some(CHUNK_SIZE))
             .disable_seeking(true)
+            // A message index is 16 uncompressed bytes per message after each chunk: 60 % of a
+            // 100 Hz protobuf log. They are optional (readers find messages by the chunk
+            // indexes and read whole chunks); convert never used them.
+            .emit_message_indexes(false)
             .profile("")
             .library(concat!("omnikin ", env!("CARGO_PKG_VERSION")))
             .create(NoSeek::new(Sink(out)))
@@ -202,6 +214,7 @@ impl McapLog {
             flag: flag.to_string(),
             path: shown,
             encoder: Encoder::new(name),
+            encoding: ENCODING,
             schemas: HashMap::new(),
             channels: HashMap::new(),
             sequence: 0,
@@ -233,8 +246,8 @@ impl McapLog {
                     .writer
                     .add_schema(
                         topic.schema.name,
-                        foxglove::SCHEMA_ENCODING,
-                        topic.schema.data.as_bytes(),
+                        self.encoding.schema_encoding(),
+                        self.encoding.schema_data(topic),
                     )
                     .context(ctx.clone())?;
                 self.schemas.insert(topic.schema.name, id);
@@ -246,7 +259,7 @@ impl McapLog {
             .add_channel(
                 schema,
                 &name,
-                foxglove::MESSAGE_ENCODING,
+                self.encoding.message_encoding(),
                 &Default::default(),
             )
             .context(ctx)?;
@@ -257,7 +270,10 @@ impl McapLog {
     /// Writes one message on `prefix` + `topic` at log time `ns`.
     pub fn message(&mut self, prefix: &str, topic: Topic, ns: u64, v: &Value) -> Result<()> {
         let channel_id = self.channel(prefix, topic)?;
-        let data = serde_json::to_vec(v)?;
+        let data = self
+            .encoding
+            .encode(topic, v)
+            .map_err(|e| anyhow::anyhow!("{}: {prefix}{}: {e}", self.context(), topic.name))?;
         let header = mcap::records::MessageHeader {
             channel_id,
             sequence: self.sequence,

@@ -1,0 +1,120 @@
+"""`robot --sim --mcap` logs are standard MCAP: the PyPI `mcap` reader with
+`mcap-protobuf-support` (which builds each message type from the FileDescriptorSet in the
+file's schema records, as Foxglove does) reads every channel into DataFrame-ready columns
+that agree with the robot's CSV log (issue 33)."""
+
+import csv
+import math
+import socket
+import subprocess
+
+import mcap.reader as mcap_reader
+import mcap_protobuf.decoder as mcap_protobuf
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def columns(path) -> dict:
+    """Every message of an MCAP file, decoded, as columns per topic: `t` (log time, s) and
+    one list per field the messages carry (repeated fields as tuples)."""
+    out: dict = {}
+    with open(path, "rb") as f:
+        reader = mcap_reader.make_reader(f, decoder_factories=[mcap_protobuf.DecoderFactory()])
+        for schema, channel, message, proto in reader.iter_decoded_messages():
+            assert channel.message_encoding == "protobuf", channel.topic
+            assert schema.encoding == "protobuf", schema.name
+            assert proto.DESCRIPTOR.full_name == schema.name
+            cols = out.setdefault(channel.topic, {"t": []})
+            cols["t"].append(message.log_time / 1e9)
+            # The message's own timestamp is its log time.
+            stamp = proto.timestamp.seconds * 10**9 + proto.timestamp.nanos
+            assert stamp == message.log_time, channel.topic
+            for field, value in flat(proto):
+                cols.setdefault(field, []).append(value)
+    return out
+
+
+def flat(proto, prefix=""):
+    """(dotted name, value) of the fields of a message, nested messages flattened."""
+    for desc in proto.DESCRIPTOR.fields:
+        name = prefix + desc.name
+        value = getattr(proto, desc.name)
+        if desc.name == "timestamp":
+            continue
+        # `is_repeated` since protobuf 5 (`label` is gone in 7).
+        repeated = desc.is_repeated if hasattr(desc, "is_repeated") else desc.label == 3
+        if repeated:
+            if desc.message_type is None:
+                yield name, tuple(value)
+        elif desc.message_type is not None:
+            yield from flat(value, name + ".")
+        else:
+            yield name, value
+
+
+def read_log(path) -> dict:
+    """The robot's CSV log as columns (numbers where a column is numeric, e.g. not `mode`)."""
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    out = {}
+    for c in rows[0]:
+        try:
+            out[c] = [float(r[c]) for r in rows]
+        except ValueError:
+            out[c] = [r[c] for r in rows]
+    return out
+
+
+def yaw(qz: float, qw: float) -> float:
+    return 2.0 * math.atan2(qz, qw)
+
+
+def test_robot_mcap_reads_into_columns_with_the_standard_readers(cli, tmp_path):
+    log, mcap = tmp_path / "robot.csv", tmp_path / "robot.mcap"
+    addr = f"127.0.0.1:{free_port()}"
+    robot = subprocess.Popen(
+        [str(cli.path), "robot", "--sim", "--robot", "kiwi", "--listen", addr,
+         "--time-scale", "8", "--max-time", "16", "--log", str(log), "--mcap", str(mcap)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+    )
+    try:
+        cli.run("drive", "--connect", addr, "--heartbeat", "100", "--timeout", "2",
+                "velocity", "--vx", "0.2", "--yaw-rate", "0.5", "--for", "0.3")
+        _, err = robot.communicate(timeout=30)
+    finally:
+        if robot.poll() is None:
+            robot.kill()
+    assert robot.returncode == 0, err
+    rows = read_log(log)
+    cols = columns(mcap)
+    assert {"/pose", "/tf", "/truth", "/wheels", "/link", "/events"} <= set(cols)
+    pose = cols["/pose"]
+    n = len(rows["t"])
+    assert n > 100 and len(pose["t"]) == n
+    for c in ("pose.position.x", "pose.position.y", "pose.orientation.z", "pose.orientation.w"):
+        assert len(pose[c]) == n, c
+    moved = 0.0
+    for i in range(n):
+        assert abs(pose["t"][i] - rows["t"][i]) < 1e-9
+        assert abs(pose["pose.position.x"][i] - rows["x"][i]) < 2e-6
+        assert abs(pose["pose.position.y"][i] - rows["y"][i]) < 2e-6
+        h = yaw(pose["pose.orientation.z"][i], pose["pose.orientation.w"][i])
+        d = (h - rows["heading"][i] + math.pi) % (2 * math.pi) - math.pi
+        assert abs(d) < 2e-6
+        moved = max(moved, math.hypot(rows["x"][i], rows["y"][i]))
+    assert moved > 0.02, "the robot moved"
+    tf = cols["/tf"]
+    assert set(tf["parent_frame_id"]) == {"world"} and set(tf["child_frame_id"]) == {"base"}
+    # omnikin's own schemas: wheel rates (float, one per wheel) and the link counters.
+    wheels = cols["/wheels"]
+    assert all(len(c) == 3 for c in wheels["commanded"])
+    for c, r in zip(wheels["commanded"], zip(rows["w1"], rows["w2"], rows["w3"])):
+        assert all(abs(a - b) <= 1e-6 * max(1.0, abs(b)) for a, b in zip(c, r))
+    link = cols["/link"]
+    assert list(link["ok"]) == [int(x) for x in rows["rx_ok"]]
+    levels = set(cols["/events"]["level"])
+    assert levels <= {2, 3, 4}, levels
