@@ -52,4 +52,7 @@ run odometry --robot kiwi logs/kiwi-encoders.csv --fixes logs/kiwi-fixes.csv --i
     --out "$work/fused.csv" --plot ../docs/figures/tour-odometry.svg
 run reproduce sphere-2019 --profiles ideal,hardware --trials 3 --out "$work/reproduce" >/dev/null
 cp "$work/reproduce/circle-0.4-hardware.svg" ../docs/figures/tour-reproduce.svg
+# docs/maps.md's figure: the example map crossed corner to corner (issue 40).
+run plan goal --robot sphere-omni --map maps/cluttered.toml --from 0.5,0.5 --to 9.5,9.5,1.57 \
+    --rate 20 --out "$work/goal.csv" --plot ../docs/figures/maps-goal.svg
 echo "examples regenerated with $("$OMNIKIN" --version)"

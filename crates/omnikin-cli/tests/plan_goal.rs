@@ -212,7 +212,11 @@ fn waypoints_through_an_obstacle_are_refused_or_repaired_with_map() {
     );
     let (ok, out, err) = run(&[&base[..], &["--repair"]].concat());
     assert!(ok, "{err}");
-    assert!(err.contains("repaired"), "{err}");
+    assert!(err.contains("repaired: the path came within"), "{err}");
+    assert!(
+        err.contains("repaired around") && !err.contains("stop at corners"),
+        "{err}"
+    );
     let plan = Plan::read_csv(&out[..], "stdout").unwrap();
     for s in &plan.samples {
         assert!(

@@ -84,18 +84,18 @@ pub(super) fn goal(a: &GoalArgs) -> Result<()> {
     finish_leaning(&a.common, &d, &robot, &what, &planned, lean, Some(&map))
 }
 
-/// `plan waypoints --map`: `Ok((path, map))` when the path keeps the footprint clear of every
+/// `plan waypoints --map`: `Ok((path, map, repair))` when the path keeps the footprint clear of every
 /// shape (with `--repair`, after replacing the route by shortest routes between the
-/// waypoints); an error naming the first waypoint or point of the path that does not, and the
+/// waypoints, `repair` describing the new path); an error naming the first waypoint or point of the path that does not, and the
 /// shape's line, otherwise.
 pub(super) fn check_waypoints(
     a: &WaypointArgs,
     d: &RobotDescription,
     wp: &Waypoints,
     path: Path,
-) -> Result<(Path, Option<Map>)> {
+) -> Result<(Path, Option<Map>, Option<String>)> {
     let Some(map_file) = &a.map else {
-        return Ok((path, None));
+        return Ok((path, None, None));
     };
     let map = Map::load(map_file)?;
     let (f, _) = footprint(a.footprint_radius, d);
@@ -109,7 +109,7 @@ pub(super) fn check_waypoints(
         map.clearance(path.at(s).point) < f * (1.0 - omnikin_plan::map::route::CLEAR_TOLERANCE)
     });
     let Some(s) = first_clash else {
-        return Ok((path, Some(map)));
+        return Ok((path, Some(map), None));
     };
     if !a.repair {
         let p = path.at(s).point;
@@ -145,5 +145,13 @@ pub(super) fn check_waypoints(
         smoothed.path.length(),
         smoothed.min_clearance
     );
-    Ok((smoothed.path, Some(map)))
+    let repair = format!(
+        "repaired around {}: shortest routes between the waypoints, {}",
+        map.source_name,
+        match smoothed.fillet_radius {
+            Some(r) => format!("fillets of {r:.4} m"),
+            None => "stop at corners".into(),
+        }
+    );
+    Ok((smoothed.path, Some(map), Some(repair)))
 }

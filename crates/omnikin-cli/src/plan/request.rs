@@ -102,7 +102,7 @@ pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
         ),
     }
     .map_err(|e| wp.locate(&file, e))?;
-    let (path, map) = super::goal::check_waypoints(a, &d, &wp, path)?;
+    let (path, map, repair) = super::goal::check_waypoints(a, &d, &wp, path)?;
     let (heading, heading_what) = waypoint_heading(a, &wp, &path, &file)?;
     let limits = motion_limits(
         &d,
@@ -134,12 +134,12 @@ pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
     let what = format!(
         "{} waypoints from {file}: {}, heading {heading_what}, {}",
         wp.points.len(),
-        match (a.path, a.corners) {
+        repair.unwrap_or_else(|| match (a.path, a.corners) {
             (PathArg::Spline, _) => "quintic spline".to_string(),
             (PathArg::Polyline, CornerArg::Stop) => "polyline, stop at corners".into(),
             (PathArg::Polyline, CornerArg::Fillet) =>
                 format!("polyline, fillets of {} m", a.fillet_radius),
-        },
+        }),
         if a.time_optimal {
             format!(
                 "time-optimal within {} m/s, {} m/s²",

@@ -3,10 +3,11 @@
 //!
 //! The route's corners lie on polygons circumscribing arcs of radius at least the footprint
 //! radius `f`, so a fillet of radius up to `f` stays between the chords and the arc it
-//! replaces. The radius is also limited so that every fillet fits on its legs; then the path is
-//! sampled every `f / 50` (and at every piece's ends) and if any sample comes closer than `f`
-//! to a shape, the radius is halved (at most [`MAX_SHRINKS`] times) before falling back to a
-//! polyline that stops at its corners (the route itself, which is clear).
+//! replaces. The radius is also limited so that every fillet fits on its legs. The straight
+//! pieces lie on the route's segments, whose clearance the route search checked exactly; the
+//! fillet arcs are sampled every `f / 50` (ends included), and if any sample comes closer than
+//! `f` to a shape, the radius is halved (at most [`MAX_SHRINKS`] times) before falling back to
+//! a polyline that stops at its corners (the route itself, which is clear).
 
 use super::Map;
 use super::route::{CLEAR_TOLERANCE, Route};
@@ -23,7 +24,7 @@ pub struct Smoothed {
     pub path: Path,
     /// The fillet radius of its corners, m, or `None` when it stops at them.
     pub fillet_radius: Option<f64>,
-    /// The smallest clearance found over the checked samples, m (≥ `f`).
+    /// The smallest clearance of the route's segments and the fillets' samples, m (≥ `f`).
     pub min_clearance: f64,
 }
 
@@ -34,6 +35,29 @@ pub fn path_clearance(map: &Map, path: &Path, step: f64) -> f64 {
     (0..=n)
         .map(|k| map.clearance(path.at(l * k as f64 / n as f64).point))
         .fold(f64::INFINITY, f64::min)
+}
+
+/// Smallest clearance of the fillet arcs of `path` (a filleted polyline through `points` with
+/// fillets of `radius`), sampled every `step` metres and at their ends, m.
+fn fillet_clearance(map: &Map, path: &Path, points: &[[f64; 2]], radius: f64, step: f64) -> f64 {
+    let s_at = path.waypoint_arc_lengths();
+    let mut best = f64::INFINITY;
+    for k in 1..points.len() - 1 {
+        let (a, b) = (sub(points[k], points[k - 1]), sub(points[k + 1], points[k]));
+        let turn = (a[0] * b[1] - a[1] * b[0]).atan2(a[0] * b[0] + a[1] * b[1]);
+        // The fillet is centred on the waypoint's arc length (its closest point).
+        let half = radius * turn.abs() / 2.0;
+        let n = ((2.0 * half / step).ceil() as usize).max(1);
+        for j in 0..=n {
+            let s = s_at[k] - half + 2.0 * half * j as f64 / n as f64;
+            best = best.min(map.clearance(path.at(s.clamp(0.0, path.length())).point));
+        }
+    }
+    best
+}
+
+fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [a[0] - b[0], a[1] - b[1]]
 }
 
 /// Largest fillet radius that fits on every leg of `points`, m.
@@ -73,6 +97,11 @@ fn fitting_radius(points: &[[f64; 2]]) -> f64 {
 pub fn smooth(map: &Map, route: &Route, f: f64) -> Result<Smoothed, PlanningError> {
     let step = f / 50.0;
     let min_radius = crate::limits::LENGTH_RANGE.0;
+    let lines = route
+        .points
+        .windows(2)
+        .map(|w| map.segment_clearance(w[0], w[1]))
+        .fold(f64::INFINITY, f64::min);
     let mut radius = f.min(fitting_radius(&route.points) * (1.0 - 1e-9));
     if route.points.len() > 2 {
         for _ in 0..=MAX_SHRINKS {
@@ -80,7 +109,7 @@ pub fn smooth(map: &Map, route: &Route, f: f64) -> Result<Smoothed, PlanningErro
                 break;
             }
             if let Ok(path) = Path::polyline(&route.points, Corners::Fillet { radius }) {
-                let c = path_clearance(map, &path, step);
+                let c = lines.min(fillet_clearance(map, &path, &route.points, radius, step));
                 if c >= f * (1.0 - CLEAR_TOLERANCE) {
                     return Ok(Smoothed {
                         path,
@@ -92,11 +121,9 @@ pub fn smooth(map: &Map, route: &Route, f: f64) -> Result<Smoothed, PlanningErro
             radius /= 2.0;
         }
     }
-    let path = Path::polyline(&route.points, Corners::Stop)?;
-    let min_clearance = path_clearance(map, &path, step);
     Ok(Smoothed {
-        path,
+        path: Path::polyline(&route.points, Corners::Stop)?,
         fillet_radius: None,
-        min_clearance,
+        min_clearance: lines,
     })
 }

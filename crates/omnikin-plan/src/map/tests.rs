@@ -139,3 +139,26 @@ fn a_goal_walled_in_is_unreachable_and_the_walls_are_named() {
     // With a small footprint the gaps are open.
     assert!(shortest_route(&m, 0.02, [3.0, 0.0], [0.0, 0.0]).is_ok());
 }
+
+#[test]
+fn an_l_shaped_keep_in_is_turned_around_its_inner_corner() {
+    // The only way from the lower arm to the upper arm bends at the reflex corner (1, 1): the
+    // route is longer than the two straight legs through the corner itself (5.099 m) and
+    // shorter than the clear legs through (0.8, 0.8) (5.433 m).
+    let m = Map::from_toml(
+        "[keep_in]\npolygon = [[0, 0], [4, 0], [4, 1], [1, 1], [1, 4], [0, 4]]\n",
+        "m.toml",
+    )
+    .unwrap();
+    let (s, g, f) = ([3.5, 0.5], [0.5, 3.5], 0.2);
+    let route = shortest_route(&m, f, s, g).unwrap();
+    let via = |p: [f64; 2]| geometry::dist(s, p) + geometry::dist(p, g);
+    assert!(route.length > via([1.0, 1.0]), "{}", route.length);
+    assert!(route.length < via([0.8, 0.8]), "{}", route.length);
+    for w in route.points.windows(2) {
+        assert!(m.segment_clearance(w[0], w[1]) >= f * (1.0 - 1e-9));
+    }
+    let smooth = smooth::smooth(&m, &route, f).unwrap();
+    assert!(smooth.min_clearance >= f * (1.0 - 1e-9));
+    assert!(smooth::path_clearance(&m, &smooth.path, f / 50.0) >= f * (1.0 - 1e-9));
+}
