@@ -117,6 +117,7 @@ fn energy_lost_equals_the_work_of_the_contact_and_floor_forces_step_by_step() {
     let dt = 0.01;
     let mut lost = 0.0;
     let mut worst = 0.0f64;
+    let mut min_normal = f64::INFINITY;
     for k in 0..300 {
         let cmd = if k < 150 { go } else { [0.0; 3] };
         let e0 = sim.energy();
@@ -140,6 +141,7 @@ fn energy_lost_equals_the_work_of_the_contact_and_floor_forces_step_by_step() {
         }
         worst = worst.max(rel);
         lost -= st.floor_work.min(0.0);
+        min_normal = st.min_normal.iter().cloned().fold(min_normal, f64::min);
     }
     let ev = sim.contact_events();
     eprintln!(
@@ -150,5 +152,7 @@ fn energy_lost_equals_the_work_of_the_contact_and_floor_forces_step_by_step() {
         "the test needs sliding rollers"
     );
     assert!(lost > 0.0);
+    // The contact never pulls: a wheel whose normal force would go negative lifted instead.
+    assert!(min_normal >= 0.0, "normal force {min_normal} N");
     assert!(worst < 1e-6, "worst relative mismatch {worst}");
 }

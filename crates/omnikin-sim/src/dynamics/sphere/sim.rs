@@ -92,7 +92,7 @@ pub struct SphereStep {
     /// The motor is slipping at the end of the step (not at its commanded rate).
     pub slipping: [bool; 3],
     /// Roller normal forces `N_i` at the last sub-step, N (the shell pushing the wheel towards
-    /// its centre; what the centred platform needs, negative while a wheel is lifted).
+    /// its centre; 0 while the wheel is lifted, never negative with finite `roller_friction`).
     pub normal_forces: [f64; 3],
     /// Smallest roller normal force over the step's sub-steps, N.
     pub min_normal: [f64; 3],
@@ -435,7 +435,13 @@ impl SphereSim {
             for i in 0..3 {
                 torque[i] = kappa[i] * k1.lambda[i];
                 peak[i] = peak[i].max(torque[i].abs());
-                normal[i] = k1.normal[i];
+                // A lifted wheel carries no normal force (what the centred platform would need
+                // from it is not a force the contact applies).
+                normal[i] = if self.drive[i] == Drive::Lifted {
+                    0.0
+                } else {
+                    k1.normal[i]
+                };
                 min_normal[i] = min_normal[i].min(normal[i]);
             }
             floor_ratio = floor_ratio.max(k1.floor_ratio);

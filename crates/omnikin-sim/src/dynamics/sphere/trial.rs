@@ -32,8 +32,8 @@ pub struct DynamicTrial {
     pub contact_events: ContactEvents,
     /// Each contact event with the time of the plan step in which it began, in time order.
     pub contact_log: Vec<ContactEvent>,
-    /// Smallest roller normal force per wheel over the run, N (negative = the centred
-    /// platform would have needed the shell to pull: the wheel lifted).
+    /// Smallest roller normal force per wheel over the run, N (0 = the wheel lifted; negative
+    /// only with rigid contacts, where no wheel may lift).
     pub min_normal: [f64; 3],
 }
 
