@@ -326,6 +326,10 @@ impl DynamicPlant {
                     "plant": "dynamic", "trials": 1, "max_substep_s": p.max_substep,
                     "max_tilt_rad": run.max_tilt, "pull_outs": run.pull_outs,
                     "peak_motor_torque_nm": run.peak_torque,
+                    "roller_slips": run.contact_events.roller_slips,
+                    "lift_offs": run.contact_events.lift_offs,
+                    "floor_slips": run.contact_events.floor_slips,
+                    "min_roller_normal_n": run.min_normal,
                     "min_shell_spin_rad_s": run.shell_spin.iter().cloned().fold(0.0, f64::min),
                 });
             }
@@ -396,8 +400,13 @@ impl DynamicSimulation {
     pub fn summary_lines(&self, plant: &DynamicPlant) -> Vec<String> {
         match (&self.outcome, plant) {
             (DynamicOutcome::Sphere(run), _) => vec![format!(
-                "dynamic plant: largest tilt {:.3} rad, pull-out events {:?}",
-                run.max_tilt, run.pull_outs
+                "dynamic plant: largest tilt {:.3} rad, pull-out events {:?}, roller slips {:?}, \
+                 lift-offs {:?}, floor-cone exits {}",
+                run.max_tilt,
+                run.pull_outs,
+                run.contact_events.roller_slips,
+                run.contact_events.lift_offs,
+                run.contact_events.floor_slips
             )],
             (DynamicOutcome::Ballbot(run), DynamicPlant::Ballbot { config, .. }) => {
                 let deg = f64::to_degrees;

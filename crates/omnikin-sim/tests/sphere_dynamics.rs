@@ -211,7 +211,8 @@ fn the_lean_grows_a_smooth_circle_by_the_predicted_factor() {
     // tilted platform axes rolls the shell at v cos θ + R ω0 sin θ and, with the shell's spin
     // held by the pivot friction, turns the platform at ω0 cos θ − (v/R) sin θ: the radius
     // grows by (cos θ + (R/r) sin θ)/(cos θ − (r/R) sin θ) ≈ 1 + (R/r + r/R) θ.
-    let p = SphereDynamics::paper_000();
+    // Rigid roller contacts (slip off): the law is about the rolling kinematics alone.
+    let p = SphereDynamics::paper_000().rigid_contacts();
     let big_r = p.geometry.shell_radius;
     for v in [0.1, 0.2] {
         let radius = 0.2;
@@ -570,4 +571,66 @@ fn a_plan_runs_through_the_dynamic_model_into_the_metrics() {
         end < 0.0 && end > -0.2,
         "the heading lags after the full-speed start: {end}"
     );
+}
+
+#[test]
+fn rocking_decays_as_the_coulomb_damped_linearised_oscillator() {
+    // With the wheels held the robot rocks as one rigid body about the floor contact; the
+    // floor's rolling resistance is a Coulomb torque τ = C_rr M g R on the rocking angle θ.
+    // The linearised model I θ̈ + k θ = −τ sgn θ̇ (k = m_p g h) keeps the frequency
+    // ω = √(k/I) and loses 2τ/k of amplitude every half period (a linear, not exponential,
+    // decay that stops inside |θ| < τ/k). Exactly (any amplitude), between two turning points
+    // the potential released equals the friction's work: m_p g h (cos θ2 − cos θ1) = τ (θ1 + θ2).
+    let mut p = SphereDynamics::paper_000();
+    p.pivot_friction = 0.0;
+    p.rolling_velocity_scale = 1e-3;
+    let tau = p.rolling_resistance * p.total_mass() * p.gravity * p.geometry.shell_radius;
+    let k = p.platform_mass * p.gravity * p.com_depth;
+    let s0 = tilted(Vector3::x(), 0.15, Vector3::zeros(), Vector3::zeros());
+    let mut sim = SphereSim::with_state(p, s0).unwrap();
+    let dt = 0.002;
+    let (mut t, mut th) = (vec![0.0], vec![0.15f64]);
+    for _ in 0..1500 {
+        let st = sim.step(dt, [0.0; 3]).unwrap();
+        t.push(st.t);
+        // Rotation about +x by θ takes the z axis to (0, −sin θ, cos θ).
+        th.push((-st.platform_z[1]).atan2(st.platform_z[2]));
+    }
+    // Turning points (|θ| local maxima, parabolic refinement).
+    let mut turns = vec![(0.0, 0.15)];
+    for i in 1..th.len() - 1 {
+        let (a, b, c) = (th[i - 1].abs(), th[i].abs(), th[i + 1].abs());
+        if b > a && b >= c && b > 0.02 {
+            let den = a - 2.0 * b + c;
+            let off = if den != 0.0 { 0.5 * (a - c) / den } else { 0.0 };
+            turns.push((t[i] + off * dt, b - 0.25 * (a - c) * off));
+        }
+    }
+    assert!(turns.len() >= 5, "{turns:?}");
+    let omega = p.rocking_frequency(0);
+    let step_lin = 2.0 * tau / k;
+    for w in turns.windows(2).take(4) {
+        let ((t1, a1), (t2, a2)) = (w[0], w[1]);
+        // The exact energy balance of the Coulomb-damped rocking gives a2 from a1.
+        let mut a2_exact = a1 - step_lin;
+        for _ in 0..50 {
+            a2_exact = (a1.cos() + tau * (a1 + a2_exact) / k).acos();
+        }
+        eprintln!(
+            "half period {:.4} s (linear π/ω = {:.4} s); amplitude {a1:.5} → {a2:.5} rad \
+             (exact {a2_exact:.5}, linearised decrement {step_lin:.5})",
+            t2 - t1,
+            std::f64::consts::PI / omega
+        );
+        assert!(
+            (a2 - a2_exact).abs() < 0.02 * step_lin,
+            "{a2} vs {a2_exact}"
+        );
+        assert!(
+            ((a1 - a2) / step_lin - 1.0).abs() < 0.03,
+            "decrement {}",
+            a1 - a2
+        );
+        assert!(((t2 - t1) * omega / std::f64::consts::PI - 1.0).abs() < 0.02);
+    }
 }

@@ -29,6 +29,17 @@ fn the_table_is_optional_and_its_values_are_kept() {
     assert_eq!(s.platform_moments(), Some([0.003, 0.004, 0.006]));
     assert_eq!(s.pull_out_torque, Some(f64::INFINITY));
     assert_eq!(s.shell_mass, None);
+    let s = with(
+        "roller_friction = inf\nroller_viscous = 0.5\nroller_preload = 3.0\nfloor_friction = 0.3",
+    )
+    .unwrap()
+    .sphere_dynamics
+    .unwrap();
+    assert_eq!(s.roller_friction, Some(f64::INFINITY));
+    assert_eq!(
+        (s.roller_viscous, s.roller_preload, s.floor_friction),
+        (Some(0.5), Some(3.0), Some(0.3))
+    );
 }
 
 #[test]
@@ -61,6 +72,11 @@ fn bad_values_name_their_field() {
         ("pull_out_torque = 0.0", "dynamics.pull_out_torque"),
         ("pivot_friction = -0.001", "dynamics.pivot_friction"),
         ("tracked_height = 0.4", "dynamics.tracked_height"),
+        ("roller_friction = 0.0", "dynamics.roller_friction"),
+        ("roller_friction = nan", "dynamics.roller_friction"),
+        ("roller_viscous = -1.0", "dynamics.roller_viscous"),
+        ("roller_preload = -2.0", "dynamics.roller_preload"),
+        ("floor_friction = 0.0", "dynamics.floor_friction"),
         ("max_tilt_deg = 90.0", "dynamics.max_tilt_deg"),
     ] {
         let e = with(text).unwrap_err();

@@ -17,6 +17,10 @@
 //! rolling_resistance = 0.005                # C_rr (torque C_rr M g R)
 //! rolling_velocity_scale = 0.01             # its regularisation [rad/s]
 //! tracked_height = 0.12                     # tracked point above the floor contact [m]
+//! roller_friction = 0.5                     # roller-shell mu (inf = rigid, never slip or lift)
+//! roller_viscous = 1.0                      # sliding roller's viscous part [N s/m]
+//! roller_preload = 0.0                      # normal preload per wheel [N]
+//! floor_friction = 0.4                      # shell-floor mu (the floor force's cone)
 //! max_tilt_deg = 20.0                       # platform tilt a plan should not exceed [deg]
 //! ```
 //!
@@ -60,6 +64,14 @@ pub struct SphereDynamicsSpec {
     pub rolling_velocity_scale: Option<f64>,
     /// Height of the tracked point above the floor contact with the platform level, m.
     pub tracked_height: Option<f64>,
+    /// Roller–shell friction coefficient μ (`inf` = rigid contacts that never slip or lift).
+    pub roller_friction: Option<f64>,
+    /// Viscous part of a sliding roller's force, N·s/m.
+    pub roller_viscous: Option<f64>,
+    /// Normal preload per wheel, N.
+    pub roller_preload: Option<f64>,
+    /// Shell–floor friction coefficient (the floor force's cone).
+    pub floor_friction: Option<f64>,
     /// Largest platform tilt a plan should cause, degrees.
     pub max_tilt_deg: Option<f64>,
 }
@@ -154,6 +166,17 @@ impl SphereDynamicsSpec {
             "dynamics.rolling_velocity_scale",
             self.rolling_velocity_scale,
         )?;
+        if let Some(m) = self.roller_friction
+            && (m.is_nan() || m <= 0.0)
+        {
+            return Err((
+                "dynamics.roller_friction",
+                format!("must be > 0, or inf for rigid contacts (got {m})"),
+            ));
+        }
+        nonneg("dynamics.roller_viscous", self.roller_viscous)?;
+        nonneg("dynamics.roller_preload", self.roller_preload)?;
+        positive("dynamics.floor_friction", self.floor_friction)?;
         nonneg("dynamics.tracked_height", self.tracked_height)?;
         if let Some(z) = self.tracked_height
             && z > 2.0 * shell_radius

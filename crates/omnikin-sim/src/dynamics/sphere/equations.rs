@@ -19,6 +19,15 @@ pub(crate) enum Drive {
     /// force `f_i`; the motor torque is `κ_i λ_i`, see [`Model::kappa`]): 0 unpowered (wheel
     /// free), `± pull-out / |κ|` while slipping.
     Force(f64),
+    /// The motor turns the wheel at the commanded rate but the roller slides on the shell: the
+    /// roller force is the Coulomb + viscous law `f = d μ N + c v` (Karnopp's stick–slip
+    /// switching: `d = ±1` the direction of the force the sticking contact needed when it
+    /// began to slide, `v` the slip velocity along `α_i`, m/s), with the normal force `N`
+    /// (first field, N) frozen over the sub-step; it sticks again when `v d` reaches 0.
+    Slip(f64, f64),
+    /// The wheel has lost contact with the shell (its normal force would be negative): no
+    /// roller force.
+    Lifted,
 }
 
 /// The integrated state in one flat form for the Runge–Kutta stages.
@@ -101,6 +110,36 @@ pub(crate) struct Model {
     pub rolling_eps: f64,
     /// Tracked point along the platform's z axis from the shell centre, m.
     pub z_track: f64,
+    /// `α_i`, unit roller axes at the contact, platform frame.
+    pub alpha: [Vector3<f64>; 3],
+    /// Inverse of the matrix whose columns are the unit contact directions `p̂_i` (shell
+    /// centre → contact), platform frame: `N = P̂⁻¹ Qᵀ (Σ N_i p̂_i)`.
+    pub contact_inv: Matrix3<f64>,
+    /// Roller–shell friction coefficient μ (`f64::INFINITY` = rigid bilateral contacts).
+    pub mu: f64,
+    /// Roller–shell viscous coefficient `c`, N·s/m.
+    pub viscous: f64,
+    /// Normal preload per wheel, N.
+    pub preload: f64,
+}
+
+/// The time derivative of the state and what the forces were at that state.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Deriv {
+    /// `ẏ`.
+    pub d: Y,
+    /// Wheel constraint/contact forces `λ_i = f_i R/(R − R_i)`, N (motor torque `κ_i λ_i`).
+    pub lambda: [f64; 3],
+    /// Roller normal forces `N_i` (the shell pushing the wheel towards the centre), N,
+    /// including the preload; negative = the centred platform would need the shell to pull.
+    pub normal: [f64; 3],
+    /// Power of the wheel forces on shell + platform `Σ λ_i C_i u`, W.
+    pub contact_power: f64,
+    /// Power of the floor torque `τ_floor·Ω`, W.
+    pub floor_power: f64,
+    /// Horizontal floor force over the vertical one (the friction coefficient the floor must
+    /// supply); infinite when the vertical force is not positive.
+    pub floor_ratio: f64,
 }
 
 /// A matrix of the solve was singular (only for a state that is no longer finite).
@@ -115,6 +154,15 @@ impl Model {
         let kin = SphereOmni::new(p.geometry)?;
         let r = p.geometry.shell_radius;
         let sn = kin.s_dot_n();
+        let pts = kin.contact_points();
+        let cols =
+            Matrix3::from_columns(&[pts[0].normalize(), pts[1].normalize(), pts[2].normalize()]);
+        let contact_inv = cols.try_inverse().ok_or(DynamicsError::Parameter {
+            field: "geometry.tilt",
+            value: p.geometry.tilt,
+            rule: "the three wheel contacts' directions from the shell centre must span 3-D \
+                   (their normal forces carry the platform)",
+        })?;
         let m = Model {
             r,
             ms: p.shell_mass,
@@ -131,6 +179,11 @@ impl Model {
             rolling: p.rolling_resistance * p.total_mass() * p.gravity * r,
             rolling_eps: p.rolling_velocity_scale,
             z_track: p.tracked_height - r,
+            alpha: *kin.roller_axes(),
+            contact_inv,
+            mu: p.roller_friction,
+            viscous: p.roller_viscous,
+            preload: p.roller_preload,
         };
         Ok((m, kin))
     }
@@ -178,17 +231,34 @@ impl Model {
         t
     }
 
-    /// The time derivative of `y` with the motors in `drive` and the locked wheels'
-    /// commanded wheel accelerations `chi_dd` (rad/s²), and the wheel constraint forces `λ`
-    /// (the motor torques are `κ_i λ_i`).
+    /// Slip velocity of wheel `i`'s roller over the shell along `α_i`, m/s, for the commanded
+    /// wheel rate `chi_d` (rad/s): `R (κ_i χ̇_i − C_i u)/(R − R_i)` (the residual of paper 000
+    /// eq. 4.4 at the contact; positive = the wheel runs ahead of the shell).
+    pub fn slip_velocity(&self, i: usize, row: &Vector6<f64>, u: &Vector6<f64>, chi_d: f64) -> f64 {
+        self.r * (self.kappa[i] * chi_d - row.dot(u)) / self.lever[i]
+    }
+
+    /// The sliding roller's Coulomb + viscous force `d μ N + c v` for the slip velocity `v`
+    /// (m/s), the direction `dir` (±1) and the normal force `normal` (N), expressed as the
+    /// constraint force `λ = f R/(R − R_i)`, N.
+    pub fn friction_lambda(&self, i: usize, v: f64, dir: f64, normal: f64) -> f64 {
+        let f = dir * self.mu * normal.max(0.0) + self.viscous * v;
+        f * self.r / self.lever[i]
+    }
+
+    /// The time derivative of `y` with the motors in `drive`, the commanded wheel rates
+    /// `chi_d` (rad/s, for the slip velocity of a sliding roller) and accelerations `chi_dd`
+    /// (rad/s², for a locked wheel), and the forces at that state ([`Deriv`]).
     pub fn derivative(
         &self,
         y: &Y,
         drive: &[Drive; 3],
+        chi_d: &[f64; 3],
         chi_dd: &[f64; 3],
-    ) -> Result<(Y, [f64; 3]), Singular> {
+    ) -> Result<Deriv, Singular> {
         let f = self.frame(&y.q);
         let (w, big_w) = (y.w, y.big_w);
+        let u = y.u();
         let k = f.rot.column(2).into_owned();
         let jw = f.rot * self.jp * f.rot.transpose();
         // Ḃω = h (ω × k) × ω: the platform centre of mass's velocity-dependent acceleration.
@@ -196,7 +266,8 @@ impl Model {
         let rhs_w = k.cross(&GAMMA) * (self.mp * self.g * self.h)
             + k.cross(&wb) * (self.mp * self.h)
             - w.cross(&(jw * w));
-        let rhs_o = self.floor_torque(&big_w) - GAMMA.cross(&wb) * (self.mp * self.r);
+        let floor = self.floor_torque(&big_w);
+        let rhs_o = floor - GAMMA.cross(&wb) * (self.mp * self.r);
         let rhs = Vector6::new(rhs_w.x, rhs_w.y, rhs_w.z, rhs_o.x, rhs_o.y, rhs_o.z);
         let chol = f.mass.cholesky().ok_or(Singular("mass matrix"))?;
         let u0 = chol.solve(&rhs);
@@ -206,7 +277,7 @@ impl Model {
         let mut b = Vector3::zeros();
         let mut any_locked = false;
         for i in 0..3 {
-            match drive[i] {
+            let given = match drive[i] {
                 Drive::Locked => {
                     any_locked = true;
                     for j in 0..3 {
@@ -215,12 +286,17 @@ impl Model {
                     let sg = f.rot * self.s[i];
                     // C_i u̇ = κ_i χ̈_i − Ċ_i u, Ċ_i u = (ω × σ_i)·(Ω − ω).
                     b[i] = self.kappa[i] * chi_dd[i] - w.cross(&sg).dot(&rel) - f.rows[i].dot(&u0);
+                    continue;
                 }
-                Drive::Force(l) => {
-                    s[(i, i)] = 1.0;
-                    b[i] = l;
+                Drive::Force(l) => l,
+                Drive::Slip(n, dir) => {
+                    let v = self.slip_velocity(i, &f.rows[i], &u, chi_d[i]);
+                    self.friction_lambda(i, v, dir, n)
                 }
-            }
+                Drive::Lifted => 0.0,
+            };
+            s[(i, i)] = 1.0;
+            b[i] = given;
         }
         let lambda = if any_locked {
             s.lu()
@@ -230,16 +306,42 @@ impl Model {
             b
         };
         let ud = u0 + yc[0] * lambda[0] + yc[1] * lambda[1] + yc[2] * lambda[2];
-        let u = y.u();
+        let w_dot = Vector3::new(ud[0], ud[1], ud[2]);
+        let big_w_dot = Vector3::new(ud[3], ud[4], ud[5]);
+        // Platform centre of mass at C − h k: a_p = R Ω̇ × γ − h ω̇ × k − h ω × (ω × k).
+        let a_c = big_w_dot.cross(&GAMMA) * self.r;
+        let a_p = a_c - w_dot.cross(&k) * self.h - w.cross(&w.cross(&k)) * self.h;
+        // The platform's Newton equation: m_p a_p = −m_p g γ − Σ N_i p̂_i − Σ f_i α_i.
+        let mut push = -(a_p + GAMMA * self.g) * self.mp;
+        for i in 0..3 {
+            push -= f.rot * self.alpha[i] * (lambda[i] * self.lever[i] / self.r);
+        }
+        let n = self.contact_inv * (f.rot.transpose() * push);
+        let normal = [n.x + self.preload, n.y + self.preload, n.z + self.preload];
+        // The floor carries the rest: F = m_s a_C + m_p a_p + M g γ.
+        let ff = a_c * self.ms + a_p * self.mp + GAMMA * ((self.ms + self.mp) * self.g);
+        let floor_ratio = if ff.z > 0.0 {
+            ff.x.hypot(ff.y) / ff.z
+        } else {
+            f64::INFINITY
+        };
         let wq = Quaternion::new(0.0, w.x, w.y, w.z);
         let d = Y {
             q: wq * y.q * 0.5,
-            w: Vector3::new(ud[0], ud[1], ud[2]),
-            big_w: Vector3::new(ud[3], ud[4], ud[5]),
+            w: w_dot,
+            big_w: big_w_dot,
             p: self.centre_velocity(&big_w),
             chi: Vector3::from_fn(|i, _| f.rows[i].dot(&u) / self.kappa[i]),
         };
-        Ok((d, lambda.into()))
+        let contact_power = (0..3).map(|i| lambda[i] * f.rows[i].dot(&u)).sum();
+        Ok(Deriv {
+            d,
+            lambda: lambda.into(),
+            normal,
+            contact_power,
+            floor_power: floor.dot(&big_w),
+            floor_ratio,
+        })
     }
 
     /// Shell centre velocity from rolling without slip, `v = R Ω × γ`, world `(x, y)`, m/s.

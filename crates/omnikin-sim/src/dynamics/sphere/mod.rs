@@ -38,8 +38,28 @@
 //! wheels and rollers are massless (their inertia is lumped into the platform); each wheel
 //! touches the shell at one point (paper 000's ideal Mecanum wheel) and transmits force only
 //! along the roller axis `α_i` (plus a normal force through `C`, which has no moment about
-//! `C`); the shell rolls on the horizontal floor without slipping horizontally (floor friction
-//! is taken as sufficient); the normal force in the friction laws is the static `M g`.
+//! `C`); the shell rolls on the horizontal floor without slipping horizontally (the floor
+//! force's friction cone is checked and a step outside it reported, not simulated); the normal
+//! force in the floor's friction laws is the static `M g`.
+//!
+//! **Roller–shell contacts** (unilateral, with friction). The platform's Newton equation
+//! `m_p a_p = −m_p g γ − Σ N_i p̂_i − Σ f_i α_i` (`p̂_i` the unit direction from `C` to contact
+//! `i`, `f_i = λ_i (R − R_i)/R` the roller force, `a_p = R Ω̇ × γ − h ω̇ × k − h ω × (ω × k)`)
+//! gives the three normal forces `N_i` that keep the platform centred (the three contact
+//! directions span 3-D), plus a stated per-wheel preload
+//! ([`SphereDynamics::roller_preload`]). At the start of each sub-step: a wheel whose `N_i`
+//! would be ≤ 0 **lifts** (no roller force; [`SphereStep::lift_off`]); a sticking roller
+//! whose force would exceed `μ N_i` ([`SphereDynamics::roller_friction`]) **slides**
+//! ([`SphereStep::roller_slip`]) with the force `d μ N_i + c v` (Karnopp's stick–slip law:
+//! `d` the direction the sticking force had, `v` the slip velocity along `α_i`, `c`
+//! [`SphereDynamics::roller_viscous`]) until `v d` reaches 0, when it sticks again; a lifted
+//! wheel lands (sliding against the slip it built up while free) once its normal force stays
+//! positive with its own friction force applied. The motor's pull-out (below) is checked after
+//! the contact, whichever limit is lower binds. The platform's small departures from the
+//! centre that a real lift-off allows are not modelled. `N_i` is frozen within a sub-step.
+//! Every step reports the work of the wheel forces (RK4 quadrature of `Σ λ_i C_i u`, plus
+//! the energy the sticking impulses of the projection remove) and of the floor torque, so the
+//! energy balance can be checked step by step.
 //!
 //! **Velocities.** The generalised speeds are `u = (ω, Ω) ∈ ℝ⁶`. Rolling without slip at the
 //! floor contact `−R γ`, `v_C + Ω × (−R γ) = 0`, gives the shell centre's velocity
@@ -142,5 +162,5 @@ pub mod trial;
 
 pub use monte_carlo::{DynamicFit, DynamicProfile, fit_com_depth, radius_ratio};
 pub use params::{DynamicsError, SphereDynamics};
-pub use sim::{Residuals, SphereSim, SphereState, SphereStep};
-pub use trial::{DynamicTrial, simulate_plan};
+pub use sim::{ContactEvents, Residuals, SphereSim, SphereState, SphereStep};
+pub use trial::{ContactEvent, ContactEventKind, DynamicTrial, simulate_plan};

@@ -84,6 +84,24 @@ pub struct SphereDynamics {
     /// Velocity scale of the rolling resistance's regularisation, rad/s (of the shell's
     /// horizontal angular velocity). Default 0.01 rad/s.
     pub rolling_velocity_scale: f64,
+    /// Roller–shell friction coefficient μ (dimensionless): a roller force beyond `μ N` (N the
+    /// wheel's normal force) makes the roller slide on the shell. Default 0.5: an estimate for
+    /// polyurethane (or rubber) rollers on a dry polycarbonate/acrylic shell — handbook dry
+    /// values for elastomers on smooth hard plastics lie between about 0.3 and 0.9 (paper 000
+    /// names neither material; an estimate, not a measurement). `f64::INFINITY` = rigid
+    /// bilateral contacts (never slip, never lift: the model before contacts were added).
+    pub roller_friction: f64,
+    /// Viscous part of the sliding roller's force, N·s/m (per m/s of slip). Default 1.0 N·s/m,
+    /// an estimate (range 0–5): the hysteresis of a soft roller deformed by the slip.
+    pub roller_viscous: f64,
+    /// Normal preload per wheel, N, added to the normal force that gravity and the platform's
+    /// motion give (a spring-loaded support pressing the platform onto the shell). Default 0 N:
+    /// paper 000 describes the platform resting on the shell under its own weight.
+    pub roller_preload: f64,
+    /// Floor friction coefficient μ_f between shell and floor: a step whose floor force leaves
+    /// the cone `|F_h| ≤ μ_f F_z` is reported (the shell would slide; the model keeps it
+    /// rolling). Default 0.4: hard plastic on linoleum/vinyl, an estimate (range 0.2–0.6).
+    pub floor_friction: f64,
     /// Gravitational acceleration, m/s². Default 9.81.
     pub gravity: f64,
     /// Height of the tracked point (top of the platform) above the floor contact with the
@@ -119,6 +137,10 @@ impl SphereDynamics {
             pivot_velocity_scale: 0.005,
             rolling_resistance: 0.005,
             rolling_velocity_scale: 0.01,
+            roller_friction: 0.5,
+            roller_viscous: 1.0,
+            roller_preload: 0.0,
+            floor_friction: 0.4,
             gravity: 9.81,
             tracked_height: 0.12,
             max_substep: 1.0e-3,
@@ -170,6 +192,10 @@ impl SphereDynamics {
             set(&mut p.rolling_resistance, s.rolling_resistance);
             set(&mut p.rolling_velocity_scale, s.rolling_velocity_scale);
             set(&mut p.tracked_height, s.tracked_height);
+            set(&mut p.roller_friction, s.roller_friction);
+            set(&mut p.roller_viscous, s.roller_viscous);
+            set(&mut p.roller_preload, s.roller_preload);
+            set(&mut p.floor_friction, s.floor_friction);
         } else {
             p.shell_inertia = 2.0 / 3.0 * p.shell_mass * r * r;
         }
@@ -183,6 +209,13 @@ impl SphereDynamics {
         self.pivot_friction = 0.0;
         self.rolling_resistance = 0.0;
         self.pull_out_torque = f64::INFINITY;
+        self.rigid_contacts()
+    }
+
+    /// The same robot with rigid bilateral roller contacts (`roller_friction` infinite): the
+    /// rollers never slide and never lift, whatever force the motion needs.
+    pub fn rigid_contacts(mut self) -> Self {
+        self.roller_friction = f64::INFINITY;
         self
     }
 
@@ -289,6 +322,16 @@ impl SphereDynamics {
         positive("pivot_velocity_scale", self.pivot_velocity_scale)?;
         nonneg("rolling_resistance", self.rolling_resistance)?;
         positive("rolling_velocity_scale", self.rolling_velocity_scale)?;
+        if self.roller_friction.is_nan() || self.roller_friction <= 0.0 {
+            return Err(bad(
+                "roller_friction",
+                self.roller_friction,
+                "must be positive (f64::INFINITY for rigid contacts)",
+            ));
+        }
+        nonneg("roller_viscous", self.roller_viscous)?;
+        nonneg("roller_preload", self.roller_preload)?;
+        positive("floor_friction", self.floor_friction)?;
         positive("gravity", self.gravity)?;
         finite("tracked_height", self.tracked_height)?;
         if !(0.0..=2.0 * r).contains(&self.tracked_height) {

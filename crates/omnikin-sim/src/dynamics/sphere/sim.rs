@@ -91,6 +91,42 @@ pub struct SphereStep {
     pub pull_out: [bool; 3],
     /// The motor is slipping at the end of the step (not at its commanded rate).
     pub slipping: [bool; 3],
+    /// Roller normal forces `N_i` at the last sub-step, N (the shell pushing the wheel towards
+    /// its centre; 0 while the wheel is lifted, never negative with finite `roller_friction`).
+    pub normal_forces: [f64; 3],
+    /// Smallest roller normal force over the step's sub-steps, N.
+    pub min_normal: [f64; 3],
+    /// A roller started sliding on the shell during this step (its force reached `μ N`).
+    pub roller_slip: [bool; 3],
+    /// A wheel lost contact with the shell during this step (its normal force reached 0).
+    pub lift_off: [bool; 3],
+    /// The roller is sliding on the shell at the end of the step.
+    pub sliding: [bool; 3],
+    /// The wheel is off the shell at the end of the step.
+    pub lifted: [bool; 3],
+    /// Work done on shell + platform over the step by the wheel forces (motors through
+    /// sticking rollers, sliding rollers' friction, the sticking impulses that relock a
+    /// sliding roller), J.
+    pub contact_work: f64,
+    /// Work done over the step by the floor torque (pivot friction, rolling resistance), J.
+    pub floor_work: f64,
+    /// Largest ratio of horizontal to vertical floor force over the step (the friction
+    /// coefficient the floor must supply to keep the shell rolling).
+    pub floor_ratio: f64,
+    /// The floor force left the friction cone `μ_f` during this step (the shell would slide;
+    /// the model keeps it rolling and reports it).
+    pub floor_slip: bool,
+}
+
+/// Contact events so far, per wheel (see [`SphereSim::contact_events`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ContactEvents {
+    /// Times each roller started sliding on the shell.
+    pub roller_slips: [u64; 3],
+    /// Times each wheel lost contact with the shell.
+    pub lift_offs: [u64; 3],
+    /// Steps in which the floor force left its friction cone.
+    pub floor_slips: u64,
 }
 
 /// Constraint residuals of the current state (see [`SphereSim::residuals`]).
@@ -118,6 +154,7 @@ pub struct SphereSim {
     drive: [Drive; 3],
     heading: f64,
     pull_outs: [u64; 3],
+    events: ContactEvents,
 }
 
 impl SphereSim {
@@ -170,6 +207,7 @@ impl SphereSim {
             drive: [Drive::Locked; 3],
             heading: state.yaw(),
             pull_outs: [0; 3],
+            events: ContactEvents::default(),
         };
         sim.command = sim.model.wheel_rates(&sim.y);
         Ok(sim)
@@ -206,6 +244,11 @@ impl SphereSim {
     /// Pull-out events so far per motor (times it started slipping).
     pub fn pull_outs(&self) -> [u64; 3] {
         self.pull_outs
+    }
+
+    /// Roller-slip, lift-off and floor-slip events so far.
+    pub fn contact_events(&self) -> ContactEvents {
+        self.events
     }
 
     /// The commanded wheel rates in force now, rad/s.
@@ -287,64 +330,148 @@ impl SphereSim {
         }
         let tau_max = self.params.pull_out_torque;
         let kappa = self.model.kappa;
+        let (mu, lever, r) = (self.model.mu, self.model.lever, self.model.r);
+        let contacts = mu.is_finite() && target.is_some();
         let mut pull_out = [false; 3];
+        let mut roller_slip = [false; 3];
+        let mut lift_off = [false; 3];
         let mut peak = [0.0f64; 3];
         let mut torque = [0.0f64; 3];
+        let mut normal = [0.0f64; 3];
+        let mut min_normal = [f64::INFINITY; 3];
+        let (mut contact_work, mut floor_work) = (0.0, 0.0);
+        let mut floor_ratio = 0.0f64;
         let diverged = |_: Singular| DynamicsError::Input {
             what: "state",
             value: f64::NAN,
             rule: "the simulation diverged (state no longer finite)",
         };
+        let cmd_at = |t: f64| -> [f64; 3] { core::array::from_fn(|i| start[i] + slope[i] * t) };
         for j in 0..n as u64 {
+            let t0 = j as f64 * h;
             let t_end = (j + 1) as f64 * h;
-            let (mut k1, mut lambda) = self
+            let c0 = cmd_at(t0);
+            let mut k1 = self
                 .model
-                .derivative(&self.y, &self.drive, &slope)
+                .derivative(&self.y, &self.drive, &c0, &slope)
                 .map_err(diverged)?;
             if target.is_some() {
-                // A locked motor whose torque would exceed the pull-out torque slips.
-                for _ in 0..3 {
+                // Contacts first (a roller slides or a wheel lifts at the contact's limit), then
+                // the motor's pull-out torque; re-solved until the modes agree with the forces.
+                for _ in 0..4 {
                     let mut changed = false;
                     for i in 0..3 {
-                        if self.drive[i] == Drive::Locked && (kappa[i] * lambda[i]).abs() > tau_max
-                        {
-                            self.drive[i] =
-                                Drive::Force(lambda[i].signum() * tau_max / kappa[i].abs());
-                            pull_out[i] = true;
-                            self.pull_outs[i] += 1;
-                            changed = true;
+                        let (l, nf) = (k1.lambda[i], k1.normal[i]);
+                        let f_roller = l.abs() * lever[i] / r;
+                        let motor_limit = tau_max / kappa[i].abs();
+                        match self.drive[i] {
+                            Drive::Locked | Drive::Force(_) if contacts && nf <= 0.0 => {
+                                self.drive[i] = Drive::Lifted;
+                                lift_off[i] = true;
+                                self.events.lift_offs[i] += 1;
+                                changed = true;
+                            }
+                            Drive::Locked | Drive::Force(_)
+                                if contacts
+                                    && f_roller > mu * nf
+                                    && mu * nf * r / lever[i] <= motor_limit =>
+                            {
+                                self.drive[i] = Drive::Slip(nf, l.signum());
+                                roller_slip[i] = true;
+                                self.events.roller_slips[i] += 1;
+                                changed = true;
+                            }
+                            Drive::Locked if (kappa[i] * l).abs() > tau_max => {
+                                self.drive[i] = Drive::Force(l.signum() * motor_limit);
+                                pull_out[i] = true;
+                                self.pull_outs[i] += 1;
+                                changed = true;
+                            }
+                            Drive::Slip(..) if nf <= 0.0 => {
+                                self.drive[i] = Drive::Lifted;
+                                lift_off[i] = true;
+                                self.events.lift_offs[i] += 1;
+                                changed = true;
+                            }
+                            Drive::Slip(old, dir) if old != nf => {
+                                // The sliding roller's normal force follows the state (frozen
+                                // within the sub-step); not a change of mode.
+                                self.drive[i] = Drive::Slip(nf, dir);
+                            }
+                            Drive::Lifted if nf > 0.0 => {
+                                // Back on the shell: the roller lands sliding against the slip
+                                // it built up while free, and sticks once that is gone.
+                                let f = self.model.frame(&self.y.q);
+                                let v = self.model.slip_velocity(i, &f.rows[i], &self.y.u(), c0[i]);
+                                let mut trial = self.drive;
+                                trial[i] = if v == 0.0 {
+                                    Drive::Locked
+                                } else {
+                                    Drive::Slip(nf, v.signum())
+                                };
+                                // Only if the landed wheel stays loaded (its own friction
+                                // force can unload it again): no lift/land chatter.
+                                let landed = self
+                                    .model
+                                    .derivative(&self.y, &trial, &c0, &slope)
+                                    .map_err(diverged)?;
+                                if landed.normal[i] > 0.0 {
+                                    self.drive = trial;
+                                    changed = true;
+                                }
+                            }
+                            _ => {}
                         }
                     }
+                    k1 = self
+                        .model
+                        .derivative(&self.y, &self.drive, &c0, &slope)
+                        .map_err(diverged)?;
                     if !changed {
                         break;
                     }
-                    (k1, lambda) = self
-                        .model
-                        .derivative(&self.y, &self.drive, &slope)
-                        .map_err(diverged)?;
                 }
             }
             for i in 0..3 {
-                torque[i] = kappa[i] * lambda[i];
+                torque[i] = kappa[i] * k1.lambda[i];
                 peak[i] = peak[i].max(torque[i].abs());
+                // A lifted wheel carries no normal force (what the centred platform would need
+                // from it is not a force the contact applies).
+                normal[i] = if self.drive[i] == Drive::Lifted {
+                    0.0
+                } else {
+                    k1.normal[i]
+                };
+                min_normal[i] = min_normal[i].min(normal[i]);
             }
+            floor_ratio = floor_ratio.max(k1.floor_ratio);
             let d = &self.drive;
-            let (k2, _) = self
+            let cm = cmd_at(t0 + 0.5 * h);
+            let c1 = cmd_at(t_end);
+            let k2 = self
                 .model
-                .derivative(&self.y.add(&k1, 0.5 * h), d, &slope)
+                .derivative(&self.y.add(&k1.d, 0.5 * h), d, &cm, &slope)
                 .map_err(diverged)?;
-            let (k3, _) = self
+            let k3 = self
                 .model
-                .derivative(&self.y.add(&k2, 0.5 * h), d, &slope)
+                .derivative(&self.y.add(&k2.d, 0.5 * h), d, &cm, &slope)
                 .map_err(diverged)?;
-            let (k4, _) = self
+            let k4 = self
                 .model
-                .derivative(&self.y.add(&k3, h), d, &slope)
+                .derivative(&self.y.add(&k3.d, h), d, &c1, &slope)
                 .map_err(diverged)?;
-            let mut y = self.y.add(&k1, h / 6.0);
-            y = y.add(&k2, h / 3.0);
-            y = y.add(&k3, h / 3.0);
-            y = y.add(&k4, h / 6.0);
+            let mut y = self.y.add(&k1.d, h / 6.0);
+            y = y.add(&k2.d, h / 3.0);
+            y = y.add(&k3.d, h / 3.0);
+            y = y.add(&k4.d, h / 6.0);
+            // The work over the sub-step by the same quadrature as the state's.
+            contact_work += h / 6.0
+                * (k1.contact_power
+                    + 2.0 * k2.contact_power
+                    + 2.0 * k3.contact_power
+                    + k4.contact_power);
+            floor_work += h / 6.0
+                * (k1.floor_power + 2.0 * k2.floor_power + 2.0 * k3.floor_power + k4.floor_power);
             y.q = y.q.normalize();
             if !(y
                 .q
@@ -358,25 +485,41 @@ impl SphereSim {
                 return Err(diverged(Singular("state")));
             }
             let cmd: [f64; 3] = match target {
-                Some(_) => core::array::from_fn(|i| start[i] + slope[i] * t_end),
+                Some(_) => c1,
                 None => self.model.wheel_rates(&y),
             };
             if target.is_some() {
-                // A slipping motor locks again once its rotor has caught up with the command.
                 let actual = self.model.wheel_rates(&y);
+                let f = self.model.frame(&y.q);
+                let u = y.u();
                 for i in 0..3 {
-                    if let Drive::Force(l) = self.drive[i]
-                        && (actual[i] - cmd[i]) * kappa[i] * l.signum() >= 0.0
-                    {
-                        self.drive[i] = Drive::Locked;
+                    match self.drive[i] {
+                        // A slipping motor locks again once its rotor has caught up.
+                        Drive::Force(l) if (actual[i] - cmd[i]) * kappa[i] * l.signum() >= 0.0 => {
+                            self.drive[i] = Drive::Locked;
+                        }
+                        // A sliding roller sticks again once its slip velocity has come to 0.
+                        Drive::Slip(_, dir)
+                            if self.model.slip_velocity(i, &f.rows[i], &u, cmd[i]) * dir <= 0.0 =>
+                        {
+                            self.drive[i] = Drive::Locked;
+                        }
+                        _ => {}
                     }
                 }
+                // The projection is the sticking contacts' impulse: its work is theirs.
+                let e0 = self.model.energy(&y);
                 self.model
                     .project(&mut y, &self.drive, &cmd)
                     .map_err(diverged)?;
+                contact_work += self.model.energy(&y) - e0;
             }
             self.y = y;
             self.command = cmd;
+        }
+        let floor_slip = floor_ratio > self.params.floor_friction;
+        if floor_slip {
+            self.events.floor_slips += 1;
         }
         if target.is_none() {
             self.drive = [Drive::Locked; 3];
@@ -403,7 +546,17 @@ impl SphereSim {
             wheel_torques: torque,
             peak_torque: peak,
             pull_out,
-            slipping: core::array::from_fn(|i| self.drive[i] != Drive::Locked),
+            slipping: core::array::from_fn(|i| matches!(self.drive[i], Drive::Force(_))),
+            normal_forces: normal,
+            min_normal,
+            roller_slip,
+            lift_off,
+            sliding: core::array::from_fn(|i| matches!(self.drive[i], Drive::Slip(..))),
+            lifted: core::array::from_fn(|i| self.drive[i] == Drive::Lifted),
+            contact_work,
+            floor_work,
+            floor_ratio,
+            floor_slip,
         })
     }
 }

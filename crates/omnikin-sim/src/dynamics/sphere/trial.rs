@@ -1,13 +1,13 @@
 //! A plan through the dynamic model: [`simulate_plan`] steps [`SphereSim`] with the plan's
 //! wheel rates and records a [`Trial`] at the plan's sample times (the same record the
 //! kinematic simulator makes, so the metrics and files apply unchanged), with what only the
-//! dynamics know (tilt, shell spin, pull-out events) beside it.
+//! dynamics know (tilt, shell spin, pull-out and contact events) beside it.
 
 use omnikin::{MAX_WHEELS, Pose2};
 use omnikin_plan::Plan;
 
 use super::params::{DynamicsError, SphereDynamics};
-use super::sim::{SphereSim, SphereState};
+use super::sim::{ContactEvents, SphereSim, SphereState};
 use crate::Trial;
 
 /// One plan run through the dynamic model.
@@ -28,6 +28,35 @@ pub struct DynamicTrial {
     pub pull_outs: [u64; 3],
     /// Largest |motor torque| per motor over the run, N·m.
     pub peak_torque: [f64; 3],
+    /// Contact events counted over the run (roller slips, lift-offs, floor-cone exits).
+    pub contact_events: ContactEvents,
+    /// Each contact event with the time of the plan step in which it began, in time order.
+    pub contact_log: Vec<ContactEvent>,
+    /// Smallest roller normal force per wheel over the run, N (0 = the wheel lifted; negative
+    /// only with rigid contacts, where no wheel may lift).
+    pub min_normal: [f64; 3],
+}
+
+/// What happened at a contact ([`ContactEvent::kind`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ContactEventKind {
+    /// A roller started sliding on the shell (its force reached `μ N`).
+    RollerSlip,
+    /// A wheel lost contact with the shell (its normal force reached 0).
+    LiftOff,
+    /// The floor force left its friction cone (the shell would slide on the floor).
+    FloorSlip,
+}
+
+/// One contact event of a [`DynamicTrial`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactEvent {
+    /// End time of the plan step in which it began, s.
+    pub t: f64,
+    /// The wheel (0, 1, 2); 0 for a floor event.
+    pub wheel: usize,
+    /// What happened.
+    pub kind: ContactEventKind,
 }
 
 /// Runs `plan` (a three-wheel `sphere-omni` plan) through the dynamic model with `params`.
@@ -67,6 +96,8 @@ pub fn simulate_plan(params: SphereDynamics, plan: &Plan) -> Result<DynamicTrial
     let mut tilt = Vec::with_capacity(n);
     let mut shell_spin = Vec::with_capacity(n);
     let mut peak_torque = [0.0f64; 3];
+    let mut min_normal = [f64::INFINITY; 3];
+    let mut contact_log = Vec::new();
     let mut heading = s0.pose.heading;
     let record =
         |trial: &mut Trial, t: f64, centre: [f64; 2], tracked, heading, angles: [f64; 3], res| {
@@ -102,6 +133,29 @@ pub fn simulate_plan(params: SphereDynamics, plan: &Plan) -> Result<DynamicTrial
         heading = step.heading + h_off;
         for i in 0..3 {
             peak_torque[i] = peak_torque[i].max(step.peak_torque[i]);
+            min_normal[i] = min_normal[i].min(step.min_normal[i]);
+            let t = w[1].t;
+            if step.roller_slip[i] {
+                contact_log.push(ContactEvent {
+                    t,
+                    wheel: i,
+                    kind: ContactEventKind::RollerSlip,
+                });
+            }
+            if step.lift_off[i] {
+                contact_log.push(ContactEvent {
+                    t,
+                    wheel: i,
+                    kind: ContactEventKind::LiftOff,
+                });
+            }
+        }
+        if step.floor_slip {
+            contact_log.push(ContactEvent {
+                t: w[1].t,
+                wheel: 0,
+                kind: ContactEventKind::FloorSlip,
+            });
         }
         let res = sim
             .residuals()
@@ -128,5 +182,8 @@ pub fn simulate_plan(params: SphereDynamics, plan: &Plan) -> Result<DynamicTrial
         max_tilt,
         pull_outs: sim.pull_outs(),
         peak_torque,
+        contact_events: sim.contact_events(),
+        contact_log,
+        min_normal,
     })
 }
