@@ -32,6 +32,9 @@ pub enum PlanKind {
     /// A path through waypoints from FILE: CSV `x,y[,heading]` (optional header) or TOML
     /// `[[waypoint]]` tables with x, y[, heading] (m, rad).
     Waypoints(WaypointArgs),
+    /// Identification test plans into --out DIR (straight runs, spins, a figure of eight),
+    /// each within half the robot's limits, for `omnikin identify`.
+    Sysid(super::sysid::SysidArgs),
 }
 
 /// Output format of the plan.

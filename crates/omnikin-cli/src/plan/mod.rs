@@ -11,6 +11,7 @@ mod args;
 mod figure;
 mod lean;
 mod request;
+pub mod sysid;
 mod tilt;
 mod write;
 
@@ -27,6 +28,7 @@ pub fn run(a: &PlanArgs) -> Result<()> {
         PlanKind::Square(s) => square(s),
         PlanKind::Circle(c) => circle(c),
         PlanKind::Waypoints(w) => waypoints(w),
+        PlanKind::Sysid(s) => sysid::run(s),
     }
     .map_err(name_the_flag)
 }

@@ -1,7 +1,7 @@
 //! The robot file with the identified values: the input file's text with each fitted key's
-//! line replaced by `key = value  # identified: value ± 1σ from <logs>` — every other line
-//! (comments, limits, dynamics, events) kept byte for byte — and the gyro's bias and scale as
-//! comments at the top (robot files have no gyro table).
+//! line replaced by `key = value  # identified: value ± 1σ` — every other line (comments,
+//! limits, dynamics, events) kept byte for byte — and, at the top, a comment naming the logs it
+//! was fitted on and the gyro's bias and scale (robot files have no gyro table).
 //!
 //! Keys are found on their own line inside their table (`[geometry]`, the N-th
 //! `[[geometry.wheels]]` or `[[geometry.modules]]`). The result is read back and compared with
@@ -33,7 +33,10 @@ fn num(v: f64) -> String {
 fn describe(e: &Estimate, shown: f64, sigma: f64, unit: &str) -> String {
     match &e.status {
         Status::Fitted => format!("{} ± {} {unit}", num(shown), num(sigma)),
-        Status::Fixed(why) => format!("{} {unit} held: {why}", num(shown)),
+        Status::Fixed(_) => format!(
+            "{} {unit} held at the prior (not identifiable from these runs)",
+            num(shown)
+        ),
     }
 }
 
@@ -41,9 +44,9 @@ fn find<'a>(id: &'a Identified, name: &str) -> Option<&'a Estimate> {
     id.geometry.iter().find(|e| e.name == name)
 }
 
-fn edits(id: &Identified, from: &str) -> Vec<Edit> {
+fn edits(id: &Identified) -> Vec<Edit> {
     let mut out = Vec::new();
-    let src = format!("from {from}");
+    let src = "(1σ)";
     match &id.description.geometry {
         Geometry::Omni(wheels) => {
             for (i, w) in wheels.iter().enumerate() {
@@ -195,14 +198,14 @@ fn key_of(line: &str) -> Option<&str> {
     (!k.is_empty() && !k.starts_with('#') && !k.starts_with('[')).then_some(k)
 }
 
-/// The robot file `text` (whose description is `prior`) with the values of `id` (see the
-/// module docs); `from` names the logs in the comments.
+/// The robot file `text` with the values of `id` (see the module docs); `from` names the logs
+/// in the header comment.
 ///
 /// # Errors
 /// [`IdentifyError::Fit`] naming the key when a fitted key is not on its own line of its table,
 /// or when the rewritten file does not read back as the fitted robot.
 pub fn rewrite(text: &str, id: &Identified, from: &str) -> Result<String, IdentifyError> {
-    let mut edits = edits(id, from);
+    let mut edits = edits(id);
     let mut lines: Vec<String> = Vec::new();
     let mut table = String::new();
     let mut counts: std::collections::HashMap<String, usize> = Default::default();
@@ -222,7 +225,29 @@ pub fn rewrite(text: &str, id: &Identified, from: &str) -> Result<String, Identi
         });
         match hit {
             Some(k) => {
-                let e = edits.remove(k);
+                let mut e = edits.remove(k);
+                let old = t.split_once('=').map_or("", |(_, v)| v.trim());
+                if old.starts_with('[') && !old.contains(']') {
+                    return Err(IdentifyError::Fit(format!(
+                        "cannot write the identified robot file: `{}` of {} #{} is written over several lines; write it on one line",
+                        e.key,
+                        e.table,
+                        e.index + 1
+                    )));
+                }
+                // An angle keeps the turn the file wrote it in (210°, not −150°).
+                if e.key == "drive_angle_deg"
+                    && let (Ok(new), Some(old)) = (
+                        e.value.parse::<f64>(),
+                        t.split_once('=')
+                            .and_then(|(_, v)| v.split('#').next())
+                            .and_then(|v| v.trim().parse::<f64>().ok()),
+                    )
+                {
+                    e.value = num(new + 360.0 * ((old - new) / 360.0).round());
+                    let shown = num(new);
+                    e.comment = e.comment.replacen(&shown, &e.value, 1);
+                }
                 lines.push(format!("{} = {}  # {}", e.key, e.value, e.comment));
             }
             None => lines.push(line.to_string()),
@@ -236,10 +261,10 @@ pub fn rewrite(text: &str, id: &Identified, from: &str) -> Result<String, Identi
             e.index + 1
         )));
     }
-    let mut head = String::new();
+    let mut head = format!("# identified by omnikin identify from {from}\n");
     for g in &id.gyro {
         head.push_str(&format!(
-            "# identified {}: {} {from}\n",
+            "# identified {}: {} (1σ; robot files have no gyro table)\n",
             g.name,
             describe(g, g.value, g.sigma, g.unit)
         ));
@@ -290,5 +315,99 @@ fn check(text: &str, want: &RobotDescription) -> Result<(), IdentifyError> {
         Err(IdentifyError::Fit(
             "the identified robot file does not read back as the fitted robot (a fitted key written in a form the line editor does not handle?)".into(),
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::params;
+
+    /// An identification of the kiwi preset with every value moved a little.
+    fn moved(name: &str) -> (String, Identified) {
+        let text = omnikin::description::PRESETS
+            .iter()
+            .find(|(n, _)| *n == name)
+            .unwrap()
+            .1
+            .to_string();
+        let prior = RobotDescription::from_toml_str(&text, name).unwrap();
+        let ps = params::parameters(&prior);
+        let values: Vec<f64> = ps.iter().map(|p| p.prior * 1.01 + 1e-3).collect();
+        let id = Identified {
+            description: params::apply(&prior, &values),
+            geometry: ps
+                .iter()
+                .zip(&values)
+                .map(|(p, v)| Estimate {
+                    name: p.name.clone(),
+                    unit: p.quantity.unit(),
+                    prior: p.prior,
+                    value: *v,
+                    sigma: 1e-4,
+                    status: Status::Fitted,
+                })
+                .collect(),
+            gyro: Vec::new(),
+            position_rms: 0.0,
+            heading_rms: None,
+            gyro_rms: None,
+            condition: 1.0,
+            residuals: 0,
+        };
+        (text, id)
+    }
+
+    #[test]
+    fn every_kind_reads_back_as_the_fitted_robot_with_its_other_lines_kept() {
+        for name in [
+            "kiwi",
+            "mecanum",
+            "swerve4",
+            "caster3",
+            "sphere-omni",
+            "ballbot",
+        ] {
+            let (text, id) = moved(name);
+            let out = rewrite(&text, &id, "a.csv, b.csv").unwrap();
+            assert!(out.starts_with("# identified by omnikin identify from a.csv, b.csv\n"));
+            assert!(out.contains("# identified: "), "{name}");
+            // Lines that carry no fitted key are kept verbatim.
+            for line in text.lines().filter(|l| l.starts_with("max_wheel_rate")) {
+                assert!(out.lines().any(|o| o == line), "{name}: {line}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_drive_angle_keeps_its_turn() {
+        let (text, id) = moved("kiwi");
+        let out = rewrite(&text, &id, "x").unwrap();
+        // Wheel 2 was written as 210°; its fitted angle (atan2 gives −150°) stays near 210.
+        let line = out
+            .lines()
+            .filter(|l| l.starts_with("drive_angle_deg"))
+            .nth(1)
+            .unwrap();
+        let v: f64 = line[line.find('=').unwrap() + 1..line.find('#').unwrap()]
+            .trim()
+            .parse()
+            .unwrap();
+        assert!((180.0..240.0).contains(&v), "{line}");
+    }
+
+    #[test]
+    fn a_value_over_several_lines_is_refused_with_its_key() {
+        let (text, id) = moved("kiwi");
+        let split = text.replacen(
+            "position = [0.15, 0.0]",
+            "position = [\n  0.15,\n  0.0,\n]",
+            1,
+        );
+        let e = rewrite(&split, &id, "x").unwrap_err().to_string();
+        assert!(
+            e.contains("`position`") && e.contains("several lines"),
+            "{e}"
+        );
     }
 }
