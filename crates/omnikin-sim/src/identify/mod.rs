@@ -126,7 +126,8 @@ pub struct Identified {
     pub heading_rms: Option<f64>,
     /// RMS of the gyro windows' residuals, rad.
     pub gyro_rms: Option<f64>,
-    /// Condition number of the (column-scaled) Jacobian of the fitted parameters.
+    /// Condition number of the (column-scaled) Jacobian of the fitted robot and gyro
+    /// parameters (start poses aside).
     pub condition: f64,
     /// Number of residuals of the pose fit.
     pub residuals: usize,
@@ -337,6 +338,16 @@ pub fn identify(
     let (r, groups) = f(&sol.x, &w, gyro_sigma)
         .ok_or_else(|| IdentifyError::Fit("the fitted robot does not build".into()))?;
     let inflation = correlation_inflation(prior, runs, l, &sol.x).unwrap_or(1.0);
+    // The condition of the robot's and the gyro's parameters (the start poses aside: a spin's
+    // start heading, seen only through the robot's drift, would dominate it).
+    let own: Vec<bool> = (0..n).map(|k| free[k] && fixable[k]).collect();
+    let condition = lsq::jacobian(
+        &|x: &[f64]| f(x, &w, gyro_sigma).map(|r| r.0),
+        &sol.x,
+        &h,
+        &own,
+    )
+    .map_or(sol.condition, |j| lsq::condition(&j, &own));
     let estimate = |k: usize, name: String, unit: &'static str, prior: f64| Estimate {
         name,
         unit,
@@ -365,7 +376,7 @@ pub fn identify(
         position_rms: group_rms(&r, &groups, Group::Position, w.position).unwrap_or(0.0),
         heading_rms: group_rms(&r, &groups, Group::Heading, w.heading),
         gyro_rms: group_rms(&r, &groups, Group::Gyro, gyro_sigma),
-        condition: sol.condition,
+        condition,
         residuals: sol.residuals,
     })
 }
