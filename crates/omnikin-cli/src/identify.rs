@@ -140,15 +140,18 @@ fn print_table(id: &Identified) -> Result<()> {
     ))?;
     for e in id.geometry.iter().chain(&id.gyro) {
         match &e.status {
-            Status::Fitted => output::stdout_line(format_args!(
-                "{:<26} {:>12.6} {:>12.6} {:>10.2e} {:>+11.2e}  {}",
-                e.name,
-                e.prior,
-                e.value,
-                e.sigma,
-                e.value - e.prior,
-                e.unit
-            ))?,
+            Status::Fitted => {
+                let line = format!(
+                    "{:<26} {:>12.6} {:>12.6} {:>10.2e} {:>+11.2e}  {}",
+                    e.name,
+                    e.prior,
+                    e.value,
+                    e.sigma,
+                    e.value - e.prior,
+                    e.unit
+                );
+                output::stdout_line(format_args!("{}", line.trim_end()))?
+            }
             Status::Fixed(why) => output::stdout_line(format_args!(
                 "{:<26} {:>12.6} {:>12}  held: {why}",
                 e.name, e.prior, "—"
