@@ -17,6 +17,7 @@ mod drive;
 mod drive_fixes;
 mod evaluate_truth;
 mod figures;
+mod identify;
 mod kinematics;
 mod link_io;
 mod mcap_log;
@@ -94,6 +95,10 @@ enum Command {
     /// Wheel odometry over an encoder log (t,q1..qN[,s1..sN][,gyro_z][,yaw]), optionally
     /// with the IMU heading and fused with camera fixes; writes t,x,y,heading.
     Odometry(odometry::OdometryArgs),
+    /// Fit the robot file's wheel geometry (radius scales, positions, drive angles; caster
+    /// mount radius and eccentricity) and the gyro's bias and scale to recorded runs, with 1σ;
+    /// writes the robot file with the fitted values (plans: `plan sysid`).
+    Identify(identify::IdentifyArgs),
     /// Run the robot side of the link: the fixed-rate control loop (limits, watchdog, e-stop)
     /// over UDP or a serial port, on a simulated plant with `--sim`.
     Robot(robot::RobotArgs),
@@ -245,6 +250,11 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
                 plan::PlanKind::Circle(c) => (&c.common, None),
                 plan::PlanKind::Waypoints(w) => (&w.common, Some(w.file.as_path())),
                 plan::PlanKind::Goal(g) => (&g.common, Some(g.map.as_path())),
+                plan::PlanKind::Sysid(s) => {
+                    inputs.extend(robot(&s.robot));
+                    dirs.push(("--out", &s.out));
+                    return check_io(inputs, files, dirs);
+                }
             };
             if let plan::PlanKind::Waypoints(w) = &a.kind {
                 inputs.extend(w.map.as_deref().map(|p| ("--map", p)));
@@ -285,6 +295,18 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             files.push(("--out", &a.out));
             files.extend(a.plot.as_deref().map(|p| ("--plot", p)));
             files.extend(a.mcap.as_deref().map(|p| ("--mcap", p)));
+        }
+        Command::Identify(a) => {
+            inputs.extend(robot(&a.robot));
+            for (flag, list) in [
+                ("--encoders", &a.encoders),
+                ("--fixes", &a.fixes),
+                ("--tracked", &a.tracked),
+                ("--imu", &a.imu),
+            ] {
+                inputs.extend(list.iter().map(|p| (flag, p.as_path())));
+            }
+            files.push(("--out", &a.out));
         }
         Command::Robot(a) => {
             inputs.extend(robot(&a.robot));
@@ -329,6 +351,15 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             }
         }
     }
+    check_io(inputs, files, dirs)
+}
+
+/// Applies the output rules to the inputs, files and directories [`io_rules`] collected.
+fn check_io(
+    inputs: Vec<(&str, &std::path::Path)>,
+    files: Vec<(&str, &std::path::Path)>,
+    dirs: Vec<(&str, &std::path::Path)>,
+) -> anyhow::Result<()> {
     for (flag, p) in inputs {
         output::input(flag, p);
     }
@@ -366,6 +397,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Reproduce(a) => sim::reproduce(&a),
         Command::Merge(a) => shard::merge(&a),
         Command::Odometry(a) => odometry::run(&a),
+        Command::Identify(a) => identify::run(&a),
         Command::Robot(a) => robot::run(&a),
         Command::Drive(a) => drive::run(&a),
         Command::Console(a) => console::run(&a),

@@ -33,12 +33,15 @@
 //! * [`limits`]: the stated limits — most plant steps per trial, rows of a track file — and the plausible range of every profile parameter.
 //! * [`reproduce`]: paper 000's whole experiment design re-run under three kinematic profiles and the dynamic one, with a
 //!   table of our figures next to the paper's.
+//! * [`identify`]: a robot's wheel geometry and gyro bias/scale fitted to recorded runs by
+//!   non-linear least squares, with 1σ and an observability test (`omnikin identify`).
 //! * [`track`]: real tracked runs (`t,x,y[,heading]` CSV), aligned to a plan's start of motion
 //!   and resampled onto its time grid, so the same metrics apply to hardware experiments.
 #![warn(missing_docs)]
 
 pub mod dynamic_run;
 pub mod dynamics;
+pub mod identify;
 pub mod limits;
 pub mod metrics;
 mod monte_carlo;

@@ -35,6 +35,9 @@ pub enum PlanKind {
     /// A collision-free path across a map (MAP.toml: keep-out circles and polygons, keep-in
     /// polygon) from --from to --to, timed by the time-optimal planner.
     Goal(GoalArgs),
+    /// Identification test plans into --out DIR (straight runs, spins, a figure of eight),
+    /// each within half the robot's limits, for `omnikin identify`.
+    Sysid(super::sysid::SysidArgs),
 }
 
 /// Output format of the plan.

@@ -12,6 +12,7 @@ mod figure;
 mod goal;
 mod lean;
 mod request;
+pub mod sysid;
 mod tilt;
 mod write;
 
@@ -29,6 +30,7 @@ pub fn run(a: &PlanArgs) -> Result<()> {
         PlanKind::Circle(c) => circle(c),
         PlanKind::Waypoints(w) => waypoints(w),
         PlanKind::Goal(g) => goal::goal(g),
+        PlanKind::Sysid(s) => sysid::run(s),
     }
     .map_err(name_the_flag)
 }

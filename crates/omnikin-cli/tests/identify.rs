@@ -1,0 +1,174 @@
+//! `omnikin plan sysid` and `omnikin identify` end to end: the test plans of the kiwi preset
+//! are simulated (`omnikin simulate --emit-sensors`) with a robot file whose wheel 2 is 2 %
+//! larger and whose wheel 1 sits 5 mm further out, and `identify` with the preset as prior
+//! writes a robot file with those values back; bad inputs are refused naming the flag, file
+//! and column.
+
+#[path = "common/test_dir.rs"]
+mod test_dir;
+use test_dir::TestDir;
+
+use std::path::{Path, PathBuf};
+
+use assert_cmd::Command;
+use omnikin::description::{Geometry, RobotDescription};
+use predicates::prelude::*;
+
+fn omnikin() -> Command {
+    Command::cargo_bin("omnikin").unwrap()
+}
+
+const PLANS: [&str; 4] = ["along", "along-across", "spin", "figure-eight"];
+
+/// The sysid plans of the kiwi preset simulated with the perturbed file: the encoder logs and
+/// fixes of each, in plan order.
+fn recorded(dir: &Path) -> (Vec<PathBuf>, Vec<PathBuf>) {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../robots/kiwi.toml"),
+    )
+    .unwrap();
+    let truth = text
+        .replacen("position = [0.15, 0.0]", "position = [0.155, 0.0]", 1)
+        .replacen(
+            "position = [-0.075, 0.1299038105676658]\ndrive_angle_deg = 210.0\nroller_angle_deg = 0.0\nradius = 0.05",
+            "position = [-0.075, 0.1299038105676658]\ndrive_angle_deg = 210.0\nroller_angle_deg = 0.0\nradius = 0.051",
+            1,
+        );
+    assert_ne!(truth, text);
+    std::fs::write(dir.join("kiwi-true.toml"), &truth).unwrap();
+    std::fs::write(
+        dir.join("sensors.toml"),
+        "counts_per_rev = 4096\n[gyro]\nnoise_std = 0.002\nbias = 0.01\nbias_std = 0.0\n[camera]\nperiod = 0.1\nlatency = 0.1\nnoise_std = 0.005\noutlier_probability = 0.0\noutlier_distance = 0.5\n",
+    )
+    .unwrap();
+    omnikin()
+        .current_dir(dir)
+        .args(["plan", "sysid", "--robot", "kiwi", "--out", "plans"])
+        .assert()
+        .success();
+    let readme = std::fs::read_to_string(dir.join("plans/README.txt")).unwrap();
+    let (mut enc, mut fixes) = (Vec::new(), Vec::new());
+    for p in PLANS {
+        assert!(readme.contains(&format!("{p}.csv")), "{readme}");
+        omnikin()
+            .current_dir(dir)
+            .args([
+                "simulate",
+                "--robot",
+                "kiwi-true.toml",
+                "--trials",
+                "1",
+                "--seed",
+                "37",
+            ])
+            .args([
+                "--emit-sensors",
+                "--sensors",
+                "sensors.toml",
+                "--out",
+                &format!("sim-{p}"),
+            ])
+            .arg(format!("plans/{p}.csv"))
+            .assert()
+            .success();
+        enc.push(dir.join(format!("sim-{p}/sensors/trial-000/encoders.csv")));
+        fixes.push(dir.join(format!("sim-{p}/sensors/trial-000/fixes.csv")));
+    }
+    (enc, fixes)
+}
+
+#[test]
+fn identify_recovers_a_perturbed_kiwi_from_simulated_logs() {
+    let dir = TestDir::new("identify", "kiwi");
+    let (enc, fixes) = recorded(&dir);
+    let out = omnikin()
+        .current_dir(&*dir)
+        .args([
+            "identify",
+            "--robot",
+            "kiwi",
+            "--out",
+            "identified.toml",
+            "--json",
+        ])
+        .arg("--encoders")
+        .args(&enc)
+        .arg("--fixes")
+        .args(&fixes)
+        .assert()
+        .success();
+    let json: serde_json::Value =
+        serde_json::from_slice(&out.get_output().stdout).expect("one JSON object");
+    let param = |name: &str| {
+        json["parameters"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["name"] == name)
+            .unwrap()
+            .clone()
+    };
+    for (name, truth, tol) in [
+        ("wheels[2].radius_scale", 1.02, 2e-3),
+        ("wheels[1].position.x", 0.155, 1e-3),
+        ("gyro.bias", 0.01, 5e-4),
+    ] {
+        let p = param(name);
+        let (v, s) = (p["value"].as_f64().unwrap(), p["sigma"].as_f64().unwrap());
+        assert!(
+            (v - truth).abs() <= 3.0 * s && (v - truth).abs() <= tol,
+            "{name}: {p}"
+        );
+    }
+    assert_eq!(param("wheels[1].position.y")["status"], "held");
+    // The written file loads and carries the fitted radius with its comment.
+    let written = std::fs::read_to_string(dir.join("identified.toml")).unwrap();
+    assert!(written.contains("# identified: "), "{written}");
+    let d = RobotDescription::from_toml_str(&written, "identified.toml").unwrap();
+    let Geometry::Omni(w) = d.geometry else {
+        panic!("an omni robot")
+    };
+    assert!((w[1].radius - 0.051).abs() < 1e-4, "{}", w[1].radius);
+    assert!(written.contains("max_wheel_rate = 40.0"));
+}
+
+#[test]
+fn identify_refuses_mismatched_or_malformed_inputs() {
+    let dir = TestDir::new("identify", "errors");
+    std::fs::write(dir.join("enc.csv"), "t,q1,q2\n0,0,0\n0.1,1,1\n").unwrap();
+    std::fs::write(dir.join("fix.csv"), "t,x,y\n0,0,0\n0.1,0,0\n").unwrap();
+    // One reference for two runs.
+    omnikin()
+        .current_dir(&*dir)
+        .args(["identify", "--robot", "kiwi", "--out", "o.toml"])
+        .args(["--encoders", "enc.csv", "enc.csv", "--fixes", "fix.csv"])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains(
+            "--fixes: 1 files for 2 --encoders logs",
+        ));
+    // No reference at all.
+    omnikin()
+        .current_dir(&*dir)
+        .args([
+            "identify",
+            "--robot",
+            "kiwi",
+            "--out",
+            "o.toml",
+            "--encoders",
+            "enc.csv",
+        ])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("--fixes FIXES.csv… or --tracked"));
+    // A kiwi log needs q3.
+    omnikin()
+        .current_dir(&*dir)
+        .args(["identify", "--robot", "kiwi", "--out", "o.toml"])
+        .args(["--encoders", "enc.csv", "--fixes", "fix.csv"])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("enc.csv").and(predicate::str::contains("q3")));
+    assert!(!dir.join("o.toml").exists());
+}

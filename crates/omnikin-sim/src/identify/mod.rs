@@ -1,0 +1,424 @@
+//! # identify — a robot's kinematic parameters from its recorded runs
+//!
+//! What `omnikin identify` computes: given a robot file (the prior) and, per run, an encoder
+//! log, a reference trajectory (tracked truth or camera fixes) and optionally a gyro, the
+//! wheel geometry that best explains the runs and the gyro's bias and scale, each with its 1σ.
+//!
+//! * [`runs`]: the input files (conventions.md's encoder log, fixes, tracked and IMU CSVs).
+//! * [`params`]: which kinematic parameters each kind has, and the robot a value vector
+//!   describes.
+//! * [`model`]: the measurement models — dead reckoning against the reference (output error)
+//!   and the gyro's integral over windows.
+//! * [`lsq`]: Levenberg–Marquardt, the covariance `σ² (JᵀJ)⁻¹` and the rank test.
+//! * [`plans`]: the test plans of `omnikin plan sysid`.
+//! * [`robot_file`]: the input robot file rewritten with the fitted values.
+//!
+//! ## The estimate
+//! The unknowns are the kind's parameters ([`params::parameters`]) and, per run, the start pose
+//! `(x₀, y₀, ψ₀)` (a nuisance: the reference fixes it). The residuals are the dead-reckoned
+//! minus the reference positions (and headings when the reference has them), each group divided
+//! by its own standard deviation: a first fit with [`Options::position_sigma`] and
+//! [`Options::heading_sigma`], then a second with the groups' residual RMS of the first, so the
+//! reported `σ² (JᵀJ)⁻¹` uses the noise the runs actually show. The gyro's bias and scale are
+//! fitted in the same problem, on the windows of [`model::gyro_windows`] (a third residual
+//! group), so the gyro scale's 1σ includes the uncertainty of the odometry's heading. The 1σ
+//! are inflated for correlated residuals (dead reckoning correlates its errors; see
+//! `correlation_inflation`).
+//!
+//! ## Observability
+//! Before fitting, the Jacobian at the prior is tested ([`lsq::unobservable`]); each direction
+//! of parameter space the runs do not see holds one parameter at its prior, reported as
+//! [`Status::Fixed`] with the reason. What the wheel kinematics never see: an omni wheel's
+//! position along its own drive direction; with position-only references, the robot frame's
+//! orientation (one drive angle is held); without spins, the wheel positions; without a
+//! heading change, the gyro's scale. The condition number of the remaining problem is
+//! reported; values are never invented for a direction the data do not constrain.
+//!
+//! What this does **not** do: the dynamic parameters (`[dynamics]` of the sphere and the
+//! ballbot), slip or outlier rejection (a run with wheel slip biases the fit: use runs inside
+//! the robot's limits, as `omnikin plan sysid` writes them), time offsets between the logs.
+
+pub mod lsq;
+pub mod model;
+pub mod params;
+pub mod plans;
+pub mod robot_file;
+pub mod runs;
+
+use omnikin::Pose2;
+use omnikin::description::RobotDescription;
+
+use model::Weights;
+use params::Parameter;
+use runs::Run;
+
+/// Why an identification failed. Every message names the file or parameter concerned.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum IdentifyError {
+    /// A file could not be used (the message names it, with the line when there is one).
+    #[error("{0}")]
+    Input(String),
+    /// The prior robot does not build, or the fit failed.
+    #[error("{0}")]
+    Fit(String),
+}
+
+/// Settings of [`identify`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Options {
+    /// Position noise assumed by the first fit, m (the second uses the residuals').
+    pub position_sigma: f64,
+    /// Heading noise assumed by the first fit, rad.
+    pub heading_sigma: f64,
+    /// Length of the gyro windows, s.
+    pub gyro_window: f64,
+}
+
+impl Default for Options {
+    /// 5 mm, 5 mrad, 1 s windows.
+    fn default() -> Self {
+        Self {
+            position_sigma: 0.005,
+            heading_sigma: 0.005,
+            gyro_window: 1.0,
+        }
+    }
+}
+
+/// Whether a parameter was fitted.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Status {
+    /// Estimated from the runs.
+    Fitted,
+    /// Held at its prior; the reason says why (which the runs do not determine).
+    Fixed(String),
+}
+
+/// One parameter's result.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Estimate {
+    /// Name, as in [`params::parameters`] (`gyro.bias`, `gyro.scale` for the gyro).
+    pub name: String,
+    /// Unit (`""` for scales, `"m"`, `"rad"`, `"rad/s"`).
+    pub unit: &'static str,
+    /// The robot file's value (gyro: bias 0, scale 1).
+    pub prior: f64,
+    /// The estimate (the prior when fixed).
+    pub value: f64,
+    /// 1σ from the covariance (0 when fixed).
+    pub sigma: f64,
+    /// Fitted or fixed, and why.
+    pub status: Status,
+}
+
+/// The result of [`identify`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Identified {
+    /// The prior description with the fitted geometry.
+    pub description: RobotDescription,
+    /// The kinematic parameters, in [`params::parameters`] order.
+    pub geometry: Vec<Estimate>,
+    /// `gyro.bias` (rad/s) and `gyro.scale`, when a run had a gyro.
+    pub gyro: Vec<Estimate>,
+    /// RMS of the position residuals at the estimate, m.
+    pub position_rms: f64,
+    /// RMS of the heading residuals, rad (references with a heading).
+    pub heading_rms: Option<f64>,
+    /// RMS of the gyro windows' residuals, rad.
+    pub gyro_rms: Option<f64>,
+    /// Condition number of the (column-scaled) Jacobian of the fitted robot and gyro
+    /// parameters (start poses aside).
+    pub condition: f64,
+    /// Number of residuals of the pose fit.
+    pub residuals: usize,
+}
+
+/// Initial start pose of a run: the reference at the log's first time (or its first sample);
+/// the heading from the reference, else the angle between the reference's and the prior
+/// odometry's displacement to the reference point farthest from the start.
+fn start_guess(robot: &omnikin::Robot<f64>, run: &Run) -> Option<Pose2<f64>> {
+    let r = &run.reference;
+    let t0 = run.encoders.t[0];
+    let k0 = r.t.partition_point(|t| *t < t0).min(r.t.len() - 1);
+    let origin = r.xy[k0];
+    if let Some(h) = &r.heading {
+        return Some(Pose2::new(origin[0], origin[1], h[k0]));
+    }
+    let poses = model::dead_reckon(robot, &run.encoders, Pose2::new(0.0, 0.0, 0.0))?;
+    let end = *run.encoders.t.last()?;
+    let far = (k0..r.t.len())
+        .filter(|&k| r.t[k] <= end)
+        .max_by(|&a, &b| {
+            let d = |k: usize| (r.xy[k][0] - origin[0]).hypot(r.xy[k][1] - origin[1]);
+            d(a).total_cmp(&d(b))
+        })?;
+    let p = model::pose_at(&run.encoders.t, &poses, r.t[far])?;
+    let q = model::pose_at(&run.encoders.t, &poses, r.t[k0].max(t0))?;
+    let want = (r.xy[far][1] - origin[1]).atan2(r.xy[far][0] - origin[0]);
+    let got = (p.y - q.y).atan2(p.x - q.x);
+    Some(Pose2::new(origin[0], origin[1], want - got))
+}
+
+/// Residual groups: each is divided by its own standard deviation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Group {
+    Position,
+    Heading,
+    Gyro,
+}
+
+/// Layout of the value vector: geometry, then `(x₀, y₀, ψ₀)` per run, then the gyro's
+/// `(bias, scale)` when a run has a gyro.
+#[derive(Clone, Copy)]
+struct Layout {
+    geometry: usize,
+    runs: usize,
+    gyro: bool,
+}
+
+impl Layout {
+    fn start(&self, x: &[f64], i: usize) -> Pose2<f64> {
+        let k = self.geometry + 3 * i;
+        Pose2::new(x[k], x[k + 1], x[k + 2])
+    }
+    fn gyro_at(&self) -> usize {
+        self.geometry + 3 * self.runs
+    }
+    fn len(&self) -> usize {
+        self.gyro_at() + if self.gyro { 2 } else { 0 }
+    }
+}
+
+/// All residuals for the value vector `x`, with the group of each.
+fn residuals(
+    prior: &RobotDescription,
+    runs: &[Run],
+    l: Layout,
+    x: &[f64],
+    w: &Weights,
+    gyro_sigma: f64,
+    window: f64,
+) -> Option<(Vec<f64>, Vec<Group>)> {
+    let robot = params::apply(prior, &x[..l.geometry]).build::<f64>().ok()?;
+    let mut out = Vec::new();
+    let mut group = Vec::new();
+    for (i, run) in runs.iter().enumerate() {
+        let before = out.len();
+        model::pose_residuals(&robot, run, l.start(x, i), *w, &mut out)?;
+        // Heading residuals follow each (x, y) pair when the reference has headings.
+        let per = if run.reference.heading.is_some() {
+            3
+        } else {
+            2
+        };
+        group.extend((before..out.len()).map(|k| {
+            if (k - before) % per == 2 {
+                Group::Heading
+            } else {
+                Group::Position
+            }
+        }));
+        if let (true, Some(g)) = (l.gyro, &run.gyro) {
+            let (bias, scale) = (x[l.gyro_at()], x[l.gyro_at() + 1]);
+            let poses = model::dead_reckon(&robot, &run.encoders, l.start(x, i))?;
+            for win in model::gyro_windows(&run.encoders.t, &poses, g, window) {
+                out.push(
+                    (win.integral - scale * win.heading_change - bias * win.duration) / gyro_sigma,
+                );
+                group.push(Group::Gyro);
+            }
+        }
+    }
+    Some((out, group))
+}
+
+/// RMS of the residuals of group `g`, in their units (`scale` undoes the weighting).
+fn group_rms(r: &[f64], groups: &[Group], g: Group, scale: f64) -> Option<f64> {
+    let (mut s, mut n) = (0.0, 0usize);
+    for (v, _) in r.iter().zip(groups).filter(|(_, k)| **k == g) {
+        s += (v * scale) * (v * scale);
+        n += 1;
+    }
+    (n > 0).then(|| (s / n as f64).sqrt())
+}
+
+/// Fits the kinematic parameters of `prior` and the gyro to `runs` (see the module docs).
+///
+/// # Errors
+/// [`IdentifyError::Input`] when there are no runs or a run's reference does not overlap its
+/// encoder log; [`IdentifyError::Fit`] when the prior does not build or the fit cannot start.
+pub fn identify(
+    prior: &RobotDescription,
+    runs: &[Run],
+    options: &Options,
+) -> Result<Identified, IdentifyError> {
+    if runs.is_empty() {
+        return Err(IdentifyError::Input("no runs to identify from".into()));
+    }
+    let robot = prior
+        .build::<f64>()
+        .map_err(|e| IdentifyError::Fit(e.to_string()))?;
+    let geometry: Vec<Parameter> = params::parameters(prior);
+    let l = Layout {
+        geometry: geometry.len(),
+        runs: runs.len(),
+        gyro: runs.iter().any(|r| r.gyro.is_some()),
+    };
+    let mut x0: Vec<f64> = geometry.iter().map(|p| p.prior).collect();
+    let mut h: Vec<f64> = geometry.iter().map(|p| p.quantity.step()).collect();
+    for run in runs {
+        let Some(s) = start_guess(&robot, run) else {
+            return Err(IdentifyError::Input(format!(
+                "{}: the reference trajectory does not overlap the encoder log {} in time",
+                run.reference.file, run.encoders.file
+            )));
+        };
+        x0.extend([s.x, s.y, s.heading]);
+        h.extend([1e-6; 3]);
+    }
+    if l.gyro {
+        x0.extend([0.0, 1.0]);
+        h.extend([1e-6, 1e-6]);
+    }
+    let n = l.len();
+    // Only geometry and the gyro are held; a start pose the prior leaves unobserved (a spin in
+    // place seen by position-only fixes) is left to the damped solver: the real robot drifts a
+    // little while it spins, which is what fixes its start heading.
+    let fixable: Vec<bool> = (0..n).map(|k| k < l.geometry || k >= l.gyro_at()).collect();
+    let mut free = vec![true; n];
+    let mut w = Weights {
+        position: options.position_sigma,
+        heading: options.heading_sigma,
+    };
+    // Gyro windows: white noise integrated over a window is small; start at 1 mrad.
+    let mut gyro_sigma = 1e-3;
+    let window = options.gyro_window;
+    let f = |x: &[f64], w: &Weights, gs: f64| residuals(prior, runs, l, x, w, gs, window);
+    let j = lsq::jacobian(
+        &|x: &[f64]| f(x, &w, gyro_sigma).map(|r| r.0),
+        &x0,
+        &h,
+        &free,
+    )
+    .ok_or_else(|| {
+        IdentifyError::Fit("the prior robot cannot dead-reckon these encoder logs".into())
+    })?;
+    let mut reasons = vec![None; n];
+    for k in lsq::unobservable(&j, &free, &fixable) {
+        free[k] = false;
+        reasons[k] = Some(if j.column(k).norm() == 0.0 {
+            "the runs do not depend on it".to_string()
+        } else {
+            "not identifiable from these runs (a direction the Jacobian does not see; held at the prior)"
+                .to_string()
+        });
+    }
+    let mut x = x0.clone();
+    let mut sol = None;
+    // A first fit with the assumed noise, then one with each group's residual RMS.
+    for _ in 0..2 {
+        let fw = |x: &[f64]| f(x, &w, gyro_sigma).map(|r| r.0);
+        let s = lsq::solve(&fw, &x, &h, &free).map_err(|e| IdentifyError::Fit(e.to_string()))?;
+        let (r, groups) = f(&s.x, &w, gyro_sigma)
+            .ok_or_else(|| IdentifyError::Fit("the fitted robot does not build".into()))?;
+        let floor = |v: Option<f64>, d: f64| v.unwrap_or(d).max(1e-9);
+        let next = Weights {
+            position: floor(
+                group_rms(&r, &groups, Group::Position, w.position),
+                w.position,
+            ),
+            heading: floor(group_rms(&r, &groups, Group::Heading, w.heading), w.heading),
+        };
+        gyro_sigma = floor(group_rms(&r, &groups, Group::Gyro, gyro_sigma), gyro_sigma);
+        w = next;
+        x = s.x.clone();
+        sol = Some(s);
+    }
+    let sol = sol.ok_or_else(|| IdentifyError::Fit("no fit".into()))?;
+    let (r, groups) = f(&sol.x, &w, gyro_sigma)
+        .ok_or_else(|| IdentifyError::Fit("the fitted robot does not build".into()))?;
+    let inflation = correlation_inflation(prior, runs, l, &sol.x).unwrap_or(1.0);
+    // The condition of the robot's and the gyro's parameters (the start poses aside: a spin's
+    // start heading, seen only through the robot's drift, would dominate it).
+    let own: Vec<bool> = (0..n).map(|k| free[k] && fixable[k]).collect();
+    let condition = lsq::jacobian(
+        &|x: &[f64]| f(x, &w, gyro_sigma).map(|r| r.0),
+        &sol.x,
+        &h,
+        &own,
+    )
+    .map_or(sol.condition, |j| lsq::condition(&j, &own));
+    let estimate = |k: usize, name: String, unit: &'static str, prior: f64| Estimate {
+        name,
+        unit,
+        prior,
+        value: sol.x[k],
+        sigma: sol.sigma[k] * inflation,
+        status: reasons[k].clone().map_or(Status::Fitted, Status::Fixed),
+    };
+    let estimates: Vec<Estimate> = geometry
+        .iter()
+        .enumerate()
+        .map(|(k, p)| estimate(k, p.name.clone(), p.quantity.unit(), p.prior))
+        .collect();
+    let gyro = if l.gyro {
+        vec![
+            estimate(l.gyro_at(), "gyro.bias".into(), "rad/s", 0.0),
+            estimate(l.gyro_at() + 1, "gyro.scale".into(), "", 1.0),
+        ]
+    } else {
+        Vec::new()
+    };
+    Ok(Identified {
+        description: params::apply(prior, &x[..l.geometry]),
+        geometry: estimates,
+        gyro,
+        position_rms: group_rms(&r, &groups, Group::Position, w.position).unwrap_or(0.0),
+        heading_rms: group_rms(&r, &groups, Group::Heading, w.heading),
+        gyro_rms: group_rms(&r, &groups, Group::Gyro, gyro_sigma),
+        condition,
+        residuals: sol.residuals,
+    })
+}
+
+/// `sqrt((1 + ρ) / (1 − ρ))`, ρ the lag-1 autocorrelation of the residual series (x, y and
+/// heading of each run separately, pooled): the factor by which the 1σ of
+/// white residuals understates that of AR(1)-correlated ones (clamped to [0, 0.99]; the variance of a mean of n
+/// AR(1) samples is `(1 + ρ)/(1 − ρ)` times the white one's). Dead reckoning makes its errors
+/// correlated (encoder quantisation, the rate of the logs), camera noise does not: the factor is
+/// near 1 against camera fixes and larger against an exact tracked truth.
+fn correlation_inflation(
+    prior: &RobotDescription,
+    runs: &[Run],
+    l: Layout,
+    x: &[f64],
+) -> Option<f64> {
+    let robot = params::apply(prior, &x[..l.geometry]).build::<f64>().ok()?;
+    let unit = Weights {
+        position: 1.0,
+        heading: 1.0,
+    };
+    let (mut lag, mut zero) = (0.0, 0.0);
+    for (i, run) in runs.iter().enumerate() {
+        let mut r = Vec::new();
+        model::pose_residuals(&robot, run, l.start(x, i), unit, &mut r)?;
+        let per = if run.reference.heading.is_some() {
+            3
+        } else {
+            2
+        };
+        for c in 0..per {
+            let series: Vec<f64> = r.iter().skip(c).step_by(per).copied().collect();
+            let norm: f64 = series.iter().map(|v| v * v).sum();
+            if norm > 0.0 {
+                zero += 1.0;
+                lag += series.windows(2).map(|w| w[0] * w[1]).sum::<f64>() / norm;
+            }
+        }
+    }
+    if zero == 0.0 {
+        return None;
+    }
+    let rho = (lag / zero).clamp(0.0, 0.99);
+    Some(((1.0 + rho) / (1.0 - rho)).sqrt())
+}
