@@ -24,8 +24,13 @@ pub(super) const GRID_MAX: f64 = 0.05;
 /// there, [`Ctx::refine`]), so a coarse start costs little time-optimality: over the presets
 /// on two splines at 0.5–3 m/s the plans came out between 2.9 % shorter and 0.4 % longer than
 /// with 5 cm cells and a whole-move slow-down (the grid on the peer bench's spline 246 → 122
-/// nodes; 20 cm cells: up to 1.4 % longer).
-pub(super) const GRID_MAX_TIME_OPTIMAL: f64 = 0.1;
+/// nodes; 20 cm cells: up to 1.4 % longer). Since the stretches where the profile switches are
+/// refined ([`super::switches::SWITCH_FACTOR`]) the start is 15 cm: against
+/// `tests/reference.rs` (40 cases) 15 cm with 4× at the switches gave median +0.036 %, worst
+/// +0.611 %, against 10 cm with 3× median +0.044 %, worst +0.530 %, for 13 % fewer
+/// instructions on the 20-waypoint benchmark plan (985 k → 858 k; 18.685 s against 18.684 s);
+/// 15 cm with 3× had a worst of +1.132 %, 20 cm with 5× +7.0 %.
+pub(super) const GRID_MAX_TIME_OPTIMAL: f64 = 0.15;
 
 /// Largest linear-interpolation error of the motor rates per unit speed `A(σ)` between grid
 /// nodes, relative to the motor's largest `|A|` on the move, for the profile and
