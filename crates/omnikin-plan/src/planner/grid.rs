@@ -24,8 +24,13 @@ pub(super) const GRID_MAX: f64 = 0.05;
 /// there, [`Ctx::refine`]), so a coarse start costs little time-optimality: over the presets
 /// on two splines at 0.5–3 m/s the plans came out between 2.9 % shorter and 0.4 % longer than
 /// with 5 cm cells and a whole-move slow-down (the grid on the peer bench's spline 246 → 122
-/// nodes; 20 cm cells: up to 1.4 % longer).
-pub(super) const GRID_MAX_TIME_OPTIMAL: f64 = 0.1;
+/// nodes; 20 cm cells: up to 1.4 % longer). Since the stretches where the profile switches are
+/// refined ([`super::switches::SWITCH_FACTOR`]) the start is 15 cm: against
+/// `tests/reference.rs` (40 cases) 15 cm with 4× at the switches gave median +0.036 %, worst
+/// +0.611 %, against 10 cm with 3× median +0.044 %, worst +0.530 %, for 13 % fewer
+/// instructions on the 20-waypoint benchmark plan (985 k → 858 k; 18.685 s against 18.684 s);
+/// 15 cm with 3× had a worst of +1.132 %, 20 cm with 5× +7.0 %.
+pub(super) const GRID_MAX_TIME_OPTIMAL: f64 = 0.15;
 
 /// Largest linear-interpolation error of the motor rates per unit speed `A(σ)` between grid
 /// nodes, relative to the motor's largest `|A|` on the move, for the profile and
@@ -191,9 +196,22 @@ impl Ctx<'_> {
         // Every stretch's nodes in one vector (a rebuilt stretch appends its new nodes).
         let mut arena: Vec<Node> = Vec::with_capacity(n.iter().sum::<usize>() + n.len());
         // Stretch j with `cells` cells, appended to the arena, from the end of stretch j − 1.
-        let build = |arena: &mut Vec<Node>, parts: &[Stretch], j: usize, cells: usize| {
+        let build = |arena: &mut Vec<Node>,
+                     parts: &[Stretch],
+                     j: usize,
+                     cells: usize,
+                     coarse: Option<Coarse>| {
             let start = start_of(parts, arena, j, psi_start, gamma0);
-            self.stretch(arena, &kind, len, bounds[j], bounds[j + 1], cells, start)
+            self.stretch(
+                arena,
+                &kind,
+                len,
+                bounds[j],
+                bounds[j + 1],
+                cells,
+                start,
+                coarse,
+            )
         };
         // Where stretch j's nodes start in `old`, and whether a stretch before it changed.
         let mut old_first = 0;
@@ -228,7 +246,19 @@ impl Ctx<'_> {
                 }
                 None => {
                     changed = true;
-                    build(&mut arena, &parts, j, n[j])?
+                    // A stretch refined by a whole factor keeps the old nodes, which fall on
+                    // every `factor`-th new one (the same parameters, bit for bit: `i / n`
+                    // and `f i / f n` round alike), for a robot without steering (a
+                    // steering's state would carry the coarser integration over).
+                    let coarse = old
+                        .filter(|o| !steered && o.cells.len() == n.len() && o.cells[j] > 0)
+                        .filter(|o| n[j].is_multiple_of(o.cells[j]))
+                        .map(|o| Coarse {
+                            mv: o,
+                            first: old_first,
+                            factor: n[j] / o.cells[j],
+                        });
+                    build(&mut arena, &parts, j, n[j], coarse)?
                 }
             };
             if let Some(o) = old {
@@ -264,7 +294,7 @@ impl Ctx<'_> {
                     n[j] = want.min(cells(bounds[j + 1] - bounds[j], GRID_MIN).max(c));
                 }
                 if refine || (steered && dirty) {
-                    parts[j] = build(&mut arena, &parts, j, n[j])?;
+                    parts[j] = build(&mut arena, &parts, j, n[j], None)?;
                     scales[j] = parts[j].scale(&arena, chans);
                     dirty = true;
                 }
@@ -313,7 +343,9 @@ impl Ctx<'_> {
     }
 
     /// One stretch of a move's grid: `n` equal cells from `s0` to `s1`, starting from heading
-    /// hint and steer angles of `start`, or from the previous stretch's last node.
+    /// hint and steer angles of `start`, or from the previous stretch's last node; with
+    /// `coarse`, the nodes that coincide with the same stretch's nodes on a coarser grid are
+    /// copied from it instead of evaluated.
     #[allow(clippy::too_many_arguments)]
     fn stretch(
         &self,
@@ -324,6 +356,7 @@ impl Ctx<'_> {
         s1: f64,
         n: usize,
         start: Start,
+        coarse: Option<Coarse>,
     ) -> Result<Stretch, PlanningError> {
         let out = Stretch {
             s0,
@@ -343,6 +376,12 @@ impl Ctx<'_> {
         let steered = self.robot.steerable();
         let mut prev = s0;
         for k in first..=n {
+            if let Some(c) = coarse.as_ref().filter(|c| k % c.factor == 0) {
+                let node = c.node(k / c.factor);
+                hint = node.hint();
+                arena.push(node);
+                continue;
+            }
             let sigma = out.sigma(k);
             if k > 0 && steered {
                 g = self.steer_step(kind, len, prev, g, sigma - prev, hint)?;
@@ -405,6 +444,29 @@ fn start_of(parts: &[Stretch], arena: &[Node], j: usize, psi_start: f64, gamma0:
         Start::Fresh(Hint::angle(psi_start), gamma0)
     } else {
         Start::After(*parts[j - 1].last(arena))
+    }
+}
+
+/// The same stretch on a coarser grid of the same move, whose node `i` is node `factor · i`
+/// of the finer one ([`Ctx::stretch`]).
+struct Coarse<'a> {
+    mv: &'a Move,
+    /// Index of the stretch's first node in `mv`'s node vectors.
+    first: usize,
+    factor: usize,
+}
+
+impl Coarse<'_> {
+    /// The stretch's node `i` on the coarser grid.
+    fn node(&self, i: usize) -> Node {
+        let (o, i) = (self.mv, self.first + i);
+        Node {
+            psi: o.psi[i],
+            cs: o.cs[i],
+            a: o.a[i],
+            gamma: o.gamma[i],
+            piece: o.piece[i],
+        }
     }
 }
 

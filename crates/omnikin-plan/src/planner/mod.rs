@@ -29,7 +29,7 @@
 //!    linear interpolation of `A` or `A'` between nodes would be off by more than 1 % of that
 //!    motor's largest value on the move, down to 2 mm. The time-optimal timing, whose speed
 //!    caps allow for the bulge between nodes and whose residual excesses are mended where they
-//!    occur (step 4), starts from 10 cm (100 mrad) and refines at 20 %. The rows of `A` are the robot's motor
+//!    occur (step 4), starts from 15 cm (150 mrad) and refines at 20 %. The rows of `A` are the robot's motor
 //!    **channels** ([`RobotModel::channel`]): its `N` wheels, then its `N` steer motors if it
 //!    has steering. For the caster the steer angles `γ(σ)` obey `dγ/dσ = J2(θ, γ) q'(σ)`
 //!    (paper 003, eq. 5), which does not depend on the timing, so they are integrated once

@@ -24,10 +24,12 @@ const FULL: f64 = 0.999;
 pub(super) const SWITCH_ROUNDS: usize = 1;
 
 /// The factor on the cells of a stretch holding a switch. Against `tests/reference.rs`'s 40
-/// cases: 4× gave median +0.023 %, worst +0.530 %; 3× median +0.044 %, worst +0.530 % (the same
-/// case, not a switch's loss), for 11 % fewer instructions on the 20-waypoint benchmark plan
-/// (1 107 k → 1 001 k; 3 ms longer of 18.68 s); 2× worst +1.250 %, over the test's 1 %.
-pub(super) const SWITCH_FACTOR: usize = 3;
+/// cases, on 10 cm cells: 4× gave median +0.023 %, worst +0.530 %; 3× median +0.044 %, worst
+/// +0.530 % (the same case, not a switch's loss); 2× worst +1.250 %, over the test's 1 %. On
+/// the 15 cm cells of [`super::grid::GRID_MAX_TIME_OPTIMAL`]: 4× median +0.036 %, worst
+/// +0.611 %; 3× worst +1.132 % (a ballbot spinning along a filleted path, a switch's loss);
+/// 5× median +0.027 %, worst +0.534 % for 8 % more instructions than 4×.
+pub(super) const SWITCH_FACTOR: usize = 4;
 
 /// The stretches (indices into `mv.bounds`) holding a switch: a cell neither cruising nor at the full requested path acceleration `a_user`
 /// next to a cell that cruises ([`CRUISE`]) or accelerates the other way (empty for timings other than the time-optimal one).
