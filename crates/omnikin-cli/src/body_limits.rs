@@ -240,6 +240,43 @@ pub fn plan_excess(limits: &BodyLimits, p: &Peaks) -> Vec<String> {
     out
 }
 
+/// What `plan` (a plan file from elsewhere, or made for another robot) asks beyond the robot
+/// file's limits, one sentence per limit naming it, the plan's peak and its time: each motor
+/// quantity with a limit (the planner's own check, [`omnikin_plan::planner::plan_peaks`]) and
+/// the body limits ([`plan_excess`]); empty when the plan is within them.
+///
+/// # Errors
+/// The robot file cannot be turned into a planning model.
+pub fn plan_beyond_file(d: &RobotDescription, plan: &Plan) -> Result<Vec<String>> {
+    let model = omnikin_plan::RobotModel::from_description(d)?;
+    let mut out: Vec<String> = omnikin_plan::planner::plan_peaks(plan, &model)
+        .iter()
+        .filter_map(|p| {
+            let limit = p.limit?;
+            (p.value > limit * (1.0 + TOLERANCE)).then(|| {
+                format!(
+                    "the plan asks {} {unit} of {} {} {} at t = {:.2} s, more than the robot's \
+                     {} {unit} (the robot file's limits.{})",
+                    round(p.value),
+                    p.quantity.motor(),
+                    if p.quantity.is_accel() {
+                        "acceleration"
+                    } else {
+                        "rate"
+                    },
+                    p.motor,
+                    p.t,
+                    round(limit),
+                    p.quantity.key(),
+                    unit = p.quantity.unit(),
+                )
+            })
+        })
+        .collect();
+    out.extend(plan_excess(&d.body_limits(), &peaks(plan)));
+    Ok(out)
+}
+
 /// One line on a plan within the limits: its peaks beside the limits of `robot` (a name, or
 /// words such as "the robot's").
 pub fn within_line(robot: &str, limits: &BodyLimits, p: &Peaks) -> String {

@@ -401,6 +401,13 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     let d = crate::kinematics::resolve_robot(&a.robot)?;
     let robot = d.build::<f64>()?;
     let plan = Plan::load_csv(&a.plan)?;
+    // As `plan` warns: a plan asking more than the robot file allows is not what it will do.
+    for w in crate::body_limits::plan_beyond_file(&d, &plan)? {
+        crate::errln!(
+            "warning: {}: {w}; a robot held to its file's limits lags behind it",
+            a.plan.display()
+        );
+    }
     if a.shard.is_some() && a.plant == PlantKind::Dynamic {
         bail!(
             "--shard: the dynamic plant runs one trial; shards split the kinematic plant's trials"

@@ -210,6 +210,61 @@ fn drive_refuses_a_plan_beyond_the_limits_the_robot_tells_at_the_handshake() {
     }
 }
 
+/// `simulate` warns, as `plan` does, about a plan that asks more than the robot file allows:
+/// a motor limit (the wheel rate) and a body limit (the acceleration), each named with the
+/// plan's peak and its time; a plan within the limits gets no warning.
+#[test]
+fn simulate_warns_about_a_plan_beyond_the_robot_files_limits() {
+    let dir = tmp("simulate");
+    let plan = dir.path().join("sq.csv");
+    let o = run(&[
+        "plan",
+        "square",
+        "--robot",
+        "kiwi",
+        "--speed",
+        "0.2",
+        "--out",
+        plan.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let kiwi = slow_kiwi(dir.path());
+    let text = std::fs::read_to_string(&kiwi)
+        .unwrap()
+        .replace("max_wheel_rate = 40.0", "max_wheel_rate = 3.0");
+    assert!(text.contains("max_wheel_rate = 3.0"), "{text}");
+    std::fs::write(&kiwi, text).unwrap();
+    for (robot, warned) in [(kiwi.to_str().unwrap(), true), ("kiwi", false)] {
+        let out = dir.path().join(format!("sim-{warned}"));
+        let o = run(&[
+            "simulate",
+            plan.to_str().unwrap(),
+            "--robot",
+            robot,
+            "--trials",
+            "1",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let e = stderr(&o);
+        assert!(o.status.success(), "{e}");
+        assert_eq!(e.contains("warning:"), warned, "{e}");
+        if warned {
+            assert!(
+                e.contains("the plan asks 4 rad/s of wheel rate 1 at t = 0.10 s, more than the robot's 3 rad/s (the robot file's limits.max_wheel_rate)"),
+                "{e}"
+            );
+            assert!(
+                e.contains("the plan asks 2 m/s² of acceleration at t = ")
+                    && e.contains(
+                        "more than the robot's 0.5 m/s² (the robot file's limits.max_accel)"
+                    ),
+                "{e}"
+            );
+        }
+    }
+}
+
 /// The README tour's drive on the ideal plant: the runtime slews at the sphere's own limit
 /// (22.9 m/s² from its wheels), not the 1 m/s² it used to default to (0.0198 m of error).
 #[test]
