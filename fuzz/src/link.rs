@@ -1519,6 +1519,11 @@ pub fn raw_info() -> RobotInfo {
         rate_hz: 100.0,
         watchdog: 0.5,
         authenticated: false,
+        limits: omnikin::link::RobotLimits {
+            max_accel: 1.0,
+            max_yaw_accel: 4.0,
+            max_jerk: f32::INFINITY,
+        },
     }
 }
 

@@ -4,9 +4,9 @@
 
 use omnikin::estimate::events::EventCounters;
 use omnikin::link::{
-    Busy, EndReason, Estimate, Hello, HelloAck, KIND_TAGGED, Key, LinkCounters, MAX_FRAME, MacKey,
-    Message, NONCE_LEN, Opening, PROTOCOL_VERSION, RobotInfo, RobotKind, SimTruth, Telemetry,
-    WireFix, WirePoint, encode_hello, encode_message, encode_open,
+    Busy, EndReason, Estimate, HANDSHAKE_BODY, Hello, HelloAck, KIND_TAGGED, Key, LinkCounters,
+    MAX_FRAME, MacKey, Message, NONCE_LEN, Opening, PROTOCOL_VERSION, RobotInfo, RobotKind,
+    SimTruth, Telemetry, WireFix, WirePoint, encode_hello, encode_message, encode_open,
 };
 use omnikin::runtime::{Faults, FixCounters, Frame, Mode, PlanStatus};
 
@@ -458,7 +458,7 @@ pub fn link_session() -> Vec<Seed> {
     let mut v2 = flip(&hello, 128);
     v2.extend_from_slice(&[2, 51, 0]);
     let mut throttled = flip(&hello, 128);
-    throttled.extend_from_slice(&[PROTOCOL_VERSION, 51, 1]);
+    throttled.extend_from_slice(&[PROTOCOL_VERSION, HANDSHAKE_BODY as u8, 1]);
     let mut any = vec![2u8, PROTOCOL_VERSION, 3 | KIND_TAGGED];
     any.extend_from_slice(&5u64.to_le_bytes());
     any.extend_from_slice(&1u64.to_le_bytes());
@@ -597,6 +597,11 @@ pub fn frame_decoder() -> Vec<Seed> {
                 rate_hz: 100.0,
                 watchdog: 0.5,
                 authenticated: k.is_some(),
+                limits: omnikin::link::RobotLimits {
+                    max_accel: 1.0,
+                    max_yaw_accel: 4.0,
+                    max_jerk: f32::INFINITY,
+                },
             },
             client_nonce: [0x11; NONCE_LEN],
             robot_nonce: rn,

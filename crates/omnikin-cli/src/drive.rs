@@ -785,6 +785,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
                     "no key"
                 }
             )?;
+            crate::outln!("robot: {}", crate::body_limits::told_line(&i.limits))?;
         }
         DriveAction::Velocity {
             vx,
@@ -993,9 +994,16 @@ fn follow_plan(s: &mut Session, path: &Path, start: StartCheck, robot: Option<&s
     if plan.samples.len() < 2 {
         bail!("plan {}: needs at least 2 samples", path.display());
     }
-    if let Some(r) = robot {
-        let d = crate::kinematics::resolve_robot(r)?;
-        let limits = d.body_limits();
+    // The robot file's limits (`--robot`, read before the link is opened) and the robot's own
+    // (its handshake): the plan is held to the stricter of each.
+    let file = robot
+        .map(crate::kinematics::resolve_robot)
+        .transpose()?
+        .map(|d| (format!("{}'s", d.name), d.body_limits()));
+    let info = s.hello()?;
+    if let Some(limits) =
+        crate::body_limits::held(file.as_ref().map(|(_, l)| l), Some(&info.limits))
+    {
         let peaks = crate::body_limits::peaks(&plan);
         let excess = crate::body_limits::plan_excess(&limits, &peaks);
         if !excess.is_empty() {
@@ -1005,9 +1013,9 @@ fn follow_plan(s: &mut Session, path: &Path, start: StartCheck, robot: Option<&s
                 excess.join("; ")
             );
         }
-        crate::outln!("{}", crate::body_limits::within_line(&d, &limits, &peaks))?;
+        let name = file.as_ref().map_or("the robot's", |(n, _)| n.as_str());
+        crate::outln!("{}", crate::body_limits::within_line(name, &limits, &peaks))?;
     }
-    let info = s.hello()?;
     let p0 = plan.samples[0].pose;
     check_plan_start(s, [p0.x, p0.y], start)?;
     if info.plan_capacity == 0 {

@@ -361,7 +361,7 @@ pub fn run(a: &RobotArgs) -> Result<()> {
                             | Message::PlanStart { .. }
                     );
                 }
-                // A v1 peer: one v1 answer it can print ("protocol 3"), within its budget.
+                // A v1 peer: one v1 answer it can print ("protocol 4"), within its budget.
                 Err(DropReason::Version(1)) => {
                     if let Ok(n) = robot_link.version_reply(&info, &mut reply)
                         && amp.allow_reply(f.from, n)

@@ -199,10 +199,12 @@ pub(crate) fn write_dynamic_run(
 
 /// `omnikin evaluate`: tracked runs against a plan (`--plan`), or pose estimates against
 /// ground truth (`--truth`, see [`crate::evaluate_truth`]).
+// Exactly one of `--plan` and `--truth` (a group, so that clap's message names both).
 #[derive(clap::Args, Debug)]
+#[command(group(clap::ArgGroup::new("reference").required(true).args(["plan", "truth"])))]
 pub struct EvaluateArgs {
     /// The plan the runs followed (plan CSV).
-    #[arg(long, required_unless_present = "truth", conflicts_with = "truth")]
+    #[arg(long)]
     pub plan: Option<PathBuf>,
     /// Ground truth (t,x,y[,heading] CSV): score each file as a pose estimate against it with
     /// the absolute trajectory error and the relative pose error (Sturm et al. 2012, the TUM
@@ -399,6 +401,13 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     let d = crate::kinematics::resolve_robot(&a.robot)?;
     let robot = d.build::<f64>()?;
     let plan = Plan::load_csv(&a.plan)?;
+    // As `plan` warns: a plan asking more than the robot file allows is not what it will do.
+    for w in crate::body_limits::plan_beyond_file(&d, &plan)? {
+        crate::errln!(
+            "warning: {}: {w}; a robot held to its file's limits lags behind it",
+            a.plan.display()
+        );
+    }
     if a.shard.is_some() && a.plant == PlantKind::Dynamic {
         bail!(
             "--shard: the dynamic plant runs one trial; shards split the kinematic plant's trials"

@@ -1,7 +1,8 @@
 //! One set of body limits from the robot file to the robot: `omnikin robot` slews at the
 //! robot file's limits (derived from the wheel limits when the file gives none) and refuses a
 //! flag above them, `plan` refuses a request above them and warns about a plan that asks for
-//! more, `drive plan --robot` refuses such a plan before uploading it, and the README tour's
+//! more, `drive plan` refuses such a plan before uploading it (the robot's limits come with
+//! its handshake; `--robot` adds the file's, the stricter applies), and the README tour's
 //! square is tracked on the ideal plant.
 
 use std::path::PathBuf;
@@ -163,6 +164,105 @@ fn drive_refuses_to_upload_a_plan_beyond_the_robots_limits() {
         "{e}"
     );
     assert!(!String::from_utf8_lossy(&o.stdout).contains("uploaded plan"));
+}
+
+/// Without `--robot` the robot's handshake names its limits; with a `--robot` file whose limits
+/// are looser (the kiwi preset's, derived from its wheels), the robot's stricter 0.5 m/s² still
+/// applies.
+#[test]
+fn drive_refuses_a_plan_beyond_the_limits_the_robot_tells_at_the_handshake() {
+    let dir = tmp("drive_told");
+    let kiwi = slow_kiwi(dir.path());
+    let robot = Robot::start_robot(kiwi.to_str().unwrap(), &["--max-time", "30"]);
+    let o = common::drive(&robot.addr, "3", &["hello"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("robot: body limits: acceleration 0.5 m/s², yaw acceleration ")
+            && out.contains(", jerk unlimited"),
+        "{out}"
+    );
+    let plan = dir.path().join("sq.csv");
+    let o = run(&[
+        "plan",
+        "square",
+        "--robot",
+        "kiwi",
+        "--speed",
+        "0.2",
+        "--out",
+        plan.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for extra in [&[][..], &["--robot", "kiwi"][..]] {
+        let mut args = vec!["plan", plan.to_str().unwrap(), "--set-pose"];
+        args.extend_from_slice(extra);
+        let o = common::drive(&robot.addr, "3", &args);
+        let e = stderr(&o);
+        assert!(!o.status.success(), "{extra:?}: {e}");
+        assert!(
+            e.contains("not uploaded: the plan asks 2 m/s² of acceleration")
+                && e.contains(
+                    "more than the robot's 0.5 m/s² (what the robot's runtime enforces, from its handshake)"
+                ),
+            "{extra:?}: {e}"
+        );
+        assert!(!String::from_utf8_lossy(&o.stdout).contains("uploaded plan"));
+    }
+}
+
+/// `simulate` warns, as `plan` does, about a plan that asks more than the robot file allows:
+/// a motor limit (the wheel rate) and a body limit (the acceleration), each named with the
+/// plan's peak and its time; a plan within the limits gets no warning.
+#[test]
+fn simulate_warns_about_a_plan_beyond_the_robot_files_limits() {
+    let dir = tmp("simulate");
+    let plan = dir.path().join("sq.csv");
+    let o = run(&[
+        "plan",
+        "square",
+        "--robot",
+        "kiwi",
+        "--speed",
+        "0.2",
+        "--out",
+        plan.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let kiwi = slow_kiwi(dir.path());
+    let text = std::fs::read_to_string(&kiwi)
+        .unwrap()
+        .replace("max_wheel_rate = 40.0", "max_wheel_rate = 3.0");
+    assert!(text.contains("max_wheel_rate = 3.0"), "{text}");
+    std::fs::write(&kiwi, text).unwrap();
+    for (robot, warned) in [(kiwi.to_str().unwrap(), true), ("kiwi", false)] {
+        let out = dir.path().join(format!("sim-{warned}"));
+        let o = run(&[
+            "simulate",
+            plan.to_str().unwrap(),
+            "--robot",
+            robot,
+            "--trials",
+            "1",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let e = stderr(&o);
+        assert!(o.status.success(), "{e}");
+        assert_eq!(e.contains("warning:"), warned, "{e}");
+        if warned {
+            assert!(
+                e.contains("the plan asks 4 rad/s of wheel rate 1 at t = 0.10 s, more than the robot's 3 rad/s (the robot file's limits.max_wheel_rate)"),
+                "{e}"
+            );
+            assert!(
+                e.contains("the plan asks 2 m/s² of acceleration at t = ")
+                    && e.contains(
+                        "more than the robot's 0.5 m/s² (the robot file's limits.max_accel)"
+                    ),
+                "{e}"
+            );
+        }
+    }
 }
 
 /// The README tour's drive on the ideal plant: the runtime slews at the sphere's own limit

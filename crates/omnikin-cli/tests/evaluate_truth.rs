@@ -140,3 +140,24 @@ fn estimates_off_the_truths_clock_and_bad_steps_are_refused_by_name() {
         .failure()
         .stderr(predicate::str::contains("cannot be used with"));
 }
+
+/// Without a reference the message names both ways to give one; both at once are refused.
+#[test]
+fn evaluate_names_both_references_when_neither_is_given() {
+    let out = omnikin().args(["evaluate", "run.csv"]).output().unwrap();
+    assert!(!out.status.success());
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("--plan") && e.contains("--truth"), "{e}");
+    omnikin()
+        .args([
+            "evaluate",
+            "--plan",
+            "plans/square-sphere-omni.csv",
+            "--truth",
+            "logs/kiwi-truth.csv",
+            "run.csv",
+        ])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("cannot be used with"));
+}

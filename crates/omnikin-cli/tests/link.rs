@@ -942,7 +942,7 @@ fn version_mismatch_is_named_both_ways() {
                 if let Some((_, omnikin::link::v1::Frame::Hello { .. })) =
                     omnikin::link::v1::parse(&mut f, None)
                 {
-                    let info = omnikin::link::RobotInfo {
+                    let info = omnikin::link::v1::RobotInfo {
                         protocol: 1,
                         kind: omnikin::link::RobotKind::Sphere,
                         plan_capacity: 4096,
@@ -967,7 +967,7 @@ fn version_mismatch_is_named_both_ways() {
         "{err}"
     );
     // A v1 operator against this robot: a hand-made v1 Hello gets a v1 HelloAck that says
-    // protocol 3 (what a v1 drive prints as "robot speaks protocol version 3").
+    // protocol 4 (what a v1 drive prints as "robot speaks protocol version 4").
     let robot = Robot::start(&["--max-time", "8"]);
     let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
     sock.set_read_timeout(Some(Duration::from_millis(500)))
@@ -994,8 +994,8 @@ fn version_mismatch_is_named_both_ways() {
     // v1 body: variant 1 (HelloAck), then RobotInfo.protocol.
     assert_eq!(
         (dec[10], dec[11]),
-        (1, 3),
-        "HelloAck with protocol 3: {dec:?}"
+        (1, omnikin::link::PROTOCOL_VERSION),
+        "HelloAck with protocol 4: {dec:?}"
     );
     let s = robot.summary();
     assert_eq!(s["link"]["version"], 2);
@@ -1275,7 +1275,7 @@ fn a_forged_v1_hello_ack_does_not_end_the_operators_attempt() {
         let done = Arc::new(AtomicBool::new(false));
         let d2 = done.clone();
         let h = std::thread::spawn(move || {
-            let info = omnikin::link::RobotInfo {
+            let info = omnikin::link::v1::RobotInfo {
                 protocol: 1,
                 kind: omnikin::link::RobotKind::Sphere,
                 plan_capacity: 4096,
@@ -1322,7 +1322,7 @@ fn a_forged_v1_hello_ack_does_not_end_the_operators_attempt() {
         assert!(n_forged >= 6);
         assert!(out.status.success(), "keyed {keyed}: {err}");
         assert!(!err.contains("version mismatch"), "{err}");
-        assert!(String::from_utf8_lossy(&out.stdout).contains("protocol 3"));
+        assert!(String::from_utf8_lossy(&out.stdout).contains("protocol 4"));
     }
 }
 

@@ -212,7 +212,7 @@ fn velocity_stop_estop_and_clear() {
     let out = drive(&a, &["hello"]);
     assert!(
         String::from_utf8_lossy(&out.stdout)
-            .contains("protocol 3, model Sphere, plan capacity 4096")
+            .contains("protocol 4, model Sphere, plan capacity 4096")
     );
     let out = drive(
         &a,

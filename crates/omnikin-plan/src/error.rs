@@ -116,9 +116,10 @@ pub enum PlanningError {
     /// The request cannot be planned as stated (e.g. a constant-speed law on a path with stops).
     #[error("{0}")]
     Infeasible(String),
-    /// The core kinematics rejected an input (non-finite value).
+    /// The core kinematics rejected an input (non-finite value). Its message includes the
+    /// cause, so the cause is not also its `source` (a chain would print it twice).
     #[error("kinematics: {0}")]
-    Kinematics(#[from] omnikin::InputError),
+    Kinematics(omnikin::InputError),
     /// The robot model could not be built.
     #[error("robot: {0}")]
     Robot(String),
@@ -132,4 +133,10 @@ pub enum PlanningError {
         /// What is wrong.
         message: String,
     },
+}
+
+impl From<omnikin::InputError> for PlanningError {
+    fn from(e: omnikin::InputError) -> Self {
+        Self::Kinematics(e)
+    }
 }

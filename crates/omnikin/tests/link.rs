@@ -10,9 +10,9 @@ use omnikin::estimate::events::EventCounters;
 use omnikin::link::{
     CHUNK_POINTS, DropReason, EPOCH_US, EncodeError, EndReason, Estimate, FrameReader,
     HANDSHAKE_BODY, Hello, Key, Kind, LIVE_US, LinkCounters, MAX_FRAME, Message, Opening,
-    OperatorEvent, OperatorLink, PROTOCOL_VERSION, RobotEvent, RobotInfo, RobotKind, RobotLink,
-    SimTruth, Telemetry, USED_PER_EPOCH, WireFix, WirePoint, encode_hello, encode_message,
-    encode_open, parse_frame, serve, v1,
+    OperatorEvent, OperatorLink, PROTOCOL_VERSION, RobotEvent, RobotInfo, RobotKind, RobotLimits,
+    RobotLink, SimTruth, Telemetry, USED_PER_EPOCH, WireFix, WirePoint, encode_hello,
+    encode_message, encode_open, parse_frame, robot_info, serve, v1,
 };
 use omnikin::runtime::hal::{
     EncoderAngles, Encoders, Entropy, EntropyError, MotorCommand, MotorOutputs, NoImu,
@@ -218,6 +218,11 @@ fn info(authenticated: bool) -> RobotInfo {
         rate_hz: 100.0,
         watchdog: 0.5,
         authenticated,
+        limits: RobotLimits {
+            max_accel: 1.0,
+            max_yaw_accel: 4.0,
+            max_jerk: f32::INFINITY,
+        },
     }
 }
 
@@ -466,6 +471,11 @@ fn largest_messages_fit_one_frame_and_no_answer_outgrows_its_hello() {
     // The largest HelloAck body is the Hello's padded length.
     let mut widest = info(true);
     widest.plan_capacity = u16::MAX;
+    widest.limits = RobotLimits {
+        max_accel: f32::MAX,
+        max_yaw_accel: f32::NAN,
+        max_jerk: f32::INFINITY,
+    };
     let ack = omnikin::link::HelloAck {
         info: widest,
         client_nonce: [0xff; 16],
@@ -1117,7 +1127,8 @@ fn v1_peers_and_v3_peers_name_the_mismatch() {
         let n = v1::encode_hello(5, key.as_ref(), &mut hello).unwrap();
         assert_eq!(bot.rx(&hello[..n]).0, Err(DropReason::Version(1)));
         assert_eq!(bot.link.counters().version, 1);
-        // The robot's answer is what a v1 operator decodes as "protocol 3".
+        // The robot's answer is what a v1 operator decodes as "protocol 4": v1's body exactly
+        // (`v1::parse` refuses trailing bytes), so the limits are not in it.
         let m = bot.link.version_reply(&bot.info, &mut buf).unwrap();
         let (_, f) = v1::parse(&mut buf[..m - 1].to_vec(), key.as_ref()).unwrap();
         assert!(matches!(f, v1::Frame::HelloAck(i) if i.protocol == PROTOCOL_VERSION));
@@ -1125,12 +1136,12 @@ fn v1_peers_and_v3_peers_name_the_mismatch() {
             let other = Key::new(b"another key of the same length!!").unwrap();
             assert_eq!(v1::parse(&mut buf[..m - 1].to_vec(), Some(&other)), None);
         }
-        // A v1 robot's answer reaches a v2 operator as a version drop, readable as v1.
+        // A v1 robot's answer reaches a later operator as a version drop, readable as v1.
         let mut op = OperatorLink::new(key.clone());
         let n = v1::encode_hello_ack(
-            &RobotInfo {
+            &v1::RobotInfo {
                 protocol: 1,
-                ..info(false)
+                ..v1::RobotInfo::from(&info(false))
             },
             1,
             key.as_ref(),
@@ -1513,4 +1524,62 @@ fn largest_telemetry_fits_a_frame() {
     let n = encode_message(u64::MAX, u64::MAX, &msg, Some(k.mac()), &mut buf).unwrap();
     let p = parse_frame(&mut buf[..n - 1]).unwrap();
     assert_eq!(omnikin::link::decode_message(p.body).unwrap(), msg);
+}
+
+/// Protocol 4: the HelloAck carries the runtime's effective body limits inside the PSK-tagged
+/// body, so the operator learns them from the handshake; a HelloAck whose limits were changed
+/// on the way (CRC recomputed, as an attacker would) is refused by the tag.
+#[test]
+fn the_hello_ack_carries_the_runtimes_body_limits_under_the_tag() {
+    let robot = Robot::Sphere(SphereOmni::<f32>::new(SphereParams::preset()).unwrap());
+    let mut cfg = Config::new(100.0);
+    cfg.slew.accel = 0.75;
+    cfg.slew.yaw_accel = 2.5;
+    cfg.slew.jerk = Some(9.0);
+    let rt = Runtime::<f32, 8>::new(robot, cfg, Pose2::default()).unwrap();
+    let told = RobotLimits {
+        max_accel: 0.75,
+        max_yaw_accel: 2.5,
+        max_jerk: 9.0,
+    };
+    for key in [None, Some(key())] {
+        let mut bot = Bot::new(key.clone(), 3);
+        bot.info = robot_info(&rt, key.is_some());
+        assert_eq!(bot.info.limits, told);
+        let mut op = OperatorLink::new(key.clone());
+        let hello = op_hello(&mut op, &mut TestRng(4));
+        let (r, ack) = bot.rx(&hello);
+        assert!(matches!(r, Ok(RobotEvent::Hello(_))), "{r:?}");
+        assert!(ack.len() <= hello.len(), "anti-amplification");
+        // The limits are the last 12 bytes of the info (before the nonces and the epoch);
+        // raise max_accel's exponent on the wire and fix the CRC.
+        let mut raw = ack[..ack.len() - 1].to_vec();
+        let n = omnikin::link::cobs_decode_in_place(&mut raw).unwrap();
+        raw.truncate(n);
+        let mut b = [0u8; 64];
+        let info_len = postcard::to_slice(&bot.info, &mut b).unwrap().len();
+        let at = omnikin::link::HEADER_LEN + info_len - 12;
+        assert_eq!(raw[at..at + 4], 0.75f32.to_le_bytes());
+        raw[at + 3] ^= 0x01;
+        let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISCSI).checksum(&raw[..n - 4]);
+        raw[n - 4..].copy_from_slice(&crc.to_le_bytes());
+        let mut forged = vec![0u8; MAX_FRAME];
+        let m = omnikin::link::cobs_encode(&raw, &mut forged).unwrap();
+        forged.truncate(m);
+        forged.push(0);
+        let mut spoofed = op.clone();
+        match op_rx(&mut spoofed, &forged) {
+            Err(DropReason::Auth) if key.is_some() => {}
+            Ok(OperatorEvent::Established(i)) if key.is_none() => {
+                // Unkeyed, the link has no integrity (docs/security.md): the value changes.
+                assert_ne!(i.limits, told);
+            }
+            other => panic!("forged limits, keyed {}: {other:?}", key.is_some()),
+        }
+        match op_rx(&mut op, &ack) {
+            Ok(OperatorEvent::Established(i)) => assert_eq!(i.limits, told),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(op.info().map(|i| i.limits), Some(told));
+    }
 }

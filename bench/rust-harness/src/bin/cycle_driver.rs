@@ -249,6 +249,11 @@ fn link_frames(keyed: bool, n: u64) {
         rate_hz: 1000.0,
         watchdog: 0.5,
         authenticated: keyed,
+        limits: omnikin::link::RobotLimits {
+            max_accel: 1.0,
+            max_yaw_accel: 4.0,
+            max_jerk: f32::INFINITY,
+        },
     };
     let (mut rng, mut buf, mut reply) = (Fixed(1), [0u8; MAX_FRAME], [0u8; MAX_FRAME]);
     let m = op.hello(&mut rng, &mut buf).unwrap();
@@ -315,6 +320,11 @@ fn handshakes(keyed: bool, hello_only: bool, n: u64) {
         rate_hz: 1000.0,
         watchdog: 0.5,
         authenticated: keyed,
+        limits: omnikin::link::RobotLimits {
+            max_accel: 1.0,
+            max_yaw_accel: 4.0,
+            max_jerk: f32::INFINITY,
+        },
     };
     let (mut rng, mut buf, mut reply) = (Counter(1), [0u8; MAX_FRAME], [0u8; MAX_FRAME]);
     let mut opened = 0u64;

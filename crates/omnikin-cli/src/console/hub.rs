@@ -480,6 +480,7 @@ mod tests {
             max_yaw_accel: 4.0,
             max_yaw_accel_source: LimitSource::WheelLimits,
             max_jerk: None,
+            max_jerk_source: LimitSource::Unlimited,
         };
         // 0 → 0.2 m/s in 0.1 s: 2 m/s².
         let msg = r#"{"type":"plan","name":"fast.csv","csv":"t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3\n0,0,0,0,0,0,0,0,0,0\n0.1,0.01,0,0,0.2,0,0,0,0,0\n0.2,0.03,0,0,0.2,0,0,0,0,0\n"}"#;

@@ -468,6 +468,10 @@ impl Relay {
                     self.event("warn", "run plan: the e-stop is latched (clear it first)");
                     return Ok(());
                 }
+                if let Some(why) = self.beyond_limits() {
+                    self.event("error", &format!("run plan {name}: refused: {why}"));
+                    return Ok(());
+                }
                 let id = (crate::link_io::epoch_seq() & 0xffff) as u16;
                 let poses = pts
                     .iter()
@@ -770,6 +774,18 @@ impl Relay {
                 self.event(level, &text);
             }
         }
+    }
+
+    /// What the loaded plan asks beyond the stricter of the robot file's limits (`--robot`)
+    /// and the robot's own (its handshake), or `None` when it is within them.
+    fn beyond_limits(&self) -> Option<String> {
+        let (_, plan) = self.plan.as_ref()?;
+        let file = self.hub.robot_limits.get();
+        let limits =
+            crate::body_limits::held(file.map(|(_, l)| l), self.info.as_ref().map(|i| &i.limits))?;
+        let excess = crate::body_limits::plan_excess(&limits, &crate::body_limits::peaks(plan));
+        (!excess.is_empty())
+            .then(|| format!("{}; the robot would lag behind it", excess.join("; ")))
     }
 
     fn preview(&mut self, name: String, plan: Plan) {

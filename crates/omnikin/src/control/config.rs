@@ -87,12 +87,19 @@ impl<T: Real> BalanceConfig<T> {
     }
 }
 
+impl From<GeometryError> for BalanceError {
+    fn from(e: GeometryError) -> Self {
+        Self::Geometry(e)
+    }
+}
+
 /// Why a balance controller could not be built.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
 pub enum BalanceError {
-    /// The wheel geometry is invalid.
+    /// The wheel geometry is invalid. Its message includes the cause, so the cause is not
+    /// also its `source` (an error chain would print it twice).
     #[error("ballbot geometry: {0}")]
-    Geometry(#[from] GeometryError),
+    Geometry(GeometryError),
     /// A physical or controller parameter is out of range.
     #[error("{field} = {value}: {rule}")]
     Parameter {

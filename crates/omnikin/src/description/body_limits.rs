@@ -54,6 +54,9 @@ pub enum LimitSource {
     Default,
     /// No limit (jerk not given).
     Unlimited,
+    /// What the robot's runtime enforces, as its link handshake told the operator
+    /// ([`crate::link::RobotLimits`]).
+    Robot,
 }
 
 impl LimitSource {
@@ -65,6 +68,7 @@ impl LimitSource {
             Self::LeanLimit => "the ballbot's lean limit".to_string(),
             Self::Default => "default: the robot file has no acceleration limits".to_string(),
             Self::Unlimited => "unlimited".to_string(),
+            Self::Robot => "what the robot's runtime enforces, from its handshake".to_string(),
         }
     }
 }
@@ -82,6 +86,8 @@ pub struct BodyLimits {
     pub max_yaw_accel_source: LimitSource,
     /// Largest linear jerk, m/s³ (`None`: unlimited).
     pub max_jerk: Option<f64>,
+    /// Where `max_jerk` came from ([`LimitSource::File`], or [`LimitSource::Unlimited`]).
+    pub max_jerk_source: LimitSource,
 }
 
 impl RobotDescription {
@@ -114,6 +120,10 @@ impl RobotDescription {
             max_yaw_accel,
             max_yaw_accel_source,
             max_jerk: self.limits.max_jerk,
+            max_jerk_source: match self.limits.max_jerk {
+                Some(_) => LimitSource::File,
+                None => LimitSource::Unlimited,
+            },
         }
     }
 }

@@ -84,7 +84,22 @@ impl RobotKind {
     }
 }
 
-/// Who the robot is, in its answer to a Hello ([`HelloAck`]; the same fields as in v1).
+/// The body limits the robot's runtime enforces on every command (f32, SI units; world
+/// frame), in its answer to a Hello, so that an operator can refuse a plan that asks for more
+/// before uploading it. `f32::INFINITY` where the runtime does not limit the quantity (a
+/// ballbot's yaw acceleration and jerk; a jerk limit the robot file does not set).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RobotLimits {
+    /// Largest linear acceleration magnitude, m/s².
+    pub max_accel: f32,
+    /// Largest yaw acceleration magnitude, rad/s².
+    pub max_yaw_accel: f32,
+    /// Largest linear jerk, m/s³.
+    pub max_jerk: f32,
+}
+
+/// Who the robot is, in its answer to a Hello ([`HelloAck`]; v1's fields, then the limits
+/// added in protocol 4 — a v1 answer carries [`v1::RobotInfo`](super::v1::RobotInfo)).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RobotInfo {
     /// The robot's protocol version.
@@ -99,6 +114,8 @@ pub struct RobotInfo {
     pub watchdog: f32,
     /// Whether commands must carry a tag.
     pub authenticated: bool,
+    /// The runtime's effective body limits (protocol 4).
+    pub limits: RobotLimits,
 }
 
 /// Robot state at one cycle, as sent to the operator (all `f32`, SI units).

@@ -5,9 +5,9 @@
 //! ends, `no_std`, no allocation, over **any byte stream** (UDP datagrams, a serial port, a
 //! radio modem).
 //!
-//! ## Frame format (protocol version [`PROTOCOL_VERSION`] = 3)
+//! ## Frame format (protocol version [`PROTOCOL_VERSION`] = 4)
 //! ```text
-//! COBS( version:u8 = 3 | kind:u8 | session:u64 LE | seq:u64 LE | [opening] | body | tag[16] | crc32c:u32 LE ) 0x00
+//! COBS( version:u8 = 4 | kind:u8 | session:u64 LE | seq:u64 LE | [opening] | body | tag[16] | crc32c:u32 LE ) 0x00
 //! ```
 //! * **COBS** removes every `0x00` from the frame so a single `0x00` delimits frames; a
 //!   receiver that joins mid-stream re-synchronises at the next delimiter.
@@ -108,15 +108,17 @@ pub use frame::{
 use frame::{ct_eq, decode_hello, postcard_body, stuff};
 pub use handshake::{EPOCH_US, FirstFrame, HandshakeSecrets, USED_PER_EPOCH};
 pub use message::{
-    Busy, EndReason, Estimate, Hello, HelloAck, Message, RobotInfo, RobotKind, SimTruth, Telemetry,
-    TelemetrySource, WireFix, WirePoint,
+    Busy, EndReason, Estimate, Hello, HelloAck, Message, RobotInfo, RobotKind, RobotLimits,
+    SimTruth, Telemetry, TelemetrySource, WireFix, WirePoint,
 };
 pub use operator::{OperatorEvent, OperatorLink};
 pub use robot::{LIVE_US, RobotEvent, RobotLink, Served, robot_info, serve};
 
-/// The protocol version sent first in every frame (3: stateless handshake, open frames,
-/// e-stop barrier; 2 Dec 2026's v2 kept pending handshakes).
-pub const PROTOCOL_VERSION: u8 = 3;
+/// The protocol version sent first in every frame (4: the HelloAck's [`RobotInfo`] carries
+/// the runtime's body limits, [`RobotLimits`], and the Hello's padding grew to match; 3:
+/// stateless handshake, open frames, e-stop barrier; v2 kept pending handshakes). Peers of
+/// different versions drop each other's frames and name the mismatch through [`v1`].
+pub const PROTOCOL_VERSION: u8 = 4;
 /// Bytes of the truncated HMAC-SHA256 tag.
 pub const TAG_LEN: usize = 16;
 /// Bytes of each handshake nonce.
@@ -137,7 +139,8 @@ pub const MAX_FRAME: usize = cobs_max_len(MAX_RAW) + 1;
 /// Bit 7 of the kind byte: the frame carries a tag.
 pub const KIND_TAGGED: u8 = 0x80;
 /// Body bytes of a Hello (zero-padded) — the largest [`HelloAck`] body, so a robot's answer
-/// is never larger than the Hello that asked for it (anti-amplification).
-pub const HANDSHAKE_BODY: usize = 51;
+/// is never larger than the Hello that asked for it (anti-amplification): v3's 51 bytes plus
+/// the 12 of [`RobotLimits`].
+pub const HANDSHAKE_BODY: usize = 63;
 
 const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISCSI);

@@ -331,8 +331,8 @@ impl RobotLink {
     }
 
     /// The answer to a frame of protocol v1 ([`DropReason::Version`]`(1)`): a v1 HelloAck that
-    /// says `protocol: 3`, tagged the v1 way with the PSK, so a v1 operator prints "robot
-    /// speaks protocol version 3". The caller bounds how often it is sent (it is larger than
+    /// says this robot's protocol ([`PROTOCOL_VERSION`]), tagged the v1 way with the PSK, so a
+    /// v1 operator prints "robot speaks protocol version 4" (the limits are not in it). The caller bounds how often it is sent (it is larger than
     /// the smallest v1 frame: send it only within the sender's anti-amplification budget).
     ///
     /// # Errors
@@ -342,7 +342,7 @@ impl RobotLink {
         info: &RobotInfo,
         out: &mut [u8],
     ) -> Result<usize, EncodeError> {
-        let mut i = *info;
+        let mut i = v1::RobotInfo::from(info);
         i.protocol = PROTOCOL_VERSION;
         let n = v1::encode_hello_ack(&i, self.v1_seq, self.key.as_ref(), out)?;
         self.v1_seq = self.v1_seq.saturating_add(1);
@@ -373,6 +373,7 @@ pub fn robot_info<T: Real, R: Operated<T>>(runtime: &R, authenticated: bool) -> 
         rate_hz: runtime.rate_hz().to_f64() as f32,
         watchdog: runtime.watchdog().to_f64() as f32,
         authenticated,
+        limits: runtime.body_limits(),
     }
 }
 

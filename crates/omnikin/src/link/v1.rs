@@ -1,11 +1,12 @@
 //! Protocol v1 (`COBS(version=1 | flags | seq:u64 | body | tag[8] | crc32c)`), kept only so
-//! that v1 and later peers tell each other apart: a v3 robot answers a v1 frame with a v1
-//! HelloAck saying `protocol: 3`; a v3 operator that gets no answer probes with a v1 Hello, so a v1
-//! robot's HelloAck (`protocol: 1`) names the mismatch.
+//! that v1 and later peers tell each other apart: a later robot answers a v1 frame with a v1
+//! HelloAck saying its protocol (e.g. `protocol: 4`); a later operator that gets no answer
+//! probes with a v1 Hello, so an older robot's HelloAck (`protocol: 1`, 2 or 3) names the
+//! mismatch. The v1 HelloAck's body is frozen ([`RobotInfo`]): every version encodes it alike.
 
 use serde::Serialize;
 
-use super::{CRC, EncodeError, Key, MAX_RAW, RobotInfo, stuff};
+use super::{CRC, EncodeError, Key, MAX_RAW, RobotKind, stuff};
 use serde::Deserialize;
 
 /// The version byte of v1 frames.
@@ -13,6 +14,38 @@ pub const VERSION: u8 = 1;
 const HEADER: usize = 10;
 const TAG: usize = 8;
 const FLAG_AUTH: u8 = 1;
+
+/// Who the robot is, as v1's `HelloAck` says it (the fields of protocols 1 to 3; protocol 4's
+/// [`link::RobotInfo`](super::RobotInfo) appends the body limits, which a v1 answer does not
+/// carry: a v1 operator decodes the body exactly, trailing bytes refused).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RobotInfo {
+    /// The robot's protocol version.
+    pub protocol: u8,
+    /// Robot model.
+    pub kind: RobotKind,
+    /// Plan buffer capacity, points.
+    pub plan_capacity: u16,
+    /// Control rate, Hz.
+    pub rate_hz: f32,
+    /// Watchdog time, s.
+    pub watchdog: f32,
+    /// Whether commands must carry a tag.
+    pub authenticated: bool,
+}
+
+impl From<&super::RobotInfo> for RobotInfo {
+    fn from(i: &super::RobotInfo) -> Self {
+        Self {
+            protocol: i.protocol,
+            kind: i.kind,
+            plan_capacity: i.plan_capacity,
+            rate_hz: i.rate_hz,
+            watchdog: i.watchdog,
+            authenticated: i.authenticated,
+        }
+    }
+}
 
 /// The first two variants of v1's `Message` (postcard writes the variant index first, so
 /// these encode and decode exactly as v1's `Hello` and `HelloAck`).

@@ -563,4 +563,13 @@ impl<T: Real> Operated<T> for BalanceRuntime<T> {
     fn watchdog(&self) -> T {
         self.config.watchdog
     }
+    /// The slew's acceleration; yaw acceleration and jerk are not limited (the balance
+    /// controller follows the slewed velocity by leaning).
+    fn body_limits(&self) -> crate::link::RobotLimits {
+        crate::link::RobotLimits {
+            max_accel: self.config.max_accel.to_f64() as f32,
+            max_yaw_accel: f32::INFINITY,
+            max_jerk: f32::INFINITY,
+        }
+    }
 }

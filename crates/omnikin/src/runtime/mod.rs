@@ -138,6 +138,8 @@ pub trait Operated<T: Real> {
     fn rate_hz(&self) -> T;
     /// Watchdog timeout, s.
     fn watchdog(&self) -> T;
+    /// The body limits every command is held to (the link's HelloAck tells the operator).
+    fn body_limits(&self) -> crate::link::RobotLimits;
 }
 
 impl<T: Real, const N: usize> Operated<T> for Runtime<T, N> {
@@ -155,5 +157,13 @@ impl<T: Real, const N: usize> Operated<T> for Runtime<T, N> {
     }
     fn watchdog(&self) -> T {
         self.config().watchdog
+    }
+    fn body_limits(&self) -> crate::link::RobotLimits {
+        let s = &self.config().slew;
+        crate::link::RobotLimits {
+            max_accel: s.accel.to_f64() as f32,
+            max_yaw_accel: s.yaw_accel.to_f64() as f32,
+            max_jerk: s.jerk.map_or(f32::INFINITY, |j| j.to_f64() as f32),
+        }
     }
 }

@@ -131,11 +131,12 @@ pub struct PlanRun {
 /// Why a plan could not be run.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum PlanRunError {
-    /// The robot's parameters or the controller's design were rejected.
-    #[error("{0}")]
+    /// The robot's parameters or the controller's design were rejected (its message and
+    /// source are the inner error's: a chain prints the cause once).
+    #[error(transparent)]
     Balance(#[from] omnikin::control::BalanceError),
     /// The controller rejected a measurement (the state diverged).
-    #[error("{0}")]
+    #[error(transparent)]
     Input(#[from] omnikin::InputError),
     /// The plan is not one this run can follow.
     #[error("{0}")]
