@@ -19,7 +19,7 @@ use crate::link::{
 pub type Seed = (&'static str, String, Vec<u8>);
 
 /// Every target name, in the order CI runs them.
-pub const TARGETS: [&str; 7] = [
+pub const TARGETS: [&str; 8] = [
     "frame_decoder",
     "link_session",
     "robot_toml",
@@ -27,6 +27,7 @@ pub const TARGETS: [&str; 7] = [
     "waypoints",
     "csv_tables",
     "mcap_files",
+    "mcap_messages",
 ];
 
 fn point(t: f32) -> WirePoint {
@@ -873,6 +874,7 @@ pub fn all() -> Vec<Seed> {
     v.extend(waypoints());
     v.extend(csv_tables());
     v.extend(mcap_files());
+    v.extend(mcap_messages());
     v
 }
 
@@ -883,5 +885,13 @@ pub fn mcap_files() -> Vec<Seed> {
     crate::mcap::seeds()
         .into_iter()
         .map(|(name, bytes)| ("mcap_files", format!("seed-{name}"), bytes))
+        .collect()
+}
+
+/// Protobuf messages: each log topic's message as the writer encodes it, and an empty one.
+pub fn mcap_messages() -> Vec<Seed> {
+    crate::mcap::message_seeds()
+        .into_iter()
+        .map(|(name, bytes)| ("mcap_messages", format!("seed-{name}"), bytes))
         .collect()
 }

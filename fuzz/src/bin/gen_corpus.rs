@@ -160,12 +160,29 @@ fn valid(target: &str, name: &str, data: &[u8]) -> Result<(), String> {
         "mcap_files" => {
             // The valid seeds scan whole; the crafted ones are refused or end at their damage
             // (their point is to reach the scan's checks).
-            let scan = omnikin_fuzz::mcap::scan::scan(data);
+            let inflated = omnikin_fuzz::mcap::inflate::inflate(data);
+            let scan = match &inflated {
+                Ok(i) if i.damage.is_none() => omnikin_fuzz::mcap::scan::scan(&i.bytes),
+                Ok(i) => Err(format!("inflate: {:?}", i.damage)),
+                Err(e) => Err(format!("inflate: {e}")),
+            };
             match (name.ends_with("-valid"), scan) {
                 (true, Ok(s)) if s.damage.is_none() => Ok(()),
                 (true, r) => Err(format!("the valid file does not scan whole: {r:?}")),
                 (false, Ok(s)) if s.damage.is_none() => Err("a crafted file scans whole".into()),
                 (false, _) => Ok(()),
+            }
+        }
+        "mcap_messages" => {
+            let (&pick, message) = data.split_first().ok_or("an empty seed")?;
+            let topics = omnikin_fuzz::mcap::foxglove::TOPICS;
+            let topic = topics[usize::from(pick) % topics.len()];
+            let decoded = omnikin_fuzz::mcap::proto::to_json(topic, message);
+            match (name.ends_with("-valid"), decoded) {
+                (_, Err(e)) => Err(format!("does not decode: {e}")),
+                (true, Ok(v)) if v.get("timestamp").is_some() => Ok(()),
+                (true, Ok(v)) => Err(format!("no timestamp in {v}")),
+                (false, Ok(_)) => Ok(()),
             }
         }
         other => Err(format!("no such target {other}")),
@@ -191,6 +208,7 @@ fn main() {
             "waypoints" => text::waypoints(&data),
             "csv_tables" => text::csv_tables(&data),
             "mcap_files" => omnikin_fuzz::mcap::mcap_files(&data),
+            "mcap_messages" => omnikin_fuzz::mcap::mcap_messages(&data),
             _ => {}
         }
         let dir = root.join(target);
