@@ -35,9 +35,9 @@ trap 'rm -rf "$tmp"' EXIT
 "$PY" -m venv "$tmp/venv" || skip "$PY -m venv failed (install python3-venv)"
 pip=("$tmp/venv/bin/pip" --disable-pip-version-check --quiet)
 # mcap + mcap-protobuf-support: test_mcap_logs.py reads `robot --mcap` files with the standard
-# readers (issue 33).
-"${pip[@]}" install pytest matplotlib mcap mcap-protobuf-support \
-  || skip "cannot install pytest, matplotlib, mcap and mcap-protobuf-support from PyPI"
+# readers, and runs docs/python.md's example, which builds a pandas DataFrame.
+"${pip[@]}" install pytest matplotlib mcap mcap-protobuf-support pandas \
+  || skip "cannot install pytest, matplotlib, mcap, mcap-protobuf-support and pandas from PyPI"
 # --locked: the extension builds against the committed Cargo.lock, like every other crate.
 MATURIN_PEP517_ARGS="--locked" "${pip[@]}" install ./crates/omnikin-py
 cargo build -p omnikin-cli --locked --quiet

@@ -5,6 +5,8 @@ that agree with the robot's CSV log (issue 33)."""
 
 import csv
 import math
+import pathlib
+import re
 import socket
 import subprocess
 
@@ -118,3 +120,18 @@ def test_robot_mcap_reads_into_columns_with_the_standard_readers(cli, tmp_path):
     assert list(link["ok"]) == [int(x) for x in rows["rx_ok"]]
     levels = set(cols["/events"]["level"])
     assert levels <= {2, 3, 4}, levels
+    # docs/python.md's example, run on this log: the same poses, as a DataFrame.
+    poses = run_the_docs_example(mcap)
+    assert list(poses.columns) == ["t", "x", "y"] and len(poses) == n
+    assert max(abs(a - b) for a, b in zip(poses["x"], rows["x"])) < 2e-6
+
+
+def run_the_docs_example(mcap):
+    """Runs the Python block of docs/python.md's "Reading the robot's logs" on `mcap`."""
+    docs = pathlib.Path(__file__).resolve().parents[3] / "docs" / "python.md"
+    section = docs.read_text().split("## Reading the robot's logs", 1)[1]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    assert '"robot.mcap"' in code
+    scope: dict = {}
+    exec(code.replace('"robot.mcap"', repr(str(mcap))), scope)
+    return scope["poses"]
