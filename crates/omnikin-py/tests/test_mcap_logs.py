@@ -127,10 +127,11 @@ def test_robot_mcap_reads_into_columns_with_the_standard_readers(cli, tmp_path):
 
 
 def run_the_docs_example(mcap):
-    """Runs the Python block of docs/python.md's "Reading the robot's logs" on `mcap`."""
+    """Runs the Python block of docs/python.md's "Reading the robot's logs" on `mcap` (fenced
+    as ```py, so test_readme's run of the page's self-contained ```python blocks skips it)."""
     docs = pathlib.Path(__file__).resolve().parents[3] / "docs" / "python.md"
     section = docs.read_text().split("## Reading the robot's logs", 1)[1]
-    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    code = re.search(r"```py\n(.*?)```", section, re.S).group(1)
     assert '"robot.mcap"' in code
     scope: dict = {}
     exec(code.replace('"robot.mcap"', repr(str(mcap))), scope)
