@@ -11,9 +11,9 @@
 //! obstacles exactly (their clearance is the footprint radius), so any tracking error would
 //! otherwise be a touch. The test reports the smallest gap the truth left.
 
+use omnikin::Pose2;
 use omnikin::description::RobotDescription;
 use omnikin::runtime::{CameraFix, Command, Config, PlanPoint, Runtime};
-use omnikin::Pose2;
 use omnikin_plan::RobotModel;
 use omnikin_plan::map::Map;
 use omnikin_plan::map::footprint::footprint_radius;
@@ -110,7 +110,9 @@ fn the_true_robot_reaches_twenty_random_goals_without_touching_an_obstacle() {
         let len = path.smoothed.path.length();
         travelled += len;
         let heading = goal_heading(Some(est.heading), None, len).unwrap();
-        let p = plan(&path.smoothed.path, &heading, &model, &opts).unwrap().plan;
+        let p = plan(&path.smoothed.path, &heading, &model, &opts)
+            .unwrap()
+            .plan;
         let pts = points(&p);
         let id = leg as u16;
         let now = board.time_us();
