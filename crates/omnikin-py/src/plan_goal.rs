@@ -28,8 +28,9 @@ fn pose(o: &mut Options, name: &'static str) -> PyResult<([f64; 2], Option<f64>)
     }
 }
 
-/// The goal request: map file, start and goal poses, footprint radius (default from the
-/// robot's geometry, as the CLI), the motion limits and the rate.
+/// The goal request: map file, start and goal poses, footprint radius (default the robot
+/// file's `footprint_radius`, else from its geometry, as the CLI), the motion limits and the
+/// rate.
 pub(crate) fn goal(o: &mut Options, d: &PyRobot, robot: &RobotModel) -> PyResult<Request> {
     let Some(file) = o.opt_str("map")? else {
         return Err(value_error(

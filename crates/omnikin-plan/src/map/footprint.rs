@@ -1,8 +1,8 @@
-//! The footprint radius of a robot from its geometry, when neither `--footprint-radius` nor a
-//! `footprint_radius` is given.
+//! The footprint radius of a robot: the robot file's `footprint_radius`, else from its
+//! geometry (when `--footprint-radius` is not given).
 //!
-//! The default is the smallest disk about the robot's centre that holds what the geometry
-//! knows of the robot: the sphere's shell and the ballbot's ball (their radius), and for wheeled
+//! The geometry's default is the smallest disk about the robot's centre that holds what the
+//! geometry knows of the robot: the sphere's shell and the ballbot's ball (their radius), and for wheeled
 //! bases the outermost wheel contact plus its wheel radius (a caster's mount radius, caster
 //! offset and wheel radius). A chassis wider than its wheels is not in the robot file, so for
 //! wheeled bases this is a lower bound: give the real radius with `--footprint-radius`.
@@ -14,6 +14,8 @@ use omnikin::description::{Geometry, RobotDescription};
 pub enum FootprintSource {
     /// Given by the user (`--footprint-radius`, the API's argument).
     Given,
+    /// The robot file's `footprint_radius`.
+    RobotFile,
     /// The sphere's shell radius or the ballbot's ball radius.
     BodyRadius,
     /// The outermost wheel (or caster) reach plus its wheel radius: a lower bound of the
@@ -26,6 +28,7 @@ impl FootprintSource {
     pub fn describe(self) -> &'static str {
         match self {
             Self::Given => "given",
+            Self::RobotFile => "the robot file's footprint_radius",
             Self::BodyRadius => "the robot's shell/ball radius",
             Self::WheelReach => {
                 "the outermost wheel's reach (a lower bound: the chassis may be wider)"
@@ -34,30 +37,18 @@ impl FootprintSource {
     }
 }
 
-/// The footprint radius of `d` (m) from its geometry, and where it came from.
+/// The footprint radius of `d` (m) and where it came from: the robot file's
+/// `footprint_radius`, else the geometry's reach
+/// ([`RobotDescription::geometry_reach`](omnikin::description::RobotDescription::geometry_reach)).
 pub fn footprint_radius(d: &RobotDescription) -> (f64, FootprintSource) {
-    let reach = |p: [f64; 2], r: f64| p[0].hypot(p[1]) + r;
-    match &d.geometry {
-        Geometry::Sphere(p) => (p.shell_radius, FootprintSource::BodyRadius),
-        Geometry::Ballbot(p) => (p.ball_radius, FootprintSource::BodyRadius),
-        Geometry::Caster(p) => (
-            p.mount_radius + p.eccentricity.abs() + p.wheel_radius,
-            FootprintSource::WheelReach,
-        ),
-        Geometry::Omni(w) => (
-            w.iter()
-                .map(|w| reach(w.position, w.radius))
-                .fold(0.0, f64::max),
-            FootprintSource::WheelReach,
-        ),
-        Geometry::Swerve { modules, .. } => (
-            modules
-                .iter()
-                .map(|m| reach(m.position, m.wheel_radius))
-                .fold(0.0, f64::max),
-            FootprintSource::WheelReach,
-        ),
+    if let Some(f) = d.footprint_radius {
+        return (f, FootprintSource::RobotFile);
     }
+    let source = match d.geometry {
+        Geometry::Sphere(_) | Geometry::Ballbot(_) => FootprintSource::BodyRadius,
+        _ => FootprintSource::WheelReach,
+    };
+    (d.geometry_reach(), source)
 }
 
 #[cfg(test)]
@@ -65,17 +56,17 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_sphere_is_its_shell_and_swerve4_reaches_past_its_modules() {
+    fn the_robot_files_radius_comes_before_the_geometrys() {
         let s = RobotDescription::preset("sphere-omni").unwrap();
-        assert_eq!(footprint_radius(&s), (0.15, FootprintSource::BodyRadius));
-        let w = RobotDescription::preset("swerve4").unwrap();
-        let Geometry::Swerve { modules, .. } = &w.geometry else {
-            panic!("swerve4 is a swerve")
-        };
-        let (f, src) = footprint_radius(&w);
-        assert_eq!(src, FootprintSource::WheelReach);
-        for m in modules {
-            assert!(f >= m.position[0].hypot(m.position[1]) + m.wheel_radius - 1e-15);
-        }
+        assert_eq!(s.footprint_radius, Some(0.15));
+        assert_eq!(footprint_radius(&s), (0.15, FootprintSource::RobotFile));
+        let mut k = RobotDescription::preset("kiwi").unwrap();
+        assert_eq!(k.footprint_radius, None);
+        assert_eq!(
+            footprint_radius(&k),
+            (k.geometry_reach(), FootprintSource::WheelReach)
+        );
+        k.footprint_radius = Some(0.4);
+        assert_eq!(footprint_radius(&k), (0.4, FootprintSource::RobotFile));
     }
 }

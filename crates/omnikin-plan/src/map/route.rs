@@ -206,7 +206,7 @@ pub fn shortest_route(map: &Map, f: f64, from: [f64; 2], to: [f64; 2]) -> Result
         }
     }
     if !closed[goal] {
-        return Err(unreachable(map, f, from, to));
+        return Err(unreachable(map, f, from, to, &nodes));
     }
     let mut points = vec![to];
     let mut u = goal;
@@ -254,9 +254,67 @@ fn shape_distance(a: &Shape, b: &Shape) -> f64 {
     }
 }
 
+/// What `src` reaches on the graph of [`shortest_route`] (the same edges: clear segments,
+/// tangent at their nodes): how many nodes, and whether `target` is among the points reached.
+fn reach(map: &Map, f: f64, nodes: &[Node], src: [f64; 2], target: [f64; 2]) -> (usize, bool) {
+    let n = nodes.len();
+    let mut seen = vec![false; n];
+    // (node index, or None for `src`; its point)
+    let mut stack = vec![(None, src)];
+    let (mut count, mut found) = (0, false);
+    while let Some((u, p)) = stack.pop() {
+        if !found && segment_clear(map, p, target, f) {
+            found = true;
+        }
+        for w in 0..n {
+            if seen[w]
+                || !nodes[w].free
+                || !tangent(nodes, w, p)
+                || u.is_some_and(|u| !tangent(nodes, u, nodes[w].p))
+                || !segment_clear(map, p, nodes[w].p, f)
+            {
+                continue;
+            }
+            seen[w] = true;
+            count += 1;
+            stack.push((Some(w), nodes[w].p));
+        }
+    }
+    (count, found)
+}
+
+/// Which of the start and the goal is enclosed, when no route joins them. Without a keep-in
+/// polygon the free space around all the shapes is open: a point that cannot reach a point
+/// beyond their bounding box is enclosed. Inside a keep-in polygon the smaller region (fewer
+/// graph nodes reached) is the enclosed one.
+fn enclosed(map: &Map, f: f64, from: [f64; 2], to: [f64; 2], nodes: &[Node]) -> &'static str {
+    let far = nodes
+        .iter()
+        .map(|q| q.p)
+        .chain([from, to])
+        .fold([f64::NEG_INFINITY; 2], |m, p| {
+            [m[0].max(p[0]), m[1].max(p[1])]
+        });
+    let outside = [far[0] + 2.0 * f + 1.0, far[1] + 2.0 * f + 1.0];
+    let (start_nodes, start_out) = reach(map, f, nodes, from, outside);
+    let (goal_nodes, goal_out) = reach(map, f, nodes, to, outside);
+    if map.keep_in.is_none() {
+        return match (start_out, goal_out) {
+            (true, _) => "the goal is enclosed",
+            (false, true) => "the start is enclosed",
+            (false, false) => "the start and the goal are each enclosed",
+        };
+    }
+    match start_nodes.cmp(&goal_nodes) {
+        std::cmp::Ordering::Greater => "the goal is enclosed",
+        std::cmp::Ordering::Less => "the start is enclosed",
+        std::cmp::Ordering::Equal => "the start and the goal are each enclosed",
+    }
+}
+
 /// Why no route exists: the shapes whose inflated outlines touch another's (or the keep-in
-/// boundary's), i.e. the walls that close the passages.
-fn unreachable(map: &Map, f: f64, from: [f64; 2], to: [f64; 2]) -> MapError {
+/// boundary's), i.e. the walls that close the passages, and which end they enclose.
+fn unreachable(map: &Map, f: f64, from: [f64; 2], to: [f64; 2], nodes: &[Node]) -> MapError {
     let mut lines = Vec::new();
     let k = map.keep_out.len();
     for i in 0..k {
@@ -291,12 +349,13 @@ fn unreachable(map: &Map, f: f64, from: [f64; 2], to: [f64; 2]) -> MapError {
         format!(
             "no collision-free path from the start ({}, {}) to the goal ({}, {}): with the \
              footprint radius {f} m, {walls} leave gaps narrower than the footprint's diameter \
-             {} m and enclose the start or the goal",
+             {} m: {}",
             from[0],
             from[1],
             to[0],
             to[1],
-            2.0 * f
+            2.0 * f,
+            enclosed(map, f, from, to, nodes)
         ),
     )
 }

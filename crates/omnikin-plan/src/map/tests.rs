@@ -162,3 +162,40 @@ fn an_l_shaped_keep_in_is_turned_around_its_inner_corner() {
     assert!(smooth.min_clearance >= f * (1.0 - 1e-9));
     assert!(smooth::path_clearance(&m, &smooth.path, f / 50.0) >= f * (1.0 - 1e-9));
 }
+
+/// Four boxes leaving 0.1 m gaps around the origin (see the test above).
+const WALLED: &str = "[[keep_out]]\npolygon = [[-1, 0.55], [1, 0.55], [1, 1], [-1, 1]]\n\
+     [[keep_out]]\npolygon = [[-1, -1], [1, -1], [1, -0.55], [-1, -0.55]]\n\
+     [[keep_out]]\npolygon = [[-1, -0.5], [-0.55, -0.5], [-0.55, 0.5], [-1, 0.5]]\n\
+     [[keep_out]]\npolygon = [[0.55, -0.5], [1, -0.5], [1, 0.5], [0.55, 0.5]]\n";
+
+#[test]
+fn the_unreachable_message_says_which_end_is_enclosed() {
+    let m = Map::from_toml(WALLED, "m.toml").unwrap();
+    let msg = |from, to| shortest_route(&m, 0.15, from, to).unwrap_err().message;
+    assert!(msg([3.0, 0.0], [0.0, 0.0]).ends_with("the goal is enclosed"));
+    assert!(msg([0.0, 0.0], [3.0, 0.0]).ends_with("the start is enclosed"));
+    // A second walled box far away: both ends are in pockets.
+    let two = format!(
+        "{WALLED}{}",
+        WALLED
+            .replace("[-1,", "[9,")
+            .replace("[1,", "[11,")
+            .replace("[-0.55,", "[9.45,")
+            .replace("[0.55,", "[10.55,")
+    );
+    let m2 = Map::from_toml(&two, "m2.toml").unwrap();
+    let e = shortest_route(&m2, 0.15, [0.0, 0.0], [10.0, 0.0]).unwrap_err();
+    assert!(
+        e.message
+            .ends_with("the start and the goal are each enclosed"),
+        "{e}"
+    );
+    // Inside a keep-in square the smaller region is the enclosed one.
+    let kept = format!("{WALLED}[keep_in]\npolygon = [[-5, -5], [5, -5], [5, 5], [-5, 5]]\n");
+    let m3 = Map::from_toml(&kept, "m3.toml").unwrap();
+    let e = shortest_route(&m3, 0.15, [3.0, 0.0], [0.0, 0.0]).unwrap_err();
+    assert!(e.message.ends_with("the goal is enclosed"), "{e}");
+    let e = shortest_route(&m3, 0.15, [0.0, 0.0], [3.0, 0.0]).unwrap_err();
+    assert!(e.message.ends_with("the start is enclosed"), "{e}");
+}

@@ -76,8 +76,9 @@ def plan(robot: Union[Robot, str], kind: str, **options: Any) -> Table:
       ``max_yaw_accel``, ``profile``, ``time_optimal``, ``no_retime``;
     - goal (``omnikin plan goal``): ``map`` (a MAP.toml path, required), ``start`` and ``goal``
       (``[x, y]`` or ``[x, y, heading]``; m, rad, world frame; required), ``footprint_radius``
-      (m; default from the robot's geometry), ``max_speed``, ``max_accel``, ``max_yaw_rate``,
-      ``max_yaw_accel``: the shortest collision-free route, filleted, timed time-optimally.
+      (m; default the robot file's ``footprint_radius``, else from its geometry), ``max_speed``,
+      ``max_accel``, ``max_yaw_rate``, ``max_yaw_accel``: the shortest collision-free route,
+      filleted, timed time-optimally.
 
     Returns the plan CSV's columns ``t, x, y, heading, vx, vy, yaw_rate, w1..wN`` (world frame;
     s, m, rad, m/s, rad/s) and, for steerable kinds, ``s1..sN, sd1..sdN`` (rad, rad/s). A

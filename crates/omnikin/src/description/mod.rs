@@ -5,6 +5,7 @@
 //! ```toml
 //! kind = "sphere-omni"            # or "ballbot", "caster3", "omni", "swerve"
 //! name = "my-sphere"              # optional, defaults to the kind
+//! footprint_radius = 0.15         # optional, m: the disk holding the robot (maps)
 //!
 //! [geometry]                      # keys depend on the kind, see robots/*.toml
 //! shell_radius = 0.15             # m
@@ -53,6 +54,7 @@ mod ballbot_dynamics;
 mod body_limits;
 mod dynamics;
 pub mod events;
+mod footprint;
 mod locate;
 mod plausibility;
 mod schema;
@@ -66,6 +68,7 @@ pub use body_limits::{
 };
 pub use dynamics::SphereDynamicsSpec;
 pub use events::{EventLevels, EventSpec};
+pub use footprint::{FOOTPRINT_SLACK, geometry_reach};
 
 use schema::{Header, KINDS};
 
@@ -239,6 +242,10 @@ pub struct RobotDescription {
     /// The `[events]` table: slip and collision thresholds as given (all `None` without one;
     /// [`EventSpec::thresholds`] fills in the defaults).
     pub events: EventSpec,
+    /// The top-level `footprint_radius` (m): the disk about the centre that holds the whole
+    /// robot, for clearances on a map; `None` when not given (at least
+    /// [`RobotDescription::geometry_reach`] when given).
+    pub footprint_radius: Option<f64>,
 }
 
 impl RobotDescription {
@@ -411,6 +418,7 @@ impl RobotDescription {
             }
         }
         schema::check_lengths(&geometry, &err, &range)?;
+        footprint::check(header.footprint_radius, &geometry, &err)?;
         if let Some(n) = &name {
             check_name(n).map_err(|rule| err(None, "name", rule))?;
         }
@@ -433,6 +441,7 @@ impl RobotDescription {
             sphere_dynamics,
             ballbot_dynamics,
             events,
+            footprint_radius: header.footprint_radius,
         })
     }
 

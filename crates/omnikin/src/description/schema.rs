@@ -23,6 +23,8 @@ type Range<'a> = &'a dyn Fn(&str, f64, (f64, f64), &str) -> Result<(), Descripti
 #[derive(Deserialize)]
 pub(super) struct Header {
     pub(super) kind: Option<String>,
+    /// Checked by `super::footprint`.
+    pub(super) footprint_radius: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -33,6 +35,9 @@ struct File<G> {
     name: Option<String>,
     #[allow(dead_code)]
     description: Option<String>,
+    /// Read from the `Header` and checked by `super::footprint`.
+    #[allow(dead_code)]
+    footprint_radius: Option<f64>,
     geometry: G,
     #[serde(default)]
     limits: Limits,
