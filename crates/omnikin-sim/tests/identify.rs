@@ -219,3 +219,112 @@ fn a_kiwi_from_its_tracked_truth() {
         kiwi_tolerance(n) / 10.0
     });
 }
+
+/// The caster3 preset with its mount radius 5 mm longer and its eccentricity 2 mm longer
+/// (both identifiable: the mount radius through the spins, the eccentricity through the
+/// steering, the runs being the sysid plans that integrate the steer state).
+fn perturbed_caster3() -> RobotDescription {
+    let mut d = RobotDescription::preset("caster3").unwrap();
+    if let Geometry::Caster(c) = &mut d.geometry {
+        c.mount_radius += 0.005;
+        c.eccentricity += 0.002;
+    }
+    d
+}
+
+/// A caster3 from camera fixes and its gyro: the mount radius and the eccentricity come back
+/// within 3σ and within 1 mm, the radius scale within 0.2 %.
+#[test]
+fn a_caster3_from_camera_fixes_and_its_gyro() {
+    let prior = RobotDescription::preset("caster3").unwrap();
+    let truth = perturbed_caster3();
+    let runs = record(
+        &prior,
+        &truth,
+        &sensors_with_gyro_bias(0.01),
+        Reference_::Fixes,
+        39,
+    );
+    let id = identify(&prior, &runs, &Options::default()).unwrap();
+    for e in id.geometry.iter().chain(&id.gyro) {
+        eprintln!(
+            "{:24} prior {:>10.6} value {:>10.6} ± {:.2e} {:?}",
+            e.name, e.prior, e.value, e.sigma, e.status
+        );
+    }
+    eprintln!(
+        "position rms {:e} m, condition {:e}",
+        id.position_rms, id.condition
+    );
+    for name in ["mount_radius", "eccentricity", "wheel_radius_scale"] {
+        let e = id.geometry.iter().find(|e| e.name == name).unwrap();
+        assert_eq!(e.status, Status::Fitted, "{name} was held");
+    }
+    assert_recovered(&id, &true_values(&prior, &truth), true, kiwi_tolerance);
+}
+/// The x-drive preset with wheel 1's radius +2 %. Only a radius: which 8 of the 16 numbers
+/// are held is chosen by the data (the column pivoting of the observability test), and an
+/// error in a held one is absorbed by the fitted ones it is confounded with, so it cannot be
+/// compared parameter by parameter (wheel 2 moved 5 mm in y came back as 5.4 mm in x, its y
+/// held; with wheel 3's radius +2 %, held, wheel 1's scale came back at 1.020). Wheel 1's
+/// scale was fitted in every variant tried.
+fn perturbed_x_drive() -> RobotDescription {
+    let mut d = RobotDescription::preset("x-drive").unwrap();
+    if let Geometry::Omni(w) = &mut d.geometry {
+        w[0].radius *= 1.02;
+    }
+    d
+}
+
+/// An x-drive from camera fixes: a four-wheel omni base, whose forward kinematics reach the
+/// path through 9 combinations of its 16 numbers, so 7 are held at the prior, and an 8th (one
+/// drive angle: the frame's orientation) with position-only fixes, each named with its reason;
+/// every fitted one comes back within 3σ and within [`x_drive_tolerance`].
+#[test]
+fn an_x_drive_from_camera_fixes_holds_what_it_cannot_see() {
+    let prior = RobotDescription::preset("x-drive").unwrap();
+    let truth = perturbed_x_drive();
+    let runs = record(
+        &prior,
+        &truth,
+        &sensors_with_gyro_bias(0.01),
+        Reference_::Fixes,
+        40,
+    );
+    let id = identify(&prior, &runs, &Options::default()).unwrap();
+    for e in id.geometry.iter().chain(&id.gyro) {
+        eprintln!(
+            "{:24} prior {:>10.6} value {:>10.6} ± {:.2e} {:?}",
+            e.name, e.prior, e.value, e.sigma, e.status
+        );
+    }
+    eprintln!(
+        "position rms {:e} m, condition {:e}",
+        id.position_rms, id.condition
+    );
+    let held: Vec<&str> = id
+        .geometry
+        .iter()
+        .filter(|e| matches!(&e.status, Status::Fixed(reason) if !reason.is_empty()))
+        .map(|e| e.name.as_str())
+        .collect();
+    assert_eq!(held.len(), 7 + 1, "held: {held:?}");
+    assert!(held.iter().any(|n| n.ends_with("drive_angle")), "{held:?}");
+    assert!(!held.contains(&"wheels[1].radius_scale"), "{held:?}");
+    assert!(
+        id.condition.is_finite() && id.condition >= 1.0,
+        "{}",
+        id.condition
+    );
+    assert_recovered(&id, &true_values(&prior, &truth), true, x_drive_tolerance);
+}
+
+fn x_drive_tolerance(name: &str) -> f64 {
+    // The kiwi's for radii and angles; 4 mm of a position, whose 1σ is here 0.8–1.4 mm (an
+    // x-drive's positions reach the path only through its yaw, in 9 combinations of 16).
+    if name.ends_with("radius_scale") || name.ends_with("drive_angle") {
+        2e-3
+    } else {
+        4e-3
+    }
+}

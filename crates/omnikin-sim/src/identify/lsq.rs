@@ -16,6 +16,7 @@
 //! What this does **not** do: bounds, robust losses, or analytic Jacobians.
 
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 /// A singular value of the column-scaled Jacobian below this fraction of the largest marks a
 /// direction the data do not determine. Central differences carry relative errors near 1e-8,
@@ -61,29 +62,44 @@ pub struct Solution {
 }
 
 /// Central-difference Jacobian of `f` at `x` over the parameters with `free[j]`, step `h[j]`
-/// (columns of fixed parameters are zero). `None` if `f` fails at a probe.
+/// (columns of fixed parameters are zero). `None` if `f` fails at a probe or the probes
+/// disagree in length.
+///
+/// The columns are independent (each re-evaluates `f`, which for identification re-dead-reckons
+/// every log), so they are computed in parallel on rayon's pool; each column is the same
+/// arithmetic as serially, so the result does not depend on the number of threads. `f(x)`
+/// itself is evaluated only when no parameter is free (for the number of rows).
 pub fn jacobian<F>(f: &F, x: &[f64], h: &[f64], free: &[bool]) -> Option<DMatrix<f64>>
 where
-    F: Fn(&[f64]) -> Option<Vec<f64>>,
+    F: Fn(&[f64]) -> Option<Vec<f64>> + Sync,
 {
-    let r0 = f(x)?;
-    let mut j = DMatrix::zeros(r0.len(), x.len());
-    let mut probe = x.to_vec();
-    for c in 0..x.len() {
-        if !free[c] {
-            continue;
-        }
-        probe[c] = x[c] + h[c];
-        let up = f(&probe)?;
-        probe[c] = x[c] - h[c];
-        let down = f(&probe)?;
-        probe[c] = x[c];
-        if up.len() != r0.len() || down.len() != r0.len() {
+    let cols: Vec<usize> = (0..x.len()).filter(|&c| free[c]).collect();
+    let columns: Vec<Vec<f64>> = cols
+        .par_iter()
+        .map(|&c| {
+            let mut probe = x.to_vec();
+            probe[c] = x[c] + h[c];
+            let up = f(&probe)?;
+            probe[c] = x[c] - h[c];
+            let down = f(&probe)?;
+            (up.len() == down.len()).then(|| {
+                up.iter()
+                    .zip(&down)
+                    .map(|(u, d)| (u - d) / (2.0 * h[c]))
+                    .collect()
+            })
+        })
+        .collect::<Option<_>>()?;
+    let rows = match columns.first() {
+        Some(col) => col.len(),
+        None => f(x)?.len(),
+    };
+    let mut j = DMatrix::zeros(rows, x.len());
+    for (&c, col) in cols.iter().zip(&columns) {
+        if col.len() != rows {
             return None;
         }
-        for r in 0..r0.len() {
-            j[(r, c)] = (up[r] - down[r]) / (2.0 * h[c]);
-        }
+        j.column_mut(c).copy_from_slice(col);
     }
     Some(j)
 }
@@ -168,7 +184,7 @@ fn cost(r: &[f64]) -> f64 {
 /// more residuals than free parameters.
 pub fn solve<F>(f: &F, x0: &[f64], h: &[f64], free: &[bool]) -> Result<Solution, LsqError>
 where
-    F: Fn(&[f64]) -> Option<Vec<f64>>,
+    F: Fn(&[f64]) -> Option<Vec<f64>> + Sync,
 {
     let mut x = x0.to_vec();
     let mut r = f(&x).ok_or(LsqError::BadStart)?;
@@ -321,6 +337,27 @@ mod tests {
             s.sigma[1]
         );
         assert!(s.residual_variance > 0.0);
+    }
+
+    /// The parallel columns: a fixed parameter's column is zero, the others are those of the
+    /// analytic Jacobian, and a probe where `f` fails (here `x[1] > 1.5`) fails the whole.
+    #[test]
+    fn fixed_columns_are_zero_and_a_failing_probe_fails() {
+        let f = |x: &[f64]| {
+            (x[1] <= 1.5).then(|| vec![x[0] * x[1], x[0] + 3.0 * x[2], x[1] * x[2] * x[2]])
+        };
+        let x = [2.0, 1.0, 0.5];
+        let j = jacobian(&f, &x, &[1e-6; 3], &[true, false, true]).unwrap();
+        let want = [[1.0, 0.0, 0.0], [1.0, 0.0, 3.0], [0.0, 0.0, 1.0]];
+        for (r, row) in want.iter().enumerate() {
+            for (c, w) in row.iter().enumerate() {
+                assert!((j[(r, c)] - w).abs() < 1e-6, "({r},{c}): {}", j[(r, c)]);
+            }
+        }
+        assert!(jacobian(&f, &[2.0, 1.5, 0.5], &[1e-3; 3], &[false, true, false]).is_none());
+        let none_free = jacobian(&f, &x, &[1e-6; 3], &[false; 3]).unwrap();
+        assert_eq!(none_free.shape(), (3, 3));
+        assert!(none_free.iter().all(|v| *v == 0.0));
     }
 
     /// Two parameters that only enter as a sum: one of them is named unobservable, and with it
