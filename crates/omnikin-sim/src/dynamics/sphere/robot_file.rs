@@ -109,7 +109,7 @@ mod tests {
     }
 
     #[test]
-    fn a_com_depth_outside_the_dynamics_table_or_in_a_comment_is_not_touched() {
+    fn a_commented_out_com_depth_is_not_touched() {
         let text = PRESET.replace(
             "[limits]",
             "# com_depth = 1.0 in a comment\n[limits]\n# com_depth = 2.0",
