@@ -17,6 +17,7 @@ mod drive;
 mod drive_fixes;
 mod evaluate_truth;
 mod figures;
+mod fit_to_paper;
 mod identify;
 mod kinematics;
 mod link_io;

@@ -748,6 +748,16 @@ pub struct ReproduceArgs {
     /// shard.json; `omnikin merge` of all N shard directories writes what one run writes.
     #[arg(long, value_name = "K/N", value_parser = crate::shard::parse_shard)]
     pub shard: Option<omnikin_sim::shard::Shard>,
+    /// Fit the dynamic model's one fitted parameter, `com_depth`, so that the 0.4 m/s
+    /// circle's radius ratio is the paper's 1.4 with every other `[dynamics]` value of
+    /// --robot-file as it is, and write it into that file (its `com_depth` line only, with a
+    /// comment saying on what, to what and when); runs no trials. Nothing is written when no
+    /// depth inside the search bracket reaches 1.4.
+    #[arg(long, requires = "robot_file")]
+    pub fit_to_paper: bool,
+    /// The sphere-omni robot file --fit-to-paper fits and writes.
+    #[arg(long, value_name = "PATH", requires = "fit_to_paper")]
+    pub robot_file: Option<PathBuf>,
 }
 
 /// A profile of `omnikin reproduce` (`--profiles`).
@@ -780,6 +790,9 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
     let Experiment::Sphere2019 = a.experiment;
     if !(a.rate.is_finite() && a.rate > 0.0) {
         bail!("--rate must be a finite number > 0 (got {})", a.rate);
+    }
+    if let (true, Some(path)) = (a.fit_to_paper, &a.robot_file) {
+        return crate::fit_to_paper::run(path, a.rate);
     }
     let kinematic: Vec<&str> = a
         .profiles

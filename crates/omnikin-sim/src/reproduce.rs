@@ -231,6 +231,16 @@ pub fn dynamic_base() -> SphereDynamics {
 /// # Errors
 /// [`DynamicsError::Input`] when `series` has no [`DYNAMIC_FIT_SERIES`]; the dynamics' error.
 pub fn dynamic_fit(series: &[Series]) -> Result<DynamicFit, DynamicsError> {
+    fit_to_paper(dynamic_base(), series)
+}
+
+/// Fits the centre-of-mass depth of `base` (a robot file's `[dynamics]` as it is) to the
+/// paper's 1.4 on [`DYNAMIC_FIT_SERIES`]: what `omnikin reproduce sphere-2019 --fit-to-paper`
+/// writes into the robot file.
+///
+/// # Errors
+/// [`DynamicsError::Input`] when `series` has no [`DYNAMIC_FIT_SERIES`]; the dynamics' error.
+pub fn fit_to_paper(base: SphereDynamics, series: &[Series]) -> Result<DynamicFit, DynamicsError> {
     let s = series
         .iter()
         .find(|s| s.name == DYNAMIC_FIT_SERIES)
@@ -240,7 +250,7 @@ pub fn dynamic_fit(series: &[Series]) -> Result<DynamicFit, DynamicsError> {
             rule: "the dynamic fit needs the 0.4 m/s circle (circle-0.4)",
         })?;
     let target = PAPER_RADIUS_RATIOS[0].1;
-    crate::dynamics::sphere::fit_com_depth(dynamic_base(), &s.plan, &s.name, target)
+    crate::dynamics::sphere::fit_com_depth(base, &s.plan, &s.name, target)
 }
 
 /// The dynamic profile with the fitted parameter: [`dynamic_base`] with the fitted depth and

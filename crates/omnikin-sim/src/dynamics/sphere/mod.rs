@@ -157,10 +157,12 @@
 mod equations;
 pub mod monte_carlo;
 pub mod params;
+pub mod robot_file;
 pub mod sim;
 pub mod trial;
 
 pub use monte_carlo::{DynamicFit, DynamicProfile, fit_com_depth, radius_ratio};
 pub use params::{DynamicsError, SphereDynamics};
+pub use robot_file::write_fitted_com_depth;
 pub use sim::{ContactEvents, Residuals, SphereSim, SphereState, SphereStep};
 pub use trial::{ContactEvent, ContactEventKind, DynamicTrial, simulate_plan};
