@@ -213,7 +213,8 @@ pub const DYNAMIC_FIT_SERIES: &str = "circle-0.4";
 /// [`SphereDynamics::paper_000`]'s hard-contact estimate, a stated assumption (not searched):
 /// the regime where the floor holds the shell's spin (the 0.4 m/s circle's ratio changes by
 /// < 0.01 for any torque from 0.05 to 0.2 N·m). With the default 5 mN·m no centre-of-mass depth
-/// inside the shell brings the 0.4 m/s ratio down to 1.4 (it stays ≥ 1.66 for h ≤ 0.12 m).
+/// inside the shell brings the 0.4 m/s ratio down to 1.4 (with the roller contacts the nearest is
+/// 1.485 at h = 0.135 m; it stayed ≥ 1.66 for h ≤ 0.12 m before them).
 pub const DYNAMIC_PIVOT_FRICTION: f64 = 0.05;
 
 /// The dynamic profile's nominal robot before the fit: [`SphereDynamics::paper_000`] with
