@@ -3,7 +3,7 @@
 
 use omnikin_plan::RobotModel;
 use omnikin_plan::map::Map;
-use omnikin_plan::map::footprint::footprint_radius;
+use omnikin_plan::map::footprint::checked_footprint;
 use omnikin_plan::map::goal::{goal_heading, goal_path};
 use omnikin_plan::planner::{MotionLimits, OnLimit, PlanOptions, Timing};
 use pyo3::prelude::*;
@@ -41,10 +41,13 @@ pub(crate) fn goal(o: &mut Options, d: &PyRobot, robot: &RobotModel) -> PyResult
     let map = Map::load(std::path::Path::new(&file)).map_err(|e| value_error(e.to_string()))?;
     let (from, h0) = pose(o, "start")?;
     let (to, h1) = pose(o, "goal")?;
-    let f = match o.opt_positive("footprint_radius")? {
-        Some(f) => f,
-        None => footprint_radius(&d.desc).0,
-    };
+    let f = checked_footprint(
+        &d.desc,
+        o.opt_positive("footprint_radius")?,
+        "footprint_radius",
+    )
+    .map_err(|e| value_error(e.to_string()))?
+    .0;
     let way = goal_path(&map, f, from, to).map_err(|e| value_error(e.to_string()))?;
     let path = way.smoothed.path;
     let heading = goal_heading(h0, h1, path.length()).map_err(|e| value_error(e.to_string()))?;

@@ -5,7 +5,7 @@
 use anyhow::{Result, bail};
 use omnikin::description::RobotDescription;
 use omnikin_plan::map::Map;
-use omnikin_plan::map::footprint::{FootprintSource, footprint_radius};
+use omnikin_plan::map::footprint::{FootprintSource, checked_footprint};
 use omnikin_plan::map::goal::{goal_heading, goal_path};
 use omnikin_plan::map::route::shortest_route;
 use omnikin_plan::map::smooth::smooth;
@@ -15,18 +15,27 @@ use omnikin_plan::waypoints::Waypoints;
 
 use super::args::{GoalArgs, HeadingArg, WaypointArgs};
 use super::request::{finish_leaning, initial_steer, load_robot, motion_limits};
-use crate::args::List;
+use crate::args::{List, num};
 
-/// The footprint radius: the flag's, else the robot's geometry's.
-fn footprint(given: Option<f64>, d: &RobotDescription) -> (f64, FootprintSource) {
-    given.map_or_else(|| footprint_radius(d), |f| (f, FootprintSource::Given))
+/// The footprint radius: the flag's (checked by the robot file's rule), else the robot's.
+fn footprint(given: Option<f64>, d: &RobotDescription) -> Result<(f64, FootprintSource)> {
+    Ok(checked_footprint(d, given, "--footprint-radius")?)
 }
 
 /// `X,Y[,H]` of `flag`.
 fn pose(l: &List, flag: &str) -> Result<([f64; 2], Option<f64>)> {
     match l.0.as_slice() {
         &[x, y] => Ok(([x, y], None)),
-        &[x, y, h] => Ok(([x, y], Some(h))),
+        &[x, y, h] => {
+            omnikin_plan::limits::check_magnitude(
+                "heading",
+                h,
+                omnikin_plan::limits::MAX_HEADING,
+                "rad",
+            )
+            .map_err(|e| anyhow::anyhow!("{flag}: {e}"))?;
+            Ok(([x, y], Some(h)))
+        }
         v => bail!(
             "{flag}: expected X,Y or X,Y,H (m, m, rad), got {} values",
             v.len()
@@ -40,7 +49,7 @@ pub(super) fn goal(a: &GoalArgs) -> Result<()> {
     let map = Map::load(&a.map)?;
     let (from, h0) = pose(&a.from, "--from")?;
     let (to, h1) = pose(&a.to, "--to")?;
-    let (f, source) = footprint(a.footprint_radius, &d);
+    let (f, source) = footprint(a.footprint_radius, &d)?;
     let way = goal_path(&map, f, from, to)?;
     let path = &way.smoothed.path;
     let heading = goal_heading(h0, h1, path.length())?;
@@ -59,14 +68,15 @@ pub(super) fn goal(a: &GoalArgs) -> Result<()> {
         initial_steer: initial_steer(&a.common, &robot)?,
     };
     let what = format!(
-        "goal across {}: ({}, {}) to ({}, {}), footprint radius {f} m ({}); shortest route {:.4} m \
+        "goal across {}: ({}, {}) to ({}, {}), footprint radius {} m ({}); shortest route {:.4} m \
          with {} corners, path {:.4} m ({}), closest approach {:.4} m from a shape; \
          time-optimal within {} m/s, {} m/s²",
         map.source_name,
-        from[0],
-        from[1],
-        to[0],
-        to[1],
+        num(from[0]),
+        num(from[1]),
+        num(to[0]),
+        num(to[1]),
+        num(f),
         source.describe(),
         way.route.length,
         way.route.points.len().saturating_sub(2),
@@ -98,7 +108,7 @@ pub(super) fn check_waypoints(
         return Ok((path, None, None));
     };
     let map = Map::load(map_file)?;
-    let (f, _) = footprint(a.footprint_radius, d);
+    let (f, _) = footprint(a.footprint_radius, d)?;
     for (i, p) in wp.points.iter().enumerate() {
         map.check_point(*p, f, &format!("waypoint {} (line {})", i + 1, wp.lines[i]))?;
     }

@@ -17,6 +17,7 @@ use toml::Spanned;
 
 use super::geometry::{segments_meet, signed_area};
 use super::{Map, MapError, Obstacle, Shape};
+use crate::error::num;
 
 /// Largest coordinate magnitude of a map, m: beyond it the values are taken for millimetres
 /// (a robot's map spans metres to hundreds of metres).
@@ -61,13 +62,14 @@ fn check_value(
     err: &dyn Fn(String) -> MapError,
 ) -> Result<(), MapError> {
     if !v.is_finite() {
-        return Err(err(format!("{what} = {v} is not a finite number")));
+        return Err(err(format!("{what} = {} is not a finite number", num(v))));
     }
     if v.abs() > max {
         return Err(err(format!(
-            "{what} = {v} m looks like millimetres (beyond {max} m): maps are in metres \
+            "{what} = {} m looks like millimetres (beyond {max} m): maps are in metres \
              (conventions.md, \"Maps\"); write {} m if millimetres were meant",
-            v / 1000.0
+            num(v),
+            num(v / 1000.0)
         )));
     }
     Ok(())
@@ -209,7 +211,7 @@ pub(super) fn parse(text: &str, source_name: &str) -> Result<Map, MapError> {
                 check_value("circle y", y, MAX_MAP_COORDINATE, &err)?;
                 check_value("circle radius", r, MAX_OBSTACLE_RADIUS, &err)?;
                 if r <= 0.0 {
-                    return Err(err(format!("circle radius = {r} m must be > 0")));
+                    return Err(err(format!("circle radius = {} m must be > 0", num(r))));
                 }
                 (
                     Shape::Circle {

@@ -32,6 +32,7 @@ pub mod smooth;
 
 pub use error::MapError;
 
+use crate::error::num;
 use geometry::{dist, dist_point_segment, dist_to_boundary, inside, segment_to_boundary};
 
 /// The shape of a keep-out obstacle or of the keep-in boundary (world frame, m).
@@ -179,14 +180,16 @@ impl Map {
         };
         let message = if d < 0.0 {
             if is_keep_in {
-                format!("{what} ({}, {}) is outside {shape}", p[0], p[1])
+                format!("{what} ({}, {}) is outside {shape}", num(p[0]), num(p[1]))
             } else {
-                format!("{what} ({}, {}) is inside {shape}", p[0], p[1])
+                format!("{what} ({}, {}) is inside {shape}", num(p[0]), num(p[1]))
             }
         } else {
             format!(
-                "{what} ({}, {}) is {d:.4} m from {shape}: the footprint (radius {f} m) overlaps it",
-                p[0], p[1]
+                "{what} ({}, {}) is {d:.4} m from {shape}: the footprint (radius {} m) overlaps it",
+                num(p[0]),
+                num(p[1]),
+                num(f)
             )
         };
         Err(MapError::at(&self.source_name, Some(o.line), message))

@@ -24,8 +24,10 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
+use super::file::MAX_MAP_COORDINATE;
 use super::geometry::{cross, dist, dot, sub};
 use super::{Map, MapError, Shape};
+use crate::error::num;
 
 /// Nodes per full turn of an arc (see the module docs for the length bound it gives).
 pub const ARC_STEPS: usize = 64;
@@ -151,7 +153,10 @@ pub fn shortest_route(map: &Map, f: f64, from: [f64; 2], to: [f64; 2]) -> Result
         return Err(MapError::at(
             &map.source_name,
             None,
-            format!("footprint radius = {f} m must be a finite length > 0"),
+            format!(
+                "footprint radius = {} m must be a finite length > 0",
+                num(f)
+            ),
         ));
     }
     for (p, what) in [(from, "start"), (to, "goal")] {
@@ -159,7 +164,23 @@ pub fn shortest_route(map: &Map, f: f64, from: [f64; 2], to: [f64; 2]) -> Result
             return Err(MapError::at(
                 &map.source_name,
                 None,
-                format!("{what} ({}, {}) is not a finite point", p[0], p[1]),
+                format!(
+                    "{what} ({}, {}) is not a finite point",
+                    num(p[0]),
+                    num(p[1])
+                ),
+            ));
+        }
+        if p[0].abs().max(p[1].abs()) > MAX_MAP_COORDINATE {
+            return Err(MapError::at(
+                &map.source_name,
+                None,
+                format!(
+                    "{what} ({}, {}) is beyond {MAX_MAP_COORDINATE} m: maps and points are in \
+                     metres (conventions.md, \"Maps\")",
+                    num(p[0]),
+                    num(p[1])
+                ),
             ));
         }
         map.check_point(p, f, what)?;
@@ -348,13 +369,14 @@ fn unreachable(map: &Map, f: f64, from: [f64; 2], to: [f64; 2], nodes: &[Node]) 
         None,
         format!(
             "no collision-free path from the start ({}, {}) to the goal ({}, {}): with the \
-             footprint radius {f} m, {walls} leave gaps narrower than the footprint's diameter \
+             footprint radius {} m, {walls} leave gaps narrower than the footprint's diameter \
              {} m: {}",
-            from[0],
-            from[1],
-            to[0],
-            to[1],
-            2.0 * f,
+            num(from[0]),
+            num(from[1]),
+            num(to[0]),
+            num(to[1]),
+            num(f),
+            num(2.0 * f),
             enclosed(map, f, from, to, nodes)
         ),
     )
