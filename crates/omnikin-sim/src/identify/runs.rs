@@ -61,6 +61,26 @@ fn table_error(e: crate::table::TableError) -> IdentifyError {
     IdentifyError::Input(e.to_string())
 }
 
+/// A finite but meaningless angle or rate (1e300 rad) refused at its line and column, with the
+/// bound the plan files obey (`omnikin_plan::limits`), as `omnikin odometry` does.
+fn bounded(
+    table: &NumericTable,
+    line: usize,
+    col: usize,
+    v: f64,
+    max: f64,
+    unit: &str,
+) -> Result<(), IdentifyError> {
+    if v.abs() <= max {
+        return Ok(());
+    }
+    Err(IdentifyError::Input(format!(
+        "{}:{line}: column {}: {v:e} {unit} is outside the plausible range [-{max:e}, {max:e}] \
+         {unit} (omnikin_plan::limits)",
+        table.file, table.header[col]
+    )))
+}
+
 impl EncoderLog {
     /// The encoder log in `table` of a robot with `wheels` wheels (`q1..qN` required, `s1..sN`
     /// too when `steerable`), and its `gyro_z` column if present.
@@ -102,7 +122,27 @@ impl EncoderLog {
             t: Vec::new(),
             rate: Vec::new(),
         });
-        for (_, row) in &table.rows {
+        for (line, row) in &table.rows {
+            for &c in &idx[1..] {
+                bounded(
+                    table,
+                    *line,
+                    c,
+                    row[c],
+                    omnikin_plan::limits::MAX_HEADING,
+                    "rad",
+                )?;
+            }
+            if let Some(c) = gyro_col {
+                bounded(
+                    table,
+                    *line,
+                    c,
+                    row[c],
+                    omnikin_plan::limits::MAX_PLAN_RATE,
+                    "rad/s",
+                )?;
+            }
             let q: Vec<f64> = (0..wheels).map(|i| row[idx[1 + i]]).collect();
             let s: Vec<f64> = if steerable {
                 (0..wheels).map(|i| row[idx[1 + wheels + i]]).collect()
@@ -129,6 +169,17 @@ impl GyroLog {
         let idx = table
             .require(&["t", "gz"], "an IMU log (t,gx,gy,gz,…)")
             .map_err(table_error)?;
+        for (line, row) in &table.rows {
+            let c = idx[1];
+            bounded(
+                table,
+                *line,
+                c,
+                row[c],
+                omnikin_plan::limits::MAX_PLAN_RATE,
+                "rad/s",
+            )?;
+        }
         Ok(Self {
             file: format!("{} (gz)", table.file),
             t: table.rows.iter().map(|(_, r)| r[idx[0]]).collect(),
@@ -190,6 +241,30 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("e.csv") && e.contains("q3"), "{e}");
+    }
+
+    #[test]
+    fn a_finite_but_meaningless_angle_or_rate_names_its_line_and_column() {
+        for (text, col) in [
+            (
+                "t,q1,q2,q3,gyro_z\n0,0,0,0,0.1\n0.1,1e300,2,3,0.2\n",
+                "column q1",
+            ),
+            (
+                "t,q1,q2,q3,gyro_z\n0,0,0,0,0.1\n0.1,1,2,3,-1e300\n",
+                "column gyro_z",
+            ),
+        ] {
+            let t = NumericTable::parse(text, "e.csv").unwrap();
+            let e = EncoderLog::from_table(&t, 3, false)
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with("e.csv:3: ") && e.contains(col), "{e}");
+            assert!(e.contains("plausible range"), "{e}");
+        }
+        let t = NumericTable::parse("t,gx,gy,gz\n0,0,0,1e300\n", "imu.csv").unwrap();
+        let e = GyroLog::from_imu_table(&t).unwrap_err().to_string();
+        assert!(e.starts_with("imu.csv:2: column gz"), "{e}");
     }
 
     #[test]
