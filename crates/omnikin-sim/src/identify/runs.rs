@@ -194,7 +194,8 @@ impl Reference {
     ///
     /// # Errors
     /// [`IdentifyError::Input`] naming the file when a column is missing or it has fewer than
-    /// two rows.
+    /// two rows, and the line and column of a position beyond `omnikin_plan::limits::MAX_COORDINATE`
+    /// or a heading beyond `MAX_HEADING`.
     pub fn from_table(table: &NumericTable) -> Result<Self, IdentifyError> {
         let idx = table
             .require(&["t", "x", "y"], "a reference trajectory (t,x,y[,heading])")
@@ -207,6 +208,28 @@ impl Reference {
             )));
         }
         let h = table.col("heading");
+        for (line, row) in &table.rows {
+            for &c in &idx[1..] {
+                bounded(
+                    table,
+                    *line,
+                    c,
+                    row[c],
+                    omnikin_plan::limits::MAX_COORDINATE,
+                    "m",
+                )?;
+            }
+            if let Some(c) = h {
+                bounded(
+                    table,
+                    *line,
+                    c,
+                    row[c],
+                    omnikin_plan::limits::MAX_HEADING,
+                    "rad",
+                )?;
+            }
+        }
         Ok(Self {
             file: table.file.clone(),
             t: table.rows.iter().map(|(_, r)| r[idx[0]]).collect(),
@@ -262,6 +285,9 @@ mod tests {
             assert!(e.starts_with("e.csv:3: ") && e.contains(col), "{e}");
             assert!(e.contains("plausible range"), "{e}");
         }
+        let t = NumericTable::parse("t,x,y,heading\n0,0,0,0\n0.1,0,1e300,0\n", "f.csv").unwrap();
+        let e = Reference::from_table(&t).unwrap_err().to_string();
+        assert!(e.starts_with("f.csv:3: column y"), "{e}");
         let t = NumericTable::parse("t,gx,gy,gz\n0,0,0,1e300\n", "imu.csv").unwrap();
         let e = GyroLog::from_imu_table(&t).unwrap_err().to_string();
         assert!(e.starts_with("imu.csv:2: column gz"), "{e}");
