@@ -7,7 +7,8 @@ use std::f64::consts::{PI, TAU};
 
 use omnikin::ballbot::{Ballbot, BallbotParams};
 use omnikin::caster::{Caster3, CasterParams};
-use omnikin::estimate::estimator::{Fix, FixOutcome, PoseEstimator, ProcessNoise};
+use omnikin::estimate::fix::Fix;
+use omnikin::estimate::fusion::{FusionConfig, FusionOutcome, PoseFusion, StepHeading};
 use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::sphere::{SphereOmni, SphereParams};
 use omnikin::{Pose2, Robot, Twist2};
@@ -280,11 +281,15 @@ fn camera_fusion_bounds_the_error_while_odometry_drifts() {
     let trial = simulate_trial(&robot, &plan, &noisy_profile(), &mut trial_rng(3, 0)).unwrap();
     let s = emit(&robot, &trial, &sensors, &mut trial_rng(3, 1));
     let mut odo = Odometry::new(robot, trial.pose[0]);
-    let mut est = PoseEstimator::<f64, 128>::new(
+    let mut est = PoseFusion::<f64, 128>::new(
         trial.t[0],
         trial.pose[0],
         omnikin::nalgebra::Matrix3::identity() * 1e-4,
-        ProcessNoise::wheel_odometry(),
+        FusionConfig {
+            gyro_bias_std: 0.0,
+            scale_std: 0.0,
+            ..FusionConfig::default()
+        },
     )
     .unwrap();
     let (mut next_fix, mut rejected, mut outliers_rejected) = (0, 0, 0);
@@ -292,13 +297,14 @@ fn camera_fusion_bounds_the_error_while_odometry_drifts() {
     for (k, (r, _)) in readings(&s.encoder).enumerate() {
         let step = odo.update(&r, HeadingInput::Wheels).unwrap();
         if k > 0 {
-            est.predict(step.t, step.delta).unwrap();
+            est.predict(step.t, step.delta, StepHeading::Wheels)
+                .unwrap();
         }
         // Fixes are handed over when they arrive, stamped with the time they were taken.
         while next_fix < s.fixes.len() && s.fixes[next_fix].arrival <= r.t + 1e-9 {
             let f = s.fixes[next_fix];
             next_fix += 1;
-            if let FixOutcome::Rejected { .. } =
+            if let FusionOutcome::Rejected { .. } =
                 est.add_fix(&Fix::position(f.t, f.x, f.y, 0.005)).unwrap()
             {
                 rejected += 1;

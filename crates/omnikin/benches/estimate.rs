@@ -7,8 +7,6 @@
 //! * `estimate/fusion_step/<type>`: one filter step as a 10 Hz camera sees it: 100 predictions
 //!   and one fix taken 0.3 s earlier (gated, fused at its time, the later entries replayed),
 //!   reported per prediction + update cycle of 100 steps.
-//! * `estimate/pose_estimator_step/<type>`: the older 3-state [`PoseEstimator`] on the same
-//!   input (history of 256 steps, a fix 50 ms late), for comparison.
 //!
 //! * `estimate/events_step/<type>`: [`EventDetector::step`], the slip and collision detector
 //!   the runtime runs after each odometry step (gyro given; a full 128-sample window).
@@ -18,8 +16,8 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use omnikin::estimate::estimator::{Fix, PoseEstimator, ProcessNoise};
 use omnikin::estimate::events::{EventDetector, EventThresholds};
+use omnikin::estimate::fix::Fix;
 use omnikin::estimate::fusion::{FusionConfig, PoseFusion, StepHeading};
 use omnikin::estimate::odometry::{EncoderReading, HeadingInput, Odometry};
 use omnikin::nalgebra::Matrix3;
@@ -95,34 +93,6 @@ fn fusion<T: Real>(c: &mut Criterion, name: &str) {
             let p = f.pose();
             let t = T::of(k as f64 * 1e-3 - 0.3);
             black_box(f.add_fix(&Fix::position(t, p.x, p.y, T::of(0.01))))
-        })
-    });
-    let estimator = || {
-        Box::new(
-            PoseEstimator::<T, 256>::new(
-                T::zero(),
-                Pose2::new(T::zero(), T::zero(), T::zero()),
-                Matrix3::identity() * T::of(1e-4),
-                ProcessNoise::wheel_odometry(),
-            )
-            .unwrap(),
-        )
-    };
-    let mut e = estimator();
-    let mut k = 0u64;
-    c.bench_function(&format!("estimate/pose_estimator_step/{name}"), |b| {
-        b.iter(|| {
-            if k >= REBASE {
-                e = estimator();
-                k = 0;
-            }
-            for _ in 0..100 {
-                k += 1;
-                let _ = e.predict(T::of(k as f64 * 1e-3), delta);
-            }
-            let p = e.pose();
-            let t = T::of(k as f64 * 1e-3 - 0.05);
-            black_box(e.add_fix(&Fix::position(t, p.x, p.y, T::of(0.01))))
         })
     });
 }

@@ -20,7 +20,7 @@
 //! | [`estimate::ahrs`] | attitude and gyro bias from gyro + accelerometer + magnetometer (Mahony 2008) | 000 | — | [`estimate::ahrs::Mahony::update`] |
 //! | [`runtime`] | all three: fixed-rate control loop over hardware traits — limits, desaturation, velocity/trajectory/stop/e-stop modes, watchdog, faults | 000 Fig. 1, 001 | [`runtime::Runtime::cycle`] | odometry |
 //! | [`link`] | all three: operator link — postcard + COBS + CRC-32C frames, versioned; sessions from a PSK handshake with fresh nonces, per-session HMAC-SHA256 key, sequence numbers and replay window | 000 Fig. 1 | — | — |
-//! | [`estimate::estimator`] | Kalman filter over (x, y, heading): odometry prediction, delayed camera fixes (WPILib-style replay), χ² gate | 000 | — | [`estimate::estimator::PoseEstimator::add_fix`] |
+//! | [`estimate::fusion`] | Kalman filter over the pose, gyro bias and wheel scale: odometry prediction, delayed camera fixes (WPILib-style replay), χ² gate and recovery | 000 | — | [`estimate::fusion::PoseFusion::add_fix`] |
 //!
 //! ```
 //! use omnikin::sphere::{SphereOmni, SphereParams};

@@ -89,9 +89,48 @@ pub fn integrate<T: Real>(pose: Pose2<T>, twist: Twist2<T>, dt: T) -> Pose2<T> {
     compose(pose, twist_exp(twist, dt))
 }
 
+/// The SE(2) logarithm: the robot-frame unit-time twist `ξ` with `twist_exp(ξ, 1) = delta`
+/// (the inverse of [`twist_exp`] for `|Δθ| < 2π`). Uses `twist_exp((1, 0, θ), 1) =
+/// (sinθ/θ, (1−cosθ)/θ, θ)` for the entries of `V(θ)`; at `θ = 2πk (k ≠ 0)`, where `V` is
+/// singular, returns `(Δx, Δy, Δθ)`.
+pub fn log<T: Real>(delta: Pose2<T>) -> Twist2<T> {
+    let v = twist_exp(Twist2::new(T::one(), T::zero(), delta.heading), T::one());
+    let (a, b) = (v.x, v.y);
+    let det = a * a + b * b;
+    // V = [[a, −b], [b, a]]  ⇒  V⁻¹ = [[a, b], [−b, a]] / det. det ≥ (2/π)² for |θ| ≤ π; for
+    // larger steps it stays positive except at θ = 2πk (k ≠ 0), where V is singular.
+    if det > T::EPSILON {
+        Twist2::new(
+            (a * delta.x + b * delta.y) / det,
+            (-b * delta.x + a * delta.y) / det,
+            delta.heading,
+        )
+    } else {
+        Twist2::new(delta.x, delta.y, delta.heading)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn log_inverts_twist_exp() {
+        for tw in [
+            Twist2::new(0.3_f64, -0.1, 0.0),
+            Twist2::new(0.3, -0.1, 1e-9),
+            Twist2::new(-1.2, 0.4, 2.5),
+            Twist2::new(0.0, 0.0, -3.0),
+        ] {
+            let back = log(twist_exp(tw, 1.0));
+            assert!(
+                (back.vx - tw.vx).abs() < 1e-12
+                    && (back.vy - tw.vy).abs() < 1e-12
+                    && (back.yaw_rate - tw.yaw_rate).abs() < 1e-12,
+                "{tw:?} -> {back:?}"
+            );
+        }
+    }
 
     #[test]
     fn full_circle_closes() {

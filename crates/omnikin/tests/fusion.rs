@@ -3,7 +3,7 @@
 //! always ends within `recovery_count` fixes (agreeing → re-initialised, scattered →
 //! inflated); the first fix of `awaiting_fix` sets the pose; f32 works.
 
-use omnikin::estimate::estimator::Fix;
+use omnikin::estimate::fix::Fix;
 use omnikin::estimate::fusion::{
     FusionConfig, FusionError, FusionOutcome, PoseFusion, Recovery, StepHeading,
 };

@@ -131,7 +131,7 @@ fn balance_controller_allocates_nothing() {
 
 #[test]
 fn fusion_filter_step_allocates_nothing() {
-    use omnikin::estimate::estimator::Fix;
+    use omnikin::estimate::fix::Fix;
     use omnikin::estimate::fusion::{FusionConfig, PoseFusion, StepHeading};
     use omnikin::nalgebra::Matrix3;
     let (n, pose) = allocations(|| {

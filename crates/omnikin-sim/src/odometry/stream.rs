@@ -10,7 +10,7 @@
 //! gives the fixes' fates, the events and the summary.
 
 use omnikin::description::RobotDescription;
-use omnikin::estimate::estimator::Fix;
+use omnikin::estimate::fix::Fix;
 use omnikin::estimate::fusion::{
     FusionConfig, FusionError, FusionOutcome, PoseFusion, Recovery, StepHeading,
 };

@@ -55,7 +55,8 @@
 
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector2, Vector3};
 
-use super::estimator::{Fix, Gate, ProcessNoise, se2_log};
+use super::fix::{Fix, Gate};
+use super::noise::ProcessNoise;
 use super::posterior::Posterior;
 use crate::{Pose2, Real, se2, wrap_angle};
 
@@ -1122,7 +1123,7 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
         }
         let prev_t = self.before_time(k);
         let f = (t - prev_t) / e.dt;
-        let xi = se2_log(e.delta);
+        let xi = se2::log(e.delta);
         let part = |delta: Pose2<T>, g: T, dt: T, t: T| Entry {
             t,
             dt,

@@ -148,7 +148,7 @@ pub struct OdometryStep<T> {
     /// World pose after the step (m, m, rad unwrapped).
     pub pose: Pose2<T>,
     /// The step's pose change in the robot frame at its start (`pose = pose_before ⊕ delta`),
-    /// the input a [`crate::estimate::estimator::PoseEstimator`] predicts with.
+    /// the input a [`crate::estimate::fusion::PoseFusion`] predicts with.
     pub delta: Pose2<T>,
     /// Mean robot-frame twist over the step (m/s, m/s, rad/s): `delta = exp(twist·dt)`.
     pub twist: Twist2<T>,

@@ -5,8 +5,8 @@
 use nalgebra::Matrix3;
 
 use crate::drive::Rot2;
-use crate::estimate::estimator::Fix;
 use crate::estimate::events::{EventDecimator, EventDetector};
+use crate::estimate::fix::Fix;
 use crate::estimate::fusion::{FusionError, FusionOutcome, PoseFusion, StepHeading};
 use crate::estimate::odometry::{HeadingInput, Odometry};
 use crate::{Pose2, Real, Robot, Twist2};
