@@ -36,8 +36,9 @@ trap 'rm -rf "$tmp"' EXIT
 pip=("$tmp/venv/bin/pip" --disable-pip-version-check --quiet)
 # mcap + mcap-protobuf-support: test_mcap_logs.py reads `robot --mcap` files with the standard
 # readers, and runs docs/python.md's example, which builds a pandas DataFrame.
-"${pip[@]}" install pytest matplotlib mcap mcap-protobuf-support pandas \
-  || skip "cannot install pytest, matplotlib, mcap, mcap-protobuf-support and pandas from PyPI"
+# yourdfpy: test_urdf.py reads `omnikin urdf` with an independent URDF parser.
+"${pip[@]}" install pytest matplotlib mcap mcap-protobuf-support pandas yourdfpy \
+  || skip "cannot install pytest, matplotlib, mcap, mcap-protobuf-support, pandas and yourdfpy from PyPI"
 # --locked: the extension builds against the committed Cargo.lock, like every other crate.
 MATURIN_PEP517_ARGS="--locked" "${pip[@]}" install ./crates/omnikin-py
 cargo build -p omnikin-cli --locked --quiet

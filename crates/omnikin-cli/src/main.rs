@@ -33,6 +33,7 @@ mod sim;
 mod sim_ballbot;
 mod sim_robot;
 mod teleop;
+mod urdf;
 
 use args::{List, Triple, finite_f64};
 // The steer-step check lives in omnikin-plan (the Python package applies it too).
@@ -100,6 +101,9 @@ enum Command {
     /// mount radius and eccentricity) and the gyro's bias and scale to recorded runs, with 1σ;
     /// writes the robot file with the fitted values (plans: `plan sysid`).
     Identify(identify::IdentifyArgs),
+    /// The robot file as a URDF (base_link, joints wheel_i and steer_i with omnikin's wheel
+    /// rate signs) for robot_state_publisher and RViz; stdout, or --out FILE.
+    Urdf(urdf::UrdfArgs),
     /// Run the robot side of the link: the fixed-rate control loop (limits, watchdog, e-stop)
     /// over UDP or a serial port, on a simulated plant with `--sim`.
     Robot(robot::RobotArgs),
@@ -245,6 +249,10 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
         Command::Forward(a) => inputs.extend(robot(&a.robot)),
         Command::Torques(a) => inputs.extend(robot(&a.robot)),
         Command::Check(a) => inputs.extend(robot(&a.robot)),
+        Command::Urdf(a) => {
+            inputs.extend(robot(&a.robot));
+            files.extend(a.out.as_deref().map(|p| ("--out", p)));
+        }
         Command::Plan(a) => {
             let (common, file) = match &a.kind {
                 plan::PlanKind::Square(s) => (&s.common, None),
@@ -399,6 +407,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Merge(a) => shard::merge(&a),
         Command::Odometry(a) => odometry::run(&a),
         Command::Identify(a) => identify::run(&a),
+        Command::Urdf(a) => urdf::run(&a),
         Command::Robot(a) => robot::run(&a),
         Command::Drive(a) => drive::run(&a),
         Command::Console(a) => console::run(&a),

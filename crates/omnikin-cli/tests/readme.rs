@@ -513,6 +513,11 @@ fn every_examples_readme_command_block_runs_and_prints_what_it_shows() {
     run_page("examples/README.md");
 }
 
+#[test]
+fn every_ros2_page_command_block_runs_and_prints_what_it_shows() {
+    run_page("docs/ros2.md");
+}
+
 /// Writes the printed outputs into the README (review the diff before committing).
 fn bless(path: &Path, lines: &[&str], blocks: &[Block], outputs: &[Vec<Vec<String>>]) {
     let mut out: Vec<String> = Vec::new();
