@@ -36,9 +36,10 @@ trap 'rm -rf "$tmp"' EXIT
 pip=("$tmp/venv/bin/pip" --disable-pip-version-check --quiet)
 # mcap + mcap-protobuf-support: test_mcap_logs.py reads `robot --mcap` files with the standard
 # readers, and runs docs/python.md's example, which builds a pandas DataFrame.
-# yourdfpy: test_urdf.py reads `omnikin urdf` with an independent URDF parser.
-"${pip[@]}" install pytest matplotlib mcap mcap-protobuf-support pandas yourdfpy \
-  || skip "cannot install pytest, matplotlib, mcap, mcap-protobuf-support, pandas and yourdfpy from PyPI"
+# yourdfpy: test_urdf.py reads `omnikin urdf` with an independent URDF parser; rosbags:
+# test_ros2_messages.py re-makes the ROS 2 CDR fixture of crates/omnikin-ros2.
+"${pip[@]}" install pytest matplotlib mcap mcap-protobuf-support pandas yourdfpy rosbags \
+  || skip "cannot install pytest, matplotlib, mcap, mcap-protobuf-support, pandas, yourdfpy and rosbags from PyPI"
 # --locked: the extension builds against the committed Cargo.lock, like every other crate.
 MATURIN_PEP517_ARGS="--locked" "${pip[@]}" install ./crates/omnikin-py
 cargo build -p omnikin-cli --locked --quiet

@@ -4,6 +4,7 @@
 //!
 //! | module | in | out |
 //! |---|---|---|
+//! | [`msg`] | omnikin's state and commands | the standard ROS 2 messages (`Twist`, `Odometry`, `TFMessage`, `JointState`, `Imu`, `DiagnosticArray`) with their type names, RIHS01 hashes and CDR encoding |
 //! | [`urdf`] | a validated robot description | a URDF: `base_link`, one continuous joint per wheel (`wheel_i`) and per steering axis (`steer_i`), the sphere's shell and platform, the ballbot's ball and body |
 //!
 //! Frames and names follow `conventions.md` ("ROS 2"): REP-103 axes and units, REP-105's
@@ -11,4 +12,5 @@
 //! robot file's order, so the `joint_states` a node publishes drive this URDF in
 //! `robot_state_publisher` and RViz.
 
+pub mod msg;
 pub mod urdf;
