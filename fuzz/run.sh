@@ -16,7 +16,7 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 
-ALL=(frame_decoder link_session robot_toml profile_toml waypoints csv_tables mcap_files mcap_messages)
+ALL=(frame_decoder link_session robot_toml profile_toml waypoints csv_tables mcap_files mcap_messages ros2_cdr)
 TRIPLE=$(rustc -vV | sed -n 's/^host: //p')
 BIN="target/$TRIPLE/release"
 FLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4"

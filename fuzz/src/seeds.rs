@@ -875,6 +875,7 @@ pub fn all() -> Vec<Seed> {
     v.extend(csv_tables());
     v.extend(mcap_files());
     v.extend(mcap_messages());
+    v.extend(ros2_cdr());
     v
 }
 
@@ -893,5 +894,13 @@ pub fn mcap_messages() -> Vec<Seed> {
     crate::mcap::message_seeds()
         .into_iter()
         .map(|(name, bytes)| ("mcap_messages", format!("seed-{name}"), bytes))
+        .collect()
+}
+
+/// ROS 2 CDR samples: one valid sample per message type and a forged string length.
+pub fn ros2_cdr() -> Vec<Seed> {
+    crate::ros2::seeds()
+        .into_iter()
+        .map(|(name, bytes)| ("ros2_cdr", format!("seed-{name}"), bytes))
         .collect()
 }

@@ -185,6 +185,24 @@ fn valid(target: &str, name: &str, data: &[u8]) -> Result<(), String> {
                 (false, Ok(_)) => Ok(()),
             }
         }
+        "ros2_cdr" => {
+            let (&pick, sample) = data.split_first().ok_or("an empty seed")?;
+            let ok = match pick % 7 {
+                0 => omnikin_ros2::msg::from_cdr::<omnikin_ros2::msg::Twist>(sample).is_ok(),
+                1 => omnikin_ros2::msg::from_cdr::<omnikin_ros2::msg::TwistStamped>(sample).is_ok(),
+                3 => omnikin_ros2::msg::from_cdr::<omnikin_ros2::msg::TfMessage>(sample).is_ok(),
+                4 => omnikin_ros2::msg::from_cdr::<omnikin_ros2::msg::JointState>(sample).is_ok(),
+                5 => omnikin_ros2::msg::from_cdr::<omnikin_ros2::msg::Imu>(sample).is_ok(),
+                6 => omnikin_ros2::msg::from_cdr::<omnikin_ros2::msg::DiagnosticArray>(sample)
+                    .is_ok(),
+                _ => omnikin_ros2::msg::from_cdr::<omnikin_ros2::msg::Odometry>(sample).is_ok(),
+            };
+            match (name.ends_with("-valid"), ok) {
+                (true, true) | (false, false) => Ok(()),
+                (true, false) => Err("the valid sample does not decode".into()),
+                (false, true) => Err("the forged sample decodes".into()),
+            }
+        }
         other => Err(format!("no such target {other}")),
     }
 }
@@ -209,6 +227,7 @@ fn main() {
             "csv_tables" => text::csv_tables(&data),
             "mcap_files" => omnikin_fuzz::mcap::mcap_files(&data),
             "mcap_messages" => omnikin_fuzz::mcap::mcap_messages(&data),
+            "ros2_cdr" => omnikin_fuzz::ros2::ros2_cdr(&data),
             _ => {}
         }
         let dir = root.join(target);
