@@ -45,44 +45,10 @@ impl WirePoint {
     }
 }
 
-/// Which robot model a runtime drives (in [`RobotInfo`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum RobotKind {
-    /// `sphere-omni`.
-    Sphere,
-    /// `ballbot`.
-    Ballbot,
-    /// `caster3`.
-    Caster,
-    /// `omni` (N omni/mecanum wheels).
-    Omni,
-    /// `swerve` (N centred steerable modules).
-    Swerve,
-}
-
-impl RobotKind {
-    /// The wire name of a robot kind.
-    pub fn of(kind: crate::Kind) -> Self {
-        match kind {
-            crate::Kind::Sphere => RobotKind::Sphere,
-            crate::Kind::Ballbot => RobotKind::Ballbot,
-            crate::Kind::Caster => RobotKind::Caster,
-            crate::Kind::Omni => RobotKind::Omni,
-            crate::Kind::Swerve => RobotKind::Swerve,
-        }
-    }
-
-    /// The robot kind of a wire name.
-    pub fn kind(self) -> crate::Kind {
-        match self {
-            RobotKind::Sphere => crate::Kind::Sphere,
-            RobotKind::Ballbot => crate::Kind::Ballbot,
-            RobotKind::Caster => crate::Kind::Caster,
-            RobotKind::Omni => crate::Kind::Omni,
-            RobotKind::Swerve => crate::Kind::Swerve,
-        }
-    }
-}
+/// Which robot model a runtime drives (in [`RobotInfo`]): the core's one kind enum,
+/// [`crate::Kind`], carried as its declaration index (postcard; `Sphere` 0 … `Swerve` 4). A new
+/// kind is appended there, so the encoding of these five never changes.
+pub type RobotKind = crate::Kind;
 
 /// The body limits the robot's runtime enforces on every command (f32, SI units; world
 /// frame), in its answer to a Hello, so that an operator can refuse a plan that asks for more

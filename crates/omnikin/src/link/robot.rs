@@ -7,8 +7,8 @@
 use super::session::Session;
 use super::{
     Busy, CHUNK_POINTS, DropReason, EncodeError, EndReason, FirstFrame, HandshakeSecrets, HelloAck,
-    Key, Kind, LinkCounters, Message, PROTOCOL_VERSION, RobotInfo, RobotKind, Telemetry,
-    TelemetrySource, decode_hello, encode_frame_with, parse_frame, postcard_body, v1,
+    Key, Kind, LinkCounters, Message, PROTOCOL_VERSION, RobotInfo, Telemetry, TelemetrySource,
+    decode_hello, encode_frame_with, parse_frame, postcard_body, v1,
 };
 use crate::Real;
 use crate::runtime::hal::Entropy;
@@ -368,7 +368,7 @@ pub enum Served {
 pub fn robot_info<T: Real, R: Operated<T>>(runtime: &R, authenticated: bool) -> RobotInfo {
     RobotInfo {
         protocol: PROTOCOL_VERSION,
-        kind: RobotKind::of(runtime.kind()),
+        kind: runtime.kind(),
         plan_capacity: runtime.plan_capacity().min(u16::MAX as usize) as u16,
         rate_hz: runtime.rate_hz().to_f64() as f32,
         watchdog: runtime.watchdog().to_f64() as f32,
