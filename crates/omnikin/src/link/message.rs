@@ -322,7 +322,7 @@ pub enum EndReason {
     TakenOver,
 }
 
-/// Every message of a session (the body of a [`Kind::Session`](super::Kind::Session) frame). Operator → robot:
+/// Every message of a session (the body of a [`FrameKind::Session`](super::FrameKind::Session) frame). Operator → robot:
 /// `Heartbeat` … `SetPose`; robot → operator: `Telemetry`, `SessionEnd`. Variant order is part
 /// of the wire format.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -422,7 +422,7 @@ pub struct SimTruth {
     pub pose: [f32; 3],
 }
 
-/// The body of a [`Kind::Hello`](super::Kind::Hello) frame (then zero padding up to [`HANDSHAKE_BODY`](super::HANDSHAKE_BODY) bytes).
+/// The body of a [`FrameKind::Hello`](super::FrameKind::Hello) frame (then zero padding up to [`HANDSHAKE_BODY`](super::HANDSHAKE_BODY) bytes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Hello {
     /// The operator's protocol version.
@@ -431,7 +431,7 @@ pub struct Hello {
     pub client_nonce: [u8; NONCE_LEN],
 }
 
-/// The body of a [`Kind::HelloAck`](super::Kind::HelloAck) frame.
+/// The body of a [`FrameKind::HelloAck`](super::FrameKind::HelloAck) frame.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct HelloAck {
     /// Who the robot is.
