@@ -13,7 +13,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use omnikin::link::{
-    FrameReader, Key, Kind, MAX_FRAME, OperatorLink, PROTOCOL_VERSION, RobotEvent, RobotInfo,
+    FrameKind, FrameReader, Key, MAX_FRAME, OperatorLink, PROTOCOL_VERSION, RobotEvent, RobotInfo,
     RobotKind, RobotLink, decode_message, encode_message, encode_open, parse_frame, peek_kind, v1,
 };
 use omnikin::runtime::hal::{Entropy, EntropyError};
@@ -54,14 +54,14 @@ fn check_parse(frame: &[u8], mac: Option<&omnikin::link::MacKey>) {
     );
     assert_eq!(
         p.opening.is_some(),
-        p.header.kind == Kind::Open,
+        p.header.kind == FrameKind::Open,
         "opening of {p:?}"
     );
     if let (Some(o), Ok(m)) = (p.opening, decode_message(p.body)) {
         let mut buf = [0u8; MAX_FRAME];
         let n = encode_open(p.header.session, p.header.seq, &o, &m, mac, &mut buf)
             .expect("a decoded open frame re-encodes");
-        assert_eq!(peek_kind(&buf[..n - 1]), Some(Kind::Open));
+        assert_eq!(peek_kind(&buf[..n - 1]), Some(FrameKind::Open));
         let q = parse_frame(&mut buf[..n - 1]).expect("and parses again");
         assert_eq!(q.opening, Some(o));
         assert_eq!(

@@ -46,8 +46,8 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use hmac::{Hmac, Mac};
 use omnikin::link::{
-    Busy, DropReason, EPOCH_US, EndReason, FrameReader, HANDSHAKE_BODY, HEADER_LEN, HelloAck,
-    KIND_TAGGED, Key, Kind, LIVE_US, LinkCounters, MAX_FRAME, Message, NONCE_LEN, OPENING_LEN,
+    Busy, DropReason, EPOCH_US, EndReason, FrameKind, FrameReader, HANDSHAKE_BODY, HEADER_LEN,
+    HelloAck, KIND_TAGGED, Key, LIVE_US, LinkCounters, MAX_FRAME, Message, NONCE_LEN, OPENING_LEN,
     PROTOCOL_VERSION, RobotEvent, RobotInfo, RobotLink, Served, TAG_LEN, USED_PER_EPOCH, peek_kind,
     robot_info, serve,
 };
@@ -1007,7 +1007,7 @@ impl Session {
                 // The host looks at the kind only (a Hello is visibly one, corrupt or not).
                 assert_eq!(
                     peek_kind(&self.wire[..stuffed]),
-                    Some(Kind::Hello),
+                    Some(FrameKind::Hello),
                     "peek_kind of a Hello"
                 );
                 Want::Drop(Reason::Throttled)
@@ -1327,7 +1327,7 @@ impl Session {
         let replies = &mut self.replies;
         let (tail, usage) = measure(|| {
             reader.feed(bytes, |f| match f {
-                Some(f) if throttle && peek_kind(f) == Some(Kind::Hello) => {
+                Some(f) if throttle && peek_kind(f) == Some(FrameKind::Hello) => {
                     link.count_throttled();
                     results.push((Err(Reason::Throttled), 0, 0));
                 }

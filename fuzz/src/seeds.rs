@@ -609,7 +609,7 @@ pub fn frame_decoder() -> Vec<Seed> {
             epoch: RAW_EPOCH,
         };
         let n = omnikin::link::encode_frame_with(
-            omnikin::link::Kind::HelloAck,
+            omnikin::link::FrameKind::HelloAck,
             0,
             0,
             k.as_ref().map(Key::mac),
@@ -630,15 +630,8 @@ pub fn frame_decoder() -> Vec<Seed> {
     out
 }
 
-const ROBOTS: [(&str, &str); 7] = [
-    ("sphere-omni", include_str!("../../robots/sphere-omni.toml")),
-    ("ballbot", include_str!("../../robots/ballbot.toml")),
-    ("caster3", include_str!("../../robots/caster3.toml")),
-    ("kiwi", include_str!("../../robots/kiwi.toml")),
-    ("x-drive", include_str!("../../robots/x-drive.toml")),
-    ("mecanum", include_str!("../../robots/mecanum.toml")),
-    ("swerve4", include_str!("../../robots/swerve4.toml")),
-];
+/// The robot presets, from the core's one table (`robots/*.toml` compiled in).
+const ROBOTS: [(&str, &str); omnikin::description::PRESETS.len()] = omnikin::description::PRESETS;
 
 /// Layouts beyond the presets (issue 13): the most wheels of an omni base, mixed rollers and
 /// radii, and the smallest swerve with steering optimisation and steer limits.

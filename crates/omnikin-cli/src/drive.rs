@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use omnikin::link::{
     CHUNK_POINTS, DropReason, EndReason, Estimate, Key, MAX_FRAME, Message, OperatorEvent,
-    OperatorLink, PROTOCOL_VERSION, RobotInfo, RobotKind, SimTruth, Telemetry, WirePoint, v1,
+    OperatorLink, PROTOCOL_VERSION, RobotInfo, SimTruth, Telemetry, WirePoint, v1,
 };
 use omnikin::runtime::{Frame, Mode};
 use omnikin_plan::Plan;
@@ -408,9 +408,7 @@ impl Session {
                         let (wheels, steer) = match self.log_layout {
                             Some(l) => l,
                             None => {
-                                let steer = self.op.info().is_some_and(|i| {
-                                    matches!(i.kind, RobotKind::Caster | RobotKind::Swerve)
-                                });
+                                let steer = self.op.info().is_some_and(|i| i.kind.steerable());
                                 let l = (usize::from(t.wheels).min(omnikin::MAX_WHEELS), steer);
                                 writeln!(w, "{}", telemetry_header(l.0, l.1))
                                     .context("--out: cannot write")?;

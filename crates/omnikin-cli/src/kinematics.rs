@@ -423,7 +423,7 @@ pub fn check(a: &CheckArgs) -> Result<()> {
         );
         j["max_yaw_rate_rad_per_s"] = json!(reach.yaw_rate);
     }
-    if let Robot::Ballbot(_) = &robot {
+    if robot.kind().balances() {
         crate::balance_check::report(&d, &mut text, &mut j)?;
     }
     j["limits"] = json!({

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use omnikin::description::RobotDescription;
 use omnikin::link::{
-    DropReason, Kind, MAX_FRAME, Message, RobotEvent, RobotLink, SimTruth, peek_kind,
+    DropReason, FrameKind, MAX_FRAME, Message, RobotEvent, RobotLink, SimTruth, peek_kind,
 };
 use omnikin::runtime::Config;
 use omnikin_sim::profile::Profile;
@@ -300,7 +300,7 @@ pub fn run(a: &RobotArgs) -> Result<()> {
             amp.received(f.from, bytes.len() + 1);
             // A Hello costs three MACs and an answer: a sender over its rate is dropped
             // unread (a flood of replayed Hellos; WireGuard's handshake rate limit).
-            if peek_kind(&bytes) == Some(Kind::Hello) && !hellos.allow(f.from) {
+            if peek_kind(&bytes) == Some(FrameKind::Hello) && !hellos.allow(f.from) {
                 robot_link.count_throttled();
                 continue;
             }

@@ -413,7 +413,7 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
             "--shard: the dynamic plant runs one trial; shards split the kinematic plant's trials"
         );
     }
-    let ballbot_dynamic = a.plant == PlantKind::Dynamic && d.robot_kind() == omnikin::Kind::Ballbot;
+    let ballbot_dynamic = a.plant == PlantKind::Dynamic && d.robot_kind().balances();
     if !ballbot_dynamic && (a.initial_tilt_deg.is_some() || !a.push.is_empty()) {
         bail!("--initial-tilt-deg and --push need --robot ballbot (kind ballbot) --plant dynamic");
     }

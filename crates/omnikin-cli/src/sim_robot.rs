@@ -87,7 +87,7 @@ impl SimRobot {
         if dynamic && a.obstacle.is_some() {
             bail!("--obstacle needs the kinematic plant (--plant kinematic)");
         }
-        if dynamic && desc.kind() == "ballbot" {
+        if dynamic && desc.robot_kind().balances() {
             return Self::balance(a, desc);
         }
         let cfg = crate::robot::config(a, desc)?;

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use common::{BIN, Robot, clock_rng, num, read_rows, square_plan};
 use omnikin::link::{
-    FrameReader, Kind, MAX_FRAME, Message, OperatorEvent, OperatorLink, Telemetry, WirePoint,
+    FrameKind, FrameReader, MAX_FRAME, Message, OperatorEvent, OperatorLink, Telemetry, WirePoint,
     encode_message, heapless, parse_frame,
 };
 use omnikin::runtime::hal::Entropy;
@@ -863,7 +863,7 @@ fn observation_3_a_replayed_estop_confirmation_is_not_accepted() {
                 let mut copy = buf[..n - 1].to_vec();
                 let kind = parse_frame(&mut copy).map(|p| p.header.kind);
                 let Some(o) = op else { continue };
-                if kind == Ok(Kind::Session) {
+                if kind == Ok(FrameKind::Session) {
                     let _ = front.send_to(&old[k % old.len()], o);
                     k += 1;
                     swapped += 1;

@@ -24,7 +24,8 @@ use std::time::{Duration, Instant};
 
 use common::{BIN, ClockRng, Robot};
 use omnikin::link::{
-    FrameReader, Key, Kind, MAX_FRAME, Message, OperatorEvent, OperatorLink, Telemetry, parse_frame,
+    FrameKind, FrameReader, Key, MAX_FRAME, Message, OperatorEvent, OperatorLink, Telemetry,
+    parse_frame,
 };
 
 mod common;
@@ -60,7 +61,7 @@ fn record_handshakes(robot: SocketAddr, key: &str, sessions: usize) -> Vec<Vec<u
                 let mut raw = buf[..n - 1].to_vec();
                 if matches!(
                     parse_frame(&mut raw).map(|p| p.header.kind),
-                    Ok(Kind::Hello | Kind::Open)
+                    Ok(FrameKind::Hello | FrameKind::Open)
                 ) {
                     recorded.push(buf[..n].to_vec());
                 }
@@ -218,7 +219,7 @@ fn a_flood_of_recorded_hellos_and_first_frames_neither_locks_out_nor_loses_comma
             let mut raw = f[..f.len() - 1].to_vec();
             matches!(
                 parse_frame(&mut raw).map(|p| p.header.kind),
-                Ok(Kind::Hello)
+                Ok(FrameKind::Hello)
             )
         })
         .count();

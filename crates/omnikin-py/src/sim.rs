@@ -371,7 +371,7 @@ pub fn simulate_native<'py>(
         })
         .collect::<PyResult<Vec<_>>>()?;
     let (plan, plan_name) = load_plan(plan_path, plan_columns)?;
-    let ballbot_dynamic = dynamic && robot.desc.robot_kind() == omnikin::Kind::Ballbot;
+    let ballbot_dynamic = dynamic && robot.desc.robot_kind().balances();
     if !ballbot_dynamic && (initial_tilt_deg.is_some() || !pushes.is_empty()) {
         return Err(value_error(
             "initial_tilt_deg and push need a ballbot (kind ballbot) and plant=\"dynamic\"",

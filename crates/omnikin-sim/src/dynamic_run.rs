@@ -182,18 +182,19 @@ pub enum DynamicError {
 
 /// `Ok` when robot `d`'s kind has a dynamic model (sphere-omni, ballbot).
 pub fn check_kind(d: &RobotDescription) -> Result<(), DynamicError> {
-    match d.robot_kind() {
-        omnikin::Kind::Sphere | omnikin::Kind::Ballbot => Ok(()),
-        _ => Err(DynamicError::NoModel {
+    if d.robot_kind().has_dynamics() {
+        Ok(())
+    } else {
+        Err(DynamicError::NoModel {
             robot: d.name.clone(),
             kind: d.kind(),
-        }),
+        })
     }
 }
 
 /// Why a dynamic run of robot `d` makes one trial only (the CLI's note for `--trials` > 1).
 pub fn one_trial_note(d: &RobotDescription) -> &'static str {
-    if d.robot_kind() == omnikin::Kind::Ballbot {
+    if d.robot_kind().balances() {
         "--plant dynamic runs one trial (its sensor noise is seeded by --seed)"
     } else {
         "--plant dynamic is deterministic without disturbances: one trial"
@@ -247,7 +248,7 @@ impl DynamicPlant {
         opts: &DynamicOptions,
     ) -> Result<Self, DynamicError> {
         check_kind(d)?;
-        let ballbot = d.robot_kind() == omnikin::Kind::Ballbot;
+        let ballbot = d.robot_kind().balances();
         if !ballbot && (opts.initial_tilt_deg.is_some() || !opts.pushes.is_empty()) {
             return Err(DynamicError::NotBallbot);
         }

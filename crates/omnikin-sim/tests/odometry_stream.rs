@@ -7,55 +7,15 @@
 //! The heap is counted by a global allocator (this test binary only): bytes allocated minus
 //! bytes freed by the test's own thread. Counts, not timings.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
+use omnikin_testkit::in_use;
 use std::io::Read;
 
 use omnikin::description::RobotDescription;
 use omnikin_sim::odometry::{OdometryOptions, OdometryStream};
 use omnikin_sim::table::NumericRows;
 
-/// The system allocator, counting the bytes in use by each thread (allocated minus freed by
-/// it): a test reads its own thread's count, whatever the harness and the other tests do.
-struct Counting;
-
-thread_local! {
-    static IN_USE: Cell<isize> = const { Cell::new(0) };
-}
-
-fn count(bytes: isize) {
-    // `try_with`: not during the thread's teardown. A const-initialised `Cell` allocates
-    // nothing when first used.
-    let _ = IN_USE.try_with(|c| c.set(c.get() + bytes));
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count(layout.size() as isize);
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.alloc(layout) }
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        count(-(layout.size() as isize));
-        // SAFETY: `ptr` came from `alloc` above with this layout.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count(new_size as isize - layout.size() as isize);
-        // SAFETY: as `GlobalAlloc::realloc`'s contract, forwarded unchanged.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-/// Heap bytes in use by this thread.
-fn in_use() -> isize {
-    IN_USE.with(Cell::get)
-}
+static GLOBAL: omnikin_testkit::Counting = omnikin_testkit::Counting;
 
 /// Bytes the count may grow by without a row being kept (a buffer that grows to a longer
 /// line). A row that kept even one byte would add 99 000 over the measured rows.

@@ -1,4 +1,4 @@
-//! # omnikin — kinematics of three-wheeled omnidirectional robots
+//! # omnikin — kinematics of omnidirectional wheeled robots
 //!
 //! The core of the omnikin toolkit, the same code on a microcontroller and on a PC:
 //!

@@ -8,11 +8,11 @@
 
 use omnikin::estimate::events::EventCounters;
 use omnikin::link::{
-    CHUNK_POINTS, DropReason, EPOCH_US, EncodeError, EndReason, Estimate, FrameReader,
-    HANDSHAKE_BODY, Hello, Key, Kind, LIVE_US, LinkCounters, MAX_FRAME, Message, Opening,
-    OperatorEvent, OperatorLink, PROTOCOL_VERSION, RobotEvent, RobotInfo, RobotKind, RobotLimits,
-    RobotLink, SimTruth, Telemetry, USED_PER_EPOCH, WireFix, WirePoint, encode_hello,
-    encode_message, encode_open, parse_frame, robot_info, serve, v1,
+    CHUNK_POINTS, DropReason, EPOCH_US, EncodeError, EndReason, Estimate, FrameKind, FrameReader,
+    HANDSHAKE_BODY, Hello, Key, LIVE_US, LinkCounters, MAX_FRAME, Message, Opening, OperatorEvent,
+    OperatorLink, PROTOCOL_VERSION, RobotEvent, RobotInfo, RobotKind, RobotLimits, RobotLink,
+    SimTruth, Telemetry, USED_PER_EPOCH, WireFix, WirePoint, encode_hello, encode_message,
+    encode_open, parse_frame, robot_info, serve, v1,
 };
 use omnikin::runtime::hal::{
     EncoderAngles, Encoders, Entropy, EntropyError, MotorCommand, MotorOutputs, NoImu,
@@ -331,7 +331,7 @@ proptest! {
         prop_assert_eq!(buf[n - 1], 0);
         prop_assert!(buf[..n - 1].iter().all(|&b| b != 0), "COBS leaves no zero inside");
         let p = parse_frame(&mut buf[..n - 1]).unwrap();
-        prop_assert_eq!((p.header.kind, p.header.session, p.header.seq, p.header.tagged), (Kind::Session, session, seq, keyed));
+        prop_assert_eq!((p.header.kind, p.header.session, p.header.seq, p.header.tagged), (FrameKind::Session, session, seq, keyed));
         prop_assert_eq!(p.verify(mac), Ok(()));
         prop_assert_eq!(omnikin::link::decode_message(p.body).unwrap(), msg);
     }
@@ -431,7 +431,7 @@ fn largest_messages_fit_one_frame_and_no_answer_outgrows_its_hello() {
     println!("largest open chunk frame: {n} bytes (MAX_FRAME {MAX_FRAME})");
     assert!(n <= MAX_FRAME);
     let p = parse_frame(&mut buf[..n - 1]).unwrap();
-    assert_eq!((p.header.kind, p.opening), (Kind::Open, Some(opening)));
+    assert_eq!((p.header.kind, p.opening), (FrameKind::Open, Some(opening)));
     assert_eq!(omnikin::link::decode_message(p.body).unwrap(), chunk);
     // The fix and estimate messages, widest values, keyed and in the largest session.
     let fix = Message::Fix(WireFix {
@@ -513,7 +513,7 @@ fn an_unpadded_hello_is_not_answered() {
     };
     let mut buf = [0u8; MAX_FRAME];
     let n = omnikin::link::encode_frame_with(
-        Kind::Hello,
+        FrameKind::Hello,
         0,
         0,
         None,
@@ -940,7 +940,10 @@ fn a_replayed_hello_from_another_address_opens_nothing_and_the_session_opens_at_
     assert!(op.confirmed());
     let next = op_tx(&mut op, &Message::Heartbeat);
     let mut raw = next[..next.len() - 1].to_vec();
-    assert_eq!(parse_frame(&mut raw).unwrap().header.kind, Kind::Session);
+    assert_eq!(
+        parse_frame(&mut raw).unwrap().header.kind,
+        FrameKind::Session
+    );
     assert!(bot.rx(&next).0.is_ok());
 }
 
@@ -1339,7 +1342,7 @@ fn a_hello_ack_with_a_session_id_or_a_forged_tag_is_refused() {
     let body = p.body.to_vec();
     let mut buf = [0u8; MAX_FRAME];
     let n = omnikin::link::encode_frame_with(
-        Kind::HelloAck,
+        FrameKind::HelloAck,
         0,
         0,
         Some(other.mac()),
@@ -1352,7 +1355,7 @@ fn a_hello_ack_with_a_session_id_or_a_forged_tag_is_refused() {
     .unwrap();
     assert_eq!(op_rx(&mut op, &buf[..n]), Err(DropReason::Auth));
     let n = omnikin::link::encode_frame_with(
-        Kind::HelloAck,
+        FrameKind::HelloAck,
         7,
         0,
         Some(k.mac()),

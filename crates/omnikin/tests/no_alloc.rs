@@ -1,42 +1,15 @@
 //! The kinematics calls of all three robots never touch the heap: a counting global allocator
 //! sees zero allocations on this thread while they run (including their error paths).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
+use omnikin_testkit::allocations;
 
 use omnikin::ballbot::{Ballbot, BallbotParams};
 use omnikin::caster::{Caster3, CasterParams, CasterRates};
 use omnikin::sphere::{SphereOmni, SphereParams};
 use omnikin::{Pose2, Twist2, se2};
 
-struct Counting;
-
-thread_local! {
-    static ALLOCS: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCS.with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCS.with(|c| c.set(c.get() + 1));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-fn allocations<R>(f: impl FnOnce() -> R) -> (usize, R) {
-    let before = ALLOCS.with(|c| c.get());
-    let r = std::hint::black_box(f());
-    (ALLOCS.with(|c| c.get()) - before, r)
-}
+static GLOBAL: omnikin_testkit::Counting = omnikin_testkit::Counting;
 
 #[test]
 fn the_counter_counts() {

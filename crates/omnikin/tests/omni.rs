@@ -4,8 +4,7 @@
 //! desaturation, exact odometry on arcs, f32 against f64), rank-deficient rejection, input
 //! errors and zero allocation.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
+use omnikin_testkit::allocation_count;
 
 use core::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
@@ -603,32 +602,12 @@ proptest! {
 // ---------------------------------------------------------------------------------------------
 // No allocation (as tests/no_alloc.rs).
 
-struct Counting;
-
-thread_local! {
-    static ALLOCS: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCS.with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCS.with(|c| c.set(c.get() + 1));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: omnikin_testkit::Counting = omnikin_testkit::Counting;
 
 #[test]
 fn omni_calls_allocate_nothing() {
-    let before = ALLOCS.with(|c| c.get());
+    let before = allocation_count();
     let acc = std::hint::black_box({
         let mut acc = 0.0f64;
         let m = Omni::new(presets::mecanum::<f64>()).unwrap();
@@ -657,7 +636,7 @@ fn omni_calls_allocate_nothing() {
         acc
     });
     assert!(acc.is_finite());
-    assert_eq!(ALLOCS.with(|c| c.get()) - before, 0);
+    assert_eq!(allocation_count() - before, 0);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -687,11 +666,15 @@ fn wheels_of_file<const N: usize>(text: &str) -> [OmniWheel<f64>; N] {
 #[cfg(feature = "std")]
 #[test]
 fn preset_files_match_the_presets() {
-    let files: [(&str, &str); 3] = [
-        ("kiwi", include_str!("../../../robots/kiwi.toml")),
-        ("x-drive", include_str!("../../../robots/x-drive.toml")),
-        ("mecanum", include_str!("../../../robots/mecanum.toml")),
-    ];
+    let files = omnikin::description::PRESETS
+        .into_iter()
+        .filter(|(name, _)| ["kiwi", "x-drive", "mecanum"].contains(name))
+        .collect::<Vec<_>>();
+    assert_eq!(
+        files.len(),
+        3,
+        "the omni presets are kiwi, x-drive, mecanum"
+    );
     let twists = [
         Twist2::new(0.3, 0.1, 0.5),
         Twist2::new(-0.2, 0.4, -1.0),

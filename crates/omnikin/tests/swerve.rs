@@ -4,8 +4,7 @@
 //! frame invariance, optimisation, desaturation, steer rates, exact odometry on arcs, f32
 //! against f64), rank-deficient rejection, input errors and zero allocation.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
+use omnikin_testkit::allocation_count;
 
 use core::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
@@ -531,32 +530,12 @@ proptest! {
 // ---------------------------------------------------------------------------------------------
 // No allocation (as tests/no_alloc.rs).
 
-struct Counting;
-
-thread_local! {
-    static ALLOCS: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCS.with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCS.with(|c| c.set(c.get() + 1));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: omnikin_testkit::Counting = omnikin_testkit::Counting;
 
 #[test]
 fn swerve_calls_allocate_nothing() {
-    let before = ALLOCS.with(|c| c.get());
+    let before = allocation_count();
     let acc = std::hint::black_box({
         let mut acc = 0.0f64;
         let s = Swerve::new(swerve4::<f64>())
@@ -580,7 +559,7 @@ fn swerve_calls_allocate_nothing() {
         acc
     });
     assert!(acc.is_finite());
-    assert_eq!(ALLOCS.with(|c| c.get()) - before, 0);
+    assert_eq!(allocation_count() - before, 0);
 }
 
 /// robots/swerve4.toml (the schema proposed in `drive`'s docs) describes `swerve4()`.

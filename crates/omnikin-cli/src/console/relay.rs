@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Result;
 use omnikin::link::{
-    CHUNK_POINTS, LinkCounters, Message, RobotInfo, RobotKind, SimTruth, Telemetry, WirePoint,
+    CHUNK_POINTS, LinkCounters, Message, RobotInfo, SimTruth, Telemetry, WirePoint,
 };
 use omnikin::runtime::{Faults, Frame, Mode};
 use omnikin_plan::Plan;
@@ -662,9 +662,7 @@ impl Relay {
                 }
             }
         }
-        let steer = self
-            .info
-            .is_some_and(|i| matches!(i.kind, RobotKind::Caster | RobotKind::Swerve));
+        let steer = self.info.is_some_and(|i| i.kind.steerable());
         self.hub.publish(
             &telemetry_json(
                 &t,

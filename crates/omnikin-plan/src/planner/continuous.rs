@@ -20,7 +20,7 @@ use crate::robot::MAX_CHANNELS;
 
 use super::geometry::Ctx;
 use super::grid::Move;
-use super::timing::MoveTiming;
+use super::move_timing::MoveTiming;
 
 /// Points per cell at which the continuous timing is evaluated (both ends included, from
 /// inside the cell).

@@ -1,7 +1,7 @@
 //! A move's adaptive grid of `σ` (module docs, step 2): the [`Move`] with `A`, `A'` and the
 //! steer angles tabulated at its nodes, built by [`Ctx::build_move`] (a node at every kink,
-//! equal cells between, refined to [`GRID_TOL`] or [`GRID_TOL_TIME_OPTIMAL`]), the cell lookup
-//! ([`cell`], [`cell_from`]) and the one-sided derivatives at kinks.
+//! equal cells between, refined to [`GRID_TOL`] or [`GRID_TOL_TIME_OPTIMAL`]) and the one-sided
+//! derivatives at kinks. The cell lookup is [`super::cells`].
 
 use crate::PlanningError;
 use crate::limits::MAX_MOVE_GRID_CELLS;
@@ -9,8 +9,8 @@ use crate::robot::MAX_CHANNELS;
 use omnikin::MAX_WHEELS;
 
 use super::geometry::{Config, Ctx, Hint, Kind, Steer};
+use super::move_timing::MoveTiming;
 use super::options::Timing;
-use super::timing::MoveTiming;
 
 /// Finest grid step in the move parameter (m or rad).
 pub(super) const GRID_MIN: f64 = 2e-3;
@@ -614,31 +614,6 @@ fn too_many_cells(len: f64, n: &[usize]) -> Result<(), PlanningError> {
         });
     }
     Ok(())
-}
-
-/// Index `k` of the grid cell `[sig[k], sig[k + 1]]` containing `sigma` (clamped).
-pub(super) fn cell(sig: &[f64], sigma: f64) -> usize {
-    let n = sig.len() - 1;
-    sig.partition_point(|&x| x <= sigma)
-        .saturating_sub(1)
-        .min(n.saturating_sub(1))
-}
-
-/// [`cell`], for queries that mostly move forward a little: a few steps on from the previous
-/// answer `from`, bisection otherwise. Same result as [`cell`] for every input.
-pub(super) fn cell_from(sig: &[f64], sigma: f64, from: usize) -> usize {
-    let last = sig.len().saturating_sub(2);
-    let mut k = from.min(last);
-    if sig.len() < 2 || sigma.is_nan() || sig[k] > sigma {
-        return cell(sig, sigma);
-    }
-    for _ in 0..8 {
-        if k >= last || sig[k + 1] > sigma {
-            return k;
-        }
-        k += 1;
-    }
-    k + cell(&sig[k..], sigma)
 }
 
 /// Derivative of a vector function tabulated at the nodes `sig`, made of stretches of `n[j]`

@@ -89,9 +89,12 @@
 //! | `report.rs` | the result: [`Planned`], [`PlanReport`], [`plan_peaks`] |
 //! | this file | [`plan`]: the steps in order, the final check and slow-down |
 
+mod cells;
 mod continuous;
 mod geometry;
 mod grid;
+mod limiter;
+mod move_timing;
 mod moves;
 mod options;
 mod report;
@@ -101,8 +104,9 @@ mod switches;
 mod time_optimal;
 mod timing;
 
+pub use limiter::{Limiter, Retiming};
 pub use options::{InitialSteer, MotionLimits, OnLimit, PlanOptions, Timing};
-pub use report::{Limiter, MoveKind, MoveSummary, Peak, PlanReport, Planned, Retiming, plan_peaks};
+pub use report::{MoveKind, MoveSummary, Peak, PlanReport, Planned, plan_peaks};
 
 use crate::PlanningError;
 use crate::error::Violation;
@@ -115,12 +119,13 @@ use crate::robot::RobotModel;
 use continuous::Excess;
 use geometry::Ctx;
 use grid::Move;
+use move_timing::MoveTiming;
 use moves::build_moves;
 use report::report;
 use sample::{resolve_short_moves, sample};
 use switches::{SWITCH_ROUNDS, switch_stretches};
 use time_optimal::time_optimal;
-use timing::{MoveTiming, initial_timing, note_retime, user_limits};
+use timing::{initial_timing, note_retime, user_limits};
 
 /// Plans `path` with the heading law `heading` for `robot` (see the module docs for how).
 ///
@@ -364,7 +369,7 @@ fn slow_down_locally(
             return;
         };
         let (sigma, _, _) = mv.timing.eval(t - mv.t0, mv.len, &mv.sig, &mut 0);
-        let j = grid::cell(&mv.bounds, sigma);
+        let j = cells::cell(&mv.bounds, sigma);
         if !stretches[m].contains(&j) {
             stretches[m].push(j);
         }
@@ -373,7 +378,7 @@ fn slow_down_locally(
         if f.is_empty() {
             *f = vec![1.0; cells];
         }
-        let k = grid::cell(times, t - mv.t0);
+        let k = cells::cell(times, t - mv.t0);
         for v in &mut f[k.saturating_sub(SLOW_CELLS)..=(k + SLOW_CELLS).min(cells - 1)] {
             *v = v.min(0.995 / ratio);
         }

@@ -8,49 +8,8 @@ use crate::robot::{Quantity, RobotModel};
 
 use super::geometry::Kind;
 use super::grid::Move;
-use super::timing::MoveTiming;
-
-/// What limited the timing of (part of) a plan.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Limiter {
-    /// The requested speed along the path.
-    MaxSpeed,
-    /// The requested acceleration along the path.
-    MaxAccel,
-    /// The requested yaw rate of a turn in place.
-    MaxYawRate,
-    /// The requested yaw acceleration of a turn in place.
-    MaxYawAccel,
-    /// A constant speed fixed by the request (paper 000's circle law).
-    RequestedSpeed,
-    /// A motor limit of the robot file.
-    Motor {
-        /// Which limit.
-        quantity: Quantity,
-        /// Motor number, 1-based.
-        motor: usize,
-    },
-}
-
-impl std::fmt::Display for Limiter {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Limiter::MaxSpeed => write!(f, "max speed"),
-            Limiter::MaxAccel => write!(f, "max acceleration"),
-            Limiter::MaxYawRate => write!(f, "max yaw rate (turn in place)"),
-            Limiter::MaxYawAccel => write!(f, "max yaw acceleration (turn in place)"),
-            Limiter::RequestedSpeed => write!(f, "requested speed"),
-            Limiter::Motor { quantity, motor } => {
-                write!(
-                    f,
-                    "limits.{} ({} {motor})",
-                    quantity.key(),
-                    quantity.motor()
-                )
-            }
-        }
-    }
-}
+use super::limiter::{Limiter, Retiming};
+use super::move_timing::MoveTiming;
 
 /// The peak of one motor quantity over a plan.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -66,17 +25,6 @@ pub struct Peak {
     pub t: f64,
     /// The robot file's limit, if any.
     pub limit: Option<f64>,
-}
-
-/// A move slowed down because of a motor limit.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Retiming {
-    /// Index of the move (0-based, in order).
-    pub move_index: usize,
-    /// Time-dilation factor `λ ≤ 1` (the move takes `1/λ` times as long).
-    pub factor: f64,
-    /// The limit that set it.
-    pub limiter: Limiter,
 }
 
 /// What a move does.

@@ -9,9 +9,10 @@ use crate::PlanningError;
 use crate::limits::MAX_PLAN_SAMPLES;
 use crate::plan::{Plan, Sample};
 
+use super::cells;
 use super::geometry::{AT_REST, Ctx, body_per_speed};
-use super::grid::{self, Move};
-use super::timing::MoveTiming;
+use super::grid::Move;
+use super::move_timing::MoveTiming;
 
 /// Fewest sample periods a move lasts. A move shorter than one period can fall between two
 /// samples: its motion (a 5.7 µm fillet arc turning the tangent heading by 2.8e-4 rad in
@@ -84,7 +85,7 @@ pub(super) fn sample(ctx: &Ctx, moves: &[Move], rate: f64) -> Result<Plan, Plann
             // where either node serves as the hint): no second search.
             from_s = from_t;
         } else {
-            from_s = grid::cell_from(&mv.sig, sigma, from_s);
+            from_s = cells::cell_from(&mv.sig, sigma, from_s);
         }
         let (c, gamma) = ctx.state(mv, sigma, from_s)?;
         let twist = Twist2::new(c.dq[0] * v, c.dq[1] * v, c.dq[2] * v);

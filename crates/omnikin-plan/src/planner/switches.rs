@@ -8,7 +8,7 @@
 //! times the cells) before the final check, so the lost time shrinks with the cells.
 
 use super::grid::Move;
-use super::timing::MoveTiming;
+use super::move_timing::MoveTiming;
 
 /// A cell cruises when its path acceleration is below this fraction of the requested one.
 const CRUISE: f64 = 1e-6;

@@ -3,8 +3,8 @@
 //! rebuilt cell constraints.
 
 use super::*;
+use cells::{cell, cell_from};
 use geometry::Hint;
-use grid::{cell, cell_from};
 use proptest::prelude::*;
 use time_optimal::{CellConstraints, time_optimal_storing};
 

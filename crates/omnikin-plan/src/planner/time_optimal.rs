@@ -6,8 +6,8 @@ use crate::PlanningError;
 use crate::robot::{MAX_CHANNELS, RobotModel};
 
 use super::grid::Move;
-use super::report::Limiter;
-use super::timing::{MARGIN, MoveTiming};
+use super::limiter::{Limiter, MARGIN};
+use super::move_timing::MoveTiming;
 
 /// Most constraints of a grid cell: the requested acceleration plus two per motor channel.
 const CELL_MAX: usize = 1 + 2 * MAX_CHANNELS;

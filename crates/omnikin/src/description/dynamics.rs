@@ -33,8 +33,8 @@ use std::string::{String, ToString};
 
 use serde::Deserialize;
 
-use super::DescriptionError;
 use super::ballbot_dynamics::BallbotDynamicsSpec;
+use super::{DescriptionError, Geometry};
 
 /// The `[dynamics]` table of a `sphere-omni` robot file, as given: `None` = the dynamic model's
 /// default for paper 000's robot.
@@ -239,18 +239,19 @@ pub(super) fn key_line(text: &str, section: &str, key: &str) -> Option<usize> {
     Some(start + 1)
 }
 
-/// Parses and checks the `[dynamics]` table of a file of kind `kind`: `sphere-omni` (needs
-/// the `shell_radius`) and `ballbot` (needs the `ball_radius`) have one.
+/// Parses and checks the `[dynamics]` table of a file of geometry `geometry`: `sphere-omni`
+/// (checked against its `shell_radius`) and `ballbot` (against its `ball_radius`) have one
+/// ([`crate::Kind::has_dynamics`]).
 pub(super) fn parse(
     text: &str,
-    kind: &str,
-    radius: Option<f64>,
+    geometry: &Geometry,
     err: &dyn Fn(Option<usize>, &str, String) -> DescriptionError,
     de_err: &dyn Fn(toml::de::Error) -> DescriptionError,
 ) -> Result<Parsed, DescriptionError> {
     let table_line = |start: usize| Some(1 + text[..start.min(text.len())].matches('\n').count());
-    match (kind, radius) {
-        ("sphere-omni", Some(r)) => {
+    match geometry {
+        Geometry::Sphere(p) => {
+            let r = p.shell_radius;
             let only: Only<SphereDynamicsSpec> = toml::from_str(text).map_err(de_err)?;
             let Some(spec) = only.dynamics else {
                 return Ok(Parsed::None);
@@ -261,7 +262,8 @@ pub(super) fn parse(
                 .map_err(|(field, rule)| err(line, field, rule.to_string()))?;
             Ok(Parsed::Sphere(spec))
         }
-        ("ballbot", Some(r)) => {
+        Geometry::Ballbot(p) => {
+            let r = p.ball_radius;
             let only: Only<BallbotDynamicsSpec> = toml::from_str(text).map_err(de_err)?;
             let Some(spec) = only.dynamics else {
                 return Ok(Parsed::None);
@@ -277,7 +279,8 @@ pub(super) fn parse(
             })?;
             Ok(Parsed::Ballbot(spec))
         }
-        _ => {
+        Geometry::Caster(_) | Geometry::Omni(_) | Geometry::Swerve { .. } => {
+            let kind = geometry.kind().name();
             let only: Only<toml::Value> = toml::from_str(text).map_err(de_err)?;
             match only.dynamics {
                 None => Ok(Parsed::None),

@@ -73,7 +73,9 @@ pub(super) fn check(
         let what = match g {
             Geometry::Sphere(_) => "the shell radius",
             Geometry::Ballbot(_) => "the ball radius",
-            _ => "the outermost wheel's distance from the centre plus its wheel radius",
+            Geometry::Caster(_) | Geometry::Omni(_) | Geometry::Swerve { .. } => {
+                "the outermost wheel's distance from the centre plus its wheel radius"
+            }
         };
         return Err(err(
             None,

@@ -70,7 +70,7 @@ pub use dynamics::SphereDynamicsSpec;
 pub use events::{EventLevels, EventSpec};
 pub use footprint::{FOOTPRINT_SLACK, geometry_reach};
 
-use schema::{Header, KINDS};
+use schema::{Header, kinds};
 
 /// The compiled-in presets: `(name, TOML text)`, identical to the files in `robots/`.
 pub const PRESETS: [(&str, &str); 7] = [
@@ -224,6 +224,19 @@ pub enum Geometry {
     },
 }
 
+impl Geometry {
+    /// The kind this geometry describes (one variant per [`Kind`]).
+    pub fn kind(&self) -> Kind {
+        match self {
+            Geometry::Sphere(_) => Kind::Sphere,
+            Geometry::Ballbot(_) => Kind::Ballbot,
+            Geometry::Caster(_) => Kind::Caster,
+            Geometry::Omni(_) => Kind::Omni,
+            Geometry::Swerve { .. } => Kind::Swerve,
+        }
+    }
+}
+
 /// A validated robot description.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RobotDescription {
@@ -324,15 +337,17 @@ impl RobotDescription {
         let header: Header = toml::from_str(text).map_err(de_err)?;
         let kind = header
             .kind
-            .ok_or_else(|| err(None, "kind", format!("missing; must be {KINDS}")))?;
-        let (name, geometry, limits) = schema::parse(text, source_name, &kind, &err, &de_err)?;
-        let radius = match &geometry {
-            Geometry::Sphere(p) => Some(p.shell_radius),
-            Geometry::Ballbot(p) => Some(p.ball_radius),
-            _ => None,
-        };
+            .ok_or_else(|| err(None, "kind", format!("missing; must be {}", kinds())))?;
+        let kind = Kind::from_name(&kind).ok_or_else(|| {
+            err(
+                None,
+                "kind",
+                format!("unknown robot kind \"{kind}\"; must be {}", kinds()),
+            )
+        })?;
+        let (name, geometry, limits) = schema::parse(text, source_name, kind, &err, &de_err)?;
         let (sphere_dynamics, ballbot_dynamics) =
-            match dynamics::parse(text, &kind, radius, &err, &de_err)? {
+            match dynamics::parse(text, &geometry, &err, &de_err)? {
                 dynamics::Parsed::None => (None, None),
                 dynamics::Parsed::Sphere(s) => (Some(s), None),
                 dynamics::Parsed::Ballbot(b) => (None, Some(b)),
@@ -422,19 +437,26 @@ impl RobotDescription {
         if let Some(n) = &name {
             check_name(n).map_err(|rule| err(None, "name", rule))?;
         }
-        let steerable = Kind::from_name(&kind).is_some_and(Kind::steerable);
-        if !steerable && (limits.max_steer_rate.is_some() || limits.max_steer_accel.is_some()) {
+        if !kind.steerable()
+            && (limits.max_steer_rate.is_some() || limits.max_steer_accel.is_some())
+        {
+            let steering: std::vec::Vec<String> = Kind::ALL
+                .iter()
+                .filter(|k| k.steerable())
+                .map(|k| format!("\"{}\"", k.name()))
+                .collect();
             return Err(err(
                 None,
                 "limits.max_steer_rate",
                 format!(
-                    "steer limits apply only to kinds with steering (\"caster3\", \"swerve\"), \
-                     not \"{kind}\""
+                    "steer limits apply only to kinds with steering ({}), not \"{}\"",
+                    steering.join(", "),
+                    kind.name()
                 ),
             ));
         }
         Ok(Self {
-            name: name.unwrap_or(kind),
+            name: name.unwrap_or_else(|| kind.name().to_string()),
             source_name: source_name.to_string(),
             geometry,
             limits,
@@ -450,15 +472,10 @@ impl RobotDescription {
         self.robot_kind().name()
     }
 
-    /// The robot's kind.
+    /// The robot's kind: ask it what the robot can do ([`Kind::steerable`],
+    /// [`Kind::balances`], [`Kind::has_dynamics`]) rather than comparing [`Self::kind`] names.
     pub fn robot_kind(&self) -> Kind {
-        match self.geometry {
-            Geometry::Sphere(_) => Kind::Sphere,
-            Geometry::Ballbot(_) => Kind::Ballbot,
-            Geometry::Caster(_) => Kind::Caster,
-            Geometry::Omni(_) => Kind::Omni,
-            Geometry::Swerve { .. } => Kind::Swerve,
-        }
+        self.geometry.kind()
     }
 
     /// Builds the kinematic model in scalar type `T` (`f32` or `f64`).

@@ -14,7 +14,7 @@ use crate::caster::{Caster3, CasterParams};
 use crate::drive::omni::OmniWheel;
 use crate::drive::swerve::SwerveModule;
 use crate::sphere::{SphereOmni, SphereParams};
-use crate::{GeometryError, Real, Robot};
+use crate::{GeometryError, Kind, Real, Robot};
 
 type Err<'a> = &'a dyn Fn(Option<usize>, &str, String) -> DescriptionError;
 /// Checks one value against a plausible range: `(field, value, (min, max), unit)`.
@@ -124,15 +124,22 @@ struct SwerveModuleFile {
     wheel_radius: f64,
 }
 
-pub(super) const KINDS: &str =
-    "one of \"sphere-omni\", \"ballbot\", \"caster3\", \"omni\", \"swerve\"";
+/// The `kind` values a robot file may hold, for error messages: `one of "sphere-omni", …`,
+/// from [`Kind::ALL`].
+pub(super) fn kinds() -> String {
+    let names: std::vec::Vec<String> = Kind::ALL
+        .iter()
+        .map(|k| format!("\"{}\"", k.name()))
+        .collect();
+    format!("one of {}", names.join(", "))
+}
 
 /// Parses the `[geometry]` and `[limits]` of a file of kind `kind` and validates the model:
 /// `(name, geometry, limits)`.
 pub(super) fn parse(
     text: &str,
     source_name: &str,
-    kind: &str,
+    kind: Kind,
     err: Err<'_>,
     de_err: &dyn Fn(toml::de::Error) -> DescriptionError,
 ) -> Result<(Option<String>, Geometry, Limits), DescriptionError> {
@@ -160,7 +167,7 @@ pub(super) fn parse(
         }
     };
     Ok(match kind {
-        "sphere-omni" => {
+        Kind::Sphere => {
             let f: File<SphereGeometry> = toml::from_str(text).map_err(de_err)?;
             let g = &f.geometry;
             let wheel_radius = match g.wheel_radius.get_ref() {
@@ -187,10 +194,10 @@ pub(super) fn parse(
                 roller_angle: g.roller_angle_deg.to_radians(),
                 azimuths: three(&g.azimuths_deg, "geometry.azimuths_deg")?.map(f64::to_radians),
             };
-            SphereOmni::new(p).map_err(|e| geometry_error(e, source_name, "sphere-omni"))?;
+            SphereOmni::new(p).map_err(|e| geometry_error(e, source_name, kind))?;
             (f.name, Geometry::Sphere(p), f.limits)
         }
-        "ballbot" => {
+        Kind::Ballbot => {
             let f: File<BallbotGeometry> = toml::from_str(text).map_err(de_err)?;
             let g = &f.geometry;
             if !(g.zenith_deg > 0.0 && g.zenith_deg < 90.0) {
@@ -206,10 +213,10 @@ pub(super) fn parse(
                 zenith: g.zenith_deg.to_radians(),
                 azimuths: three(&g.azimuths_deg, "geometry.azimuths_deg")?.map(f64::to_radians),
             };
-            Ballbot::new(p).map_err(|e| geometry_error(e, source_name, "ballbot"))?;
+            Ballbot::new(p).map_err(|e| geometry_error(e, source_name, kind))?;
             (f.name, Geometry::Ballbot(p), f.limits)
         }
-        "caster3" => {
+        Kind::Caster => {
             let f: File<CasterGeometry> = toml::from_str(text).map_err(de_err)?;
             let g = &f.geometry;
             let p = CasterParams {
@@ -219,10 +226,10 @@ pub(super) fn parse(
                 mount_angles: three(&g.mount_angles_deg, "geometry.mount_angles_deg")?
                     .map(f64::to_radians),
             };
-            Caster3::new(p).map_err(|e| geometry_error(e, source_name, "caster3"))?;
+            Caster3::new(p).map_err(|e| geometry_error(e, source_name, kind))?;
             (f.name, Geometry::Caster(p), f.limits)
         }
-        "omni" => {
+        Kind::Omni => {
             let f: File<OmniGeometry> = toml::from_str(text).map_err(de_err)?;
             let lines: std::vec::Vec<usize> = f
                 .geometry
@@ -230,7 +237,7 @@ pub(super) fn parse(
                 .iter()
                 .map(|w| line_of(w.span().start))
                 .collect();
-            count(lines.len(), 3, "wheels", source_name, "omni")?;
+            count(lines.len(), 3, "wheels", source_name, kind)?;
             let mut positions = std::vec::Vec::with_capacity(lines.len());
             for (i, w) in f.geometry.wheels.iter().enumerate() {
                 let w = w.get_ref();
@@ -279,10 +286,10 @@ pub(super) fn parse(
                 })
                 .collect();
             Robot::<f64>::omni(&wheels)
-                .map_err(|e| with_line(geometry_error(e, source_name, "omni"), &lines))?;
+                .map_err(|e| with_line(geometry_error(e, source_name, kind), &lines))?;
             (f.name, Geometry::Omni(wheels), f.limits)
         }
-        "swerve" => {
+        Kind::Swerve => {
             let f: File<SwerveGeometry> = toml::from_str(text).map_err(de_err)?;
             let lines: std::vec::Vec<usize> = f
                 .geometry
@@ -290,7 +297,7 @@ pub(super) fn parse(
                 .iter()
                 .map(|m| line_of(m.span().start))
                 .collect();
-            count(lines.len(), 2, "modules", source_name, "swerve")?;
+            count(lines.len(), 2, "modules", source_name, kind)?;
             let mut modules = std::vec::Vec::with_capacity(lines.len());
             for (i, m) in f.geometry.modules.iter().enumerate() {
                 let m = m.get_ref();
@@ -313,15 +320,8 @@ pub(super) fn parse(
             distinct(&positions, "modules", &position_lines, err)?;
             let optimize = f.geometry.optimize_steering;
             Robot::<f64>::swerve(&modules, optimize)
-                .map_err(|e| with_line(geometry_error(e, source_name, "swerve"), &lines))?;
+                .map_err(|e| with_line(geometry_error(e, source_name, kind), &lines))?;
             (f.name, Geometry::Swerve { modules, optimize }, f.limits)
-        }
-        other => {
-            return Err(err(
-                None,
-                "kind",
-                format!("unknown robot kind \"{other}\"; must be {KINDS}"),
-            ));
         }
     })
 }
@@ -430,7 +430,7 @@ fn count(
     min: usize,
     field: &'static str,
     source_name: &str,
-    kind: &str,
+    kind: Kind,
 ) -> Result<(), DescriptionError> {
     if (min..=crate::MAX_WHEELS).contains(&n) {
         return Ok(());
@@ -504,7 +504,8 @@ pub(super) fn check_lengths(
                 }
             }
         }
-        _ => {}
+        // Their lengths are fixed fields, checked below.
+        Geometry::Sphere(_) | Geometry::Ballbot(_) | Geometry::Caster(_) => {}
     }
     for (field, v) in &owned {
         range(field, *v, LENGTH_RANGE, "m")?;
@@ -536,7 +537,7 @@ pub(super) fn check_lengths(
 /// The model of a validated description in scalar type `T`.
 pub(super) fn build<T: Real>(d: &RobotDescription) -> Result<Robot<T>, DescriptionError> {
     let c = |x: f64| T::of(x);
-    let kind = d.kind();
+    let kind = d.robot_kind();
     let wrap = |e| geometry_error(e, &d.source_name, kind);
     Ok(match &d.geometry {
         Geometry::Omni(wheels) => {
@@ -604,7 +605,7 @@ fn wheel_of(index: &str, e: &GeometryError) -> usize {
 }
 
 /// Maps a core geometry error to the TOML key it is about.
-fn geometry_error(e: GeometryError, source_name: &str, kind: &str) -> DescriptionError {
+fn geometry_error(e: GeometryError, source_name: &str, kind: Kind) -> DescriptionError {
     let core_field = match e {
         GeometryError::NonFinite { field }
         | GeometryError::NotPositive { field, .. }
@@ -614,7 +615,11 @@ fn geometry_error(e: GeometryError, source_name: &str, kind: &str) -> Descriptio
         GeometryError::IllConditioned { .. } => "",
         GeometryError::WheelCount { field, .. } => field,
     };
-    if kind == "omni" || kind == "swerve" {
+    let floor_layout = match kind {
+        Kind::Omni | Kind::Swerve => true,
+        Kind::Sphere | Kind::Ballbot | Kind::Caster => false,
+    };
+    if floor_layout {
         // The core's generic "(wheels nearly coplanar or parallel)" is about the paper robots'
         // 3-D wheel axes; for a floor layout say what the rank test found.
         let rule = match e {
@@ -640,15 +645,15 @@ fn geometry_error(e: GeometryError, source_name: &str, kind: &str) -> Descriptio
     let index = core_field.strip_prefix(base).unwrap_or("");
     let key = match (kind, base) {
         (_, "") => match kind {
-            "sphere-omni" => "geometry (tilt_deg, roller_angle_deg, azimuths_deg)",
-            "ballbot" => "geometry.azimuths_deg",
-            _ => "geometry.mount_angles_deg",
+            Kind::Sphere => "geometry (tilt_deg, roller_angle_deg, azimuths_deg)",
+            Kind::Ballbot => "geometry.azimuths_deg",
+            Kind::Caster | Kind::Omni | Kind::Swerve => "geometry.mount_angles_deg",
         }
         .to_string(),
         (_, "tilt" | "roller_angle" | "azimuths" | "zenith" | "mount_angles") => {
             format!("geometry.{base}_deg")
         }
-        ("sphere-omni", "wheel_radius") => {
+        (Kind::Sphere, "wheel_radius") => {
             format!("geometry.wheel_radius (wheel {})", wheel_of(index, &e))
         }
         _ => format!("geometry.{base}"),
@@ -663,8 +668,12 @@ fn geometry_error(e: GeometryError, source_name: &str, kind: &str) -> Descriptio
 
 /// The TOML key of an omni/swerve geometry error: the core names `wheels[i].drive`,
 /// `wheels[i].roller_angle`, `modules[i].position`…, the file `geometry.wheels[i].drive_angle_deg`.
-fn drive_key(e: &GeometryError, core_field: &str, kind: &str) -> String {
-    let list = if kind == "omni" { "wheels" } else { "modules" };
+fn drive_key(e: &GeometryError, core_field: &str, kind: Kind) -> String {
+    let list = if kind == Kind::Omni {
+        "wheels"
+    } else {
+        "modules"
+    };
     if let GeometryError::DeadWheel {
         wheel, quantity, ..
     } = e

@@ -1,4 +1,4 @@
-//! The v3 frame codec: the header layout ([`Kind`], [`Header`], the first frames'
+//! The v3 frame codec: the header layout ([`FrameKind`], [`Header`], the first frames'
 //! [`Opening`]), CRC-32C, tag and COBS around a postcard body ([`parse_frame`],
 //! [`encode_frame_with`], [`encode_message`], [`encode_open`], [`encode_hello`],
 //! [`decode_message`]), and the [`FrameReader`] that cuts a byte stream at its `0x00`
@@ -15,7 +15,7 @@ use super::{
 /// What a frame is (the low 7 bits of the kind byte).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u8)]
-pub enum Kind {
+pub enum FrameKind {
     /// Operator → robot: start a session ([`Hello`]).
     Hello = 1,
     /// Robot → operator: the answer to a Hello ([`HelloAck`](super::HelloAck)); `session` is the new id.
@@ -28,13 +28,13 @@ pub enum Kind {
     Open = 4,
 }
 
-impl Kind {
+impl FrameKind {
     fn from_u8(b: u8) -> Option<Self> {
         match b {
-            1 => Some(Kind::Hello),
-            2 => Some(Kind::HelloAck),
-            3 => Some(Kind::Session),
-            4 => Some(Kind::Open),
+            1 => Some(FrameKind::Hello),
+            2 => Some(FrameKind::HelloAck),
+            3 => Some(FrameKind::Session),
+            4 => Some(FrameKind::Open),
             _ => None,
         }
     }
@@ -44,7 +44,7 @@ impl Kind {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Header {
     /// Frame kind.
-    pub kind: Kind,
+    pub kind: FrameKind,
     /// Session id (0 in a Hello).
     pub session: u64,
     /// Sequence number (0 in handshake frames).
@@ -53,7 +53,7 @@ pub struct Header {
     pub tagged: bool,
 }
 
-/// What an operator's first frames ([`Kind::Open`]) carry between the header and the body:
+/// What an operator's first frames ([`FrameKind::Open`]) carry between the header and the body:
 /// `client_nonce[16] | epoch:u32 LE | flags:u8` ([`OPENING_LEN`] bytes, under the tag).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Opening {
@@ -98,7 +98,7 @@ impl Opening {
 pub struct Parsed<'a> {
     /// The header.
     pub header: Header,
-    /// The handshake fields of a [`Kind::Open`] frame (`None` for the other kinds).
+    /// The handshake fields of a [`FrameKind::Open`] frame (`None` for the other kinds).
     pub opening: Option<Opening>,
     /// The body bytes.
     pub body: &'a [u8],
@@ -152,7 +152,7 @@ pub fn parse_frame(frame: &mut [u8]) -> Result<Parsed<'_>, DropReason> {
     if data.len() < HEADER_LEN + 1 {
         return Err(DropReason::Framing);
     }
-    let kind = Kind::from_u8(data[1] & !KIND_TAGGED).ok_or(DropReason::Malformed)?;
+    let kind = FrameKind::from_u8(data[1] & !KIND_TAGGED).ok_or(DropReason::Malformed)?;
     let tagged = data[1] & KIND_TAGGED != 0;
     let u64_at = |i: usize| {
         let mut b = [0u8; 8];
@@ -165,7 +165,7 @@ pub fn parse_frame(frame: &mut [u8]) -> Result<Parsed<'_>, DropReason> {
         seq: u64_at(10),
         tagged,
     };
-    let start = if kind == Kind::Open {
+    let start = if kind == FrameKind::Open {
         HEADER_LEN + OPENING_LEN
     } else {
         HEADER_LEN
@@ -181,7 +181,7 @@ pub fn parse_frame(frame: &mut [u8]) -> Result<Parsed<'_>, DropReason> {
         }
         data.len()
     };
-    let opening = if kind == Kind::Open {
+    let opening = if kind == FrameKind::Open {
         Some(Opening::read(&data[HEADER_LEN..start]).ok_or(DropReason::Malformed)?)
     } else {
         None
@@ -201,23 +201,23 @@ pub fn parse_frame(frame: &mut [u8]) -> Result<Parsed<'_>, DropReason> {
 ///
 /// # Errors
 /// [`EncodeError::TooLarge`] when the body exceeds [`MAX_BODY`] or `out` is too small.
-/// A [`Kind::Open`] frame is written by [`encode_open`] (its [`Opening`] goes first).
+/// A [`FrameKind::Open`] frame is written by [`encode_open`] (its [`Opening`] goes first).
 pub fn encode_frame_with(
-    kind: Kind,
+    kind: FrameKind,
     session: u64,
     seq: u64,
     mac: Option<&MacKey>,
     body: impl FnOnce(&mut [u8]) -> Result<usize, EncodeError>,
     out: &mut [u8],
 ) -> Result<usize, EncodeError> {
-    if kind == Kind::Open {
+    if kind == FrameKind::Open {
         return Err(EncodeError::TooLarge);
     }
     encode_raw(kind, session, seq, None, mac, body, out)
 }
 
 fn encode_raw(
-    kind: Kind,
+    kind: FrameKind,
     session: u64,
     seq: u64,
     opening: Option<&Opening>,
@@ -289,10 +289,17 @@ pub fn encode_message(
     mac: Option<&MacKey>,
     out: &mut [u8],
 ) -> Result<usize, EncodeError> {
-    encode_frame_with(Kind::Session, session, seq, mac, postcard_body(msg), out)
+    encode_frame_with(
+        FrameKind::Session,
+        session,
+        seq,
+        mac,
+        postcard_body(msg),
+        out,
+    )
 }
 
-/// Encodes an operator's first frame ([`Kind::Open`]): a session frame carrying `msg` with the
+/// Encodes an operator's first frame ([`FrameKind::Open`]): a session frame carrying `msg` with the
 /// handshake's `opening` (stateless; [`OperatorLink::encode`](super::OperatorLink::encode) sends
 /// these until the robot confirms the session).
 ///
@@ -307,7 +314,7 @@ pub fn encode_open(
     out: &mut [u8],
 ) -> Result<usize, EncodeError> {
     encode_raw(
-        Kind::Open,
+        FrameKind::Open,
         session,
         seq,
         Some(opening),
@@ -322,10 +329,10 @@ pub fn encode_open(
 /// limits on Hellos). `None` when it is not visibly a v3 frame. A valid frame's first two raw
 /// bytes (version, kind) are non-zero, so COBS's first code byte is at least 3 and copies them
 /// unchanged.
-pub fn peek_kind(frame: &[u8]) -> Option<Kind> {
+pub fn peek_kind(frame: &[u8]) -> Option<FrameKind> {
     match frame {
         [code, version, kind, ..] if *code >= 3 && *version == PROTOCOL_VERSION => {
-            Kind::from_u8(kind & !KIND_TAGGED)
+            FrameKind::from_u8(kind & !KIND_TAGGED)
         }
         _ => None,
     }
@@ -347,7 +354,7 @@ pub fn encode_hello(
         // `b` is zeroed: the padding is already there.
         Ok(n.max(HANDSHAKE_BODY))
     };
-    encode_frame_with(Kind::Hello, 0, 0, psk.map(Key::mac), body, out)
+    encode_frame_with(FrameKind::Hello, 0, 0, psk.map(Key::mac), body, out)
 }
 
 /// Decodes a message body (no trailing bytes).

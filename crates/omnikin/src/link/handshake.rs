@@ -6,7 +6,7 @@
 //! derived: `robot_nonce = HMAC(secret_e, "omnikin-v3 robot nonce" | client_nonce | len(peer)
 //! | peer)[..16]` with the secret of the current epoch `e` and the sender's transport address
 //! `peer` (empty on a point-to-point link such as a serial port). The HelloAck names `e`; the
-//! operator's first session frames ([`Kind::Open`](super::Kind::Open)) carry `client_nonce`
+//! operator's first session frames ([`FrameKind::Open`](super::FrameKind::Open)) carry `client_nonce`
 //! and `e` back, so the robot re-derives the nonce — for the address the open frame came from
 //! — the session id and the session key, and verifies the frame's tag under that key: the
 //! proof that the sender holds the pre-shared key *and* received the HelloAck at that address

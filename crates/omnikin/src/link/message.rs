@@ -45,44 +45,10 @@ impl WirePoint {
     }
 }
 
-/// Which robot model a runtime drives (in [`RobotInfo`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum RobotKind {
-    /// `sphere-omni`.
-    Sphere,
-    /// `ballbot`.
-    Ballbot,
-    /// `caster3`.
-    Caster,
-    /// `omni` (N omni/mecanum wheels).
-    Omni,
-    /// `swerve` (N centred steerable modules).
-    Swerve,
-}
-
-impl RobotKind {
-    /// The wire name of a robot kind.
-    pub fn of(kind: crate::Kind) -> Self {
-        match kind {
-            crate::Kind::Sphere => RobotKind::Sphere,
-            crate::Kind::Ballbot => RobotKind::Ballbot,
-            crate::Kind::Caster => RobotKind::Caster,
-            crate::Kind::Omni => RobotKind::Omni,
-            crate::Kind::Swerve => RobotKind::Swerve,
-        }
-    }
-
-    /// The robot kind of a wire name.
-    pub fn kind(self) -> crate::Kind {
-        match self {
-            RobotKind::Sphere => crate::Kind::Sphere,
-            RobotKind::Ballbot => crate::Kind::Ballbot,
-            RobotKind::Caster => crate::Kind::Caster,
-            RobotKind::Omni => crate::Kind::Omni,
-            RobotKind::Swerve => crate::Kind::Swerve,
-        }
-    }
-}
+/// Which robot model a runtime drives (in [`RobotInfo`]): the core's one kind enum,
+/// [`crate::Kind`], carried as its declaration index (postcard; `Sphere` 0 … `Swerve` 4). A new
+/// kind is appended there, so the encoding of these five never changes.
+pub type RobotKind = crate::Kind;
 
 /// The body limits the robot's runtime enforces on every command (f32, SI units; world
 /// frame), in its answer to a Hello, so that an operator can refuse a plan that asks for more
@@ -356,7 +322,7 @@ pub enum EndReason {
     TakenOver,
 }
 
-/// Every message of a session (the body of a [`Kind::Session`](super::Kind::Session) frame). Operator → robot:
+/// Every message of a session (the body of a [`FrameKind::Session`](super::FrameKind::Session) frame). Operator → robot:
 /// `Heartbeat` … `SetPose`; robot → operator: `Telemetry`, `SessionEnd`. Variant order is part
 /// of the wire format.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -456,7 +422,7 @@ pub struct SimTruth {
     pub pose: [f32; 3],
 }
 
-/// The body of a [`Kind::Hello`](super::Kind::Hello) frame (then zero padding up to [`HANDSHAKE_BODY`](super::HANDSHAKE_BODY) bytes).
+/// The body of a [`FrameKind::Hello`](super::FrameKind::Hello) frame (then zero padding up to [`HANDSHAKE_BODY`](super::HANDSHAKE_BODY) bytes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Hello {
     /// The operator's protocol version.
@@ -465,7 +431,7 @@ pub struct Hello {
     pub client_nonce: [u8; NONCE_LEN],
 }
 
-/// The body of a [`Kind::HelloAck`](super::Kind::HelloAck) frame.
+/// The body of a [`FrameKind::HelloAck`](super::FrameKind::HelloAck) frame.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct HelloAck {
     /// Who the robot is.

@@ -16,10 +16,10 @@
 //! * `version` is checked right after the CRC; a frame of another version is dropped
 //!   ([`LinkCounters::version`]) — a robot answers a v1 peer with one v1 answer it can print
 //!   ([`v1`]).
-//! * `kind`: [`Kind`] in the low 7 bits; bit 7 ([`KIND_TAGGED`]) says the frame carries a
-//!   `tag`. A handshake frame ([`Kind::Hello`], [`Kind::HelloAck`]) has `session = 0` and
-//!   `seq = 0`; a [`Kind::Session`] frame carries one [`Message`] of session `session` with
-//!   sequence number `seq` ≥ 1; a [`Kind::Open`] frame is a session frame of the operator
+//! * `kind`: [`FrameKind`] in the low 7 bits; bit 7 ([`KIND_TAGGED`]) says the frame carries a
+//!   `tag`. A handshake frame ([`FrameKind::Hello`], [`FrameKind::HelloAck`]) has `session = 0` and
+//!   `seq = 0`; a [`FrameKind::Session`] frame carries one [`Message`] of session `session` with
+//!   sequence number `seq` ≥ 1; a [`FrameKind::Open`] frame is a session frame of the operator
 //!   that the robot has not confirmed yet, with the handshake's [`Opening`]
 //!   (`client_nonce[16] | epoch:u32 | flags:u8`, [`OPENING_LEN`] bytes) after the header.
 //! * `tag` (with a pre-shared [`Key`] only): the first [`TAG_LEN`] = 16 bytes of HMAC-SHA256
@@ -102,8 +102,8 @@ pub use auth::{Key, KeyError, MacKey, ReplayWindow};
 pub use cobs::{cobs_decode_in_place, cobs_encode, cobs_max_len};
 pub use error::{DropReason, EncodeError, LinkCounters};
 pub use frame::{
-    FrameReader, Header, Kind, Opening, Parsed, decode_message, encode_frame_with, encode_hello,
-    encode_message, encode_open, parse_frame, peek_kind,
+    FrameKind, FrameReader, Header, Opening, Parsed, decode_message, encode_frame_with,
+    encode_hello, encode_message, encode_open, parse_frame, peek_kind,
 };
 use frame::{ct_eq, decode_hello, postcard_body, stuff};
 pub use handshake::{EPOCH_US, FirstFrame, HandshakeSecrets, USED_PER_EPOCH};
@@ -127,7 +127,7 @@ pub const NONCE_LEN: usize = 16;
 pub const CHUNK_POINTS: usize = 8;
 /// Header bytes: version, kind, session, seq.
 pub const HEADER_LEN: usize = 18;
-/// Bytes of an [`Opening`] (after the header of a [`Kind::Open`] frame): client nonce, epoch,
+/// Bytes of an [`Opening`] (after the header of a [`FrameKind::Open`] frame): client nonce, epoch,
 /// flags.
 pub const OPENING_LEN: usize = NONCE_LEN + 4 + 1;
 /// Largest postcard body, bytes.

@@ -3,8 +3,8 @@
 
 use super::session::Session;
 use super::{
-    Busy, DropReason, EncodeError, EndReason, Hello, HelloAck, Key, Kind, LinkCounters, Message,
-    NONCE_LEN, Opening, PROTOCOL_VERSION, RobotInfo, encode_hello, parse_frame,
+    Busy, DropReason, EncodeError, EndReason, FrameKind, Hello, HelloAck, Key, LinkCounters,
+    Message, NONCE_LEN, Opening, PROTOCOL_VERSION, RobotInfo, encode_hello, parse_frame,
 };
 use crate::runtime::hal::Entropy;
 
@@ -191,8 +191,8 @@ impl OperatorLink {
     fn receive_inner(&mut self, frame: &mut [u8]) -> Result<OperatorEvent, DropReason> {
         let p = parse_frame(frame)?;
         match p.header.kind {
-            Kind::Hello | Kind::Open => Err(DropReason::Malformed),
-            Kind::HelloAck => {
+            FrameKind::Hello | FrameKind::Open => Err(DropReason::Malformed),
+            FrameKind::HelloAck => {
                 p.verify(self.key.as_ref().map(Key::mac))?;
                 if p.header.session != 0 || p.header.seq != 0 {
                     return Err(DropReason::Malformed);
@@ -225,7 +225,7 @@ impl OperatorLink {
                     _ => Err(DropReason::Session(p.header.session)),
                 }
             }
-            Kind::Session => match &mut self.state {
+            FrameKind::Session => match &mut self.state {
                 OpState::Established {
                     session, confirmed, ..
                 } if session.id == p.header.session => {

@@ -6,8 +6,8 @@
 
 use super::session::Session;
 use super::{
-    Busy, CHUNK_POINTS, DropReason, EncodeError, EndReason, FirstFrame, HandshakeSecrets, HelloAck,
-    Key, Kind, LinkCounters, Message, PROTOCOL_VERSION, RobotInfo, RobotKind, Telemetry,
+    Busy, CHUNK_POINTS, DropReason, EncodeError, EndReason, FirstFrame, FrameKind,
+    HandshakeSecrets, HelloAck, Key, LinkCounters, Message, PROTOCOL_VERSION, RobotInfo, Telemetry,
     TelemetrySource, decode_hello, encode_frame_with, parse_frame, postcard_body, v1,
 };
 use crate::Real;
@@ -156,7 +156,7 @@ impl RobotLink {
         let received = frame.len();
         let p = parse_frame(frame)?;
         match p.header.kind {
-            Kind::Hello => {
+            FrameKind::Hello => {
                 p.verify(self.key.as_ref().map(Key::mac))?;
                 if p.header.session != 0 || p.header.seq != 0 {
                     return Err(DropReason::Malformed);
@@ -176,7 +176,7 @@ impl RobotLink {
                     epoch,
                 };
                 let n = encode_frame_with(
-                    Kind::HelloAck,
+                    FrameKind::HelloAck,
                     0,
                     0,
                     self.key.as_ref().map(Key::mac),
@@ -190,8 +190,8 @@ impl RobotLink {
                 }
                 Ok(RobotEvent::Hello(n))
             }
-            Kind::HelloAck => Err(DropReason::Malformed),
-            Kind::Session | Kind::Open => {
+            FrameKind::HelloAck => Err(DropReason::Malformed),
+            FrameKind::Session | FrameKind::Open => {
                 let id = p.header.session;
                 if let Some(a) = self.active.as_mut().filter(|a| a.id == id) {
                     let (seq, msg) = a.open(&p, true)?;
@@ -368,7 +368,7 @@ pub enum Served {
 pub fn robot_info<T: Real, R: Operated<T>>(runtime: &R, authenticated: bool) -> RobotInfo {
     RobotInfo {
         protocol: PROTOCOL_VERSION,
-        kind: RobotKind::of(runtime.kind()),
+        kind: runtime.kind(),
         plan_capacity: runtime.plan_capacity().min(u16::MAX as usize) as u16,
         rate_hz: runtime.rate_hz().to_f64() as f32,
         watchdog: runtime.watchdog().to_f64() as f32,

@@ -7,8 +7,42 @@ use super::*;
 /// [`EncoderAngles`]. Omni drives have 3 to 6 wheels, swerve drives 2 to 6 modules.
 pub const MAX_WHEELS: usize = 6;
 
-/// The kinds of robot a robot file can name (its `kind` key).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+/// The kinds of robot a robot file can name (its `kind` key): the one kind enum of the
+/// project. The link carries it as is ([`crate::link::RobotKind`] is this type), the robot
+/// file's `kind` key is [`Kind::name`], and every capability a layer above the core needs
+/// ([`Kind::steerable`], [`Kind::balances`], [`Kind::has_dynamics`], …) is a method here, so
+/// no other crate compares kind names.
+///
+/// # Adding a kind
+/// Append the variant **at the end**: the link (protocol 4) encodes a kind as its index in
+/// this declaration, and the five kinds here keep 0–4 (a test pins them). Every `match` on a
+/// kind is exhaustive (no `_ =>` arm), so the compiler lists each place that must learn the
+/// new kind; a match that leaves a kind out does not compile:
+///
+/// ```compile_fail,E0004
+/// use omnikin::Kind;
+/// // Swerve forgotten: error[E0004]: non-exhaustive patterns: `Kind::Swerve` not covered.
+/// fn steerable(k: Kind) -> bool {
+///     match k {
+///         Kind::Sphere | Kind::Ballbot | Kind::Omni => false,
+///         Kind::Caster => true,
+///     }
+/// }
+/// ```
+///
+/// (The same match with every kind compiles:)
+///
+/// ```
+/// use omnikin::Kind;
+/// fn steerable(k: Kind) -> bool {
+///     match k {
+///         Kind::Sphere | Kind::Ballbot | Kind::Omni => false,
+///         Kind::Caster | Kind::Swerve => true,
+///     }
+/// }
+/// assert!(Kind::ALL.iter().all(|&k| steerable(k) == k.steerable()));
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum Kind {
     /// `sphere-omni`: sphere rolled by an internal three-omni-wheel platform (paper 000).
     Sphere,
@@ -51,21 +85,45 @@ impl Kind {
     /// `true` when the wheels are steered by their own motors (caster, swerve): the actuator
     /// vector has steer angles and rates, and the encoders read steer angles.
     pub const fn steerable(self) -> bool {
-        matches!(self, Kind::Caster | Kind::Swerve)
+        match self {
+            Kind::Caster | Kind::Swerve => true,
+            Kind::Sphere | Kind::Ballbot | Kind::Omni => false,
+        }
+    }
+
+    /// `true` when the body balances on its drive (ballbot, paper 001): a dynamic run or
+    /// simulated robot needs the balance controller and its plant, not the kinematic runtime.
+    pub const fn balances(self) -> bool {
+        match self {
+            Kind::Ballbot => true,
+            Kind::Sphere | Kind::Caster | Kind::Omni | Kind::Swerve => false,
+        }
+    }
+
+    /// `true` when the kind has a dynamic model: its robot file may carry a `[dynamics]`
+    /// table, and `--plant dynamic` simulates it (sphere, paper 000 §4; ballbot, paper 001).
+    pub const fn has_dynamics(self) -> bool {
+        match self {
+            Kind::Sphere | Kind::Ballbot => true,
+            Kind::Caster | Kind::Omni | Kind::Swerve => false,
+        }
     }
 
     /// `true` when the body rolls on a ball or shell that can spin about the vertical
     /// independently of the wheels' odometry (sphere, ballbot): a measured heading then
     /// reveals that spin ([`crate::estimate::odometry::OdometryStep::shell_spin`]).
     pub const fn has_vertical_spin(self) -> bool {
-        matches!(self, Kind::Sphere | Kind::Ballbot)
+        match self {
+            Kind::Sphere | Kind::Ballbot => true,
+            Kind::Caster | Kind::Omni | Kind::Swerve => false,
+        }
     }
 
     /// What the robot's wheel units are called in output: `module` (swerve), else `wheel`.
     pub const fn wheel_noun(self) -> &'static str {
         match self {
             Kind::Swerve => "module",
-            _ => "wheel",
+            Kind::Sphere | Kind::Ballbot | Kind::Caster | Kind::Omni => "wheel",
         }
     }
 
@@ -75,7 +133,7 @@ impl Kind {
         match self {
             Kind::Sphere => Some("shell"),
             Kind::Ballbot => Some("ball"),
-            _ => None,
+            Kind::Caster | Kind::Omni | Kind::Swerve => None,
         }
     }
 
@@ -84,7 +142,10 @@ impl Kind {
     /// from the twist's rate of change only. `false` for the caster, whose steer rates follow
     /// from the twist itself (paper 003).
     pub const fn steer_is_set_point(self) -> bool {
-        matches!(self, Kind::Swerve)
+        match self {
+            Kind::Swerve => true,
+            Kind::Sphere | Kind::Ballbot | Kind::Caster | Kind::Omni => false,
+        }
     }
 }
 
