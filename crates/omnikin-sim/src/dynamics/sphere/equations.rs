@@ -8,6 +8,8 @@ use omnikin::nalgebra::{Matrix3, Matrix6, Quaternion, UnitQuaternion, Vector2, V
 use omnikin::sphere::SphereOmni;
 
 use super::params::{DynamicsError, SphereDynamics};
+use super::stepper::Stepper;
+use omnikin::description::MotorModel;
 
 /// How a wheel's motor acts during one sub-step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -28,6 +30,11 @@ pub(crate) enum Drive {
     /// The wheel has lost contact with the shell (its normal force would be negative): no
     /// roller force.
     Lifted,
+    /// A stepper ([`Model::stepper`]) drives the wheel through its torque–angle law and the
+    /// roller sticks to the shell: the rotor angle is the wheel angle `χ_i` plus this offset
+    /// (rad; what earlier roller slides and lift-offs moved the rotor against the shell), the
+    /// roller force `λ_i = τ_i/κ_i`.
+    Stepper(f64),
 }
 
 /// The integrated state in one flat form for the Runge–Kutta stages.
@@ -121,6 +128,8 @@ pub(crate) struct Model {
     pub viscous: f64,
     /// Normal preload per wheel, N.
     pub preload: f64,
+    /// The motors' torque–angle law when they are steppers (`motor = "stepper"`).
+    pub stepper: Option<Stepper>,
 }
 
 /// The time derivative of the state and what the forces were at that state.
@@ -137,6 +146,13 @@ pub(crate) struct Deriv {
     pub contact_power: f64,
     /// Power of the floor torque `τ_floor·Ω`, W.
     pub floor_power: f64,
+    /// Mechanical power the motors deliver to their rotors `Σ τ_i θ̇_rotor,i`, W: the
+    /// wheel's rate for a sticking roller, the commanded rate for a sliding one (the rotor
+    /// follows its field), 0 for a lifted wheel.
+    pub motor_power: f64,
+    /// Power dissipated by the sliding rollers `Σ f_i v_i` (roller force times slip velocity),
+    /// W; never negative for a physical friction law.
+    pub slip_power: f64,
     /// Horizontal floor force over the vertical one (the friction coefficient the floor must
     /// supply); infinite when the vertical force is not positive.
     pub floor_ratio: f64,
@@ -184,6 +200,7 @@ impl Model {
             mu: p.roller_friction,
             viscous: p.roller_viscous,
             preload: p.roller_preload,
+            stepper: (p.motor == MotorModel::Stepper).then(|| Stepper::of(p)),
         };
         Ok((m, kin))
     }
@@ -246,13 +263,34 @@ impl Model {
         f * self.r / self.lever[i]
     }
 
-    /// The time derivative of `y` with the motors in `drive`, the commanded wheel rates
-    /// `chi_d` (rad/s, for the slip velocity of a sliding roller) and accelerations `chi_dd`
-    /// (rad/s², for a locked wheel), and the forces at that state ([`Deriv`]).
+    /// The stepper's roller force `λ_i = τ_i/κ_i` (N) for the rotor offset `offset` (rad), the
+    /// commanded angle `field` (rad) and rate `chi_d` (rad/s), at the state `y` with the
+    /// constraint row `row`. 0 when the motors are not steppers.
+    pub fn stepper_lambda(
+        &self,
+        i: usize,
+        y: &Y,
+        row: &Vector6<f64>,
+        offset: f64,
+        field: f64,
+        chi_d: f64,
+    ) -> f64 {
+        let Some(st) = &self.stepper else {
+            return 0.0;
+        };
+        let rate = row.dot(&y.u()) / self.kappa[i];
+        st.torque(y.chi[i] + offset - field, rate - chi_d, chi_d) / self.kappa[i]
+    }
+
+    /// The time derivative of `y` with the motors in `drive`, the commanded wheel angles
+    /// `field` (rad, for a stepper), rates `chi_d` (rad/s, for the slip velocity of a sliding
+    /// roller and a stepper) and accelerations `chi_dd` (rad/s², for a locked wheel), and the
+    /// forces at that state ([`Deriv`]).
     pub fn derivative(
         &self,
         y: &Y,
         drive: &[Drive; 3],
+        field: &[f64; 3],
         chi_d: &[f64; 3],
         chi_dd: &[f64; 3],
     ) -> Result<Deriv, Singular> {
@@ -294,6 +332,9 @@ impl Model {
                     self.friction_lambda(i, v, dir, n)
                 }
                 Drive::Lifted => 0.0,
+                Drive::Stepper(off) => {
+                    self.stepper_lambda(i, y, &f.rows[i], off, field[i], chi_d[i])
+                }
             };
             s[(i, i)] = 1.0;
             b[i] = given;
@@ -334,12 +375,26 @@ impl Model {
             chi: Vector3::from_fn(|i, _| f.rows[i].dot(&u) / self.kappa[i]),
         };
         let contact_power = (0..3).map(|i| lambda[i] * f.rows[i].dot(&u)).sum();
+        let (mut motor_power, mut slip_power) = (0.0, 0.0);
+        for i in 0..3 {
+            match drive[i] {
+                Drive::Slip(..) => {
+                    motor_power += lambda[i] * self.kappa[i] * chi_d[i];
+                    // f v = (λ (R − R_i)/R) (R (κ χ̇_d − C u)/(R − R_i)) = λ (κ χ̇_d − C u).
+                    slip_power += lambda[i] * (self.kappa[i] * chi_d[i] - f.rows[i].dot(&u));
+                }
+                Drive::Lifted => {}
+                _ => motor_power += lambda[i] * f.rows[i].dot(&u),
+            }
+        }
         Ok(Deriv {
             d,
             lambda: lambda.into(),
             normal,
             contact_power,
             floor_power: floor.dot(&big_w),
+            motor_power,
+            slip_power,
             floor_ratio,
         })
     }

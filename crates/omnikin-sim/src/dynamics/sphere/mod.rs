@@ -4,6 +4,8 @@
 //! * [`params`]: [`SphereDynamics`], the physical parameters with their sources.
 //! * `equations`: mass matrix, generalised forces, constraint rows, accelerations, projection.
 //! * [`sim`]: [`SphereSim`], the constraint-keeping RK4 integrator and what each step reports.
+//! * [`stepper`]: [`Stepper`], the hybrid stepper's torque–angle law, pull-out curve and lost
+//!   steps (`motor = "stepper"`).
 //! * [`trial`]: [`simulate_plan`], a plan through the model recorded as a [`crate::Trial`].
 //! * [`monte_carlo`]: [`DynamicProfile`], seeded trial-to-trial variation for Monte Carlo, and
 //!   [`fit_com_depth`], the one-parameter fit to a circle's radius ratio.
@@ -159,10 +161,12 @@ pub mod monte_carlo;
 pub mod params;
 pub mod robot_file;
 pub mod sim;
+pub mod stepper;
 pub mod trial;
 
 pub use monte_carlo::{DynamicFit, DynamicProfile, fit_com_depth, radius_ratio};
 pub use params::{DynamicsError, SphereDynamics};
 pub use robot_file::write_fitted_com_depth;
 pub use sim::{ContactEvents, Residuals, SphereSim, SphereState, SphereStep};
+pub use stepper::Stepper;
 pub use trial::{ContactEvent, ContactEventKind, DynamicTrial, simulate_plan};
