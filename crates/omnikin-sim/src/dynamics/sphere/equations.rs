@@ -92,6 +92,8 @@ pub(crate) struct Frame {
     pub mass: Matrix6<f64>,
     /// Constraint rows `C_i = (−σ_i, σ_i)`, `σ_i = Q s_i`.
     pub rows: [Vector6<f64>; 3],
+    /// The platform's inertia tensor in the world frame `J_w = Q J_p Qᵀ`.
+    pub jw: Matrix3<f64>,
 }
 
 /// The model's constants, precomputed from [`SphereDynamics`].
@@ -229,7 +231,12 @@ impl Model {
             let sg = rot * self.s[i];
             Vector6::new(-sg.x, -sg.y, -sg.z, sg.x, sg.y, sg.z)
         });
-        Frame { rot, mass, rows }
+        Frame {
+            rot,
+            mass,
+            rows,
+            jw,
+        }
     }
 
     /// Floor torque on the shell, world frame, N·m: pivot friction `−τ_p tanh(Ω3/ε_p) γ` and
@@ -298,7 +305,7 @@ impl Model {
         let (w, big_w) = (y.w, y.big_w);
         let u = y.u();
         let k = f.rot.column(2).into_owned();
-        let jw = f.rot * self.jp * f.rot.transpose();
+        let jw = f.jw;
         // Ḃω = h (ω × k) × ω: the platform centre of mass's velocity-dependent acceleration.
         let wb = w.cross(&k).cross(&w) * self.h;
         let rhs_w = k.cross(&GAMMA) * (self.mp * self.g * self.h)
@@ -405,12 +412,18 @@ impl Model {
     }
 
     /// Projects `(ω, Ω)` onto the locked wheels' constraints `σ_i·(Ω − ω) = κ_i χ̇_i` in the
-    /// metric of the mass matrix (the smallest kinetic-energy correction).
-    pub fn project(&self, y: &mut Y, drive: &[Drive; 3], chi_d: &[f64; 3]) -> Result<(), Singular> {
+    /// metric of the mass matrix (the smallest kinetic-energy correction); `f` is the frame
+    /// of `y`'s orientation (the projection leaves the orientation alone).
+    pub fn project(
+        &self,
+        f: &Frame,
+        y: &mut Y,
+        drive: &[Drive; 3],
+        chi_d: &[f64; 3],
+    ) -> Result<(), Singular> {
         if !drive.contains(&Drive::Locked) {
             return Ok(());
         }
-        let f = self.frame(&y.q);
         let chol = f.mass.cholesky().ok_or(Singular("mass matrix"))?;
         let yc: [Vector6<f64>; 3] = core::array::from_fn(|i| chol.solve(&f.rows[i]));
         let u = y.u();
@@ -449,7 +462,11 @@ impl Model {
     /// Total mechanical energy `½ uᵀ M u − m_p g h (k·γ)`, J (zero of potential at the
     /// shell centre's height).
     pub fn energy(&self, y: &Y) -> f64 {
-        let f = self.frame(&y.q);
+        self.energy_in(&self.frame(&y.q), y)
+    }
+
+    /// [`Model::energy`] with the frame `f` of `y`'s orientation already at hand.
+    pub fn energy_in(&self, f: &Frame, y: &Y) -> f64 {
         let u = y.u();
         let k = f.rot.column(2).into_owned();
         0.5 * u.dot(&(f.mass * u)) - self.mp * self.g * self.h * k.dot(&GAMMA)

@@ -402,6 +402,8 @@ impl SphereSim {
                 // the motor's pull-out torque; re-solved until the modes agree with the forces.
                 for _ in 0..4 {
                     let mut changed = false;
+                    // A sliding roller's normal force followed the state: k1 must be redone.
+                    let mut dirty = false;
                     for i in 0..3 {
                         let (l, nf) = (k1.lambda[i], k1.normal[i]);
                         let f_roller = l.abs() * lever[i] / r;
@@ -444,6 +446,7 @@ impl SphereSim {
                                 // The sliding roller's normal force follows the state (frozen
                                 // within the sub-step); not a change of mode.
                                 self.drive[i] = Drive::Slip(nf, dir);
+                                dirty = true;
                             }
                             Drive::Lifted if nf > 0.0 => {
                                 // Back on the shell: the roller lands sliding against the slip
@@ -469,6 +472,10 @@ impl SphereSim {
                             }
                             _ => {}
                         }
+                    }
+                    // Nothing changed: k1 is already the derivative in these modes.
+                    if !(changed || dirty) {
+                        break;
                     }
                     k1 = self
                         .model
@@ -541,9 +548,10 @@ impl SphereSim {
                 None => self.model.wheel_rates(&y),
             };
             if target.is_some() {
-                let actual = self.model.wheel_rates(&y);
+                // One frame for the end of the sub-step: the projection changes only `u`.
                 let f = self.model.frame(&y.q);
                 let u = y.u();
+                let actual: [f64; 3] = core::array::from_fn(|i| f.rows[i].dot(&u) / kappa[i]);
                 for i in 0..3 {
                     match self.drive[i] {
                         // A slipping motor locks again once its rotor has caught up.
@@ -563,11 +571,13 @@ impl SphereSim {
                     self.stepper_bookkeeping(st, &y, &k1.lambda, &a1, &c1, &mut lost);
                 }
                 // The projection is the sticking contacts' impulse: its work is theirs.
-                let e0 = self.model.energy(&y);
-                self.model
-                    .project(&mut y, &self.drive, &cmd)
-                    .map_err(diverged)?;
-                contact_work += self.model.energy(&y) - e0;
+                if self.drive.contains(&Drive::Locked) {
+                    let e0 = self.model.energy_in(&f, &y);
+                    self.model
+                        .project(&f, &mut y, &self.drive, &cmd)
+                        .map_err(diverged)?;
+                    contact_work += self.model.energy_in(&f, &y) - e0;
+                }
             }
             self.y = y;
             self.command = cmd;
