@@ -330,6 +330,7 @@ impl DynamicPlant {
                     "roller_slips": run.contact_events.roller_slips,
                     "lift_offs": run.contact_events.lift_offs,
                     "floor_slips": run.contact_events.floor_slips,
+                    "lost_steps": run.contact_events.lost_steps,
                     "min_roller_normal_n": run.min_normal,
                     "min_shell_spin_rad_s": run.shell_spin.iter().cloned().fold(0.0, f64::min),
                 });
@@ -402,12 +403,13 @@ impl DynamicSimulation {
         match (&self.outcome, plant) {
             (DynamicOutcome::Sphere(run), _) => vec![format!(
                 "dynamic plant: largest tilt {:.3} rad, pull-out events {:?}, roller slips {:?}, \
-                 lift-offs {:?}, floor-cone exits {}",
+                 lift-offs {:?}, floor-cone exits {}, lost steps {:?}",
                 run.max_tilt,
                 run.pull_outs,
                 run.contact_events.roller_slips,
                 run.contact_events.lift_offs,
-                run.contact_events.floor_slips
+                run.contact_events.floor_slips,
+                run.contact_events.lost_steps
             )],
             (DynamicOutcome::Ballbot(run), DynamicPlant::Ballbot { config, .. }) => {
                 let deg = f64::to_degrees;

@@ -43,6 +43,50 @@ fn the_table_is_optional_and_its_values_are_kept() {
 }
 
 #[test]
+fn the_motor_model_is_chosen_by_name_and_a_wrong_name_is_refused() {
+    use omnikin::description::MotorModel;
+    let s = with("motor = \"stepper\"\nstepper_steps_per_rev = 400\nstepper_corner_speed = 40.0\nstepper_damping = 0.0")
+        .unwrap()
+        .sphere_dynamics
+        .unwrap();
+    assert_eq!(s.motor, Some(MotorModel::Stepper));
+    assert_eq!(
+        (
+            s.stepper_steps_per_rev,
+            s.stepper_corner_speed,
+            s.stepper_damping
+        ),
+        (Some(400.0), Some(40.0), Some(0.0))
+    );
+    let s = with("motor = \"rate\"").unwrap().sphere_dynamics.unwrap();
+    assert_eq!(s.motor, Some(MotorModel::Rate));
+    let e = with("motor = \"servo\"").unwrap_err().to_string();
+    assert!(
+        e.contains("servo") && e.contains("stepper") && e.contains("rate"),
+        "the error names the bad value and the two names: {e}"
+    );
+    for (text, field) in [
+        (
+            "stepper_steps_per_rev = 202",
+            "dynamics.stepper_steps_per_rev",
+        ),
+        (
+            "stepper_steps_per_rev = 0",
+            "dynamics.stepper_steps_per_rev",
+        ),
+        (
+            "stepper_corner_speed = 0.0",
+            "dynamics.stepper_corner_speed",
+        ),
+        ("stepper_damping = -0.1", "dynamics.stepper_damping"),
+    ] {
+        let e = with(text).unwrap_err();
+        assert_eq!(e.field, field, "{text}: {e}");
+        assert!(e.line.is_some(), "{text}: {e}");
+    }
+}
+
+#[test]
 fn the_sphere_preset_carries_its_dynamics() {
     let d = RobotDescription::preset("sphere-omni").unwrap();
     let s = d

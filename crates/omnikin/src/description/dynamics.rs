@@ -12,6 +12,10 @@
 //! platform_inertia = [0.004, 0.004, 0.006]  # principal moments about platform x, y, z [kg m^2]
 //! com_depth = 0.08                          # h, platform centre of mass below the centre [m]
 //! pull_out_torque = 0.3                     # stepper pull-out torque [N m] (inf = ideal)
+//! motor = "rate"                            # "rate" (imposes rates) or "stepper" (angles)
+//! stepper_steps_per_rev = 200               # full steps per revolution (1.8 deg hybrid)
+//! stepper_corner_speed = 50.0               # pull-out torque falls as 1/speed above [rad/s]
+//! stepper_damping = 0.01                    # rotor damping against the field [N m s/rad]
 //! pivot_friction = 0.005                    # Coulomb spin friction at the floor [N m]
 //! pivot_velocity_scale = 0.005              # its tanh regularisation [rad/s]
 //! rolling_resistance = 0.005                # C_rr (torque C_rr M g R)
@@ -36,6 +40,21 @@ use serde::Deserialize;
 use super::ballbot_dynamics::BallbotDynamicsSpec;
 use super::{DescriptionError, Geometry};
 
+/// How the `sphere-omni` dynamic model's motors act (`motor = "rate" | "stepper"` in
+/// `[dynamics]`; any other name is rejected naming the key and the two names).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MotorModel {
+    /// Each motor imposes its commanded wheel rate up to the pull-out torque, delivers the
+    /// pull-out torque while slipping and resynchronises when its rotor has caught up.
+    #[default]
+    Rate,
+    /// Each motor imposes the commanded *angle* through the hybrid stepper's torque–angle
+    /// stiffness, up to a pull-out torque that falls with speed; beyond it the rotor slips
+    /// poles (loses steps) and stays stalled unless the command lets it catch a pole again.
+    Stepper,
+}
+
 /// The `[dynamics]` table of a `sphere-omni` robot file, as given: `None` = the dynamic model's
 /// default for paper 000's robot.
 #[derive(Clone, Debug, Default, PartialEq, Deserialize)]
@@ -54,6 +73,14 @@ pub struct SphereDynamicsSpec {
     pub com_depth: Option<f64>,
     /// Stepper pull-out torque, N·m (`inf` for an ideal rate source).
     pub pull_out_torque: Option<f64>,
+    /// Motor model: `"rate"` (default) or `"stepper"`.
+    pub motor: Option<MotorModel>,
+    /// Full steps per revolution of the stepper (200 for a 1.8° hybrid stepper).
+    pub stepper_steps_per_rev: Option<f64>,
+    /// Speed above which the stepper's pull-out torque falls as 1/speed, rad/s.
+    pub stepper_corner_speed: Option<f64>,
+    /// Viscous damping of the stepper's rotor against its field, N·m·s/rad.
+    pub stepper_damping: Option<f64>,
     /// Coulomb pivot (spin) friction torque at the floor contact, N·m.
     pub pivot_friction: Option<f64>,
     /// Velocity scale of the pivot friction's regularisation, rad/s.
@@ -159,6 +186,19 @@ impl SphereDynamicsSpec {
                 format!("must be > 0 N m, or inf for an ideal motor (got {t})"),
             ));
         }
+        if let Some(n) = self.stepper_steps_per_rev
+            && !(n.is_finite() && n >= 4.0 && n % 4.0 == 0.0)
+        {
+            return Err((
+                "dynamics.stepper_steps_per_rev",
+                format!(
+                    "must be a positive multiple of 4 (a two-phase motor's full steps per \
+                     revolution, 200 for 1.8 deg; got {n})"
+                ),
+            ));
+        }
+        positive("dynamics.stepper_corner_speed", self.stepper_corner_speed)?;
+        nonneg("dynamics.stepper_damping", self.stepper_damping)?;
         nonneg("dynamics.pivot_friction", self.pivot_friction)?;
         positive("dynamics.pivot_velocity_scale", self.pivot_velocity_scale)?;
         nonneg("dynamics.rolling_resistance", self.rolling_resistance)?;

@@ -4,10 +4,14 @@
 //! constraint rows and the solve for accelerations and wheel constraint forces; the
 //! M-metric projection onto the wheel constraints; the energy.
 
-use omnikin::nalgebra::{Matrix3, Matrix6, Quaternion, UnitQuaternion, Vector2, Vector3, Vector6};
+use omnikin::nalgebra::{
+    Cholesky, Const, Matrix3, Matrix6, Quaternion, UnitQuaternion, Vector2, Vector3, Vector6,
+};
 use omnikin::sphere::SphereOmni;
 
 use super::params::{DynamicsError, SphereDynamics};
+use super::stepper::Stepper;
+use omnikin::description::MotorModel;
 
 /// How a wheel's motor acts during one sub-step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -28,6 +32,11 @@ pub(crate) enum Drive {
     /// The wheel has lost contact with the shell (its normal force would be negative): no
     /// roller force.
     Lifted,
+    /// A stepper ([`Model::stepper`]) drives the wheel through its torque–angle law and the
+    /// roller sticks to the shell: the rotor angle is the wheel angle `χ_i` plus this offset
+    /// (rad; what earlier roller slides and lift-offs moved the rotor against the shell), the
+    /// roller force `λ_i = τ_i/κ_i`.
+    Stepper(f64),
 }
 
 /// The integrated state in one flat form for the Runge–Kutta stages.
@@ -85,6 +94,48 @@ pub(crate) struct Frame {
     pub mass: Matrix6<f64>,
     /// Constraint rows `C_i = (−σ_i, σ_i)`, `σ_i = Q s_i`.
     pub rows: [Vector6<f64>; 3],
+    /// The platform's inertia tensor in the world frame `J_w = Q J_p Qᵀ`.
+    pub jw: Matrix3<f64>,
+}
+
+/// `M⁻¹` by blocks. With `M = [[A, B], [Bᵀ, D]]` the shell block
+/// `D = M R² (I − γ γᵀ) + I_s I` is diagonal (and constant), so
+/// `x_ω = S⁻¹ (r_ω − B D⁻¹ r_Ω)`, `x_Ω = D⁻¹ (r_Ω − Bᵀ x_ω)` with the 3 × 3 Schur complement
+/// `S = A − B D⁻¹ Bᵀ` (symmetric positive definite as `M` is): one 3 × 3 Cholesky factor
+/// instead of a 6 × 6 one, the same solution up to rounding.
+pub(crate) struct MassSolve {
+    b: Matrix3<f64>,
+    dinv: Vector3<f64>,
+    schur: Cholesky<f64, Const<3>>,
+}
+
+impl MassSolve {
+    /// Factors the mass matrix of `f`.
+    pub fn new(f: &Frame) -> Result<Self, Singular> {
+        let a = f.mass.fixed_view::<3, 3>(0, 0).into_owned();
+        let b = f.mass.fixed_view::<3, 3>(0, 3).into_owned();
+        let dinv = Vector3::new(
+            1.0 / f.mass[(3, 3)],
+            1.0 / f.mass[(4, 4)],
+            1.0 / f.mass[(5, 5)],
+        );
+        let bd = Matrix3::from_fn(|r, c| b[(r, c)] * dinv[c]);
+        let schur = (a - bd * b.transpose())
+            .cholesky()
+            .ok_or(Singular("mass matrix"))?;
+        Ok(Self { b, dinv, schur })
+    }
+
+    /// `M⁻¹ r`.
+    pub fn solve(&self, r: &Vector6<f64>) -> Vector6<f64> {
+        let rw = Vector3::new(r[0], r[1], r[2]);
+        let ro = Vector3::new(r[3], r[4], r[5]);
+        let xw = self
+            .schur
+            .solve(&(rw - self.b * ro.component_mul(&self.dinv)));
+        let xo = (ro - self.b.transpose() * xw).component_mul(&self.dinv);
+        Vector6::new(xw.x, xw.y, xw.z, xo.x, xo.y, xo.z)
+    }
 }
 
 /// The model's constants, precomputed from [`SphereDynamics`].
@@ -121,6 +172,8 @@ pub(crate) struct Model {
     pub viscous: f64,
     /// Normal preload per wheel, N.
     pub preload: f64,
+    /// The motors' torque–angle law when they are steppers (`motor = "stepper"`).
+    pub stepper: Option<Stepper>,
 }
 
 /// The time derivative of the state and what the forces were at that state.
@@ -137,6 +190,13 @@ pub(crate) struct Deriv {
     pub contact_power: f64,
     /// Power of the floor torque `τ_floor·Ω`, W.
     pub floor_power: f64,
+    /// Mechanical power the motors deliver to their rotors `Σ τ_i θ̇_rotor,i`, W: the
+    /// wheel's rate for a sticking roller, the commanded rate for a sliding one (the rotor
+    /// follows its field), 0 for a lifted wheel.
+    pub motor_power: f64,
+    /// Power dissipated by the sliding rollers `Σ f_i v_i` (roller force times slip velocity),
+    /// W; never negative for a physical friction law.
+    pub slip_power: f64,
     /// Horizontal floor force over the vertical one (the friction coefficient the floor must
     /// supply); infinite when the vertical force is not positive.
     pub floor_ratio: f64,
@@ -184,6 +244,7 @@ impl Model {
             mu: p.roller_friction,
             viscous: p.roller_viscous,
             preload: p.roller_preload,
+            stepper: (p.motor == MotorModel::Stepper).then(|| Stepper::of(p)),
         };
         Ok((m, kin))
     }
@@ -212,7 +273,12 @@ impl Model {
             let sg = rot * self.s[i];
             Vector6::new(-sg.x, -sg.y, -sg.z, sg.x, sg.y, sg.z)
         });
-        Frame { rot, mass, rows }
+        Frame {
+            rot,
+            mass,
+            rows,
+            jw,
+        }
     }
 
     /// Floor torque on the shell, world frame, N·m: pivot friction `−τ_p tanh(Ω3/ε_p) γ` and
@@ -246,13 +312,34 @@ impl Model {
         f * self.r / self.lever[i]
     }
 
-    /// The time derivative of `y` with the motors in `drive`, the commanded wheel rates
-    /// `chi_d` (rad/s, for the slip velocity of a sliding roller) and accelerations `chi_dd`
-    /// (rad/s², for a locked wheel), and the forces at that state ([`Deriv`]).
+    /// The stepper's roller force `λ_i = τ_i/κ_i` (N) for the rotor offset `offset` (rad), the
+    /// commanded angle `field` (rad) and rate `chi_d` (rad/s), at the state `y` with the
+    /// constraint row `row`. 0 when the motors are not steppers.
+    pub fn stepper_lambda(
+        &self,
+        i: usize,
+        y: &Y,
+        row: &Vector6<f64>,
+        offset: f64,
+        field: f64,
+        chi_d: f64,
+    ) -> f64 {
+        let Some(st) = &self.stepper else {
+            return 0.0;
+        };
+        let rate = row.dot(&y.u()) / self.kappa[i];
+        st.torque(y.chi[i] + offset - field, rate - chi_d, chi_d) / self.kappa[i]
+    }
+
+    /// The time derivative of `y` with the motors in `drive`, the commanded wheel angles
+    /// `field` (rad, for a stepper), rates `chi_d` (rad/s, for the slip velocity of a sliding
+    /// roller and a stepper) and accelerations `chi_dd` (rad/s², for a locked wheel), and the
+    /// forces at that state ([`Deriv`]).
     pub fn derivative(
         &self,
         y: &Y,
         drive: &[Drive; 3],
+        field: &[f64; 3],
         chi_d: &[f64; 3],
         chi_dd: &[f64; 3],
     ) -> Result<Deriv, Singular> {
@@ -260,7 +347,7 @@ impl Model {
         let (w, big_w) = (y.w, y.big_w);
         let u = y.u();
         let k = f.rot.column(2).into_owned();
-        let jw = f.rot * self.jp * f.rot.transpose();
+        let jw = f.jw;
         // Ḃω = h (ω × k) × ω: the platform centre of mass's velocity-dependent acceleration.
         let wb = w.cross(&k).cross(&w) * self.h;
         let rhs_w = k.cross(&GAMMA) * (self.mp * self.g * self.h)
@@ -269,7 +356,7 @@ impl Model {
         let floor = self.floor_torque(&big_w);
         let rhs_o = floor - GAMMA.cross(&wb) * (self.mp * self.r);
         let rhs = Vector6::new(rhs_w.x, rhs_w.y, rhs_w.z, rhs_o.x, rhs_o.y, rhs_o.z);
-        let chol = f.mass.cholesky().ok_or(Singular("mass matrix"))?;
+        let chol = MassSolve::new(&f)?;
         let u0 = chol.solve(&rhs);
         let yc: [Vector6<f64>; 3] = core::array::from_fn(|i| chol.solve(&f.rows[i]));
         let rel = big_w - w;
@@ -294,6 +381,9 @@ impl Model {
                     self.friction_lambda(i, v, dir, n)
                 }
                 Drive::Lifted => 0.0,
+                Drive::Stepper(off) => {
+                    self.stepper_lambda(i, y, &f.rows[i], off, field[i], chi_d[i])
+                }
             };
             s[(i, i)] = 1.0;
             b[i] = given;
@@ -334,12 +424,26 @@ impl Model {
             chi: Vector3::from_fn(|i, _| f.rows[i].dot(&u) / self.kappa[i]),
         };
         let contact_power = (0..3).map(|i| lambda[i] * f.rows[i].dot(&u)).sum();
+        let (mut motor_power, mut slip_power) = (0.0, 0.0);
+        for i in 0..3 {
+            match drive[i] {
+                Drive::Slip(..) => {
+                    motor_power += lambda[i] * self.kappa[i] * chi_d[i];
+                    // f v = (λ (R − R_i)/R) (R (κ χ̇_d − C u)/(R − R_i)) = λ (κ χ̇_d − C u).
+                    slip_power += lambda[i] * (self.kappa[i] * chi_d[i] - f.rows[i].dot(&u));
+                }
+                Drive::Lifted => {}
+                _ => motor_power += lambda[i] * f.rows[i].dot(&u),
+            }
+        }
         Ok(Deriv {
             d,
             lambda: lambda.into(),
             normal,
             contact_power,
             floor_power: floor.dot(&big_w),
+            motor_power,
+            slip_power,
             floor_ratio,
         })
     }
@@ -350,13 +454,19 @@ impl Model {
     }
 
     /// Projects `(ω, Ω)` onto the locked wheels' constraints `σ_i·(Ω − ω) = κ_i χ̇_i` in the
-    /// metric of the mass matrix (the smallest kinetic-energy correction).
-    pub fn project(&self, y: &mut Y, drive: &[Drive; 3], chi_d: &[f64; 3]) -> Result<(), Singular> {
+    /// metric of the mass matrix (the smallest kinetic-energy correction); `f` is the frame
+    /// of `y`'s orientation (the projection leaves the orientation alone).
+    pub fn project(
+        &self,
+        f: &Frame,
+        y: &mut Y,
+        drive: &[Drive; 3],
+        chi_d: &[f64; 3],
+    ) -> Result<(), Singular> {
         if !drive.contains(&Drive::Locked) {
             return Ok(());
         }
-        let f = self.frame(&y.q);
-        let chol = f.mass.cholesky().ok_or(Singular("mass matrix"))?;
+        let chol = MassSolve::new(f)?;
         let yc: [Vector6<f64>; 3] = core::array::from_fn(|i| chol.solve(&f.rows[i]));
         let u = y.u();
         let mut s = Matrix3::zeros();
@@ -394,9 +504,44 @@ impl Model {
     /// Total mechanical energy `½ uᵀ M u − m_p g h (k·γ)`, J (zero of potential at the
     /// shell centre's height).
     pub fn energy(&self, y: &Y) -> f64 {
-        let f = self.frame(&y.q);
+        self.energy_in(&self.frame(&y.q), y)
+    }
+
+    /// [`Model::energy`] with the frame `f` of `y`'s orientation already at hand.
+    pub fn energy_in(&self, f: &Frame, y: &Y) -> f64 {
         let u = y.u();
         let k = f.rot.column(2).into_owned();
         0.5 * u.dot(&(f.mass * u)) - self.mp * self.g * self.h * k.dot(&GAMMA)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_block_solve_equals_the_full_cholesky_solve() {
+        // Tilted and yawed platforms, a deep and a shallow centre of mass: the Schur-complement
+        // solve must give what the 6 × 6 Cholesky factor of the same matrix gives.
+        for h in [0.02, 0.08, 0.14] {
+            let mut p = SphereDynamics::paper_000();
+            p.com_depth = h;
+            let (m, _) = Model::new(&p).unwrap();
+            for (roll, pitch, yaw) in [(0.0, 0.0, 0.0), (0.3, -0.2, 1.0), (-1.2, 0.7, -2.5)] {
+                let q = UnitQuaternion::from_euler_angles(roll, pitch, yaw).into_inner();
+                let f = m.frame(&q);
+                let full = f.mass.cholesky().unwrap();
+                let block = MassSolve::new(&f).unwrap();
+                for r in [
+                    Vector6::new(1.0, -2.0, 0.5, 0.3, 4.0, -1.0),
+                    f.rows[0],
+                    f.rows[2],
+                ] {
+                    let (a, b) = (full.solve(&r), block.solve(&r));
+                    assert!((a - b).norm() <= 1e-12 * a.norm(), "{a} vs {b}");
+                    assert!((f.mass * b - r).norm() <= 1e-12 * r.norm());
+                }
+            }
+        }
     }
 }

@@ -4,6 +4,8 @@
 //! * [`params`]: [`SphereDynamics`], the physical parameters with their sources.
 //! * `equations`: mass matrix, generalised forces, constraint rows, accelerations, projection.
 //! * [`sim`]: [`SphereSim`], the constraint-keeping RK4 integrator and what each step reports.
+//! * [`stepper`]: [`Stepper`], the hybrid stepper's torque–angle law, pull-out curve and lost
+//!   steps (`motor = "stepper"`).
 //! * [`trial`]: [`simulate_plan`], a plan through the model recorded as a [`crate::Trial`].
 //! * [`monte_carlo`]: [`DynamicProfile`], seeded trial-to-trial variation for Monte Carlo, and
 //!   [`fit_com_depth`], the one-parameter fit to a circle's radius ratio.
@@ -107,6 +109,13 @@
 //!   the command; it then locks again (a slipping clutch: a stepper that loses steps and
 //!   resynchronises; lost steps do not matter here because rates, not angles, are imposed).
 //!   [`SphereStep::pull_out`] reports each such event.
+//! * **Steppers** (`motor = "stepper"`, [`stepper`]): no wheel is locked; each motor's
+//!   `λ_i = τ_i/κ_i` comes from the hybrid stepper's torque–angle law against the commanded
+//!   angle (the integral of the ramped rate), its amplitude the pull-out torque at the field's
+//!   speed; a rotor that slips a pole loses 4 full steps per electrical cycle
+//!   ([`SphereStep::lost_steps`]) and is not resynchronised. The motors' work and the sliding
+//!   rollers' loss are reported per step ([`SphereStep::motor_work`],
+//!   [`SphereStep::slip_work`]): `ΔE = W_motor − W_slip + W_floor`.
 //! * **Unpowered** ([`SphereSim::coast`]): `λ = 0`, the wheels turn freely; platform and shell
 //!   exchange no torque and the mechanical energy `E = ½ uᵀ M u − m_p g h (k·γ)` is conserved
 //!   when `τ_floor = 0`.
@@ -159,10 +168,12 @@ pub mod monte_carlo;
 pub mod params;
 pub mod robot_file;
 pub mod sim;
+pub mod stepper;
 pub mod trial;
 
 pub use monte_carlo::{DynamicFit, DynamicProfile, fit_com_depth, radius_ratio};
 pub use params::{DynamicsError, SphereDynamics};
 pub use robot_file::write_fitted_com_depth;
 pub use sim::{ContactEvents, Residuals, SphereSim, SphereState, SphereStep};
+pub use stepper::Stepper;
 pub use trial::{ContactEvent, ContactEventKind, DynamicTrial, simulate_plan};

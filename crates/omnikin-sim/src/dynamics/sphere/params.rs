@@ -1,7 +1,7 @@
 //! The physical parameters of the sphere's dynamic model ([`SphereDynamics`]), their defaults
 //! for paper 000's robot with where each value comes from, and their validation.
 
-use omnikin::description::{Geometry, RobotDescription, SphereDynamicsSpec};
+use omnikin::description::{Geometry, MotorModel, RobotDescription, SphereDynamicsSpec};
 use omnikin::sphere::SphereParams;
 
 /// A parameter of [`SphereDynamics`] that cannot describe a physical robot, naming the field.
@@ -71,6 +71,22 @@ pub struct SphereDynamics {
     /// delivers this torque until its rotor is back at the commanded rate. Default 0.3 N·m (a
     /// 42 mm stepper's pull-out torque at low step rates). `f64::INFINITY` = ideal rate source.
     pub pull_out_torque: f64,
+    /// How the motors act: [`MotorModel::Rate`] (default: each imposes its wheel rate up to
+    /// `pull_out_torque`, slips at that torque and resynchronises) or [`MotorModel::Stepper`]
+    /// (each imposes an angle through a hybrid stepper's torque–angle law, with the pull-out
+    /// torque `pull_out_torque` falling above `stepper_corner_speed`, and loses steps past it:
+    /// [`super::stepper`]).
+    pub motor: MotorModel,
+    /// Full steps per revolution of the steppers (a multiple of 4). Default 200: the 1.8°
+    /// hybrid stepper of the NEMA 17 class ([`super::stepper`]).
+    pub stepper_steps_per_rev: f64,
+    /// Speed above which the stepper's pull-out torque falls as 1/speed, rad/s. Default
+    /// 50 rad/s: `V/(N_r L I)` for a NEMA 17 of ≈ 2.8 mH, 1.7 A per phase at a 12 V supply
+    /// (a derived estimate, range 30–100 rad/s; [`super::stepper`]).
+    pub stepper_corner_speed: f64,
+    /// Viscous damping of each stepper's rotor against its field, N·m·s/rad. Default 0.01, an
+    /// estimate (0–0.04: from a chopper drive's residual to the voltage-driven `k_t²/R`).
+    pub stepper_damping: f64,
     /// Coulomb pivot (spin) friction torque at the floor contact, about the vertical, N·m.
     /// Default 0.005 N·m: `(3π/16) μ N a` for a Hertz-like contact patch of radius a ≈ 0.7 mm,
     /// μ = 0.5, N = M g ≈ 24.5 N (the "a few mN·m"). The one parameter to fit.
@@ -133,6 +149,10 @@ impl SphereDynamics {
             platform_inertia: [[0.004, 0.0, 0.0], [0.0, 0.004, 0.0], [0.0, 0.0, 0.006]],
             com_depth: 0.08,
             pull_out_torque: 0.3,
+            motor: MotorModel::Rate,
+            stepper_steps_per_rev: 200.0,
+            stepper_corner_speed: 50.0,
+            stepper_damping: 0.01,
             pivot_friction: 0.005,
             pivot_velocity_scale: 0.005,
             rolling_resistance: 0.005,
@@ -187,6 +207,12 @@ impl SphereDynamics {
             }
             set(&mut p.com_depth, s.com_depth);
             set(&mut p.pull_out_torque, s.pull_out_torque);
+            if let Some(m) = s.motor {
+                p.motor = m;
+            }
+            set(&mut p.stepper_steps_per_rev, s.stepper_steps_per_rev);
+            set(&mut p.stepper_corner_speed, s.stepper_corner_speed);
+            set(&mut p.stepper_damping, s.stepper_damping);
             set(&mut p.pivot_friction, s.pivot_friction);
             set(&mut p.pivot_velocity_scale, s.pivot_velocity_scale);
             set(&mut p.rolling_resistance, s.rolling_resistance);
@@ -209,6 +235,7 @@ impl SphereDynamics {
         self.pivot_friction = 0.0;
         self.rolling_resistance = 0.0;
         self.pull_out_torque = f64::INFINITY;
+        self.motor = MotorModel::Rate;
         self.rigid_contacts()
     }
 
@@ -318,6 +345,23 @@ impl SphereDynamics {
                 "must be positive (f64::INFINITY for an ideal rate source)",
             ));
         }
+        if self.motor == MotorModel::Stepper && !self.pull_out_torque.is_finite() {
+            return Err(bad(
+                "pull_out_torque",
+                self.pull_out_torque,
+                "must be finite for motor = \"stepper\" (a stepper's torque is bounded)",
+            ));
+        }
+        let n = self.stepper_steps_per_rev;
+        if !(n.is_finite() && n >= 4.0 && n % 4.0 == 0.0) {
+            return Err(bad(
+                "stepper_steps_per_rev",
+                n,
+                "must be a positive multiple of 4 (full steps per revolution of a two-phase motor)",
+            ));
+        }
+        positive("stepper_corner_speed", self.stepper_corner_speed)?;
+        nonneg("stepper_damping", self.stepper_damping)?;
         nonneg("pivot_friction", self.pivot_friction)?;
         positive("pivot_velocity_scale", self.pivot_velocity_scale)?;
         nonneg("rolling_resistance", self.rolling_resistance)?;

@@ -10,6 +10,7 @@ use omnikin::wrap_angle;
 
 use super::equations::{Drive, Model, Singular, Y};
 use super::params::{DynamicsError, SphereDynamics};
+use super::stepper::Stepper;
 
 /// The physical state of the robot.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -116,6 +117,14 @@ pub struct SphereStep {
     /// The floor force left the friction cone `μ_f` during this step (the shell would slide;
     /// the model keeps it rolling and reports it).
     pub floor_slip: bool,
+    /// Mechanical work the motors delivered to their rotors over the step, J (for a sliding
+    /// roller the rotor turns at the commanded rate; see `slip_work`).
+    pub motor_work: f64,
+    /// Energy the sliding rollers dissipated over the step, J (≥ 0): with steppers
+    /// `ΔE = motor_work − slip_work + floor_work`.
+    pub slip_work: f64,
+    /// Full steps each stepper lost during this step (0 with `motor = "rate"`).
+    pub lost_steps: [u64; 3],
 }
 
 /// Contact events so far, per wheel (see [`SphereSim::contact_events`]).
@@ -127,6 +136,9 @@ pub struct ContactEvents {
     pub lift_offs: [u64; 3],
     /// Steps in which the floor force left its friction cone.
     pub floor_slips: u64,
+    /// Full steps each stepper lost (4 per electrical cycle its rotor slipped against the
+    /// field; always 0 with `motor = "rate"`, whose motors resynchronise).
+    pub lost_steps: [u64; 3],
 }
 
 /// Constraint residuals of the current state (see [`SphereSim::residuals`]).
@@ -155,6 +167,13 @@ pub struct SphereSim {
     heading: f64,
     pull_outs: [u64; 3],
     events: ContactEvents,
+    /// Steppers only: the commanded (field) angle of each motor, rad.
+    field: [f64; 3],
+    /// Steppers only: rotor angle minus the wheel angle `χ_i`, rad (moved by roller slides and
+    /// lift-offs, when the rotor turns without the shell).
+    offset: [f64; 3],
+    /// Steppers only: the electrical cycle each rotor sits in against its field.
+    cycle: [i64; 3],
 }
 
 impl SphereSim {
@@ -208,9 +227,23 @@ impl SphereSim {
             heading: state.yaw(),
             pull_outs: [0; 3],
             events: ContactEvents::default(),
+            field: state.wheel_angles,
+            offset: [0.0; 3],
+            cycle: [0; 3],
         };
         sim.command = sim.model.wheel_rates(&sim.y);
+        sim.drive = [sim.stick(0); 3];
         Ok(sim)
+    }
+
+    /// The mode of wheel `i` whose roller sticks to the shell: its motor holding the
+    /// commanded rate, or the stepper's torque–angle law.
+    fn stick(&self, i: usize) -> Drive {
+        if self.model.stepper.is_some() {
+            Drive::Stepper(self.offset[i])
+        } else {
+            Drive::Locked
+        }
     }
 
     /// The parameters.
@@ -231,7 +264,7 @@ impl SphereSim {
             platform_rate: self.y.w,
             shell_rate: self.y.big_w,
             centre: self.y.p.into(),
-            wheel_angles: self.y.chi.into(),
+            wheel_angles: core::array::from_fn(|i| self.y.chi[i] + self.offset[i]),
         }
     }
 
@@ -329,6 +362,7 @@ impl SphereSim {
             self.drive = [Drive::Force(0.0); 3];
         }
         let tau_max = self.params.pull_out_torque;
+        let stepper: Option<Stepper> = self.model.stepper;
         let kappa = self.model.kappa;
         let (mu, lever, r) = (self.model.mu, self.model.lever, self.model.r);
         let contacts = mu.is_finite() && target.is_some();
@@ -340,6 +374,9 @@ impl SphereSim {
         let mut normal = [0.0f64; 3];
         let mut min_normal = [f64::INFINITY; 3];
         let (mut contact_work, mut floor_work) = (0.0, 0.0);
+        let (mut motor_work, mut slip_work) = (0.0, 0.0);
+        let mut lost = [0u64; 3];
+        let field0 = self.field;
         let mut floor_ratio = 0.0f64;
         let diverged = |_: Singular| DynamicsError::Input {
             what: "state",
@@ -347,31 +384,43 @@ impl SphereSim {
             rule: "the simulation diverged (state no longer finite)",
         };
         let cmd_at = |t: f64| -> [f64; 3] { core::array::from_fn(|i| start[i] + slope[i] * t) };
+        // The commanded angle: the integral of the ramped rate.
+        let field_at = |t: f64| -> [f64; 3] {
+            core::array::from_fn(|i| field0[i] + start[i] * t + 0.5 * slope[i] * t * t)
+        };
         for j in 0..n as u64 {
             let t0 = j as f64 * h;
             let t_end = (j + 1) as f64 * h;
             let c0 = cmd_at(t0);
+            let a0 = field_at(t0);
             let mut k1 = self
                 .model
-                .derivative(&self.y, &self.drive, &c0, &slope)
+                .derivative(&self.y, &self.drive, &a0, &c0, &slope)
                 .map_err(diverged)?;
             if target.is_some() {
                 // Contacts first (a roller slides or a wheel lifts at the contact's limit), then
                 // the motor's pull-out torque; re-solved until the modes agree with the forces.
                 for _ in 0..4 {
                     let mut changed = false;
+                    // A sliding roller's normal force followed the state: k1 must be redone.
+                    let mut dirty = false;
                     for i in 0..3 {
                         let (l, nf) = (k1.lambda[i], k1.normal[i]);
                         let f_roller = l.abs() * lever[i] / r;
-                        let motor_limit = tau_max / kappa[i].abs();
+                        let motor_limit = match &stepper {
+                            Some(st) => st.pull_out(c0[i]),
+                            None => tau_max,
+                        } / kappa[i].abs();
                         match self.drive[i] {
-                            Drive::Locked | Drive::Force(_) if contacts && nf <= 0.0 => {
+                            Drive::Locked | Drive::Force(_) | Drive::Stepper(_)
+                                if contacts && nf <= 0.0 =>
+                            {
                                 self.drive[i] = Drive::Lifted;
                                 lift_off[i] = true;
                                 self.events.lift_offs[i] += 1;
                                 changed = true;
                             }
-                            Drive::Locked | Drive::Force(_)
+                            Drive::Locked | Drive::Force(_) | Drive::Stepper(_)
                                 if contacts
                                     && f_roller > mu * nf
                                     && mu * nf * r / lever[i] <= motor_limit =>
@@ -397,6 +446,7 @@ impl SphereSim {
                                 // The sliding roller's normal force follows the state (frozen
                                 // within the sub-step); not a change of mode.
                                 self.drive[i] = Drive::Slip(nf, dir);
+                                dirty = true;
                             }
                             Drive::Lifted if nf > 0.0 => {
                                 // Back on the shell: the roller lands sliding against the slip
@@ -405,7 +455,7 @@ impl SphereSim {
                                 let v = self.model.slip_velocity(i, &f.rows[i], &self.y.u(), c0[i]);
                                 let mut trial = self.drive;
                                 trial[i] = if v == 0.0 {
-                                    Drive::Locked
+                                    self.stick(i)
                                 } else {
                                     Drive::Slip(nf, v.signum())
                                 };
@@ -413,7 +463,7 @@ impl SphereSim {
                                 // force can unload it again): no lift/land chatter.
                                 let landed = self
                                     .model
-                                    .derivative(&self.y, &trial, &c0, &slope)
+                                    .derivative(&self.y, &trial, &a0, &c0, &slope)
                                     .map_err(diverged)?;
                                 if landed.normal[i] > 0.0 {
                                     self.drive = trial;
@@ -423,9 +473,13 @@ impl SphereSim {
                             _ => {}
                         }
                     }
+                    // Nothing changed: k1 is already the derivative in these modes.
+                    if !(changed || dirty) {
+                        break;
+                    }
                     k1 = self
                         .model
-                        .derivative(&self.y, &self.drive, &c0, &slope)
+                        .derivative(&self.y, &self.drive, &a0, &c0, &slope)
                         .map_err(diverged)?;
                     if !changed {
                         break;
@@ -448,17 +502,18 @@ impl SphereSim {
             let d = &self.drive;
             let cm = cmd_at(t0 + 0.5 * h);
             let c1 = cmd_at(t_end);
+            let (am, a1) = (field_at(t0 + 0.5 * h), field_at(t_end));
             let k2 = self
                 .model
-                .derivative(&self.y.add(&k1.d, 0.5 * h), d, &cm, &slope)
+                .derivative(&self.y.add(&k1.d, 0.5 * h), d, &am, &cm, &slope)
                 .map_err(diverged)?;
             let k3 = self
                 .model
-                .derivative(&self.y.add(&k2.d, 0.5 * h), d, &cm, &slope)
+                .derivative(&self.y.add(&k2.d, 0.5 * h), d, &am, &cm, &slope)
                 .map_err(diverged)?;
             let k4 = self
                 .model
-                .derivative(&self.y.add(&k3.d, h), d, &c1, &slope)
+                .derivative(&self.y.add(&k3.d, h), d, &a1, &c1, &slope)
                 .map_err(diverged)?;
             let mut y = self.y.add(&k1.d, h / 6.0);
             y = y.add(&k2.d, h / 3.0);
@@ -472,6 +527,10 @@ impl SphereSim {
                     + k4.contact_power);
             floor_work += h / 6.0
                 * (k1.floor_power + 2.0 * k2.floor_power + 2.0 * k3.floor_power + k4.floor_power);
+            motor_work += h / 6.0
+                * (k1.motor_power + 2.0 * k2.motor_power + 2.0 * k3.motor_power + k4.motor_power);
+            slip_work += h / 6.0
+                * (k1.slip_power + 2.0 * k2.slip_power + 2.0 * k3.slip_power + k4.slip_power);
             y.q = y.q.normalize();
             if !(y
                 .q
@@ -489,9 +548,10 @@ impl SphereSim {
                 None => self.model.wheel_rates(&y),
             };
             if target.is_some() {
-                let actual = self.model.wheel_rates(&y);
+                // One frame for the end of the sub-step: the projection changes only `u`.
                 let f = self.model.frame(&y.q);
                 let u = y.u();
+                let actual: [f64; 3] = core::array::from_fn(|i| f.rows[i].dot(&u) / kappa[i]);
                 for i in 0..3 {
                     match self.drive[i] {
                         // A slipping motor locks again once its rotor has caught up.
@@ -507,12 +567,17 @@ impl SphereSim {
                         _ => {}
                     }
                 }
+                if let Some(st) = &stepper {
+                    self.stepper_bookkeeping(st, &y, &k1.lambda, &a1, &c1, &mut lost);
+                }
                 // The projection is the sticking contacts' impulse: its work is theirs.
-                let e0 = self.model.energy(&y);
-                self.model
-                    .project(&mut y, &self.drive, &cmd)
-                    .map_err(diverged)?;
-                contact_work += self.model.energy(&y) - e0;
+                if self.drive.contains(&Drive::Locked) {
+                    let e0 = self.model.energy_in(&f, &y);
+                    self.model
+                        .project(&f, &mut y, &self.drive, &cmd)
+                        .map_err(diverged)?;
+                    contact_work += self.model.energy_in(&f, &y) - e0;
+                }
             }
             self.y = y;
             self.command = cmd;
@@ -522,11 +587,18 @@ impl SphereSim {
             self.events.floor_slips += 1;
         }
         if target.is_none() {
-            self.drive = [Drive::Locked; 3];
             self.command = self.model.wheel_rates(&self.y);
+            // The steppers are powered again where their rotors are (the driver's field starts
+            // at the rotor's pole).
+            for i in 0..3 {
+                self.field[i] = self.y.chi[i] + self.offset[i];
+                self.cycle[i] = 0;
+            }
+            self.drive = core::array::from_fn(|i| self.stick(i));
         } else if let Some(r) = target {
             // Exactly the commanded rates (the ramp's end, without rounding of the sum).
             self.command = r;
+            self.field = field_at(dt);
         }
         self.t += dt;
         let st = self.state();
@@ -557,7 +629,51 @@ impl SphereSim {
             floor_work,
             floor_ratio,
             floor_slip,
+            motor_work,
+            slip_work,
+            lost_steps: lost,
         })
+    }
+
+    /// After a sub-step with steppers: moves each rotor that did not turn with its wheel
+    /// (a sliding roller's rotor follows its field at the lag that carries the friction, a
+    /// lifted wheel's sits at its field's pole), returns a sliding roller to the stepper's law
+    /// when it sticks again, and counts the electrical cycles each rotor slipped.
+    fn stepper_bookkeeping(
+        &mut self,
+        st: &Stepper,
+        y: &Y,
+        lambda: &[f64; 3],
+        field: &[f64; 3],
+        rate: &[f64; 3],
+        lost: &mut [u64; 3],
+    ) {
+        for i in 0..3 {
+            match self.drive[i] {
+                // Still sliding, or (`Locked`: the relocking above) stuck again at the end of
+                // this sub-step, when it returns to the torque–angle law from the same lag.
+                Drive::Slip(..) | Drive::Locked => {
+                    let lag = st.lag_for(self.model.kappa[i] * lambda[i], rate[i]);
+                    self.offset[i] = field[i] + lag - y.chi[i];
+                    self.cycle[i] = 0;
+                    if self.drive[i] == Drive::Locked {
+                        self.drive[i] = Drive::Stepper(self.offset[i]);
+                    }
+                }
+                Drive::Lifted => {
+                    self.offset[i] = field[i] - y.chi[i];
+                    self.cycle[i] = 0;
+                }
+                _ => {}
+            }
+            let c = st.cycle(y.chi[i] + self.offset[i] - field[i]);
+            let slipped = c.abs_diff(self.cycle[i]);
+            if slipped > 0 {
+                lost[i] += 4 * slipped;
+                self.events.lost_steps[i] += 4 * slipped;
+                self.cycle[i] = c;
+            }
+        }
     }
 }
 

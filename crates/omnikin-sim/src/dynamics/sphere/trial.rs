@@ -46,6 +46,8 @@ pub enum ContactEventKind {
     LiftOff,
     /// The floor force left its friction cone (the shell would slide on the floor).
     FloorSlip,
+    /// A stepper lost this many full steps during the plan step (`motor = "stepper"`).
+    LostSteps(u64),
 }
 
 /// One contact event of a [`DynamicTrial`].
@@ -147,6 +149,13 @@ pub fn simulate_plan(params: SphereDynamics, plan: &Plan) -> Result<DynamicTrial
                     t,
                     wheel: i,
                     kind: ContactEventKind::LiftOff,
+                });
+            }
+            if step.lost_steps[i] > 0 {
+                contact_log.push(ContactEvent {
+                    t,
+                    wheel: i,
+                    kind: ContactEventKind::LostSteps(step.lost_steps[i]),
                 });
             }
         }
