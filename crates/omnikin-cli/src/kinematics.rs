@@ -401,6 +401,14 @@ pub fn check(a: &CheckArgs) -> Result<()> {
     robot
         .describe(&mut text)
         .context("formatting the derived geometry")?;
+    // The disk a map's keep-out shapes are grown by (`plan goal --map`, `plan waypoints --map`).
+    let (footprint, source) = omnikin_plan::map::footprint::footprint_radius(&d);
+    text += &format!(
+        "footprint radius: {footprint:.4} m, from {} (maps grow their obstacles by it)\n",
+        source.describe()
+    );
+    j["footprint_radius"] = json!(footprint);
+    j["footprint_source"] = json!(source.describe());
     if let Some(max) = d.limits.max_wheel_rate
         && let Some(reach) = robot.reach(max, d.limits.max_steer_rate)
     {

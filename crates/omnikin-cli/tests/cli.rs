@@ -441,3 +441,48 @@ fn a_missing_input_file_is_reported_once() {
         assert_eq!(err.matches(&reason).count(), 1, "{args:?}: {err}");
     }
 }
+
+/// `check` states the footprint radius a map grows its obstacles by, and where it came from:
+/// kiwi's wheels sit 0.15 m from the centre with 0.05 m radius (robots/kiwi.toml), so without a
+/// `footprint_radius` the disk reaches 0.20 m; the file's own value wins when given.
+#[test]
+fn check_prints_the_footprint_and_its_source() {
+    let j = json_of(&["check", "kiwi", "--json"]);
+    let reach = 0.15f64.hypot(0.0) + 0.05;
+    assert!((j["footprint_radius"].as_f64().unwrap() - reach).abs() < 1e-9);
+    assert!(
+        j["footprint_source"]
+            .as_str()
+            .unwrap()
+            .contains("outermost wheel")
+    );
+    omnikin()
+        .args(["check", "kiwi"])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("footprint radius: 0.2000 m"));
+    let j = json_of(&["check", "sphere-omni", "--json"]);
+    assert_eq!(j["footprint_radius"].as_f64(), Some(0.15));
+    let dir = TestDir::new("cli-test", "footprint");
+    let file = dir.join("wide-kiwi.toml");
+    let kiwi = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../robots/kiwi.toml"
+    ))
+    .unwrap();
+    let wide = kiwi.replacen(
+        "name = \"kiwi\"\n",
+        "name = \"kiwi\"\nfootprint_radius = 0.3\n",
+        1,
+    );
+    assert_ne!(wide, kiwi);
+    std::fs::write(&file, wide).unwrap();
+    let j = json_of(&["check", file.to_str().unwrap(), "--json"]);
+    assert_eq!(j["footprint_radius"].as_f64(), Some(0.3));
+    assert!(
+        j["footprint_source"]
+            .as_str()
+            .unwrap()
+            .contains("footprint_radius")
+    );
+}
