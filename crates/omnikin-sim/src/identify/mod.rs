@@ -26,12 +26,16 @@
 //! `correlation_inflation`).
 //!
 //! ## Observability
-//! Before fitting, the Jacobian at the prior is tested ([`lsq::unobservable`]); each direction
+//! Before fitting, the Jacobian at the prior — on the logs the prior robot would have recorded
+//! for the same motion ([`model::consistent_log`]), so that the prior's own error does not
+//! make a gauge direction look observable — is tested ([`lsq::unobservable`]); each direction
 //! of parameter space the runs do not see holds one parameter at its prior, reported as
 //! [`Status::Fixed`] with the reason. What the wheel kinematics never see: an omni wheel's
 //! position along its own drive direction; with position-only references, the robot frame's
 //! orientation (one drive angle is held); without spins, the wheel positions; without a
-//! heading change, the gyro's scale. The condition number of the remaining problem is
+//! heading change, the gyro's scale; of a four-module swerve, 6 of its 12 numbers (a rotation
+//! of all modules about the origin, the radius pattern `(+, −, −, +)`, three deformations).
+//! The condition number of the remaining problem is
 //! reported; values are never invented for a direction the data do not constrain.
 //!
 //! What this does **not** do: the dynamic parameters (`[dynamics]` of the sphere and the
@@ -294,8 +298,24 @@ pub fn identify(
     let mut gyro_sigma = 1e-3;
     let window = options.gyro_window;
     let f = |x: &[f64], w: &Weights, gs: f64| residuals(prior, runs, l, x, w, gs, window);
+    // Observability is a property of the model, not of the prior's error: it is tested on the
+    // logs the prior robot would have recorded for the same motion (see
+    // `model::consistent_log`), where a gauge direction is exactly blind.
+    let consistent: Vec<Run> = runs
+        .iter()
+        .map(|r| {
+            Some(Run {
+                encoders: model::consistent_log(&robot, &r.encoders)?,
+                reference: r.reference.clone(),
+                gyro: r.gyro.clone(),
+            })
+        })
+        .collect::<Option<_>>()
+        .ok_or_else(|| {
+            IdentifyError::Fit("the prior robot cannot dead-reckon these encoder logs".into())
+        })?;
     let j = lsq::jacobian(
-        &|x: &[f64]| f(x, &w, gyro_sigma).map(|r| r.0),
+        &|x: &[f64]| residuals(prior, &consistent, l, x, &w, gyro_sigma, window).map(|r| r.0),
         &x0,
         &h,
         &free,

@@ -14,7 +14,7 @@
 //! (fitted) wheel odometry: linear in `(bias, scale)`. Windows do not overlap, so their noise
 //! is independent (the integral of white noise over disjoint windows).
 
-use omnikin::{Pose2, Robot, Twist2};
+use omnikin::{Actuators, EncoderAngles, Kind, Pose2, Robot, Twist2};
 
 use super::runs::{EncoderLog, GyroLog, Run};
 
@@ -34,6 +34,47 @@ pub fn dead_reckon(
         out.push(pose);
     }
     Some(out)
+}
+
+/// The encoder log `robot` itself would have recorded for the motion it dead-reckons from
+/// `log`: each increment's displacement turned back into wheel increments (and steer angles)
+/// by its inverse kinematics. On this log the robot's kinematics are exactly consistent (no
+/// module or wheel disagrees with the others), which the observability test needs: a direction
+/// of parameter space that changes no twist of a consistent robot (a swerve's modules rotated
+/// together about the origin) does change the twist of inconsistent data, in proportion to
+/// the inconsistency — the very parameter error being identified — and so looks observable at
+/// a wrong prior although the runs carry no information on it.
+///
+/// The caster keeps its own log (its steer angles are state the inverse only gives rates for,
+/// and its parameters are all identifiable). `None` when the kinematics refuse an increment.
+pub fn consistent_log(robot: &Robot<f64>, log: &EncoderLog) -> Option<EncoderLog> {
+    if robot.kind() == Kind::Caster {
+        return Some(log.clone());
+    }
+    let n = robot.wheels();
+    let first = *log.angles.first()?;
+    let mut act = Actuators::zero();
+    act.steer_angles = first.steer;
+    let mut reading: EncoderAngles<f64> = first;
+    let mut angles = Vec::with_capacity(log.angles.len());
+    angles.push(reading);
+    for w in log.angles.windows(2) {
+        let d = robot.displacement(&w[0], &w[1]).ok()?.twist;
+        // The displacement is a twist over one unit of time: its "rates" are increments.
+        act = robot
+            .inverse(Twist2::new(d.vx, d.vy, d.yaw_rate), &act)
+            .ok()?;
+        for i in 0..n {
+            reading.wheel[i] += act.wheel_rates[i];
+            reading.steer[i] = act.steer_angles[i];
+        }
+        angles.push(reading);
+    }
+    Some(EncoderLog {
+        file: log.file.clone(),
+        t: log.t.clone(),
+        angles,
+    })
 }
 
 /// The pose at time `time`, linearly interpolated in `(t, poses)`; `None` outside `t`.
@@ -208,5 +249,58 @@ mod tests {
             let want = 1.01 * win.heading_change + 0.02 * win.duration;
             assert!((win.integral - want).abs() < 1e-12, "{win:?}");
         }
+    }
+
+    /// A swerve log whose module 2 rolls 2 % too far (its wheel is larger than the file says)
+    /// is inconsistent; its consistent copy dead-reckons to the same poses and moves every
+    /// module at the rigid-body velocity (the inverse of its own forward).
+    #[test]
+    fn a_consistent_log_dead_reckons_the_same() {
+        let robot = RobotDescription::preset("swerve4")
+            .unwrap()
+            .build::<f64>()
+            .unwrap();
+        let tw = Twist2::new(0.3, 0.1, 0.8);
+        let a = robot.inverse(tw, &omnikin::Actuators::zero()).unwrap();
+        let t: Vec<f64> = (0..=20).map(|k| k as f64 * 0.05).collect();
+        let angles: Vec<EncoderAngles<f64>> = t
+            .iter()
+            .map(|t| {
+                let mut q: Vec<f64> = a.wheel_rates[..4].iter().map(|w| w * t).collect();
+                q[1] *= 1.02;
+                EncoderAngles::new(&q, &a.steer_angles[..4])
+            })
+            .collect();
+        let log = EncoderLog {
+            file: "x".into(),
+            t,
+            angles,
+        };
+        let c = consistent_log(&robot, &log).unwrap();
+        let start = Pose2::new(0.5, -0.2, 0.3);
+        let (p, q) = (
+            dead_reckon(&robot, &log, start).unwrap(),
+            dead_reckon(&robot, &c, start).unwrap(),
+        );
+        for (p, q) in p.iter().zip(&q) {
+            assert!((p.x - q.x).abs() < 1e-12 && (p.y - q.y).abs() < 1e-12);
+            assert!((p.heading - q.heading).abs() < 1e-12);
+        }
+        // Each increment of the copy is the inverse of its own displacement.
+        let d = robot
+            .displacement(&c.angles[3], &c.angles[4])
+            .unwrap()
+            .twist;
+        let back = robot
+            .inverse(Twist2::new(d.vx, d.vy, d.yaw_rate), &a)
+            .unwrap();
+        for i in 0..4 {
+            let inc = c.angles[4].wheel[i] - c.angles[3].wheel[i];
+            assert!((inc - back.wheel_rates[i]).abs() < 1e-12, "module {i}");
+        }
+        // The original's module 2 disagrees with the others; the copy's does not.
+        let orig = log.angles[4].wheel[1] - log.angles[3].wheel[1];
+        let copy = c.angles[4].wheel[1] - c.angles[3].wheel[1];
+        assert!((orig - copy).abs() > 1e-3 * orig.abs(), "{orig} vs {copy}");
     }
 }

@@ -17,6 +17,10 @@
 //! and 50 rad/s² are assumed. The sphere's rocking and spin-decay and the ballbot's sways
 //! (dynamic parameters) are not planned here.
 //!
+//! A swerve turns its modules at rest before each segment (`steer_to`): every segment's
+//! twist has one direction, so the module angles are constant while the wheels roll, and a
+//! reversal does not flip a module by π within one sample (which no steer motor can follow).
+//!
 //! Samples are `rate` Hz; poses integrate the body twist exactly on SE(2) from the origin.
 
 use omnikin::description::RobotDescription;
@@ -37,8 +41,7 @@ pub struct SysidPlan {
 /// Why the plans could not be made.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum SysidPlanError {
-    /// The robot does not build, its inverse kinematics fail, or its kind has no plans
-    /// (swerve).
+    /// The robot does not build or its inverse kinematics fail.
     #[error("{0}")]
     Robot(String),
 }
@@ -47,6 +50,11 @@ pub enum SysidPlanError {
 pub const DEFAULT_WHEEL_RATE: f64 = 10.0;
 /// Assumed wheel-acceleration limit when the file has none, rad/s².
 pub const DEFAULT_WHEEL_ACCEL: f64 = 50.0;
+
+/// Assumed steer-rate limit when the file has none, rad/s.
+pub const DEFAULT_STEER_RATE: f64 = 6.0;
+/// Assumed steer-acceleration limit when the file has none, rad/s².
+pub const DEFAULT_STEER_ACCEL: f64 = 30.0;
 
 /// A body-twist shape: unit twist per segment, with hold durations (s) relative to the ramp.
 struct Segment {
@@ -88,15 +96,88 @@ fn envelope(t: f64, tau: f64, hold: f64) -> f64 {
     }
 }
 
+/// Turns a swerve's modules, at rest, from their current angles to those of `twist` (unit
+/// twist of the next segment): a cosine profile `γ(t) = γ₀ + Δ sin²(π t / 2T)` per module
+/// along the shorter way round (`Δ` wrapped into (−π, π]), with `T` such that the peak steer
+/// rate `π |Δ| / 2T` is at most `steer_rate` and the peak steer acceleration `π² |Δ| / 2T²` at
+/// most `steer_accel`. Pushes one zero-twist actuator state per sample and leaves `act` at the
+/// new angles (so the next segment's first, zero-speed sample keeps them).
+fn steer_to(
+    robot: &Robot<f64>,
+    twist: Twist2<f64>,
+    act: &mut Actuators<f64>,
+    limits: (f64, f64),
+    dt: f64,
+    out: &mut Vec<(Twist2<f64>, Actuators<f64>)>,
+) -> Result<(), SysidPlanError> {
+    let n = robot.wheels();
+    let target = robot
+        .inverse(twist, act)
+        .map_err(|e| SysidPlanError::Robot(format!("steering: {e}")))?;
+    let from = act.steer_angles;
+    let delta: Vec<f64> = (0..n)
+        .map(|i| omnikin::wrap_angle(target.steer_angles[i] - from[i]))
+        .collect();
+    let big = delta.iter().fold(0.0f64, |m, d| m.max(d.abs()));
+    if big < 1e-9 {
+        return Ok(());
+    }
+    let pi = std::f64::consts::PI;
+    let len = (pi * big / (2.0 * limits.0)).max(pi * (big / (2.0 * limits.1)).sqrt());
+    let steps = (len / dt).ceil() as usize + 1;
+    let len = steps as f64 * dt;
+    for k in 0..=steps {
+        let t = k as f64 * dt;
+        let mut a = Actuators::zero();
+        for i in 0..n {
+            a.steer_angles[i] = from[i] + delta[i] * (0.5 * pi * t / len).sin().powi(2);
+            a.steer_rates[i] = delta[i] * pi / (2.0 * len) * (pi * t / len).sin();
+        }
+        out.push((Twist2::new(0.0, 0.0, 0.0), a));
+    }
+    for i in 0..n {
+        act.steer_angles[i] = from[i] + delta[i];
+        act.steer_rates[i] = 0.0;
+    }
+    Ok(())
+}
+
 fn build(
     robot: &Robot<f64>,
     name: &str,
     amplitude: f64,
     tau: f64,
     rate: f64,
+    steer_limits: (f64, f64),
 ) -> Result<Plan, SysidPlanError> {
     let dt = 1.0 / rate;
-    let mut twists = Vec::new();
+    let n = robot.wheels();
+    let swerve = robot.kind() == Kind::Swerve;
+    let mut act = Actuators::zero();
+    // (body twist, actuators) per sample.
+    let mut steps: Vec<(Twist2<f64>, Actuators<f64>)> = Vec::new();
+    let push = |tw: Twist2<f64>,
+                act: &mut Actuators<f64>,
+                steps: &mut Vec<(Twist2<f64>, Actuators<f64>)>|
+     -> Result<(), SysidPlanError> {
+        let a = robot
+            .inverse(tw, act)
+            .map_err(|e| SysidPlanError::Robot(format!("{name}: {e}")))?;
+        if robot.kind() == Kind::Caster {
+            // The caster's steer angles are state: its inverse gives the steer rates at the
+            // current angles, and the angles advance by them (as the simulator turns them).
+            let mut next = a;
+            for i in 0..n {
+                next.steer_angles[i] += a.steer_rates[i] * dt;
+            }
+            steps.push((tw, a));
+            *act = next;
+        } else {
+            steps.push((tw, a));
+            *act = a;
+        }
+        Ok(())
+    };
     for seg in shapes(name) {
         // Holds scale with 1/amplitude for the figure eight (a full circle at any speed) and
         // are seconds otherwise.
@@ -105,57 +186,42 @@ fn build(
         } else {
             seg.hold
         };
+        let unit = Twist2::new(seg.twist[0], seg.twist[1], seg.twist[2]);
+        if swerve {
+            // A segment's twist has one direction, so its module angles are constant: turn
+            // the modules to them at rest first (the inverse would flip them by π in one
+            // sample when the motion reverses).
+            steer_to(robot, unit, &mut act, steer_limits, dt, &mut steps)?;
+        }
         let len = 2.0 * tau + hold;
-        let steps = (len / dt).ceil() as usize;
-        for k in 0..steps {
+        let count = (len / dt).ceil() as usize;
+        for k in 0..count {
             let e = amplitude * envelope(k as f64 * dt, tau, hold);
-            twists.push(Twist2::new(
-                seg.twist[0] * e,
-                seg.twist[1] * e,
-                seg.twist[2] * e,
-            ));
+            push(
+                Twist2::new(unit.vx * e, unit.vy * e, unit.yaw_rate * e),
+                &mut act,
+                &mut steps,
+            )?;
         }
         for _ in 0..(0.5 / dt) as usize {
-            twists.push(Twist2::new(0.0, 0.0, 0.0));
+            push(Twist2::new(0.0, 0.0, 0.0), &mut act, &mut steps)?;
         }
     }
-    twists.push(Twist2::new(0.0, 0.0, 0.0));
-    let n = robot.wheels();
+    push(Twist2::new(0.0, 0.0, 0.0), &mut act, &mut steps)?;
     let mut pose = Pose2::new(0.0, 0.0, 0.0);
-    let mut act = Actuators::zero();
-    let mut poses = Vec::with_capacity(twists.len());
-    let mut acts: Vec<Actuators<f64>> = Vec::with_capacity(twists.len());
-    for tw in &twists {
-        act = robot
-            .inverse(*tw, &act)
-            .map_err(|e| SysidPlanError::Robot(format!("{name}: {e}")))?;
-        if robot.kind() == Kind::Caster {
-            // The caster's steer angles are state: its inverse gives the steer rates at the
-            // current angles, and the angles advance by them (as the simulator turns them).
-            let mut next = act;
-            for i in 0..n {
-                next.steer_angles[i] += act.steer_rates[i] * dt;
-            }
-            acts.push(act);
-            act = next;
-        } else {
-            acts.push(act);
-        }
-        poses.push(pose);
-        pose = omnikin::se2::integrate(pose, *tw, dt);
-    }
-    let mut samples = Vec::with_capacity(twists.len());
-    for (k, ((tw, p), a)) in twists.iter().zip(&poses).zip(&acts).enumerate() {
+    let mut samples = Vec::with_capacity(steps.len());
+    for (k, (tw, a)) in steps.iter().enumerate() {
         let steer = robot
             .steerable()
             .then(|| (&a.steer_angles[..n], &a.steer_rates[..n]));
         samples.push(Sample::new(
             k as f64 * dt,
-            *p,
-            tw.to_world(p.heading),
+            pose,
+            tw.to_world(pose.heading),
             &a.wheel_rates[..n],
             steer,
         ));
+        pose = omnikin::se2::integrate(pose, *tw, dt);
     }
     Ok(Plan { wheels: n, samples })
 }
@@ -183,20 +249,19 @@ fn peaks(plan: &Plan) -> (f64, f64, f64) {
 /// file's limits.
 ///
 /// # Errors
-/// [`SysidPlanError::Robot`] when the robot does not build, its inverse kinematics fail, or it
-/// is a swerve drive (not planned yet: its modules would have to turn between segments).
+/// [`SysidPlanError::Robot`] when the robot does not build or its inverse kinematics fail.
 pub fn sysid_plans(desc: &RobotDescription, rate: f64) -> Result<Vec<SysidPlan>, SysidPlanError> {
     let robot = desc
         .build::<f64>()
         .map_err(|e| SysidPlanError::Robot(e.to_string()))?;
-    if robot.kind() == Kind::Swerve {
-        return Err(SysidPlanError::Robot(
-            "swerve: no sysid plans yet (its modules must turn between the segments, which these constant-twist plans do not schedule); record runs planned with `plan square` or `plan waypoints` and identify from those".into(),
-        ));
-    }
     let max_rate = desc.limits.max_wheel_rate.unwrap_or(DEFAULT_WHEEL_RATE);
     let max_accel = desc.limits.max_wheel_accel.unwrap_or(DEFAULT_WHEEL_ACCEL);
     let max_steer = desc.limits.max_steer_rate;
+    // The swerve's turns between segments, at half the steer limits.
+    let steer_limits = (
+        0.5 * max_steer.unwrap_or(DEFAULT_STEER_RATE),
+        0.5 * desc.limits.max_steer_accel.unwrap_or(DEFAULT_STEER_ACCEL),
+    );
     let list: [(&'static str, &'static str); 4] = [
         (
             "along",
@@ -219,16 +284,20 @@ pub fn sysid_plans(desc: &RobotDescription, rate: f64) -> Result<Vec<SysidPlan>,
     for (name, identifies) in list {
         // Amplitude 1 with a 1 s ramp, then scaled (wheel rates are linear in the twist) and
         // the ramp lengthened until the acceleration is within half the limit.
-        let probe = build(&robot, name, 1.0, 1.0, rate)?;
+        let probe = build(&robot, name, 1.0, 1.0, rate, steer_limits)?;
         let (w, _, s) = peaks(&probe);
         let mut amp = 0.5 * max_rate / w.max(1e-12);
+        // The caster steers while it moves (rates ∝ amplitude); a swerve turns only at rest,
+        // between segments, at rates that do not depend on the amplitude.
+        let steers_moving = robot.kind() != Kind::Swerve;
         if let Some(ms) = max_steer
             && s > 0.0
+            && steers_moving
         {
             amp = amp.min(0.5 * ms / s);
         }
         let mut tau = 1.0;
-        let mut plan = build(&robot, name, amp, tau, rate)?;
+        let mut plan = build(&robot, name, amp, tau, rate, steer_limits)?;
         // The caster's steer rates are not linear in the twist (they depend on the steer
         // state): lower the amplitude until they fit, and lengthen the ramps until the wheel
         // acceleration does.
@@ -236,6 +305,7 @@ pub fn sysid_plans(desc: &RobotDescription, rate: f64) -> Result<Vec<SysidPlan>,
             let (_, a, s) = peaks(&plan);
             if let Some(ms) = max_steer
                 && s > 0.5 * ms
+                && steers_moving
             {
                 amp *= 0.5 * ms / s * 0.95;
             } else if a > 0.5 * max_accel {
@@ -243,7 +313,7 @@ pub fn sysid_plans(desc: &RobotDescription, rate: f64) -> Result<Vec<SysidPlan>,
             } else {
                 break;
             }
-            plan = build(&robot, name, amp, tau, rate)?;
+            plan = build(&robot, name, amp, tau, rate, steer_limits)?;
         }
         out.push(SysidPlan {
             name,
@@ -297,10 +367,45 @@ mod tests {
         }
     }
 
+    /// A swerve's modules turn only at rest, between segments, within half the steer limits,
+    /// and keep one angle while the wheels roll (a reversal would otherwise flip them by π in
+    /// one sample): the steer angles of consecutive samples differ by at most the limit × dt.
     #[test]
-    fn a_swerve_drive_is_refused_by_name() {
+    fn a_swerve_turns_its_modules_at_rest() {
         let d = RobotDescription::preset("swerve4").unwrap();
-        let e = sysid_plans(&d, 50.0).unwrap_err().to_string();
-        assert!(e.starts_with("swerve:"), "{e}");
+        let ms = d.limits.max_steer_rate.unwrap();
+        let plans = sysid_plans(&d, 50.0).unwrap();
+        assert_eq!(plans.len(), 4);
+        for p in &plans {
+            let mut turned = false;
+            for w in p.plan.samples.windows(2) {
+                let (Some((a, _)), Some((b, rates))) = (w[0].steer, w[1].steer) else {
+                    panic!("swerve samples carry steering")
+                };
+                for i in 0..4 {
+                    let step = omnikin::wrap_angle(b[i] - a[i]).abs();
+                    assert!(step <= 0.5 * ms * 0.02 * 1.001, "{}: step {step}", p.name);
+                    assert!(rates[i].abs() <= 0.5 * ms * 1.001, "{}", p.name);
+                    if step > 1e-9 {
+                        turned = true;
+                        assert!(
+                            w[1].wheel_rates[i].abs() < 1e-12,
+                            "{}: module {i} turns while rolling",
+                            p.name
+                        );
+                    }
+                }
+            }
+            let (w, _, _) = peaks(&p.plan);
+            let lim = d.limits.max_wheel_rate.unwrap();
+            assert!(
+                w <= 0.5 * lim * (1.0 + 1e-9) && w > 0.3 * lim,
+                "{}: {w}",
+                p.name
+            );
+            if p.name != "along" {
+                assert!(turned, "{} never turns its modules", p.name);
+            }
+        }
     }
 }
