@@ -780,7 +780,13 @@ fn merge_simulate(
         })
         .map_err(visit_err)?;
     pb.finish_and_clear();
-    crate::sim::finish_simulation(&a.out, &info, &reference, mc)
+    crate::sim::finish_simulation(
+        &a.out,
+        &info,
+        &reference,
+        mc,
+        crate::plot::FigureFormat::Svg,
+    )
 }
 
 fn merge_reproduce(
