@@ -736,6 +736,10 @@ pub struct ReproduceArgs {
     /// --force).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Format of the per-series figures in --out (`<series>-<profile>.<format>`): svg
+    /// (default), png (rasterised, 2 px per SVG px) or pdf (vector, font embedded).
+    #[arg(long, value_enum, default_value_t = FigureFormat::Svg)]
+    pub figure_format: FigureFormat,
     /// Monte-Carlo trials per series and disturbance profile (the paper ran 3).
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u64).range(1..=10_000))]
     pub trials: u64,
@@ -900,7 +904,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
     }
     let total: u64 = series.len() as u64 * runs.iter().map(|r| r.1 as u64).sum::<u64>();
     let pb = progress_bar(total, "reproducing the Sphere paper");
-    let mut report = Report::new(&out, info);
+    let mut report = Report::new(&out, info).figure_format(a.figure_format);
     for s in &series {
         let outcomes = pool.install(|| {
             rp::evaluate_series(
@@ -947,6 +951,7 @@ pub(crate) struct Report<'a> {
     rows: Vec<omnikin_sim::reproduce::Row>,
     all: serde_json::Map<String, serde_json::Value>,
     figures: usize,
+    format: FigureFormat,
 }
 
 impl<'a> Report<'a> {
@@ -958,7 +963,13 @@ impl<'a> Report<'a> {
             rows: Vec::new(),
             all: serde_json::Map::new(),
             figures: 0,
+            format: FigureFormat::Svg,
         }
+    }
+
+    /// The same report with its figures written in `format` (default SVG).
+    pub fn figure_format(self, format: FigureFormat) -> Self {
+        Self { format, ..self }
     }
 
     /// One series' outcomes: its figures, its metrics and its table row.
@@ -986,7 +997,9 @@ impl<'a> Report<'a> {
             );
             crate::figures::trajectory_figure(
                 "--out",
-                &self.out.join(format!("{}-{}.svg", s.name, o.profile)),
+                &self
+                    .out
+                    .join(self.format.file_name(&format!("{}-{}", s.name, o.profile))),
                 &title,
                 &s.plan,
                 &o.runs,

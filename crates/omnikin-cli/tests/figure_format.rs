@@ -1,4 +1,4 @@
-//! `--figure-format svg|png|pdf` of `simulate` and `evaluate`: the figure is written as
+//! `--figure-format svg|png|pdf` of `simulate`, `evaluate` and `reproduce`: the figure is written as
 //! `figure.<format>` in that format (checked by the file's magic bytes, not its name), the
 //! default stays `figure.svg`, and a bad value is refused naming the flag.
 
@@ -99,4 +99,33 @@ fn a_bad_figure_format_is_refused_naming_the_flag() {
         !out.exists(),
         "nothing written before the arguments are checked"
     );
+}
+
+#[test]
+fn reproduce_writes_png_figures_when_asked() {
+    let d = TestDir::new("figure-format", "reproduce-png");
+    let out = d.join("out");
+    omnikin()
+        .args([
+            "reproduce",
+            "sphere-2019",
+            "--trials",
+            "1",
+            "--profiles",
+            "hardware",
+        ])
+        .args(["--figure-format", "png", "--out"])
+        .arg(&out)
+        .assert()
+        .success();
+    let figures: Vec<PathBuf> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "png" || e == "svg"))
+        .collect();
+    assert!(!figures.is_empty(), "no figures in {}", out.display());
+    for f in &figures {
+        assert_eq!(f.extension().unwrap(), "png", "{}", f.display());
+        assert_eq!(head(f, 8), PNG_MAGIC, "{}", f.display());
+    }
 }
