@@ -129,3 +129,28 @@ fn reproduce_writes_png_figures_when_asked() {
         assert_eq!(head(f, 8), PNG_MAGIC, "{}", f.display());
     }
 }
+
+#[test]
+fn merge_writes_the_figure_in_the_asked_format() {
+    let d = TestDir::new("figure-format", "merge-pdf");
+    let plan = examples().join("plans/circle-sphere.csv");
+    let shards: Vec<PathBuf> = (1..=2).map(|k| d.join(&format!("shard-{k}"))).collect();
+    for (k, dir) in shards.iter().enumerate() {
+        omnikin()
+            .args(["simulate", plan.to_str().unwrap(), "--robot", "sphere-omni"])
+            .args(["--trials", "2", "--shard", &format!("{}/2", k + 1), "--out"])
+            .arg(dir)
+            .assert()
+            .success();
+    }
+    let out = d.join("merged");
+    omnikin()
+        .arg("merge")
+        .args(&shards)
+        .args(["--figure-format", "pdf", "--out"])
+        .arg(&out)
+        .assert()
+        .success();
+    assert_eq!(head(&out.join("figure.pdf"), 5), b"%PDF-");
+    assert!(!out.join("figure.svg").exists(), "only the asked format");
+}
