@@ -134,7 +134,7 @@ fn reproduce_writes_png_figures_when_asked() {
 fn merge_writes_the_figure_in_the_asked_format() {
     let d = TestDir::new("figure-format", "merge-pdf");
     let plan = examples().join("plans/circle-sphere.csv");
-    let shards: Vec<PathBuf> = (1..=2).map(|k| d.join(&format!("shard-{k}"))).collect();
+    let shards: Vec<PathBuf> = (1..=2).map(|k| d.join(format!("shard-{k}"))).collect();
     for (k, dir) in shards.iter().enumerate() {
         omnikin()
             .args(["simulate", plan.to_str().unwrap(), "--robot", "sphere-omni"])
