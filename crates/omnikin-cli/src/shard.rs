@@ -389,6 +389,10 @@ pub struct MergeArgs {
     /// Worker threads for the metrics, 1 to 256 (default: all cores).
     #[arg(long, value_parser = crate::args::threads)]
     pub threads: Option<usize>,
+    /// Format of the figures in --out, as the run's own --figure-format: svg (default), png
+    /// (rasterised, 2 px per SVG px) or pdf (vector, font embedded).
+    #[arg(long, value_enum, default_value_t = crate::plot::FigureFormat::Svg)]
+    pub figure_format: crate::plot::FigureFormat,
 }
 
 /// The files of the shard directories, for the output rules (inputs are never overwritten).
@@ -715,7 +719,12 @@ fn merge_simulate(
     };
     create_dir_for(
         &a.out,
-        &["metrics.json", "trials.csv", "mean.csv", "figure.svg"],
+        &[
+            "metrics.json",
+            "trials.csv",
+            "mean.csv",
+            &a.figure_format.file_name("figure"),
+        ],
     )?;
     // trials.csv: the shards' rows in shard (= trial) order under one header.
     let trials_path = a.out.join("trials.csv");
@@ -780,7 +789,7 @@ fn merge_simulate(
         })
         .map_err(visit_err)?;
     pb.finish_and_clear();
-    crate::sim::finish_simulation(&a.out, &info, &reference, mc)
+    crate::sim::finish_simulation(&a.out, &info, &reference, mc, a.figure_format)
 }
 
 fn merge_reproduce(
@@ -866,7 +875,7 @@ fn merge_reproduce(
     create_dir_for(&a.out, &["table.md", "table.csv", "metrics.json"])?;
     let total: u64 = series.len() as u64 * runs.iter().map(|r| r.1 as u64).sum::<u64>();
     let pb = crate::sim::progress_bar(total, "merging the Sphere paper's re-run");
-    let mut report = crate::sim::Report::new(&a.out, info);
+    let mut report = crate::sim::Report::new(&a.out, info).figure_format(a.figure_format);
     for s in &series {
         let outcomes = pool
             .install(|| {

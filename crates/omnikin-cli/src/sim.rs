@@ -12,6 +12,8 @@ use omnikin_sim::track::{Alignment, Track};
 use omnikin_sim::{MonteCarloError, Profile, Trial};
 use serde_json::json;
 
+use crate::plot::FigureFormat;
+
 /// `omnikin simulate`.
 #[derive(clap::Args, Debug)]
 pub struct SimulateArgs {
@@ -34,9 +36,14 @@ pub struct SimulateArgs {
     /// Worker threads, 1 to 256 (default: all cores).
     #[arg(long, value_parser = crate::args::threads)]
     pub threads: Option<usize>,
-    /// Output directory (created): metrics.json, trials.csv, mean.csv, figure.svg.
+    /// Output directory (created): metrics.json, trials.csv, mean.csv, figure.svg (or
+    /// figure.png / figure.pdf with --figure-format).
     #[arg(long)]
     pub out: PathBuf,
+    /// Format of the figure in --out: svg (default), png (rasterised, 2 px per SVG px) or pdf
+    /// (vector, font embedded); the file is figure.<format>.
+    #[arg(long, value_enum, default_value_t = FigureFormat::Svg)]
+    pub figure_format: FigureFormat,
     /// Also write what each trial's sensors recorded, for `omnikin odometry`:
     /// DIR/sensors/trial-NNN/{encoders.csv, fixes.csv, imu.csv, truth.csv}.
     #[arg(long)]
@@ -148,16 +155,14 @@ fn simulate_dynamic(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Resu
         ..DynamicOptions::default()
     };
     let plant = DynamicPlant::new(d, plan, &opts)?;
-    create_dir_for(
-        &a.out,
-        &["metrics.json", "trials.csv", "mean.csv", "figure.svg"],
-    )?;
+    let figure = a.figure_format.file_name("figure");
+    create_dir_for(&a.out, &["metrics.json", "trials.csv", "mean.csv", &figure])?;
     let sim = plant.run(d, plan, &opts)?;
     write_dynamic_run(&a.out, plan, &sim)?;
     crate::mcap_log::one_trial(a.mcap.as_deref(), plan, sim.trial())?;
     crate::figures::trajectory_figure(
         "--out",
-        &a.out.join("figure.svg"),
+        &a.out.join(&figure),
         &format!("{} — dynamic plant, {}", d.name, a.plan.display()),
         plan,
         &sim.runs,
@@ -169,7 +174,7 @@ fn simulate_dynamic(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Resu
         crate::errln!("{line}");
     }
     crate::errln!(
-        "wrote {}/{{metrics.json, trials.csv, mean.csv, figure.svg}}",
+        "wrote {}/{{metrics.json, trials.csv, mean.csv, {figure}}}",
         a.out.display().to_string().trim_end_matches('/')
     );
     Ok(())
@@ -240,9 +245,14 @@ pub struct EvaluateArgs {
     /// the centre). The runs are compared with the planned path of that point.
     #[arg(long, allow_hyphen_values = true, value_name = "X,Y", value_parser = parse_pair, conflicts_with = "truth")]
     pub tracking_offset: Option<[f64; 2]>,
-    /// Output directory (created): metrics.json, runs.csv, mean.csv, figure.svg.
+    /// Output directory (created): metrics.json, runs.csv, mean.csv, figure.svg (or
+    /// figure.png / figure.pdf with --figure-format).
     #[arg(long, required_unless_present = "truth", conflicts_with = "truth")]
     pub out: Option<PathBuf>,
+    /// Format of the figure in --out: svg (default), png (rasterised, 2 px per SVG px) or pdf
+    /// (vector, font embedded); the file is figure.<format>.
+    #[arg(long, value_enum, default_value_t = FigureFormat::Svg, conflicts_with = "truth")]
+    pub figure_format: FigureFormat,
 }
 
 /// Parses `X,Y` (two finite numbers).
@@ -466,7 +476,12 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
     };
     create_dir_for(
         &a.out,
-        &["metrics.json", "trials.csv", "mean.csv", "figure.svg"],
+        &[
+            "metrics.json",
+            "trials.csv",
+            "mean.csv",
+            &a.figure_format.file_name("figure"),
+        ],
     )?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads.unwrap_or(0))
@@ -537,7 +552,7 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
             a.out.display().to_string().trim_end_matches('/')
         );
     }
-    finish_simulation(&a.out, &info, &reference, mc)
+    finish_simulation(&a.out, &info, &reference, mc, a.figure_format)
 }
 
 /// What `simulate`'s outputs say about the run (metrics.json's `simulation`, the figure's
@@ -561,14 +576,17 @@ pub(crate) struct SimulationInfo {
 }
 
 /// The finishing step of `simulate`, shared by one run and `omnikin merge`: checks the
-/// metrics, writes metrics.json, mean.csv and figure.svg into `out` (trials.csv is already
-/// there) and prints the summary. `reference` is the planned path of the tracked point.
+/// metrics, writes metrics.json, mean.csv and the figure (`figure.<format>`) into `out`
+/// (trials.csv is already there) and prints the summary. `reference` is the planned path of
+/// the tracked point.
 pub(crate) fn finish_simulation(
     out: &Path,
     info: &SimulationInfo,
     reference: &Plan,
     mc: omnikin_sim::MonteCarlo,
+    format: FigureFormat,
 ) -> Result<()> {
+    let figure = format.file_name("figure");
     let (metrics, mean) = (mc.evaluation.metrics, mc.evaluation.mean);
     finite(&metrics)?;
     let plan = reference;
@@ -594,7 +612,7 @@ pub(crate) fn finish_simulation(
     };
     crate::figures::trajectory_figure(
         "--out",
-        &out.join("figure.svg"),
+        &out.join(&figure),
         &format!(
             "{} — {} trials of {}{shown}",
             info.robot, info.trials, info.plan
@@ -606,7 +624,7 @@ pub(crate) fn finish_simulation(
     )?;
     print_summary(&metrics);
     crate::errln!(
-        "wrote {}/{{metrics.json, trials.csv, mean.csv, figure.svg}}",
+        "wrote {}/{{metrics.json, trials.csv, mean.csv, {figure}}}",
         out.display().to_string().trim_end_matches('/')
     );
     Ok(())
@@ -654,7 +672,8 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
     }
     let omnikin_sim::metrics::Evaluation { metrics, mean } = evaluate(&plan, &runs)?;
     finite(&metrics)?;
-    create_dir_for(out, &["metrics.json", "runs.csv", "mean.csv", "figure.svg"])?;
+    let figure = a.figure_format.file_name("figure");
+    create_dir_for(out, &["metrics.json", "runs.csv", "mean.csv", &figure])?;
     let mut j = serde_json::to_value(&metrics)?;
     j["evaluation"] = json!({
         "plan": plan_path.display().to_string(),
@@ -681,7 +700,7 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
     write_mean(&out.join("mean.csv"), &plan, &mean)?;
     crate::figures::trajectory_figure(
         "--out",
-        &out.join("figure.svg"),
+        &out.join(&figure),
         &format!("{} tracked run(s) vs {}", runs.len(), plan_path.display()),
         &plan,
         &runs,
@@ -690,7 +709,7 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
     )?;
     print_summary(&metrics);
     crate::errln!(
-        "wrote {}/{{metrics.json, runs.csv, mean.csv, figure.svg}}",
+        "wrote {}/{{metrics.json, runs.csv, mean.csv, {figure}}}",
         out.display().to_string().trim_end_matches('/')
     );
     Ok(())
@@ -717,6 +736,10 @@ pub struct ReproduceArgs {
     /// --force).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Format of the per-series figures in --out (`<series>-<profile>.<format>`): svg
+    /// (default), png (rasterised, 2 px per SVG px) or pdf (vector, font embedded).
+    #[arg(long, value_enum, default_value_t = FigureFormat::Svg)]
+    pub figure_format: FigureFormat,
     /// Monte-Carlo trials per series and disturbance profile (the paper ran 3).
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u64).range(1..=10_000))]
     pub trials: u64,
@@ -881,7 +904,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
     }
     let total: u64 = series.len() as u64 * runs.iter().map(|r| r.1 as u64).sum::<u64>();
     let pb = progress_bar(total, "reproducing the Sphere paper");
-    let mut report = Report::new(&out, info);
+    let mut report = Report::new(&out, info).figure_format(a.figure_format);
     for s in &series {
         let outcomes = pool.install(|| {
             rp::evaluate_series(
@@ -928,6 +951,7 @@ pub(crate) struct Report<'a> {
     rows: Vec<omnikin_sim::reproduce::Row>,
     all: serde_json::Map<String, serde_json::Value>,
     figures: usize,
+    format: FigureFormat,
 }
 
 impl<'a> Report<'a> {
@@ -939,7 +963,13 @@ impl<'a> Report<'a> {
             rows: Vec::new(),
             all: serde_json::Map::new(),
             figures: 0,
+            format: FigureFormat::Svg,
         }
+    }
+
+    /// The same report with its figures written in `format` (default SVG).
+    pub fn figure_format(self, format: FigureFormat) -> Self {
+        Self { format, ..self }
     }
 
     /// One series' outcomes: its figures, its metrics and its table row.
@@ -967,7 +997,9 @@ impl<'a> Report<'a> {
             );
             crate::figures::trajectory_figure(
                 "--out",
-                &self.out.join(format!("{}-{}.svg", s.name, o.profile)),
+                &self
+                    .out
+                    .join(self.format.file_name(&format!("{}-{}", s.name, o.profile))),
                 &title,
                 &s.plan,
                 &o.runs,

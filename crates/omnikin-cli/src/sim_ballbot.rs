@@ -61,9 +61,10 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
         pushes: a.push.clone(),
     };
     let plant = DynamicPlant::new(d, plan, &opts)?;
+    let figure_name = a.figure_format.file_name("figure");
     crate::sim::create_dir_for(
         &a.out,
-        &["metrics.json", "trials.csv", "mean.csv", "figure.svg"],
+        &["metrics.json", "trials.csv", "mean.csv", &figure_name],
     )?;
     let sim = plant.run(d, plan, &opts)?;
     crate::sim::write_dynamic_run(&a.out, plan, &sim)?;
@@ -71,7 +72,7 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
         (&sim.outcome, &plant)
     {
         figure(
-            &a.out.join("figure.svg"),
+            &a.out.join(&figure_name),
             &format!(
                 "{} — balancing (dynamic plant), {}",
                 d.name,
@@ -88,7 +89,7 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
         crate::errln!("{line}");
     }
     crate::errln!(
-        "wrote {}/{{metrics.json, trials.csv, mean.csv, figure.svg}}",
+        "wrote {}/{{metrics.json, trials.csv, mean.csv, {figure_name}}}",
         a.out.display().to_string().trim_end_matches('/')
     );
     Ok(())

@@ -29,8 +29,10 @@ pub const PNG_SCALE: f32 = 2.0;
 /// Pixels per inch of an SVG's user units (CSS pixels), which sets a PDF page's size.
 pub const CSS_DPI: f32 = 96.0;
 
-/// The file format of a figure, chosen by the file name's extension.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// The file format of a figure, chosen by the file name's extension (`--plot`) or, for the
+/// commands that name their figures themselves (`simulate`, `evaluate`), by
+/// `--figure-format svg|png|pdf`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum FigureFormat {
     /// `.svg`: the drawing itself (vector, text as text, sans-serif).
     Svg,
@@ -44,6 +46,20 @@ pub enum FigureFormat {
 impl FigureFormat {
     /// The extensions accepted, as the error message lists them.
     pub const ACCEPTED: &'static str = ".svg, .png or .pdf";
+
+    /// The file extension of the format, without the dot (`svg`, `png`, `pdf`).
+    pub fn extension(self) -> &'static str {
+        match self {
+            Self::Svg => "svg",
+            Self::Png => "png",
+            Self::Pdf => "pdf",
+        }
+    }
+
+    /// The file name `stem.<extension>` (e.g. `figure.png`).
+    pub fn file_name(self, stem: &str) -> String {
+        format!("{stem}.{}", self.extension())
+    }
 
     /// The format of the figure file `path` (named by `flag` in the message) from its
     /// extension, in any case (`.PNG` too); an unknown or missing extension is an error that
