@@ -61,24 +61,27 @@ fn table_error(e: crate::table::TableError) -> IdentifyError {
     IdentifyError::Input(e.to_string())
 }
 
-/// A finite but meaningless angle or rate (1e300 rad) refused at its line and column, with the
+/// Refuses a finite but meaningless value (1e300 rad) in any of `cols`, at its line and column, with the
 /// bound the plan files obey (`omnikin_plan::limits`), as `omnikin odometry` does.
 fn bounded(
     table: &NumericTable,
-    line: usize,
-    col: usize,
-    v: f64,
+    cols: &[usize],
     max: f64,
     unit: &str,
 ) -> Result<(), IdentifyError> {
-    if v.abs() <= max {
-        return Ok(());
+    for (line, row) in &table.rows {
+        for &col in cols {
+            let v = row[col];
+            if v.abs() > max {
+                return Err(IdentifyError::Input(format!(
+                    "{}:{line}: column {}: {v:e} {unit} is outside the plausible range \
+                     [-{max:e}, {max:e}] {unit} (omnikin_plan::limits)",
+                    table.file, table.header[col]
+                )));
+            }
+        }
     }
-    Err(IdentifyError::Input(format!(
-        "{}:{line}: column {}: {v:e} {unit} is outside the plausible range [-{max:e}, {max:e}] \
-         {unit} (omnikin_plan::limits)",
-        table.file, table.header[col]
-    )))
+    Ok(())
 }
 
 impl EncoderLog {
@@ -122,27 +125,11 @@ impl EncoderLog {
             t: Vec::new(),
             rate: Vec::new(),
         });
-        for (line, row) in &table.rows {
-            for &c in &idx[1..] {
-                bounded(
-                    table,
-                    *line,
-                    c,
-                    row[c],
-                    omnikin_plan::limits::MAX_HEADING,
-                    "rad",
-                )?;
-            }
-            if let Some(c) = gyro_col {
-                bounded(
-                    table,
-                    *line,
-                    c,
-                    row[c],
-                    omnikin_plan::limits::MAX_PLAN_RATE,
-                    "rad/s",
-                )?;
-            }
+        bounded(table, &idx[1..], omnikin_plan::limits::MAX_HEADING, "rad")?;
+        if let Some(c) = gyro_col {
+            bounded(table, &[c], omnikin_plan::limits::MAX_PLAN_RATE, "rad/s")?;
+        }
+        for (_, row) in &table.rows {
             let q: Vec<f64> = (0..wheels).map(|i| row[idx[1 + i]]).collect();
             let s: Vec<f64> = if steerable {
                 (0..wheels).map(|i| row[idx[1 + wheels + i]]).collect()
@@ -169,17 +156,12 @@ impl GyroLog {
         let idx = table
             .require(&["t", "gz"], "an IMU log (t,gx,gy,gz,…)")
             .map_err(table_error)?;
-        for (line, row) in &table.rows {
-            let c = idx[1];
-            bounded(
-                table,
-                *line,
-                c,
-                row[c],
-                omnikin_plan::limits::MAX_PLAN_RATE,
-                "rad/s",
-            )?;
-        }
+        bounded(
+            table,
+            &[idx[1]],
+            omnikin_plan::limits::MAX_PLAN_RATE,
+            "rad/s",
+        )?;
         Ok(Self {
             file: format!("{} (gz)", table.file),
             t: table.rows.iter().map(|(_, r)| r[idx[0]]).collect(),
@@ -208,27 +190,9 @@ impl Reference {
             )));
         }
         let h = table.col("heading");
-        for (line, row) in &table.rows {
-            for &c in &idx[1..] {
-                bounded(
-                    table,
-                    *line,
-                    c,
-                    row[c],
-                    omnikin_plan::limits::MAX_COORDINATE,
-                    "m",
-                )?;
-            }
-            if let Some(c) = h {
-                bounded(
-                    table,
-                    *line,
-                    c,
-                    row[c],
-                    omnikin_plan::limits::MAX_HEADING,
-                    "rad",
-                )?;
-            }
+        bounded(table, &idx[1..], omnikin_plan::limits::MAX_COORDINATE, "m")?;
+        if let Some(c) = h {
+            bounded(table, &[c], omnikin_plan::limits::MAX_HEADING, "rad")?;
         }
         Ok(Self {
             file: table.file.clone(),
