@@ -4,16 +4,24 @@
 //! (mean ± t·s/√n, √(n + 1) times narrower); with fewer than [`MIN_RUNS_FOR_CI`] runs, their
 //! min/max envelope instead, and the legend says which. Beside the path: the deviation from the
 //! plan in x and y over time, and the distance |position − plan| over time, in mm, so that a
-//! 1 cm error fills a panel instead of a pixel.
+//! 1 cm error fills a panel instead of a pixel. A tracked run's emergency stops (its `mode`
+//! column) are marked: a cross on the path where the robot was, a dashed line at the instant in
+//! every time panel.
 
 use std::path::Path;
 
 use anyhow::Result;
 use omnikin_plan::Plan;
 use omnikin_sim::metrics::{MeanTrajectory, Run};
+use omnikin_sim::track::EStopMark;
 use plotters::prelude::*;
 
-use crate::plot::{Arrow, Band, PALETTE, Series, draw_err, time_panel, xy_panel};
+use crate::plot::{
+    Arrow, Band, Marker, PALETTE, Series, TimeAxis, TimeMark, draw_err, time_panel_on, xy_panel,
+};
+
+/// Colour of the emergency-stop marks.
+const ESTOP_RED: RGBColor = RGBColor(200, 30, 30);
 
 const RUN_GREY: RGBColor = RGBColor(185, 185, 185);
 
@@ -152,8 +160,33 @@ pub fn trajectory_figure(
     mean: &MeanTrajectory,
     n_runs: usize,
 ) -> Result<()> {
+    trajectory_figure_with_stops(flag, path, title, plan, runs, mean, n_runs, &[])
+}
+
+/// [`trajectory_figure`] with the runs' emergency stops marked (on the plan's clock and frame,
+/// [`omnikin_sim::track::Track::estops_on`]): a red cross on the path, a dashed red line in
+/// each time panel, "e-stop" in the legends.
+#[allow(clippy::too_many_arguments)]
+pub fn trajectory_figure_with_stops(
+    flag: &str,
+    path: &Path,
+    title: &str,
+    plan: &Plan,
+    runs: &[Run],
+    mean: &MeanTrajectory,
+    n_runs: usize,
+    estops: &[EStopMark],
+) -> Result<()> {
     crate::plot::svg_file(flag, path, (1400, 960), |root| {
-        draw_trajectories(root, title, plan, runs, mean, n_runs.max(runs.len()))
+        draw_trajectories(
+            root,
+            title,
+            plan,
+            runs,
+            mean,
+            n_runs.max(runs.len()),
+            estops,
+        )
     })
 }
 
@@ -164,6 +197,7 @@ fn draw_trajectories(
     runs: &[Run],
     mean: &MeanTrajectory,
     n_runs: usize,
+    estops: &[EStopMark],
 ) -> Result<()> {
     root.fill(&WHITE).map_err(draw_err)?;
     let root = root
@@ -234,6 +268,30 @@ fn draw_trajectories(
         }],
         _ => Vec::new(),
     };
+    if !estops.is_empty() {
+        series.push(Series::marks(
+            "e-stop",
+            estops.iter().map(|m| (m.xy[0], m.xy[1])).collect(),
+            ESTOP_RED,
+            Marker::Cross,
+        ));
+    }
+    let axis = TimeAxis {
+        range: None,
+        marks: estops
+            .iter()
+            .enumerate()
+            .map(|(i, m)| TimeMark {
+                t: m.t,
+                label: if i == 0 {
+                    "e-stop".into()
+                } else {
+                    String::new()
+                },
+                color: ESTOP_RED,
+            })
+            .collect(),
+    };
     xy_panel(
         &left,
         "path (world frame; arrow: start)",
@@ -300,13 +358,14 @@ fn draw_trajectories(
                 ..Series::dashed("plan", vec![(*t0, 0.0), (*t1, 0.0)], BLACK)
             });
         }
-        time_panel(
+        time_panel_on(
             &panels[c],
             &format!("deviation from the plan in {name}: {name}(t) − {name}_plan(t)"),
             &format!("{name} − {name}_plan [mm]"),
             &series,
             &bands,
             None,
+            &axis,
         )?;
     }
     // |position − plan| against time: every run, and their mean distance.
@@ -338,13 +397,14 @@ fn draw_trajectories(
             .collect();
         series.push(Series::solid("mean over the runs", mean_distance, blue));
     }
-    time_panel(
+    time_panel_on(
         &panels[2],
         "error against time: |position − plan| at the same time",
         "|position − plan| [mm]",
         &series,
         &[],
         None,
+        &axis,
     )
 }
 

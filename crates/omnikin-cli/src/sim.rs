@@ -217,7 +217,8 @@ pub struct EvaluateArgs {
     #[arg(long, value_name = "TRUTH.csv")]
     pub truth: Option<PathBuf>,
     /// Tracked runs (with --plan) or pose estimates (with --truth): CSV files with columns
-    /// t,x,y and optionally heading (a pose CSV of `omnikin odometry`).
+    /// t,x,y and optionally heading (a pose CSV of `omnikin odometry`); with --plan an optional
+    /// `mode` column (a robot's --log) marks each e-stop in the figure and metrics.json.
     #[arg(required = true, value_name = "TRACK.csv")]
     pub tracks: Vec<PathBuf>,
     /// With --truth: the alignment before the ATE: `none` (the estimate's start pose is
@@ -663,12 +664,14 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
         align_position: !a.no_align_position,
     };
     let mut runs = Vec::new();
+    let mut estops = Vec::new();
     for f in &a.tracks {
         let track = Track::load(f)?;
         if let Some(why) = track.did_not_move(&plan, align) {
             bail!("{}: {why}", f.display());
         }
         runs.push(track.resample(&plan, align));
+        estops.extend(track.estops_on(&plan, align));
     }
     let omnikin_sim::metrics::Evaluation { metrics, mean } = evaluate(&plan, &runs)?;
     finite(&metrics)?;
@@ -680,6 +683,7 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
         "tracks": a.tracks.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
         "motion_threshold_m": a.motion_threshold, "align_position": !a.no_align_position,
         "tracking_offset_m": a.tracking_offset.unwrap_or([0.0; 2]),
+        "estops": estops.iter().map(|m| json!({"t": m.t, "x": m.xy[0], "y": m.xy[1]})).collect::<Vec<_>>(),
     });
     write_file(&out.join("metrics.json"), |w| {
         writeln!(
@@ -698,7 +702,7 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
         Ok(())
     })?;
     write_mean(&out.join("mean.csv"), &plan, &mean)?;
-    crate::figures::trajectory_figure(
+    crate::figures::trajectory_figure_with_stops(
         "--out",
         &out.join(&figure),
         &format!("{} tracked run(s) vs {}", runs.len(), plan_path.display()),
@@ -706,8 +710,20 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
         &runs,
         &mean,
         metrics.runs,
+        &estops,
     )?;
     print_summary(&metrics);
+    if !estops.is_empty() {
+        crate::errln!(
+            "e-stops (from the runs' mode column, marked in the figure): {} at t = {} s (plan time)",
+            estops.len(),
+            estops
+                .iter()
+                .map(|m| format!("{:.2}", m.t))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
     crate::errln!(
         "wrote {}/{{metrics.json, runs.csv, mean.csv, {figure}}}",
         out.display().to_string().trim_end_matches('/')

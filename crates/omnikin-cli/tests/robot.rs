@@ -204,6 +204,60 @@ fn hardware_disturbances_odometry_follows_truth_drifts() {
 }
 
 #[test]
+fn an_estop_in_the_robots_log_is_marked_by_evaluate() {
+    // The robot's --log has a `mode` column; evaluated as a tracked run (its x, y: the
+    // estimate), each change into `estop` becomes a mark on the plan's clock, in metrics.json
+    // and in the figure.
+    let dir = tmp("estop-log");
+    let plan_csv = square_plan(&dir);
+    let log = dir.join("robot.csv");
+    let robot = Robot::start(&["--max-time", "24", "--log", log.to_str().unwrap()]);
+    assert!(
+        drive(&robot.addr, &["plan", plan_csv.to_str().unwrap()])
+            .status
+            .success()
+    );
+    assert!(drive(&robot.addr, &["estop"]).status.success());
+    assert!(drive(&robot.addr, &["clear"]).status.success());
+    robot.summary();
+    let out = dir.join("eval");
+    let run = std::process::Command::new(BIN)
+        .args(["evaluate", "--plan"])
+        .args([&plan_csv, &log])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{err}");
+    assert!(err.contains("e-stops (from the runs' mode column"), "{err}");
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    let stops = m["evaluation"]["estops"].as_array().unwrap();
+    assert_eq!(stops.len(), 1, "{m}");
+    // After the plan had ended, at rest near its end point.
+    let plan = PlanXY::load(&plan_csv);
+    let (t_end, x_end, y_end) = *plan.0.last().unwrap();
+    let t = stops[0]["t"].as_f64().unwrap();
+    assert!(
+        t > t_end - 0.1,
+        "e-stop at plan time {t}, the plan ends at {t_end}"
+    );
+    let (x, y) = (
+        stops[0]["x"].as_f64().unwrap(),
+        stops[0]["y"].as_f64().unwrap(),
+    );
+    assert!((x - x_end).hypot(y - y_end) < 0.01, "({x}, {y})");
+    let svg = std::fs::read_to_string(out.join("figure.svg")).unwrap();
+    // On the path's panel only: the time panels cover the plan's time, the stop came after it.
+    assert_eq!(
+        svg.matches("\ne-stop\n").count(),
+        1,
+        "the path's legend names the mark"
+    );
+}
+
+#[test]
 fn velocity_stop_estop_and_clear() {
     let dir = tmp("velocity");
     let tele = dir.join("v.csv");

@@ -428,6 +428,83 @@ fn reproduce_profiles_selects_what_runs_without_changing_its_numbers() {
 }
 
 #[test]
+fn evaluate_marks_the_emergency_stops_of_a_runs_mode_column() {
+    let d = tmp("estop");
+    let plan_path = circle_plan(&d);
+    let plan = Plan::load_csv(&plan_path).unwrap();
+    // The plan followed exactly, with an e-stop latched at plan time 2.5 s and cleared at 2.9 s
+    // (the "run" goes on: only the marks are checked), and a second one at 4.0 s.
+    let mode = |t: f64| match t {
+        t if (2.5..2.9).contains(&t) || (4.0..4.2).contains(&t) => "estop",
+        _ => "trajectory",
+    };
+    let mut text = String::from("t,x,y,mode\n");
+    for s in &plan.samples {
+        text.push_str(&format!(
+            "{},{},{},{}\n",
+            s.t,
+            s.pose.x,
+            s.pose.y,
+            mode(s.t)
+        ));
+    }
+    let track = d.join("run.csv");
+    std::fs::write(&track, &text).unwrap();
+    let plain = d.join("plain.csv");
+    std::fs::write(
+        &plain,
+        text.lines()
+            .map(|l| l.rsplit_once(',').unwrap().0.to_string() + "\n")
+            .collect::<String>(),
+    )
+    .unwrap();
+    let eval = |track: &Path, out: &str| {
+        let out = d.join(out);
+        omnikin()
+            .args(["evaluate", "--plan"])
+            .args([&plan_path, track])
+            .arg("--out")
+            .arg(&out)
+            .assert()
+            .success();
+        (
+            metrics(&out),
+            std::fs::read_to_string(out.join("figure.svg")).unwrap(),
+        )
+    };
+    let (m, svg) = eval(&track, "marked");
+    let stops: Vec<(f64, f64, f64)> = m["evaluation"]["estops"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| {
+            (
+                s["t"].as_f64().unwrap(),
+                s["x"].as_f64().unwrap(),
+                s["y"].as_f64().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(stops.len(), 2, "{m}");
+    for (&(t, x, y), want) in stops.iter().zip([2.5, 4.0]) {
+        let s = plan
+            .samples
+            .iter()
+            .find(|s| (s.t - want).abs() < 1e-9)
+            .unwrap();
+        assert!((t - want).abs() < 1e-9, "{t}");
+        assert!((x - s.pose.x).hypot(y - s.pose.y) < 1e-9, "({x}, {y})");
+    }
+    // One legend entry in the path's panel and one in each of the three time panels.
+    assert_eq!(svg.matches("\ne-stop\n").count(), 4);
+    // Without the mode column: no marks, nothing else changes.
+    let (m0, svg0) = eval(&plain, "plain");
+    assert_eq!(m0["evaluation"]["estops"].as_array().unwrap().len(), 0);
+    assert_eq!(svg0.matches("e-stop").count(), 0);
+    assert_eq!(m0["max_deviation_m"], m["max_deviation_m"]);
+}
+
+#[test]
 fn evaluate_with_marker_offset_and_wrapped_heading() {
     let d = tmp("marker");
     let plan_path = circle_plan(&d);

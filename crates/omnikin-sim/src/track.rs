@@ -1,5 +1,7 @@
-//! Tracked trajectories (e.g. from video): reading `t,x,y[,heading]` CSV files, aligning them
-//! in time with a plan (start of motion), and resampling them onto the plan's time grid.
+//! Tracked trajectories (e.g. from video): reading `t,x,y[,heading][,mode]` CSV files, aligning
+//! them in time with a plan (start of motion), and resampling them onto the plan's time grid.
+//! A `mode` column (the runtime's mode names, as `omnikin robot --log` writes them) marks the
+//! run's emergency stops, so that figures can show where and when the robot was stopped.
 
 use std::io::Read;
 use std::path::Path;
@@ -17,7 +19,30 @@ pub struct Track {
     pub xy: Vec<[f64; 2]>,
     /// Headings, rad, when the file has a `heading` column.
     pub heading: Option<Vec<f64>>,
+    /// Indices of the samples where an emergency stop began (the `mode` column turns to
+    /// `estop` from any other mode, or the first row is already `estop`); empty without a
+    /// `mode` column.
+    pub estops: Vec<usize>,
 }
+
+/// An emergency stop of a tracked run, put on the plan's clock and frame
+/// ([`Track::estops_on`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EStopMark {
+    /// When the stop began, s, on the plan's time axis.
+    pub t: f64,
+    /// Where the robot was, m (world frame, translated like the resampled run).
+    pub xy: [f64; 2],
+}
+
+/// The names a `mode` column may hold: the runtime's modes ([`omnikin::runtime::Mode::name`]).
+const MODE_NAMES: [omnikin::runtime::Mode; 5] = [
+    omnikin::runtime::Mode::Idle,
+    omnikin::runtime::Mode::Velocity,
+    omnikin::runtime::Mode::Trajectory,
+    omnikin::runtime::Mode::Stopping,
+    omnikin::runtime::Mode::EStop,
+];
 
 /// A tracked file that could not be read: file, line, column, rule.
 #[derive(Debug, thiserror::Error)]
@@ -69,8 +94,10 @@ impl Track {
         Self::read_csv(f, &file)
     }
 
-    /// Reads `t,x,y` with an optional `heading` column (any order, extra columns ignored).
-    /// Every value must be a finite number and time must increase strictly. At most
+    /// Reads `t,x,y` with optional `heading` and `mode` columns (any order, extra columns
+    /// ignored). Every value must be a finite number and time must increase strictly; a `mode`
+    /// is one of the runtime's mode names (`idle`, `velocity`, `trajectory`, `stopping`,
+    /// `estop`), and each change into `estop` is recorded in [`Track::estops`]. At most
     /// [`crate::limits::MAX_TRACK_ROWS`] rows; a leading UTF-8 byte-order mark is skipped.
     pub fn read_csv<R: Read>(input: R, file: &str) -> Result<Self, TrackError> {
         let err = |line: Option<usize>, message: String| TrackError {
@@ -90,17 +117,20 @@ impl Track {
             return Err(err(
                 Some(1),
                 format!(
-                    "the header must name columns t,x,y (optional heading); found \"{}\"",
+                    "the header must name columns t,x,y (optional heading, mode); found \"{}\"",
                     header.iter().collect::<Vec<_>>().join(",")
                 ),
             ));
         };
         let ih = find("heading");
+        let im = find("mode");
         let mut track = Track {
             t: Vec::new(),
             xy: Vec::new(),
             heading: ih.map(|_| Vec::new()),
+            estops: Vec::new(),
         };
+        let mut was_estop = false;
         for (k, rec) in r.records().enumerate() {
             // The reader's own line numbers: blank lines are skipped, not counted out.
             let rec = rec.map_err(|e| {
@@ -150,6 +180,26 @@ impl Track {
             track.xy.push([get(ix, "x")?, get(iy, "y")?]);
             if let (Some(i), Some(h)) = (ih, track.heading.as_mut()) {
                 h.push(get(i, "heading")?);
+            }
+            if let Some(i) = im {
+                let s = rec
+                    .get(i)
+                    .ok_or_else(|| err(Some(line), "column mode: missing value".into()))?;
+                let Some(mode) = MODE_NAMES.iter().find(|m| m.name() == s) else {
+                    return Err(err(
+                        Some(line),
+                        format!(
+                            "column mode: \"{}\" is not a mode (one of {})",
+                            omnikin::description::excerpt(s),
+                            MODE_NAMES.map(|m| m.name()).join(", ")
+                        ),
+                    ));
+                };
+                let estop = *mode == omnikin::runtime::Mode::EStop;
+                if estop && !was_estop {
+                    track.estops.push(track.t.len() - 1);
+                }
+                was_estop = estop;
             }
         }
         // Unwrap the heading (trackers often report it in (−π, π]).
@@ -227,6 +277,7 @@ impl Track {
             t: t.to_vec(),
             xy: x.iter().zip(y).map(|(&x, &y)| [x, y]).collect(),
             heading: heading.map(<[f64]>::to_vec),
+            estops: Vec::new(),
         };
         if let Some(h) = track.heading.as_mut() {
             unwrap_heading(h);
@@ -279,18 +330,7 @@ impl Track {
     /// (held at the ends), and with `align_position` the track is translated so that both start
     /// moving from the same point.
     pub fn resample(&self, plan: &Plan, align: Alignment) -> Run {
-        let plan_xy: Vec<[f64; 2]> = plan.samples.iter().map(|s| [s.pose.x, s.pose.y]).collect();
-        let kp = Self::motion_start(&plan_xy, align.motion_threshold_m);
-        let kt = Self::motion_start(&self.xy, align.motion_threshold_m);
-        let shift = self.t[kt] - plan.samples[kp].t;
-        let offset = if align.align_position {
-            [
-                plan_xy[kp][0] - self.xy[kt][0],
-                plan_xy[kp][1] - self.xy[kt][1],
-            ]
-        } else {
-            [0.0, 0.0]
-        };
+        let (shift, offset) = self.alignment_on(plan, align);
         let mut j = 0usize;
         let mut xy = Vec::with_capacity(plan.samples.len());
         let mut heading = self
@@ -314,6 +354,41 @@ impl Track {
             }
         }
         Run { xy, heading }
+    }
+
+    /// The track's clock shift (track time − plan time, s) and translation (m) that
+    /// [`Track::resample`] applies: start of motion matched to the plan's.
+    fn alignment_on(&self, plan: &Plan, align: Alignment) -> (f64, [f64; 2]) {
+        let plan_xy: Vec<[f64; 2]> = plan.samples.iter().map(|s| [s.pose.x, s.pose.y]).collect();
+        let kp = Self::motion_start(&plan_xy, align.motion_threshold_m);
+        let kt = Self::motion_start(&self.xy, align.motion_threshold_m);
+        let shift = self.t[kt] - plan.samples[kp].t;
+        let offset = if align.align_position {
+            [
+                plan_xy[kp][0] - self.xy[kt][0],
+                plan_xy[kp][1] - self.xy[kt][1],
+            ]
+        } else {
+            [0.0, 0.0]
+        };
+        (shift, offset)
+    }
+
+    /// The run's emergency stops ([`Track::estops`]) on the plan's clock and frame, with the
+    /// alignment [`Track::resample`] uses — a stop before the plan's start or after its end
+    /// keeps its time (a figure shows what its axis covers).
+    pub fn estops_on(&self, plan: &Plan, align: Alignment) -> Vec<EStopMark> {
+        if self.estops.is_empty() {
+            return Vec::new();
+        }
+        let (shift, offset) = self.alignment_on(plan, align);
+        self.estops
+            .iter()
+            .map(|&k| EStopMark {
+                t: self.t[k] - shift,
+                xy: [self.xy[k][0] + offset[0], self.xy[k][1] + offset[1]],
+            })
+            .collect()
     }
 }
 
@@ -363,6 +438,53 @@ mod tests {
                 s.pose
             );
         }
+    }
+
+    #[test]
+    fn a_mode_column_marks_each_emergency_stop_on_the_plans_clock() {
+        // The line plan's motion recorded 3.5 s late and 2 m away; e-stopped at 5.0 s (plan
+        // time 1.5 s), cleared, moving again, e-stopped at 6.0 s (plan 2.5 s).
+        let text: String = std::iter::once("t,x,y,mode\n".to_string())
+            .chain((0..=70).map(|k| {
+                let t = k as f64 * 0.1;
+                let x = if t <= 4.5 { 0.0 } else { 0.1 * (t - 4.5) };
+                let mode = match k {
+                    50..=52 | 60..=70 => "estop",
+                    53..=54 => "idle",
+                    _ => "trajectory",
+                };
+                format!("{t},{},1,{mode}\n", 2.0 + x)
+            }))
+            .collect();
+        let track = Track::read_csv(text.as_bytes(), "log.csv").unwrap();
+        assert_eq!(track.estops, vec![50, 60]);
+        let marks = track.estops_on(&line_plan(), Alignment::default());
+        assert_eq!(marks.len(), 2);
+        for (m, (t, x)) in marks.iter().zip([(1.5, 0.05), (2.5, 0.15)]) {
+            assert!((m.t - t).abs() < 1e-9, "{m:?}");
+            assert!((m.xy[0] - x).abs() < 1e-9 && m.xy[1].abs() < 1e-9, "{m:?}");
+        }
+        // Without alignment the position stays the recorded one, the clock is still aligned.
+        let raw = Alignment {
+            align_position: false,
+            ..Alignment::default()
+        };
+        let m = track.estops_on(&line_plan(), raw)[0];
+        assert!((m.xy[0] - 2.05).abs() < 1e-9 && (m.xy[1] - 1.0).abs() < 1e-9);
+        // A log that starts e-stopped has its stop at the first row; no mode column, no stops.
+        let t = Track::read_csv("t,x,y,mode\n0,0,0,estop\n1,0,0,estop\n".as_bytes(), "a").unwrap();
+        assert_eq!(t.estops, vec![0]);
+        let t = Track::read_csv("t,x,y\n0,0,0\n1,0,0\n".as_bytes(), "a").unwrap();
+        assert!(t.estops.is_empty());
+        // An unknown mode names its line and the accepted names.
+        let e = Track::read_csv("t,x,y,mode\n0,0,0,idle\n1,0,0,halt\n".as_bytes(), "a.csv")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "a.csv:3: column mode: \"halt\" is not a mode (one of idle, velocity, \
+             trajectory, stopping, estop)"
+        );
     }
 
     #[test]

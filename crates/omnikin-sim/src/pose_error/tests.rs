@@ -11,6 +11,7 @@ fn track(t0: f64, t1: f64, dt: f64, f: impl Fn(f64) -> (f64, f64, f64)) -> Track
         xy: p.iter().map(|p| [p.0, p.1]).collect(),
         heading: Some(p.iter().map(|p| p.2).collect()),
         t,
+        estops: Vec::new(),
     }
 }
 
