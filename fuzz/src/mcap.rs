@@ -1,6 +1,6 @@
-//! The MCAP harnesses: `omnikin convert`'s reading path, compiled here from its sources (the
-//! CLI is a binary crate): the bounded decompression of zstd chunks
-//! (`crates/omnikin-cli/src/mcap_log/inflate.rs`), the pre-scan behind it (`scan.rs`), the
+//! The MCAP harnesses: `omnikin convert`'s reading path, compiled here from its sources (so the
+//! bounds can be lowered for the fuzzer, see [`convert`]): the bounded decompression of zstd chunks
+//! (`crates/omnikin-io/src/mcap_log/inflate.rs`), the pre-scan behind it (`scan.rs`), the
 //! `mcap` crate behind both, and the protobuf messages' decoding (`proto.rs`, with the JSON
 //! forms of `foxglove.rs`).
 //!
@@ -18,19 +18,19 @@
 //! [`text_budget`]; what decodes, re-encoded by the writer's encoder, decodes again (the
 //! writer's own output is always readable).
 
-#[path = "../../crates/omnikin-cli/src/mcap_log/scan.rs"]
+#[path = "../../crates/omnikin-io/src/mcap_log/scan.rs"]
 #[allow(dead_code)]
 pub mod scan;
 
-#[path = "../../crates/omnikin-cli/src/mcap_log/inflate.rs"]
+#[path = "../../crates/omnikin-io/src/mcap_log/inflate.rs"]
 #[allow(dead_code)]
 pub mod inflate;
 
-#[path = "../../crates/omnikin-cli/src/mcap_log/foxglove.rs"]
+#[path = "../../crates/omnikin-io/src/mcap_log/foxglove.rs"]
 #[allow(dead_code)]
 pub mod foxglove;
 
-#[path = "../../crates/omnikin-cli/src/mcap_log/proto.rs"]
+#[path = "../../crates/omnikin-io/src/mcap_log/proto.rs"]
 #[allow(dead_code)]
 pub mod proto;
 

@@ -165,14 +165,7 @@ impl List {
 
 /// A number for a message: plain, or `1e300` style when tiny or huge, so that a bad value of
 /// 1e308 is not quoted as a 309-digit number.
-pub fn num(v: f64) -> String {
-    let a = v.abs();
-    if a != 0.0 && a.is_finite() && !(1e-4..1e9).contains(&a) {
-        format!("{v:e}")
-    } else {
-        format!("{v}")
-    }
-}
+pub use omnikin_io::num;
 
 #[cfg(test)]
 mod tests {

@@ -9,9 +9,13 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod args;
+// The output rules and the MCAP logs live in omnikin-io (shared with the other front ends);
+// `crate::output`, `crate::mcap_log`, `crate::errln!` and `crate::outln!` keep their paths.
+use omnikin_io::{errln, mcap_log, outln, output};
 mod balance_check;
 mod body_limits;
 mod console;
+mod convert;
 mod data_dir;
 mod drive;
 mod drive_fixes;
@@ -21,9 +25,7 @@ mod fit_to_paper;
 mod identify;
 mod kinematics;
 mod link_io;
-mod mcap_log;
 mod odometry;
-mod output;
 mod plan;
 mod plot;
 mod robot;
@@ -116,7 +118,7 @@ enum Command {
     Console(console::ConsoleArgs),
     /// Convert an MCAP log (--mcap of simulate, odometry, robot, drive) to one CSV file per
     /// channel, or CSV logs back to MCAP.
-    Convert(mcap_log::convert::ConvertArgs),
+    Convert(convert::ConvertArgs),
     /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
     Completions(shell::CompletionsArgs),
     /// Print the man page, or write one page per command with `--out DIR`.
@@ -411,7 +413,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Robot(a) => robot::run(&a),
         Command::Drive(a) => drive::run(&a),
         Command::Console(a) => console::run(&a),
-        Command::Convert(a) => mcap_log::convert::run(&a),
+        Command::Convert(a) => convert::run(&a),
         Command::Completions(a) => shell::completions(&a),
         Command::Man(a) => shell::man(&a),
     }?;

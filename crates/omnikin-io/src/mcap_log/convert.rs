@@ -21,7 +21,7 @@
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 use std::io::Read;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 use omnikin::Pose2;
@@ -34,31 +34,6 @@ use super::{McapLog, Sample};
 
 /// Largest input file, bytes (read whole): 1 GiB, as the other logs' limit.
 pub const MAX_INPUT_BYTES: u64 = omnikin_sim::limits::MAX_LOG_BYTES as u64;
-
-/// `omnikin convert`.
-#[derive(clap::Args, Debug)]
-#[command(group(clap::ArgGroup::new("to").required(true).args(["csv", "mcap"])))]
-pub struct ConvertArgs {
-    /// An MCAP file (with --csv); a CSV log or a directory of `convert --csv` files (with
-    /// --mcap).
-    pub input: PathBuf,
-    /// Write each channel of the MCAP input to DIR/CHANNEL.csv (directory created; new or
-    /// empty unless --force).
-    #[arg(long, value_name = "DIR")]
-    pub csv: Option<PathBuf>,
-    /// Write the CSV input (a log, or a directory of `convert --csv` files) as MCAP.
-    #[arg(long, value_name = "FILE")]
-    pub mcap: Option<PathBuf>,
-}
-
-/// Runs `omnikin convert`.
-pub fn run(a: &ConvertArgs) -> Result<()> {
-    match (&a.csv, &a.mcap) {
-        (Some(dir), None) => to_csv(&a.input, dir),
-        (None, Some(out)) => to_mcap(&a.input, out),
-        _ => bail!("give exactly one of --csv DIR (MCAP to CSV) and --mcap FILE (CSV to MCAP)"),
-    }
-}
 
 fn read_limited(path: &Path) -> Result<Vec<u8>> {
     let shown = path.display();
@@ -430,7 +405,9 @@ fn channel_csv(
     Ok(())
 }
 
-fn to_csv(input: &Path, dir: &Path) -> Result<()> {
+/// `omnikin convert IN.mcap --csv DIR`: each channel of the MCAP file `input` to
+/// `DIR/CHANNEL.csv` (directory created; new or empty unless `--force`).
+pub fn to_csv(input: &Path, dir: &Path) -> Result<()> {
     crate::output::catch_signals()?;
     let shown = input.display().to_string();
     let raw = read_limited(input)?;
@@ -939,7 +916,9 @@ impl ChannelSource {
     }
 }
 
-fn to_mcap(input: &Path, out: &Path) -> Result<()> {
+/// `omnikin convert IN --mcap OUT.mcap`: a CSV log, or a directory of `convert --csv` files,
+/// written as MCAP.
+pub fn to_mcap(input: &Path, out: &Path) -> Result<()> {
     crate::output::catch_signals()?;
     if !input.is_dir() {
         let mut t = Table::open(input)?;

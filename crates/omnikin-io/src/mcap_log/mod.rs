@@ -299,7 +299,7 @@ impl McapLog {
                 "{} {}: robot time t = {} s cannot be an MCAP log time (it must be ≥ 0 and finite)",
                 self.flag,
                 self.path,
-                crate::args::num(t)
+                crate::num(t)
             )
         })
     }

@@ -1,0 +1,26 @@
+//! # omnikin's files, for every front end
+//!
+//! What the `omnikin` command, the Python package and the ROS 2 node share when they read and
+//! write files:
+//!
+//! | module | what |
+//! |---|---|
+//! | [`output`] | the output rules: an input is never overwritten, an existing output only with `--force`, every file written to a temporary file and renamed into place, logs kept on every exit path (SIGINT/SIGTERM included), stdout written fallibly |
+//! | [`mcap_log`] | MCAP logs with Foxglove schemas (JSON or protobuf): the writer `robot --mcap` and `simulate --mcap` use, the bounded reader, and `convert` (MCAP → CSV, JSON → protobuf) |
+//!
+//! Messages name the flag or file, the rule and how to override it; `flag` arguments are the
+//! names a front end shows its user (`--out`, `--mcap`).
+
+pub mod mcap_log;
+pub mod output;
+
+/// A number for a message: plain, or `1e300` style when tiny or huge (so 1e308 does not print
+/// as 309 digits).
+pub fn num(v: f64) -> String {
+    let a = v.abs();
+    if a != 0.0 && a.is_finite() && !(1e-4..1e9).contains(&a) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
