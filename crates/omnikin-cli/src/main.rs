@@ -56,8 +56,23 @@ struct Cli {
     /// Inputs are never overwritten, with or without --force.
     #[arg(long, global = true)]
     force: bool,
+    /// What every MCAP log of this command holds (--mcap, --record-dir): `foxglove`
+    /// (Foxglove's schemas in protobuf: /pose, /tf, /wheels, /link, /events, /plan) or `ros2`
+    /// (ROS 2 messages in CDR, the MCAP ROS 2 profile: /odom, /tf, /joint_states, /diagnostics,
+    /// /truth, /reference; read by `ros2 bag play`, RViz and Foxglove's ROS views).
+    #[arg(long, global = true, value_enum, default_value_t = McapProfile::Foxglove)]
+    mcap_profile: McapProfile,
     #[command(subcommand)]
     command: Command,
+}
+
+/// `--mcap-profile`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum McapProfile {
+    /// Foxglove's schemas, protobuf.
+    Foxglove,
+    /// ROS 2 messages, CDR.
+    Ros2,
 }
 
 #[derive(Subcommand, Debug)]
@@ -442,6 +457,10 @@ fn main() -> ExitCode {
         }
     };
     output::set_force(cli.force);
+    mcap_log::set_profile(match cli.mcap_profile {
+        McapProfile::Foxglove => mcap_log::ros2::Profile::Foxglove,
+        McapProfile::Ros2 => mcap_log::ros2::Profile::Ros2,
+    });
     match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(_) if output::stdout_broken() => ExitCode::from(EXIT_BROKEN_PIPE),

@@ -19,6 +19,10 @@ pub trait RosMessage: Serialize + for<'de> Deserialize<'de> {
     const TYPE_NAME: &'static str;
     /// The RIHS01 type hash (`RIHS01_` and 64 hex digits, SHA-256 of the type description).
     const TYPE_HASH: &'static str;
+    /// The definition as MCAP's `ros2msg` schema encoding holds it (what `ros2 bag record`
+    /// writes as a channel's schema): the `.msg` fields, then each type it uses after a line
+    /// of 80 `=` and `MSG: package/Name` (`src/msgdef/`, made by `rosbags`).
+    const MSGDEF: &'static str;
 
     /// The DDS type name rmw_zenoh writes in key expressions: `package::msg::dds_::Name_`.
     fn dds_type_name() -> String {
@@ -167,6 +171,7 @@ pub struct Twist {
 }
 
 impl RosMessage for Twist {
+    const MSGDEF: &'static str = include_str!("msgdef/geometry_msgs__Twist.msg");
     const TYPE_NAME: &'static str = "geometry_msgs/msg/Twist";
     const TYPE_HASH: &'static str =
         "RIHS01_9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a";
@@ -182,6 +187,7 @@ pub struct TwistStamped {
 }
 
 impl RosMessage for TwistStamped {
+    const MSGDEF: &'static str = include_str!("msgdef/geometry_msgs__TwistStamped.msg");
     const TYPE_NAME: &'static str = "geometry_msgs/msg/TwistStamped";
     const TYPE_HASH: &'static str =
         "RIHS01_5f0fcd4f81d5d06ad9b4c4c63e3ea51b82d6ae4d0558f1d475229b1121db6f64";
@@ -233,6 +239,7 @@ pub struct Odometry {
 }
 
 impl RosMessage for Odometry {
+    const MSGDEF: &'static str = include_str!("msgdef/nav_msgs__Odometry.msg");
     const TYPE_NAME: &'static str = "nav_msgs/msg/Odometry";
     const TYPE_HASH: &'static str =
         "RIHS01_3cc97dc7fb7502f8714462c526d369e35b603cfc34d946e3f2eda2766dfec6e0";
@@ -266,6 +273,7 @@ pub struct TfMessage {
 }
 
 impl RosMessage for TfMessage {
+    const MSGDEF: &'static str = include_str!("msgdef/tf2_msgs__TFMessage.msg");
     const TYPE_NAME: &'static str = "tf2_msgs/msg/TFMessage";
     const TYPE_HASH: &'static str =
         "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087";
@@ -287,6 +295,7 @@ pub struct JointState {
 }
 
 impl RosMessage for JointState {
+    const MSGDEF: &'static str = include_str!("msgdef/sensor_msgs__JointState.msg");
     const TYPE_NAME: &'static str = "sensor_msgs/msg/JointState";
     const TYPE_HASH: &'static str =
         "RIHS01_a13ee3a330e346c9d87b5aa18d24e11690752bd33a0350f11c5882bc9179260e";
@@ -312,6 +321,7 @@ pub struct Imu {
 }
 
 impl RosMessage for Imu {
+    const MSGDEF: &'static str = include_str!("msgdef/sensor_msgs__Imu.msg");
     const TYPE_NAME: &'static str = "sensor_msgs/msg/Imu";
     const TYPE_HASH: &'static str =
         "RIHS01_7d9a00ff131080897a5ec7e26e315954b8eae3353c3f995c55faf71574000b5b";
@@ -351,6 +361,7 @@ pub struct DiagnosticArray {
 }
 
 impl RosMessage for DiagnosticArray {
+    const MSGDEF: &'static str = include_str!("msgdef/diagnostic_msgs__DiagnosticArray.msg");
     const TYPE_NAME: &'static str = "diagnostic_msgs/msg/DiagnosticArray";
     const TYPE_HASH: &'static str =
         "RIHS01_5a8a36efb05fb25070fa0fb3810290c0e6cd4862b54a8fb975a1ee8dc55a333e";

@@ -22,11 +22,13 @@ pub mod convert;
 pub mod foxglove;
 pub mod inflate;
 pub mod proto;
+pub mod ros2;
 pub mod scan;
 
 use std::collections::HashMap;
 use std::io::{self, Write};
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
@@ -51,6 +53,24 @@ pub const COMPRESSION: mcap::Compression = mcap::Compression::Zstd;
 pub const ENCODING: Encoding = Encoding::Protobuf;
 /// Wall-clock time after which the open chunk is closed and written even if not full.
 pub const FLUSH_EVERY: Duration = Duration::from_secs(1);
+
+/// The profile of the MCAP logs this process writes from now on (a global flag like
+/// `--force`: `--mcap-profile`); [`ros2::Profile::Foxglove`] until set.
+static ROS2: AtomicBool = AtomicBool::new(false);
+
+/// Sets the profile of every [`McapLog`] created afterwards (`--mcap-profile`).
+pub fn set_profile(p: ros2::Profile) {
+    ROS2.store(p == ros2::Profile::Ros2, Ordering::Relaxed);
+}
+
+/// The profile [`McapLog::create`] uses ([`set_profile`]).
+pub fn profile() -> ros2::Profile {
+    if ROS2.load(Ordering::Relaxed) {
+        ros2::Profile::Ros2
+    } else {
+        ros2::Profile::Foxglove
+    }
+}
 
 /// The output file under the output rules, flushed to the OS after every write the MCAP
 /// writer makes (it writes whole chunks and summary records only).
@@ -98,6 +118,7 @@ pub struct Sample {
 #[derive(Default)]
 struct Previous {
     t: f64,
+    pose: Option<Pose2<f64>>,
     wheel_angles: Option<Vec<f64>>,
     steer_angles: Option<Vec<f64>>,
     state: Option<(Mode, Faults)>,
@@ -137,22 +158,14 @@ impl Encoder {
         if let Some(p) = s.reference {
             out.push((fg::REFERENCE, fg::pose_in_frame(ns, p)));
         }
-        let prev = self.previous.entry(prefix.to_string()).or_default();
-        let dt = s.t - prev.t;
-        let measured = |now: &Option<Vec<f64>>, before: &Option<Vec<f64>>| match (now, before) {
-            (Some(a), Some(b)) if dt > 0.0 && a.len() == b.len() => Some(rates(a, b, dt)),
-            _ => None,
-        };
+        let step = self.step(prefix, s);
         let w = WheelRates {
             commanded: s.commanded.clone(),
             commanded_steer: s.commanded_steer.clone(),
-            measured: measured(&s.wheel_angles, &prev.wheel_angles),
-            measured_steer: measured(&s.steer_angles, &prev.steer_angles),
+            measured: step.measured.0,
+            measured_steer: step.measured.1,
         };
-        prev.t = s.t;
-        prev.wheel_angles.clone_from(&s.wheel_angles);
-        prev.steer_angles.clone_from(&s.steer_angles);
-        let before = std::mem::replace(&mut prev.state, s.state);
+        let before = step.state;
         if s.commanded.is_some() || s.wheel_angles.is_some() {
             out.push((fg::WHEELS, fg::wheel_rates(ns, &w)));
         }
@@ -166,6 +179,60 @@ impl Encoder {
         }
         out
     }
+
+    /// The messages of one sample in the `ros2` profile ([`ros2::messages`]), with the same
+    /// bookkeeping as [`Encoder::messages`] (rates and events against the previous sample
+    /// under `prefix`).
+    pub fn ros2_messages(&mut self, prefix: &str, s: &Sample, ns: u64) -> Vec<ros2::Message> {
+        let step = self.step(prefix, s);
+        let events = s.state.map_or_else(Vec::new, |now| events(step.state, now));
+        ros2::messages(
+            prefix,
+            s,
+            ns,
+            step.pose,
+            step.dt,
+            step.measured,
+            &events,
+            self.name,
+        )
+    }
+
+    /// Compares `s` with the previous sample under `prefix` (then remembers `s`): the time
+    /// step, the encoders' rates, the previous estimate and mode/faults.
+    fn step(&mut self, prefix: &str, s: &Sample) -> Step {
+        let prev = self.previous.entry(prefix.to_string()).or_default();
+        let dt = s.t - prev.t;
+        let measured = |now: &Option<Vec<f64>>, before: &Option<Vec<f64>>| match (now, before) {
+            (Some(a), Some(b)) if dt > 0.0 && a.len() == b.len() => Some(rates(a, b, dt)),
+            _ => None,
+        };
+        let step = Step {
+            dt,
+            measured: (
+                measured(&s.wheel_angles, &prev.wheel_angles),
+                measured(&s.steer_angles, &prev.steer_angles),
+            ),
+            pose: prev.pose.replace(s.pose),
+            state: std::mem::replace(&mut prev.state, s.state),
+        };
+        prev.t = s.t;
+        prev.wheel_angles.clone_from(&s.wheel_angles);
+        prev.steer_angles.clone_from(&s.steer_angles);
+        step
+    }
+}
+
+/// A sample against the previous one under its prefix ([`Encoder::step`]).
+struct Step {
+    /// Time since the previous sample, s.
+    dt: f64,
+    /// Encoder rates (wheels, steering), rad/s, when both samples have the angles.
+    measured: (Option<Vec<f64>>, Option<Vec<f64>>),
+    /// The previous estimate.
+    pose: Option<Pose2<f64>>,
+    /// The previous mode and faults.
+    state: Option<(Mode, Faults)>,
 }
 
 /// An MCAP log being written.
@@ -175,6 +242,7 @@ pub struct McapLog {
     path: String,
     encoder: Encoder,
     encoding: Encoding,
+    profile: ros2::Profile,
     schemas: HashMap<&'static str, u16>,
     channels: HashMap<String, u16>,
     sequence: u32,
@@ -205,7 +273,10 @@ impl McapLog {
             // 100 Hz protobuf log. They are optional (readers find messages by the chunk
             // indexes and read whole chunks); convert never used them.
             .emit_message_indexes(false)
-            .profile("")
+            .profile(match profile() {
+                ros2::Profile::Foxglove => "",
+                ros2::Profile::Ros2 => "ros2",
+            })
             .library(concat!("omnikin ", env!("CARGO_PKG_VERSION")))
             .create(NoSeek::new(Sink(out)))
             .with_context(|| format!("{flag} {shown}: cannot write"))?;
@@ -215,6 +286,7 @@ impl McapLog {
             path: shown,
             encoder: Encoder::new(name),
             encoding: ENCODING,
+            profile: profile(),
             schemas: HashMap::new(),
             channels: HashMap::new(),
             sequence: 0,
@@ -304,8 +376,12 @@ impl McapLog {
         })
     }
 
-    /// Writes the planned path on `/plan` at robot time `t`.
+    /// Writes the planned path on `/plan` at robot time `t` (not in the `ros2` profile, which
+    /// has no path message yet: [`ros2`]).
     pub fn plan(&mut self, t: f64, poses: &[Pose2<f64>]) -> Result<()> {
+        if self.profile == ros2::Profile::Ros2 {
+            return Ok(());
+        }
         let ns = self.ns(t)?;
         self.message("", foxglove::PLAN, ns, &foxglove::poses_in_frame(ns, poses))
     }
@@ -319,8 +395,64 @@ impl McapLog {
     /// [`Encoder::messages`].
     pub fn sample_under(&mut self, prefix: &str, s: &Sample) -> Result<()> {
         let ns = self.ns(s.t)?;
+        if self.profile == ros2::Profile::Ros2 {
+            for m in self.encoder.ros2_messages(prefix, s, ns) {
+                self.ros2_message(&m, ns)?;
+            }
+            return Ok(());
+        }
         for (topic, v) in self.encoder.messages(prefix, s, ns) {
             self.message(prefix, topic, ns, &v)?;
+        }
+        Ok(())
+    }
+
+    /// Writes one message of the `ros2` profile at log time `ns`, registering its schema
+    /// (`ros2msg`) and channel (`cdr`, with rosbag2's QoS and type-hash metadata) on first use.
+    fn ros2_message(&mut self, m: &ros2::Message, ns: u64) -> Result<()> {
+        let ctx = self.context();
+        let channel_id = match self.channels.get(&m.topic) {
+            Some(&id) => id,
+            None => {
+                let schema = match self.schemas.get(m.type_name) {
+                    Some(&id) => id,
+                    None => {
+                        let id = self
+                            .writer
+                            .add_schema(m.type_name, "ros2msg", m.schema.as_bytes())
+                            .context(ctx.clone())?;
+                        self.schemas.insert(m.type_name, id);
+                        id
+                    }
+                };
+                let metadata = std::collections::BTreeMap::from([
+                    (
+                        "offered_qos_profiles".to_string(),
+                        ros2::OFFERED_QOS.to_string(),
+                    ),
+                    ("topic_type_hash".to_string(), m.type_hash.to_string()),
+                ]);
+                let id = self
+                    .writer
+                    .add_channel(schema, &m.topic, "cdr", &metadata)
+                    .context(ctx.clone())?;
+                self.channels.insert(m.topic.clone(), id);
+                id
+            }
+        };
+        let header = mcap::records::MessageHeader {
+            channel_id,
+            sequence: self.sequence,
+            log_time: ns,
+            publish_time: ns,
+        };
+        self.sequence = self.sequence.wrapping_add(1);
+        self.writer
+            .write_to_known_channel(&header, &m.data)
+            .context(ctx.clone())?;
+        if self.last_flush.elapsed() >= FLUSH_EVERY {
+            self.writer.flush().context(ctx)?;
+            self.last_flush = Instant::now();
         }
         Ok(())
     }
