@@ -196,3 +196,23 @@ def test_a_ros2_profile_log_is_a_ros2_bag_rosbags_decodes(cli, tmp_path):
     assert len(joints.velocity) == 8
     levels = [s.level for _, m in topics["/diagnostics"] for s in m.status]
     assert 2 in levels, "the e-stop is an ERROR"
+
+
+def test_a_simulated_ros2_bag_has_the_plan_as_a_path(cli, tmp_path):
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    plan, mcap = tmp_path / "plan.csv", tmp_path / "sim.mcap"
+    cli.run("plan", "circle", "--robot", "kiwi", "--radius", "0.5", "--omega", "1", "--out", str(plan))
+    cli.run("simulate", str(plan), "--robot", "kiwi", "--trials", "1", "--out", str(tmp_path / "sim"),
+            "--mcap", str(mcap), "--mcap-profile", "ros2")
+    rows = read_log(plan)
+    with open(mcap, "rb") as f:
+        msgs = [(c.topic, ts.deserialize_cdr(m.data, s.name))
+                for s, c, m in mcap_reader.make_reader(f).iter_messages()]
+    paths = [m for t, m in msgs if t == "/plan"]
+    assert len(paths) == 1 and paths[0].header.frame_id == "odom"
+    poses = paths[0].poses
+    assert len(poses) == len(rows["t"])
+    assert all(abs(p.pose.position.x - x) < 1e-12 for p, x in zip(poses, rows["x"]))
+    assert any(t.endswith("/odom") for t, _ in msgs)

@@ -245,6 +245,31 @@ impl RosMessage for Odometry {
         "RIHS01_3cc97dc7fb7502f8714462c526d369e35b603cfc34d946e3f2eda2766dfec6e0";
 }
 
+/// `geometry_msgs/msg/PoseStamped`: a pose with its time and frame.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PoseStamped {
+    /// Time and frame of the pose.
+    pub header: Header,
+    /// The pose.
+    pub pose: Pose,
+}
+
+/// `nav_msgs/msg/Path`: a path as stamped poses (a planned path for RViz's Path display).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Path {
+    /// Time and frame of the path.
+    pub header: Header,
+    /// The poses along it.
+    pub poses: Vec<PoseStamped>,
+}
+
+impl RosMessage for Path {
+    const MSGDEF: &'static str = include_str!("msgdef/nav_msgs__Path.msg");
+    const TYPE_NAME: &'static str = "nav_msgs/msg/Path";
+    const TYPE_HASH: &'static str =
+        "RIHS01_1957a5bb3cee5da65c4e52e52b65a93df227efce4c20f8458b36e73066ca334b";
+}
+
 /// `geometry_msgs/msg/Transform`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Transform {

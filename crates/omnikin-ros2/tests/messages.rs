@@ -142,6 +142,29 @@ fn every_message_encodes_as_rosbags_does() {
         linear_acceleration: v3(0.1, 0.0, 9.81),
         linear_acceleration_covariance: diag3(0.01),
     });
+    let stamped = |x: f64, y: f64, q: Quaternion| PoseStamped {
+        header: header(2, 5, "odom"),
+        pose: Pose {
+            position: v3(x, y, 0.0),
+            orientation: q,
+        },
+    };
+    check(&Path {
+        header: header(2, 5, "odom"),
+        poses: vec![
+            stamped(0.0, 0.0, Quaternion::yaw(0.0)),
+            stamped(
+                0.5,
+                0.25,
+                Quaternion {
+                    x: 0.0,
+                    y: 0.0,
+                    z: 0.3826834323650898,
+                    w: 0.9238795325112867,
+                },
+            ),
+        ],
+    });
     check(&DiagnosticArray {
         header: header(5, 0, ""),
         status: vec![DiagnosticStatus {

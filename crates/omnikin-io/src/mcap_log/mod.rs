@@ -376,13 +376,13 @@ impl McapLog {
         })
     }
 
-    /// Writes the planned path on `/plan` at robot time `t` (not in the `ros2` profile, which
-    /// has no path message yet: [`ros2`]).
+    /// Writes the planned path on `/plan` at robot time `t` (`nav_msgs/msg/Path` in the
+    /// `ros2` profile).
     pub fn plan(&mut self, t: f64, poses: &[Pose2<f64>]) -> Result<()> {
-        if self.profile == ros2::Profile::Ros2 {
-            return Ok(());
-        }
         let ns = self.ns(t)?;
+        if self.profile == ros2::Profile::Ros2 {
+            return self.ros2_message(&ros2::plan(ns, poses), ns);
+        }
         self.message("", foxglove::PLAN, ns, &foxglove::poses_in_frame(ns, poses))
     }
 

@@ -14,16 +14,17 @@
 //! | `truth`, `reference` | `nav_msgs/msg/Odometry`, child frames `truth`, `reference` | the simulation's true pose, the plan's reference |
 //! | `joint_states` | `sensor_msgs/msg/JointState`, `wheel_i`, `steer_i` | encoder angles and their rates; without encoders the commanded rates |
 //! | `diagnostics` | `diagnostic_msgs/msg/DiagnosticArray` | mode changes and faults (`/events` of the Foxglove profile): OK, WARN or ERROR |
+//! | `plan` | `nav_msgs/msg/Path` in `odom` | the planned path, when a plan is uploaded or simulated ([`plan`]) |
 //!
 //! Topics are absolute (`/odom`); the Monte-Carlo trials of `simulate` go under a namespace
-//! `/trial_NNN` (a ROS name has no `-`). The Foxglove profile's `/plan` (a path) and `/link`
-//! (the link's counters) have no message here yet and are not written.
+//! `/trial_NNN` (a ROS name has no `-`). The Foxglove profile's `/link` (the link's counters)
+//! has no message here yet and is not written.
 
 use omnikin::Pose2;
 use omnikin_ros2::msg::{
-    DiagnosticArray, DiagnosticStatus, Header, JointState, KeyValue, Odometry, Pose,
-    PoseWithCovariance, Quaternion, RosMessage, TfMessage, Time, Transform, TransformStamped,
-    Twist, TwistWithCovariance, Vector3, to_cdr,
+    DiagnosticArray, DiagnosticStatus, Header, JointState, KeyValue, Odometry, Path, Pose,
+    PoseStamped, PoseWithCovariance, Quaternion, RosMessage, TfMessage, Time, Transform,
+    TransformStamped, Twist, TwistWithCovariance, Vector3, to_cdr,
 };
 
 use super::Sample;
@@ -247,6 +248,29 @@ pub fn messages(
         ));
     }
     out
+}
+
+/// The planned path `poses` (world frame) at log time `ns` on `/plan`, in `odom`.
+pub fn plan(ns: u64, poses: &[Pose2<f64>]) -> Message {
+    let pose = |p: &Pose2<f64>| PoseStamped {
+        header: header(ns, "odom"),
+        pose: Pose {
+            position: Vector3 {
+                x: p.x,
+                y: p.y,
+                z: 0.0,
+            },
+            orientation: Quaternion::yaw(p.heading),
+        },
+    };
+    message(
+        "",
+        "plan",
+        &Path {
+            header: header(ns, "odom"),
+            poses: poses.iter().map(pose).collect(),
+        },
+    )
 }
 
 /// The row's joints: `wheel_i` then `steer_i`; positions are the encoder angles, velocities

@@ -61,6 +61,13 @@ def messages():
         orientation_covariance=np.array([-1.0] + [0.0] * 8),
         angular_velocity=v3(0.01, -0.02, 0.5), angular_velocity_covariance=np.array([1e-4, 0, 0, 0, 1e-4, 0, 0, 0, 1e-4]),
         linear_acceleration=v3(0.1, 0.0, 9.81), linear_acceleration_covariance=np.array([0.01, 0, 0, 0, 0.01, 0, 0, 0, 0.01]))
+    ps = T["geometry_msgs/msg/PoseStamped"]
+    pose = T["geometry_msgs/msg/Pose"]
+    pt = T["geometry_msgs/msg/Point"]
+    yield "nav_msgs/msg/Path", T["nav_msgs/msg/Path"](header=header(2, 5, "odom"), poses=[
+        ps(header=header(2, 5, "odom"), pose=pose(position=pt(x=0.0, y=0.0, z=0.0), orientation=quat(0.0, 0.0, 0.0, 1.0))),
+        ps(header=header(2, 5, "odom"), pose=pose(position=pt(x=0.5, y=0.25, z=0.0),
+                                                   orientation=quat(0.0, 0.0, 0.3826834323650898, 0.9238795325112867)))])
     kv = T["diagnostic_msgs/msg/KeyValue"]
     yield "diagnostic_msgs/msg/DiagnosticArray", T["diagnostic_msgs/msg/DiagnosticArray"](
         header=header(5, 0, ""), status=[

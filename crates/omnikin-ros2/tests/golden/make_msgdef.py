@@ -17,6 +17,7 @@ TYPES = [
     "geometry_msgs/msg/Twist",
     "geometry_msgs/msg/TwistStamped",
     "nav_msgs/msg/Odometry",
+    "nav_msgs/msg/Path",
     "tf2_msgs/msg/TFMessage",
     "sensor_msgs/msg/JointState",
     "sensor_msgs/msg/Imu",
