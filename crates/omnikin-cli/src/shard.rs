@@ -286,18 +286,17 @@ fn reproduce_inputs(
     m.insert("rate".into(), exact(info.rate));
     m.insert("profiles".into(), info.profiles.join(","));
     m.insert("series_fingerprint".into(), series_fingerprint(series));
-    // The fit is deterministic but costly (a search over the dynamic plant): a merge takes
-    // it from the shards, which all agree on it.
-    if let Some(f) = &info.fit {
-        m.insert("dynamic_fit_name".into(), f.name.into());
-        m.insert("dynamic_fit_value".into(), exact(f.value));
-        m.insert("dynamic_fit_fitted_on".into(), f.fitted_on.clone());
-        m.insert("dynamic_fit_target".into(), exact(f.target_radius_ratio));
+    // The robot file, text and all: a merge rebuilds the same series and dynamic parameters
+    // from it, whatever file the merging machine has.
+    m.insert("robot_file".into(), info.robot_file.clone());
+    m.insert("robot_toml".into(), info.robot_toml.clone());
+    if let Some(d) = &info.dynamic {
+        m.insert("dynamic_fitted_name".into(), d.source.fitted_name.into());
+        m.insert("dynamic_fitted_value".into(), exact(d.source.fitted_value));
         m.insert(
-            "dynamic_fit_achieved".into(),
-            exact(f.achieved_radius_ratio),
+            "dynamic_fitted_comment".into(),
+            d.source.fitted_comment.clone(),
         );
-        m.insert("dynamic_fit_method".into(), f.method.clone());
     }
     m
 }
@@ -808,7 +807,9 @@ fn merge_reproduce(
             .with_context(|| format!("{}: {k} is not a count", first.join(MANIFEST).display()))
     };
     let rate = m.float(first, "rate")?;
-    let d = RobotDescription::preset("sphere-omni").context("the sphere-omni preset is missing")?;
+    let robot_file = m.input(first, "robot_file")?.to_string();
+    let robot_toml = m.input(first, "robot_toml")?.to_string();
+    let d = RobotDescription::from_toml_str(&robot_toml, &robot_file)?;
     let series = rp::sphere_2019_series(&d, rate)?;
     if series_fingerprint(&series) != m.input(first, "series_fingerprint")? {
         bail!("{first:?}: the shards planned other series than this omnikin plans at {rate} Hz");
@@ -827,24 +828,15 @@ fn merge_reproduce(
                 })
             })
             .collect::<Result<_>>()?;
-    let fit = if profiles.contains(&"dynamic") {
-        let name = m.input(first, "dynamic_fit_name")?;
-        Some(omnikin_sim::dynamics::sphere::DynamicFit {
-            name: ["com_depth"]
-                .into_iter()
-                .find(|n| *n == name)
-                .with_context(|| {
-                    format!(
-                        "{}: unknown fitted parameter {name}",
-                        first.join(MANIFEST).display()
-                    )
-                })?,
-            value: m.float(first, "dynamic_fit_value")?,
-            fitted_on: m.input(first, "dynamic_fit_fitted_on")?.into(),
-            target_radius_ratio: m.float(first, "dynamic_fit_target")?,
-            achieved_radius_ratio: m.float(first, "dynamic_fit_achieved")?,
-            method: m.input(first, "dynamic_fit_method")?.into(),
-        })
+    let dynamic = if profiles.contains(&"dynamic") {
+        let info = crate::sim::DynamicInfo::new(&robot_file, &robot_toml, &d)?;
+        if exact(info.params.com_depth) != m.input(first, "dynamic_fitted_value")? {
+            bail!(
+                "{}: the shards' robot file does not load to their com_depth",
+                first.join(MANIFEST).display()
+            );
+        }
+        Some(info)
     } else {
         None
     };
@@ -857,7 +849,9 @@ fn merge_reproduce(
             })?,
             rate,
             profiles: profiles.clone(),
-            fit,
+            robot_file,
+            robot_toml,
+            dynamic,
         };
     let runs: Vec<(&'static str, usize)> = profiles
         .iter()

@@ -759,8 +759,9 @@ pub struct ReproduceArgs {
     /// Monte-Carlo trials per series and disturbance profile (the paper ran 3).
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u64).range(1..=10_000))]
     pub trials: u64,
-    /// Trials per series of the dynamic profile (shell + platform dynamics, one parameter
-    /// fitted on the 0.4 m/s circle); 0 leaves the dynamic profile out.
+    /// Trials per series of the dynamic profile (shell + platform dynamics of the robot file
+    /// as loaded, its one fitted parameter written there by --fit-to-paper); 0 leaves the
+    /// dynamic profile out.
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u64).range(0..=10_000))]
     pub dynamic_trials: u64,
     /// Which profiles run, comma-separated, in any order: `ideal`, `hardware`, `spin-slip`
@@ -788,14 +789,18 @@ pub struct ReproduceArgs {
     #[arg(long, value_name = "K/N", value_parser = crate::shard::parse_shard)]
     pub shard: Option<omnikin_sim::shard::Shard>,
     /// Fit the dynamic model's one fitted parameter, `com_depth`, so that the 0.4 m/s
-    /// circle's radius ratio is the paper's 1.4 with every other `[dynamics]` value of
-    /// --robot-file as it is, and write it into that file (its `com_depth` line only, with a
-    /// comment saying on what, to what and when); runs no trials. Nothing is written when no
-    /// depth inside the search bracket reaches 1.4.
-    #[arg(long, requires = "robot_file")]
+    /// circle's radius ratio is the paper's 1.4 with every other `[dynamics]` value of the
+    /// robot file as it is, and write it into that file (its `com_depth` line only, with a
+    /// comment saying to what and by which command; an existing file is replaced only with
+    /// --force, like any output); runs no trials. Nothing is written when no depth inside the
+    /// search bracket reaches 1.4.
+    #[arg(long)]
     pub fit_to_paper: bool,
-    /// The sphere-omni robot file --fit-to-paper fits and writes.
-    #[arg(long, value_name = "PATH", requires = "fit_to_paper")]
+    /// The sphere-omni robot file: the one every series is planned and the dynamic profile
+    /// simulated with, as loaded (default: the built-in preset); with --fit-to-paper the file
+    /// fitted and written (default: the preset's file in the source tree,
+    /// robots/sphere-omni.toml).
+    #[arg(long, value_name = "PATH")]
     pub robot_file: Option<PathBuf>,
 }
 
@@ -808,7 +813,8 @@ pub enum ReproduceProfile {
     Hardware,
     /// The fitted speed-dependent shell spin (kinematic).
     SpinSlip,
-    /// The shell + platform dynamics (one parameter fitted on the 0.4 m/s circle).
+    /// The shell + platform dynamics of the robot file (its one fitted parameter written
+    /// there by --fit-to-paper).
     Dynamic,
 }
 
@@ -830,8 +836,12 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
     if !(a.rate.is_finite() && a.rate > 0.0) {
         bail!("--rate must be a finite number > 0 (got {})", a.rate);
     }
-    if let (true, Some(path)) = (a.fit_to_paper, &a.robot_file) {
-        return crate::fit_to_paper::run(path, a.rate);
+    if a.fit_to_paper {
+        let path = a
+            .robot_file
+            .clone()
+            .unwrap_or_else(crate::fit_to_paper::preset_file);
+        return crate::fit_to_paper::run(&path, a.rate);
     }
     let kinematic: Vec<&str> = a
         .profiles
@@ -863,7 +873,16 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
             d
         }
     };
-    let d = RobotDescription::preset("sphere-omni").context("the sphere-omni preset is missing")?;
+    let (robot_file, robot_toml) = match &a.robot_file {
+        Some(p) => {
+            crate::output::input("--robot-file", p);
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("--robot-file {}: cannot read", p.display()))?;
+            (p.display().to_string(), text)
+        }
+        None => (PRESET_LABEL.to_string(), preset_toml()?.to_string()),
+    };
+    let d = RobotDescription::from_toml_str(&robot_toml, &robot_file)?;
     let robot = d.build::<f64>()?;
     let series = rp::sphere_2019_series(&d, a.rate)?;
     let dyn_trials = if run_dynamic {
@@ -895,17 +914,14 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
         .num_threads(a.threads.unwrap_or(0))
         .build()
         .context("cannot start worker threads")?;
-    // The one fitted parameter of the dynamic profile, on the 0.4 m/s circle only.
-    let fit = if run_dynamic {
-        Some(
-            rp::dynamic_fit(&series)
-                .context("dynamic profile: fitting the centre-of-mass depth")?,
-        )
+    // The dynamic profile: the robot file's [dynamics] as loaded, nothing overridden.
+    let dynamic = if run_dynamic {
+        Some(DynamicInfo::new(&robot_file, &robot_toml, &d)?)
     } else {
         None
     };
-    let dynamic = fit.as_ref().map(rp::dynamic_profile);
-    let plants = rp::Plants::new(&robot, a.seed, &kinematic, dynamic.as_ref());
+    let profile = dynamic.as_ref().map(|i| rp::dynamic_profile(i.params));
+    let plants = rp::Plants::new(&robot, a.seed, &kinematic, profile.as_ref());
     let runs = plants.runs(a.trials as usize, dyn_trials);
     let info = ReproduceInfo {
         trials: a.trials as usize,
@@ -913,7 +929,9 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
         seed: a.seed,
         rate: a.rate,
         profiles: runs.iter().map(|r| r.0).collect(),
-        fit,
+        robot_file,
+        robot_toml,
+        dynamic,
     };
     if let Some(shard) = a.shard {
         return crate::shard::reproduce_shard(&out, shard, &info, &plants, &series, &pool);
@@ -940,6 +958,38 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
     report.finish(start)
 }
 
+/// What `reproduce` says for the built-in preset as its robot file.
+pub(crate) const PRESET_LABEL: &str = "preset sphere-omni";
+
+/// The built-in `sphere-omni` preset's TOML text.
+pub(crate) fn preset_toml() -> Result<&'static str> {
+    omnikin::description::PRESETS
+        .iter()
+        .find(|(n, _)| *n == "sphere-omni")
+        .map(|(_, t)| *t)
+        .context("the sphere-omni preset is missing")
+}
+
+/// The dynamic profile's robot file as loaded: the parameters and what the outputs say about
+/// them.
+#[derive(Clone, Debug)]
+pub(crate) struct DynamicInfo {
+    /// The robot file's `[dynamics]` as loaded.
+    pub params: omnikin_sim::dynamics::sphere::SphereDynamics,
+    /// Its name and its one fitted value.
+    pub source: omnikin_sim::reproduce::DynamicSource,
+}
+
+impl DynamicInfo {
+    /// The dynamic profile of `d`, loaded from `robot_toml` named `robot_file`.
+    pub fn new(robot_file: &str, robot_toml: &str, d: &RobotDescription) -> Result<Self> {
+        let params = omnikin_sim::dynamics::sphere::SphereDynamics::from_description(d)
+            .with_context(|| format!("{robot_file}: [dynamics]"))?;
+        let source = omnikin_sim::reproduce::DynamicSource::new(robot_file, robot_toml, &params);
+        Ok(Self { params, source })
+    }
+}
+
 /// What `reproduce`'s outputs say about the run: the same from one run and from `omnikin
 /// merge` of its shards.
 #[derive(Clone, Debug)]
@@ -954,8 +1004,13 @@ pub(crate) struct ReproduceInfo {
     pub rate: f64,
     /// The profiles that ran, in table order.
     pub profiles: Vec<&'static str>,
-    /// The dynamic profile's fit, when it ran.
-    pub fit: Option<omnikin_sim::dynamics::sphere::DynamicFit>,
+    /// The robot file the series were planned with (and the dynamic profile simulated with):
+    /// its path as given or [`PRESET_LABEL`].
+    pub robot_file: String,
+    /// Its TOML text (shards carry it, so a merge rebuilds the same robot).
+    pub robot_toml: String,
+    /// The dynamic profile's parameters, when it ran.
+    pub dynamic: Option<DynamicInfo>,
 }
 
 /// The finishing step of `reproduce`, shared by one run and `omnikin merge`: one figure per
@@ -1033,6 +1088,20 @@ impl<'a> Report<'a> {
                     .collect::<std::collections::BTreeMap<_, _>>()
             ),
         );
+        if let Some(d) = self.info.dynamic.as_ref() {
+            if outcomes.iter().any(|o| o.profile == "dynamic") {
+                let c = omnikin_sim::reproduce::nominal_contact_events(d.params, s)
+                    .with_context(|| format!("{}: contact events", s.name))?;
+                if let Some(series) = self.all.get_mut(&s.name) {
+                    series["dynamic_nominal_contact_events"] = json!({
+                        "roller_slips": c.roller_slips,
+                        "lift_offs": c.lift_offs,
+                        "floor_slips": c.floor_slips,
+                        "lost_steps": c.lost_steps,
+                    });
+                }
+            }
+        }
         self.rows.push(omnikin_sim::reproduce::row(s, outcomes));
         Ok(())
     }
@@ -1042,9 +1111,14 @@ impl<'a> Report<'a> {
     pub fn finish(self, start: std::time::Instant) -> Result<()> {
         use omnikin_sim::reproduce as rp;
         let (out, info, rows) = (self.out, &self.info, &self.rows);
-        let fit = info.fit.as_ref();
+        let source = info.dynamic.as_ref().map(|d| &d.source);
         let dyn_trials = info.dynamic_trials;
-        let md = rp::table_markdown(rows, info.trials, info.seed, fit.map(|f| (f, dyn_trials)));
+        let md = rp::table_markdown(
+            rows,
+            info.trials,
+            info.seed,
+            source.map(|f| (f, dyn_trials)),
+        );
         write_file(&out.join("table.md"), |w| w.write_all(md.as_bytes()))?;
         write_file(&out.join("table.csv"), |w| {
             w.write_all(rp::table_csv(rows).as_bytes())
@@ -1056,12 +1130,12 @@ impl<'a> Report<'a> {
             "plan_rate_hz": info.rate,
             "spin_slip_gain": g, "spin_slip_exponent": p,
             "spin_slip_fit": { "fitted_on": ["circle-0.4", "circle-0.5"], "parameters": ["spin_slip_gain", "spin_slip_exponent"] },
-            "dynamic_fit": fit.map(|f| json!({
-                "name": f.name, "value": f.value, "unit": "m", "fitted_on": f.fitted_on,
-                "target_radius_ratio": f.target_radius_ratio,
-                "achieved_radius_ratio": f.achieved_radius_ratio, "method": f.method,
-                "assumed": { "pivot_friction": rp::DYNAMIC_PIVOT_FRICTION },
+            "dynamic_robot_file": source.map(|f| &f.robot_file),
+            "dynamic_fitted": source.map(|f| json!({
+                "name": f.fitted_name, "value": f.fitted_value, "unit": "m",
+                "comment": f.fitted_comment,
             })),
+            "dynamic_contact_events_note": source.map(|_| "series.*.dynamic_nominal_contact_events: roller slips and lift-offs per wheel, floor-cone exits (steps), lost steps per wheel, of the deterministic model with the robot file's values (no trial jitter)"),
             "series": self.all,
         });
         write_file(&out.join("metrics.json"), |w| {

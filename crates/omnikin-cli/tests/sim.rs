@@ -294,8 +294,8 @@ fn reproduce_sphere_2019_writes_the_table_and_figures() {
             assert!((hw - 1.0).abs() < 0.03, "{}: {hw}", &r[0]);
         }
         if &r[0] == "circle-0.4" {
-            // The dynamic profile's one parameter is fitted here (deterministic model: 1.4;
-            // two jittered trials stay near it).
+            // The preset's one fitted parameter was fitted here by --fit-to-paper
+            // (deterministic model: 1.4; two jittered trials stay near it).
             let got: f64 = r[col("dynamic_radius_ratio")].parse().unwrap();
             assert!((got - 1.4).abs() < 0.1, "dynamic circle-0.4: {got}");
         }
@@ -309,9 +309,9 @@ fn reproduce_sphere_2019_writes_the_table_and_figures() {
     assert_eq!(n, 8);
     let j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
-    let fit = &j["dynamic_fit"];
+    let fit = &j["dynamic_fitted"];
     assert_eq!(fit["name"], "com_depth");
-    assert_eq!(fit["fitted_on"], "circle-0.4");
+    assert_eq!(j["dynamic_robot_file"], "preset sphere-omni");
     let h = fit["value"].as_f64().unwrap();
     assert!(h > 0.04 && h < 0.135, "{fit}");
     for s in ["square-0.5", "circle-0.5"] {

@@ -19,10 +19,12 @@
 //!   `Ω3 = g·|V|^p·ω̃_z`, with `g`, `p` fitted to the paper's two radius ratios
 //!   ([`spin_slip_fit`]). This is a hypothesis consistent with the paper, not a derivation:
 //!   a fit with no degree of freedom left.
-//! * `dynamic` — the shell + platform dynamics ([`crate::dynamics::sphere`]) with the
-//!   hardware profile's variation ([`DynamicProfile::hardware`]) and **one** fitted
-//!   parameter, the platform's centre-of-mass depth, fitted to the 0.4 m/s circle only
-//!   ([`dynamic_fit`]); its 0.1, 0.2, 0.5 m/s circles and all squares are predictions.
+//! * `dynamic` — the shell + platform dynamics ([`crate::dynamics::sphere`]) of the robot
+//!   file as loaded ([`DynamicSource`]; nothing overridden at run time) with the hardware
+//!   profile's variation ([`DynamicProfile::hardware`]). Its **one** fitted parameter, the
+//!   platform's centre-of-mass depth, is fitted to the 0.4 m/s circle by `omnikin reproduce
+//!   sphere-2019 --fit-to-paper` ([`fit_to_paper`]) and written into the robot file; its 0.1,
+//!   0.2, 0.5 m/s circles and all squares are predictions.
 
 use omnikin::description::RobotDescription;
 use omnikin_plan::generators::{Circle, Square};
@@ -209,38 +211,42 @@ pub fn spin_slip_profile() -> Profile {
 /// The series the dynamic profile's one parameter is fitted on.
 pub const DYNAMIC_FIT_SERIES: &str = "circle-0.4";
 
-/// Pivot friction of the dynamic profile, N·m: 0.05 N·m, ten times
-/// [`SphereDynamics::paper_000`]'s hard-contact estimate, a stated assumption (not searched):
-/// the regime where the floor holds the shell's spin (the 0.4 m/s circle's ratio changes by
-/// < 0.01 for any torque from 0.05 to 0.2 N·m). With the default 5 mN·m no centre-of-mass depth
-/// inside the shell brings the 0.4 m/s ratio down to 1.4 (with the roller contacts the nearest is
-/// 1.485 at h = 0.135 m; it stayed ≥ 1.66 for h ≤ 0.12 m before them).
-pub const DYNAMIC_PIVOT_FRICTION: f64 = 0.05;
+/// The robot file the dynamic profile ran with, as it was loaded (nothing is overridden at run
+/// time): where it came from and its one fitted value with that line's comment, so the
+/// outputs say which parameter set produced them.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DynamicSource {
+    /// The robot file: its path as given, or `preset sphere-omni` for the built-in preset.
+    pub robot_file: String,
+    /// The fitted parameter's `[dynamics]` key: `com_depth`.
+    pub fitted_name: &'static str,
+    /// Its value as loaded, m.
+    pub fitted_value: f64,
+    /// The comment on its line of the file (`fitted: … (omnikin reproduce sphere-2019
+    /// --fit-to-paper)` once fitted); empty when the line has none.
+    pub fitted_comment: String,
+}
 
-/// The dynamic profile's nominal robot before the fit: [`SphereDynamics::paper_000`] with
-/// [`DYNAMIC_PIVOT_FRICTION`].
-pub fn dynamic_base() -> SphereDynamics {
-    SphereDynamics {
-        pivot_friction: DYNAMIC_PIVOT_FRICTION,
-        ..SphereDynamics::paper_000()
+impl DynamicSource {
+    /// The source of `params` loaded from `text` (the robot file's TOML), named `robot_file`.
+    pub fn new(robot_file: impl Into<String>, text: &str, params: &SphereDynamics) -> Self {
+        Self {
+            robot_file: robot_file.into(),
+            fitted_name: "com_depth",
+            fitted_value: params.com_depth,
+            fitted_comment: crate::dynamics::sphere::com_depth_comment(text).unwrap_or_default(),
+        }
     }
 }
 
-/// Fits the dynamic profile's one parameter, the centre-of-mass depth, to the paper's 1.4 on
-/// [`DYNAMIC_FIT_SERIES`] ([`crate::dynamics::sphere::fit_com_depth`] on [`dynamic_base`]).
-///
-/// # Errors
-/// [`DynamicsError::Input`] when `series` has no [`DYNAMIC_FIT_SERIES`]; the dynamics' error.
-pub fn dynamic_fit(series: &[Series]) -> Result<DynamicFit, DynamicsError> {
-    fit_to_paper(dynamic_base(), series)
-}
-
 /// Fits the centre-of-mass depth of `base` (a robot file's `[dynamics]` as it is) to the
-/// paper's 1.4 on [`DYNAMIC_FIT_SERIES`]: what `omnikin reproduce sphere-2019 --fit-to-paper`
-/// writes into the robot file.
+/// paper's 1.4 on [`DYNAMIC_FIT_SERIES`] ([`crate::dynamics::sphere::fit_com_depth`]): what
+/// `omnikin reproduce sphere-2019 --fit-to-paper` writes into the robot file. Nothing else of
+/// `base` changes.
 ///
 /// # Errors
-/// [`DynamicsError::Input`] when `series` has no [`DYNAMIC_FIT_SERIES`]; the dynamics' error.
+/// [`DynamicsError::Input`] when `series` has no [`DYNAMIC_FIT_SERIES`] or no depth in the
+/// search bracket reaches 1.4; the dynamics' error.
 pub fn fit_to_paper(base: SphereDynamics, series: &[Series]) -> Result<DynamicFit, DynamicsError> {
     let s = series
         .iter()
@@ -254,13 +260,23 @@ pub fn fit_to_paper(base: SphereDynamics, series: &[Series]) -> Result<DynamicFi
     crate::dynamics::sphere::fit_com_depth(base, &s.plan, &s.name, target)
 }
 
-/// The dynamic profile with the fitted parameter: [`dynamic_base`] with the fitted depth and
-/// [`DynamicProfile::hardware`]'s variation.
-pub fn dynamic_profile(fit: &DynamicFit) -> DynamicProfile {
-    DynamicProfile::hardware(SphereDynamics {
-        com_depth: fit.value,
-        ..dynamic_base()
-    })
+/// The dynamic profile of a robot file's `[dynamics]` as loaded, `params`, with
+/// [`DynamicProfile::hardware`]'s trial-to-trial variation.
+pub fn dynamic_profile(params: SphereDynamics) -> DynamicProfile {
+    DynamicProfile::hardware(params)
+}
+
+/// The contact events of `series` run once through the deterministic model `params` (the
+/// robot file's values, without the trials' jitter): roller slips, lift-offs, floor-cone
+/// exits and lost steps ([`crate::dynamics::sphere::ContactEvents`]).
+///
+/// # Errors
+/// The dynamics' error.
+pub fn nominal_contact_events(
+    params: SphereDynamics,
+    series: &Series,
+) -> Result<crate::dynamics::sphere::ContactEvents, DynamicsError> {
+    Ok(crate::dynamics::sphere::simulate_plan(params, &series.plan)?.contact_events)
 }
 
 /// The three kinematic profiles, by name (the dynamic one is [`dynamic_profile`]).
@@ -513,13 +529,13 @@ pub fn row(series: &Series, outcomes: &[Outcome]) -> Row {
     }
 }
 
-/// The results table as Markdown; `dynamic` = the dynamic profile's fit and trial count when
-/// it ran.
+/// The results table as Markdown; `dynamic` = the dynamic profile's robot file and trial
+/// count when it ran.
 pub fn table_markdown(
     rows: &[Row],
     trials: usize,
     seed: u64,
-    dynamic: Option<(&DynamicFit, usize)>,
+    dynamic: Option<(&DynamicSource, usize)>,
 ) -> String {
     let (g, p) = spin_slip_fit();
     let dyn_trials = dynamic.map_or(String::new(), |(_, n)| {
@@ -561,7 +577,7 @@ pub fn table_markdown(
         1.0 / (1.0 - g * 0.1f64.powf(p)),
         1.0 / (1.0 - g * 0.2f64.powf(p)),
     ));
-    if let Some((fit, _)) = dynamic {
+    if let Some((src, _)) = dynamic {
         let find = |name: &str| rows.iter().find(|r| r.series == name);
         let ratio = |name: &str| fmt_opt(find(name).and_then(|r| r.dynamic_radius_ratio), 3);
         let from_mean = |name: &str| {
@@ -574,18 +590,21 @@ pub fn table_markdown(
         };
         s.push_str(&format!(
             "\n## The dynamic profile (shell + platform dynamics)\n\n\
-             * **One fitted parameter:** `{}` = {:.4} m, fitted on `{}` only (target {}, the deterministic model gives {:.3}; {}). \
-             Pivot friction {DYNAMIC_PIVOT_FRICTION} N·m is a stated assumption (the shell's spin held by the floor), every other value is the `[dynamics]` default.\n\
+             * **Parameters: the robot file as loaded**, {}; nothing is overridden at run time. \
+             **One fitted parameter:** `{}` = {} m (`# {}`); every other `[dynamics]` value as the file states it \
+             (the pivot friction from contact mechanics: docs/sphere-dynamics.md).\n\
              * **Predictions (not fitted):** circle radius ratio {} at 0.1 m/s, {} at 0.2 m/s, {} at 0.5 m/s (paper 1.6); \
              largest run-to-mean deviation on the squares {} / {} / {} / {} mm at 0.1 / 0.2 / 0.4 / 0.5 m/s (paper: up to 110 mm on the fast runs).\n\
              * **Variation per trial:** the hardware profile's wheel-radius error (1 %), speed fluctuation (1 % per plan interval) and tracking noise (2 mm), \
              3 % on the centre-of-mass depth and 20 % (log-normal) on the pivot friction; seeded per trial, identical for any thread count.\n",
-            fit.name,
-            fit.value,
-            fit.fitted_on,
-            fit.target_radius_ratio,
-            fit.achieved_radius_ratio,
-            fit.method,
+            src.robot_file,
+            src.fitted_name,
+            src.fitted_value,
+            if src.fitted_comment.is_empty() {
+                "no comment: not fitted"
+            } else {
+                &src.fitted_comment
+            },
             ratio("circle-0.1"),
             ratio("circle-0.2"),
             ratio("circle-0.5"),

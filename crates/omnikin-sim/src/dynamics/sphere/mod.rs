@@ -173,7 +173,7 @@ pub mod trial;
 
 pub use monte_carlo::{DynamicFit, DynamicProfile, fit_com_depth, radius_ratio};
 pub use params::{DynamicsError, SphereDynamics};
-pub use robot_file::write_fitted_com_depth;
+pub use robot_file::{com_depth_comment, write_fitted_com_depth};
 pub use sim::{ContactEvents, Residuals, SphereSim, SphereState, SphereStep};
 pub use stepper::Stepper;
 pub use trial::{ContactEvent, ContactEventKind, DynamicTrial, simulate_plan};

@@ -1,7 +1,7 @@
 //! The dynamic plant in a Monte Carlo: [`DynamicProfile`] (the nominal [`SphereDynamics`] and
 //! the trial-to-trial variation a real robot's runs have), [`DynamicProfile::trial`] (one
 //! seeded trial) and [`fit_com_depth`] (the one-parameter fit of the centre-of-mass depth to a
-//! circle's radius ratio, by bisection).
+//! circle's radius ratio: a scan, then bisection).
 //!
 //! The variation mirrors what [`crate::reproduce::hardware_profile`] draws for the kinematic
 //! plant, with the same magnitudes: a wheel-radius error per wheel and trial (as a relative
@@ -144,17 +144,24 @@ pub struct DynamicFit {
 /// 0.15 m shell radius.
 pub const COM_DEPTH_BRACKET: (f64, f64) = (0.04, 0.135);
 
-/// Bisection iterations of [`fit_com_depth`]: the bracket shrinks to 0.095 m / 2^18 ≈ 0.4 µm.
-pub const FIT_ITERATIONS: usize = 18;
+/// Depths of [`fit_com_depth`]'s coarse scan, evenly over [`COM_DEPTH_BRACKET`] (5 mm apart).
+pub const FIT_SCAN_POINTS: usize = 20;
+
+/// Bisection iterations of [`fit_com_depth`] inside one 5 mm scan interval: it shrinks to
+/// 5 mm / 2^14 ≈ 0.3 µm.
+pub const FIT_ITERATIONS: usize = 14;
 
 /// Fits the centre-of-mass depth `h` of `base` so that the deterministic model's radius ratio
-/// on `plan` (a circle, named `series`) equals `target`: bisection on `ratio(h) − target` over
-/// [`COM_DEPTH_BRACKET`] (the ratio falls as `h` grows: a deeper centre of mass leans less)
-/// with [`FIT_ITERATIONS`] steps. Deterministic. When the target lies outside the ratios at the
-/// bracket's ends, the nearer end is returned (and `achieved_radius_ratio` shows the gap).
+/// on `plan` (a circle, named `series`) equals `target`. The ratio is not monotonic in `h` in
+/// general (the lean, the start's transient and the contacts pull in different directions), so
+/// the search scans [`FIT_SCAN_POINTS`] depths over [`COM_DEPTH_BRACKET`] first, takes the
+/// scan interval whose ends straddle `target` nearest to `base.com_depth` (the parts estimate
+/// the file held), and bisects inside it ([`FIT_ITERATIONS`] steps). Deterministic.
 ///
 /// # Errors
-/// The dynamics' error at any evaluated depth.
+/// [`DynamicsError::Input`] naming `com_depth` (its value: the scan's ratio nearest to
+/// `target`) when no scan interval contains `target`; the dynamics' error at any evaluated
+/// depth.
 pub fn fit_com_depth(
     base: SphereDynamics,
     plan: &Plan,
@@ -166,27 +173,49 @@ pub fn fit_com_depth(
         p.com_depth = h;
         radius_ratio(p, plan)
     };
-    let (mut lo, mut hi) = COM_DEPTH_BRACKET;
-    let (r_lo, r_hi) = (ratio(lo)?, ratio(hi)?);
-    let mut evaluations = 2;
-    let (value, achieved) = if r_lo <= target {
-        (lo, r_lo)
-    } else if r_hi >= target {
-        (hi, r_hi)
-    } else {
-        for _ in 0..FIT_ITERATIONS {
-            let mid = 0.5 * (lo + hi);
-            evaluations += 1;
-            if ratio(mid)? > target {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        let h = 0.5 * (lo + hi);
-        evaluations += 1;
-        (h, ratio(h)?)
+    let (a, b) = COM_DEPTH_BRACKET;
+    let step = (b - a) / (FIT_SCAN_POINTS - 1) as f64;
+    let depths: Vec<f64> = (0..FIT_SCAN_POINTS).map(|k| a + step * k as f64).collect();
+    let ratios = depths
+        .iter()
+        .map(|&h| ratio(h))
+        .collect::<Result<Vec<f64>, _>>()?;
+    let mut evaluations = FIT_SCAN_POINTS;
+    let below = |r: f64| r < target;
+    let crossing = (0..FIT_SCAN_POINTS - 1)
+        .filter(|&k| below(ratios[k]) != below(ratios[k + 1]))
+        .min_by(|&i, &j| {
+            let d = |k: usize| (0.5 * (depths[k] + depths[k + 1]) - base.com_depth).abs();
+            d(i).total_cmp(&d(j))
+        });
+    let Some(k) = crossing else {
+        let nearest = ratios
+            .iter()
+            .copied()
+            .min_by(|x, y| (x - target).abs().total_cmp(&(y - target).abs()))
+            .unwrap_or(f64::NAN);
+        return Err(DynamicsError::Input {
+            what: "com_depth",
+            value: nearest,
+            rule: "no centre-of-mass depth in the fit's bracket [0.04, 0.135] m gives the \
+                   target radius ratio with the other [dynamics] values as they are (the value \
+                   is the scan's ratio nearest to it)",
+        });
     };
+    let (mut lo, mut hi) = (depths[k], depths[k + 1]);
+    let lo_below = below(ratios[k]);
+    for _ in 0..FIT_ITERATIONS {
+        let mid = 0.5 * (lo + hi);
+        evaluations += 1;
+        if below(ratio(mid)?) == lo_below {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let value = 0.5 * (lo + hi);
+    evaluations += 1;
+    let achieved = ratio(value)?;
     Ok(DynamicFit {
         name: "com_depth",
         value,
@@ -194,9 +223,12 @@ pub fn fit_com_depth(
         target_radius_ratio: target,
         achieved_radius_ratio: achieved,
         method: format!(
-            "bisection of the deterministic model's radius ratio on {series} over h in \
-             [{}, {}] m, {evaluations} evaluations",
-            COM_DEPTH_BRACKET.0, COM_DEPTH_BRACKET.1
+            "scan of {FIT_SCAN_POINTS} depths over [{a}, {b}] m, then bisection of the \
+             deterministic model's radius ratio on {series} inside [{:.4}, {:.4}] m (the \
+             crossing nearest the file's {} m), {evaluations} evaluations",
+            depths[k],
+            depths[k + 1],
+            base.com_depth
         ),
     })
 }

@@ -88,8 +88,10 @@ pub struct SphereDynamics {
     /// estimate (0–0.04: from a chopper drive's residual to the voltage-driven `k_t²/R`).
     pub stepper_damping: f64,
     /// Coulomb pivot (spin) friction torque at the floor contact, about the vertical, N·m.
-    /// Default 0.005 N·m: `(3π/16) μ N a` for a Hertz-like contact patch of radius a ≈ 0.7 mm,
-    /// μ = 0.5, N = M g ≈ 24.5 N (the "a few mN·m"). The one parameter to fit.
+    /// Default 0.005 N·m: `(3π/16) μ N a` for the Hertz patch of a polycarbonate shell on a
+    /// hard (concrete) floor, a ≈ 1 mm, μ ≈ 0.4, N = M g ≈ 24.5 N. Set from contact mechanics,
+    /// not fitted: the `sphere-omni` preset states a vinyl floor, 0.021 N·m (range 0.008–0.042;
+    /// the derivation is in docs/sphere-dynamics.md).
     pub pivot_friction: f64,
     /// Velocity scale of the pivot friction's regularisation `τ tanh(Ω3/ε)`, rad/s. Default
     /// 0.005 rad/s (stiffness τ/ε well inside the 1 ms RK4 step's stability region).
