@@ -90,6 +90,8 @@ fn identify_recovers_a_perturbed_kiwi_from_simulated_logs() {
             "--out",
             "identified.toml",
             "--json",
+            "--plot",
+            "residuals.png",
         ])
         .arg("--encoders")
         .args(&enc)
@@ -130,6 +132,46 @@ fn identify_recovers_a_perturbed_kiwi_from_simulated_logs() {
     };
     assert!((w[1].radius - 0.051).abs() < 1e-4, "{}", w[1].radius);
     assert!(written.contains("max_wheel_rate = 40.0"));
+    // Per run, the estimate explains the logs better than the prior did, down to the camera's
+    // noise (5 mm per axis: an RMS length of 5 mm · √2), and the residual figure is a PNG.
+    let noise = 0.005 * std::f64::consts::SQRT_2;
+    for r in json["runs"].as_array().unwrap() {
+        let (b, a) = (
+            r["position_rms_before_m"].as_f64().unwrap(),
+            r["position_rms_after_m"].as_f64().unwrap(),
+        );
+        assert!(a < b && (a - noise).abs() < 0.3 * noise, "{r}");
+    }
+    assert_eq!(json["runs"].as_array().unwrap().len(), PLANS.len());
+    let png = std::fs::read(dir.join("residuals.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG\r\n\x1a\n"), "{:?}", &png[..8]);
+    // SVG and PDF by the extension (the spin alone: quick; a kiwi's other plans alone leave
+    // near-blind directions that the fit runs away in), the SVG with its axes' units and series.
+    for name in ["residuals.svg", "residuals.pdf"] {
+        omnikin()
+            .current_dir(&*dir)
+            .args(["identify", "--robot", "kiwi", "--plot", name])
+            .args(["--out", &format!("{name}.toml")])
+            .arg("--encoders")
+            .arg(&enc[2])
+            .arg("--fixes")
+            .arg(&fixes[2])
+            .assert()
+            .success();
+    }
+    let svg = std::fs::read_to_string(dir.join("residuals.svg")).unwrap();
+    assert!(svg.starts_with("<svg"), "{}", &svg[..40]);
+    for label in [
+        "position residual |Δp| [m]",
+        "time t [s]",
+        "before (prior), RMS",
+        "after (estimate), RMS",
+        "sim-spin",
+    ] {
+        assert!(svg.contains(label), "{label}");
+    }
+    let pdf = std::fs::read(dir.join("residuals.pdf")).unwrap();
+    assert!(pdf.starts_with(b"%PDF-1."), "{:?}", &pdf[..8]);
 }
 
 #[test]
@@ -170,5 +212,19 @@ fn identify_refuses_mismatched_or_malformed_inputs() {
         .assert()
         .failure()
         .stderr(predicate::str::contains("enc.csv").and(predicate::str::contains("q3")));
+    // An unknown figure format is refused naming the flag, before anything runs.
+    omnikin()
+        .current_dir(&*dir)
+        .args([
+            "identify", "--robot", "kiwi", "--out", "o.toml", "--plot", "r.jpg",
+        ])
+        .args(["--encoders", "enc.csv", "--fixes", "fix.csv"])
+        .assert()
+        .failure()
+        .stderr(
+            predicate::str::contains("--plot r.jpg")
+                .and(predicate::str::contains(".svg, .png or .pdf")),
+        );
     assert!(!dir.join("o.toml").exists());
+    assert!(!dir.join("r.jpg").exists());
 }
