@@ -228,3 +228,112 @@ fn identify_refuses_mismatched_or_malformed_inputs() {
     assert!(!dir.join("o.toml").exists());
     assert!(!dir.join("r.jpg").exists());
 }
+
+/// Issue 37 end to end for a swerve: `plan sysid --robot swerve4` (the modules turn at rest
+/// between segments), `simulate --emit-sensors` with a robot file whose front modules' wheels
+/// are 1.5 % larger and a gyro biased by 0.01 rad/s, then `identify` with the preset as prior:
+/// every fitted value within 3σ of the truth (the front scales 1.015, everything else the
+/// preset's), the front scales fitted (not held), and the gauge of the module square held.
+#[test]
+fn identify_recovers_a_perturbed_swerve4_end_to_end() {
+    let dir = TestDir::new("identify", "swerve4");
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../robots/swerve4.toml"),
+    )
+    .unwrap();
+    // The first two modules (front left, front right) get 0.05 · 1.015 m wheels.
+    let truth = text
+        .replacen("wheel_radius = 0.05 ", "wheel_radius = 0.05075 ", 1)
+        .replacen(
+            "position = [0.3, -0.3]\nwheel_radius = 0.05\n",
+            "position = [0.3, -0.3]\nwheel_radius = 0.05075\n",
+            1,
+        );
+    assert_eq!(truth.matches("0.05075").count(), 2, "{truth}");
+    std::fs::write(dir.join("swerve4-true.toml"), &truth).unwrap();
+    std::fs::write(
+        dir.join("sensors.toml"),
+        "counts_per_rev = 4096\n[gyro]\nnoise_std = 0.002\nbias = 0.01\nbias_std = 0.0\n[camera]\nperiod = 0.1\nlatency = 0.0\nnoise_std = 0.003\noutlier_probability = 0.0\noutlier_distance = 0.5\n",
+    )
+    .unwrap();
+    omnikin()
+        .current_dir(&*dir)
+        .args(["plan", "sysid", "--robot", "swerve4", "--out", "plans"])
+        .assert()
+        .success();
+    let (mut enc, mut fixes) = (Vec::new(), Vec::new());
+    for p in PLANS {
+        omnikin()
+            .current_dir(&*dir)
+            .args(["simulate", "--robot", "swerve4-true.toml", "--trials", "1"])
+            .args([
+                "--seed",
+                "11",
+                "--emit-sensors",
+                "--sensors",
+                "sensors.toml",
+            ])
+            .args(["--out", &format!("sim-{p}"), &format!("plans/{p}.csv")])
+            .assert()
+            .success();
+        enc.push(format!("sim-{p}/sensors/trial-000/encoders.csv"));
+        fixes.push(format!("sim-{p}/sensors/trial-000/fixes.csv"));
+    }
+    let out = omnikin()
+        .current_dir(&*dir)
+        .args([
+            "identify",
+            "--robot",
+            "swerve4",
+            "--out",
+            "identified.toml",
+            "--json",
+        ])
+        .arg("--encoders")
+        .args(&enc)
+        .arg("--fixes")
+        .args(&fixes)
+        .assert()
+        .success();
+    let json: serde_json::Value =
+        serde_json::from_slice(&out.get_output().stdout).expect("one JSON object");
+    let mut held = 0;
+    for p in json["parameters"].as_array().unwrap() {
+        let name = p["name"].as_str().unwrap();
+        let truth = match name {
+            "modules[1].radius_scale" | "modules[2].radius_scale" => 1.015,
+            "gyro.bias" => 0.01,
+            _ => p["prior"].as_f64().unwrap(),
+        };
+        let (v, s) = (p["value"].as_f64().unwrap(), p["sigma"].as_f64().unwrap());
+        if p["status"] == "held" {
+            held += 1;
+            continue;
+        }
+        assert!(
+            (v - truth).abs() <= 3.0 * s && s > 0.0,
+            "{name}: {p} vs truth {truth}"
+        );
+    }
+    assert_eq!(held, 6, "{json}");
+    for front in ["modules[1].radius_scale", "modules[2].radius_scale"] {
+        let p = json["parameters"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["name"] == front)
+            .unwrap();
+        assert_eq!(p["status"], "fitted", "{p}");
+        assert!(p["sigma"].as_f64().unwrap() < 2e-3, "{p}");
+    }
+    let written = std::fs::read_to_string(dir.join("identified.toml")).unwrap();
+    let d = RobotDescription::from_toml_str(&written, "identified.toml").unwrap();
+    let Geometry::Swerve { modules, .. } = d.geometry else {
+        panic!("a swerve")
+    };
+    assert!(
+        (modules[0].wheel_radius - 0.05075).abs() < 1e-4,
+        "{}",
+        modules[0].wheel_radius
+    );
+}
