@@ -6,8 +6,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use omnikin::description::{PRESETS, RobotDescription};
-use omnikin_sim::identify::runs::{EncoderLog, GyroLog, Reference, Run};
-use omnikin_sim::identify::{Estimate, Identified, Options, Status, identify, robot_file};
+use omnikin_sim::identify::runs::Run;
+use omnikin_sim::identify::{Options, identify, report, robot_file};
 use omnikin_sim::table::NumericTable;
 
 use crate::output;
@@ -42,6 +42,10 @@ pub struct IdentifyArgs {
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// Draw each run's pose residuals against time, before (the prior) and after (the
+    /// estimate): SVG, PNG or PDF by the extension.
+    #[arg(long, value_name = "PATH")]
+    pub plot: Option<PathBuf>,
 }
 
 fn table(path: &std::path::Path) -> Result<NumericTable> {
@@ -89,17 +93,14 @@ fn runs(a: &IdentifyArgs, desc: &RobotDescription) -> Result<Vec<Run>> {
     }
     let mut out = Vec::with_capacity(n);
     for (i, log) in a.encoders.iter().enumerate() {
-        let (encoders, mut gyro) =
-            EncoderLog::from_table(&table(log)?, robot.wheels(), robot.steerable())?;
-        if let Some(imu) = a.imu.get(i) {
-            gyro = Some(GyroLog::from_imu_table(&table(imu)?)?);
-        }
-        let reference = Reference::from_table(&table(&refs[i])?)?;
-        out.push(Run {
-            encoders,
-            reference,
-            gyro,
-        });
+        let imu = a.imu.get(i).map(|p| table(p)).transpose()?;
+        out.push(Run::from_tables(
+            &table(log)?,
+            &table(&refs[i])?,
+            imu.as_ref(),
+            robot.wheels(),
+            robot.steerable(),
+        )?);
     }
     Ok(out)
 }
@@ -111,69 +112,11 @@ fn file_names(a: &IdentifyArgs) -> String {
     all.join(", ")
 }
 
-fn json(id: &Identified, out: &std::path::Path) -> serde_json::Value {
-    let est = |e: &Estimate| {
-        let (status, reason) = match &e.status {
-            Status::Fitted => ("fitted", None),
-            Status::Fixed(why) => ("held", Some(why.clone())),
-        };
-        serde_json::json!({
-            "name": e.name, "unit": e.unit, "prior": e.prior, "value": e.value,
-            "sigma": e.sigma, "status": status, "reason": reason,
-        })
-    };
-    serde_json::json!({
-        "robot_file": out.display().to_string(),
-        "parameters": id.geometry.iter().chain(&id.gyro).map(est).collect::<Vec<_>>(),
-        "position_rms_m": id.position_rms,
-        "heading_rms_rad": id.heading_rms,
-        "gyro_window_rms_rad": id.gyro_rms,
-        "condition": id.condition,
-        "residuals": id.residuals,
-    })
-}
-
-fn print_table(id: &Identified) -> Result<()> {
-    output::stdout_line(format_args!(
-        "{:<26} {:>12} {:>12} {:>10} {:>11}  unit",
-        "parameter", "prior", "estimate", "1σ", "change"
-    ))?;
-    for e in id.geometry.iter().chain(&id.gyro) {
-        match &e.status {
-            Status::Fitted => {
-                let line = format!(
-                    "{:<26} {:>12.6} {:>12.6} {:>10.2e} {:>+11.2e}  {}",
-                    e.name,
-                    e.prior,
-                    e.value,
-                    e.sigma,
-                    e.value - e.prior,
-                    e.unit
-                );
-                output::stdout_line(format_args!("{}", line.trim_end()))?
-            }
-            Status::Fixed(why) => output::stdout_line(format_args!(
-                "{:<26} {:>12.6} {:>12}  held: {why}",
-                e.name, e.prior, "—"
-            ))?,
-        }
-    }
-    output::stdout_line(format_args!(
-        "residual RMS: position {:.3e} m{}{}; {} residuals, condition {:.1}",
-        id.position_rms,
-        id.heading_rms
-            .map(|h| format!(", heading {h:.3e} rad"))
-            .unwrap_or_default(),
-        id.gyro_rms
-            .map(|g| format!(", gyro windows {g:.3e} rad"))
-            .unwrap_or_default(),
-        id.residuals,
-        id.condition
-    ))
-}
-
 /// Runs `omnikin identify …`.
 pub fn run(a: &IdentifyArgs) -> Result<()> {
+    if let Some(p) = &a.plot {
+        crate::plot::FigureFormat::of("--plot", p)?;
+    }
     let desc = RobotDescription::resolve(&a.robot)?;
     let text = robot_text(&a.robot)?;
     let runs = runs(a, &desc)?;
@@ -183,9 +126,14 @@ pub fn run(a: &IdentifyArgs) -> Result<()> {
         use std::io::Write;
         f.write_all(file.as_bytes())
     })?;
+    if let Some(p) = &a.plot {
+        crate::plot::identify::write("--plot", p, &id.series)?;
+    }
     if a.json {
-        output::stdout_line(format_args!("{}", json(&id, &a.out)))
+        let mut json = report::json(&id);
+        json["robot_file"] = a.out.display().to_string().into();
+        output::stdout_line(format_args!("{json}"))
     } else {
-        print_table(&id)
+        output::stdout_line(format_args!("{}", report::table(&id).trim_end()))
     }
 }

@@ -5,9 +5,10 @@
 //! `robot` holds `omnikin.Robot` and its kinematics, `arrays` the argument checks,
 //! `kernels` the row-parallel loops, `options` the keyword options, `plan` `omnikin.plan`,
 //! `sim` `omnikin.simulate` and `omnikin.evaluate`, `odometry` `omnikin.odometry`,
-//! `pose_error` `omnikin.pose_error`.
+//! `pose_error` `omnikin.pose_error`, `identify` `omnikin.identify`.
 
 mod arrays;
+mod identify;
 mod kernels;
 mod odometry;
 mod options;
@@ -29,5 +30,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sim::evaluate_native, m)?)?;
     m.add_function(wrap_pyfunction!(odometry::odometry_native, m)?)?;
     m.add_function(wrap_pyfunction!(pose_error::pose_error_native, m)?)?;
+    m.add_function(wrap_pyfunction!(identify::identify_native, m)?)?;
     Ok(())
 }

@@ -19,8 +19,9 @@ use crate::robot::PyRobot;
 
 /// A table argument: a CSV path, or `(columns, values)` with `values[i]` the column
 /// `columns[i]` (written as CSV, each value exactly, and read with the file's checks: an
-/// error's line is the row + 1, the header being line 1).
-fn table(
+/// error's line is the row + 1, the header being line 1). `omnikin.identify` reads its tables
+/// with it too.
+pub(crate) fn table(
     name: &str,
     path: Option<&str>,
     columns: Option<(Vec<String>, PyReadonlyArray2<'_, f64>)>,

@@ -41,6 +41,13 @@ pub fn load(name_or_path: &str) -> PyResult<(RobotDescription, Robot<f64>, Strin
     Ok((desc, model, text))
 }
 
+impl PyRobot {
+    /// The TOML text the robot was read from (for Rust callers; Python's is `toml`).
+    pub fn text(&self) -> &str {
+        &self.text
+    }
+}
+
 fn reject_for(kind: &str, arg: &str, allowed: &str) -> PyErr {
     value_error(format!(
         "{arg} applies only to {allowed}, not to robot kind {kind}"

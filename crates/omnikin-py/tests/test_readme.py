@@ -46,3 +46,7 @@ def test_docs_python_example_runs(tmp_path, monkeypatch):
     assert scope["odo"]["summary"]["fixes"]["accepted"] > 0
     assert not scope["pushed"]["metrics"]["fallen"]
     assert os.path.getsize(tmp_path / "python-circle.png") > 0
+    ident = scope["ident"]
+    v, s = ident["estimates"]["wheels[2].radius_scale"], ident["sigma"]["wheels[2].radius_scale"]
+    assert 0 < s < 0.01 and abs(v - 1.03) <= 3 * s, (v, s)
+    assert "identified" in (tmp_path / "kiwi-identified.toml").read_text()

@@ -12,6 +12,7 @@ use plotters::prelude::*;
 
 mod decimate;
 mod file;
+pub mod identify;
 mod legend;
 mod overlay;
 pub mod ticks;

@@ -17,7 +17,16 @@ import numpy as np
 from omnikin import _native
 from omnikin._native import Robot, __version__
 
-__all__ = ["Robot", "plan", "simulate", "evaluate", "odometry", "pose_error", "__version__"]
+__all__ = [
+    "Robot",
+    "plan",
+    "simulate",
+    "evaluate",
+    "odometry",
+    "pose_error",
+    "identify",
+    "__version__",
+]
 
 Table = Dict[str, np.ndarray]
 PlanLike = Union[Table, str, "os.PathLike[str]"]
@@ -357,6 +366,67 @@ def pose_error(
             rpe_distance=rpe_distance,
         )
     )
+
+
+Tables = Union[Table, str, "os.PathLike[str]", Sequence[Union[Table, str, "os.PathLike[str]"]]]
+
+
+def _tables(name: str, tables: Optional[Tables]) -> list:
+    if tables is None:
+        return []
+    if isinstance(tables, (dict, str, os.PathLike)):
+        tables = [tables]
+    return [
+        (None, _columns(f"{name}[{i}]", t)) if isinstance(t, dict) else (os.fspath(t), None)
+        for i, t in enumerate(tables)
+    ]
+
+
+def identify(
+    robot: Union[Robot, str, "os.PathLike[str]"],
+    encoders: Tables,
+    *,
+    fixes: Optional[Tables] = None,
+    tracked: Optional[Tables] = None,
+    imu: Optional[Tables] = None,
+) -> Dict[str, Any]:
+    """A robot's wheel geometry and gyro bias/scale from recorded runs, as ``omnikin identify``
+    (the same fit, ``omnikin_sim::identify``; ``robot`` is the prior).
+
+    ``encoders``: one encoder log per run (``t, q1..qN[, s1..sN][, gyro_z]``, as
+    ``simulate(..., emit_sensors=True)`` and ``omnikin robot --log`` write them); a reference
+    per run in the same order, either ``fixes`` (camera fixes ``t, x, y[, heading]``) or
+    ``tracked`` (a tracked run ``t, x, y[, heading]``); ``imu`` optionally one IMU log per run
+    whose ``gz`` is the gyro. Each log is a CSV path or a dict of columns (named
+    ``encoders[i]``, ``fixes[i]``, … in errors and in the robot file's comments); a single one
+    may stand for a list of one.
+
+    Returns the CLI's ``--json`` object as a dict — ``parameters`` (each with ``name``,
+    ``unit``, ``prior``, ``value``, ``sigma`` (1σ), ``status`` ``fitted``/``held`` and the
+    ``reason`` when held), ``position_rms_m``, ``heading_rms_rad``, ``gyro_window_rms_rad``,
+    ``condition``, ``residuals``, ``runs`` (per run its files and position residual RMS before
+    and after the fit, m) — plus ``estimates`` and ``sigma`` (name → value, name → 1σ, the
+    fitted parameters only), ``table`` (the text the CLI prints) and ``robot_file`` (the text of
+    the identified robot file the CLI's ``--out`` writes). Bad input raises ``ValueError``
+    naming the file, line and column.
+    """
+    if fixes is not None and tracked is not None:
+        raise ValueError("give fixes or tracked, not both (one reference per run)")
+    if fixes is None and tracked is None:
+        raise ValueError(
+            "a reference per run is needed: fixes=[...] or tracked=[...] (one per encoder log)"
+        )
+    name, refs = ("fixes", fixes) if tracked is None else ("tracked", tracked)
+    result, table, text = _native.identify_native(
+        _robot(robot), _tables("encoders", encoders), _tables(name, refs), name, _tables("imu", imu)
+    )
+    out = json.loads(result)
+    fitted = [p for p in out["parameters"] if p["status"] == "fitted"]
+    out["estimates"] = {p["name"]: p["value"] for p in fitted}
+    out["sigma"] = {p["name"]: p["sigma"] for p in fitted}
+    out["table"] = table
+    out["robot_file"] = text
+    return out
 
 
 def __dir__() -> list:

@@ -143,6 +143,24 @@ def odometry(
     odometry``: ``poses`` the ``--out`` CSV's ``t, x, y, heading`` (world frame; s, m, rad),
     ``odometry`` the pure wheel odometry; ``log`` / ``fixes`` dicts of columns or CSV paths."""
 
+_Tables = Union[
+    Dict[str, npt.ArrayLike], str, os.PathLike[str],
+    Sequence[Union[Dict[str, npt.ArrayLike], str, os.PathLike[str]]],
+]
+
+def identify(
+    robot: Union[Robot, str, os.PathLike[str]],
+    encoders: _Tables,
+    *,
+    fixes: Optional[_Tables] = None,
+    tracked: Optional[_Tables] = None,
+    imu: Optional[_Tables] = None,
+) -> Dict[str, Any]:
+    """The ``omnikin identify --json`` object as a dict plus ``estimates`` and ``sigma`` (name →
+    value / 1σ of the fitted parameters), ``table`` (the CLI's table) and ``robot_file`` (the
+    identified robot file's text); one reference (``fixes`` or ``tracked``) per encoder log, each
+    log a CSV path or a dict of columns."""
+
 def pose_error(
     truth: Any,
     estimates: Any,

@@ -12,6 +12,8 @@
 //! * [`lsq`]: Levenberg–Marquardt, the covariance `σ² (JᵀJ)⁻¹` and the rank test.
 //! * [`plans`]: the test plans of `omnikin plan sysid`.
 //! * [`robot_file`]: the input robot file rewritten with the fitted values.
+//! * [`report`]: the table and the JSON object every front end prints.
+//! * [`residual_series`]: each run's pose residuals against time, before and after the fit.
 //!
 //! ## The estimate
 //! The unknowns are the kind's parameters ([`params::parameters`]) and, per run, the start pose
@@ -46,6 +48,8 @@ pub mod lsq;
 pub mod model;
 pub mod params;
 pub mod plans;
+pub mod report;
+pub mod residual_series;
 pub mod robot_file;
 pub mod runs;
 
@@ -54,6 +58,7 @@ use omnikin::description::RobotDescription;
 
 use model::Weights;
 use params::Parameter;
+use residual_series::{PoseResiduals, RunResiduals};
 use runs::Run;
 
 /// Why an identification failed. Every message names the file or parameter concerned.
@@ -135,6 +140,9 @@ pub struct Identified {
     pub condition: f64,
     /// Number of residuals of the pose fit.
     pub residuals: usize,
+    /// Each run's pose residuals against time, before (the prior) and after (the estimate),
+    /// in the order of the runs.
+    pub series: Vec<RunResiduals>,
 }
 
 /// Initial start pose of a run: the reference at the log's first time (or its first sample);
@@ -333,6 +341,15 @@ pub fn identify(
                 .to_string()
         });
     }
+    // "Before": the prior geometry from the start poses that fit it best (starts alone free).
+    let starts_only: Vec<bool> = (0..n).map(|k| !fixable[k]).collect();
+    let prior_starts = lsq::solve(
+        &|x: &[f64]| f(x, &w, gyro_sigma).map(|r| r.0),
+        &x0,
+        &h,
+        &starts_only,
+    )
+    .map_or_else(|_| x0.clone(), |s| s.x);
     let mut x = x0.clone();
     let mut sol = None;
     // A first fit with the assumed noise, then one with each group's residual RMS.
@@ -389,8 +406,27 @@ pub fn identify(
     } else {
         Vec::new()
     };
+    let fitted = params::apply(prior, &x[..l.geometry]);
+    let series = fitted
+        .build::<f64>()
+        .ok()
+        .and_then(|after| {
+            runs.iter()
+                .enumerate()
+                .map(|(i, run)| {
+                    Some(RunResiduals {
+                        encoders: run.encoders.file.clone(),
+                        reference: run.reference.file.clone(),
+                        before: PoseResiduals::of(&robot, run, l.start(&prior_starts, i))?,
+                        after: PoseResiduals::of(&after, run, l.start(&sol.x, i))?,
+                    })
+                })
+                .collect::<Option<Vec<_>>>()
+        })
+        .ok_or_else(|| IdentifyError::Fit("the fitted robot cannot dead-reckon the logs".into()))?;
     Ok(Identified {
-        description: params::apply(prior, &x[..l.geometry]),
+        description: fitted,
+        series,
         geometry: estimates,
         gyro,
         position_rms: group_rms(&r, &groups, Group::Position, w.position).unwrap_or(0.0),

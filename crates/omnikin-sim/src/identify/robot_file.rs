@@ -354,6 +354,7 @@ mod tests {
             gyro_rms: None,
             condition: 1.0,
             residuals: 0,
+            series: Vec::new(),
         };
         (text, id)
     }

@@ -147,6 +147,33 @@ impl EncoderLog {
     }
 }
 
+impl Run {
+    /// One run from its tables: the encoder log of a robot with `wheels` wheels (`steerable`:
+    /// with `s1..sN`), the reference (fixes or tracked run) and, optionally, an IMU log whose
+    /// `gz` replaces the encoder log's `gyro_z` as the gyro.
+    ///
+    /// # Errors
+    /// Those of [`EncoderLog::from_table`], [`Reference::from_table`] and
+    /// [`GyroLog::from_imu_table`], each naming its file.
+    pub fn from_tables(
+        encoders: &NumericTable,
+        reference: &NumericTable,
+        imu: Option<&NumericTable>,
+        wheels: usize,
+        steerable: bool,
+    ) -> Result<Self, IdentifyError> {
+        let (encoders, mut gyro) = EncoderLog::from_table(encoders, wheels, steerable)?;
+        if let Some(imu) = imu {
+            gyro = Some(GyroLog::from_imu_table(imu)?);
+        }
+        Ok(Self {
+            encoders,
+            reference: Reference::from_table(reference)?,
+            gyro,
+        })
+    }
+}
+
 impl GyroLog {
     /// The `gz` column of an IMU log (`t,gx,gy,gz,…`, body frame, rad/s).
     ///

@@ -1,0 +1,77 @@
+//! What an identification reports, the same for every front end (`omnikin identify`,
+//! `omnikin.identify`): the table of parameter, prior, estimate, 1σ and change with the
+//! residual RMS, and the same as one JSON object.
+
+use super::{Estimate, Identified, Status};
+
+/// The table `omnikin identify` prints: a header, one line per parameter (a held one with its
+/// reason instead of an estimate), and a closing line with the residual RMS, the number of
+/// residuals and the condition number. Lines end with `\n`.
+pub fn table(id: &Identified) -> String {
+    let mut out = format!(
+        "{:<26} {:>12} {:>12} {:>10} {:>11}  unit\n",
+        "parameter", "prior", "estimate", "1σ", "change"
+    );
+    for e in id.geometry.iter().chain(&id.gyro) {
+        let line = match &e.status {
+            Status::Fitted => format!(
+                "{:<26} {:>12.6} {:>12.6} {:>10.2e} {:>+11.2e}  {}",
+                e.name,
+                e.prior,
+                e.value,
+                e.sigma,
+                e.value - e.prior,
+                e.unit
+            ),
+            Status::Fixed(why) => {
+                format!("{:<26} {:>12.6} {:>12}  held: {why}", e.name, e.prior, "—")
+            }
+        };
+        out.push_str(line.trim_end());
+        out.push('\n');
+    }
+    out.push_str(&format!(
+        "residual RMS: position {:.3e} m{}{}; {} residuals, condition {:.1}\n",
+        id.position_rms,
+        id.heading_rms
+            .map(|h| format!(", heading {h:.3e} rad"))
+            .unwrap_or_default(),
+        id.gyro_rms
+            .map(|g| format!(", gyro windows {g:.3e} rad"))
+            .unwrap_or_default(),
+        id.residuals,
+        id.condition
+    ));
+    out
+}
+
+fn estimate(e: &Estimate) -> serde_json::Value {
+    let (status, reason) = match &e.status {
+        Status::Fitted => ("fitted", None),
+        Status::Fixed(why) => ("held", Some(why.clone())),
+    };
+    serde_json::json!({
+        "name": e.name, "unit": e.unit, "prior": e.prior, "value": e.value,
+        "sigma": e.sigma, "status": status, "reason": reason,
+    })
+}
+
+/// The result as one JSON object: `parameters` (each with `name`, `unit`, `prior`, `value`,
+/// `sigma`, `status` `fitted`/`held` and the `reason` when held), the residual RMS
+/// (`position_rms_m`, `heading_rms_rad`, `gyro_window_rms_rad`), `condition`, `residuals`,
+/// and per run its files and position residual RMS before and after the fit (`runs`).
+pub fn json(id: &Identified) -> serde_json::Value {
+    serde_json::json!({
+        "parameters": id.geometry.iter().chain(&id.gyro).map(estimate).collect::<Vec<_>>(),
+        "position_rms_m": id.position_rms,
+        "heading_rms_rad": id.heading_rms,
+        "gyro_window_rms_rad": id.gyro_rms,
+        "condition": id.condition,
+        "residuals": id.residuals,
+        "runs": id.series.iter().map(|r| serde_json::json!({
+            "encoders": r.encoders, "reference": r.reference,
+            "position_rms_before_m": r.before.position_rms(),
+            "position_rms_after_m": r.after.position_rms(),
+        })).collect::<Vec<_>>(),
+    })
+}
