@@ -40,6 +40,7 @@
 #![warn(missing_docs)]
 
 pub mod camera;
+pub mod closed_loop;
 pub mod dynamic_run;
 pub mod dynamics;
 pub mod identify;
