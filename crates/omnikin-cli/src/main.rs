@@ -33,6 +33,7 @@ mod shard;
 mod shell;
 mod sim;
 mod sim_ballbot;
+mod sim_closed_loop;
 mod sim_robot;
 mod teleop;
 mod urdf;

@@ -80,6 +80,9 @@ pub struct SimulateArgs {
     /// shard directories writes what one run writes, bit for bit.
     #[arg(long, value_name = "K/N", value_parser = crate::shard::parse_shard)]
     pub shard: Option<omnikin_sim::shard::Shard>,
+    /// The closed loop's flags (--closed-loop, --no-camera, --camera-*).
+    #[command(flatten)]
+    pub closed_loop: crate::sim_closed_loop::ClosedLoopArgs,
 }
 
 /// The plant `omnikin simulate` runs a plan through.
@@ -423,6 +426,9 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
         bail!(
             "--shard: the dynamic plant runs one trial; shards split the kinematic plant's trials"
         );
+    }
+    if a.closed_loop.closed_loop {
+        return crate::sim_closed_loop::simulate(a, &d, &plan);
     }
     let ballbot_dynamic = a.plant == PlantKind::Dynamic && d.robot_kind().balances();
     if !ballbot_dynamic && (a.initial_tilt_deg.is_some() || !a.push.is_empty()) {

@@ -39,6 +39,8 @@
 //!   and resampled onto its time grid, so the same metrics apply to hardware experiments.
 #![warn(missing_docs)]
 
+pub mod camera;
+pub mod closed_loop;
 pub mod dynamic_run;
 pub mod dynamics;
 pub mod identify;

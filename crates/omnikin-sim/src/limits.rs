@@ -94,6 +94,9 @@ pub const CAMERA_PERIOD_RANGE: (f64, f64) = (1e-4, 1e4);
 /// Camera latency (`camera.latency`), s.
 pub const CAMERA_LATENCY_RANGE: (f64, f64) = (0.0, 1e4);
 
+/// Start and end of a camera outage window (`camera_gaps.outage`), s.
+pub const CAMERA_OUTAGE_RANGE: (f64, f64) = (0.0, 1e6);
+
 /// How far an outlier lands (`camera.outlier_distance`), m.
 pub const OUTLIER_DISTANCE_RANGE: (f64, f64) = (0.0, 1e4);
 

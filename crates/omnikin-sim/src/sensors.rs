@@ -151,6 +151,67 @@ impl Default for CameraProfile {
     }
 }
 
+impl CameraProfile {
+    /// Paper 000's overhead video as a camera for the robot: 25 frames/s (period 40 ms),
+    /// 40 ms from capture to the robot, 2 mm position noise, position only, no outliers — the
+    /// default of the sphere's closed loop (`omnikin simulate --closed-loop`).
+    pub fn paper_000() -> Self {
+        Self {
+            period: 0.04,
+            latency: 0.04,
+            noise_std: 0.002,
+            heading_noise_std: None,
+            outlier_probability: 0.0,
+            outlier_distance: 0.5,
+        }
+    }
+}
+
+/// Frames a [`CameraProfile`]'s camera loses: each frame independently with
+/// `dropout_probability` (a missed detection, a lost packet), and every frame taken within a
+/// scheduled `outage` window (the robot out of view, the camera unplugged). A section of its
+/// own beside `[camera]` (`[camera_gaps]` in a sensor profile) so that profiles written before
+/// it read the same; without it no frame is lost.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraGaps {
+    /// Probability that a frame is lost, in [0, 1].
+    #[serde(default)]
+    pub dropout_probability: f64,
+    /// `[start, end)` of the outage, s of the frames' capture time (`None`: no outage).
+    #[serde(default)]
+    pub outage: Option<[f64; 2]>,
+}
+
+impl CameraGaps {
+    /// Whether a frame taken at `t` falls in the outage window.
+    pub fn in_outage(&self, t: f64) -> bool {
+        self.outage.is_some_and(|[a, b]| t >= a && t < b)
+    }
+
+    /// Checks the probability and the window; the error names the key, the value and the
+    /// rule (`camera_gaps.dropout_probability`, `camera_gaps.outage`).
+    pub fn validate(&self) -> Result<(), String> {
+        use crate::limits::*;
+        check(
+            "camera_gaps.dropout_probability",
+            Some(self.dropout_probability),
+            FRACTION_RANGE,
+            "",
+        )?;
+        if let Some([a, b]) = self.outage {
+            check("camera_gaps.outage[0]", Some(a), CAMERA_OUTAGE_RANGE, "s")?;
+            check("camera_gaps.outage[1]", Some(b), CAMERA_OUTAGE_RANGE, "s")?;
+            if a > b {
+                return Err(format!(
+                    "camera_gaps.outage: start {a} s is after end {b} s (the window is [start, end))"
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Which sensors to emit and how imperfect they are. Every section optional (TOML-loadable).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -167,6 +228,8 @@ pub struct SensorProfile {
     pub imu: Option<ImuProfile>,
     /// Emit camera fixes.
     pub camera: Option<CameraProfile>,
+    /// Frames the camera loses (dropouts, an outage window); `None`: none lost.
+    pub camera_gaps: Option<CameraGaps>,
     /// Tilt the platform of the inertial sensors; the encoder log then has a 3-axis gyro and an
     /// accelerometer (with [`SensorProfile::gyro`]).
     pub tilt: Option<TiltProfile>,
@@ -188,6 +251,7 @@ impl SensorProfile {
             yaw: None,
             imu: Some(ImuProfile::default()),
             camera: Some(CameraProfile::default()),
+            camera_gaps: None,
             tilt: None,
         }
     }
@@ -303,6 +367,9 @@ impl SensorProfile {
                 OUTLIER_DISTANCE_RANGE,
                 "m",
             )?;
+        }
+        if let Some(g) = self.camera_gaps {
+            g.validate()?;
         }
         Ok(())
     }
@@ -577,6 +644,13 @@ pub fn emit(
                 fix.x += cam.outlier_distance * dir.cos();
                 fix.y += cam.outlier_distance * dir.sin();
                 fix.outlier = true;
+            }
+            // Drawn only with gaps, so a profile without them keeps its stream.
+            if let Some(g) = profile.camera_gaps {
+                let lost = rng.random::<f64>() < g.dropout_probability;
+                if lost || g.in_outage(fix.t) {
+                    continue;
+                }
             }
             out.fixes.push(fix);
         }

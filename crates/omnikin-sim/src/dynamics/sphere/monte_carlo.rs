@@ -76,13 +76,8 @@ impl DynamicProfile {
     /// [`SimError::Mismatch`] with the dynamics' error (a plan not for the sphere's three
     /// wheels, invalid parameters, a diverging state).
     pub fn trial<R: Rng + ?Sized>(&self, plan: &Plan, rng: &mut R) -> Result<Trial, SimError> {
+        let (p, scale) = self.draw_robot(rng);
         let mut n = || -> f64 { StandardNormal.sample(rng) };
-        let mut p = self.params;
-        let scale = [0; 3].map(|_| 1.0 + self.radius_error_std * n());
-        // Clamped so a far draw cannot leave the physical range (h < R).
-        let dh = (self.com_depth_rel_std * n()).clamp(-0.3, 0.3);
-        p.com_depth = (p.com_depth * (1.0 + dh)).min(0.95 * p.geometry.shell_radius);
-        p.pivot_friction *= (self.pivot_friction_rel_std * n()).clamp(-1.5, 1.5).exp();
         let mut plan = plan.clone();
         if self.radius_error_std > 0.0 || self.fluctuation_rel > 0.0 {
             for s in plan.samples.iter_mut() {
@@ -101,6 +96,23 @@ impl DynamicProfile {
             }
         }
         Ok(t)
+    }
+}
+
+impl DynamicProfile {
+    /// This trial's robot, the first draws of a trial from `rng`: the parameters with their
+    /// jitter (centre-of-mass depth, pivot friction) and each wheel's rate scale (its radius
+    /// error). [`DynamicProfile::trial`] and the closed loop ([`crate::closed_loop`]) both
+    /// start a trial with it.
+    pub fn draw_robot<R: Rng + ?Sized>(&self, rng: &mut R) -> (SphereDynamics, [f64; 3]) {
+        let mut n = || -> f64 { StandardNormal.sample(rng) };
+        let mut p = self.params;
+        let scale = [0; 3].map(|_| 1.0 + self.radius_error_std * n());
+        // Clamped so a far draw cannot leave the physical range (h < R).
+        let dh = (self.com_depth_rel_std * n()).clamp(-0.3, 0.3);
+        p.com_depth = (p.com_depth * (1.0 + dh)).min(0.95 * p.geometry.shell_radius);
+        p.pivot_friction *= (self.pivot_friction_rel_std * n()).clamp(-1.5, 1.5).exp();
+        (p, scale)
     }
 }
 

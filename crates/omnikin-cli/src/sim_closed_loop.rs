@@ -1,0 +1,248 @@
+//! `omnikin simulate PLAN --robot sphere-omni --plant dynamic --closed-loop`: the core runtime
+//! follows the plan on the sphere's dynamic plant with a simulated overhead camera
+//! ([`omnikin_sim::closed_loop`]); `--trials` vary the robot (the dynamic profile's hardware
+//! variation) and the camera's noise, seeded by `--seed`. The files are `simulate`'s:
+//! `metrics.json` (the same keys, computed on the simulated truth, plus `simulation`),
+//! `trials.csv`, `mean.csv` and the figure.
+
+use std::io::Write;
+
+use anyhow::{Context, Result, bail};
+use omnikin::description::RobotDescription;
+use omnikin_plan::Plan;
+use omnikin_sim::closed_loop::{self, ClosedLoopOptions, ClosedLoopTrial};
+use omnikin_sim::dynamics::sphere::{DynamicProfile, SphereDynamics};
+use omnikin_sim::metrics::{Run, evaluate};
+use omnikin_sim::sensors::{CameraGaps, CameraProfile};
+use rayon::prelude::*;
+use serde_json::json;
+
+use crate::sim::{SimulateArgs, create_dir_for, print_summary, trials_header, write_file};
+
+/// The closed loop's flags of `omnikin simulate`.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct ClosedLoopArgs {
+    /// With --plant dynamic (sphere-omni): the core runtime (the firmware's loop) follows the
+    /// plan on the dynamic plant, fusing an overhead camera's fixes (default: paper 000's
+    /// video, 25 frames/s, 40 ms latency, 2 mm noise); metrics on the simulated truth.
+    #[arg(long)]
+    pub closed_loop: bool,
+    /// With --closed-loop: no camera (the runtime's wheel odometry only).
+    #[arg(long, requires = "closed_loop")]
+    pub no_camera: bool,
+    /// With --closed-loop: camera frame rate, Hz (default 25).
+    #[arg(long, value_name = "HZ", requires = "closed_loop", conflicts_with = "no_camera", value_parser = crate::args::finite_f64)]
+    pub camera_rate: Option<f64>,
+    /// With --closed-loop: camera latency from capture to the robot, s (default 0.04).
+    #[arg(long, value_name = "S", requires = "closed_loop", conflicts_with = "no_camera", value_parser = crate::args::finite_f64)]
+    pub camera_latency: Option<f64>,
+    /// With --closed-loop: camera position noise per axis, m (default 0.002).
+    #[arg(long, value_name = "M", requires = "closed_loop", conflicts_with = "no_camera", value_parser = crate::args::finite_f64)]
+    pub camera_noise: Option<f64>,
+    /// With --closed-loop: probability that a camera frame is lost (default 0).
+    #[arg(long, value_name = "P", requires = "closed_loop", conflicts_with = "no_camera", value_parser = crate::args::finite_f64)]
+    pub camera_dropout: Option<f64>,
+    /// With --closed-loop: no camera frames captured in [START, END), s from the plan's start.
+    #[arg(long, value_name = "START,END", requires = "closed_loop", conflicts_with = "no_camera", value_parser = parse_window)]
+    pub camera_outage: Option<[f64; 2]>,
+    /// With --closed-loop: the runtime's control rate, Hz (default 100, `omnikin robot`'s).
+    #[arg(long, value_name = "HZ", requires = "closed_loop", value_parser = crate::args::control_rate_hz)]
+    pub control_rate: Option<f64>,
+}
+
+/// Parses `START,END` (two finite numbers).
+fn parse_window(s: &str) -> Result<[f64; 2], String> {
+    let v: Vec<&str> = s.split(',').collect();
+    let [a, b] = v.as_slice() else {
+        return Err(format!("expected START,END (two numbers), got `{s}`"));
+    };
+    let num = |x: &str| {
+        x.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("`{x}` is not a finite number"))
+    };
+    Ok([num(a)?, num(b)?])
+}
+
+impl ClosedLoopArgs {
+    /// The camera the flags ask for: paper 000's video with the flags' changes, or none.
+    pub fn camera(&self) -> Option<(CameraProfile, CameraGaps)> {
+        if self.no_camera {
+            return None;
+        }
+        let mut p = CameraProfile::paper_000();
+        if let Some(hz) = self.camera_rate {
+            p.period = if hz > 0.0 { 1.0 / hz } else { f64::INFINITY };
+        }
+        if let Some(l) = self.camera_latency {
+            p.latency = l;
+        }
+        if let Some(n) = self.camera_noise {
+            p.noise_std = n;
+        }
+        let g = CameraGaps {
+            dropout_probability: self.camera_dropout.unwrap_or(0.0),
+            outage: self.camera_outage,
+        };
+        Some((p, g))
+    }
+}
+
+/// `metrics.json`'s description of the camera.
+fn camera_json(c: &Option<(CameraProfile, CameraGaps)>) -> serde_json::Value {
+    match c {
+        None => serde_json::Value::Null,
+        Some((p, g)) => json!({
+            "rate_hz": 1.0 / p.period, "latency_s": p.latency, "noise_std_m": p.noise_std,
+            "dropout_probability": g.dropout_probability, "outage_s": g.outage,
+        }),
+    }
+}
+
+/// Runs `simulate --plant dynamic --closed-loop`.
+pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<()> {
+    if a.plant != crate::sim::PlantKind::Dynamic {
+        bail!("--closed-loop needs --plant dynamic (the runtime drives the dynamic plant)");
+    }
+    if d.robot_kind() != omnikin::Kind::Sphere {
+        bail!(
+            "--closed-loop: only sphere-omni so far (robot {} is {})",
+            d.name,
+            d.kind()
+        );
+    }
+    if a.disturbances.is_some()
+        || a.emit_sensors
+        || a.mcap.is_some()
+        || a.initial_tilt_deg.is_some()
+        || !a.push.is_empty()
+    {
+        bail!(
+            "--closed-loop does not take --disturbances, --emit-sensors, --mcap, --initial-tilt-deg or --push (the trials vary the dynamic profile)"
+        );
+    }
+    let c = &a.closed_loop;
+    let camera = c.camera();
+    closed_loop::check_camera(&camera)
+        .map_err(|e| anyhow::anyhow!("--camera-*: {e} (flags --camera-rate, --camera-latency, --camera-noise, --camera-dropout, --camera-outage)"))?;
+    let robot = d.build::<f64>()?;
+    let params = SphereDynamics::from_description(d)
+        .with_context(|| format!("--plant dynamic: robot {}", d.name))?;
+    let body = d.body_limits();
+    let rate = c.control_rate.unwrap_or(crate::robot::DEFAULT_RATE_HZ);
+    let config = closed_loop::config(
+        rate,
+        d.limits.max_wheel_rate,
+        d.limits.max_wheel_accel,
+        body.max_accel,
+        body.max_yaw_accel,
+    );
+    config
+        .validate()
+        .map_err(|e| anyhow::anyhow!("--closed-loop: runtime configuration: {e}"))?;
+    let opts = ClosedLoopOptions {
+        config,
+        profile: DynamicProfile::hardware(params),
+        camera,
+    };
+    let figure = a.figure_format.file_name("figure");
+    create_dir_for(&a.out, &["metrics.json", "trials.csv", "mean.csv", &figure])?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads.unwrap_or(0))
+        .build()
+        .context("cannot start worker threads")?;
+    let pb = crate::sim::progress_bar(a.trials, "closed loop");
+    let trials: Vec<ClosedLoopTrial> = pool.install(|| {
+        (0..a.trials as usize)
+            .into_par_iter()
+            .map(|i| {
+                let r = closed_loop::run(robot, plan, &opts, a.seed, i);
+                pb.inc(1);
+                r
+            })
+            .collect::<Result<_, _>>()
+    })?;
+    pb.finish_and_clear();
+    let runs: Vec<Run> = trials
+        .iter()
+        .map(|t| Run {
+            xy: t.trial.tracked.clone(),
+            heading: Some(t.trial.pose.iter().map(|q| q.heading).collect()),
+        })
+        .collect();
+    let evaluation = evaluate(plan, &runs)?;
+    crate::sim::finite(&evaluation.metrics)?;
+    let mut j = serde_json::to_value(&evaluation.metrics)?;
+    let sum = |f: &dyn Fn(&ClosedLoopTrial) -> u64| trials.iter().map(f).sum::<u64>();
+    let max = |f: &dyn Fn(&ClosedLoopTrial) -> f64| trials.iter().map(f).fold(0.0, f64::max);
+    j["simulation"] = json!({
+        "robot": d.name, "kind": d.kind(), "plan": a.plan.display().to_string(),
+        "plant": "dynamic", "closed_loop": true, "trials": a.trials, "seed": a.seed,
+        "control_rate_hz": rate, "camera": camera_json(&camera),
+        "variation": "DynamicProfile::hardware (1 % wheel radius, 1 % speed, 3 % com_depth, 20 % pivot friction)",
+        "max_tilt_rad": max(&|t| t.max_tilt),
+        "pull_outs": sum(&|t| t.pull_outs.iter().sum()),
+        "fixes_sent": sum(&|t| t.fixes_sent),
+        "fixes_accepted": sum(&|t| t.fixes.accepted as u64),
+        "fixes_rejected": sum(&|t| t.fixes.rejected as u64),
+        "fixes_too_late": sum(&|t| t.fixes.too_late as u64),
+        "max_estimate_error_m": max(&|t| t.estimate_error.iter().cloned().fold(0.0, f64::max)),
+    });
+    let trials_path = a.out.join("trials.csv");
+    let mut csv = crate::output::OutFile::create("--out", &trials_path)?;
+    writeln!(csv, "{}", trials_header(3))
+        .and_then(|_| {
+            trials
+                .iter()
+                .enumerate()
+                .try_for_each(|(i, t)| crate::sim::write_trial(&mut csv, i, &t.trial))
+        })
+        .with_context(|| format!("cannot write {}", trials_path.display()))?;
+    csv.commit()?;
+    write_file(&a.out.join("metrics.json"), |w| {
+        writeln!(
+            w,
+            "{}",
+            serde_json::to_string_pretty(&j).unwrap_or_default()
+        )
+    })?;
+    crate::sim::write_mean(&a.out.join("mean.csv"), plan, &evaluation.mean)?;
+    crate::figures::trajectory_figure(
+        "--out",
+        &a.out.join(&figure),
+        &format!(
+            "{} — closed loop ({}), {}",
+            d.name,
+            if camera.is_some() {
+                "camera"
+            } else {
+                "no camera"
+            },
+            a.plan.display()
+        ),
+        plan,
+        &runs,
+        &evaluation.mean,
+        evaluation.metrics.runs,
+    )?;
+    print_summary(&evaluation.metrics);
+    crate::errln!(
+        "closed loop: {} trials, largest tilt {:.3} rad, fixes sent {} (accepted {}, rejected {}, too late {}), largest estimate error {:.1} mm",
+        a.trials,
+        j["simulation"]["max_tilt_rad"].as_f64().unwrap_or(0.0),
+        j["simulation"]["fixes_sent"],
+        j["simulation"]["fixes_accepted"],
+        j["simulation"]["fixes_rejected"],
+        j["simulation"]["fixes_too_late"],
+        1e3 * j["simulation"]["max_estimate_error_m"]
+            .as_f64()
+            .unwrap_or(0.0)
+    );
+    crate::errln!(
+        "wrote {}/{{metrics.json, trials.csv, mean.csv, {figure}}}",
+        a.out.display().to_string().trim_end_matches('/')
+    );
+    Ok(())
+}
