@@ -36,15 +36,32 @@ fn circle(out: &std::path::Path, extra: &[&str]) -> String {
 #[test]
 fn the_fast_circle_warns_and_max_tilt_slows_it() {
     let d = tmp("circle");
-    // Quasi-static lean of a = v²/r = 1.25 m/s² with the preset's [dynamics]: 12.36 deg,
-    // above its max_tilt_deg = 10.
+    // Quasi-static lean of a = v²/r = 1.25 m/s² with the preset's [dynamics], from the moment
+    // balance about the floor contact: sin(θ + atan k)·√(1 + k²) = k (M R + I_s/R)/(m_p h),
+    // k = a/g (10.68 deg with com_depth 0.0872 m), above its max_tilt_deg = 10.
+    let p = omnikin_sim::dynamics::sphere::SphereDynamics::from_description(
+        &omnikin::description::RobotDescription::preset("sphere-omni").unwrap(),
+    )
+    .unwrap();
+    let k = 1.25 / p.gravity;
+    let r = p.geometry.shell_radius;
+    let rhs = k * (p.total_mass() * r + p.shell_inertia / r) / (p.platform_mass * p.com_depth);
+    let lean = ((rhs / (1.0 + k * k).sqrt()).asin() - k.atan()).to_degrees();
+    assert!(
+        lean > 10.0,
+        "the premise: the fast circle leans past 10 deg ({lean})"
+    );
     let err = circle(&d.join("fast.csv"), &[]);
     assert!(
-        err.contains("largest platform tilt (quasi-static, [dynamics]) 12.36 deg"),
-        "{err}"
+        err.contains(&format!(
+            "largest platform tilt (quasi-static, [dynamics]) {lean:.2} deg"
+        )),
+        "{lean:.2}: {err}"
     );
     assert!(
-        err.contains("warning: the plan tilts the platform by 12.36 deg"),
+        err.contains(&format!(
+            "warning: the plan tilts the platform by {lean:.2} deg"
+        )),
         "{err}"
     );
     let err = circle(&d.join("slow.csv"), &["--max-tilt", "8"]);
