@@ -18,6 +18,16 @@
 //!   to rest within the acceleration limit when no valid command or heartbeat arrives for
 //!   [`Config::watchdog`] seconds; [`Faults`] (limit hit, slip, link lost, …) in every
 //!   [`Status`].
+//! * Re-planning without stopping: [`Command::PlanSplice`] uploads a replacement of the running
+//!   plan's future into the buffer's free part while the plan goes on; armed by its
+//!   [`Command::PlanStart`], it takes over at its first point's time `t_s`. Refused, with the
+//!   running plan going on, when `t_s` has passed or lies past the plan's end
+//!   ([`CommandError::SpliceOutside`]), when it does not fit the free points
+//!   ([`CommandError::SpliceNoRoom`]), or when its first point is not the plan's reference at
+//!   `t_s` within [`SPLICE_MAX_POSITION_JUMP`], [`SPLICE_MAX_HEADING_JUMP`],
+//!   [`SPLICE_MAX_SPEED_JUMP`] and [`SPLICE_MAX_YAW_RATE_JUMP`] ([`CommandError::OverLimit`]
+//!   naming `splice.position_jump`, `splice.heading_jump`, `splice.speed_jump` or
+//!   `splice.yaw_rate_jump`).
 //!
 //! ## Guarantees
 //! * **No allocation, no panic** in [`Runtime::handle`] and [`Runtime::cycle`] (tested with a
@@ -119,6 +129,10 @@ pub use command::{
 };
 pub use config::{Config, ConfigError, RATE_HZ_RANGE};
 pub use controller::Runtime;
+pub use plan::{
+    SPLICE_MAX_HEADING_JUMP, SPLICE_MAX_POSITION_JUMP, SPLICE_MAX_SPEED_JUMP,
+    SPLICE_MAX_YAW_RATE_JUMP,
+};
 pub use status::{Faults, FixCounters, Mode, PlanStatus, Status};
 
 /// A runtime the operator link drives ([`crate::link::serve`], [`crate::link::robot_info`]):
