@@ -4,7 +4,9 @@
 //! goes on. The runtime drives an ideal board (motors turn exactly as commanded).
 
 use omnikin::runtime::hal::{EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOutputs};
-use omnikin::runtime::{Command, CommandError, Config, Mode, PlanPoint, Runtime, Status};
+use omnikin::runtime::{
+    Command, CommandError, Config, Mode, PlanPoint, Runtime, Status, plan_reference,
+};
 use omnikin::sphere::{SphereOmni, SphereParams};
 use omnikin::{MAX_WHEELS, Pose2, Robot, Twist2};
 
@@ -196,6 +198,8 @@ fn a_splice_takes_over_mid_plan_without_a_stop_or_a_velocity_jump() {
     rig.run_to(1.0);
     rig.upload(2, &b, true).unwrap();
     assert_eq!(rig.rt.status().plan.id, 2);
+    // A late copy of the splice's begin neither clears nor disarms it.
+    rig.cmd(Command::PlanSplice { id: 2, len: 51 }).unwrap();
     rig.run_out();
     // Never stopped before B's end: trajectory mode all the way to B's last time.
     let end = rig
@@ -280,7 +284,7 @@ fn a_late_splice_is_refused_and_the_old_plan_goes_on() {
 fn a_splice_off_the_running_plan_is_refused_and_the_old_plan_goes_on() {
     let a = plan_a();
     let mut b = splice_b(&a, 2.0);
-    // 2 mm sideways at its start: beyond the 1 mm of the f32 wire's rounding.
+    // 2 mm sideways at its start: beyond the 1e-3 of the f32 wire's rounding.
     for p in &mut b {
         p.pose.y += 2e-3;
     }
@@ -289,7 +293,7 @@ fn a_splice_off_the_running_plan_is_refused_and_the_old_plan_goes_on() {
     rig.run_to(1.0);
     match rig.upload(2, &b, true) {
         Err(CommandError::OverLimit {
-            field: "splice.position_jump",
+            field: "splice.y_jump",
             value,
             limit,
         }) => assert!(
@@ -305,7 +309,7 @@ fn a_splice_off_the_running_plan_is_refused_and_the_old_plan_goes_on() {
         matches!(
             e,
             Err(CommandError::OverLimit {
-                field: "splice.speed_jump",
+                field: "splice.vx_jump",
                 ..
             })
         ),
@@ -325,12 +329,19 @@ fn a_splice_that_would_overflow_the_buffer_is_refused_and_the_old_plan_goes_on()
     let a = plan_a();
     let b = splice_b(&a, 2.0);
     let mut rig = Rig::new();
-    // No plan running: nothing to splice into.
+    // No plan running: nothing to splice into; the running plan's id is not a splice's.
     assert_eq!(
         rig.cmd(Command::PlanSplice { id: 9, len: 2 }),
         Err(CommandError::NothingToSplice)
     );
     rig.upload(1, &a, false).unwrap();
+    assert!(matches!(
+        rig.cmd(Command::PlanSplice { id: 1, len: 51 }),
+        Err(CommandError::OutOfRange {
+            field: "splice.id",
+            ..
+        })
+    ));
     // At 0.2 s A is at its point 4: 128 − (81 − 4) = 51 free slots; at 0.1 s only 49.
     rig.run_to(0.1);
     let free = CAP - (a.len() - 2);
@@ -345,5 +356,53 @@ fn a_splice_that_would_overflow_the_buffer_is_refused_and_the_old_plan_goes_on()
         dist(last.pose, a[a.len() - 1].pose) < 2e-3,
         "{:?}",
         last.pose
+    );
+}
+
+/// An operator's splice between two of the running plan's points: its first point from
+/// `plan_reference` (the runtime's own interpolation), the rest B's curve from there.
+#[test]
+fn a_splice_between_plan_points_starts_on_the_plan_reference() {
+    let a = plan_a();
+    let t_s = 2.025;
+    let (pose, twist) = plan_reference(&a, t_s).unwrap();
+    let mut b = splice_b(&a, 2.0);
+    for p in &mut b {
+        p.t += t_s - 2.0;
+        p.pose.x += pose.x - a[40].pose.x;
+        p.pose.y += pose.y - a[40].pose.y;
+        p.pose.heading += pose.heading - a[40].pose.heading;
+    }
+    b[0] = PlanPoint {
+        t: t_s,
+        pose,
+        twist,
+    };
+    let mut rig = Rig::new();
+    rig.upload(1, &a, false).unwrap();
+    rig.run_to(1.0);
+    rig.upload(2, &b, true).unwrap();
+    rig.run_out();
+    let last = rig.log.last().unwrap();
+    assert!(
+        dist(last.pose, b[b.len() - 1].pose) < 2e-3,
+        "{:?}",
+        last.pose
+    );
+    // The nearest sample instead (A's point at 2.0 s, 3.7 mm behind): refused.
+    let mut rig = Rig::new();
+    rig.upload(1, &a, false).unwrap();
+    rig.run_to(1.0);
+    b[0].pose = a[40].pose;
+    let e = rig.upload(3, &b, true);
+    assert!(
+        matches!(
+            e,
+            Err(CommandError::OverLimit {
+                field: "splice.x_jump",
+                ..
+            })
+        ),
+        "{e:?}"
     );
 }

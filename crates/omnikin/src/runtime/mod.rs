@@ -24,10 +24,9 @@
 //!   running plan going on, when `t_s` has passed or lies past the plan's end
 //!   ([`CommandError::SpliceOutside`]), when it does not fit the free points
 //!   ([`CommandError::SpliceNoRoom`]), or when its first point is not the plan's reference at
-//!   `t_s` within [`SPLICE_MAX_POSITION_JUMP`], [`SPLICE_MAX_HEADING_JUMP`],
-//!   [`SPLICE_MAX_SPEED_JUMP`] and [`SPLICE_MAX_YAW_RATE_JUMP`] ([`CommandError::OverLimit`]
-//!   naming `splice.position_jump`, `splice.heading_jump`, `splice.speed_jump` or
-//!   `splice.yaw_rate_jump`).
+//!   `t_s` within [`SPLICE_MAX_JUMP`] in each of x, y, heading, vx, vy and yaw rate
+//!   ([`CommandError::OverLimit`] naming `splice.x_jump`, `splice.y_jump`,
+//!   `splice.heading_jump`, `splice.vx_jump`, `splice.vy_jump` or `splice.yaw_rate_jump`). [`plan_reference`] gives an operator that reference.
 //!
 //! ## Guarantees
 //! * **No allocation, no panic** in [`Runtime::handle`] and [`Runtime::cycle`] (tested with a
@@ -118,6 +117,7 @@ mod config;
 mod controller;
 mod cycle_inverse;
 mod plan;
+mod reference;
 mod shape;
 mod status;
 
@@ -129,10 +129,8 @@ pub use command::{
 };
 pub use config::{Config, ConfigError, RATE_HZ_RANGE};
 pub use controller::Runtime;
-pub use plan::{
-    SPLICE_MAX_HEADING_JUMP, SPLICE_MAX_POSITION_JUMP, SPLICE_MAX_SPEED_JUMP,
-    SPLICE_MAX_YAW_RATE_JUMP,
-};
+pub use plan::SPLICE_MAX_JUMP;
+pub use reference::plan_reference;
 pub use status::{Faults, FixCounters, Mode, PlanStatus, Status};
 
 /// A runtime the operator link drives ([`crate::link::serve`], [`crate::link::robot_info`]):

@@ -13,10 +13,9 @@
 //! had been sent, when
 //! * `t_s` is not ahead of the running plan's time or not before its end
 //!   ([`CommandError::SpliceOutside`]);
-//! * the splice's first point is not the running plan's reference at `t_s`: position within
-//!   [`SPLICE_MAX_POSITION_JUMP`], heading within [`SPLICE_MAX_HEADING_JUMP`], world velocity and
-//!   yaw rate within [`SPLICE_MAX_SPEED_JUMP`] / [`SPLICE_MAX_YAW_RATE_JUMP`]
-//!   ([`CommandError::OverLimit`] naming `splice.position_jump`, …). So the reference is
+//! * the splice's first point is not the running plan's reference at `t_s` within
+//!   [`SPLICE_MAX_JUMP`] in each of x, y, heading, vx, vy, yaw rate
+//!   ([`CommandError::OverLimit`] naming `splice.x_jump`, …). So the reference is
 //!   continuous in pose and velocity across the switch, and the commanded twist changes by no
 //!   more than the plan's own change over a cycle plus these tolerances.
 //!
@@ -26,20 +25,17 @@
 
 use super::command::{CommandError, PlanPoint, check_motion};
 use super::config::Config;
+use super::reference::between;
 use super::status::PlanStatus;
 use crate::{Pose2, Real, Twist2, wrap_angle as wrap};
 
-/// Largest distance between a splice's first point and the running plan's reference at its
-/// time, m: the wire carries `f32` (a relative rounding of 6e-8, 60 µm at 1 km from the
-/// origin), so an operator that samples its own copy of the running plan at `t_s` with the
-/// runtime's interpolation lands well within 1 mm.
-pub const SPLICE_MAX_POSITION_JUMP: f64 = 1.0e-3;
-/// Largest heading difference at a splice, rad (the same `f32` argument as the position).
-pub const SPLICE_MAX_HEADING_JUMP: f64 = 1.0e-3;
-/// Largest world-velocity difference at a splice, m/s.
-pub const SPLICE_MAX_SPEED_JUMP: f64 = 1.0e-3;
-/// Largest yaw-rate difference at a splice, rad/s.
-pub const SPLICE_MAX_YAW_RATE_JUMP: f64 = 1.0e-3;
+/// Largest difference between a splice's first point and the running plan's reference at its
+/// time, per component: x, y (m), heading (rad, unwrapped as plans are), world vx, vy (m/s) and
+/// yaw rate (rad/s). The wire carries `f32` (a relative rounding of 6e-8: 60 µm at 1 km from
+/// the origin), so an operator that samples its own copy of the running plan at `t_s` with
+/// the runtime's interpolation ([`plan_reference`](super::plan_reference)) lands well within
+/// 1e-3; a step that small in the reference moves the command by at most `k_position` × 1 mm.
+pub const SPLICE_MAX_JUMP: f64 = 1.0e-3;
 
 /// The uploaded plan and where the runtime is along it. No allocation: `N` points inline, used
 /// as a ring (the running plan, then a splice's upload after it).
@@ -141,6 +137,19 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         if splice {
             if !running {
                 return Err(CommandError::NothingToSplice);
+            }
+            if id == self.status.id {
+                // A copy of this splice's begin (an operator re-sends it until telemetry shows
+                // the id): it must not clear the upload, nor disarm a started splice.
+                return if self.splice {
+                    Ok(())
+                } else {
+                    Err(CommandError::OutOfRange {
+                        field: "splice.id",
+                        value: id as f64,
+                        rule: "must differ from the running plan's id",
+                    })
+                };
             }
             // Slots before the current segment are read no more (it only moves forward).
             let free = N - (self.len - self.index.min(self.len));
@@ -305,36 +314,25 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         let index = self.index;
         let (pose, twist) = self.reference_at(first.t, first.pose);
         self.index = index;
-        let (dx, dy) = (first.pose.x - pose.x, first.pose.y - pose.y);
-        let (dvx, dvy) = (first.twist.vx - twist.vx, first.twist.vy - twist.vy);
+        // Component by component (no square roots: the firmware's flash is tight).
         let jumps = [
+            (first.pose.x - pose.x, "splice.x_jump"),
+            (first.pose.y - pose.y, "splice.y_jump"),
+            (first.pose.heading - pose.heading, "splice.heading_jump"),
+            (first.twist.vx - twist.vx, "splice.vx_jump"),
+            (first.twist.vy - twist.vy, "splice.vy_jump"),
             (
-                (dx * dx + dy * dy).sqrt(),
-                "splice.position_jump",
-                SPLICE_MAX_POSITION_JUMP,
-            ),
-            (
-                wrap(first.pose.heading - pose.heading).abs(),
-                "splice.heading_jump",
-                SPLICE_MAX_HEADING_JUMP,
-            ),
-            (
-                (dvx * dvx + dvy * dvy).sqrt(),
-                "splice.speed_jump",
-                SPLICE_MAX_SPEED_JUMP,
-            ),
-            (
-                (first.twist.yaw_rate - twist.yaw_rate).abs(),
+                first.twist.yaw_rate - twist.yaw_rate,
                 "splice.yaw_rate_jump",
-                SPLICE_MAX_YAW_RATE_JUMP,
             ),
         ];
-        for (jump, field, limit) in jumps {
-            if jump.to_f64() > limit {
+        for (jump, field) in jumps {
+            let value = jump.abs().to_f64();
+            if value > SPLICE_MAX_JUMP {
                 return Err(CommandError::OverLimit {
                     field,
-                    value: jump.to_f64(),
-                    limit,
+                    value,
+                    limit: SPLICE_MAX_JUMP,
                 });
             }
         }
@@ -401,33 +399,6 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
             k += 1;
         }
         self.index = k;
-        let (a, b) = (self.pt(k), self.pt(k + 1));
-        let h = b.t - a.t;
-        let s = (tau - a.t) / h;
-        let (s2, s3) = (s * s, s * s * s);
-        let two = T::of(2.0);
-        let three = T::of(3.0);
-        let h00 = two * s3 - three * s2 + T::one();
-        let h10 = s3 - two * s2 + s;
-        let h01 = -two * s3 + three * s2;
-        let h11 = s3 - s2;
-        let herm = |p0: T, v0: T, p1: T, v1: T| h00 * p0 + h10 * h * v0 + h01 * p1 + h11 * h * v1;
-        let pose = Pose2::new(
-            herm(a.pose.x, a.twist.vx, b.pose.x, b.twist.vx),
-            herm(a.pose.y, a.twist.vy, b.pose.y, b.twist.vy),
-            herm(
-                a.pose.heading,
-                a.twist.yaw_rate,
-                b.pose.heading,
-                b.twist.yaw_rate,
-            ),
-        );
-        let lerp = |x: T, y: T| x + (y - x) * s;
-        let twist = Twist2::new(
-            lerp(a.twist.vx, b.twist.vx),
-            lerp(a.twist.vy, b.twist.vy),
-            lerp(a.twist.yaw_rate, b.twist.yaw_rate),
-        );
-        (pose, twist)
+        between(&self.pt(k), &self.pt(k + 1), tau)
     }
 }
