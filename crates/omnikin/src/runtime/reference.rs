@@ -43,9 +43,8 @@ pub(super) fn between<T: Real>(
 }
 
 /// The reference of the plan `points` (strictly increasing times) at `tau` (s), as the runtime
-/// follows it: the first point before the plan, the last at rest after it, the interpolation (the
-/// module docs) between the two
-/// points around `tau` otherwise; `None` for an empty plan. An operator builds a splice's first
+/// follows it: the first point before the plan, the last at rest after it, the interpolation of
+/// the module docs between the two points around `tau` otherwise; `None` for an empty plan. An operator builds a splice's first
 /// point with it ([`Command::PlanSplice`](super::Command::PlanSplice): the robot checks that
 /// point against its own reference at the same time).
 pub fn plan_reference<T: Real>(points: &[PlanPoint<T>], tau: T) -> Option<(Pose2<T>, Twist2<T>)> {
