@@ -37,6 +37,16 @@ use crate::{Pose2, Real, Twist2, wrap_angle as wrap};
 /// 1e-3; a step that small in the reference moves the command by at most `k_position` × 1 mm.
 pub const SPLICE_MAX_JUMP: f64 = 1.0e-3;
 
+/// The fields of [`CommandError::OverLimit`] for a splice's jump in x, y, heading, vx, vy, yaw rate.
+const JUMP_FIELDS: [&str; 6] = [
+    "splice.x_jump",
+    "splice.y_jump",
+    "splice.heading_jump",
+    "splice.vx_jump",
+    "splice.vy_jump",
+    "splice.yaw_rate_jump",
+];
+
 /// The uploaded plan and where the runtime is along it. No allocation: `N` points inline, used
 /// as a ring (the running plan, then a splice's upload after it).
 #[derive(Clone, Debug)]
@@ -314,19 +324,17 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         let index = self.index;
         let (pose, twist) = self.reference_at(first.t, first.pose);
         self.index = index;
-        // Component by component (no square roots: the firmware's flash is tight).
+        // Component by component (no square roots, names in one table: the firmware's flash
+        // is tight).
         let jumps = [
-            (first.pose.x - pose.x, "splice.x_jump"),
-            (first.pose.y - pose.y, "splice.y_jump"),
-            (first.pose.heading - pose.heading, "splice.heading_jump"),
-            (first.twist.vx - twist.vx, "splice.vx_jump"),
-            (first.twist.vy - twist.vy, "splice.vy_jump"),
-            (
-                first.twist.yaw_rate - twist.yaw_rate,
-                "splice.yaw_rate_jump",
-            ),
+            first.pose.x - pose.x,
+            first.pose.y - pose.y,
+            first.pose.heading - pose.heading,
+            first.twist.vx - twist.vx,
+            first.twist.vy - twist.vy,
+            first.twist.yaw_rate - twist.yaw_rate,
         ];
-        for (jump, field) in jumps {
+        for (jump, field) in jumps.iter().zip(JUMP_FIELDS) {
             let value = jump.abs().to_f64();
             if value > SPLICE_MAX_JUMP {
                 return Err(CommandError::OverLimit {
