@@ -620,6 +620,7 @@ fn voided_by_estop(m: &Message) -> bool {
         Message::Clear
             | Message::SetVelocity { .. }
             | Message::PlanBegin { .. }
+            | Message::PlanSplice { .. }
             | Message::PlanChunk { .. }
             | Message::PlanStart { .. }
             | Message::SetPose { .. }

@@ -357,6 +357,7 @@ pub fn run(a: &RobotArgs) -> Result<()> {
                     ack |= matches!(
                         msg,
                         Message::PlanBegin { .. }
+                            | Message::PlanSplice { .. }
                             | Message::PlanChunk { .. }
                             | Message::PlanStart { .. }
                     );

@@ -124,6 +124,7 @@ fn message() -> impl Strategy<Value = Message> {
             yaw_rate
         }),
         (any::<u16>(), any::<u16>()).prop_map(|(id, len)| Message::PlanBegin { id, len }),
+        (any::<u16>(), any::<u16>()).prop_map(|(id, len)| Message::PlanSplice { id, len }),
         (
             any::<u16>(),
             any::<u16>(),

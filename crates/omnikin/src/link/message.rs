@@ -400,6 +400,17 @@ pub enum Message {
     /// console sends). The session stops being live at once, so another operator opens
     /// without taking over; the robot's motion is not affected (the watchdog still applies).
     Bye,
+    /// Operator → robot: begin uploading plan `id` of `len` points as a splice of the running
+    /// plan ([`Command::PlanSplice`]); its chunks and start are the usual
+    /// [`Message::PlanChunk`] and [`Message::PlanStart`]. Appended after [`Message::Bye`]: a
+    /// robot without it drops it as `malformed` (its plan status never shows the splice's id,
+    /// so the operator's upload does not complete).
+    PlanSplice {
+        /// Plan id.
+        id: u16,
+        /// Points to follow.
+        len: u16,
+    },
 }
 
 /// Who holds the robot ([`Message::Busy`]).
@@ -466,6 +477,7 @@ impl Message {
             Message::Clear
                 | Message::SetVelocity { .. }
                 | Message::PlanBegin { .. }
+                | Message::PlanSplice { .. }
                 | Message::PlanChunk { .. }
                 | Message::PlanStart { .. }
                 | Message::SetPose { .. }
@@ -492,6 +504,7 @@ impl Message {
                 frame: *frame,
             },
             Message::PlanBegin { id, len } => Command::PlanBegin { id: *id, len: *len },
+            Message::PlanSplice { id, len } => Command::PlanSplice { id: *id, len: *len },
             Message::PlanChunk { id, offset, points } => {
                 let n = points.len().min(CHUNK_POINTS);
                 for (dst, src) in buf.iter_mut().zip(points.iter()) {

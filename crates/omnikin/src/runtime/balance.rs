@@ -306,12 +306,13 @@ impl<T: Real> BalanceRuntime<T> {
                 self.controller.reset();
                 Ok(())
             }
-            Command::PlanBegin { .. } | Command::PlanChunk { .. } | Command::PlanStart { .. } => {
-                Err(CommandError::NotSupported {
-                    what: "plans",
-                    instead: "a balancing robot follows velocity commands (send the plan's twists)",
-                })
-            }
+            Command::PlanBegin { .. }
+            | Command::PlanSplice { .. }
+            | Command::PlanChunk { .. }
+            | Command::PlanStart { .. } => Err(CommandError::NotSupported {
+                what: "plans",
+                instead: "a balancing robot follows velocity commands (send the plan's twists)",
+            }),
             Command::Fix(_) => Err(CommandError::NotSupported {
                 what: "pose fixes",
                 instead: "the balance runtime has no fusion filter; fuse fixes offline (omnikin odometry --fixes)",

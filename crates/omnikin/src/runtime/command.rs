@@ -71,7 +71,17 @@ pub enum Command<'a, T> {
         /// The points.
         points: &'a [PlanPoint<T>],
     },
-    /// Start following plan `id` (all its points must have arrived).
+    /// Start uploading plan `id` of `len` points as a **splice** of the running plan: written
+    /// into the buffer's free part while the running plan goes on, then (after its chunks and
+    /// [`Command::PlanStart`]) followed from its first point's time on, without stopping (the
+    /// rules: `runtime/plan.rs`'s module docs and [`CommandError::SpliceOutside`]).
+    PlanSplice {
+        /// Plan identifier chosen by the operator (the chunks and start name it).
+        id: u16,
+        /// Number of points that will follow.
+        len: u16,
+    },
+    /// Start following plan `id` (all its points must have arrived); for a splice, arm it.
     PlanStart {
         /// Plan identifier.
         id: u16,
@@ -256,8 +266,33 @@ pub enum CommandError {
         len: u16,
     },
     /// A new plan upload was begun while a plan is running.
-    #[error("a plan is running; stop it first")]
+    #[error("a plan is running; stop it first, or splice into it")]
     Busy,
+    /// A splice was sent while no plan runs (it ended, was stopped, or never started).
+    #[error("no plan is running to splice into; upload a plan with plan begin")]
+    NothingToSplice,
+    /// A splice does not fit the buffer's free points (those after the running plan's end
+    /// and before its current segment).
+    #[error("splice of {len} points does not fit the {free} free points of the plan buffer")]
+    SpliceNoRoom {
+        /// Points of the splice.
+        len: u16,
+        /// Free points now.
+        free: usize,
+    },
+    /// A splice's first point time is not ahead of the running plan's time or not before its
+    /// end; the running plan goes on unchanged.
+    #[error(
+        "splice at plan time {at} s must lie after the running plan's time {now} s and before its end {end} s"
+    )]
+    SpliceOutside {
+        /// The splice's first point time, s.
+        at: f64,
+        /// The running plan's time, s.
+        now: f64,
+        /// The running plan's last point time, s.
+        end: f64,
+    },
     /// The runtime does not take this kind of command (the balance runtime follows velocity
     /// commands, not plans).
     #[error("{what} are not supported by this runtime: {instead}")]

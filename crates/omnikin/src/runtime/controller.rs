@@ -283,13 +283,14 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 self.mode = Mode::Velocity;
                 Ok(())
             }
-            Command::PlanBegin { id, len } => self.plan.begin(id, len, running),
+            Command::PlanBegin { id, len } => self.plan.begin(id, len, running, false),
+            Command::PlanSplice { id, len } => self.plan.begin(id, len, running, true),
             Command::PlanChunk { id, offset, points } => {
                 self.plan.chunk(id, offset, points, running, &self.config)
             }
             Command::PlanStart { id } => {
                 // A retransmitted start of the running (or finished) plan changes nothing.
-                if self.plan.start(id, self.estop)? {
+                if self.plan.start(id, self.estop, running)? {
                     self.mode = Mode::Trajectory;
                 }
                 Ok(())

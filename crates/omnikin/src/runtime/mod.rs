@@ -18,6 +18,15 @@
 //!   to rest within the acceleration limit when no valid command or heartbeat arrives for
 //!   [`Config::watchdog`] seconds; [`Faults`] (limit hit, slip, link lost, …) in every
 //!   [`Status`].
+//! * Re-planning without stopping: [`Command::PlanSplice`] uploads a replacement of the running
+//!   plan's future into the buffer's free part while the plan goes on; armed by its
+//!   [`Command::PlanStart`], it takes over at its first point's time `t_s`. Refused, with the
+//!   running plan going on, when `t_s` has passed or lies past the plan's end
+//!   ([`CommandError::SpliceOutside`]), when it does not fit the free points
+//!   ([`CommandError::SpliceNoRoom`]), or when its first point is not the plan's reference at
+//!   `t_s` within [`SPLICE_MAX_JUMP`] in each of x, y, heading, vx, vy and yaw rate
+//!   ([`CommandError::OverLimit`] naming `splice.x_jump`, `splice.y_jump`,
+//!   `splice.heading_jump`, `splice.vx_jump`, `splice.vy_jump` or `splice.yaw_rate_jump`). [`plan_reference`] gives an operator that reference.
 //!
 //! ## Guarantees
 //! * **No allocation, no panic** in [`Runtime::handle`] and [`Runtime::cycle`] (tested with a
@@ -108,6 +117,7 @@ mod config;
 mod controller;
 mod cycle_inverse;
 mod plan;
+mod reference;
 mod shape;
 mod status;
 
@@ -119,6 +129,8 @@ pub use command::{
 };
 pub use config::{Config, ConfigError, RATE_HZ_RANGE};
 pub use controller::Runtime;
+pub use plan::SPLICE_MAX_JUMP;
+pub use reference::plan_reference;
 pub use status::{Faults, FixCounters, Mode, PlanStatus, Status};
 
 /// A runtime the operator link drives ([`crate::link::serve`], [`crate::link::robot_info`]):

@@ -1,32 +1,89 @@
-//! The plan buffer and trajectory following: a fixed array of `N` uploaded [`PlanPoint`]s
-//! (begin, chunks, start, each validated), the reference at a plan time (cubic Hermite in
-//! pose, linear in velocity), and the trajectory target `v = v_ref + K·(p_ref − p)`.
+//! The plan buffer and trajectory following: a ring of `N` uploaded [`PlanPoint`]s (begin,
+//! chunks, start, each validated), the reference at a plan time (cubic Hermite in pose, linear
+//! in velocity), the trajectory target `v = v_ref + K·(p_ref − p)`, and the **splice** that
+//! replaces the running plan's future without stopping.
+//!
+//! ## Splice
+//! A plan runs from ring slot `base` for `len` points; the slots before its current segment
+//! and after its last point are free. A splice upload (`PlanSplice`, then the usual chunks and
+//! start) is written into those free slots, after the running plan's last point, while the
+//! running plan goes on untouched. Its start arms it; the cycle whose plan time reaches the
+//! splice's first point time `t_s` follows the splice from then on (the reference at
+//! `t ≥ t_s` is the splice's). The start refuses, and the running plan goes on as if nothing
+//! had been sent, when
+//! * `t_s` is not ahead of the running plan's time or not before its end
+//!   ([`CommandError::SpliceOutside`]);
+//! * the splice's first point is not the running plan's reference at `t_s` within
+//!   [`SPLICE_MAX_JUMP`] in each of x, y, heading, vx, vy, yaw rate
+//!   ([`CommandError::OverLimit`] naming `splice.x_jump`, …). So the reference is
+//!   continuous in pose and velocity across the switch, and the commanded twist changes by no
+//!   more than the plan's own change over a cycle plus these tolerances.
+//!
+//! The splice's begin refuses an upload that does not fit the free slots
+//! ([`CommandError::SpliceNoRoom`]) and a splice with no plan running
+//! ([`CommandError::NothingToSplice`]). No second buffer: the plan memory stays `N` points.
 
 use super::command::{CommandError, PlanPoint, check_motion};
 use super::config::Config;
+use super::reference::between;
 use super::status::PlanStatus;
 use crate::{Pose2, Real, Twist2, wrap_angle as wrap};
 
-/// The uploaded plan and where the runtime is along it. No allocation: `N` points inline.
+/// Largest difference between a splice's first point and the running plan's reference at its
+/// time, per component: x, y (m), heading (rad, unwrapped as plans are), world vx, vy (m/s) and
+/// yaw rate (rad/s). The wire carries `f32` (a relative rounding of 6e-8: 60 µm at 1 km from
+/// the origin), so an operator that samples its own copy of the running plan at `t_s` with
+/// the runtime's interpolation ([`plan_reference`](super::plan_reference)) lands well within
+/// 1e-3; a step that small in the reference moves the command by at most `k_position` × 1 mm.
+pub const SPLICE_MAX_JUMP: f64 = 1.0e-3;
+
+/// The fields of [`CommandError::OverLimit`] for a splice's jump in x, y, heading, vx, vy, yaw rate.
+const JUMP_FIELDS: [&str; 6] = [
+    "splice.x_jump",
+    "splice.y_jump",
+    "splice.heading_jump",
+    "splice.vx_jump",
+    "splice.vy_jump",
+    "splice.yaw_rate_jump",
+];
+
+/// The uploaded plan and where the runtime is along it. No allocation: `N` points inline, used
+/// as a ring (the running plan, then a splice's upload after it).
 #[derive(Clone, Debug)]
 pub(super) struct PlanBuffer<T, const N: usize> {
     points: [PlanPoint<T>; N],
-    /// Upload progress and completion.
+    /// Upload progress (of a fresh plan or a splice) and the running plan's completion.
     pub(super) status: PlanStatus,
     /// Plan time of the next cycle's measured pose, s.
     time: T,
     /// Plan time of [`PlanBuffer::reference`], s.
     pub(super) reference_time: T,
-    /// Segment of the last lookup (moves forward only).
+    /// Segment of the last lookup (moves forward only), logical index in the running plan.
     index: usize,
     /// Reference pose at `reference_time` (world).
     pub(super) reference: Pose2<T>,
     /// The uploaded plan has been started: a later `PlanStart` of it is a retransmission.
     started: bool,
+    /// Ring slot of the running plan's first point.
+    base: usize,
+    /// Points of the running plan (0 before a start).
+    len: usize,
+    /// Ring slot of the upload's first point.
+    upload: usize,
+    /// The upload is a splice of the running plan.
+    splice: bool,
+    /// A complete splice was started: switch to it at its first point's time.
+    armed: bool,
 }
 
 pub(super) fn zero_twist<T: Real>() -> Twist2<T> {
     Twist2::new(T::zero(), T::zero(), T::zero())
+}
+
+/// Ring slot `i` places after slot `start` (`start < N`, `i ≤ N`; no division, no panic).
+fn slot<const N: usize>(start: usize, i: usize) -> usize {
+    let j = start + i;
+    if j >= N { j - N } else { j }
 }
 
 impl<T: Real, const N: usize> PlanBuffer<T, N> {
@@ -40,6 +97,11 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
             index: 0,
             reference: pose,
             started: false,
+            base: 0,
+            len: 0,
+            upload: 0,
+            splice: false,
+            armed: false,
         }
     }
 
@@ -52,16 +114,67 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         self.index = 0;
         self.reference = pose;
         self.started = false;
+        self.base = 0;
+        self.len = 0;
+        self.upload = 0;
+        self.splice = false;
+        self.armed = false;
     }
 
-    /// `PlanBegin`: clears the buffer for plan `id` of `len` points.
-    pub(super) fn begin(&mut self, id: u16, len: u16, running: bool) -> Result<(), CommandError> {
+    /// Point `i` of the running plan.
+    fn pt(&self, i: usize) -> PlanPoint<T> {
+        self.points[slot::<N>(self.base, i)]
+    }
+
+    /// Point `i` of the upload.
+    fn up(&self, i: usize) -> PlanPoint<T> {
+        self.points[slot::<N>(self.upload, i)]
+    }
+
+    /// `PlanBegin` (`splice` false): clears the buffer for plan `id` of `len` points, refused
+    /// while a plan runs. `PlanSplice` (`splice` true): an upload of `len` points into the
+    /// free slots after the running plan, which goes on.
+    pub(super) fn begin(
+        &mut self,
+        id: u16,
+        len: u16,
+        running: bool,
+        splice: bool,
+    ) -> Result<(), CommandError> {
         if len as usize > N {
             return Err(CommandError::PlanTooLong { len, capacity: N });
         }
-        if running {
-            return Err(CommandError::Busy);
+        if splice {
+            if !running {
+                return Err(CommandError::NothingToSplice);
+            }
+            if id == self.status.id {
+                // A copy of this splice's begin (an operator re-sends it until telemetry shows
+                // the id): it must not clear the upload, nor disarm a started splice.
+                return if self.splice {
+                    Ok(())
+                } else {
+                    Err(CommandError::OutOfRange {
+                        field: "splice.id",
+                        value: id as f64,
+                        rule: "must differ from the running plan's id",
+                    })
+                };
+            }
+            // Slots before the current segment are read no more (it only moves forward).
+            let free = N - (self.len - self.index.min(self.len));
+            if len as usize > free {
+                return Err(CommandError::SpliceNoRoom { len, free });
+            }
+            self.upload = slot::<N>(self.base, self.len);
+        } else {
+            if running {
+                return Err(CommandError::Busy);
+            }
+            self.upload = 0;
         }
+        self.splice = splice;
+        self.armed = false;
         self.started = false;
         self.status = PlanStatus {
             id,
@@ -72,7 +185,8 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         Ok(())
     }
 
-    /// `PlanChunk`: stores `points` at `offset` after checking every value.
+    /// `PlanChunk`: stores `points` at `offset` after checking every value (a fresh plan's
+    /// chunk is refused while a plan runs; a splice's is what the running plan waits for).
     pub(super) fn chunk(
         &mut self,
         id: u16,
@@ -88,7 +202,7 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
                 got: id,
             });
         }
-        if running {
+        if running && !self.splice {
             return Err(CommandError::Busy);
         }
         let start = offset as usize;
@@ -117,7 +231,7 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
             let prev_t = if k > 0 {
                 Some(points[k - 1].t)
             } else if start > 0 {
-                Some(self.points[start - 1].t)
+                Some(self.up(start - 1).t)
             } else {
                 None
             };
@@ -125,21 +239,30 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
                 return Err(CommandError::PlanTimeNotIncreasing { index: start + k });
             }
         }
-        self.points[start..end].copy_from_slice(points);
+        for (k, p) in points.iter().enumerate() {
+            self.points[slot::<N>(self.upload, start + k)] = *p;
+        }
         if end as u16 > st.received {
             self.status.received = end as u16;
         }
         Ok(())
     }
 
-    /// `PlanStart`: checks the plan is complete and strictly increasing in time, and rewinds
-    /// to its first point: `Ok(true)`. `estop`: the e-stop is latched (then refused).
+    /// `PlanStart`: checks the plan is complete and strictly increasing in time. A fresh plan
+    /// rewinds to its first point: `Ok(true)`. A splice (with its plan still `running`) is
+    /// checked against the running plan (module docs) and armed: `Ok(false)`, the mode does
+    /// not change. `estop`: the e-stop is latched (then refused).
     ///
     /// Once per upload: a `PlanStart` of a plan already started (running or done) is an operator's
     /// retransmission whose first copy was answered by telemetry the operator lost, and is
     /// ignored, `Ok(false)` (it restarted a running plan from its first point, 1.6 mm behind
     /// the robot, under 20 % loss). Running a plan again takes a new `PlanBegin`.
-    pub(super) fn start(&mut self, id: u16, estop: bool) -> Result<bool, CommandError> {
+    pub(super) fn start(
+        &mut self,
+        id: u16,
+        estop: bool,
+        running: bool,
+    ) -> Result<bool, CommandError> {
         let st = self.status;
         if id != st.id {
             return Err(CommandError::PlanIdMismatch {
@@ -161,18 +284,67 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         }
         let n = st.len as usize;
         for i in 1..n {
-            if self.points[i].t.partial_cmp(&self.points[i - 1].t)
-                != Some(core::cmp::Ordering::Greater)
-            {
+            if self.up(i).t.partial_cmp(&self.up(i - 1).t) != Some(core::cmp::Ordering::Greater) {
                 return Err(CommandError::PlanTimeNotIncreasing { index: i });
             }
         }
-        self.time = self.points[0].t;
-        self.reference_time = self.points[0].t;
+        if self.splice {
+            self.check_splice(running)?;
+            self.armed = true;
+            self.started = true;
+            return Ok(false);
+        }
+        self.base = self.upload;
+        self.len = n;
+        self.time = self.up(0).t;
+        self.reference_time = self.time;
         self.index = 0;
         self.status.done = false;
         self.started = true;
         Ok(true)
+    }
+
+    /// A complete splice against the running plan: its first time ahead of the plan time and
+    /// before the plan's end, its first point on the plan's reference there.
+    fn check_splice(&mut self, running: bool) -> Result<(), CommandError> {
+        if !running || self.len < 2 {
+            return Err(CommandError::NothingToSplice);
+        }
+        let first = self.up(0);
+        let end = self.pt(self.len - 1).t;
+        if !(first.t > self.time && first.t < end) {
+            return Err(CommandError::SpliceOutside {
+                at: first.t.to_f64(),
+                now: self.time.to_f64(),
+                end: end.to_f64(),
+            });
+        }
+        // The lookup must not move the running plan's segment (slots before it may be the
+        // splice's now).
+        let index = self.index;
+        let (pose, twist) = self.reference_at(first.t, first.pose);
+        self.index = index;
+        // Component by component (no square roots, names in one table: the firmware's flash
+        // is tight).
+        let jumps = [
+            first.pose.x - pose.x,
+            first.pose.y - pose.y,
+            first.pose.heading - pose.heading,
+            first.twist.vx - twist.vx,
+            first.twist.vy - twist.vy,
+            first.twist.yaw_rate - twist.yaw_rate,
+        ];
+        for (jump, field) in jumps.iter().zip(JUMP_FIELDS) {
+            let value = jump.abs().to_f64();
+            if value > SPLICE_MAX_JUMP {
+                return Err(CommandError::OverLimit {
+                    field,
+                    value,
+                    limit: SPLICE_MAX_JUMP,
+                });
+            }
+        }
+        Ok(())
     }
 
     /// The world-frame target twist of one trajectory cycle of `dt` s at the measured `pose`:
@@ -180,6 +352,14 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
     /// reference velocity over the coming cycle; advances the plan time. Returns the target and
     /// whether the plan ended (the caller then stops).
     pub(super) fn follow(&mut self, pose: Pose2<T>, dt: T, cfg: &Config<T>) -> (Twist2<T>, bool) {
+        if self.armed && self.time >= self.up(0).t {
+            // The splice's first point is the running plan's reference at its time: switch.
+            self.base = self.upload;
+            self.len = self.status.len as usize;
+            self.index = 0;
+            self.armed = false;
+            self.splice = false;
+        }
         let (r, _) = self.reference_at(self.time, pose);
         let (_, ff) = self.reference_at(self.time + dt * T::of(0.5), pose);
         self.reference = r;
@@ -195,8 +375,8 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         }
         let cw = (cfg.k_heading * wrap(r.heading - pose.heading))
             .clamp(-cfg.max_yaw_correction, cfg.max_yaw_correction);
-        let n = self.status.len as usize;
-        let done = n > 0 && self.time >= self.points[(n - 1).min(N - 1)].t;
+        // An armed splice starts before the running plan's end: not done yet.
+        let done = self.len > 0 && !self.armed && self.time >= self.pt(self.len - 1).t;
         if done {
             self.status.done = true;
         }
@@ -207,53 +387,26 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
     /// heading (using the sampled velocities as tangents), linear in velocity. An empty plan
     /// gives `fallback` at rest.
     fn reference_at(&mut self, tau: T, fallback: Pose2<T>) -> (Pose2<T>, Twist2<T>) {
-        let n = self.status.len as usize;
-        let pts = &self.points[..n.min(N)];
-        if pts.is_empty() {
+        let n = self.len;
+        if n == 0 {
             return (fallback, zero_twist());
         }
-        if tau <= pts[0].t {
-            return (pts[0].pose, pts[0].twist);
+        // Points before the segment of the last lookup are read no more (a splice may have
+        // overwritten them): the plan time only moves forward.
+        let mut k = self.index.min(n - 1);
+        let first = self.pt(k);
+        if tau <= first.t {
+            return (first.pose, first.twist);
         }
-        let last = pts[pts.len() - 1];
+        let last = self.pt(n - 1);
         if tau >= last.t {
             return (last.pose, zero_twist());
         }
-        let mut k = self.index.min(pts.len() - 2);
-        if pts[k].t > tau {
-            k = 0;
-        }
-        while k + 2 < pts.len() && pts[k + 1].t <= tau {
+        // Here k + 1 < n (the last point would have returned above).
+        while k + 2 < n && self.pt(k + 1).t <= tau {
             k += 1;
         }
         self.index = k;
-        let (a, b) = (pts[k], pts[k + 1]);
-        let h = b.t - a.t;
-        let s = (tau - a.t) / h;
-        let (s2, s3) = (s * s, s * s * s);
-        let two = T::of(2.0);
-        let three = T::of(3.0);
-        let h00 = two * s3 - three * s2 + T::one();
-        let h10 = s3 - two * s2 + s;
-        let h01 = -two * s3 + three * s2;
-        let h11 = s3 - s2;
-        let herm = |p0: T, v0: T, p1: T, v1: T| h00 * p0 + h10 * h * v0 + h01 * p1 + h11 * h * v1;
-        let pose = Pose2::new(
-            herm(a.pose.x, a.twist.vx, b.pose.x, b.twist.vx),
-            herm(a.pose.y, a.twist.vy, b.pose.y, b.twist.vy),
-            herm(
-                a.pose.heading,
-                a.twist.yaw_rate,
-                b.pose.heading,
-                b.twist.yaw_rate,
-            ),
-        );
-        let lerp = |x: T, y: T| x + (y - x) * s;
-        let twist = Twist2::new(
-            lerp(a.twist.vx, b.twist.vx),
-            lerp(a.twist.vy, b.twist.vy),
-            lerp(a.twist.yaw_rate, b.twist.yaw_rate),
-        );
-        (pose, twist)
+        between(&self.pt(k), &self.pt(k + 1), tau)
     }
 }

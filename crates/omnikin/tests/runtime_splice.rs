@@ -1,0 +1,408 @@
+//! Splicing a running plan (`Command::PlanSplice`): the replacement of a plan's future,
+//! uploaded into the buffer's free part while the plan runs, takes over at its first point's
+//! time without a stop; a late, discontinuous or too large splice is refused and the old plan
+//! goes on. The runtime drives an ideal board (motors turn exactly as commanded).
+
+use omnikin::runtime::hal::{EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOutputs};
+use omnikin::runtime::{
+    Command, CommandError, Config, Mode, PlanPoint, Runtime, Status, plan_reference,
+};
+use omnikin::sphere::{SphereOmni, SphereParams};
+use omnikin::{MAX_WHEELS, Pose2, Robot, Twist2};
+
+/// The ideal board: encoders read what the motors turned.
+#[derive(Default)]
+struct Board {
+    wheel: [f64; MAX_WHEELS],
+}
+
+impl Encoders<f64> for Board {
+    type Error = &'static str;
+    fn read(&mut self) -> Result<EncoderAngles<f64>, Self::Error> {
+        Ok(EncoderAngles {
+            wheel: self.wheel,
+            steer: [0.0; MAX_WHEELS],
+        })
+    }
+}
+impl Imu<f64> for Board {
+    type Error = &'static str;
+    fn read(&mut self) -> Result<Option<ImuSample<f64>>, Self::Error> {
+        Ok(None)
+    }
+}
+impl MotorOutputs<f64> for Board {
+    type Error = &'static str;
+    fn set_rates(&mut self, _: &MotorCommand<f64>) -> Result<(), Self::Error> {
+        Ok(())
+    }
+}
+
+const DT: f64 = 0.01;
+const DT_US: u64 = 10_000;
+/// Plan sample period, s.
+const STEP: f64 = 0.05;
+/// A buffer of 128 points: plan A (81 points) and a 51-point splice wrap around its end.
+const CAP: usize = 128;
+
+struct Rig {
+    rt: Runtime<f64, CAP>,
+    board: Board,
+    now: u64,
+    log: Vec<Status<f64>>,
+}
+
+impl Rig {
+    fn new() -> Self {
+        let robot = Robot::Sphere(SphereOmni::new(SphereParams::preset()).unwrap());
+        Self {
+            rt: Runtime::new(robot, Config::new(100.0), Pose2::default()).unwrap(),
+            board: Board::default(),
+            now: 0,
+            log: vec![],
+        }
+    }
+    fn cmd(&mut self, c: Command<'_, f64>) -> Result<(), CommandError> {
+        self.rt.handle(c, self.now)
+    }
+    /// One cycle with a heartbeat, then the ideal plant turns the wheels for DT.
+    fn step(&mut self) -> Status<f64> {
+        self.cmd(Command::Heartbeat).unwrap();
+        self.rt.cycle(
+            self.now,
+            &mut self.board,
+            &mut Board::default(),
+            &mut Board::default(),
+        );
+        let st = self.rt.status();
+        for i in 0..MAX_WHEELS {
+            self.board.wheel[i] += st.motors.wheel[i] * DT;
+        }
+        self.now += DT_US;
+        self.log.push(st);
+        st
+    }
+    /// Cycles until the plan time reaches `t` (s).
+    fn run_to(&mut self, t: f64) {
+        while self.rt.status().plan_time < t - 1e-9 {
+            self.step();
+        }
+    }
+    /// Cycles until the runtime is idle again (at most 10 s).
+    fn run_out(&mut self) {
+        for _ in 0..1000 {
+            if self.step().mode == Mode::Idle {
+                return;
+            }
+        }
+        panic!("the robot did not come to rest");
+    }
+    /// `PlanBegin` or `PlanSplice` of `pts`, its chunks of 8 points, and its start.
+    fn upload(
+        &mut self,
+        id: u16,
+        pts: &[PlanPoint<f64>],
+        splice: bool,
+    ) -> Result<(), CommandError> {
+        let len = pts.len() as u16;
+        self.cmd(if splice {
+            Command::PlanSplice { id, len }
+        } else {
+            Command::PlanBegin { id, len }
+        })?;
+        for (k, c) in pts.chunks(8).enumerate() {
+            self.cmd(Command::PlanChunk {
+                id,
+                offset: (k * 8) as u16,
+                points: c,
+            })?;
+        }
+        self.cmd(Command::PlanStart { id })
+    }
+}
+
+/// Samples the robot-frame twist `twist(t)` from `t0` to `t1` every [`STEP`] from `pose`, the
+/// poses integrated exactly (fine sub-steps), velocities in the world frame.
+fn sample(
+    twist: impl Fn(f64) -> Twist2<f64>,
+    t0: f64,
+    t1: f64,
+    pose: Pose2<f64>,
+) -> Vec<PlanPoint<f64>> {
+    let n = ((t1 - t0) / STEP).round() as usize;
+    let mut pose = pose;
+    let mut pts = vec![];
+    for k in 0..=n {
+        let t = t0 + k as f64 * STEP;
+        pts.push(PlanPoint {
+            t,
+            pose,
+            twist: twist(t).to_world(pose.heading),
+        });
+        let h = STEP / 100.0;
+        for j in 0..100 {
+            pose = omnikin::se2::integrate(pose, twist(t + (j as f64 + 0.5) * h), h);
+        }
+    }
+    pts
+}
+
+/// Plan A: 4 s rest to rest (sin² speed profile), 0.15 m/s forward and 0.4 rad/s at its peak
+/// (t = 2 s), 81 points.
+fn plan_a() -> Vec<PlanPoint<f64>> {
+    let twist = |t: f64| {
+        let s = (core::f64::consts::PI * t / 4.0).sin();
+        Twist2::new(0.15 * s * s, 0.02 * s, 0.4 * s * s)
+    };
+    sample(twist, 0.0, 4.0, Pose2::default())
+}
+
+/// A replacement of A's future from its point at `t_s` (A's peak: the same twist there, the
+/// same zero acceleration) to rest at `t_s + 2.5` s, bending left: a sideways bump of
+/// 0.1 m/s peak. 51 points.
+fn splice_b(a: &[PlanPoint<f64>], t_s: f64) -> Vec<PlanPoint<f64>> {
+    let k = (t_s / STEP).round() as usize;
+    assert!((a[k].t - t_s).abs() < 1e-9 && (t_s - 2.0).abs() < 1e-9);
+    let twist = |t: f64| {
+        let u = core::f64::consts::PI * (t - t_s);
+        let c = (core::f64::consts::FRAC_PI_2 + u / 5.0).sin();
+        let bump = (u / 2.5).sin();
+        Twist2::new(0.15 * c * c, 0.02 * c + 0.1 * bump * bump, 0.4 * c * c)
+    };
+    sample(twist, t_s, t_s + 2.5, a[k].pose)
+}
+
+/// Largest change of the world velocity between consecutive points, per second: the plan's
+/// own acceleration.
+fn plan_accel(pts: &[PlanPoint<f64>]) -> f64 {
+    pts.windows(2)
+        .map(|w| {
+            let (a, b) = (w[0].twist, w[1].twist);
+            (b.vx - a.vx).hypot(b.vy - a.vy) / (w[1].t - w[0].t)
+        })
+        .fold(0.0, f64::max)
+}
+
+fn dist(a: Pose2<f64>, b: Pose2<f64>) -> f64 {
+    (a.x - b.x).hypot(a.y - b.y)
+}
+
+#[test]
+fn a_splice_takes_over_mid_plan_without_a_stop_or_a_velocity_jump() {
+    let a = plan_a();
+    let b = splice_b(&a, 2.0);
+    let mut rig = Rig::new();
+    rig.upload(1, &a, false).unwrap();
+    // At 1 s A is at its point 20: 128 − (81 − 20) = 67 free slots for B's 51 (B wraps around
+    // the ring's end into A's first points, already passed).
+    rig.run_to(1.0);
+    rig.upload(2, &b, true).unwrap();
+    assert_eq!(rig.rt.status().plan.id, 2);
+    // A late copy of the splice's begin neither clears nor disarms it.
+    rig.cmd(Command::PlanSplice { id: 2, len: 51 }).unwrap();
+    rig.run_out();
+    // Never stopped before B's end: trajectory mode all the way to B's last time.
+    let end = rig
+        .log
+        .iter()
+        .position(|s| s.mode != Mode::Trajectory)
+        .unwrap();
+    assert!(
+        rig.log[end - 1].plan_time >= b[b.len() - 1].t - DT - 1e-9,
+        "left trajectory mode at plan time {}",
+        rig.log[end - 1].plan_time
+    );
+    // It went B's way: B's end, 0.125 m left of A's.
+    let last = rig.log.last().unwrap();
+    assert!(
+        dist(last.pose, b[b.len() - 1].pose) < 2e-3,
+        "{:?}",
+        last.pose
+    );
+    assert!(dist(a[a.len() - 1].pose, b[b.len() - 1].pose) > 0.1);
+    // No jump: the reference moves by at most the plans' top speed per cycle, the body
+    // velocity changes by at most the plans' own acceleration (1 % for the sampling).
+    let top = a
+        .iter()
+        .chain(&b)
+        .map(|p| p.twist.vx.hypot(p.twist.vy))
+        .fold(0.0, f64::max);
+    let acc = plan_accel(&a).max(plan_accel(&b));
+    for w in rig.log[..end].windows(2) {
+        let step = dist(w[0].reference, w[1].reference);
+        assert!(
+            step <= top * DT * 1.01,
+            "reference step {step} at {}",
+            w[1].plan_time
+        );
+        let (c0, c1) = (w[0].command, w[1].command);
+        let dv = (c1.vx - c0.vx).hypot(c1.vy - c0.vy) / DT;
+        assert!(
+            dv <= acc * 1.01 + 0.02,
+            "velocity change {dv} m/s² at {}",
+            w[1].plan_time
+        );
+    }
+    // The ideal plant tracks both plans closely (a jump would show as a tracking error).
+    let worst = rig
+        .log
+        .iter()
+        .map(|s| dist(s.pose, s.reference))
+        .fold(0.0, f64::max);
+    assert!(worst < 2e-3, "tracking error {worst} m");
+}
+
+#[test]
+fn a_late_splice_is_refused_and_the_old_plan_goes_on() {
+    let a = plan_a();
+    let b = splice_b(&a, 2.0);
+    let mut rig = Rig::new();
+    rig.upload(1, &a, false).unwrap();
+    rig.run_to(2.2);
+    match rig.upload(2, &b, true) {
+        Err(CommandError::SpliceOutside { at, now, end }) => {
+            assert_eq!((at, end), (2.0, 4.0));
+            assert!(now > 2.0, "{now}");
+        }
+        other => panic!("{other:?}"),
+    }
+    rig.run_out();
+    let last = rig.log.last().unwrap();
+    assert!(
+        dist(last.pose, a[a.len() - 1].pose) < 2e-3,
+        "{:?}",
+        last.pose
+    );
+    assert!(
+        !rig.log
+            .iter()
+            .any(|s| s.mode == Mode::Stopping && s.plan_time < 4.0 - DT)
+    );
+}
+
+#[test]
+fn a_splice_off_the_running_plan_is_refused_and_the_old_plan_goes_on() {
+    let a = plan_a();
+    let mut b = splice_b(&a, 2.0);
+    // 2 mm sideways at its start: beyond the 1e-3 of the f32 wire's rounding.
+    for p in &mut b {
+        p.pose.y += 2e-3;
+    }
+    let mut rig = Rig::new();
+    rig.upload(1, &a, false).unwrap();
+    rig.run_to(1.0);
+    match rig.upload(2, &b, true) {
+        Err(CommandError::OverLimit {
+            field: "splice.y_jump",
+            value,
+            limit,
+        }) => assert!(
+            (value - 2e-3).abs() < 1e-9 && limit == 1e-3,
+            "{value} {limit}"
+        ),
+        other => panic!("{other:?}"),
+    }
+    b[0].pose.y -= 2e-3;
+    b[0].twist.vx += 0.01;
+    let e = rig.upload(3, &b, true);
+    assert!(
+        matches!(
+            e,
+            Err(CommandError::OverLimit {
+                field: "splice.vx_jump",
+                ..
+            })
+        ),
+        "{e:?}"
+    );
+    rig.run_out();
+    let last = rig.log.last().unwrap();
+    assert!(
+        dist(last.pose, a[a.len() - 1].pose) < 2e-3,
+        "{:?}",
+        last.pose
+    );
+}
+
+#[test]
+fn a_splice_that_would_overflow_the_buffer_is_refused_and_the_old_plan_goes_on() {
+    let a = plan_a();
+    let b = splice_b(&a, 2.0);
+    let mut rig = Rig::new();
+    // No plan running: nothing to splice into; the running plan's id is not a splice's.
+    assert_eq!(
+        rig.cmd(Command::PlanSplice { id: 9, len: 2 }),
+        Err(CommandError::NothingToSplice)
+    );
+    rig.upload(1, &a, false).unwrap();
+    assert!(matches!(
+        rig.cmd(Command::PlanSplice { id: 1, len: 51 }),
+        Err(CommandError::OutOfRange {
+            field: "splice.id",
+            ..
+        })
+    ));
+    // At 0.2 s A is at its point 4: 128 − (81 − 4) = 51 free slots; at 0.1 s only 49.
+    rig.run_to(0.1);
+    let free = CAP - (a.len() - 2);
+    assert_eq!(
+        rig.upload(2, &b, true),
+        Err(CommandError::SpliceNoRoom { len: 51, free })
+    );
+    assert_eq!(rig.rt.mode(), Mode::Trajectory);
+    rig.run_out();
+    let last = rig.log.last().unwrap();
+    assert!(
+        dist(last.pose, a[a.len() - 1].pose) < 2e-3,
+        "{:?}",
+        last.pose
+    );
+}
+
+/// An operator's splice between two of the running plan's points: its first point from
+/// `plan_reference` (the runtime's own interpolation), the rest B's curve from there.
+#[test]
+fn a_splice_between_plan_points_starts_on_the_plan_reference() {
+    let a = plan_a();
+    let t_s = 2.025;
+    let (pose, twist) = plan_reference(&a, t_s).unwrap();
+    let mut b = splice_b(&a, 2.0);
+    for p in &mut b {
+        p.t += t_s - 2.0;
+        p.pose.x += pose.x - a[40].pose.x;
+        p.pose.y += pose.y - a[40].pose.y;
+        p.pose.heading += pose.heading - a[40].pose.heading;
+    }
+    b[0] = PlanPoint {
+        t: t_s,
+        pose,
+        twist,
+    };
+    let mut rig = Rig::new();
+    rig.upload(1, &a, false).unwrap();
+    rig.run_to(1.0);
+    rig.upload(2, &b, true).unwrap();
+    rig.run_out();
+    let last = rig.log.last().unwrap();
+    assert!(
+        dist(last.pose, b[b.len() - 1].pose) < 2e-3,
+        "{:?}",
+        last.pose
+    );
+    // The nearest sample instead (A's point at 2.0 s, 3.7 mm behind): refused.
+    let mut rig = Rig::new();
+    rig.upload(1, &a, false).unwrap();
+    rig.run_to(1.0);
+    b[0].pose = a[40].pose;
+    let e = rig.upload(3, &b, true);
+    assert!(
+        matches!(
+            e,
+            Err(CommandError::OverLimit {
+                field: "splice.x_jump",
+                ..
+            })
+        ),
+        "{e:?}"
+    );
+}
