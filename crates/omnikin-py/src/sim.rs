@@ -527,12 +527,14 @@ pub fn evaluate_native<'py>(
     };
     let mut runs = Vec::new();
     let mut names = Vec::with_capacity(tracks.len());
+    let mut estops = Vec::new();
     for arg in &tracks {
         let (track, f) = arg.load()?;
         if let Some(why) = track.did_not_move(&plan, align) {
             return Err(value_error(format!("{f}: {why}")));
         }
         runs.push(track.resample(&plan, align));
+        estops.extend(track.estops_on(&plan, align));
         names.push(f);
     }
     let e = py
@@ -548,6 +550,7 @@ pub fn evaluate_native<'py>(
         "plan": plan_name, "tracks": names,
         "motion_threshold_m": motion_threshold, "align_position": align_position,
         "tracking_offset_m": tracking_offset.unwrap_or([0.0; 2]),
+        "estops": estops.iter().map(|m| json!({"t": m.t, "x": m.xy[0], "y": m.xy[1]})).collect::<Vec<_>>(),
     });
     let mut v = vec![Vec::new(); 4];
     for (i, r) in runs.iter().enumerate() {
