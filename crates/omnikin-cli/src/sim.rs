@@ -1072,18 +1072,18 @@ impl<'a> Report<'a> {
                     .collect::<std::collections::BTreeMap<_, _>>()
             ),
         );
-        if let Some(d) = self.info.dynamic.as_ref() {
-            if outcomes.iter().any(|o| o.profile == "dynamic") {
-                let c = omnikin_sim::reproduce::nominal_contact_events(d.params, s)
-                    .with_context(|| format!("{}: contact events", s.name))?;
-                if let Some(series) = self.all.get_mut(&s.name) {
-                    series["dynamic_nominal_contact_events"] = json!({
-                        "roller_slips": c.roller_slips,
-                        "lift_offs": c.lift_offs,
-                        "floor_slips": c.floor_slips,
-                        "lost_steps": c.lost_steps,
-                    });
-                }
+        if let Some(d) = self.info.dynamic.as_ref()
+            && outcomes.iter().any(|o| o.profile == "dynamic")
+        {
+            let c = omnikin_sim::reproduce::nominal_contact_events(d.params, s)
+                .with_context(|| format!("{}: contact events", s.name))?;
+            if let Some(series) = self.all.get_mut(&s.name) {
+                series["dynamic_nominal_contact_events"] = json!({
+                    "roller_slips": c.roller_slips,
+                    "lift_offs": c.lift_offs,
+                    "floor_slips": c.floor_slips,
+                    "lost_steps": c.lost_steps,
+                });
             }
         }
         self.rows.push(omnikin_sim::reproduce::row(s, outcomes));
