@@ -549,6 +549,37 @@ fn the_readme_is_at_most_400_lines() {
     );
 }
 
+/// The manual reads as a manual: no "issue N" (the tracker's numbers mean nothing to a reader;
+/// history goes to bench/README.md and git) in the README or docs/.
+#[test]
+fn the_manual_names_no_issue_numbers() {
+    let mut pages = vec![Path::new(ROOT).join("README.md")];
+    for e in fs::read_dir(Path::new(ROOT).join("docs")).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "md") {
+            pages.push(p);
+        }
+    }
+    let mut found = Vec::new();
+    for p in &pages {
+        let text = fs::read_to_string(p).unwrap();
+        for (i, line) in text.lines().enumerate() {
+            let lower = line.to_lowercase();
+            for (at, _) in lower.match_indices("issue") {
+                let rest = lower[at + 5..].trim_start_matches('s').trim_start();
+                if rest.starts_with(|c: char| c.is_ascii_digit()) {
+                    found.push(format!("{}:{}: {line}", p.display(), i + 1));
+                }
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "issue numbers in the manual:\n{}",
+        found.join("\n")
+    );
+}
+
 #[test]
 fn the_readme_names_only_files_that_exist() {
     // Every relative link target and every `examples/...`, `docs/...`, `bench/...` path.
