@@ -312,16 +312,7 @@ fn bracket(samples: &[Sample], t: f64) -> (usize, f64) {
 fn resample(plan: &Plan, samples: &[Sample]) -> Trial {
     let n = plan.samples.len();
     let t0 = plan.samples[0].t;
-    let mut trial = Trial {
-        wheels: 3,
-        t: Vec::with_capacity(n),
-        pose: Vec::with_capacity(n),
-        tracked: Vec::with_capacity(n),
-        slip_residual: Vec::with_capacity(n),
-        wheel_angles: Vec::with_capacity(n),
-        encoder_angles: Vec::with_capacity(n),
-        steer_angles: Vec::with_capacity(n),
-    };
+    let mut trial = Trial::with_capacity(3, n);
     for s in &plan.samples {
         let (j, u) = bracket(samples, s.t - t0);
         let (a, b) = (&samples[j], &samples[j + 1]);

@@ -36,6 +36,22 @@ pub struct Trial {
     pub steer_angles: Vec<[f64; MAX_WHEELS]>,
 }
 
+impl Trial {
+    /// An empty trial of a `wheels`-wheel robot with room for `n` samples.
+    pub fn with_capacity(wheels: usize, n: usize) -> Self {
+        Self {
+            wheels,
+            t: Vec::with_capacity(n),
+            pose: Vec::with_capacity(n),
+            tracked: Vec::with_capacity(n),
+            slip_residual: Vec::with_capacity(n),
+            wheel_angles: Vec::with_capacity(n),
+            encoder_angles: Vec::with_capacity(n),
+            steer_angles: Vec::with_capacity(n),
+        }
+    }
+}
+
 /// A simulation that could not run.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum SimError {
@@ -149,16 +165,7 @@ pub fn simulate_trial(
     let mut motors = Motors::new(&plant, profile, first.wheel_rates, first_steer_rates);
 
     let n = samples.len();
-    let mut out = Trial {
-        wheels: robot.wheels(),
-        t: Vec::with_capacity(n),
-        pose: Vec::with_capacity(n),
-        tracked: Vec::with_capacity(n),
-        slip_residual: Vec::with_capacity(n),
-        wheel_angles: Vec::with_capacity(n),
-        encoder_angles: Vec::with_capacity(n),
-        steer_angles: Vec::with_capacity(n),
-    };
+    let mut out = Trial::with_capacity(robot.wheels(), n);
     let count = profile
         .encoder
         .counts_per_rev

@@ -85,16 +85,7 @@ pub fn simulate_plan(params: SphereDynamics, plan: &Plan) -> Result<DynamicTrial
     };
     let mut sim = SphereSim::with_state(params, start)?;
     let n = plan.samples.len();
-    let mut trial = Trial {
-        wheels: 3,
-        t: Vec::with_capacity(n),
-        pose: Vec::with_capacity(n),
-        tracked: Vec::with_capacity(n),
-        slip_residual: Vec::with_capacity(n),
-        wheel_angles: Vec::with_capacity(n),
-        encoder_angles: Vec::with_capacity(n),
-        steer_angles: Vec::with_capacity(n),
-    };
+    let mut trial = Trial::with_capacity(3, n);
     let mut tilt = Vec::with_capacity(n);
     let mut shell_spin = Vec::with_capacity(n);
     let mut peak_torque = [0.0f64; 3];
