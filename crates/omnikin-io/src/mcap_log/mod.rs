@@ -346,6 +346,12 @@ impl McapLog {
             .encoding
             .encode(topic, v)
             .map_err(|e| anyhow::anyhow!("{}: {prefix}{}: {e}", self.context(), topic.name))?;
+        self.write(channel_id, ns, &data)
+    }
+
+    /// Writes `data` on channel `channel_id` at log time `ns` (both profiles), and closes the
+    /// open chunk when [`FLUSH_EVERY`] has passed.
+    fn write(&mut self, channel_id: u16, ns: u64, data: &[u8]) -> Result<()> {
         let header = mcap::records::MessageHeader {
             channel_id,
             sequence: self.sequence,
@@ -355,7 +361,7 @@ impl McapLog {
         self.sequence = self.sequence.wrapping_add(1);
         let ctx = self.context();
         self.writer
-            .write_to_known_channel(&header, &data)
+            .write_to_known_channel(&header, data)
             .context(ctx.clone())?;
         if self.last_flush.elapsed() >= FLUSH_EVERY {
             self.writer.flush().context(ctx)?;
@@ -440,21 +446,7 @@ impl McapLog {
                 id
             }
         };
-        let header = mcap::records::MessageHeader {
-            channel_id,
-            sequence: self.sequence,
-            log_time: ns,
-            publish_time: ns,
-        };
-        self.sequence = self.sequence.wrapping_add(1);
-        self.writer
-            .write_to_known_channel(&header, &m.data)
-            .context(ctx.clone())?;
-        if self.last_flush.elapsed() >= FLUSH_EVERY {
-            self.writer.flush().context(ctx)?;
-            self.last_flush = Instant::now();
-        }
-        Ok(())
+        self.write(channel_id, ns, &m.data)
     }
 
     /// Closes the file (last chunk, summary, footer) and moves it into place.
