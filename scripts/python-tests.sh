@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # The Python package's tests (crates/omnikin-py): a fresh virtual environment in a temporary
 # directory, `pip install ./crates/omnikin-py` (pip fetches maturin from PyPI into its build
-# isolation; maturin builds the extension in release mode with the workspace's Cargo.lock), the
-# CLI built by cargo, then pytest, which compares every method with the CLI.
+# isolation; maturin builds the extension with the workspace's Cargo.lock in the dev profile,
+# opt-level 1, reusing the dependencies `cargo test` compiled: PYTHON_WHEEL_PROFILE=release
+# builds what users install), the CLI built by cargo, then pytest, which compares every method
+# with the CLI.
 #
 # Needs python3 (>= 3.10) with venv, and PyPI. PYTHON=python3.12 picks another interpreter;
 # PYTHON_SKIP_UNAVAILABLE=1 skips loudly (exit 0) when there is no interpreter or no PyPI.
@@ -41,7 +43,9 @@ pip=("$tmp/venv/bin/pip" --disable-pip-version-check --quiet)
 "${pip[@]}" install pytest matplotlib mcap mcap-protobuf-support pandas yourdfpy rosbags \
   || skip "cannot install pytest, matplotlib, mcap, mcap-protobuf-support, pandas, yourdfpy and rosbags from PyPI"
 # --locked: the extension builds against the committed Cargo.lock, like every other crate.
-MATURIN_PEP517_ARGS="--locked" "${pip[@]}" install ./crates/omnikin-py
+# The dev profile shares target/debug with `cargo test` (same settings, see Cargo.toml), so in CI
+# only the extension's own crates compile here (~15 s instead of a release build of everything).
+MATURIN_PEP517_ARGS="--locked --profile ${PYTHON_WHEEL_PROFILE:-dev}" "${pip[@]}" install ./crates/omnikin-py
 cargo build -p omnikin-cli --locked --quiet
 # From another directory: the tests import the installed package, not the source tree.
 cd "$tmp"

@@ -5,7 +5,8 @@
 //!
 //! ```text
 //! cargo bench -p omnikin-cli --bench scaling             # every size, ≈ 2 min on 2 cores
-//! cargo bench -p omnikin-cli --bench scaling -- --test   # the smallest size of each (CI)
+//! cargo bench -p omnikin-cli --bench scaling -- --test   # the smallest size of each (CI runs
+//!                                                          # it as `cargo test --bench scaling -- --test`)
 //! cargo bench -p omnikin-cli --bench scaling -- --out DIR
 //! ```
 //!
