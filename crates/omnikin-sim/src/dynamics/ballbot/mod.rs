@@ -61,7 +61,7 @@
 //! [`closed_loop`] (the balance controller on this model), [`plan_run`] (a plan
 //! through the balancing robot, with noise and pushes: `simulate --plant dynamic`), [`preview`] (a previewed
 //! lean a plan can be followed with), [`sil`] (the model as a board for the runtime's balance mode), [`params`] (the parameters and the preset's values), [`model`] (equations, energy,
-//! wheels, pushes, measurements), [`state`] (state and integration).
+//! wheels, pushes, measurements), [`state`] (the state), `step` (its RK4 integration).
 
 pub mod capability;
 pub mod closed_loop;
@@ -71,6 +71,7 @@ pub mod plan_run;
 pub mod preview;
 pub mod sil;
 pub mod state;
+mod step;
 
 pub use model::BallbotPlant;
 pub use params::BallbotDynamics;
