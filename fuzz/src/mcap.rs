@@ -6,7 +6,7 @@
 //!
 //! Properties of [`mcap_files`], for any bytes: decompression never panics and allocates at
 //! most its stated bound (per chunk [`inflate::MAX_CHUNK_BYTES`], per file
-//! [`inflate::MAX_INFLATED_BYTES`], lowered here by [`convert::MAX_INPUT_BYTES`] so a fuzzer
+//! [`inflate::MAX_INFLATED_BYTES`], lowered here by [`MAX_INPUT_BYTES`] so a fuzzer
 //! process stays small); a file without compressed chunks passes through unchanged; on what it
 //! gives, the scan never panics and allocates at most [`text_budget`]; what the scan passes on
 //! (`buf[..end]`) the crate's `MessageStream` reads without a panic and within the same budget;
@@ -34,13 +34,10 @@ pub mod foxglove;
 #[allow(dead_code)]
 pub mod proto;
 
-/// Stands in for `mcap_log::convert`, whose input bound [`inflate`] takes as the largest
+/// Stands in for `mcap_log::MAX_INPUT_BYTES`, the input bound [`inflate`] takes as the largest
 /// decompressed copy: the CLI allows 1 GiB; the fuzzer 32 MiB, so that a run stays within
 /// libFuzzer's 2 GB memory limit (the bound's logic is the same; only its value is lower).
-pub mod convert {
-    /// Largest decompressed copy the fuzzed [`super::inflate`] makes, bytes.
-    pub const MAX_INPUT_BYTES: u64 = 32 << 20;
-}
+pub const MAX_INPUT_BYTES: u64 = 32 << 20;
 
 /// Stands in for `mcap_log::CHUNK_SIZE` (named in [`inflate`]'s docs only).
 pub const CHUNK_SIZE: u64 = 64 << 10;
@@ -50,7 +47,7 @@ use crate::alloc::{measure, text_budget};
 /// The most [`inflate::inflate`] may allocate: its copy (a `Vec` grown by doubling: at most
 /// twice [`inflate::MAX_INFLATED_BYTES`]), one chunk's output and zstd's decoder state.
 pub const INFLATE_BUDGET: usize =
-    2 * convert::MAX_INPUT_BYTES as usize + inflate::MAX_CHUNK_BYTES as usize + (1 << 20);
+    2 * MAX_INPUT_BYTES as usize + inflate::MAX_CHUNK_BYTES as usize + (1 << 20);
 
 /// Fuzzes decompression, the scan and the crate behind it (see the module docs).
 pub fn mcap_files(data: &[u8]) {

@@ -32,8 +32,7 @@ use super::foxglove::{self as fg, Counters, Topic};
 use super::proto::Encoding;
 use super::{McapLog, Sample};
 
-/// Largest input file, bytes (read whole): 1 GiB, as the other logs' limit.
-pub const MAX_INPUT_BYTES: u64 = omnikin_sim::limits::MAX_LOG_BYTES as u64;
+pub use super::MAX_INPUT_BYTES;
 
 fn read_limited(path: &Path) -> Result<Vec<u8>> {
     let shown = path.display();

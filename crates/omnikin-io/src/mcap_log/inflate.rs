@@ -34,9 +34,9 @@ use mcap::records::op;
 /// Largest declared uncompressed size of one chunk, bytes: 16 MiB (omnikin writes 64 KiB
 /// chunks, [`super::CHUNK_SIZE`]; other writers use up to a few MiB).
 pub const MAX_CHUNK_BYTES: u64 = 16 << 20;
-/// Largest decompressed copy of a file, bytes: [`super::convert::MAX_INPUT_BYTES`] (1 GiB),
-/// so message offsets in it fit the reader's `u32`.
-pub const MAX_INFLATED_BYTES: u64 = super::convert::MAX_INPUT_BYTES;
+/// Largest decompressed copy of a file, bytes: [`super::MAX_INPUT_BYTES`] (1 GiB), so message
+/// offsets in it fit the reader's `u32`.
+pub const MAX_INFLATED_BYTES: u64 = super::MAX_INPUT_BYTES;
 
 /// Size of a record's opcode and length.
 const RECORD_HEAD: usize = 9;

@@ -44,6 +44,10 @@ use proto::Encoding;
 /// Uncompressed size of a chunk, bytes: what a killed process can lose at most (with
 /// [`FLUSH_EVERY`]).
 pub const CHUNK_SIZE: u64 = 64 * 1024;
+
+/// Largest MCAP file `convert` reads (whole), bytes: 1 GiB, the other logs' limit; also the
+/// largest decompressed copy [`inflate`] makes, so message offsets fit the reader's `u32`.
+pub const MAX_INPUT_BYTES: u64 = omnikin_sim::limits::MAX_LOG_BYTES as u64;
 /// Chunk compression of every MCAP file omnikin writes: zstd at its default level (3). Level
 /// 9 was measured 2 % smaller on a 30 s `robot --mcap` log (57.7 against 58.7 MB per hour) at
 /// a quarter of the speed: what is left after compression is the f64 values' low bits.
