@@ -14,6 +14,7 @@ mod odometry;
 mod options;
 mod plan;
 mod plan_goal;
+mod plan_request;
 mod pose_error;
 mod robot;
 mod sim;

@@ -9,7 +9,7 @@ use numpy::prelude::IntoPyArray;
 use omnikin_plan::generators::{Circle, Square};
 use omnikin_plan::heading::{HeadingLaw, HeadingProfile};
 use omnikin_plan::path::{Corners, Path};
-use omnikin_plan::planner::{InitialSteer, MotionLimits, OnLimit, PlanOptions, Timing, plan};
+use omnikin_plan::planner::{MotionLimits, OnLimit, PlanOptions, Timing, plan};
 use omnikin_plan::profile::ProfileKind;
 use omnikin_plan::steer_steps::{MAX_UNEXPLAINED_STEER_STEP, unexplained_steer_step};
 use omnikin_plan::waypoints::Waypoints;
@@ -19,6 +19,7 @@ use pyo3::types::PyDict;
 
 use crate::arrays::value_error;
 use crate::options::Options;
+use crate::plan_request::{Request, initial_steer};
 use crate::robot::PyRobot;
 
 /// A planning error as the CLI words it: a parameter out of range starts with the option
@@ -48,23 +49,6 @@ fn on_limit(o: &mut Options) -> PyResult<OnLimit> {
     } else {
         OnLimit::Retime
     })
-}
-
-pub(crate) fn initial_steer(o: &mut Options, robot: &RobotModel) -> PyResult<InitialSteer> {
-    match o.list("initial_steer")? {
-        Some(g) if !robot.steerable() => Err(value_error(format!(
-            "initial_steer {g:?} applies only to robot kinds with steering (caster3, swerve), not {}",
-            robot.model.kind().name()
-        ))),
-        Some(g) if g.len() != robot.wheels() => Err(value_error(format!(
-            "initial_steer: {} has {} wheels, got {} values",
-            robot.name,
-            robot.wheels(),
-            g.len()
-        ))),
-        Some(g) => Ok(InitialSteer::Given(omnikin_plan::per_wheel(&g))),
-        None => Ok(InitialSteer::Aligned),
-    }
 }
 
 /// The heading law of a waypoint plan (the CLI's `waypoint_heading`).
@@ -154,9 +138,6 @@ fn points_waypoints(points: &Bound<'_, PyAny>) -> PyResult<Waypoints> {
     }
     Waypoints::from_csv(&text, "points").map_err(|e| value_error(e.to_string()))
 }
-
-/// The path, heading law and options of a request, and the context of a "too fast" error.
-pub(crate) type Request = (Path, HeadingLaw, PlanOptions, String);
 
 fn square(o: &mut Options, d: &PyRobot, robot: &RobotModel) -> PyResult<Request> {
     let sq = Square {

@@ -10,7 +10,7 @@ use pyo3::prelude::*;
 
 use crate::arrays::value_error;
 use crate::options::Options;
-use crate::plan::{Request, initial_steer};
+use crate::plan_request::{Request, initial_steer};
 use crate::robot::PyRobot;
 
 /// `X, Y[, H]` of option `name` (required).
