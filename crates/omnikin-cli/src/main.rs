@@ -12,6 +12,9 @@ mod args;
 // The output rules and the MCAP logs live in omnikin-io (shared with the other front ends);
 // `crate::output`, `crate::mcap_log`, `crate::errln!` and `crate::outln!` keep their paths.
 use omnikin_io::{errln, mcap_log, outln, output};
+// The figures (crates/omnikin-plot) under the paths the commands name them by.
+use omnikin_plot as plot;
+use omnikin_plot::figures;
 mod balance_check;
 mod body_limits;
 mod console;
@@ -20,14 +23,12 @@ mod data_dir;
 mod drive;
 mod drive_fixes;
 mod evaluate_truth;
-mod figures;
 mod fit_to_paper;
 mod identify;
 mod kinematics;
 mod link_io;
 mod odometry;
 mod plan;
-mod plot;
 mod robot;
 mod shard;
 mod shell;

@@ -16,7 +16,7 @@ use omnikin_sim::metrics::{MeanTrajectory, Run};
 use omnikin_sim::track::EStopMark;
 use plotters::prelude::*;
 
-use crate::plot::{
+use crate::{
     Arrow, Band, Marker, PALETTE, Series, TimeAxis, TimeMark, draw_err, time_panel_on, xy_panel,
 };
 
@@ -177,7 +177,7 @@ pub fn trajectory_figure_with_stops(
     n_runs: usize,
     estops: &[EStopMark],
 ) -> Result<()> {
-    crate::plot::svg_file(flag, path, (1400, 960), |root| {
+    crate::svg_file(flag, path, (1400, 960), |root| {
         draw_trajectories(
             root,
             title,
@@ -191,7 +191,7 @@ pub fn trajectory_figure_with_stops(
 }
 
 fn draw_trajectories(
-    root: &crate::plot::Area,
+    root: &crate::Area,
     title: &str,
     plan: &Plan,
     runs: &[Run],
@@ -201,7 +201,7 @@ fn draw_trajectories(
 ) -> Result<()> {
     root.fill(&WHITE).map_err(draw_err)?;
     let root = root
-        .titled(&crate::plot::svg_text(title), ("sans-serif", 22))
+        .titled(&crate::svg_text(title), ("sans-serif", 22))
         .map_err(draw_err)?;
     let (left, right) = root.split_horizontally(700);
     let blue = PALETTE[0];

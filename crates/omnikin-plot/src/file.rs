@@ -17,7 +17,7 @@ use anyhow::{Result, anyhow, bail};
 
 /// The font every PNG and PDF figure is set in (DejaVu Sans 2.37, Bitstream Vera licence
 /// with the DejaVu changes in the public domain: `assets/fonts/DejaVuSans-LICENSE.txt`).
-const FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+const FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
 
 /// The font family name inside [`FONT`], which the SVG's generic `sans-serif` maps to.
 const FONT_FAMILY: &str = "DejaVu Sans";
@@ -31,8 +31,9 @@ pub const CSS_DPI: f32 = 96.0;
 
 /// The file format of a figure, chosen by the file name's extension (`--plot`) or, for the
 /// commands that name their figures themselves (`simulate`, `evaluate`), by
-/// `--figure-format svg|png|pdf`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+/// `--figure-format svg|png|pdf` (a `clap` value with the `clap` feature).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum FigureFormat {
     /// `.svg`: the drawing itself (vector, text as text, sans-serif).
     Svg,

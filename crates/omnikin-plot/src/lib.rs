@@ -1,4 +1,9 @@
-//! Reusable figure drawing helpers (pure Rust, `plotters` SVG backend, no system fonts): an XY
+//! omnikin's figures, for every front end: the trajectory figures of plans, simulations and
+//! evaluations in the Sphere paper's style ([`figures`]), the identification residuals
+//! ([`identify`]), and the drawing helpers beneath them.
+//!
+//! The helpers (pure Rust, `plotters` SVG backend, no system fonts, the DejaVu Sans of
+//! `assets/fonts/` embedded): an XY
 //! panel with equal axis scales that draws several paths solid or dashed, shaded bands
 //! (filled polygons, e.g. a confidence band) and direction arrows; and a time-series panel.
 //! Axes carry labels with units and clean ticks (`ticks`), every series a legend entry
@@ -11,6 +16,7 @@ use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 mod decimate;
+pub mod figures;
 mod file;
 pub mod identify;
 mod legend;
@@ -484,7 +490,7 @@ pub fn time_panel_on(
 /// Draws an SVG figure of `size` pixels in memory with `draw`, then writes it as the output
 /// `path` (named by `flag` in messages) in the format its extension chooses
 /// ([`FigureFormat::of`]: SVG, PNG or PDF) under the output rules (temporary file, rename; see
-/// [`crate::output`]). A figure that cannot be drawn or encoded leaves no file behind.
+/// [`omnikin_io::output`]). A figure that cannot be drawn or encoded leaves no file behind.
 pub fn svg_file(
     flag: &str,
     path: &std::path::Path,
@@ -521,5 +527,5 @@ pub fn svg_file(
         .collect();
     let bytes =
         file::encode(&text, format).with_context(|| format!("{flag} {}", path.display()))?;
-    crate::output::write_file(flag, path, |w| std::io::Write::write_all(w, &bytes))
+    omnikin_io::output::write_file(flag, path, |w| std::io::Write::write_all(w, &bytes))
 }
