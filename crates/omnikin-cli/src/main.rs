@@ -15,8 +15,9 @@ use omnikin_io::{errln, mcap_log, outln, output};
 // The figures (crates/omnikin-plot) under the paths the commands name them by.
 use omnikin_plot as plot;
 use omnikin_plot::figures;
+// The host side of the link (crates/omnikin-host) under the paths the commands name it by.
+use omnikin_host::{body_limits, link_io};
 mod balance_check;
-mod body_limits;
 mod console;
 mod convert;
 mod data_dir;
@@ -26,7 +27,6 @@ mod evaluate_truth;
 mod fit_to_paper;
 mod identify;
 mod kinematics;
-mod link_io;
 mod odometry;
 mod plan;
 mod robot;
