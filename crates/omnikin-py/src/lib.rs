@@ -5,11 +5,12 @@
 //! `robot` holds `omnikin.Robot` and its kinematics, `arrays` the argument checks,
 //! `kernels` the row-parallel loops, `options` the keyword options, `plan` `omnikin.plan`,
 //! `sim` `omnikin.simulate` and `omnikin.evaluate`, `odometry` `omnikin.odometry`,
-//! `pose_error` `omnikin.pose_error`, `identify` `omnikin.identify`.
+//! `pose_error` `omnikin.pose_error`, `identify` `omnikin.identify`, `mcap` `omnikin.read_mcap`.
 
 mod arrays;
 mod identify;
 mod kernels;
+mod mcap;
 mod odometry;
 mod options;
 mod plan;
@@ -32,5 +33,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(odometry::odometry_native, m)?)?;
     m.add_function(wrap_pyfunction!(pose_error::pose_error_native, m)?)?;
     m.add_function(wrap_pyfunction!(identify::identify_native, m)?)?;
+    m.add_function(wrap_pyfunction!(mcap::read_mcap_native, m)?)?;
     Ok(())
 }

@@ -126,12 +126,19 @@ def test_robot_mcap_reads_into_columns_with_the_standard_readers(cli, tmp_path):
     assert max(abs(a - b) for a, b in zip(poses["x"], rows["x"])) < 2e-6
 
 
+def docs_block(section: str, needle: str) -> str:
+    """The ```py block of `section` that contains `needle`."""
+    blocks = [b for b in re.findall(r"```py\n(.*?)```", section, re.S) if needle in b]
+    assert len(blocks) == 1, needle
+    return blocks[0]
+
+
 def run_the_docs_example(mcap):
     """Runs the Python block of docs/python.md's "Reading the robot's logs" on `mcap` (fenced
     as ```py, so test_readme's run of the page's self-contained ```python blocks skips it)."""
     docs = pathlib.Path(__file__).resolve().parents[3] / "docs" / "python.md"
     section = docs.read_text().split("## Reading the robot's logs", 1)[1]
-    code = re.search(r"```py\n(.*?)```", section, re.S).group(1)
+    code = docs_block(section, "make_reader")
     assert '"robot.mcap"' in code
     scope: dict = {}
     exec(code.replace('"robot.mcap"', repr(str(mcap))), scope)
@@ -216,3 +223,69 @@ def test_a_simulated_ros2_bag_has_the_plan_as_a_path(cli, tmp_path):
     assert len(poses) == len(rows["t"])
     assert all(abs(p.pose.position.x - x) < 1e-12 for p, x in zip(poses, rows["x"]))
     assert any(t.endswith("/odom") for t, _ in msgs)
+
+
+def test_read_mcap_gives_what_convert_writes_and_what_the_standard_reader_decodes(cli, tmp_path):
+    """`omnikin.read_mcap` on a `simulate --mcap` log: the same tables as `omnikin convert
+    --csv` (the same reader, held to it cell by cell), and poses that agree with the PyPI
+    `mcap` reader's independent decoding; a truncated copy gives its first messages and a
+    warning; a missing file is a ValueError naming it."""
+    import warnings
+
+    import numpy as np
+
+    import omnikin
+
+    plan = tmp_path / "plan.csv"
+    cli.run("plan", "square", "--robot", "kiwi", "--side", "0.5", "--speed", "0.3",
+            "--rate", "50", "--out", str(plan))
+    log = tmp_path / "sim.mcap"
+    cli.run("simulate", str(plan), "--robot", "kiwi", "--trials", "2", "--threads", "1",
+            "--out", str(tmp_path / "out"), "--mcap", str(log), "--mcap-trials", "2")
+    got = omnikin.read_mcap(log)
+    csv_dir = tmp_path / "csv"
+    cli.run("convert", str(log), "--csv", str(csv_dir))
+    files = {p.name: p for p in csv_dir.iterdir()}
+    assert sorted(files) == sorted(t.strip("/").replace("/", "-") + ".csv" for t in got)
+    for topic, cols in got.items():
+        with open(files[topic.strip("/").replace("/", "-") + ".csv"], newline="") as f:
+            rows = list(csv.reader(f))
+        assert list(cols) == rows[0], topic
+        for i, name in enumerate(rows[0]):
+            want = [r[i] for r in rows[1:]]
+            have = cols[name]
+            if isinstance(have, list):
+                assert have == want, (topic, name)
+            else:
+                assert have.dtype == np.float64 and len(have) == len(want), (topic, name)
+                for a, b in zip(have, want):
+                    assert (b == "" and math.isnan(a)) or a == float(b), (topic, name, a, b)
+    # Independent decoding of the same file (protobuf through the file's descriptors).
+    ref = columns(log)
+    pose = got["/pose"]
+    assert len(pose["t"]) == len(ref["/pose"]["t"]) > 50
+    assert np.allclose(pose["x"], ref["/pose"]["pose.position.x"], atol=1e-9)
+    assert np.allclose(pose["t"], ref["/pose"]["t"], atol=1e-9)
+    assert "/trial-001/pose" in got
+    # docs/python.md's read_mcap example, run on this log.
+    docs = pathlib.Path(__file__).resolve().parents[3] / "docs" / "python.md"
+    section = docs.read_text().split("## Reading the robot's logs", 1)[1]
+    scope: dict = {}
+    exec(docs_block(section, "read_mcap").replace('"robot.mcap"', repr(str(log))), scope)
+    assert scope["pose"]["x"] is not None and len(scope["pose"]["t"]) == len(pose["t"])
+    # A copy cut in its last third: the messages before the cut, and a warning that says so.
+    data = log.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) * 2 // 3])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        part = omnikin.read_mcap(cut)
+    assert any("ends early or is damaged" in str(w.message) for w in caught), caught
+    assert 0 < len(part["/pose"]["t"]) <= len(pose["t"])
+    missing = tmp_path / "missing.mcap"
+    try:
+        omnikin.read_mcap(missing)
+    except ValueError as e:
+        assert "missing.mcap" in str(e)
+    else:
+        raise AssertionError("a missing file was read")

@@ -404,31 +404,98 @@ fn channel_csv(
     Ok(())
 }
 
-/// `omnikin convert IN.mcap --csv DIR`: each channel of the MCAP file `input` to
-/// `DIR/CHANNEL.csv` (directory created; new or empty unless `--force`).
-pub fn to_csv(input: &Path, dir: &Path) -> Result<()> {
-    crate::output::catch_signals()?;
+/// An MCAP file read for conversion: the decompressed bytes, its channels, and the warnings
+/// a reader should see (a damaged or truncated file, channels that are not omnikin's).
+struct ReadLog {
+    shown: String,
+    bytes: Vec<u8>,
+    channels: Channels,
+    warnings: Vec<String>,
+}
+
+/// Reads, decompresses and indexes the MCAP file `input` (at most [`MAX_INPUT_BYTES`]).
+fn read_log(input: &Path) -> Result<ReadLog> {
     let shown = input.display().to_string();
     let raw = read_limited(input)?;
     let inflated = super::inflate::inflate(&raw).map_err(|e| anyhow::anyhow!("{shown}: {e}"))?;
-    let buf: &[u8] = &inflated.bytes;
-    let (channels, mut stopped) = read_mcap(buf, &shown)?;
+    let (channels, mut stopped) = read_mcap(&inflated.bytes, &shown)?;
     // A chunk that could not be decompressed ends the copy: that is the first damage.
     if inflated.damage.is_some() {
         stopped.clone_from(&inflated.damage);
     }
+    let mut warnings = Vec::new();
     if let Some(why) = &stopped {
         if channels.messages == 0 {
             bail!("{shown}: no message could be read: {why}");
         }
-        crate::errln!(
-            "warning: {shown}: the file ends early or is damaged ({why}); converted the {} messages before that (up to the last complete chunk)",
+        warnings.push(format!(
+            "{shown}: the file ends early or is damaged ({why}); converted the {} messages before that (up to the last complete chunk)",
             channels.messages
-        );
+        ));
     }
     for (k, n) in &channels.skipped {
-        crate::errln!("warning: channel {k}: not an omnikin channel, {n} messages skipped");
+        warnings.push(format!(
+            "channel {k}: not an omnikin channel, {n} messages skipped"
+        ));
     }
+    // A file without compressed chunks comes back borrowed, as a prefix of the input: keep
+    // the input (cut to it) rather than copy it.
+    let bytes = match inflated.bytes {
+        std::borrow::Cow::Owned(v) => v,
+        std::borrow::Cow::Borrowed(b) => {
+            let n = b.len();
+            let mut raw = raw;
+            raw.truncate(n);
+            raw
+        }
+    };
+    Ok(ReadLog {
+        shown,
+        bytes,
+        channels,
+        warnings,
+    })
+}
+
+/// The omnikin channels of an MCAP file as CSV tables, in memory: what [`to_csv`] writes, for
+/// a front end that wants the columns (Python's `omnikin.read_mcap`).
+pub struct Tables {
+    /// Per channel, sorted by topic: the topic (`/pose`, `/trial-002/pose`, …), its message
+    /// count and its CSV text (header and rows, the columns of the module docs).
+    pub channels: Vec<(String, usize, String)>,
+    /// What the reader should be told: a damaged or truncated file (the messages before the
+    /// damage are converted), channels that are not omnikin's (skipped).
+    pub warnings: Vec<String>,
+}
+
+/// Each omnikin channel of the MCAP file `input` as its CSV table (see [`Tables`]). The memory
+/// is the file (at most [`MAX_INPUT_BYTES`]) and the tables.
+pub fn tables(input: &Path) -> Result<Tables> {
+    let log = read_log(input)?;
+    let mut channels = Vec::with_capacity(log.channels.ours.len());
+    for (topic, t, e, list) in &log.channels.ours {
+        let mut text = Vec::new();
+        channel_csv(*t, *e, &log.bytes, list, &mut text)
+            .with_context(|| format!("{}: channel {topic}", log.shown))?;
+        let text = String::from_utf8(text)
+            .map_err(|_| anyhow::anyhow!("{}: channel {topic}: not UTF-8", log.shown))?;
+        channels.push((topic.clone(), list.len(), text));
+    }
+    Ok(Tables {
+        channels,
+        warnings: log.warnings,
+    })
+}
+
+/// `omnikin convert IN.mcap --csv DIR`: each channel of the MCAP file `input` to
+/// `DIR/CHANNEL.csv` (directory created; new or empty unless `--force`).
+pub fn to_csv(input: &Path, dir: &Path) -> Result<()> {
+    crate::output::catch_signals()?;
+    let log = read_log(input)?;
+    for w in &log.warnings {
+        crate::errln!("warning: {w}");
+    }
+    let (shown, buf, channels) = (&log.shown, &log.bytes[..], &log.channels);
     let names: Vec<String> = channels
         .ours
         .iter()

@@ -25,6 +25,7 @@ __all__ = [
     "odometry",
     "pose_error",
     "identify",
+    "read_mcap",
     "__version__",
 ]
 
@@ -427,6 +428,43 @@ def identify(
     out["table"] = table
     out["robot_file"] = text
     return out
+
+
+def _csv_columns(text: str) -> Dict[str, Any]:
+    """A CSV table as columns: numbers as float arrays (an empty cell is NaN), text columns
+    (an event's level, name and message; a transform's frame ids) as lists of str."""
+    import csv
+    import io
+
+    rows = list(csv.reader(io.StringIO(text)))
+    header, body = rows[0], rows[1:]
+    out: Dict[str, Any] = {}
+    for i, name in enumerate(header):
+        cells = [r[i] if i < len(r) else "" for r in body]
+        try:
+            out[name] = np.array([float(c) if c != "" else np.nan for c in cells], dtype=np.float64)
+        except ValueError:
+            out[name] = cells
+    return out
+
+
+def read_mcap(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Dict[str, Any]]:
+    """The omnikin channels of an MCAP log as columns, by topic (``/pose``, ``/wheels``,
+    ``/trial-002/pose``, ...): the tables ``omnikin convert LOG.mcap --csv DIR`` writes, with the
+    same columns (poses ``t, x, y, heading`` in s, m, rad, world frame; ``/wheels`` commanded
+    ``w1..wN`` rad/s then measured ``mw1..``; ``/events`` ``t, level, name, message``; see
+    docs/seeing-the-robot.md). Numbers come as float arrays (an empty cell is NaN), text as lists of str.
+
+    Reads the Foxglove profile (protobuf or JSON messages, zstd chunks) with the CLI's bounds: a
+    file over 1 GiB, or a chunk that would decompress past its declared size, is an error. A
+    truncated or damaged file gives the messages before the damage and a ``UserWarning``; so
+    does a channel that is not omnikin's (skipped)."""
+    import warnings
+
+    channels, notes = _native.read_mcap_native(os.fspath(path))
+    for note in notes:
+        warnings.warn(note, UserWarning, stacklevel=2)
+    return {topic: _csv_columns(text) for topic, _count, text in channels}
 
 
 def __dir__() -> list:
