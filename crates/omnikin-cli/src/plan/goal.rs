@@ -14,7 +14,7 @@ use omnikin_plan::planner::{OnLimit, PlanOptions, Timing, plan};
 use omnikin_plan::waypoints::Waypoints;
 
 use super::args::{GoalArgs, HeadingArg, WaypointArgs};
-use super::request::{finish_leaning, initial_steer, load_robot, motion_limits};
+use super::setup::{finish_leaning, initial_steer, load_robot, motion_limits};
 use crate::args::{List, num};
 
 /// The footprint radius: the flag's (checked by the robot file's rule), else the robot's.

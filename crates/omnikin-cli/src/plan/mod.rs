@@ -12,6 +12,7 @@ mod figure;
 mod goal;
 mod lean;
 mod request;
+mod setup;
 pub mod sysid;
 mod tilt;
 mod write;
