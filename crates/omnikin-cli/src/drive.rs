@@ -5,22 +5,20 @@
 //! of `hello`, `velocity --vx --vy --yaw-rate [--world] --for S`, `plan PLAN.csv`, `stop`,
 //! `estop`, `clear`, `telemetry --out LOG.csv [--for S]`, `teleop`. `velocity`, `plan` and
 //! `telemetry` take `--out LOG.csv` to record every telemetry frame, and `--fixes FILE|-` to
-//! forward camera fixes while they run ([`crate::drive_fixes`]).
+//! forward camera fixes while they run ([`omnikin_host::fixes`]).
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
-use omnikin::link::{
-    CHUNK_POINTS, DropReason, EndReason, Estimate, Key, MAX_FRAME, Message, OperatorEvent,
-    OperatorLink, PROTOCOL_VERSION, RobotInfo, SimTruth, Telemetry, WirePoint, v1,
-};
+use omnikin::link::{CHUNK_POINTS, Estimate, Message, Telemetry};
 use omnikin::runtime::{Frame, Mode};
 use omnikin_plan::Plan;
 
 use crate::args::finite_f64;
-use crate::link_io::{Link, OsEntropy, Transport, epoch_seq, load_key, parse_address};
+use crate::link_io::epoch_seq;
+use omnikin_host::operator::Session;
+use omnikin_host::wire_plan::plan_points;
 
 /// `omnikin drive`.
 #[derive(clap::Args, Debug)]
@@ -136,620 +134,15 @@ pub enum DriveAction {
     },
 }
 
-/// Telemetry CSV header for a robot of `wheels` wheels (`steer`: with steer motors): pose
-/// columns first (the pose CSV of the conventions), commanded wheel rates `w1..wN`, encoder
-/// wheel angles `q1..qN` and, for kinds with steer motors, steer angles `s1..sN` (so the log
-/// is an encoder log for `omnikin odometry`), then the rest.
-pub fn telemetry_header(wheels: usize, steer: bool) -> String {
-    let mut h = String::from("t,x,y,heading,vx,vy,yaw_rate,cmd_vx,cmd_vy,cmd_yaw_rate");
-    let mut cols = |p: &str| {
-        for i in 1..=wheels {
-            h.push_str(&format!(",{p}{i}"));
-        }
-    };
-    cols("w");
-    cols("q");
-    if steer {
-        cols("s");
-    }
-    h.push_str(",gyro_z,mode,faults,fault_history,plan_id,plan_received,plan_len,plan_time,ref_x,ref_y,ref_heading,rejected,last_command_t,rx_ok,rx_framing,rx_crc,rx_version,rx_auth,rx_replay,rx_malformed,rx_session,rx_entropy");
-    h.push_str(ESTIMATE_COLUMNS);
-    h
-}
-
-/// The estimate columns at the end of a telemetry row (empty when the robot sends no
-/// estimate): the uncorrected wheel odometry, the fused pose's variances, the fix counters.
-const ESTIMATE_COLUMNS: &str = ",odo_x,odo_y,odo_heading,var_x,var_y,var_heading,fix_accepted,fix_rejected,fix_too_late,fix_recoveries,slip_events,collision_events";
-
-/// The [`ESTIMATE_COLUMNS`] of `e` (empty cells for `None`).
-fn estimate_cells(e: Option<&Estimate>) -> String {
-    match e {
-        Some(e) => format!(
-            ",{},{},{},{:e},{:e},{:e},{},{},{},{},{},{}",
-            e.odometry[0],
-            e.odometry[1],
-            e.odometry[2],
-            e.covariance[0],
-            e.covariance[1],
-            e.covariance[2],
-            e.fixes.accepted,
-            e.fixes.rejected,
-            e.fixes.too_late,
-            e.fixes.recoveries,
-            e.events.slips,
-            e.events.collisions
-        ),
-        None => ",".repeat(12),
-    }
-}
-
-/// One telemetry CSV row in the columns of [`telemetry_header`].
-fn telemetry_row(t: &Telemetry, wheels: usize, steer: bool) -> String {
-    let l = &t.link;
-    let mut r = format!(
-        "{:.6},{},{},{},{},{},{},{},{},{}",
-        t.time_us as f64 * 1e-6,
-        t.pose[0],
-        t.pose[1],
-        t.pose[2],
-        t.twist[0],
-        t.twist[1],
-        t.twist[2],
-        t.command[0],
-        t.command[1],
-        t.command[2],
-    );
-    let mut cols = |v: &[f32]| {
-        for x in v.iter().take(wheels) {
-            r.push_str(&format!(",{x}"));
-        }
-    };
-    cols(&t.wheel_rates);
-    cols(&t.wheel_angles);
-    if steer {
-        cols(&t.steer_angles);
-    }
-    r.push_str(&format!(
-        ",{},{},{},{},{},{},{},{},{},{},{},{},{:.6},{},{},{},{},{},{},{},{},{}",
-        t.gyro[2],
-        t.mode,
-        t.faults,
-        t.fault_history,
-        t.plan.id,
-        t.plan.received,
-        t.plan.len,
-        t.plan_time,
-        t.reference[0],
-        t.reference[1],
-        t.reference[2],
-        t.rejected,
-        t.last_command_us as f64 * 1e-6,
-        l.ok,
-        l.framing,
-        l.crc,
-        l.version,
-        l.auth,
-        l.replay,
-        l.malformed,
-        l.session,
-        l.entropy,
-    ));
-    r
-}
-
-/// A v1 HelloAck (the robot's answer to the v1 probe, or a v1 robot's answer).
-#[derive(Clone, Copy, Debug)]
-struct V1Answer {
-    /// The protocol it names.
-    protocol: u8,
-    /// It says the robot has a key.
-    robot_keyed: bool,
-    /// Its tag verified under this operator's key: the robot (or a holder of the key) sent it.
-    /// Otherwise it is only known to come from the robot's address, which anyone can forge.
-    proven: bool,
-}
-
-/// The robot did not open the session: another operator's session is live and this operator
-/// did not ask to take over ([`Message::Busy`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct RobotBusy {
-    /// The live session's id.
-    pub holder: u64,
-    /// Robot time since that session's newest frame, ms.
-    pub idle_ms: u32,
-    /// Robot time since that session opened, s.
-    pub held_s: u32,
-}
-
-impl std::fmt::Display for RobotBusy {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "the robot is held by another operator (session {:016x}, for {} s, last heard {} ms ago); take over to drive it",
-            self.holder, self.held_s, self.idle_ms
-        )
-    }
-}
-
-impl std::error::Error for RobotBusy {}
-
-/// An operator session: the link, the newest telemetry of this session, an optional CSV log.
-struct Session {
-    link: Link,
-    op: OperatorLink,
-    key: Option<Key>,
-    addr: String,
-    latest: Option<Telemetry>,
-    /// The newest estimate of this session (robots that fuse fixes send one per telemetry).
-    estimate: Option<Estimate>,
-    /// The newest true pose of this session (`robot --sim` sends one per telemetry).
-    truth: Option<SimTruth>,
-    /// `--fixes`: the fixes to forward.
-    fixes: Option<crate::drive_fixes::FixFeeder>,
-    /// When the newest telemetry frame of this session arrived.
-    last_telemetry: Option<Instant>,
-    /// What a v1 HelloAck said (the answer to the v1 probe), if it was authenticated by this
-    /// operator's key or came from the robot's own address.
-    v1_answer: Option<V1Answer>,
-    log: Option<crate::output::OutFile>,
-    /// The `--out` log's columns: (wheels, steer motors), from the first telemetry frame and
-    /// the robot's kind; the header is written then.
-    log_layout: Option<(usize, bool)>,
-    mcap: Option<crate::mcap_log::McapLog>,
-    frames: u64,
-    heartbeat: Duration,
-    timeout: Duration,
-}
-
-impl Drop for Session {
-    /// On every other exit path (an error, Ctrl-C): the log's header if it has none yet; the
-    /// log itself is then kept by its own drop (crate::output).
-    fn drop(&mut self) {
-        if let Err(e) = self.log_header_if_none() {
-            crate::errln!("warning: --out: cannot write: {e}");
-        }
-    }
-}
-
-impl Session {
-    fn open(a: &DriveArgs) -> Result<Self> {
-        if a.heartbeat <= 0.0 {
-            bail!("--heartbeat must be > 0 Hz (got {})", a.heartbeat);
-        }
-        if a.timeout <= 0.0 {
-            bail!("--timeout must be > 0 s (got {})", a.timeout);
-        }
-        let key = a.key.as_deref().map(load_key).transpose()?;
-        let addr = parse_address(&a.connect, "--connect")?;
-        let link = Link::new(Transport::open(&addr, false)?);
-        let mcap = crate::mcap_log::McapLog::for_flag(a.mcap.as_deref(), "omnikin drive", true)?;
-        if mcap.is_some() {
-            crate::output::catch_signals()?;
-        }
-        // `drive` is its user's act: it takes the robot over from another operator (who is
-        // told). The console asks first (ConsoleOperator::set_take_over).
-        let mut op = OperatorLink::new(key.clone());
-        op.set_take_over(true);
-        Ok(Self {
-            link,
-            op,
-            key,
-            addr: a.connect.clone(),
-            latest: None,
-            estimate: None,
-            truth: None,
-            fixes: None,
-            last_telemetry: None,
-            v1_answer: None,
-            log: None,
-            log_layout: None,
-            mcap,
-            frames: 0,
-            heartbeat: crate::args::duration("--heartbeat", 1.0 / a.heartbeat)?,
-            timeout: crate::args::duration("--timeout", a.timeout)?,
-        })
-    }
-
-    fn record(&mut self, out: Option<&Path>) -> Result<()> {
-        if let Some(p) = out {
-            // The log is kept on every exit path, Ctrl-C included (see crate::output). Its
-            // header waits for the first telemetry frame: one column per wheel the robot has
-            // (telemetry's `wheels`), steer columns only for kinds with steer motors.
-            self.log = Some(crate::output::OutFile::log("--out", p)?);
-            crate::output::catch_signals()?;
-        }
-        Ok(())
-    }
-
-    /// Sends `m` in this operator's session.
-    fn send(&mut self, m: &Message) -> Result<()> {
-        let mut buf = [0u8; MAX_FRAME];
-        let n = self.op.encode(m, &mut buf)?;
-        self.link.transport.send(&buf[..n])
-    }
-
-    /// Receives for `dur`; returns `true` if a new telemetry frame of this session arrived.
-    /// Sends `m` when the heartbeat `next` is due (then the next one is a period later), and
-    /// receives until the next one is due or frames arrive. A loop around it sends at the
-    /// heartbeat rate however many frames the robot sends (telemetry, estimate, truth), and
-    /// still sees every batch of them as it arrives.
-    fn beat(&mut self, next: &mut Instant, m: &Message) -> Result<bool> {
-        if Instant::now() >= *next {
-            self.send(m)?;
-            *next = Instant::now() + self.heartbeat;
-        }
-        self.pump(next.saturating_duration_since(Instant::now()))
-    }
-
-    fn pump(&mut self, dur: Duration) -> Result<bool> {
-        let mut fresh = false;
-        if let Some(sig) = crate::output::interrupted() {
-            return Err(sig.into());
-        }
-        for f in self.link.poll(dur)? {
-            let Some(mut bytes) = f.bytes else {
-                self.op.count_framing_drop();
-                continue;
-            };
-            let from_robot = match &self.link.transport {
-                Transport::Udp { peer, .. } => f.from.is_some() && f.from == *peer,
-                Transport::Serial(_) => true,
-            };
-            let copy = bytes.clone();
-            match self.op.receive(&mut bytes) {
-                Ok(OperatorEvent::Message {
-                    msg: Message::Telemetry(t),
-                    ..
-                }) => {
-                    if self.latest.is_none_or(|l| t.time_us >= l.time_us) {
-                        self.latest = Some(t);
-                    }
-                    if let Some(w) = self.log.as_mut() {
-                        let (wheels, steer) = match self.log_layout {
-                            Some(l) => l,
-                            None => {
-                                let steer = self.op.info().is_some_and(|i| i.kind.steerable());
-                                let l = (usize::from(t.wheels).min(omnikin::MAX_WHEELS), steer);
-                                writeln!(w, "{}", telemetry_header(l.0, l.1))
-                                    .context("--out: cannot write")?;
-                                self.log_layout = Some(l);
-                                l
-                            }
-                        };
-                        let e = self.estimate.as_ref().filter(|e| e.time_us == t.time_us);
-                        writeln!(
-                            w,
-                            "{}{}",
-                            telemetry_row(&t, wheels, steer),
-                            estimate_cells(e)
-                        )
-                        .context("--out: cannot write")?;
-                    }
-                    if let Some(m) = self.mcap.as_mut() {
-                        m.sample(&crate::mcap_log::telemetry_sample_with_truth(
-                            &t, self.truth,
-                        ))?;
-                    }
-                    self.last_telemetry = Some(Instant::now());
-                    self.frames += 1;
-                    fresh = true;
-                    if let Some(f) = self.fixes.as_mut() {
-                        let now = self.latest.map_or(0, |l| l.time_us);
-                        for m in f.due(now)? {
-                            self.send(&m)?;
-                        }
-                    }
-                }
-                Ok(OperatorEvent::Message {
-                    msg: Message::Estimate(e),
-                    ..
-                }) if self.estimate.is_none_or(|l| e.time_us >= l.time_us) => {
-                    self.estimate = Some(e);
-                }
-                Ok(OperatorEvent::Message {
-                    msg: Message::Truth(x),
-                    ..
-                }) if self.truth.is_none_or(|l| x.time_us >= l.time_us) => {
-                    self.truth = Some(x);
-                }
-                Err(DropReason::Version(1)) => {
-                    // Only to name a mismatch. Authenticated by this operator's key it ends
-                    // the handshake at once; otherwise it is kept only from the robot's own
-                    // address, and named only if the handshake times out (a forged v1 answer
-                    // ends nothing).
-                    let proven = self.key.as_ref().and_then(|k| {
-                        match v1::parse(&mut copy.clone(), Some(k)) {
-                            Some((_, v1::Frame::HelloAck(i))) => Some(i),
-                            _ => None,
-                        }
-                    });
-                    let plain = match v1::parse(&mut copy.clone(), None) {
-                        Some((_, v1::Frame::HelloAck(i))) if from_robot => Some(i),
-                        _ => None,
-                    };
-                    if let Some(i) = proven.or(plain)
-                        && self.v1_answer.is_none_or(|a| !a.proven)
-                    {
-                        self.v1_answer = Some(V1Answer {
-                            protocol: i.protocol,
-                            robot_keyed: i.authenticated,
-                            proven: proven.is_some(),
-                        });
-                    }
-                }
-                _ => {}
-            }
-        }
-        Ok(fresh)
-    }
-
-    /// Fails when the session is over: taken over by another operator, or no telemetry of
-    /// this session for the timeout.
-    fn alive(&self) -> Result<()> {
-        if let Some(EndReason::TakenOver) = self.op.ended() {
-            bail!(
-                "session taken over: another operator completed a handshake with the robot at {} (one operator session at a time)",
-                self.addr
-            );
-        }
-        if let Some(t) = self.last_telemetry
-            && t.elapsed() > self.timeout
-        {
-            if self.latest.is_none() {
-                // The robot opened the session, but no telemetry of it ever came (lost).
-                bail!(
-                    "the robot at {} opened the session but sent no telemetry of it in {:.1} s (frames lost); try again",
-                    self.addr,
-                    self.timeout.as_secs_f64()
-                );
-            }
-            bail!(
-                "lost the session with the robot at {}: no telemetry of this session for {:.1} s (link down, or the robot restarted)",
-                self.addr,
-                self.timeout.as_secs_f64()
-            );
-        }
-        Ok(())
-    }
-
-    /// Sends `m` every heartbeat period until `done` holds for the newest telemetry, or the
-    /// timeout passes without it.
-    fn until(
-        &mut self,
-        m: &Message,
-        what: &str,
-        mut done: impl FnMut(&Session) -> bool,
-    ) -> Result<()> {
-        let start = Instant::now();
-        loop {
-            self.send(m)?;
-            let step_end = Instant::now() + self.heartbeat;
-            while Instant::now() < step_end {
-                self.pump(step_end.saturating_duration_since(Instant::now()))?;
-                if done(self) {
-                    return Ok(());
-                }
-                self.alive()?;
-            }
-            if start.elapsed() > self.timeout {
-                bail!(
-                    "the robot at {} did not confirm {what} within {:.1} s ({} telemetry frames of this session received)",
-                    self.addr,
-                    self.timeout.as_secs_f64(),
-                    self.frames
-                );
-            }
-        }
-    }
-
-    /// The handshake: Hello (retransmitted with the same nonce) until the robot's HelloAck,
-    /// then the first session frames (a heartbeat in an open frame, repeated every heartbeat
-    /// period) until the robot's first frame in the session shows it opened it. After half the
-    /// timeout without an answer a v1 Hello probes for another protocol version; an answer to
-    /// it authenticated by the key names a mismatch at once, an unauthenticated one from the
-    /// robot's address names it if the handshake times out.
-    ///
-    /// # Errors
-    /// [`RobotBusy`] when another operator holds the robot and this one does not take over;
-    /// a version mismatch; no answer or no session within the timeout (the error says which).
-    fn hello(&mut self) -> Result<RobotInfo> {
-        let start = Instant::now();
-        let mut buf = [0u8; MAX_FRAME];
-        loop {
-            match self.op.info() {
-                None => {
-                    let n = self.op.hello(&mut OsEntropy, &mut buf)?;
-                    self.link.transport.send(&buf[..n])?;
-                    if start.elapsed() > self.timeout / 2 {
-                        let n = v1::encode_hello(epoch_seq(), self.key.as_ref(), &mut buf)?;
-                        self.link.transport.send(&buf[..n])?;
-                    }
-                }
-                Some(_) => self.send(&Message::Heartbeat)?,
-            }
-            let step_end = Instant::now() + self.heartbeat;
-            while Instant::now() < step_end {
-                let established = self.op.info().is_some();
-                self.pump(step_end.saturating_duration_since(Instant::now()))?;
-                if let Some(b) = self.op.busy() {
-                    return Err(RobotBusy {
-                        holder: b.holder,
-                        idle_ms: b.idle_ms,
-                        held_s: b.held_s,
-                    }
-                    .into());
-                }
-                if let Some(info) = self.op.info() {
-                    if self.op.confirmed() {
-                        self.last_telemetry = Some(Instant::now());
-                        return Ok(info);
-                    }
-                    if !established {
-                        // The answer came: the first open frame goes now.
-                        self.send(&Message::Heartbeat)?;
-                    }
-                }
-                if let Some(a) = self.v1_answer
-                    && a.proven
-                    && a.protocol != PROTOCOL_VERSION
-                {
-                    bail!(
-                        "version mismatch: the robot at {} speaks protocol v{} (its answer was authenticated by --key), this omnikin speaks v{PROTOCOL_VERSION}; run the same omnikin version on both ends",
-                        self.addr,
-                        a.protocol
-                    );
-                }
-            }
-            if start.elapsed() > self.timeout {
-                return Err(self.no_session_error());
-            }
-        }
-    }
-
-    /// Why the handshake did not complete, as precisely as the evidence allows.
-    fn no_session_error(&self) -> anyhow::Error {
-        let t = self.timeout.as_secs_f64();
-        let c = self.op.counters();
-        if self.op.info().is_some() {
-            return anyhow::anyhow!(
-                "the robot at {} answered the handshake but did not open the session: no frame of it in {t:.1} s (frames lost on the way; try again)",
-                self.addr
-            );
-        }
-        let how = |a: &V1Answer| {
-            if a.proven {
-                "authenticated by --key"
-            } else {
-                "unauthenticated, from the robot's address"
-            }
-        };
-        match (self.v1_answer, self.key.is_some()) {
-            (Some(a), _) if a.protocol != PROTOCOL_VERSION => anyhow::anyhow!(
-                "version mismatch: the robot at {} speaks protocol v{} (its answer to a v1 probe, {}), this omnikin speaks v{PROTOCOL_VERSION}; run the same omnikin version on both ends",
-                self.addr,
-                a.protocol,
-                how(&a)
-            ),
-            // The robot speaks this version and answered the v1 probe but not the Hello: it
-            // rejected the Hello.
-            (Some(a), true) if a.robot_keyed && !a.proven => anyhow::anyhow!(
-                "authentication failed: the robot at {} (protocol v{PROTOCOL_VERSION}) rejects this operator's Hello — --key is not the robot's key",
-                self.addr
-            ),
-            (Some(a), false) if a.robot_keyed => anyhow::anyhow!(
-                "authentication failed: the robot at {} requires a key; pass --key FILE (the robot's key file)",
-                self.addr
-            ),
-            (Some(a), true) if !a.robot_keyed => anyhow::anyhow!(
-                "authentication failed: the robot at {} has no key but this operator sends --key; drop --key (or start the robot with the same --key)",
-                self.addr
-            ),
-            _ if c.auth > 0 => anyhow::anyhow!(
-                "authentication failed: {} answers from {} carried no valid tag for this --key",
-                c.auth,
-                self.addr
-            ),
-            _ => anyhow::anyhow!(
-                "no answer from the robot at {} within {t:.1} s: nothing came back (is `omnikin robot` running there, is --connect right?)",
-                self.addr
-            ),
-        }
-    }
-
-    fn finish(&mut self) -> Result<()> {
-        // Leave the session: the robot is free for the next operator at once (not after the
-        // 1 s during which a silent session still counts as live).
-        if self.op.confirmed() {
-            self.send(&Message::Bye)?;
-        }
-        if let Some(m) = self.mcap.take() {
-            m.finish()?;
-        }
-        self.log_header_if_none().context("--out: cannot write")?;
-        match self.log.take() {
-            Some(w) => w.commit(),
-            None => Ok(()),
-        }
-    }
-
-    /// A log that never saw telemetry still gets a header (no wheel columns: none is known),
-    /// so that an interrupted or failed run leaves a well-formed, empty CSV.
-    fn log_header_if_none(&mut self) -> std::io::Result<()> {
-        match (self.log.as_mut(), self.log_layout) {
-            (Some(w), None) => {
-                self.log_layout = Some((0, false));
-                writeln!(w, "{}", telemetry_header(0, false))
-            }
-            _ => Ok(()),
-        }
-    }
-
-    fn print_status(&self) -> Result<()> {
-        if let Some(f) = &self.fixes {
-            crate::outln!("{}", f.report(self.estimate.map(|e| e.fixes)))?;
-        }
-        // The estimate line once fixes are in play (this run forwards them, or the robot has
-        // had some): before that the pose is the wheel odometry and the line says nothing new.
-        let fixes_seen = |e: &Estimate| {
-            let f = e.fixes;
-            self.fixes.is_some() || f.accepted + f.rejected + f.too_late > 0
-        };
-        if let (Some(e), Some(t)) = (
-            self.estimate.as_ref().filter(|e| fixes_seen(e)),
-            &self.latest,
-        ) {
-            crate::outln!(
-                "robot estimate: pose ({:.4} m, {:.4} m, {:.4} rad) ± ({:.4} m, {:.4} m, {:.4} rad) 1σ; wheel odometry ({:.4} m, {:.4} m, {:.4} rad)",
-                t.pose[0],
-                t.pose[1],
-                t.pose[2],
-                e.covariance[0].max(0.0).sqrt(),
-                e.covariance[1].max(0.0).sqrt(),
-                e.covariance[2].max(0.0).sqrt(),
-                e.odometry[0],
-                e.odometry[1],
-                e.odometry[2]
-            )?;
-        }
-        if let Some(t) = &self.latest {
-            crate::outln!(
-                "robot t {:.3} s: mode {}, pose ({:.4} m, {:.4} m, {:.4} rad), faults {}, history {}",
-                t.time_us as f64 * 1e-6,
-                t.mode,
-                t.pose[0],
-                t.pose[1],
-                t.pose[2],
-                t.faults,
-                t.fault_history
-            )?;
-            let l = &t.link;
-            crate::outln!(
-                "robot link: {} frames ok, dropped {} (framing {}, crc {}, version {}, auth {}, replay {}, malformed {}, session {}, entropy {}); commands rejected {}",
-                l.ok,
-                l.dropped(),
-                l.framing,
-                l.crc,
-                l.version,
-                l.auth,
-                l.replay,
-                l.malformed,
-                l.session,
-                l.entropy,
-                t.rejected
-            )?;
-        }
-        Ok(())
-    }
-
-    /// The sequence number the next command will carry.
-    fn next_seq(&self) -> u64 {
-        self.op.next_seq().unwrap_or(u64::MAX)
-    }
-}
-
 /// Runs one `drive` action.
 pub fn run(a: &DriveArgs) -> Result<()> {
-    let mut s = Session::open(a)?;
+    let mut s = Session::open(
+        &a.connect,
+        a.key.as_deref(),
+        a.heartbeat,
+        a.timeout,
+        a.mcap.as_deref(),
+    )?;
     if let Some(path) = &a.fixes {
         if !matches!(
             a.action,
@@ -759,7 +152,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
                 "--fixes forwards fixes while velocity, plan or telemetry runs; not with this action"
             );
         }
-        s.fixes = Some(crate::drive_fixes::FixFeeder::open(
+        s.fixes = Some(omnikin_host::fixes::FixFeeder::open(
             path,
             a.fix_std,
             a.fix_heading_std,
@@ -810,7 +203,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
             if let Some(t) = s.latest
                 && t.mode != Mode::Velocity
             {
-                s.print_status()?;
+                print_status(&s)?;
                 bail!(
                     "the robot did not take the command (mode {}, rejected {})",
                     t.mode,
@@ -818,7 +211,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
                 );
             }
             stop(&mut s)?;
-            s.print_status()?;
+            print_status(&s)?;
         }
         DriveAction::Plan {
             plan,
@@ -839,7 +232,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
         DriveAction::Stop => {
             s.hello()?;
             stop(&mut s)?;
-            s.print_status()?;
+            print_status(&s)?;
         }
         DriveAction::Estop => {
             s.hello()?;
@@ -849,7 +242,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
                 s.latest
                     .is_some_and(|t| t.mode == Mode::EStop && t.estop_seq >= first)
             })?;
-            s.print_status()?;
+            print_status(&s)?;
         }
         DriveAction::Clear => {
             s.hello()?;
@@ -859,7 +252,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
                     t.ack_seq >= first && t.mode != Mode::EStop && t.fault_history.is_empty()
                 })
             })?;
-            s.print_status()?;
+            print_status(&s)?;
         }
         DriveAction::Telemetry { out, duration } => {
             s.record(Some(out))?;
@@ -875,7 +268,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
             if s.frames == 0 {
                 bail!("no telemetry of this session arrived in {duration} s: nothing was recorded");
             }
-            s.print_status()?;
+            print_status(&s)?;
         }
         DriveAction::Teleop { speed, turn } => {
             if !std::io::IsTerminal::is_terminal(&std::io::stdin()) {
@@ -906,30 +299,6 @@ fn stop(s: &mut Session) -> Result<()> {
         s.latest
             .is_some_and(|t| t.ack_seq >= first && matches!(t.mode, Mode::Idle | Mode::EStop))
     })
-}
-
-/// The plan's points, decimated evenly (keeping the last) to at most `cap`.
-pub fn plan_points(plan: &Plan, cap: usize) -> Vec<WirePoint> {
-    let n = plan.samples.len();
-    let step = n.div_ceil(cap.max(2) - 1).max(1);
-    let mut idx: Vec<usize> = (0..n).step_by(step).collect();
-    if idx.last() != Some(&(n - 1)) {
-        idx.push(n - 1);
-    }
-    idx.iter()
-        .map(|&i| {
-            let p = &plan.samples[i];
-            WirePoint {
-                t: p.t as f32,
-                pose: [p.pose.x as f32, p.pose.y as f32, p.pose.heading as f32],
-                twist: [
-                    p.twist.vx as f32,
-                    p.twist.vy as f32,
-                    p.twist.yaw_rate as f32,
-                ],
-            }
-        })
-        .collect()
 }
 
 /// How `drive plan` treats a plan that does not start where the robot is.
@@ -1095,7 +464,7 @@ fn follow_plan(s: &mut Session, path: &Path, start: StartCheck, robot: Option<&s
                 break;
             }
             if !t.plan.done {
-                s.print_status()?;
+                print_status(s)?;
                 bail!(
                     "the robot left the plan (mode {}, faults {})",
                     t.mode,
@@ -1123,7 +492,7 @@ fn follow_plan(s: &mut Session, path: &Path, start: StartCheck, robot: Option<&s
         end[1],
         end[2]
     )?;
-    s.print_status()?;
+    print_status(s)?;
     Ok(())
 }
 
@@ -1189,7 +558,7 @@ fn stream_plan(s: &mut Session, plan: &Plan, set_pose: bool) -> Result<()> {
         if let Some(t) = s.latest
             && t.mode == Mode::EStop
         {
-            s.print_status()?;
+            print_status(s)?;
             bail!(
                 "the robot stopped following (mode {}, faults {})",
                 t.mode,
@@ -1216,100 +585,62 @@ fn stream_plan(s: &mut Session, plan: &Plan, set_pose: bool) -> Result<()> {
         last.y,
         last.heading
     )?;
-    s.print_status()?;
+    print_status(s)?;
     Ok(())
 }
 
-/// The operator session of `drive`, for `omnikin console`: the same handshake (with its v1
-/// probe and its diagnosis of a failed handshake), the same session frames and the same
-/// telemetry bookkeeping, driven from the console's own event loop instead of a `drive`
-/// action.
-pub(crate) struct ConsoleOperator(Session);
-
-impl ConsoleOperator {
-    /// Opens the transport to `connect` (an address as `drive --connect` takes it) with an
-    /// optional key file; `heartbeat_hz` and `timeout_s` as `drive --heartbeat/--timeout`.
-    pub(crate) fn open(
-        connect: &str,
-        key: Option<&Path>,
-        heartbeat_hz: f64,
-        timeout_s: f64,
-    ) -> Result<Self> {
-        let mut s = Session::open(&DriveArgs {
-            connect: connect.to_string(),
-            key: key.map(Path::to_path_buf),
-            heartbeat: heartbeat_hz,
-            timeout: timeout_s,
-            mcap: None,
-            fixes: None,
-            fix_std: 0.01,
-            fix_heading_std: 0.05,
-            action: DriveAction::Hello,
-        })?;
-        // A console watches: it opens a session only while nobody else's is live.
-        s.op.set_take_over(false);
-        Ok(Self(s))
+/// What the robot says at the end of an action: the fixes forwarded, its estimate (once fixes
+/// are in play), its mode, pose and faults, its link counters.
+fn print_status(s: &Session) -> Result<()> {
+    if let Some(f) = &s.fixes {
+        crate::outln!("{}", f.report(s.estimate.map(|e| e.fixes)))?;
     }
-
-    /// The handshake (blocks up to the timeout): the robot's answer. Fails with [`RobotBusy`]
-    /// when another operator holds the robot and this one does not take over.
-    pub(crate) fn hello(&mut self) -> Result<RobotInfo> {
-        self.0.hello()
+    // The estimate line once fixes are in play (this run forwards them, or the robot has
+    // had some): before that the pose is the wheel odometry and the line says nothing new.
+    let fixes_seen = |e: &Estimate| {
+        let f = e.fixes;
+        s.fixes.is_some() || f.accepted + f.rejected + f.too_late > 0
+    };
+    if let (Some(e), Some(t)) = (s.estimate.as_ref().filter(|e| fixes_seen(e)), &s.latest) {
+        crate::outln!(
+            "robot estimate: pose ({:.4} m, {:.4} m, {:.4} rad) ± ({:.4} m, {:.4} m, {:.4} rad) 1σ; wheel odometry ({:.4} m, {:.4} m, {:.4} rad)",
+            t.pose[0],
+            t.pose[1],
+            t.pose[2],
+            e.covariance[0].max(0.0).sqrt(),
+            e.covariance[1].max(0.0).sqrt(),
+            e.covariance[2].max(0.0).sqrt(),
+            e.odometry[0],
+            e.odometry[1],
+            e.odometry[2]
+        )?;
     }
-
-    /// Whether this console's next handshake takes the robot over from a live session (only
-    /// when its user acts; `drive` always does).
-    pub(crate) fn set_take_over(&mut self, take_over: bool) {
-        self.0.op.set_take_over(take_over);
+    if let Some(t) = &s.latest {
+        crate::outln!(
+            "robot t {:.3} s: mode {}, pose ({:.4} m, {:.4} m, {:.4} rad), faults {}, history {}",
+            t.time_us as f64 * 1e-6,
+            t.mode,
+            t.pose[0],
+            t.pose[1],
+            t.pose[2],
+            t.faults,
+            t.fault_history
+        )?;
+        let l = &t.link;
+        crate::outln!(
+            "robot link: {} frames ok, dropped {} (framing {}, crc {}, version {}, auth {}, replay {}, malformed {}, session {}, entropy {}); commands rejected {}",
+            l.ok,
+            l.dropped(),
+            l.framing,
+            l.crc,
+            l.version,
+            l.auth,
+            l.replay,
+            l.malformed,
+            l.session,
+            l.entropy,
+            t.rejected
+        )?;
     }
-
-    /// Sends `m` in the session.
-    pub(crate) fn send(&mut self, m: &Message) -> Result<()> {
-        self.0.send(m)
-    }
-
-    /// Receives for up to `d`; `true` if a new telemetry frame of this session arrived.
-    pub(crate) fn pump(&mut self, d: Duration) -> Result<bool> {
-        self.0.pump(d)
-    }
-
-    /// Fails when the session is over (taken over, or silent for the timeout).
-    pub(crate) fn alive(&self) -> Result<()> {
-        self.0.alive()
-    }
-
-    /// The newest telemetry of this session.
-    pub(crate) fn latest(&self) -> Option<Telemetry> {
-        self.0.latest
-    }
-
-    /// The newest true pose of this session (simulated robots only).
-    pub(crate) fn truth(&self) -> Option<SimTruth> {
-        self.0.truth
-    }
-
-    /// The sequence number the next message will carry.
-    pub(crate) fn next_seq(&self) -> u64 {
-        self.0.next_seq()
-    }
-
-    /// This end's receive counters.
-    pub(crate) fn counters(&self) -> omnikin::link::LinkCounters {
-        *self.0.op.counters()
-    }
-
-    /// Telemetry frames of this session received.
-    pub(crate) fn frames(&self) -> u64 {
-        self.0.frames
-    }
-
-    /// The session id, once established.
-    pub(crate) fn session_id(&self) -> Option<u64> {
-        self.0.op.session_id()
-    }
-
-    /// The heartbeat period and the timeout.
-    pub(crate) fn periods(&self) -> (Duration, Duration) {
-        (self.0.heartbeat, self.0.timeout)
-    }
+    Ok(())
 }

@@ -22,7 +22,6 @@ mod console;
 mod convert;
 mod data_dir;
 mod drive;
-mod drive_fixes;
 mod evaluate_truth;
 mod fit_to_paper;
 mod identify;

@@ -8,8 +8,19 @@
 //!   file's, lowered (never raised) by a flag, and the stricter of those and what the robot
 //!   says it will do.
 //!
-//! Still in the binary and to come here: the operator session (`drive`), the robot's serve loop
-//! and the simulated robot, the console's hub (docs/architecture.md).
+//! * [`operator`]: the operator's session with a robot — the handshake (and the diagnosis of a
+//!   failed one), session frames at the heartbeat rate, the newest telemetry, estimate and true
+//!   pose, the telemetry logs ([`telemetry_log`] CSV, MCAP), camera fixes forwarded as they fall
+//!   due ([`fixes`]); [`console_operator`] is the same session driven from the console's loop;
+//!   [`wire_plan`] a plan as the link carries it.
+//!
+//! Still in the binary and to come here: the `drive` actions (velocity, plan following), the
+//! robot's serve loop and the simulated robot, the console's hub (docs/architecture.md).
 
 pub mod body_limits;
+pub mod console_operator;
+pub mod fixes;
 pub mod link_io;
+pub mod operator;
+pub mod telemetry_log;
+pub mod wire_plan;

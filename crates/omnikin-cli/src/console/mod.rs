@@ -136,8 +136,12 @@ pub fn run(a: &ConsoleArgs) -> Result<()> {
         );
     }
     // Address and key are checked before anything is served (the same errors as `drive`).
-    let first =
-        crate::drive::ConsoleOperator::open(&a.connect, a.key.as_deref(), a.heartbeat, a.timeout)?;
+    let first = omnikin_host::console_operator::ConsoleOperator::open(
+        &a.connect,
+        a.key.as_deref(),
+        a.heartbeat,
+        a.timeout,
+    )?;
     let listener =
         TcpListener::bind(listen).with_context(|| format!("--listen {listen}: cannot bind"))?;
     let local = listener.local_addr()?;

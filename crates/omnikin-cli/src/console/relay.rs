@@ -29,8 +29,10 @@ use omnikin_plan::Plan;
 use serde_json::{Value, json};
 
 use super::hub::{Command, Hub};
-use crate::drive::{ConsoleOperator, RobotBusy, plan_points};
 use crate::mcap_log::McapLog;
+use omnikin_host::console_operator::ConsoleOperator;
+use omnikin_host::operator::RobotBusy;
+use omnikin_host::wire_plan::plan_points;
 
 /// How long a page's teleop command stays valid: the page repeats it every 50 ms while the
 /// dead-man is held; without a repeat for this long the relay stops the robot.

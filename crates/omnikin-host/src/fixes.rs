@@ -135,7 +135,7 @@ fn parse_row(
         if v.abs() > FIX_MAX_COORDINATE {
             return Err(format!(
                 "{name}:{line}: column {col}: |{}| m exceeds {FIX_MAX_COORDINATE} m (the robot refuses it)",
-                crate::args::num(v)
+                omnikin_io::num(v)
             ));
         }
     }
