@@ -14,10 +14,14 @@
 //!   due ([`fixes`]); [`console_operator`] is the same session driven from the console's loop;
 //!   [`wire_plan`] a plan as the link carries it.
 //!
+//! * [`console`]: the console without its web server — the hub where the pages and the robot
+//!   meet, the relay that owns the robot link, the Foxglove stream.
+//!
 //! Still in the binary and to come here: the `drive` actions (velocity, plan following), the
-//! robot's serve loop and the simulated robot, the console's hub (docs/architecture.md).
+//! robot's serve loop and the simulated robot (docs/architecture.md).
 
 pub mod body_limits;
+pub mod console;
 pub mod console_operator;
 pub mod fixes;
 pub mod link_io;

@@ -25,9 +25,9 @@ use anyhow::{Context, Result};
 pub mod foxglove_ws;
 pub mod gate;
 pub mod http;
-pub mod hub;
-pub mod relay;
 pub mod ws;
+// The hub and the relay are the host library's (crates/omnikin-host/src/console/).
+pub use omnikin_host::console::{hub, relay};
 
 use hub::Hub;
 

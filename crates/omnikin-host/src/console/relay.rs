@@ -29,10 +29,10 @@ use omnikin_plan::Plan;
 use serde_json::{Value, json};
 
 use super::hub::{Command, Hub};
-use crate::mcap_log::McapLog;
-use omnikin_host::console_operator::ConsoleOperator;
-use omnikin_host::operator::RobotBusy;
-use omnikin_host::wire_plan::plan_points;
+use crate::console_operator::ConsoleOperator;
+use crate::operator::RobotBusy;
+use crate::wire_plan::plan_points;
+use omnikin_io::mcap_log::McapLog;
 
 /// How long a page's teleop command stays valid: the page repeats it every 50 ms while the
 /// dead-man is held; without a repeat for this long the relay stops the robot.
@@ -63,7 +63,7 @@ pub struct RelayConfig {
     /// Where recordings go (`--record-dir`).
     pub record_dir: std::path::PathBuf,
     /// The live Foxglove stream (`--foxglove`).
-    pub fox: Option<Arc<super::foxglove_ws::FoxHub>>,
+    pub fox: Option<Arc<super::foxglove_hub::FoxHub>>,
 }
 
 /// A recording to MCAP (the MCAP writer of `drive --mcap`): one message per channel and
@@ -134,7 +134,7 @@ struct Relay {
     rec: Option<Recording>,
     /// Telemetry to Foxglove messages for `--foxglove` (per session: measured rates and
     /// events compare consecutive frames).
-    enc: crate::mcap_log::Encoder,
+    enc: omnikin_io::mcap_log::Encoder,
     /// Another operator held the robot at the last handshake.
     held: Option<RobotBusy>,
     /// The next handshake takes the robot over (the user acted while it was held).
@@ -191,7 +191,7 @@ pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: Consol
         prev: None,
         info: None,
         rec: None,
-        enc: crate::mcap_log::Encoder::new("omnikin console"),
+        enc: omnikin_io::mcap_log::Encoder::new("omnikin console"),
         held: None,
         take_over: false,
         plan_msg: PlanMessage::default(),
@@ -227,7 +227,7 @@ pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: Consol
             Err(e) => {
                 if let Some(b) = e.downcast_ref::<RobotBusy>() {
                     if r.held.is_none() {
-                        crate::errln!("console: {b}");
+                        omnikin_io::errln!("console: {b}");
                         r.event("warn", &format!("{b}"));
                     }
                     r.held = Some(*b);
@@ -252,7 +252,7 @@ pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: Consol
         r.prev = None;
         // A plan held for the last session's clock is not this session's.
         r.plan_msg = PlanMessage::default();
-        r.enc = crate::mcap_log::Encoder::new("omnikin console");
+        r.enc = omnikin_io::mcap_log::Encoder::new("omnikin console");
         // An e-stop asked for before this session is sent in it, and confirmed by it
         // (sequence numbers start again with every session).
         if let Some(p) = r.estop.as_mut() {
@@ -339,7 +339,7 @@ impl Relay {
 
     fn lost(&mut self, last: &mut String, why: &str) {
         if why != last.as_str() {
-            crate::errln!("console: {why}");
+            omnikin_io::errln!("console: {why}");
             self.event("error", why);
             *last = why.to_string();
         }
@@ -359,7 +359,7 @@ impl Relay {
                 o.send(&Message::Bye)?;
                 return Ok(());
             }
-            if let Some(sig) = crate::output::interrupted() {
+            if let Some(sig) = omnikin_io::output::interrupted() {
                 o.send(&Message::Stop)?;
                 return Err(sig.into());
             }
@@ -645,8 +645,8 @@ impl Relay {
             }
         }
         if let Some(fox) = &self.cfg.fox {
-            let s = crate::mcap_log::telemetry_sample_with_truth(&t, o.truth());
-            if let Some(ns) = crate::mcap_log::foxglove::time_ns(s.t) {
+            let s = omnikin_io::mcap_log::telemetry_sample_with_truth(&t, o.truth());
+            if let Some(ns) = omnikin_io::mcap_log::foxglove::time_ns(s.t) {
                 for (topic, v) in self.enc.messages("", &s, ns) {
                     fox.publish(topic, ns, &v);
                 }
@@ -655,8 +655,10 @@ impl Relay {
         if let Some(r) = self.rec.as_mut() {
             match r
                 .log
-                .sample(&crate::mcap_log::telemetry_sample_with_truth(&t, o.truth()))
-            {
+                .sample(&omnikin_io::mcap_log::telemetry_sample_with_truth(
+                    &t,
+                    o.truth(),
+                )) {
                 Ok(()) => r.frames += 1,
                 Err(e) => {
                     self.event("error", &format!("recording: {e:#}"));
@@ -818,11 +820,13 @@ impl Relay {
     fn write_plan(&mut self, time_us: u64, poses: &[omnikin::Pose2<f64>]) {
         let ns = time_us.saturating_mul(1000);
         if let Some(fox) = &self.cfg.fox {
-            use crate::mcap_log::foxglove as fg;
+            use omnikin_io::mcap_log::foxglove as fg;
             fox.publish(fg::PLAN, ns, &fg::poses_in_frame(ns, poses));
         }
         if let Some(r) = self.rec.as_mut()
-            && let Err(e) = r.log.plan(crate::mcap_log::foxglove::seconds(ns), poses)
+            && let Err(e) = r
+                .log
+                .plan(omnikin_io::mcap_log::foxglove::seconds(ns), poses)
         {
             self.event("error", &format!("recording: {e:#}"));
             self.record(false);
