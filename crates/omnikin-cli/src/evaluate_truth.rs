@@ -11,17 +11,8 @@ use omnikin_sim::pose_error::{
 use omnikin_sim::track::Track;
 use serde_json::json;
 
-use crate::sim::EvaluateArgs;
-
-/// `--align`: the alignment before the ATE.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum AlignArg {
-    /// None: the estimate is scored in the truth's frame as it is (a robot that knows its
-    /// start pose).
-    None,
-    /// The least-squares rotation and translation in the plane (Umeyama/Horn, 2-D).
-    Se2,
-}
+use crate::sim_args::AlignArg;
+use crate::sim_args::EvaluateArgs;
 
 /// Runs `evaluate --truth`.
 pub fn run(a: &EvaluateArgs, truth_path: &Path) -> Result<()> {

@@ -29,11 +29,14 @@ mod kinematics;
 mod odometry;
 mod plan;
 mod robot;
+mod robot_args;
 mod shard;
 mod shell;
 mod sim;
+mod sim_args;
 mod sim_ballbot;
 mod sim_closed_loop;
+mod sim_report;
 mod sim_robot;
 mod teleop;
 mod urdf;
@@ -102,13 +105,13 @@ enum Command {
     Plan(plan::PlanArgs),
     /// Monte-Carlo simulation of a plan under motor and slip disturbances, with the paper's
     /// metrics and figure (Sphere paper §6, Caster paper §4).
-    Simulate(sim::SimulateArgs),
+    Simulate(sim_args::SimulateArgs),
     /// The same metrics and figure for real tracked runs (CSV t,x,y[,heading]) against a plan;
     /// or pose estimates against ground truth (--truth): ATE and RPE, per run and overall.
-    Evaluate(sim::EvaluateArgs),
+    Evaluate(sim_args::EvaluateArgs),
     /// Re-run a paper's whole experiment design in simulation and tabulate our figures next
     /// to the paper's (sphere-2019: the Sphere paper's squares and circles at four speeds).
-    Reproduce(sim::ReproduceArgs),
+    Reproduce(sim_args::ReproduceArgs),
     /// Combine the shard directories of `simulate … --shard K/N` or `reproduce … --shard K/N`
     /// (all N, from any machines) into exactly what one run writes, bit for bit.
     Merge(shard::MergeArgs),
@@ -124,7 +127,7 @@ enum Command {
     Urdf(urdf::UrdfArgs),
     /// Run the robot side of the link: the fixed-rate control loop (limits, watchdog, e-stop)
     /// over UDP or a serial port, on a simulated plant with `--sim`.
-    Robot(robot::RobotArgs),
+    Robot(robot_args::RobotArgs),
     /// Drive a robot over the link from the PC: hello, velocity, plan upload, stop, e-stop,
     /// clear, telemetry and keyboard teleop.
     Drive(drive::DriveArgs),

@@ -7,7 +7,7 @@
 //! fingerprints of every input. `simulate` shards also keep their `trials.csv` rows and a copy
 //! of the plan. `merge` checks that the manifests agree (same inputs, every shard `1..N`
 //! exactly once), reads the runs back in trial order and runs the same finishing code as one
-//! run ([`crate::sim::finish_simulation`], [`crate::sim::Report`]): the metrics are two passes
+//! run ([`crate::sim_report::finish_simulation`], [`crate::sim_report::Report`]): the metrics are two passes
 //! of floating-point sums over the trials in trial order, so only reading every trial back —
 //! never adding per-shard sums — gives the single run's numbers bit for bit.
 //!
@@ -25,21 +25,13 @@ use omnikin_sim::shard::{RunsFile, RunsWriter, Shard, fingerprint};
 use omnikin_sim::{MonteCarloError, Profile, Trial};
 use serde::{Deserialize, Serialize};
 
-use crate::sim::{ReproduceInfo, SimulationInfo, create_dir_for, write_file};
+use crate::sim_report::{ReproduceInfo, SimulationInfo, create_dir_for, write_file};
 
 /// The manifest's format number; a merge refuses any other.
 const FORMAT: u32 = 1;
 const MANIFEST: &str = "shard.json";
 const SIMULATE: &str = "simulate";
 const REPRODUCE: &str = "reproduce sphere-2019";
-
-/// `--shard K/N` (clap value parser).
-pub fn parse_shard(s: &str) -> Result<Shard, String> {
-    Shard::parse(s).map_err(|e| match e {
-        omnikin_sim::shard::ShardError::Parse { rule, .. } => rule,
-        e => e.to_string(),
-    })
-}
 
 /// One runs file of a shard: the trials `first..end` of `trials` of one profile (and series).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -167,7 +159,7 @@ fn done(
 /// `omnikin simulate … --shard K/N`: the shard's trials into `trials.csv` and `runs.bin`, the
 /// plan copied to `plan.csv`, then `shard.json`.
 pub fn simulate_shard(
-    a: &crate::sim::SimulateArgs,
+    a: &crate::sim_args::SimulateArgs,
     shard: Shard,
     d: &RobotDescription,
     robot: &omnikin::Robot<f64>,
@@ -198,12 +190,16 @@ pub fn simulate_shard(
         .context("cannot start worker threads")?;
     let range = shard.range(trials);
     let samples = plan.samples.len();
-    let pb = crate::sim::progress_bar(range.len() as u64, "simulating");
+    let pb = crate::sim_report::progress_bar(range.len() as u64, "simulating");
     let trials_path = a.out.join("trials.csv");
     let runs_path = a.out.join("runs.bin");
     let mut trials_csv = crate::output::OutFile::create("--out", &trials_path)?;
-    writeln!(trials_csv, "{}", crate::sim::trials_header(robot.wheels()))
-        .with_context(|| format!("cannot write {}", trials_path.display()))?;
+    writeln!(
+        trials_csv,
+        "{}",
+        crate::sim_report::trials_header(robot.wheels())
+    )
+    .with_context(|| format!("cannot write {}", trials_path.display()))?;
     let runs_file = crate::output::OutFile::create("--out", &runs_path)?;
     let mut runs = RunsWriter::new(runs_file, samples, range.start, range.len())
         .with_context(|| format!("cannot write {}", runs_path.display()))?;
@@ -212,7 +208,7 @@ pub fn simulate_shard(
     };
     pool.install(|| {
         omnikin_sim::simulate_range(&simulate, range.clone(), &|| pb.inc(1), |i, t: Trial| {
-            crate::sim::write_trial(&mut trials_csv, i, &t)
+            crate::sim_report::write_trial(&mut trials_csv, i, &t)
                 .with_context(|| format!("cannot write {}", trials_path.display()))?;
             runs.push(&omnikin_sim::trial_run(t))
                 .with_context(|| format!("cannot write {}", runs_path.display()))
@@ -321,7 +317,7 @@ pub fn reproduce_shard(
         counts.iter().map(|(n, t)| (*n, shard.range(*t))).collect();
     crate::output::create_subdir("--out", &out.join("runs"))?;
     let total: u64 = series.len() as u64 * ranges.iter().map(|r| r.1.len() as u64).sum::<u64>();
-    let pb = crate::sim::progress_bar(total, "reproducing the Sphere paper (shard)");
+    let pb = crate::sim_report::progress_bar(total, "reproducing the Sphere paper (shard)");
     let mut m = Manifest::new(REPRODUCE, shard);
     m.inputs = reproduce_inputs(info, series);
     for s in series {
@@ -775,7 +771,7 @@ fn merge_simulate(
         }
     }
     trials_csv.commit()?;
-    let pb = crate::sim::progress_bar(trials as u64, "merging");
+    let pb = crate::sim_report::progress_bar(trials as u64, "merging");
     let mc = pool
         .install(|| {
             omnikin_sim::evaluate_runs(
@@ -788,7 +784,7 @@ fn merge_simulate(
         })
         .map_err(visit_err)?;
     pb.finish_and_clear();
-    crate::sim::finish_simulation(&a.out, &info, &reference, mc, a.figure_format)
+    crate::sim_report::finish_simulation(&a.out, &info, &reference, mc, a.figure_format)
 }
 
 fn merge_reproduce(
@@ -829,7 +825,7 @@ fn merge_reproduce(
             })
             .collect::<Result<_>>()?;
     let dynamic = if profiles.contains(&"dynamic") {
-        let info = crate::sim::DynamicInfo::new(&robot_file, &robot_toml, &d)?;
+        let info = crate::sim_report::DynamicInfo::new(&robot_file, &robot_toml, &d)?;
         if exact(info.params.com_depth) != m.input(first, "dynamic_fitted_value")? {
             bail!(
                 "{}: the shards' robot file does not load to their com_depth",
@@ -868,8 +864,8 @@ fn merge_reproduce(
         .collect();
     create_dir_for(&a.out, &["table.md", "table.csv", "metrics.json"])?;
     let total: u64 = series.len() as u64 * runs.iter().map(|r| r.1 as u64).sum::<u64>();
-    let pb = crate::sim::progress_bar(total, "merging the Sphere paper's re-run");
-    let mut report = crate::sim::Report::new(&a.out, info).figure_format(a.figure_format);
+    let pb = crate::sim_report::progress_bar(total, "merging the Sphere paper's re-run");
+    let mut report = crate::sim_report::Report::new(&a.out, info).figure_format(a.figure_format);
     for s in &series {
         let outcomes = pool
             .install(|| {

@@ -10,41 +10,13 @@
 use anyhow::{Result, bail};
 use omnikin::description::RobotDescription;
 use omnikin_plan::Plan;
-use omnikin_sim::dynamic_run::{
-    DynamicOptions, DynamicOutcome, DynamicPlant, PushSpec, check_initial_tilt_deg, one_trial_note,
-};
+use omnikin_sim::dynamic_run::{DynamicOptions, DynamicOutcome, DynamicPlant, one_trial_note};
 use omnikin_sim::dynamics::ballbot::plan_run::PlanRun;
 use plotters::prelude::*;
 
 use crate::plot::{Marker, PALETTE, Series, TimeAxis, TimeMark, draw_err, time_panel_on, xy_panel};
-use crate::sim::SimulateArgs;
-
-/// A `--push` value: `J@T` (an impulse of `J` N·s along world +x at closed-loop time `T` s) or
-/// `J@T@DEG` (along the world direction `DEG` degrees counter-clockwise from +x).
-pub type PushArg = PushSpec;
-
-/// Parses `J@T[@DEG]` (ranges: [`PushSpec::new`]).
-pub fn parse_push(s: &str) -> Result<PushArg, String> {
-    let parts: Vec<&str> = s.split('@').collect();
-    if !(2..=3).contains(&parts.len()) {
-        return Err(format!(
-            "expected N_S@T or N_S@T@DEG (impulse in N·s, time in s, direction in degrees \
-             from +x), got \"{s}\""
-        ));
-    }
-    let impulse = crate::args::finite_f64(parts[0]).map_err(|e| format!("impulse: {e}"))?;
-    let time = crate::args::finite_f64(parts[1]).map_err(|e| format!("time: {e}"))?;
-    let direction_deg = match parts.get(2) {
-        Some(d) => crate::args::finite_f64(d).map_err(|e| format!("direction: {e}"))?,
-        None => 0.0,
-    };
-    PushSpec::new(impulse, time, direction_deg)
-}
-
-/// Parses `--initial-tilt-deg`: finite, |x| < 60° ([`check_initial_tilt_deg`]).
-pub fn parse_tilt(s: &str) -> Result<f64, String> {
-    check_initial_tilt_deg(crate::args::finite_f64(s)?)
-}
+use crate::sim_args::PushArg;
+use crate::sim_args::SimulateArgs;
 
 /// Runs the ballbot's dynamic simulate (module doc) through [`omnikin_sim::dynamic_run`].
 pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<()> {
@@ -62,12 +34,12 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
     };
     let plant = DynamicPlant::new(d, plan, &opts)?;
     let figure_name = a.figure_format.file_name("figure");
-    crate::sim::create_dir_for(
+    crate::sim_report::create_dir_for(
         &a.out,
         &["metrics.json", "trials.csv", "mean.csv", &figure_name],
     )?;
     let sim = plant.run(d, plan, &opts)?;
-    crate::sim::write_dynamic_run(&a.out, plan, &sim)?;
+    crate::sim_report::write_dynamic_run(&a.out, plan, &sim)?;
     if let (DynamicOutcome::Ballbot(run), DynamicPlant::Ballbot { config, .. }) =
         (&sim.outcome, &plant)
     {
@@ -84,7 +56,7 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
             &a.push,
         )?;
     }
-    crate::sim::print_summary(&sim.evaluation.metrics);
+    crate::sim_report::print_summary(&sim.evaluation.metrics);
     for line in sim.summary_lines(&plant) {
         crate::errln!("{line}");
     }

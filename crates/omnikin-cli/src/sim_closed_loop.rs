@@ -17,78 +17,8 @@ use omnikin_sim::sensors::{CameraGaps, CameraProfile};
 use rayon::prelude::*;
 use serde_json::json;
 
-use crate::sim::{SimulateArgs, create_dir_for, print_summary, trials_header, write_file};
-
-/// The closed loop's flags of `omnikin simulate`.
-#[derive(clap::Args, Debug, Clone, Default)]
-pub struct ClosedLoopArgs {
-    /// With --plant dynamic (sphere-omni): the core runtime (the firmware's loop) follows the
-    /// plan on the dynamic plant, fusing an overhead camera's fixes (default: paper 000's
-    /// video, 25 frames/s, 40 ms latency, 2 mm noise); metrics on the simulated truth.
-    #[arg(long)]
-    pub closed_loop: bool,
-    /// With --closed-loop: no camera (the runtime's wheel odometry only).
-    #[arg(long, requires = "closed_loop")]
-    pub no_camera: bool,
-    /// With --closed-loop: camera frame rate, Hz (default 25).
-    #[arg(long, value_name = "HZ", requires = "closed_loop", conflicts_with = "no_camera", value_parser = crate::args::finite_f64)]
-    pub camera_rate: Option<f64>,
-    /// With --closed-loop: camera latency from capture to the robot, s (default 0.04).
-    #[arg(long, value_name = "S", requires = "closed_loop", conflicts_with = "no_camera", value_parser = crate::args::finite_f64)]
-    pub camera_latency: Option<f64>,
-    /// With --closed-loop: camera position noise per axis, m (default 0.002).
-    #[arg(long, value_name = "M", requires = "closed_loop", conflicts_with = "no_camera", value_parser = crate::args::finite_f64)]
-    pub camera_noise: Option<f64>,
-    /// With --closed-loop: probability that a camera frame is lost (default 0).
-    #[arg(long, value_name = "P", requires = "closed_loop", conflicts_with = "no_camera", value_parser = crate::args::finite_f64)]
-    pub camera_dropout: Option<f64>,
-    /// With --closed-loop: no camera frames captured in [START, END), s from the plan's start.
-    #[arg(long, value_name = "START,END", requires = "closed_loop", conflicts_with = "no_camera", value_parser = parse_window)]
-    pub camera_outage: Option<[f64; 2]>,
-    /// With --closed-loop: the runtime's control rate, Hz (default 100, `omnikin robot`'s).
-    #[arg(long, value_name = "HZ", requires = "closed_loop", value_parser = crate::args::control_rate_hz)]
-    pub control_rate: Option<f64>,
-}
-
-/// Parses `START,END` (two finite numbers).
-fn parse_window(s: &str) -> Result<[f64; 2], String> {
-    let v: Vec<&str> = s.split(',').collect();
-    let [a, b] = v.as_slice() else {
-        return Err(format!("expected START,END (two numbers), got `{s}`"));
-    };
-    let num = |x: &str| {
-        x.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| format!("`{x}` is not a finite number"))
-    };
-    Ok([num(a)?, num(b)?])
-}
-
-impl ClosedLoopArgs {
-    /// The camera the flags ask for: paper 000's video with the flags' changes, or none.
-    pub fn camera(&self) -> Option<(CameraProfile, CameraGaps)> {
-        if self.no_camera {
-            return None;
-        }
-        let mut p = CameraProfile::paper_000();
-        if let Some(hz) = self.camera_rate {
-            p.period = if hz > 0.0 { 1.0 / hz } else { f64::INFINITY };
-        }
-        if let Some(l) = self.camera_latency {
-            p.latency = l;
-        }
-        if let Some(n) = self.camera_noise {
-            p.noise_std = n;
-        }
-        let g = CameraGaps {
-            dropout_probability: self.camera_dropout.unwrap_or(0.0),
-            outage: self.camera_outage,
-        };
-        Some((p, g))
-    }
-}
+use crate::sim_args::SimulateArgs;
+use crate::sim_report::{create_dir_for, print_summary, trials_header, write_file};
 
 /// `metrics.json`'s description of the camera.
 fn camera_json(c: &Option<(CameraProfile, CameraGaps)>) -> serde_json::Value {
@@ -103,7 +33,7 @@ fn camera_json(c: &Option<(CameraProfile, CameraGaps)>) -> serde_json::Value {
 
 /// Runs `simulate --plant dynamic --closed-loop`.
 pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<()> {
-    if a.plant != crate::sim::PlantKind::Dynamic {
+    if a.plant != crate::sim_args::PlantKind::Dynamic {
         bail!("--closed-loop needs --plant dynamic (the runtime drives the dynamic plant)");
     }
     if d.robot_kind() != omnikin::Kind::Sphere {
@@ -131,7 +61,7 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
     let params = SphereDynamics::from_description(d)
         .with_context(|| format!("--plant dynamic: robot {}", d.name))?;
     let body = d.body_limits();
-    let rate = c.control_rate.unwrap_or(crate::robot::DEFAULT_RATE_HZ);
+    let rate = c.control_rate.unwrap_or(crate::robot_args::DEFAULT_RATE_HZ);
     let config = closed_loop::config(
         rate,
         d.limits.max_wheel_rate,
@@ -153,7 +83,7 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
         .num_threads(a.threads.unwrap_or(0))
         .build()
         .context("cannot start worker threads")?;
-    let pb = crate::sim::progress_bar(a.trials, "closed loop");
+    let pb = crate::sim_report::progress_bar(a.trials, "closed loop");
     let trials: Vec<ClosedLoopTrial> = pool.install(|| {
         (0..a.trials as usize)
             .into_par_iter()
@@ -173,7 +103,7 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
         })
         .collect();
     let evaluation = evaluate(plan, &runs)?;
-    crate::sim::finite(&evaluation.metrics)?;
+    crate::sim_report::finite(&evaluation.metrics)?;
     let mut j = serde_json::to_value(&evaluation.metrics)?;
     let sum = |f: &dyn Fn(&ClosedLoopTrial) -> u64| trials.iter().map(f).sum::<u64>();
     let max = |f: &dyn Fn(&ClosedLoopTrial) -> f64| trials.iter().map(f).fold(0.0, f64::max);
@@ -197,7 +127,7 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
             trials
                 .iter()
                 .enumerate()
-                .try_for_each(|(i, t)| crate::sim::write_trial(&mut csv, i, &t.trial))
+                .try_for_each(|(i, t)| crate::sim_report::write_trial(&mut csv, i, &t.trial))
         })
         .with_context(|| format!("cannot write {}", trials_path.display()))?;
     csv.commit()?;
@@ -208,7 +138,7 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
             serde_json::to_string_pretty(&j).unwrap_or_default()
         )
     })?;
-    crate::sim::write_mean(&a.out.join("mean.csv"), plan, &evaluation.mean)?;
+    crate::sim_report::write_mean(&a.out.join("mean.csv"), plan, &evaluation.mean)?;
     crate::figures::trajectory_figure(
         "--out",
         &a.out.join(&figure),

@@ -23,8 +23,8 @@ use omnikin_sim::dynamics::ballbot::{BallbotDynamics, BallbotPlant, capability};
 use omnikin_sim::sil::SilPlant;
 use serde_json::{Value, json};
 
-use crate::robot::{RobotArgs, SIM_PLAN_CAPACITY};
-use crate::sim::PlantKind;
+use crate::robot_args::{RobotArgs, SIM_PLAN_CAPACITY};
+use crate::sim_args::PlantKind;
 
 /// A runtime on its simulated board (module doc).
 // One per process: the statuses stay inline rather than boxed.
@@ -90,7 +90,7 @@ impl SimRobot {
         if dynamic && desc.robot_kind().balances() {
             return Self::balance(a, desc);
         }
-        let cfg = crate::robot::config(a, desc)?;
+        let cfg = crate::robot_args::config(a, desc)?;
         let rt = Box::new(
             Runtime::new(robot, cfg, Pose2::default()).map_err(|e| anyhow::anyhow!("{e}"))?,
         );
@@ -100,12 +100,12 @@ impl SimRobot {
             SilPlant::dynamic(robot, params, Pose2::default())
                 .with_context(|| format!("--plant dynamic: robot {}", desc.name))?
         } else {
-            let prof = crate::robot::profile(a.disturbances.as_deref())?;
+            let prof = crate::robot_args::profile(a.disturbances.as_deref())?;
             // A profile file that does not fit the robot (the built-in ones are for every kind).
             if let Some(file) = a.disturbances.as_deref()
                 && !["ideal", "hardware", "spin-slip"].contains(&file)
             {
-                crate::sim::warn_unused_sections(&prof, &robot, file);
+                crate::sim_report::warn_unused_sections(&prof, &robot, file);
             }
             let mut p = SilPlant::new(robot, prof, a.seed, Pose2::default());
             if let Some((at, dur)) = a.obstacle {

@@ -1,0 +1,209 @@
+//! The flags of `omnikin robot` and what they make: the runtime's configuration, the
+//! disturbance profile, the simulated robot's plan capacity and rates.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use omnikin::description::RobotDescription;
+use omnikin::runtime::Config;
+use omnikin_sim::profile::Profile;
+use omnikin_sim::reproduce::{hardware_profile, spin_slip_profile};
+
+use crate::args::finite_f64;
+
+/// Plan buffer capacity of the simulated robot, points (a firmware picks its own).
+pub const SIM_PLAN_CAPACITY: usize = 4096;
+
+/// Robot time (s) without a frame of the active session after which telemetry stops (or four
+/// watchdog periods, if longer); the next frame of the session resumes it.
+pub const TELEMETRY_IDLE_S: f64 = 2.0;
+
+/// `omnikin robot`.
+#[derive(clap::Args, Debug)]
+pub struct RobotArgs {
+    /// Run the runtime against the simulated plant (software in the loop). Required: on a real
+    /// robot the runtime runs in firmware (see examples/firmware-cortex-m4).
+    #[arg(long)]
+    pub sim: bool,
+    /// Robot: preset name (sphere-omni, ballbot, caster3, kiwi, x-drive, mecanum, swerve4) or path to a TOML description. Its
+    /// [limits] become the runtime's motor limits.
+    #[arg(long)]
+    pub robot: String,
+    /// Where to serve the link: HOST:PORT (UDP, e.g. 127.0.0.1:7000) or serial:PATH[@BAUD].
+    #[arg(long, value_name = "ADDR")]
+    pub listen: String,
+    /// Plant disturbances: ideal (default), hardware, spin-slip, or a profile TOML file.
+    #[arg(long, value_name = "PROFILE")]
+    pub disturbances: Option<String>,
+    /// Shared key file (16-64 bytes): only an operator with the same key can open a session;
+    /// every frame of it carries an HMAC tag under the session key.
+    #[arg(long, value_name = "FILE")]
+    pub key: Option<PathBuf>,
+    /// Without --key, listen on a UDP address that is not loopback anyway (anyone on that
+    /// network can then drive the robot).
+    #[arg(long)]
+    pub insecure: bool,
+    /// Control rate, Hz [default: 100; ballbot --plant dynamic: the robot file's
+    /// [dynamics] control_rate_hz, 200 for the preset].
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::args::control_rate_hz)]
+    pub rate: Option<f64>,
+    /// Telemetry rate, Hz (robot time).
+    #[arg(long, default_value_t = 20.0, allow_hyphen_values = true, value_parser = crate::args::message_rate_hz)]
+    pub telemetry_rate: f64,
+    /// Watchdog: no valid command or heartbeat for this long (s, robot time) → controlled stop.
+    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub watchdog: f64,
+    /// Largest linear acceleration, m/s² [default: the robot file's body limit, [limits]
+    /// max_accel or derived from max_wheel_accel (`omnikin check` prints it); a larger value is
+    /// refused].
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub max_accel: Option<f64>,
+    /// Largest yaw acceleration, rad/s² [default: the robot file's max_yaw_accel or derived
+    /// from max_wheel_accel; a larger value is refused].
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub max_yaw_accel: Option<f64>,
+    /// Largest linear jerk, m/s³ [default: the robot file's max_jerk, else unlimited; a value
+    /// above the file's is refused].
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub max_jerk: Option<f64>,
+    /// Commands faster than this (m/s) are rejected as malformed [default: 2; ballbot --plant
+    /// dynamic: 1, and a larger value is refused unless the robot's model holds it].
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub max_speed: Option<f64>,
+    /// Commands with a larger yaw rate (rad/s) are rejected as malformed [default: 10; ballbot
+    /// --plant dynamic: 1, and a larger value is refused unless the robot's model holds it].
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub max_yaw_rate: Option<f64>,
+    /// Heading from the simulated gyro instead of the wheels.
+    #[arg(long)]
+    pub gyro_heading: bool,
+    /// Run the simulation this many times faster than real time (tests use 4-10).
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = crate::args::time_scale)]
+    pub time_scale: f64,
+    /// Stop after this much robot time (s) and print a JSON summary on stdout.
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub max_time: Option<f64>,
+    /// Write one CSV row per control cycle: estimate, true pose, mode, faults, counters.
+    #[arg(long, value_name = "FILE")]
+    pub log: Option<PathBuf>,
+    /// Also write the log as MCAP with Foxglove schemas (/pose, /truth, /tf, /reference,
+    /// /wheels, /link, /events; docs/seeing-the-robot.md), kept like --log on every exit.
+    #[arg(long, value_name = "FILE")]
+    pub mcap: Option<PathBuf>,
+    /// Seed of the disturbance draws.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// An obstacle in the robot's way, AT:FOR (s, robot time; e.g. 3:0.5): from AT for FOR
+    /// seconds the simulated robot stops dead and its wheels are blocked (kinematic plant), a
+    /// collision for the runtime's event detector (the robot file's [events]) to report.
+    #[arg(long, value_name = "AT:FOR", value_parser = obstacle)]
+    pub obstacle: Option<(f64, f64)>,
+    /// Plant: `kinematic` (the motors' motion through the forward kinematics, with
+    /// --disturbances) or `dynamic` (the robot file's [dynamics], no --disturbances):
+    /// sphere-omni's shell + platform dynamics, or the ballbot's 3D model balanced by the
+    /// balance runtime (LQR on the torque interface, seeded IMU and encoder noise; plans are
+    /// refused, drive it with velocity commands; it falls if e-stopped).
+    #[arg(long, value_enum, default_value_t = crate::sim_args::PlantKind::Kinematic)]
+    pub plant: crate::sim_args::PlantKind,
+}
+
+/// `--obstacle AT:FOR`: 0 ≤ AT ≤ 10⁶ s, 0 < FOR ≤ 10⁶ s.
+fn obstacle(s: &str) -> Result<(f64, f64), String> {
+    let (at, dur) = s
+        .split_once(':')
+        .ok_or_else(|| format!("expected AT:FOR in seconds (e.g. 3:0.5), got \"{s}\""))?;
+    let at = crate::args::finite_f64(at).map_err(|e| format!("AT {e}"))?;
+    let dur = crate::args::finite_f64(dur).map_err(|e| format!("FOR {e}"))?;
+    if !(0.0..=1e6).contains(&at) {
+        return Err(format!("AT must be within [0, 1e6] s, got {at}"));
+    }
+    if !(dur > 0.0 && dur <= 1e6) {
+        return Err(format!("FOR must be within (0, 1e6] s, got {dur}"));
+    }
+    Ok((at, dur))
+}
+
+/// Control rate when `--rate` is not given (the rate runtime), Hz.
+pub const DEFAULT_RATE_HZ: f64 = 100.0;
+
+/// `--max-speed` of the rate runtime when not given, m/s.
+pub const DEFAULT_MAX_SPEED: f64 = 2.0;
+
+/// `--max-yaw-rate` of the rate runtime when not given, rad/s.
+pub const DEFAULT_MAX_YAW_RATE: f64 = 10.0;
+
+/// The disturbance profile `--disturbances` names.
+pub(crate) fn profile(name: Option<&str>) -> Result<Profile> {
+    Ok(match name {
+        None | Some("ideal") => Profile::default(),
+        Some("hardware") => hardware_profile(),
+        Some("spin-slip") => spin_slip_profile(),
+        Some(path) => Profile::load(std::path::Path::new(path)).with_context(|| {
+            format!("--disturbances {path} (ideal, hardware, spin-slip or a TOML file)")
+        })?,
+    })
+}
+
+/// Runtime configuration from the arguments and the description's limits.
+pub fn config(a: &RobotArgs, desc: &RobotDescription) -> Result<Config<f64>> {
+    let rate = a.rate.unwrap_or(DEFAULT_RATE_HZ);
+    let mut c = Config::new(rate);
+    c.rate_limits.wheel = desc.limits.max_wheel_rate;
+    c.rate_limits.steer = desc.limits.max_steer_rate;
+    c.wheel_accel = desc.limits.max_wheel_accel;
+    c.steer_accel = desc.limits.max_steer_accel;
+    // One set of body limits: the robot file's (what `plan` plans within), lowered by a flag.
+    let body = desc.body_limits();
+    let flag = crate::body_limits::flag;
+    c.slew.accel = flag(
+        "--max-accel",
+        a.max_accel,
+        body.max_accel,
+        body.max_accel_source,
+        "max_accel",
+        "m/s²",
+        desc,
+    )?;
+    c.slew.yaw_accel = flag(
+        "--max-yaw-accel",
+        a.max_yaw_accel,
+        body.max_yaw_accel,
+        body.max_yaw_accel_source,
+        "max_yaw_accel",
+        "rad/s²",
+        desc,
+    )?;
+    c.slew.jerk = match body.max_jerk {
+        Some(j) => Some(flag(
+            "--max-jerk",
+            a.max_jerk,
+            j,
+            omnikin::description::LimitSource::File,
+            "max_jerk",
+            "m/s³",
+            desc,
+        )?),
+        None => a.max_jerk,
+    };
+    c.max_speed = a.max_speed.unwrap_or(DEFAULT_MAX_SPEED);
+    c.max_yaw_rate = a.max_yaw_rate.unwrap_or(DEFAULT_MAX_YAW_RATE);
+    c.watchdog = a.watchdog;
+    c.heading_from_gyro = a.gyro_heading;
+    // Slip and collision thresholds: the robot file's [events] (defaults where absent), the
+    // same ones `omnikin odometry` uses offline.
+    let ev = desc.events.thresholds();
+    c.events.slip_yaw_rate = ev.slip_yaw_rate;
+    c.events.slip_residual = ev.slip_residual;
+    c.events.collision_decel = ev.collision_decel;
+    c.validate().map_err(|e| {
+        let flag = match e.field {
+            "rate_hz" => format!("rate {rate}"),
+            "max_wheel_rate" | "max_steer_rate" | "max_wheel_accel" | "max_steer_accel" => {
+                format!("{} limits.{}", a.robot, e.field)
+            }
+            f => f.replace('_', "-"),
+        };
+        anyhow::anyhow!("--{flag}: {}", e.rule)
+    })?;
+    Ok(c)
+}
