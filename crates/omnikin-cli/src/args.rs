@@ -94,13 +94,7 @@ pub fn threads(s: &str) -> Result<usize, String> {
     }
 }
 
-/// Seconds as a [`Duration`](std::time::Duration), or an error naming `what` (never the
-/// panic of `Duration::from_secs_f64` on a negative, huge or NaN value).
-pub fn duration(what: &str, secs: f64) -> anyhow::Result<std::time::Duration> {
-    std::time::Duration::try_from_secs_f64(secs).map_err(|_| {
-        anyhow::anyhow!("{what}: {secs} s is not a representable duration (0 to 1.8e19 s)")
-    })
-}
+pub use omnikin_host::operator::duration;
 
 /// Three finite numbers given as `A,B,C` (the components of one quantity: model torques, a
 /// body wrench, a pose; the flag's value name says which).

@@ -8,15 +8,16 @@
 //! forward camera fixes while they run ([`omnikin_host::fixes`]).
 
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-use omnikin::link::{CHUNK_POINTS, Estimate, Message, Telemetry};
-use omnikin::runtime::{Frame, Mode};
+use omnikin::link::{Estimate, Message, Telemetry};
+use omnikin::runtime::Frame;
 use omnikin_plan::Plan;
 
 use crate::args::finite_f64;
 use crate::link_io::epoch_seq;
+use omnikin_host::actions::RobotRefused;
 use omnikin_host::operator::Session;
 use omnikin_host::wire_plan::plan_points;
 
@@ -162,7 +163,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
         DriveAction::Hello => {
             let i = s.hello()?;
             // Wait for the first telemetry: the robot took the session.
-            s.until(&Message::Heartbeat, "the session", |s| s.latest.is_some())?;
+            s.first_telemetry("the session")?;
             crate::outln!(
                 "robot: protocol {}, model {:?}, plan capacity {} points, control {} Hz, watchdog {} s, {}",
                 i.protocol,
@@ -188,29 +189,10 @@ pub fn run(a: &DriveArgs) -> Result<()> {
         } => {
             s.record(out.as_deref())?;
             s.hello()?;
-            let m = Message::SetVelocity {
-                frame: if *world { Frame::World } else { Frame::Robot },
-                vx: *vx as f32,
-                vy: *vy as f32,
-                yaw_rate: *yaw_rate as f32,
-            };
-            let end = Instant::now() + crate::args::duration("--for", *duration)?;
-            let mut beat = Instant::now();
-            while Instant::now() < end {
-                s.beat(&mut beat, &m)?;
-                s.alive()?;
-            }
-            if let Some(t) = s.latest
-                && t.mode != Mode::Velocity
-            {
-                print_status(&s)?;
-                bail!(
-                    "the robot did not take the command (mode {}, rejected {})",
-                    t.mode,
-                    t.rejected
-                );
-            }
-            stop(&mut s)?;
+            let frame = if *world { Frame::World } else { Frame::Robot };
+            let dur = crate::args::duration("--for", *duration)?;
+            let r = s.velocity(frame, [*vx, *vy, *yaw_rate], dur);
+            refused(&s, r)?;
             print_status(&s)?;
         }
         DriveAction::Plan {
@@ -231,39 +213,27 @@ pub fn run(a: &DriveArgs) -> Result<()> {
         }
         DriveAction::Stop => {
             s.hello()?;
-            stop(&mut s)?;
+            s.stop()?;
             print_status(&s)?;
         }
         DriveAction::Estop => {
             s.hello()?;
-            // Confirmed only by telemetry of this session naming one of this run's EStops.
-            let first = s.next_seq();
-            s.until(&Message::EStop, "the e-stop", |s| {
-                s.latest
-                    .is_some_and(|t| t.mode == Mode::EStop && t.estop_seq >= first)
-            })?;
+            s.estop()?;
             print_status(&s)?;
         }
         DriveAction::Clear => {
             s.hello()?;
-            let first = s.next_seq();
-            s.until(&Message::Clear, "clear", |s| {
-                s.latest.is_some_and(|t| {
-                    t.ack_seq >= first && t.mode != Mode::EStop && t.fault_history.is_empty()
-                })
-            })?;
+            s.clear()?;
             print_status(&s)?;
         }
         DriveAction::Telemetry { out, duration } => {
             s.record(Some(out))?;
             s.hello()?;
-            let end = Instant::now() + crate::args::duration("--for", *duration)?;
-            let mut beat = Instant::now();
-            while Instant::now() < end {
-                // Heartbeats keep the session (and the watchdog) alive without commanding.
-                s.beat(&mut beat, &Message::Heartbeat)?;
-                s.alive()?;
-            }
+            // Heartbeats keep the session (and the watchdog) alive without commanding.
+            s.repeat(
+                &Message::Heartbeat,
+                crate::args::duration("--for", *duration)?,
+            )?;
             crate::outln!("{} telemetry frames written to {}", s.frames, out.display())?;
             if s.frames == 0 {
                 bail!("no telemetry of this session arrived in {duration} s: nothing was recorded");
@@ -293,12 +263,14 @@ impl crate::teleop::Operator for Session {
     }
 }
 
-fn stop(s: &mut Session) -> Result<()> {
-    let first = s.next_seq();
-    s.until(&Message::Stop, "the stop", |s| {
-        s.latest
-            .is_some_and(|t| t.ack_seq >= first && matches!(t.mode, Mode::Idle | Mode::EStop))
-    })
+/// `r`, with the robot's status printed first when the robot refused ([`RobotRefused`]).
+fn refused<T>(s: &Session, r: Result<T>) -> Result<T> {
+    if let Err(e) = &r
+        && e.downcast_ref::<RobotRefused>().is_some()
+    {
+        print_status(s)?;
+    }
+    r
 }
 
 /// How `drive plan` treats a plan that does not start where the robot is.
@@ -318,14 +290,11 @@ struct StartCheck {
 /// Waits for the robot's telemetry first (its pose, and its clock for the `/plan` message of
 /// `--mcap`).
 fn check_plan_start(s: &mut Session, start: [f64; 2], c: StartCheck) -> Result<()> {
-    s.until(&Message::Heartbeat, "telemetry (the robot's pose)", |s| {
-        s.latest.is_some()
-    })?;
+    let d = s.distance_to(start)?;
     if c.set_pose {
         return Ok(());
     }
     let t = s.latest.context("no telemetry")?;
-    let d = (f64::from(t.pose[0]) - start[0]).hypot(f64::from(t.pose[1]) - start[1]);
     if d <= c.tolerance_m {
         return Ok(());
     }
@@ -368,222 +337,63 @@ fn follow_plan(s: &mut Session, path: &Path, start: StartCheck, robot: Option<&s
         .transpose()?
         .map(|d| (format!("{}'s", d.name), d.body_limits()));
     let info = s.hello()?;
-    if let Some(limits) =
-        crate::body_limits::held(file.as_ref().map(|(_, l)| l), Some(&info.limits))
+    let file = file.as_ref().map(|(n, l)| (n.as_str(), l));
+    let label = format!("plan {}", path.display());
+    if let Some(line) = omnikin_host::body_limits::check_upload(&plan, &label, file, &info.limits)?
     {
-        let peaks = crate::body_limits::peaks(&plan);
-        let excess = crate::body_limits::plan_excess(&limits, &peaks);
-        if !excess.is_empty() {
-            bail!(
-                "plan {}: not uploaded: {}; the robot would lag behind it (re-plan slower, e.g. a longer --ramp-fraction or a lower --max-accel)",
-                path.display(),
-                excess.join("; ")
-            );
-        }
-        let name = file.as_ref().map_or("the robot's", |(n, _)| n.as_str());
-        crate::outln!("{}", crate::body_limits::within_line(name, &limits, &peaks))?;
+        crate::outln!("{line}")?;
     }
     let p0 = plan.samples[0].pose;
     check_plan_start(s, [p0.x, p0.y], start)?;
     if info.plan_capacity == 0 {
-        return stream_plan(s, &plan, set_pose);
+        crate::outln!(
+            "the robot takes no plans (plan capacity 0): streaming the plan's {:.2} s of world twists as velocity commands",
+            plan.duration()
+        )?;
+        let r = s.stream_plan(&plan, set_pose);
+        let r = refused(s, r)?;
+        let last = plan.samples[plan.samples.len() - 1].pose;
+        let e = r.end_pose;
+        crate::outln!(
+            "plan streamed: {}end pose ({:.4}, {:.4}, {:.4}), plan end ({:.4}, {:.4}, {:.4})",
+            r.deviation.map_or(String::new(), |(max_dev, max_path_dev)| format!(
+                "max |pose - plan pose| {max_dev:.4} m (lag included), max distance to the path {max_path_dev:.4} m while streaming; "
+            )),
+            e[0],
+            e[1],
+            e[2],
+            last.x,
+            last.y,
+            last.heading
+        )?;
+        return print_status(s);
     }
     let pts = plan_points(&plan, info.plan_capacity as usize);
     if let Some(m) = s.mcap.as_mut() {
         crate::mcap_log::drive_plan(m, s.latest.map_or(0, |t| t.time_us), &pts)?;
     }
-    let n = pts.len() as u16;
-    let id = (epoch_seq() & 0xffff) as u16;
-    if set_pose {
-        let p = pts[0].pose;
-        let m = Message::SetPose {
-            x: p[0],
-            y: p[1],
-            heading: p[2],
-        };
-        s.until(&m, "set-pose", |s| {
-            s.latest
-                .is_some_and(|t| (t.pose[0] - p[0]).abs() < 1e-4 && (t.pose[1] - p[1]).abs() < 1e-4)
-        })?;
-    }
-    let t0 = Instant::now();
-    s.until(&Message::PlanBegin { id, len: n }, "plan begin", |s| {
-        s.latest.is_some_and(|t| t.plan.id == id && t.plan.len == n)
-    })?;
-    // Stop-and-wait: the robot acknowledges every plan message with telemetry; a lost chunk or
-    // a lost acknowledgement is simply re-sent (chunks are idempotent).
-    let mut sent = 0u32;
-    loop {
-        let have = s
-            .latest
-            .map_or(0, |t| if t.plan.id == id { t.plan.received } else { 0 });
-        if have >= n {
-            break;
-        }
-        let off = have as usize;
-        let end = (off + CHUNK_POINTS).min(pts.len());
-        let chunk = Message::PlanChunk {
-            id,
-            offset: have,
-            points: omnikin::link::heapless::Vec::from_slice(&pts[off..end])
-                .map_err(|_| anyhow::anyhow!("chunk"))?,
-        };
-        s.until(&chunk, "plan chunk", |s| {
-            s.latest
-                .is_some_and(|t| t.plan.id == id && t.plan.received > have)
-        })?;
-        sent += 1;
-    }
-    crate::outln!(
-        "uploaded plan {id}: {n} points ({} samples in the file) in {sent} chunks, {:.2} s",
-        plan.samples.len(),
-        t0.elapsed().as_secs_f64()
-    )?;
-    s.until(&Message::PlanStart { id }, "plan start", |s| {
-        s.latest
-            .is_some_and(|t| t.mode == Mode::Trajectory || (t.plan.done && t.plan.id == id))
-    })?;
-    // Follow: heartbeats until the plan is done.
-    let mut max_dev = 0.0f32;
-    let mut last_seen = Instant::now();
-    let mut last_t = 0u64;
-    let mut beat = Instant::now();
-    loop {
-        s.beat(&mut beat, &Message::Heartbeat)?;
-        let Some(t) = s.latest else { continue };
-        if t.time_us != last_t {
-            last_t = t.time_us;
-            last_seen = Instant::now();
-        }
-        if t.mode == Mode::Trajectory {
-            let d = (t.pose[0] - t.reference[0]).hypot(t.pose[1] - t.reference[1]);
-            max_dev = max_dev.max(d);
-        }
-        if t.mode != Mode::Trajectory {
-            if t.plan.done && t.mode == Mode::Idle {
-                break;
-            }
-            if !t.plan.done {
-                print_status(s)?;
-                bail!(
-                    "the robot left the plan (mode {}, faults {})",
-                    t.mode,
-                    t.fault_history
-                );
-            }
-        }
-        s.alive()?;
-        if last_seen.elapsed() > s.timeout {
-            bail!(
-                "telemetry stopped for {:.1} s while following the plan",
-                s.timeout.as_secs_f64()
-            );
-        }
-    }
-    let t = s.latest.context("no telemetry")?;
     let end = pts[pts.len() - 1].pose;
+    let id = (epoch_seq() & 0xffff) as u16;
+    let up = s.upload_plan(id, pts, set_pose)?;
+    crate::outln!(
+        "uploaded plan {id}: {} points ({} samples in the file) in {} chunks, {:.2} s",
+        up.points,
+        plan.samples.len(),
+        up.chunks,
+        up.secs
+    )?;
+    let f = s.follow_plan();
+    let f = refused(s, f)?;
+    let e = f.end_pose;
     crate::outln!(
         "plan done: max |pose - reference| {:.4} m while following; end pose ({:.4}, {:.4}, {:.4}), plan end ({:.4}, {:.4}, {:.4})",
-        max_dev,
-        t.pose[0],
-        t.pose[1],
-        t.pose[2],
+        f.max_deviation,
+        e[0],
+        e[1],
+        e[2],
         end[0],
         end[1],
         end[2]
-    )?;
-    print_status(s)?;
-    Ok(())
-}
-
-/// `drive plan` for a robot that takes no plans (plan capacity 0: a balancing ballbot follows
-/// velocity commands): the plan's world twist at the robot's time since the start, sent as a
-/// world-frame velocity command every heartbeat, then a stop. The robot's own limits (the
-/// ballbot's lean-limited slew) shape it; nothing closes the loop on the plan's poses, so the
-/// end pose shows the drift of the robot's velocity tracking.
-fn stream_plan(s: &mut Session, plan: &Plan, set_pose: bool) -> Result<()> {
-    crate::outln!(
-        "the robot takes no plans (plan capacity 0): streaming the plan's {:.2} s of world twists as velocity commands",
-        plan.duration()
-    )?;
-    let first = plan.samples[0].pose;
-    if set_pose {
-        let m = Message::SetPose {
-            x: first.x as f32,
-            y: first.y as f32,
-            heading: first.heading as f32,
-        };
-        s.until(&m, "set-pose", |s| {
-            s.latest.is_some_and(|t| {
-                (t.pose[0] as f64 - first.x).abs() < 1e-4
-                    && (t.pose[1] as f64 - first.y).abs() < 1e-4
-            })
-        })?;
-    }
-    s.until(&Message::Heartbeat, "the session", |s| s.latest.is_some())?;
-    let t0 = s.latest.context("no telemetry")?.time_us;
-    let end = plan.duration();
-    let (mut max_dev, mut max_path_dev) = (0.0f64, 0.0f64);
-    let mut beat = Instant::now();
-    loop {
-        let t = s.latest.context("no telemetry")?;
-        let now = t.time_us.saturating_sub(t0) as f64 * 1e-6;
-        if now > end {
-            break;
-        }
-        let i = plan
-            .samples
-            .partition_point(|p| p.t <= now)
-            .saturating_sub(1);
-        let p = &plan.samples[i];
-        if set_pose {
-            let (x, y) = (t.pose[0] as f64, t.pose[1] as f64);
-            max_dev = max_dev.max((x - p.pose.x).hypot(y - p.pose.y));
-            // Distance to the path, whenever it is passed (the lag along it left out).
-            let d = plan
-                .samples
-                .iter()
-                .map(|q| (x - q.pose.x).hypot(y - q.pose.y))
-                .fold(f64::INFINITY, f64::min);
-            max_path_dev = max_path_dev.max(d);
-        }
-        let m = Message::SetVelocity {
-            frame: Frame::World,
-            vx: p.twist.vx as f32,
-            vy: p.twist.vy as f32,
-            yaw_rate: p.twist.yaw_rate as f32,
-        };
-        s.beat(&mut beat, &m)?;
-        s.alive()?;
-        if let Some(t) = s.latest
-            && t.mode == Mode::EStop
-        {
-            print_status(s)?;
-            bail!(
-                "the robot stopped following (mode {}, faults {})",
-                t.mode,
-                t.fault_history
-            );
-        }
-    }
-    stop(s)?;
-    let t = s.latest.context("no telemetry")?;
-    let last = plan.samples[plan.samples.len() - 1].pose;
-    crate::outln!(
-        "plan streamed: {}end pose ({:.4}, {:.4}, {:.4}), plan end ({:.4}, {:.4}, {:.4})",
-        if set_pose {
-            format!(
-                "max |pose - plan pose| {max_dev:.4} m (lag included), max distance to the path {max_path_dev:.4} m while streaming; "
-            )
-        } else {
-            String::new()
-        },
-        t.pose[0],
-        t.pose[1],
-        t.pose[2],
-        last.x,
-        last.y,
-        last.heading
     )?;
     print_status(s)?;
     Ok(())

@@ -289,6 +289,34 @@ pub fn within_line(robot: &str, limits: &BodyLimits, p: &Peaks) -> String {
     )
 }
 
+/// Before an upload: `plan` held to the stricter of the robot file's limits (`file`: its
+/// name, e.g. "sphere-omni's", and limits) and the robot's own (`told`, its handshake) —
+/// the line to show when it is within them (`None`: no limit known).
+///
+/// # Errors
+/// The plan asks for more than a limit: `label` (e.g. "plan circle.csv"), each limit exceeded,
+/// and what to do about it.
+pub fn check_upload(
+    plan: &Plan,
+    label: &str,
+    file: Option<(&str, &BodyLimits)>,
+    told: &RobotLimits,
+) -> Result<Option<String>> {
+    let Some(limits) = held(file.map(|(_, l)| l), Some(told)) else {
+        return Ok(None);
+    };
+    let peaks = peaks(plan);
+    let excess = plan_excess(&limits, &peaks);
+    if !excess.is_empty() {
+        bail!(
+            "{label}: not uploaded: {}; the robot would lag behind it (re-plan slower, e.g. a longer --ramp-fraction or a lower --max-accel)",
+            excess.join("; ")
+        );
+    }
+    let name = file.map_or("the robot's", |(n, _)| n);
+    Ok(Some(within_line(name, &limits, &peaks)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -14,17 +14,29 @@
 //!   due ([`fixes`]); [`console_operator`] is the same session driven from the console's loop;
 //!   [`wire_plan`] a plan as the link carries it.
 //!
+//! * [`actions`]: what an operator asks in its session, each confirmed by telemetry — stop,
+//!   e-stop, clear, a velocity for a while, listening; [`plan_run`]: a plan driven (the start
+//!   checked, uploaded, followed to its end, or streamed as velocities to a robot that takes no
+//!   plans); [`plan_upload`]: the upload's steps as one state machine, which the console's
+//!   relay runs too.
+//!
 //! * [`console`]: the console without its web server — the hub where the pages and the robot
 //!   meet, the relay that owns the robot link, the Foxglove stream.
 //!
-//! Still in the binary and to come here: the `drive` actions (velocity, plan following), the
-//! robot's serve loop and the simulated robot (docs/architecture.md).
+//! Still in the binary and to come here: the robot's serve loop and the simulated robot
+//! (docs/architecture.md).
 
+pub mod actions;
 pub mod body_limits;
 pub mod console;
 pub mod console_operator;
 pub mod fixes;
 pub mod link_io;
 pub mod operator;
+pub mod plan_run;
+pub mod plan_upload;
 pub mod telemetry_log;
 pub mod wire_plan;
+
+#[cfg(test)]
+mod test_support;

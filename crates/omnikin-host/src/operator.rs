@@ -18,8 +18,9 @@ use omnikin::link::{
 use crate::link_io::{Link, OsEntropy, Transport, epoch_seq, load_key, parse_address};
 use crate::telemetry_log::{estimate_cells, telemetry_header, telemetry_row};
 
-/// `secs` as a duration, or an error naming `what` (the flag).
-fn duration(what: &str, secs: f64) -> Result<Duration> {
+/// Seconds as a [`Duration`], or an error naming `what` (the flag or argument; never the
+/// panic of `Duration::from_secs_f64` on a negative, huge or NaN value).
+pub fn duration(what: &str, secs: f64) -> Result<Duration> {
     Duration::try_from_secs_f64(secs).map_err(|_| {
         anyhow::anyhow!("{what}: {secs} s is not a representable duration (0 to 1.8e19 s)")
     })

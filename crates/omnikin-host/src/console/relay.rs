@@ -21,9 +21,7 @@ use std::sync::mpsc::{Receiver, TryRecvError};
 use std::time::{Duration, Instant};
 
 use anyhow::Result;
-use omnikin::link::{
-    CHUNK_POINTS, LinkCounters, Message, RobotInfo, SimTruth, Telemetry, WirePoint,
-};
+use omnikin::link::{LinkCounters, Message, RobotInfo, SimTruth, Telemetry};
 use omnikin::runtime::{Faults, Frame, Mode};
 use omnikin_plan::Plan;
 use serde_json::{Value, json};
@@ -31,6 +29,7 @@ use serde_json::{Value, json};
 use super::hub::{Command, Hub};
 use crate::console_operator::ConsoleOperator;
 use crate::operator::RobotBusy;
+use crate::plan_upload::{PlanUpload, Progress};
 use crate::wire_plan::plan_points;
 use omnikin_io::mcap_log::McapLog;
 
@@ -74,23 +73,10 @@ struct Recording {
     frames: u64,
 }
 
-/// A step of a plan upload (drive's `follow_plan`, as a state machine).
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Step {
-    /// Bring the robot to rest first (teleop may have left it in velocity mode, which the
-    /// heartbeats of the upload would keep alive).
-    Halt,
-    SetPose,
-    Begin,
-    Chunk(u16),
-    Start,
-}
-
+/// A plan upload in progress ([`PlanUpload`], the machine `drive plan` runs too): the
+/// machine, when its current step was first sent and when the upload began.
 struct Upload {
-    id: u16,
-    set_pose: bool,
-    pts: Vec<WirePoint>,
-    step: Step,
+    plan: PlanUpload,
     since: Instant,
     began: Instant,
 }
@@ -493,10 +479,7 @@ impl Relay {
                 self.stop = None;
                 self.follow = None;
                 self.upload = Some(Upload {
-                    id,
-                    pts,
-                    step: Step::Halt,
-                    set_pose,
+                    plan: PlanUpload::new(id, pts, set_pose, true),
                     since: now,
                     began: now,
                 });
@@ -524,19 +507,19 @@ impl Relay {
         }
         if let Some(u) = &self.upload {
             if u.since.elapsed() > timeout {
-                let step = u.step;
+                let step = u.plan.step().name();
                 self.upload = None;
                 self.plan_status(
                     "failed",
                     &format!(
-                        "the robot did not confirm {step:?} within {:.1} s",
+                        "the robot did not confirm {step} within {:.1} s",
                         timeout.as_secs_f64()
                     ),
                     None,
                 );
                 return Message::Heartbeat;
             }
-            return upload_message(u);
+            return u.plan.message();
         }
         if let Some((v, until)) = self.teleop {
             if now < until {
@@ -684,63 +667,40 @@ impl Relay {
     /// Moves the upload on when telemetry confirms its current step.
     fn advance_upload(&mut self, t: &Telemetry) -> Option<Message> {
         let u = self.upload.as_mut()?;
-        let n = u.pts.len() as u16;
-        let next = match u.step {
-            Step::Halt => (t.mode == Mode::Idle).then_some(if u.set_pose {
-                Step::SetPose
-            } else {
-                Step::Begin
-            }),
-            Step::SetPose => {
-                let p = u.pts[0].pose;
-                let set = (t.pose[0] - p[0]).abs() < 1e-4 && (t.pose[1] - p[1]).abs() < 1e-4;
-                if set {
+        match u.plan.advance(t) {
+            Progress::Waiting => return None,
+            Progress::Started => {
+                let (id, secs) = (u.plan.id(), u.began.elapsed().as_secs_f64());
+                let pts = u.plan.points();
+                let duration_s = pts.last().map_or(0.0, |p| f64::from(p.t - pts[0].t));
+                self.upload = None;
+                self.follow = Some(Follow {
+                    id,
+                    max_dev: 0.0,
+                    start_us: t.time_us,
+                    duration_s,
+                    shown_s: 0.0,
+                });
+                self.event(
+                    "info",
+                    &format!("plan {id} uploaded in {secs:.2} s and started"),
+                );
+                self.plan_status("running", "", Some((t.plan.received, t.plan.len)));
+                return None;
+            }
+            Progress::Moved { pose_set } => {
+                if pose_set {
                     // The estimate jumped on purpose: the pages break the trail here.
+                    let p = u.plan.points()[0].pose;
                     self.hub
                         .publish(&json!({"type": "pose_set", "pose": p}), None);
                 }
-                set.then_some(Step::Begin)
             }
-            Step::Begin => (t.plan.id == u.id && t.plan.len == n).then_some(Step::Chunk(0)),
-            Step::Chunk(have) => {
-                let got = if t.plan.id == u.id {
-                    t.plan.received
-                } else {
-                    0
-                };
-                if got >= n {
-                    Some(Step::Start)
-                } else if got > have {
-                    Some(Step::Chunk(got))
-                } else {
-                    None
-                }
-            }
-            Step::Start => {
-                if t.mode == Mode::Trajectory || (t.plan.done && t.plan.id == u.id) {
-                    let (id, secs) = (u.id, u.began.elapsed().as_secs_f64());
-                    let duration_s = u.pts.last().map_or(0.0, |p| f64::from(p.t - u.pts[0].t));
-                    self.upload = None;
-                    self.follow = Some(Follow {
-                        id,
-                        max_dev: 0.0,
-                        start_us: t.time_us,
-                        duration_s,
-                        shown_s: 0.0,
-                    });
-                    self.event(
-                        "info",
-                        &format!("plan {id} uploaded in {secs:.2} s and started"),
-                    );
-                    self.plan_status("running", "", Some((t.plan.received, t.plan.len)));
-                }
-                return None;
-            }
-        }?;
-        u.step = next;
+        }
+        let u = self.upload.as_mut()?;
         u.since = Instant::now();
+        let m = u.plan.message();
         let (got, len) = (t.plan.received, t.plan.len);
-        let m = upload_message(u);
         self.plan_status("uploading", "", Some((got, len)));
         Some(m)
     }
@@ -913,39 +873,6 @@ impl Relay {
     }
 }
 
-fn upload_message(u: &Upload) -> Message {
-    match u.step {
-        Step::Halt => Message::Stop,
-        Step::SetPose => {
-            let p = u.pts[0].pose;
-            Message::SetPose {
-                x: p[0],
-                y: p[1],
-                heading: p[2],
-            }
-        }
-        Step::Begin => Message::PlanBegin {
-            id: u.id,
-            len: u.pts.len() as u16,
-        },
-        Step::Chunk(have) => {
-            let off = have as usize;
-            let end = (off + CHUNK_POINTS).min(u.pts.len());
-            let mut points = omnikin::link::heapless::Vec::new();
-            for p in &u.pts[off.min(end)..end] {
-                // At most CHUNK_POINTS by the range: never full.
-                let _ = points.push(*p);
-            }
-            Message::PlanChunk {
-                id: u.id,
-                offset: have,
-                points,
-            }
-        }
-        Step::Start => Message::PlanStart { id: u.id },
-    }
-}
-
 fn counters(c: &LinkCounters) -> Value {
     json!({"ok": c.ok, "dropped": c.dropped(), "framing": c.framing, "crc": c.crc, "version": c.version,
         "auth": c.auth, "replay": c.replay, "malformed": c.malformed, "session": c.session, "entropy": c.entropy})
@@ -1049,35 +976,9 @@ mod tests {
     }
 
     fn tel(time_us: u64, q: [f32; 3]) -> Telemetry {
-        let z = [0.0f32; omnikin::MAX_WHEELS];
-        let mut wheel_angles = z;
-        wheel_angles[..3].copy_from_slice(&q);
-        Telemetry {
-            time_us,
-            mode: Mode::Idle,
-            faults: Faults::NONE,
-            fault_history: Faults::NONE,
-            pose: [0.0; 3],
-            twist: [0.0; 3],
-            command: [0.0; 3],
-            wheels: 3,
-            wheel_rates: z,
-            steer_rates: z,
-            wheel_angles,
-            steer_angles: z,
-            gyro: [0.0; 3],
-            accel: [0.0; 3],
-            plan: Default::default(),
-            plan_time: 0.0,
-            reference: [0.0; 3],
-            slip_residual: 0.0,
-            rejected: 0,
-            last_command_us: 0,
-            link: LinkCounters::default(),
-            ack_seq: 0,
-            estop_seq: 0,
-            clear_seq: 0,
-        }
+        let mut t = crate::test_support::telemetry(time_us);
+        t.wheel_angles[..3].copy_from_slice(&q);
+        t
     }
 
     #[test]
@@ -1108,39 +1009,5 @@ mod tests {
         );
         assert!(measured_rates(&b, &a).is_none());
         assert!(measured_rates(&a, &a).is_none());
-    }
-
-    #[test]
-    fn chunks_cover_the_plan_in_order() {
-        let pts: Vec<WirePoint> = (0..21)
-            .map(|i| WirePoint {
-                t: i as f32,
-                pose: [i as f32, 0.0, 0.0],
-                twist: [0.0; 3],
-            })
-            .collect();
-        let mut u = Upload {
-            id: 7,
-            set_pose: false,
-            pts: pts.clone(),
-            step: Step::Chunk(0),
-            since: Instant::now(),
-            began: Instant::now(),
-        };
-        let mut seen = vec![];
-        let mut have = 0u16;
-        while (have as usize) < pts.len() {
-            u.step = Step::Chunk(have);
-            match upload_message(&u) {
-                Message::PlanChunk { id, offset, points } => {
-                    assert_eq!((id, offset), (7, have));
-                    assert!(!points.is_empty() && points.len() <= CHUNK_POINTS);
-                    seen.extend(points.iter().copied());
-                    have += points.len() as u16;
-                }
-                m => panic!("{m:?}"),
-            }
-        }
-        assert_eq!(seen, pts);
     }
 }
