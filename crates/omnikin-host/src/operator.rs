@@ -90,6 +90,11 @@ pub struct Session {
     /// The `--out` log's columns: (wheels, steer motors), from the first telemetry frame and
     /// the robot's kind; the header is written then.
     pub log_layout: Option<(usize, bool)>,
+    /// The telemetry log kept in memory, in the CSV log's columns (Python's `omnikin.Link`).
+    pub memory: Option<crate::telemetry_log::MemoryLog>,
+    /// Asked between receives: an error ends the wait (Python's pending `KeyboardInterrupt`;
+    /// the binary's SIGINT/SIGTERM are checked always).
+    pub interrupt: Option<Box<dyn FnMut() -> Result<()> + Send>>,
     /// `--mcap`: the MCAP log.
     pub mcap: Option<omnikin_io::mcap_log::McapLog>,
     /// Telemetry frames of this session received.
@@ -154,6 +159,8 @@ impl Session {
             v1_answer: None,
             log: None,
             log_layout: None,
+            memory: None,
+            interrupt: None,
             mcap,
             frames: 0,
             heartbeat: duration("--heartbeat", 1.0 / heartbeat_hz)?,
@@ -202,6 +209,9 @@ impl Session {
         if let Some(sig) = omnikin_io::output::interrupted() {
             return Err(sig.into());
         }
+        if let Some(f) = self.interrupt.as_mut() {
+            f()?;
+        }
         for f in self.link.poll(dur)? {
             let Some(mut bytes) = f.bytes else {
                 self.op.count_framing_drop();
@@ -220,26 +230,17 @@ impl Session {
                     if self.latest.is_none_or(|l| t.time_us >= l.time_us) {
                         self.latest = Some(t);
                     }
-                    if let Some(w) = self.log.as_mut() {
-                        let (wheels, steer) = match self.log_layout {
-                            Some(l) => l,
-                            None => {
-                                let steer = self.op.info().is_some_and(|i| i.kind.steerable());
-                                let l = (usize::from(t.wheels).min(omnikin::MAX_WHEELS), steer);
-                                writeln!(w, "{}", telemetry_header(l.0, l.1))
-                                    .context("--out: cannot write")?;
-                                self.log_layout = Some(l);
-                                l
-                            }
-                        };
+                    if self.log.is_some() || self.memory.is_some() {
+                        let (wheels, steer) = self.layout(&t)?;
                         let e = self.estimate.as_ref().filter(|e| e.time_us == t.time_us);
-                        writeln!(
-                            w,
-                            "{}{}",
-                            telemetry_row(&t, wheels, steer),
-                            estimate_cells(e)
-                        )
-                        .context("--out: cannot write")?;
+                        let row =
+                            format!("{}{}", telemetry_row(&t, wheels, steer), estimate_cells(e));
+                        if let Some(w) = self.log.as_mut() {
+                            writeln!(w, "{row}").context("--out: cannot write")?;
+                        }
+                        if let Some(m) = self.memory.as_mut() {
+                            m.push(row);
+                        }
                     }
                     if let Some(m) = self.mcap.as_mut() {
                         m.sample(&omnikin_io::mcap_log::telemetry_sample_with_truth(
@@ -488,6 +489,25 @@ impl Session {
             Some(w) => w.commit(),
             None => Ok(()),
         }
+    }
+
+    /// The logs' columns (wheels, steer motors), fixed by the first telemetry frame `t` and
+    /// the robot's kind; the headers are written then.
+    fn layout(&mut self, t: &Telemetry) -> Result<(usize, bool)> {
+        if let Some(l) = self.log_layout {
+            return Ok(l);
+        }
+        let steer = self.op.info().is_some_and(|i| i.kind.steerable());
+        let l = (usize::from(t.wheels).min(omnikin::MAX_WHEELS), steer);
+        let header = telemetry_header(l.0, l.1);
+        if let Some(w) = self.log.as_mut() {
+            writeln!(w, "{header}").context("--out: cannot write")?;
+        }
+        if let Some(m) = self.memory.as_mut() {
+            m.header = Some(header);
+        }
+        self.log_layout = Some(l);
+        Ok(l)
     }
 
     /// A log that never saw telemetry still gets a header (no wheel columns: none is known),

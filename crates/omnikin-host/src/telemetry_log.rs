@@ -105,3 +105,72 @@ pub fn telemetry_row(t: &Telemetry, wheels: usize, steer: bool) -> String {
     ));
     r
 }
+
+/// The telemetry log kept in memory (Python's `omnikin.Link`): the header and rows of the CSV
+/// log, at most `cap` rows (the oldest dropped and counted), taken by [`MemoryLog::take`].
+#[derive(Clone, Debug, Default)]
+pub struct MemoryLog {
+    /// The header, once the first frame fixed the columns.
+    pub header: Option<String>,
+    /// The rows since the last take, oldest first.
+    pub rows: std::collections::VecDeque<String>,
+    /// Most rows kept.
+    pub cap: usize,
+    /// Rows dropped because the cap was reached, since the last take.
+    pub dropped: u64,
+}
+
+impl MemoryLog {
+    /// An empty log of at most `cap` rows.
+    pub fn new(cap: usize) -> Self {
+        Self {
+            cap,
+            ..Self::default()
+        }
+    }
+
+    /// Adds a row, dropping the oldest at the cap.
+    pub fn push(&mut self, row: String) {
+        if self.cap == 0 {
+            self.dropped += 1;
+            return;
+        }
+        if self.rows.len() == self.cap {
+            self.rows.pop_front();
+            self.dropped += 1;
+        }
+        self.rows.push_back(row);
+    }
+
+    /// The rows so far as CSV text (header first; empty before the first frame) and the
+    /// number dropped; the log starts over.
+    pub fn take(&mut self) -> (String, u64) {
+        let mut text = String::new();
+        if let Some(h) = &self.header {
+            text.push_str(h);
+            text.push('\n');
+            for r in self.rows.drain(..) {
+                text.push_str(&r);
+                text.push('\n');
+            }
+        }
+        (text, std::mem::take(&mut self.dropped))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_memory_log_keeps_the_newest_rows_and_counts_the_rest() {
+        let mut m = MemoryLog::new(2);
+        assert_eq!(m.take(), (String::new(), 0));
+        m.header = Some("t,x".into());
+        for i in 0..5 {
+            m.push(format!("{i},0"));
+        }
+        assert_eq!(m.take(), ("t,x\n3,0\n4,0\n".to_string(), 3));
+        assert_eq!(m.take(), ("t,x\n".to_string(), 0));
+    }
+}

@@ -10,6 +10,7 @@
 mod arrays;
 mod identify;
 mod kernels;
+mod link;
 mod mcap;
 mod odometry;
 mod options;
@@ -27,6 +28,7 @@ use pyo3::prelude::*;
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<robot::PyRobot>()?;
+    m.add_class::<link::PyLink>()?;
     m.add_function(wrap_pyfunction!(plan::plan_columns, m)?)?;
     m.add_function(wrap_pyfunction!(sim::simulate_native, m)?)?;
     m.add_function(wrap_pyfunction!(sim::evaluate_native, m)?)?;

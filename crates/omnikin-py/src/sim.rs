@@ -43,7 +43,7 @@ pub(crate) fn table<'py>(
 
 /// The plan: a plan CSV file, or the columns of `omnikin.plan` (written as the CLI writes a
 /// plan CSV, exactly, and read back with its checks).
-fn load_plan(
+pub(crate) fn load_plan(
     path: Option<&str>,
     columns: Option<(Vec<String>, PyReadonlyArray2<'_, f64>)>,
 ) -> PyResult<(Plan, String)> {

@@ -26,6 +26,7 @@ __all__ = [
     "pose_error",
     "identify",
     "read_mcap",
+    "Link",
     "__version__",
 ]
 
@@ -465,6 +466,48 @@ def read_mcap(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Dict[str, Any]]
     for note in notes:
         warnings.warn(note, UserWarning, stacklevel=2)
     return {topic: _csv_columns(text) for topic, _count, text in channels}
+
+
+class Link(_native.Link):
+    """An operator session with a robot — a real one, or ``omnikin robot --sim`` — the code
+    ``omnikin drive`` runs: ``Link("127.0.0.1:7700", key=None, heartbeat_hz=20.0,
+    timeout_s=1.0, mcap=None, keep_rows=100_000)`` opens the session (handshake, first
+    telemetry; ``key`` a key file for a keyed link, ``mcap`` a log written as ``drive --mcap``
+    writes it). Every action waits for the robot's telemetry to confirm it:
+
+    * ``info()``: what the robot said in the handshake (kind, plan capacity, control rate,
+      watchdog, limits).
+    * ``velocity(vx, vy, yaw_rate, duration, world=False)``: m/s, m/s, rad/s in the robot frame
+      (world frame with ``world=True``) for ``duration`` s, then a stop.
+    * ``stop()``, ``estop()`` (latched), ``clear()``, ``listen(duration)`` (heartbeats only).
+    * ``run_plan(plan, set_pose=True, start_tolerance=0.05)``: a plan (``omnikin.plan``'s
+      columns or a plan CSV) held to the robot's limits, uploaded and followed to its end.
+    * ``telemetry()``: the frames since the last call, as columns (the columns of ``drive
+      --out``'s CSV log: ``t, x, y, heading, vx, ..., w1.., q1.., mode, ...``).
+    * ``close()`` (or ``with Link(...) as link:``): leaves the session.
+
+    A refusal by the robot or a lost link raises ``RuntimeError``; bad arguments ``ValueError``.
+    Ctrl-C ends a wait with ``KeyboardInterrupt``; the robot's watchdog stops it when the
+    heartbeats stop."""
+
+    def run_plan(self, plan_: PlanLike, *, set_pose: bool = True, start_tolerance: float = 0.05) -> dict:
+        """Drives ``plan_`` to its end; returns what happened (``max_deviation`` m from the
+        reference while following, ``end_pose``, the upload's ``points``, ``chunks``,
+        ``upload_s``; ``streamed`` for a robot that takes no plans)."""
+        return self.run_plan_native(
+            **_plan_args(plan_), set_pose=set_pose, start_tolerance=start_tolerance
+        )
+
+    def telemetry(self) -> Dict[str, Any]:
+        """The telemetry frames since the last call as columns (float arrays; ``mode``,
+        ``faults`` as lists of str). Frames beyond ``keep_rows`` since the last call were
+        dropped, oldest first, with a ``UserWarning``."""
+        import warnings
+
+        text, dropped = self.take_telemetry_native()
+        if dropped:
+            warnings.warn(f"{dropped} telemetry frames dropped (keep_rows)", UserWarning, stacklevel=2)
+        return _csv_columns(text) if text else {}
 
 
 def __dir__() -> list:
