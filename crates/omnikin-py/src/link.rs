@@ -58,9 +58,15 @@ impl PyLink {
         mcap: Option<PathBuf>,
         keep_rows: usize,
     ) -> PyResult<Self> {
-        if !heartbeat_hz.is_finite() || !timeout_s.is_finite() {
+        // Named as Python's arguments (the session's own checks name drive's flags).
+        if !(0.1..=1e4).contains(&heartbeat_hz) {
             return Err(PyValueError::new_err(format!(
-                "heartbeat_hz and timeout_s must be finite (got {heartbeat_hz}, {timeout_s})"
+                "heartbeat_hz must be in [0.1, 10000] Hz (got {heartbeat_hz})"
+            )));
+        }
+        if !(timeout_s > 0.0 && timeout_s <= 1e6) {
+            return Err(PyValueError::new_err(format!(
+                "timeout_s must be in (0, 1e6] s (got {timeout_s})"
             )));
         }
         let mut s = Session::open(

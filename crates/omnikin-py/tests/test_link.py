@@ -90,8 +90,12 @@ def test_no_robot_is_an_error_within_the_timeout():
     addr = f"127.0.0.1:{free_port()}"
     with pytest.raises(RuntimeError, match="did not answer|no answer|within"):
         omnikin.Link(addr, timeout_s=0.3)
-    with pytest.raises(ValueError, match="heartbeat"):
-        omnikin.Link(addr, heartbeat_hz=0.0)
+    for bad in (0.0, -1.0, float("nan"), 1e300, 1e-300):
+        with pytest.raises(ValueError, match="heartbeat_hz must be in"):
+            omnikin.Link(addr, heartbeat_hz=bad)
+    for bad in (0.0, float("inf"), 1e300):
+        with pytest.raises(ValueError, match="timeout_s must be in"):
+            omnikin.Link(addr, timeout_s=bad)
 
 
 def test_the_docs_example_drives_a_simulated_robot(sim_robot):
