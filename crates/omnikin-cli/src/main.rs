@@ -37,7 +37,6 @@ mod sim_args;
 mod sim_ballbot;
 mod sim_closed_loop;
 mod sim_report;
-mod sim_robot;
 mod teleop;
 mod urdf;
 

@@ -1,22 +1,12 @@
-//! The flags of `omnikin robot` and what they make: the runtime's configuration, the
-//! disturbance profile, the simulated robot's plan capacity and rates.
+//! The flags of `omnikin robot`, and the simulated robot's and the serve loop's options they
+//! make (`omnikin_host::sim_robot::SimOptions`, `omnikin_host::robot_serve::ServeOptions`).
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
-use omnikin::description::RobotDescription;
-use omnikin::runtime::Config;
-use omnikin_sim::profile::Profile;
-use omnikin_sim::reproduce::{hardware_profile, spin_slip_profile};
+use omnikin_host::robot_serve::ServeOptions;
+use omnikin_host::sim_robot::{Plant, SimOptions};
 
 use crate::args::finite_f64;
-
-/// Plan buffer capacity of the simulated robot, points (a firmware picks its own).
-pub const SIM_PLAN_CAPACITY: usize = 4096;
-
-/// Robot time (s) without a frame of the active session after which telemetry stops (or four
-/// watchdog periods, if longer); the next frame of the session resumes it.
-pub const TELEMETRY_IDLE_S: f64 = 2.0;
 
 /// `omnikin robot`.
 #[derive(clap::Args, Debug)]
@@ -123,87 +113,45 @@ fn obstacle(s: &str) -> Result<(f64, f64), String> {
     Ok((at, dur))
 }
 
-/// Control rate when `--rate` is not given (the rate runtime), Hz.
-pub const DEFAULT_RATE_HZ: f64 = 100.0;
-
-/// `--max-speed` of the rate runtime when not given, m/s.
-pub const DEFAULT_MAX_SPEED: f64 = 2.0;
-
-/// `--max-yaw-rate` of the rate runtime when not given, rad/s.
-pub const DEFAULT_MAX_YAW_RATE: f64 = 10.0;
-
-/// The disturbance profile `--disturbances` names.
-pub(crate) fn profile(name: Option<&str>) -> Result<Profile> {
-    Ok(match name {
-        None | Some("ideal") => Profile::default(),
-        Some("hardware") => hardware_profile(),
-        Some("spin-slip") => spin_slip_profile(),
-        Some(path) => Profile::load(std::path::Path::new(path)).with_context(|| {
-            format!("--disturbances {path} (ideal, hardware, spin-slip or a TOML file)")
-        })?,
-    })
+impl From<crate::sim_args::PlantKind> for Plant {
+    fn from(p: crate::sim_args::PlantKind) -> Self {
+        match p {
+            crate::sim_args::PlantKind::Kinematic => Plant::Kinematic,
+            crate::sim_args::PlantKind::Dynamic => Plant::Dynamic,
+        }
+    }
 }
 
-/// Runtime configuration from the arguments and the description's limits.
-pub fn config(a: &RobotArgs, desc: &RobotDescription) -> Result<Config<f64>> {
-    let rate = a.rate.unwrap_or(DEFAULT_RATE_HZ);
-    let mut c = Config::new(rate);
-    c.rate_limits.wheel = desc.limits.max_wheel_rate;
-    c.rate_limits.steer = desc.limits.max_steer_rate;
-    c.wheel_accel = desc.limits.max_wheel_accel;
-    c.steer_accel = desc.limits.max_steer_accel;
-    // One set of body limits: the robot file's (what `plan` plans within), lowered by a flag.
-    let body = desc.body_limits();
-    let flag = crate::body_limits::flag;
-    c.slew.accel = flag(
-        "--max-accel",
-        a.max_accel,
-        body.max_accel,
-        body.max_accel_source,
-        "max_accel",
-        "m/s²",
-        desc,
-    )?;
-    c.slew.yaw_accel = flag(
-        "--max-yaw-accel",
-        a.max_yaw_accel,
-        body.max_yaw_accel,
-        body.max_yaw_accel_source,
-        "max_yaw_accel",
-        "rad/s²",
-        desc,
-    )?;
-    c.slew.jerk = match body.max_jerk {
-        Some(j) => Some(flag(
-            "--max-jerk",
-            a.max_jerk,
-            j,
-            omnikin::description::LimitSource::File,
-            "max_jerk",
-            "m/s³",
-            desc,
-        )?),
-        None => a.max_jerk,
-    };
-    c.max_speed = a.max_speed.unwrap_or(DEFAULT_MAX_SPEED);
-    c.max_yaw_rate = a.max_yaw_rate.unwrap_or(DEFAULT_MAX_YAW_RATE);
-    c.watchdog = a.watchdog;
-    c.heading_from_gyro = a.gyro_heading;
-    // Slip and collision thresholds: the robot file's [events] (defaults where absent), the
-    // same ones `omnikin odometry` uses offline.
-    let ev = desc.events.thresholds();
-    c.events.slip_yaw_rate = ev.slip_yaw_rate;
-    c.events.slip_residual = ev.slip_residual;
-    c.events.collision_decel = ev.collision_decel;
-    c.validate().map_err(|e| {
-        let flag = match e.field {
-            "rate_hz" => format!("rate {rate}"),
-            "max_wheel_rate" | "max_steer_rate" | "max_wheel_accel" | "max_steer_accel" => {
-                format!("{} limits.{}", a.robot, e.field)
-            }
-            f => f.replace('_', "-"),
-        };
-        anyhow::anyhow!("--{flag}: {}", e.rule)
-    })?;
-    Ok(c)
+impl RobotArgs {
+    /// The simulated robot these flags describe.
+    pub fn sim_options(&self) -> SimOptions {
+        SimOptions {
+            plant: self.plant.into(),
+            disturbances: self.disturbances.clone(),
+            rate: self.rate,
+            watchdog: self.watchdog,
+            max_accel: self.max_accel,
+            max_yaw_accel: self.max_yaw_accel,
+            max_jerk: self.max_jerk,
+            max_speed: self.max_speed,
+            max_yaw_rate: self.max_yaw_rate,
+            gyro_heading: self.gyro_heading,
+            seed: self.seed,
+            obstacle: self.obstacle,
+        }
+    }
+
+    /// How these flags serve it.
+    pub fn serve_options(&self) -> ServeOptions {
+        ServeOptions {
+            listen: self.listen.clone(),
+            key: self.key.clone(),
+            insecure: self.insecure,
+            telemetry_rate: self.telemetry_rate,
+            time_scale: self.time_scale,
+            max_time: self.max_time,
+            log: self.log.clone(),
+            mcap: self.mcap.clone(),
+        }
+    }
 }

@@ -61,7 +61,9 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
     let params = SphereDynamics::from_description(d)
         .with_context(|| format!("--plant dynamic: robot {}", d.name))?;
     let body = d.body_limits();
-    let rate = c.control_rate.unwrap_or(crate::robot_args::DEFAULT_RATE_HZ);
+    let rate = c
+        .control_rate
+        .unwrap_or(omnikin_host::sim_robot::options::DEFAULT_RATE_HZ);
     let config = closed_loop::config(
         rate,
         d.limits.max_wheel_rate,

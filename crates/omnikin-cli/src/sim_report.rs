@@ -156,22 +156,11 @@ pub fn print_summary(m: &Metrics) {
     }
 }
 
-/// Warns about the sections of a disturbance profile that `robot`'s kind does not simulate: a
-/// `[shell_spin]` without a shell or ball, a `[steer_motor]` without steering (they were
-/// ignored without a word, so a mecanum "with spin slip" ran as if ideal).
+/// Warns about the sections of a disturbance profile that `robot`'s kind does not simulate
+/// ([`Profile::unused_sections`]).
 pub fn warn_unused_sections(profile: &Profile, robot: &omnikin::Robot<f64>, file: &str) {
-    let kind = robot.kind().name();
-    if !robot.kind().has_vertical_spin() && profile.shell_spin != Default::default() {
-        crate::errln!(
-            "warning: {file}: [shell_spin] applies to sphere-omni and ballbot only; robot kind \
-             {kind} ignores it (for slip on the floor use [floor])"
-        );
-    }
-    if !robot.steerable() && profile.steer_motor != Default::default() {
-        crate::errln!(
-            "warning: {file}: [steer_motor] applies to kinds with steering (caster3, swerve) \
-             only; robot kind {kind} ignores it"
-        );
+    for w in profile.unused_sections(robot) {
+        crate::errln!("warning: {file}: {w}");
     }
 }
 

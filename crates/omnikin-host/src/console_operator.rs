@@ -29,7 +29,7 @@ impl ConsoleOperator {
         Ok(Self(s))
     }
 
-    /// The handshake (blocks up to the timeout): the robot's answer. Fails with [`RobotBusy`]
+    /// The handshake (blocks up to the timeout): the robot's answer. Fails with [`RobotBusy`](crate::operator::RobotBusy)
     /// when another operator holds the robot and this one does not take over.
     pub fn hello(&mut self) -> Result<RobotInfo> {
         self.0.hello()

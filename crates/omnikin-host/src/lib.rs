@@ -23,8 +23,10 @@
 //! * [`console`]: the console without its web server — the hub where the pages and the robot
 //!   meet, the relay that owns the robot link, the Foxglove stream.
 //!
-//! Still in the binary and to come here: the robot's serve loop and the simulated robot
-//! (docs/architecture.md).
+//! * [`sim_robot`]: a runtime on its simulated board (the kinematic plant with disturbances,
+//!   the sphere's dynamics, the balancing ballbot), built from [`sim_robot::SimOptions`];
+//!   [`robot_serve`]: the robot's side of the link that serves it (`omnikin robot --sim`,
+//!   Python's `omnikin.SimRobot`).
 
 pub mod actions;
 pub mod body_limits;
@@ -35,6 +37,8 @@ pub mod link_io;
 pub mod operator;
 pub mod plan_run;
 pub mod plan_upload;
+pub mod robot_serve;
+pub mod sim_robot;
 pub mod telemetry_log;
 pub mod wire_plan;
 

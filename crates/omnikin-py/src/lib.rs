@@ -5,7 +5,8 @@
 //! `robot` holds `omnikin.Robot` and its kinematics, `arrays` the argument checks,
 //! `kernels` the row-parallel loops, `options` the keyword options, `plan` `omnikin.plan`,
 //! `sim` `omnikin.simulate` and `omnikin.evaluate`, `odometry` `omnikin.odometry`,
-//! `pose_error` `omnikin.pose_error`, `identify` `omnikin.identify`, `mcap` `omnikin.read_mcap`.
+//! `pose_error` `omnikin.pose_error`, `identify` `omnikin.identify`, `mcap` `omnikin.read_mcap`, `link` `omnikin.Link` (an operator
+//! session), `sim_robot` `omnikin.SimRobot` (a simulated robot served on a thread).
 
 mod arrays;
 mod identify;
@@ -20,6 +21,7 @@ mod plan_request;
 mod pose_error;
 mod robot;
 mod sim;
+mod sim_robot;
 
 use pyo3::prelude::*;
 
@@ -29,6 +31,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<robot::PyRobot>()?;
     m.add_class::<link::PyLink>()?;
+    m.add_class::<sim_robot::PySimRobot>()?;
     m.add_function(wrap_pyfunction!(plan::plan_columns, m)?)?;
     m.add_function(wrap_pyfunction!(sim::simulate_native, m)?)?;
     m.add_function(wrap_pyfunction!(sim::evaluate_native, m)?)?;

@@ -103,7 +103,7 @@ def test_the_docs_example_drives_a_simulated_robot(sim_robot):
     import re
 
     docs = pathlib.Path(__file__).resolve().parents[3] / "docs" / "python.md"
-    section = docs.read_text().split("## Driving a robot")[1].split("\n## ")[0]
+    section = docs.read_text().split("## Driving a robot")[1].split("\n## ")[0].split("\n### ")[0]
     (code,) = re.findall(r"```py\n(.*?)```", section, flags=re.S)
     assert '"127.0.0.1:7700"' in code
     scope: dict = {}

@@ -202,6 +202,28 @@ pub struct ProfileError {
 }
 
 impl Profile {
+    /// The sections of this profile that `robot`'s kind does not simulate, one sentence each
+    /// (empty when every section applies): a `[shell_spin]` without a shell or ball, a
+    /// `[steer_motor]` without steering — ignored without a word before, so a mecanum "with
+    /// spin slip" ran as if ideal. The front ends print them as warnings.
+    pub fn unused_sections(&self, robot: &omnikin::Robot<f64>) -> Vec<String> {
+        let kind = robot.kind().name();
+        let mut out = Vec::new();
+        if !robot.kind().has_vertical_spin() && self.shell_spin != Default::default() {
+            out.push(format!(
+                "[shell_spin] applies to sphere-omni and ballbot only; robot kind {kind} ignores \
+                 it (for slip on the floor use [floor])"
+            ));
+        }
+        if !robot.steerable() && self.steer_motor != Default::default() {
+            out.push(format!(
+                "[steer_motor] applies to kinds with steering (caster3, swerve) only; robot kind \
+                 {kind} ignores it"
+            ));
+        }
+        out
+    }
+
     /// The plant integration rate, Hz.
     pub fn rate_hz(&self) -> f64 {
         self.rate.unwrap_or(1000.0)

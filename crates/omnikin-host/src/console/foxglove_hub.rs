@@ -26,7 +26,7 @@ pub fn channel_id(t: Topic) -> u32 {
 pub type Entry = (u32, u64, Arc<Vec<u8>>);
 
 /// The stream of encoded messages, shared by the relay (writer) and the clients: the newest
-/// sequence number and the last [`RING`] messages with theirs.
+/// sequence number and the last `RING` messages with theirs.
 #[derive(Default)]
 pub struct FoxHub {
     inner: Mutex<(u64, VecDeque<(u64, Entry)>)>,

@@ -27,6 +27,7 @@ __all__ = [
     "identify",
     "read_mcap",
     "Link",
+    "SimRobot",
     "__version__",
 ]
 
@@ -508,6 +509,57 @@ class Link(_native.Link):
         if dropped:
             warnings.warn(f"{dropped} telemetry frames dropped (keep_rows)", UserWarning, stacklevel=2)
         return _csv_columns(text) if text else {}
+
+
+class SimRobot(_native.SimRobot):
+    """A simulated robot served over the link on a thread of this process — the code
+    ``omnikin robot --sim`` runs: ``SimRobot("kiwi", listen="127.0.0.1:0", time_scale=8)``
+    builds it and binds the address (``127.0.0.1:0``: a free port; ``address`` says which),
+    then serves until ``stop()``. Drive it with ``Link(robot.address)`` or ``omnikin drive
+    --connect ADDRESS``.
+
+    Keywords are ``omnikin robot``'s flags: ``key`` (a key file), ``plant`` (``"kinematic"``
+    or ``"dynamic"``), ``disturbances`` (``"ideal"``, ``"hardware"``, ``"spin-slip"`` or a
+    profile file), ``seed``, ``rate`` (control, Hz), ``telemetry_rate`` (Hz), ``watchdog`` (s),
+    ``time_scale`` (robot time per wall-clock time), ``max_time`` (s of robot time, then it
+    ends by itself: ``wait()``), ``max_speed``, ``max_yaw_rate``, ``max_accel``,
+    ``max_yaw_accel``, ``max_jerk`` (lower than the robot file's, never higher),
+    ``gyro_heading``, ``log`` (the ``--log`` CSV) and ``mcap``.
+
+    * ``stop()``: ends the robot at its next control cycle and returns its summary (the JSON
+      ``omnikin robot --max-time`` prints: ``time_s``, ``link`` counters, ``mode``, ``pose``,
+      ``true_pose``, ``plan``, ``fixes``, ...) as a dict.
+    * ``wait()``: the same for a robot started with ``max_time``, once it has ended.
+    * ``with SimRobot(...) as robot:`` stops it on leaving; so does dropping the object.
+
+    Bad keywords raise ``ValueError`` at once (named as ``omnikin robot``'s flags when the
+    check is the robot's own, e.g. ``--max-accel`` for ``max_accel``)."""
+
+    def stop(self) -> Optional[Dict[str, Any]]:
+        """Stops the robot; its summary as a dict (``None`` if it had already ended and was
+        asked before)."""
+        import json
+
+        text = self.stop_native()
+        return json.loads(text) if text else None
+
+    def wait(self) -> Optional[Dict[str, Any]]:
+        """Waits for a robot started with ``max_time`` to end; its summary as a dict."""
+        import json
+
+        text = self.wait_native()
+        return json.loads(text) if text else None
+
+    def __enter__(self) -> "SimRobot":
+        return self
+
+    def __exit__(self, *exc: Any) -> bool:
+        self.stop()
+        return False
+
+    def __repr__(self) -> str:
+        state = "serving" if self.running else "ended"
+        return f"SimRobot(address={self.address!r}, {state})"
 
 
 def __dir__() -> list:

@@ -196,3 +196,36 @@ class Link:
     def close(self) -> None: ...
     def __enter__(self) -> "Link": ...
     def __exit__(self, *exc: Any) -> bool: ...
+
+class SimRobot:
+    def __init__(
+        self,
+        robot: Union[str, os.PathLike[str]],
+        *,
+        listen: str = ...,
+        key: Optional[Union[str, os.PathLike[str]]] = ...,
+        plant: str = ...,
+        disturbances: Optional[str] = ...,
+        seed: int = ...,
+        rate: Optional[float] = ...,
+        telemetry_rate: float = ...,
+        watchdog: float = ...,
+        time_scale: float = ...,
+        max_time: Optional[float] = ...,
+        max_speed: Optional[float] = ...,
+        max_yaw_rate: Optional[float] = ...,
+        max_accel: Optional[float] = ...,
+        max_yaw_accel: Optional[float] = ...,
+        max_jerk: Optional[float] = ...,
+        gyro_heading: bool = ...,
+        log: Optional[Union[str, os.PathLike[str]]] = ...,
+        mcap: Optional[Union[str, os.PathLike[str]]] = ...,
+    ) -> None: ...
+    @property
+    def address(self) -> Optional[str]: ...
+    @property
+    def running(self) -> bool: ...
+    def stop(self) -> Optional[Dict[str, Any]]: ...
+    def wait(self) -> Optional[Dict[str, Any]]: ...
+    def __enter__(self) -> "SimRobot": ...
+    def __exit__(self, *exc: Any) -> bool: ...

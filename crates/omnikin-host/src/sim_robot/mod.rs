@@ -1,4 +1,5 @@
-//! The simulated robot behind `omnikin robot --sim`: a runtime on its simulated board.
+//! The simulated robot behind `omnikin robot --sim` and Python's `omnikin.SimRobot`: a
+//! runtime on its simulated board.
 //!
 //! - **Rate** ([`SimRobot::Rate`]): the rate runtime ([`Runtime`]) on the kinematic plant (with
 //!   `--disturbances`) or, for `sphere-omni --plant dynamic`, on the shell + platform dynamics
@@ -8,8 +9,13 @@
 //!   wheel torques through the HAL's torque interface) on the 3D ballbot model with seeded
 //!   sensor noise ([`BallbotSil`]). It falls if it is not balanced.
 //!
-//! Both take the operator link's commands through [`Operated`] and report through the link's
-//! [`TelemetrySource`]; the serve loop in [`crate::robot`] does not know which one it runs.
+//! Both take the operator link's commands through [`Operated`](omnikin::runtime::Operated) and report through the link's
+//! [`TelemetrySource`](omnikin::link::TelemetrySource); the serve loop
+//! ([`crate::robot_serve`]) does not know which one it runs. [`SimOptions`] says what to build.
+
+pub mod options;
+
+pub use options::{Plant, SimOptions};
 
 use anyhow::{Context, Result, bail};
 use omnikin::description::RobotDescription;
@@ -23,8 +29,10 @@ use omnikin_sim::dynamics::ballbot::{BallbotDynamics, BallbotPlant, capability};
 use omnikin_sim::sil::SilPlant;
 use serde_json::{Value, json};
 
-use crate::robot_args::{RobotArgs, SIM_PLAN_CAPACITY};
-use crate::sim_args::PlantKind;
+use omnikin_io::errln;
+use omnikin_io::mcap_log::{self, McapLog};
+
+use options::SIM_PLAN_CAPACITY;
 
 /// A runtime on its simulated board (module doc).
 // One per process: the statuses stay inline rather than boxed.
@@ -73,14 +81,14 @@ pub struct TiltRecord {
 }
 
 impl SimRobot {
-    /// The simulated robot `args` ask for: the balance runtime for `ballbot --plant dynamic`,
-    /// the rate runtime otherwise.
+    /// The simulated robot the options ask for: the balance runtime for `ballbot --plant
+    /// dynamic`, the rate runtime otherwise.
     ///
     /// # Errors
-    /// Bad arguments for the runtime or the plant, named by their flag.
-    pub fn new(a: &RobotArgs, desc: &RobotDescription) -> Result<Self> {
+    /// Bad options for the runtime or the plant, named by their flag.
+    pub fn new(a: &SimOptions, desc: &RobotDescription) -> Result<Self> {
         let robot: Robot<f64> = desc.build()?;
-        let dynamic = a.plant == PlantKind::Dynamic;
+        let dynamic = a.plant == Plant::Dynamic;
         if dynamic && a.disturbances.is_some() {
             bail!("--plant dynamic takes no --disturbances (the dynamic plant is deterministic)");
         }
@@ -90,7 +98,7 @@ impl SimRobot {
         if dynamic && desc.robot_kind().balances() {
             return Self::balance(a, desc);
         }
-        let cfg = crate::robot_args::config(a, desc)?;
+        let cfg = options::config(a, desc)?;
         let rt = Box::new(
             Runtime::new(robot, cfg, Pose2::default()).map_err(|e| anyhow::anyhow!("{e}"))?,
         );
@@ -100,12 +108,14 @@ impl SimRobot {
             SilPlant::dynamic(robot, params, Pose2::default())
                 .with_context(|| format!("--plant dynamic: robot {}", desc.name))?
         } else {
-            let prof = crate::robot_args::profile(a.disturbances.as_deref())?;
+            let prof = options::profile(a.disturbances.as_deref())?;
             // A profile file that does not fit the robot (the built-in ones are for every kind).
             if let Some(file) = a.disturbances.as_deref()
                 && !["ideal", "hardware", "spin-slip"].contains(&file)
             {
-                crate::sim_report::warn_unused_sections(&prof, &robot, file);
+                for w in prof.unused_sections(&robot) {
+                    errln!("warning: {file}: {w}");
+                }
             }
             let mut p = SilPlant::new(robot, prof, a.seed, Pose2::default());
             if let Some((at, dur)) = a.obstacle {
@@ -126,7 +136,7 @@ impl SimRobot {
     /// `ballbot --plant dynamic`: the balance runtime at the robot file's `[dynamics]`
     /// (control rate `control_rate_hz` unless `--rate` is given; acceleration the robot's body
     /// limit, at most the lean limit's, or `--max-accel` if lower).
-    fn balance(a: &RobotArgs, desc: &RobotDescription) -> Result<Self> {
+    fn balance(a: &SimOptions, desc: &RobotDescription) -> Result<Self> {
         if a.gyro_heading {
             bail!(
                 "--gyro-heading: the balance runtime (ballbot --plant dynamic) always takes its attitude and heading from the IMU"
@@ -280,7 +290,7 @@ impl SimRobot {
                 }
                 if s.fallen && tilt.fall_time.is_none() {
                     tilt.fall_time = Some(s.time_us as f64 * 1e-6);
-                    crate::errln!(
+                    errln!(
                         "robot: FALLEN at t = {:.3} s (tilt past the controller's fall threshold): motors off; `drive clear` resets the latch",
                         s.time_us as f64 * 1e-6
                     );
@@ -356,18 +366,18 @@ impl SimRobot {
     /// The last cycle into the `--mcap` log (nothing before the first cycle): the rate
     /// runtime's status, or the balance runtime's as its telemetry (zero wheel-rate commands:
     /// it commands torques), with the true pose on `/truth`.
-    pub fn mcap_cycle(&self, m: &mut crate::mcap_log::McapLog, c: &LinkCounters) -> Result<()> {
+    pub fn mcap_cycle(&self, m: &mut McapLog, c: &LinkCounters) -> Result<()> {
         let truth = self.true_pose();
         match self {
             SimRobot::Rate {
                 status: Some(s),
                 robot,
                 ..
-            } => crate::mcap_log::runtime_cycle(m, s, truth, c, robot.steerable()),
+            } => mcap_log::runtime_cycle(m, s, truth, c, robot.steerable()),
             SimRobot::Balance {
                 status: Some(s), ..
             } => {
-                let mut sample = crate::mcap_log::telemetry_sample(&Telemetry::from_balance(s, c));
+                let mut sample = mcap_log::telemetry_sample(&Telemetry::from_balance(s, c));
                 sample.truth = Some(truth);
                 m.sample(&sample)
             }
@@ -375,7 +385,7 @@ impl SimRobot {
         }
     }
 
-    /// The `--log` header (module doc of [`crate::robot`]).
+    /// The `--log` header: one row per control cycle ([`crate::robot_serve`]).
     pub fn log_header(&self) -> String {
         match self {
             SimRobot::Rate { robot, .. } => rate_log_header(robot.wheels(), robot.steerable()),
