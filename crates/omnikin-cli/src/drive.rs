@@ -143,6 +143,7 @@ pub fn run(a: &DriveArgs) -> Result<()> {
         a.heartbeat,
         a.timeout,
         a.mcap.as_deref(),
+        omnikin_host::names::OptionNames::CLI,
     )?;
     if let Some(path) = &a.fixes {
         if !matches!(

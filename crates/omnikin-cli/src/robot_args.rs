@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use omnikin_host::robot_serve::ServeOptions;
-use omnikin_host::sim_robot::{Plant, SimOptions};
+use omnikin_host::sim_robot::SimOptions;
 
 use crate::args::finite_f64;
 
@@ -113,20 +113,11 @@ fn obstacle(s: &str) -> Result<(f64, f64), String> {
     Ok((at, dur))
 }
 
-impl From<crate::sim_args::PlantKind> for Plant {
-    fn from(p: crate::sim_args::PlantKind) -> Self {
-        match p {
-            crate::sim_args::PlantKind::Kinematic => Plant::Kinematic,
-            crate::sim_args::PlantKind::Dynamic => Plant::Dynamic,
-        }
-    }
-}
-
 impl RobotArgs {
     /// The simulated robot these flags describe.
     pub fn sim_options(&self) -> SimOptions {
         SimOptions {
-            plant: self.plant.into(),
+            plant: self.plant,
             disturbances: self.disturbances.clone(),
             rate: self.rate,
             watchdog: self.watchdog,
@@ -152,6 +143,7 @@ impl RobotArgs {
             max_time: self.max_time,
             log: self.log.clone(),
             mcap: self.mcap.clone(),
+            names: omnikin_host::names::OptionNames::CLI,
         }
     }
 }

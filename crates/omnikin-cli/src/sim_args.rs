@@ -81,14 +81,8 @@ pub struct SimulateArgs {
     pub closed_loop: crate::sim_args::ClosedLoopArgs,
 }
 
-/// The plant `omnikin simulate` runs a plan through.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PlantKind {
-    /// Forward kinematics with the disturbance profile (omnikin_sim::plant_step).
-    Kinematic,
-    /// The sphere's shell + platform dynamics (omnikin_sim::dynamics::sphere).
-    Dynamic,
-}
+/// The plant `omnikin simulate` runs a plan through (one enum for every front end).
+pub use omnikin_sim::plant_step::PlantKind;
 
 #[derive(clap::Args, Debug)]
 #[command(group(clap::ArgGroup::new("reference").required(true).args(["plan", "truth"])))]

@@ -23,7 +23,14 @@ impl ConsoleOperator {
         heartbeat_hz: f64,
         timeout_s: f64,
     ) -> Result<Self> {
-        let mut s = Session::open(connect, key, heartbeat_hz, timeout_s, None)?;
+        let mut s = Session::open(
+            connect,
+            key,
+            heartbeat_hz,
+            timeout_s,
+            None,
+            crate::names::OptionNames::CLI,
+        )?;
         // A console watches: it opens a session only while nobody else's is live.
         s.op.set_take_over(false);
         Ok(Self(s))

@@ -4,6 +4,8 @@
 //! * [`link_io`]: the transports (UDP, a serial port), the key file, the operating system's
 //!   entropy for the handshake's nonces, and the framing loop shared by `omnikin robot` and
 //!   `omnikin drive`; the protocol itself is the core's `omnikin::link`.
+//! * [`names`]: how a front end names the link's options in errors (the CLI's flags,
+//!   Python's keywords).
 //! * [`body_limits`]: the limits a plan is held to before it is driven or simulated — the robot
 //!   file's, lowered (never raised) by a flag, and the stricter of those and what the robot
 //!   says it will do.
@@ -34,6 +36,7 @@ pub mod console;
 pub mod console_operator;
 pub mod fixes;
 pub mod link_io;
+pub mod names;
 pub mod operator;
 pub mod plan_run;
 pub mod plan_upload;

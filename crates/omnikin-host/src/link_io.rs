@@ -48,16 +48,17 @@ pub fn parse_address(s: &str, what: &str) -> Result<Address> {
 const MAX_KEY_FILE: usize = 4096;
 
 /// Reads a shared key file: its bytes with trailing whitespace removed, 16 to 64 bytes.
-pub fn load_key(path: &Path) -> Result<Key> {
+/// `what` names the option in errors (`--key`, or Python's `key`).
+pub fn load_key(path: &Path, what: &str) -> Result<Key> {
     // A key is at most 64 bytes: read a little more than that, never the whole file (a
     // `--key /dev/zero` grew to 2 GB before failing "out of memory").
     let mut bytes = Vec::new();
     std::fs::File::open(path)
         .and_then(|f| f.take(MAX_KEY_FILE as u64 + 1).read_to_end(&mut bytes))
-        .with_context(|| format!("--key {}: cannot read", path.display()))?;
+        .with_context(|| format!("{what} {}: cannot read", path.display()))?;
     if bytes.len() > MAX_KEY_FILE {
         bail!(
-            "--key {}: key must be 16 to 64 bytes (after trailing whitespace), the file has more than {MAX_KEY_FILE} bytes",
+            "{what} {}: key must be 16 to 64 bytes (after trailing whitespace), the file has more than {MAX_KEY_FILE} bytes",
             path.display()
         );
     }
@@ -68,7 +69,7 @@ pub fn load_key(path: &Path) -> Result<Key> {
     let k = &bytes[..end];
     if k.len() < 16 || k.len() > 64 {
         bail!(
-            "--key {}: key must be 16 to 64 bytes (after trailing whitespace), got {}",
+            "{what} {}: key must be 16 to 64 bytes (after trailing whitespace), got {}",
             path.display(),
             k.len()
         );
@@ -104,12 +105,12 @@ pub struct Chunk {
 }
 
 impl Transport {
-    /// Binds (`listen`) or connects to an address.
-    pub fn open(addr: &Address, listen: bool) -> Result<Self> {
+    /// Binds (`listen`) or connects to an address (`what` names it in errors: `--listen`).
+    pub fn open(addr: &Address, listen: bool, what: &str) -> Result<Self> {
         match addr {
             Address::Udp(a) => {
                 let socket = if listen {
-                    UdpSocket::bind(a).with_context(|| format!("--listen {a}: cannot bind"))?
+                    UdpSocket::bind(a).with_context(|| format!("{what} {a}: cannot bind"))?
                 } else {
                     let local: SocketAddr = if a.is_ipv4() {
                         "0.0.0.0:0".parse()?
@@ -127,7 +128,7 @@ impl Transport {
                 let port = serialport::new(path, *baud)
                     .timeout(Duration::from_millis(1))
                     .open()
-                    .with_context(|| format!("serial port {path}: cannot open"))?;
+                    .with_context(|| format!("{what} serial port {path}: cannot open"))?;
                 Ok(Transport::Serial(port))
             }
         }

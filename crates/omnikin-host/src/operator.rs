@@ -16,6 +16,7 @@ use omnikin::link::{
 };
 
 use crate::link_io::{Link, OsEntropy, Transport, epoch_seq, load_key, parse_address};
+use crate::names::OptionNames;
 use crate::telemetry_log::{estimate_cells, telemetry_header, telemetry_row};
 
 /// Seconds as a [`Duration`], or an error naming `what` (the flag or argument; never the
@@ -103,6 +104,8 @@ pub struct Session {
     pub heartbeat: Duration,
     /// How long without an answer before giving up.
     pub timeout: Duration,
+    /// How the front end names the options its errors point to.
+    pub names: OptionNames,
 }
 
 impl Drop for Session {
@@ -118,7 +121,8 @@ impl Drop for Session {
 impl Session {
     /// Opens the transport to `connect` (`HOST:PORT`, `udp:HOST:PORT` or
     /// `serial:PATH[@BAUD]`) with an optional key file, the heartbeat rate (Hz) and the
-    /// timeout (s) as `drive --heartbeat/--timeout`, and an MCAP log at `mcap` (`--mcap`). The
+    /// timeout (s) as `drive --heartbeat/--timeout`, and an MCAP log at `mcap` (`--mcap`);
+    /// `names`: how the front end calls these options in its errors. The
     /// session takes the robot over from another operator (its user's act); the console turns
     /// that off ([`crate::console_operator::ConsoleOperator`]). Nothing is sent yet: see
     /// [`Session::hello`].
@@ -128,17 +132,21 @@ impl Session {
         heartbeat_hz: f64,
         timeout_s: f64,
         mcap: Option<&Path>,
+        names: OptionNames,
     ) -> Result<Self> {
+        let n = names;
         if heartbeat_hz <= 0.0 {
-            bail!("--heartbeat must be > 0 Hz (got {})", heartbeat_hz);
+            bail!("{} must be > 0 Hz (got {})", n.heartbeat, heartbeat_hz);
         }
         if timeout_s <= 0.0 {
-            bail!("--timeout must be > 0 s (got {})", timeout_s);
+            bail!("{} must be > 0 s (got {})", n.timeout, timeout_s);
         }
-        let key = key.map(load_key).transpose()?;
-        let addr = parse_address(connect, "--connect")?;
-        let link = Link::new(Transport::open(&addr, false)?);
-        let mcap = omnikin_io::mcap_log::McapLog::for_flag(mcap, "omnikin drive", true)?;
+        let key = key.map(|k| load_key(k, n.key)).transpose()?;
+        let addr = parse_address(connect, n.connect)?;
+        let link = Link::new(Transport::open(&addr, false, n.connect)?);
+        let mcap = mcap
+            .map(|p| omnikin_io::mcap_log::McapLog::create(n.mcap, p, "omnikin drive", true))
+            .transpose()?;
         if mcap.is_some() {
             omnikin_io::output::catch_signals()?;
         }
@@ -163,8 +171,9 @@ impl Session {
             interrupt: None,
             mcap,
             frames: 0,
-            heartbeat: duration("--heartbeat", 1.0 / heartbeat_hz)?,
-            timeout: duration("--timeout", timeout_s)?,
+            heartbeat: duration(n.heartbeat, 1.0 / heartbeat_hz)?,
+            timeout: duration(n.timeout, timeout_s)?,
+            names,
         })
     }
 
@@ -411,9 +420,10 @@ impl Session {
                     && a.protocol != PROTOCOL_VERSION
                 {
                     bail!(
-                        "version mismatch: the robot at {} speaks protocol v{} (its answer was authenticated by --key), this omnikin speaks v{PROTOCOL_VERSION}; run the same omnikin version on both ends",
+                        "version mismatch: the robot at {} speaks protocol v{} (its answer was authenticated by {}), this omnikin speaks v{PROTOCOL_VERSION}; run the same omnikin version on both ends",
                         self.addr,
-                        a.protocol
+                        a.protocol,
+                        self.names.key
                     );
                 }
             }
@@ -428,6 +438,7 @@ impl Session {
     pub fn no_session_error(&self) -> anyhow::Error {
         let t = self.timeout.as_secs_f64();
         let c = self.op.counters();
+        let n = self.names;
         if self.op.info().is_some() {
             return anyhow::anyhow!(
                 "the robot at {} answered the handshake but did not open the session: no frame of it in {t:.1} s (frames lost on the way; try again)",
@@ -436,9 +447,9 @@ impl Session {
         }
         let how = |a: &V1Answer| {
             if a.proven {
-                "authenticated by --key"
+                format!("authenticated by {}", n.key)
             } else {
-                "unauthenticated, from the robot's address"
+                "unauthenticated, from the robot's address".to_string()
             }
         };
         match (self.v1_answer, self.key.is_some()) {
@@ -451,25 +462,39 @@ impl Session {
             // The robot speaks this version and answered the v1 probe but not the Hello: it
             // rejected the Hello.
             (Some(a), true) if a.robot_keyed && !a.proven => anyhow::anyhow!(
-                "authentication failed: the robot at {} (protocol v{PROTOCOL_VERSION}) rejects this operator's Hello — --key is not the robot's key",
-                self.addr
+                "authentication failed: the robot at {} (protocol v{PROTOCOL_VERSION}) rejects this operator's Hello — {} is not the robot's key",
+                self.addr,
+                n.key
             ),
             (Some(a), false) if a.robot_keyed => anyhow::anyhow!(
-                "authentication failed: the robot at {} requires a key; pass --key FILE (the robot's key file)",
-                self.addr
+                "authentication failed: the robot at {} requires a key; pass {} (the robot's key file)",
+                self.addr,
+                if n == OptionNames::CLI {
+                    "--key FILE"
+                } else {
+                    n.key
+                }
             ),
             (Some(a), true) if !a.robot_keyed => anyhow::anyhow!(
-                "authentication failed: the robot at {} has no key but this operator sends --key; drop --key (or start the robot with the same --key)",
-                self.addr
+                "authentication failed: the robot at {} has no key but this operator sends {k}; drop {k} (or start the robot with the same key)",
+                self.addr,
+                k = n.key
             ),
             _ if c.auth > 0 => anyhow::anyhow!(
-                "authentication failed: {} answers from {} carried no valid tag for this --key",
+                "authentication failed: {} answers from {} carried no valid tag for this {}",
                 c.auth,
-                self.addr
+                self.addr,
+                n.key
             ),
             _ => anyhow::anyhow!(
-                "no answer from the robot at {} within {t:.1} s: nothing came back (is `omnikin robot` running there, is --connect right?)",
-                self.addr
+                "no answer from the robot at {} within {t:.1} s: nothing came back (is {} running there, is {} right?)",
+                self.addr,
+                if n == OptionNames::CLI {
+                    "`omnikin robot`"
+                } else {
+                    n.robot_program
+                },
+                n.connect
             ),
         }
     }

@@ -27,6 +27,7 @@ use omnikin_io::mcap_log::McapLog;
 use omnikin_io::output::{Interrupted, OutFile};
 
 use crate::link_io::{Address, Link, OsEntropy, Transport, load_key, parse_address};
+use crate::names::OptionNames;
 use crate::sim_robot::{SimOptions, SimRobot};
 
 /// Robot time (s) without a frame of the active session after which telemetry stops (or four
@@ -53,6 +54,8 @@ pub struct ServeOptions {
     pub log: Option<PathBuf>,
     /// The same as MCAP with Foxglove schemas.
     pub mcap: Option<PathBuf>,
+    /// How the front end names these options in its errors.
+    pub names: OptionNames,
 }
 
 impl ServeOptions {
@@ -68,13 +71,14 @@ impl ServeOptions {
             max_time: None,
             log: None,
             mcap: None,
+            names: OptionNames::CLI,
         }
     }
 }
 
 /// How a [`RobotServer::run`] ended.
 #[derive(Debug)]
-pub struct Served {
+pub struct ServeSummary {
     /// The run's summary: robot time, the link's counters, sessions, and the runtime's fields
     /// ([`SimRobot::summary`]) — what `omnikin robot --max-time` prints.
     pub summary: serde_json::Value,
@@ -104,18 +108,31 @@ impl RobotServer {
     /// cannot be bound, a log that cannot be created.
     pub fn new(desc: &RobotDescription, sim: &SimOptions, options: ServeOptions) -> Result<Self> {
         let robot = SimRobot::new(sim, desc)?;
-        let key: Option<Key> = options.key.as_deref().map(load_key).transpose()?;
-        let addr = parse_address(&options.listen, "--listen")?;
+        let n = options.names;
+        let key: Option<Key> = options
+            .key
+            .as_deref()
+            .map(|k| load_key(k, n.key))
+            .transpose()?;
+        let addr = parse_address(&options.listen, n.listen)?;
         if key.is_none()
             && !options.insecure
             && matches!(addr, Address::Udp(u) if !u.ip().is_loopback())
         {
+            if n == OptionNames::CLI {
+                bail!(
+                    "--listen {}: without --key the link is unauthenticated, so the robot listens only on a loopback address (127.0.0.1:PORT) or a serial port; give --key FILE (the same file as the operator's), or --insecure to let anyone who reaches this address drive the robot",
+                    options.listen
+                );
+            }
             bail!(
-                "--listen {}: without --key the link is unauthenticated, so the robot listens only on a loopback address (127.0.0.1:PORT) or a serial port; give --key FILE (the same file as the operator's), or --insecure to let anyone who reaches this address drive the robot",
-                options.listen
+                "{} {}: without {k} the link is unauthenticated, so the robot listens only on a loopback address (127.0.0.1:PORT) or a serial port; give {k} (a key file, the same as the operator's)",
+                n.listen,
+                options.listen,
+                k = n.key
             );
         }
-        let transport = Transport::open(&addr, true)?;
+        let transport = Transport::open(&addr, true, n.listen)?;
         let local = match &transport {
             Transport::Udp { socket, .. } => socket.local_addr().ok(),
             Transport::Serial(_) => None,
@@ -126,13 +143,18 @@ impl RobotServer {
         // has), a signal or the stop flag ends the loop (see omnikin_io::output).
         let log = match &options.log {
             Some(p) => {
-                let mut w = OutFile::log("--log", p)?;
-                writeln!(w, "{}", robot.log_header()).context("--log: cannot write")?;
+                let mut w = OutFile::log(n.log, p)?;
+                writeln!(w, "{}", robot.log_header())
+                    .with_context(|| format!("{}: cannot write", n.log))?;
                 Some(w)
             }
             None => None,
         };
-        let mcap = McapLog::for_flag(options.mcap.as_deref(), "omnikin robot", true)?;
+        let mcap = options
+            .mcap
+            .as_deref()
+            .map(|p| McapLog::create(n.mcap, p, "omnikin robot", true))
+            .transpose()?;
         errln!(
             "robot: {} ({}) simulated, {} Hz control, listening on {} (protocol v{}, {}), {}",
             desc.name,
@@ -145,7 +167,8 @@ impl RobotServer {
         );
         if !auth {
             errln!(
-                "robot: WARNING: the link is UNAUTHENTICATED (no --key): anyone who can send to {} can open a session and drive this robot",
+                "robot: WARNING: the link is UNAUTHENTICATED (no {}): anyone who can send to {} can open a session and drive this robot",
+                n.key,
                 local.map_or_else(|| options.listen.clone(), |a| a.to_string())
             );
         }
@@ -172,7 +195,7 @@ impl RobotServer {
     ///
     /// # Errors
     /// The transport failing, a log that cannot be written, the plant's errors.
-    pub fn run(self, stop: Option<&AtomicBool>) -> Result<Served> {
+    pub fn run(self, stop: Option<&AtomicBool>) -> Result<ServeSummary> {
         let RobotServer {
             mut sim,
             mut link,
@@ -320,7 +343,7 @@ impl RobotServer {
             if let Some(w) = log.as_mut()
                 && let Some(row) = sim.log_row(robot_link.counters())
             {
-                writeln!(w, "{row}").context("--log: cannot write")?;
+                writeln!(w, "{row}").with_context(|| format!("{}: cannot write", a.names.log))?;
             }
             if let Some(m) = mcap.as_mut() {
                 sim.mcap_cycle(m, robot_link.counters())?;
@@ -361,7 +384,7 @@ impl RobotServer {
         if let (Some(o), serde_json::Value::Object(r)) = (summary.as_object_mut(), sim.summary()) {
             o.extend(r);
         }
-        Ok(Served {
+        Ok(ServeSummary {
             summary,
             interrupted: stopped_by,
         })

@@ -39,11 +39,14 @@ struct Input {
 /// The process-wide rules: `--force` and the registered inputs.
 struct Rules {
     force: bool,
+    /// Whether the front end has a `--force` to name in errors (Python has none).
+    force_option: bool,
     inputs: Vec<Input>,
 }
 
 static RULES: Mutex<Rules> = Mutex::new(Rules {
     force: false,
+    force_option: true,
     inputs: Vec::new(),
 });
 
@@ -58,6 +61,23 @@ pub fn set_force(force: bool) {
 
 fn force() -> bool {
     rules().force
+}
+
+/// For a front end without a `--force` (Python): an existing output is never replaced, and the
+/// errors say so instead of pointing to a flag the user cannot pass.
+pub fn set_no_force_option() {
+    let mut r = rules();
+    r.force = false;
+    r.force_option = false;
+}
+
+/// How to replace an existing output, for an error's last words.
+fn replace_hint(what: &str) -> String {
+    if rules().force_option {
+        format!("not replaced without --force (pass --force to replace {what}")
+    } else {
+        format!("never replaced from this program (remove {what} first")
+    }
 }
 
 /// Registers a file the command reads (`flag` names it in messages: `--plan`, `FILE`, …).
@@ -144,7 +164,8 @@ pub fn check_file(flag: &str, path: &Path) -> Result<()> {
         }
         Existing::Regular if force() => Ok(()),
         Existing::Regular => bail!(
-            "{flag} {shown}: exists; an existing output is not replaced without --force (pass --force to replace it, or choose another name)"
+            "{flag} {shown}: exists; an existing output is {}, or choose another name)",
+            replace_hint("it")
         ),
     }
 }
@@ -163,7 +184,8 @@ pub fn check_dir(flag: &str, dir: &Path) -> Result<()> {
                 std::fs::read_dir(dir).with_context(|| format!("{flag} {shown}: cannot list"))?;
             if entries.next().is_some() && !force() {
                 bail!(
-                    "{flag} {shown}: directory exists and is not empty; its files are not replaced without --force (pass --force to replace the files this command writes there, or choose a new directory)"
+                    "{flag} {shown}: directory exists and is not empty; its files are {}, or choose a new directory)",
+                    replace_hint("the files this command writes there")
                 );
             }
             Ok(())

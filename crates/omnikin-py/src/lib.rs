@@ -29,6 +29,8 @@ use pyo3::prelude::*;
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    // Python has no `--force`: an existing output is never replaced, and errors say so.
+    omnikin_io::output::set_no_force_option();
     m.add_class::<robot::PyRobot>()?;
     m.add_class::<link::PyLink>()?;
     m.add_class::<sim_robot::PySimRobot>()?;

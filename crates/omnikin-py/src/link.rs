@@ -75,6 +75,7 @@ impl PyLink {
             heartbeat_hz,
             timeout_s,
             mcap.as_deref(),
+            omnikin_host::names::OptionNames::PYTHON,
         )
         .map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
         s.memory = Some(MemoryLog::new(keep_rows));

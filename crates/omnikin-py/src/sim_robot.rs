@@ -16,15 +16,15 @@ use std::thread::JoinHandle;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 
-use omnikin_host::robot_serve::{RobotServer, ServeOptions, Served};
-use omnikin_host::sim_robot::{Plant, SimOptions};
+use omnikin_host::robot_serve::{RobotServer, ServeOptions, ServeSummary};
+use omnikin_host::sim_robot::{PlantKind, SimOptions};
 
 /// A simulated robot served on its own thread (see the module docs).
 #[pyclass(name = "SimRobot", module = "omnikin", subclass)]
 pub struct PySimRobot {
     address: Option<String>,
     stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<anyhow::Result<Served>>>,
+    thread: Option<JoinHandle<anyhow::Result<ServeSummary>>>,
     summary: Option<String>,
     max_time: Option<f64>,
 }
@@ -91,8 +91,8 @@ impl PySimRobot {
         mcap: Option<PathBuf>,
     ) -> PyResult<Self> {
         let plant = match plant {
-            "kinematic" => Plant::Kinematic,
-            "dynamic" => Plant::Dynamic,
+            "kinematic" => PlantKind::Kinematic,
+            "dynamic" => PlantKind::Dynamic,
             p => {
                 return Err(PyValueError::new_err(format!(
                     "plant must be \"kinematic\" or \"dynamic\" (got {p:?})"
@@ -135,6 +135,7 @@ impl PySimRobot {
             max_time,
             log,
             mcap,
+            names: omnikin_host::names::OptionNames::PYTHON,
         };
         let server = RobotServer::new(&desc, &sim, serve)
             .map_err(|e| PyValueError::new_err(format!("{e:#}")))?;

@@ -348,3 +348,15 @@ impl Motors {
         core::array::from_fn(|i| self.wheel[i].angle())
     }
 }
+
+/// Which plant a plan or a runtime runs on: `simulate --plant`, `robot --sim --plant`,
+/// Python's `plant=` (a `clap` value with the `clap` feature). One enum for every front end.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum PlantKind {
+    /// Forward kinematics with the disturbance profile (omnikin_sim::plant_step).
+    #[default]
+    Kinematic,
+    /// The sphere's shell + platform dynamics (omnikin_sim::dynamics::sphere).
+    Dynamic,
+}

@@ -15,7 +15,7 @@
 
 pub mod options;
 
-pub use options::{Plant, SimOptions};
+pub use options::{PlantKind, SimOptions};
 
 use anyhow::{Context, Result, bail};
 use omnikin::description::RobotDescription;
@@ -88,7 +88,7 @@ impl SimRobot {
     /// Bad options for the runtime or the plant, named by their flag.
     pub fn new(a: &SimOptions, desc: &RobotDescription) -> Result<Self> {
         let robot: Robot<f64> = desc.build()?;
-        let dynamic = a.plant == Plant::Dynamic;
+        let dynamic = a.plant == PlantKind::Dynamic;
         if dynamic && a.disturbances.is_some() {
             bail!("--plant dynamic takes no --disturbances (the dynamic plant is deterministic)");
         }

@@ -8,6 +8,7 @@
 use anyhow::{Context, Result};
 use omnikin::description::RobotDescription;
 use omnikin::runtime::Config;
+pub use omnikin_sim::plant_step::PlantKind;
 use omnikin_sim::profile::Profile;
 use omnikin_sim::reproduce::{hardware_profile, spin_slip_profile};
 
@@ -23,23 +24,11 @@ pub const DEFAULT_MAX_SPEED: f64 = 2.0;
 /// Largest commanded yaw rate of the rate runtime when none is given, rad/s.
 pub const DEFAULT_MAX_YAW_RATE: f64 = 10.0;
 
-/// The plant a simulated robot runs on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Plant {
-    /// The motors' motion through the forward kinematics, with a disturbance profile
-    /// (`omnikin_sim::plant_step`). Every kind.
-    #[default]
-    Kinematic,
-    /// The robot file's `[dynamics]`: the sphere's shell + platform, or the ballbot's 3D model
-    /// balanced by the balance runtime.
-    Dynamic,
-}
-
 /// A simulated robot's settings (module doc). `Default` is `omnikin robot --sim`'s defaults.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SimOptions {
     /// The plant.
-    pub plant: Plant,
+    pub plant: PlantKind,
     /// Disturbances of the kinematic plant: `ideal` (`None`), `hardware`, `spin-slip` or a
     /// profile TOML file.
     pub disturbances: Option<String>,
@@ -71,7 +60,7 @@ pub struct SimOptions {
 impl Default for SimOptions {
     fn default() -> Self {
         SimOptions {
-            plant: Plant::Kinematic,
+            plant: PlantKind::Kinematic,
             disturbances: None,
             rate: None,
             watchdog: 0.5,
