@@ -370,9 +370,6 @@ fn follow_plan(s: &mut Session, path: &Path, start: StartCheck, robot: Option<&s
         return print_status(s);
     }
     let pts = plan_points(&plan, info.plan_capacity as usize);
-    if let Some(m) = s.mcap.as_mut() {
-        crate::mcap_log::drive_plan(m, s.latest.map_or(0, |t| t.time_us), &pts)?;
-    }
     let end = pts[pts.len() - 1].pose;
     let id = (epoch_seq() & 0xffff) as u16;
     let up = s.upload_plan(id, pts, set_pose)?;

@@ -58,7 +58,8 @@ impl Session {
     }
 
     /// Uploads `points` as plan `id` and starts it (set-pose first when asked), each step
-    /// re-sent until the robot's telemetry confirms it.
+    /// re-sent until the robot's telemetry confirms it; the session's MCAP log gets the plan
+    /// on `/plan`.
     pub fn upload_plan(
         &mut self,
         id: u16,
@@ -66,6 +67,11 @@ impl Session {
         set_pose: bool,
     ) -> Result<Uploaded> {
         let n = points.len();
+        // The session's MCAP log records the plan on `/plan` at the robot's time, whichever
+        // front end uploads it.
+        if let Some(m) = self.mcap.as_mut() {
+            omnikin_io::mcap_log::drive_plan(m, self.latest.map_or(0, |t| t.time_us), &points)?;
+        }
         let mut up = PlanUpload::new(id, points, set_pose, false);
         let t0 = Instant::now();
         loop {

@@ -5,7 +5,7 @@
 //! `robot` holds `omnikin.Robot` and its kinematics, `arrays` the argument checks,
 //! `kernels` the row-parallel loops, `options` the keyword options, `plan` `omnikin.plan`,
 //! `sim` `omnikin.simulate` and `omnikin.evaluate`, `odometry` `omnikin.odometry`,
-//! `pose_error` `omnikin.pose_error`, `identify` `omnikin.identify`, `mcap` `omnikin.read_mcap`, `link` `omnikin.Link` (an operator
+//! `pose_error` `omnikin.pose_error`, `identify` `omnikin.identify`, `mcap` `omnikin.read_mcap` and `omnikin.write_mcap`, `link` `omnikin.Link` (an operator
 //! session), `sim_robot` `omnikin.SimRobot` (a simulated robot served on a thread).
 
 mod arrays;
@@ -41,5 +41,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(pose_error::pose_error_native, m)?)?;
     m.add_function(wrap_pyfunction!(identify::identify_native, m)?)?;
     m.add_function(wrap_pyfunction!(mcap::read_mcap_native, m)?)?;
+    m.add_function(wrap_pyfunction!(mcap::write_mcap_native, m)?)?;
     Ok(())
 }

@@ -3,6 +3,11 @@
 //! [`omnikin_io::mcap_log::convert::tables`] — the reader behind `omnikin convert --csv`, with
 //! its bounds (file size, each zstd chunk's declared size) and its handling of a damaged or
 //! truncated file. The pure-Python layer parses the tables into columns.
+//!
+//! `omnikin.write_mcap(path, tables)`: the other way — columns in the same form (the
+//! pure-Python layer writes them as CSV text) to an MCAP file, by
+//! [`omnikin_io::mcap_log::convert::tables_to_mcap`], the writer of `omnikin convert DIR
+//! --mcap`.
 
 use pyo3::prelude::*;
 
@@ -20,4 +25,17 @@ pub fn read_mcap_native(py: Python<'_>, path: &str) -> PyResult<(Vec<Channel>, V
         .detach(|| omnikin_io::mcap_log::convert::tables(&path))
         .map_err(|e| value_error(format!("{e:#}")))?;
     Ok((t.channels, t.warnings))
+}
+
+/// Writes the channels `(topic, CSV text)` to a new MCAP file at `path` (never replacing one);
+/// the number of messages. Written without the GIL.
+#[pyfunction]
+pub fn write_mcap_native(
+    py: Python<'_>,
+    path: &str,
+    channels: Vec<(String, String)>,
+) -> PyResult<usize> {
+    let path = std::path::PathBuf::from(path);
+    py.detach(|| omnikin_io::mcap_log::convert::tables_to_mcap("path", channels, &path))
+        .map_err(|e| value_error(format!("{e:#}")))
 }

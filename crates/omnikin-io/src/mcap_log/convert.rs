@@ -533,7 +533,7 @@ pub const MAX_CSV_ROWS: usize = omnikin_sim::limits::MAX_TRACK_ROWS;
 struct Table {
     file: String,
     header: Vec<String>,
-    lines: std::io::BufReader<omnikin_plan::limits::LineLimit<std::fs::File>>,
+    lines: std::io::BufReader<omnikin_plan::limits::LineLimit<Box<dyn std::io::Read + Send>>>,
     /// The line number of the last line read (1-based).
     line: usize,
     rows: usize,
@@ -554,7 +554,23 @@ impl Table {
                 "{file}: larger than {MAX_INPUT_BYTES} bytes (MAX_INPUT_BYTES of omnikin convert)"
             );
         }
-        let limited = omnikin_plan::limits::LineLimit::new(f, omnikin_plan::limits::MAX_CSV_LINE);
+        Self::from_reader(file, Box::new(f))
+    }
+
+    /// A table read from `text` (a channel handed over in memory), named `name` in errors.
+    fn from_text(name: String, text: Vec<u8>) -> Result<Self> {
+        if text.len() as u64 > MAX_INPUT_BYTES {
+            bail!(
+                "{name}: larger than {MAX_INPUT_BYTES} bytes (MAX_INPUT_BYTES of omnikin convert)"
+            );
+        }
+        Self::from_reader(name, Box::new(std::io::Cursor::new(text)))
+    }
+
+    /// Reads the header row from `source`.
+    fn from_reader(file: String, source: Box<dyn std::io::Read + Send>) -> Result<Self> {
+        let limited =
+            omnikin_plan::limits::LineLimit::new(source, omnikin_plan::limits::MAX_CSV_LINE);
         let mut t = Self {
             file,
             header: Vec::new(),
@@ -858,7 +874,11 @@ struct ChannelSource {
 impl ChannelSource {
     /// Opens the channel file `path` of `prefix` + `topic` and checks its header.
     fn open(path: &Path, prefix: &str, topic: Topic) -> Result<Self> {
-        let t = Table::open(path)?;
+        Self::new(Table::open(path)?, prefix, topic)
+    }
+
+    /// The channel `prefix` + `topic` read from the table `t`; checks its header.
+    fn new(t: Table, prefix: &str, topic: Topic) -> Result<Self> {
         let name = format!("{prefix}{}", topic.name);
         let what = format!("the {name} CSV");
         let need: &[&str] = match topic.schema.name {
@@ -1026,21 +1046,39 @@ pub fn to_mcap(input: &Path, out: &Path) -> Result<()> {
             input.display()
         );
     }
-    // By prefix (trial 0, then each `/trial-NNN` in turn, as `simulate` writes them), channels
-    // in the canonical order.
-    files.sort_by_key(|(n, p, t)| (p.clone(), fg::TOPICS.iter().position(|x| x == t), n.clone()));
     for (name, _, _) in &files {
         crate::output::input("IN", &input.join(name));
     }
     let mut log = McapLog::create("--mcap", out, "omnikin convert", false)?;
+    let count = files.len();
+    let n = write_channels(
+        &mut log,
+        files,
+        |(_, prefix, topic)| (prefix, *topic),
+        |(name, prefix, topic)| ChannelSource::open(&input.join(name), prefix, *topic),
+    )?;
+    log.finish()?;
+    crate::errln!("{n} messages from {} files -> {}", count, out.display());
+    Ok(())
+}
+
+/// Writes channels into `log`: grouped by prefix (trial 0, then each `/trial-NNN` in turn, as
+/// `simulate` writes them), and within a prefix merged by log time — the next message is the
+/// earliest of the channels' next ones, ties in the canonical channel order. `key` gives an
+/// item's prefix and topic, `open` its source. The number of messages written.
+fn write_channels<I>(
+    log: &mut McapLog,
+    mut items: Vec<I>,
+    key: impl Fn(&I) -> (&String, Topic),
+    open: impl Fn(&I) -> Result<ChannelSource>,
+) -> Result<usize> {
+    items.sort_by_key(|i| {
+        let (p, t) = key(i);
+        (p.clone(), fg::TOPICS.iter().position(|x| *x == t))
+    });
     let mut n = 0usize;
-    for group in files.chunk_by(|a, b| a.1 == b.1) {
-        // One prefix's files (at most one per topic) merged by log time: the next message is
-        // the earliest of the files' next ones, ties in the canonical channel order.
-        let mut sources = group
-            .iter()
-            .map(|(name, prefix, topic)| ChannelSource::open(&input.join(name), prefix, *topic))
-            .collect::<Result<Vec<_>>>()?;
+    for group in items.chunk_by(|a, b| key(a).0 == key(b).0) {
+        let mut sources = group.iter().map(&open).collect::<Result<Vec<_>>>()?;
         let mut next = sources
             .iter_mut()
             .map(ChannelSource::next_message)
@@ -1050,20 +1088,67 @@ pub fn to_mcap(input: &Path, out: &Path) -> Result<()> {
             .min_by_key(|&k| next[k].as_ref().map(|m| m.0))
         {
             if let Some((ns, v)) = next[k].take() {
-                let prefix = &group[k].1;
-                log.message(prefix, sources[k].topic, ns, &v)?;
+                log.message(key(&group[k]).0, sources[k].topic, ns, &v)?;
                 n += 1;
             }
             next[k] = sources[k].next_message()?;
         }
     }
+    Ok(n)
+}
+
+/// A channel's topic as [`Tables`] names it (`/pose`, `/trial-002/wheels`) → its prefix
+/// (``, `/trial-002`) and omnikin topic; `None` for a name that is not one of ours.
+pub fn channel_of(topic: &str) -> Option<(String, Topic)> {
+    let file = format!("{}.csv", topic.strip_prefix('/')?.replacen('/', "-", 1));
+    topic_of(&file)
+}
+
+/// Writes the channels `channels` — `(topic, CSV text)` in the columns [`tables`] gives, e.g.
+/// Python's `omnikin.write_mcap` of what `omnikin.read_mcap` returned — to the MCAP file
+/// `out` (the output rules of `flag`), as `convert DIR --mcap` writes a directory of channel
+/// files. The number of messages written.
+///
+/// # Errors
+/// A topic that is not one of omnikin's (named, with the accepted ones), two channels of one
+/// topic, a CSV whose header lacks the topic's columns or a bad cell (named by channel and
+/// line), an output that cannot be written.
+pub fn tables_to_mcap(flag: &str, channels: Vec<(String, String)>, out: &Path) -> Result<usize> {
+    if channels.len() > super::scan::MAX_CHANNELS {
+        bail!(
+            "{} channels: more than {} (MAX_CHANNELS of omnikin convert)",
+            channels.len(),
+            super::scan::MAX_CHANNELS
+        );
+    }
+    let mut items = Vec::with_capacity(channels.len());
+    let mut seen = std::collections::HashSet::new();
+    for (topic, text) in channels {
+        let Some((prefix, t)) = channel_of(&topic) else {
+            let names: Vec<&str> = fg::TOPICS.iter().map(|t| t.name).collect();
+            bail!(
+                "channel {:?}: not an omnikin topic (one of {}, optionally under /trial-NNN)",
+                topic,
+                names.join(", ")
+            );
+        };
+        if !seen.insert(topic.clone()) {
+            bail!("channel {topic}: given twice");
+        }
+        items.push((prefix, t, topic, text));
+    }
+    let mut log = McapLog::create(flag, out, "omnikin write_mcap", false)?;
+    let n = write_channels(
+        &mut log,
+        items,
+        |(p, t, _, _)| (p, *t),
+        |(p, t, topic, text)| {
+            let table = Table::from_text(format!("channel {topic}"), text.clone().into_bytes())?;
+            ChannelSource::new(table, p, *t)
+        },
+    )?;
     log.finish()?;
-    crate::errln!(
-        "{n} messages from {} files -> {}",
-        files.len(),
-        out.display()
-    );
-    Ok(())
+    Ok(n)
 }
 
 #[cfg(test)]

@@ -9,6 +9,7 @@ keyed by the CSV files' column names (``pandas.DataFrame(result)`` makes a frame
 from __future__ import annotations
 
 import json
+import math
 import os
 from typing import Any, Dict, Optional, Sequence, Union
 
@@ -26,6 +27,7 @@ __all__ = [
     "pose_error",
     "identify",
     "read_mcap",
+    "write_mcap",
     "Link",
     "SimRobot",
     "__version__",
@@ -467,6 +469,49 @@ def read_mcap(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Dict[str, Any]]
     for note in notes:
         warnings.warn(note, UserWarning, stacklevel=2)
     return {topic: _csv_columns(text) for topic, _count, text in channels}
+
+
+def write_mcap(path: Union[str, "os.PathLike[str]"], tables: Dict[str, Dict[str, Any]]) -> int:
+    """Writes ``tables`` — by topic, the columns :func:`read_mcap` returns (``/pose``: ``t, x,
+    y, heading``; ``/wheels``: ``t, w1.., mw1..``; ``/events``: ``t, level, name, message``;
+    ``/plan``: ``t, i, x, y, heading``; ``/trial-NNN/...`` for trials) — to a new MCAP file in
+    the Foxglove profile, as ``omnikin convert DIR --mcap`` writes a directory of channel CSV
+    files; returns the number of messages. An existing file is never replaced. A topic that
+    is not omnikin's, a table without its topic's columns or with columns of different
+    lengths raises ``ValueError`` naming the channel; ``read_mcap`` of the written file gives
+    the tables back."""
+    import csv
+    import io
+
+    channels = []
+    for topic, table in tables.items():
+        if not isinstance(table, dict) or not table:
+            raise ValueError(f"channel {topic!r}: expected a dict of columns")
+        names = list(table)
+        cols = [table[c] for c in names]
+        lengths = {len(c) for c in cols}
+        if len(lengths) > 1:
+            raise ValueError(f"channel {topic!r}: columns of different lengths {sorted(lengths)}")
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(names)
+        for row in zip(*cols):
+            w.writerow(_cell(v) for v in row)
+        channels.append((str(topic), buf.getvalue()))
+    return _native.write_mcap_native(os.fspath(path), channels)
+
+
+def _cell(v: Any) -> str:
+    """A CSV cell: a float exactly (``repr``; a whole number without its ``.0``, so counters
+    read back as integers), NaN as empty (as ``read_mcap`` reads it)."""
+    if isinstance(v, (float, np.floating)):
+        f = float(v)
+        if math.isnan(f):
+            return ""
+        return str(int(f)) if f.is_integer() and abs(f) < 2**53 else repr(f)
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    return str(v)
 
 
 class Link(_native.Link):

@@ -172,6 +172,8 @@ def pose_error(
 
 def read_mcap(path: Union[str, os.PathLike[str]]) -> Dict[str, Dict[str, Any]]: ...
 
+def write_mcap(path: Union[str, os.PathLike[str]], tables: Dict[str, Dict[str, Any]]) -> int: ...
+
 class Link:
     def __init__(
         self,
