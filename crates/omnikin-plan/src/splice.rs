@@ -32,6 +32,7 @@ use omnikin::wrap_angle;
 use crate::PlanningError;
 use crate::heading::{HeadingLaw, HeadingProfile, Side};
 use crate::map::Map;
+use crate::map::goal::GoalPath;
 use crate::map::route::{Route, segment_clear, shortest_route};
 use crate::map::smooth::{Smoothed, smooth};
 use crate::planner::{
@@ -112,9 +113,8 @@ const MIN_LEAD_IN: f64 = 1e-3;
 /// [`START_TOLERANCE`].
 ///
 /// # Errors
-/// As [`splice_start`]; [`PlanningError::Infeasible`] when the lead-in along the velocity is
-/// not clear of the map even at [`MIN_LEAD_IN`], when the map has no route (naming why, as
-/// [`shortest_route`]), or for the start speed (above a limit, or too fast to end the first
+/// As [`splice_start`] and [`moving_goal_path`] (a lead-in not clear of the map, no route);
+/// [`PlanningError::Infeasible`] for the start speed (above a limit, or too fast to end the first
 /// move at rest: [`plan_from_velocity`]); any error of the planner.
 #[allow(clippy::too_many_arguments)]
 pub fn splice_to_goal(
@@ -133,54 +133,12 @@ pub fn splice_to_goal(
             "a splice needs the time-optimal timing (it starts at the running plan's speed)".into(),
         ));
     };
-    let p0 = start.position;
     let [vx, vy] = start.velocity;
     let speed = vx.hypot(vy);
     let moving = speed > START_TOLERANCE;
-    let infeasible = |e: crate::map::MapError| PlanningError::Infeasible(e.to_string());
-    let (mut points_out, lead_in) = if moving {
-        let u = [vx / speed, vy / speed];
-        let far = (to[0] - p0[0]).hypot(to[1] - p0[1]);
-        let mut d = (LEAD_IN_FACTOR * speed * speed / (2.0 * limits.max_accel)).max(MIN_LEAD_IN);
-        if far > 2.0 * MIN_LEAD_IN {
-            d = d.min(far / 2.0);
-        }
-        let q = loop {
-            let q = [p0[0] + d * u[0], p0[1] + d * u[1]];
-            if segment_clear(map, p0, q, f) {
-                break q;
-            }
-            d /= 2.0;
-            if d < MIN_LEAD_IN {
-                return Err(PlanningError::Infeasible(format!(
-                    "the motion at the splice ({vx:.4}, {vy:.4}) m/s from ({:.4}, {:.4}) heads \
-                     into a shape of {} within {MIN_LEAD_IN} m for a footprint of {f} m",
-                    p0[0], p0[1], map.source_name
-                )));
-            }
-        };
-        let route = shortest_route(map, f, q, to).map_err(infeasible)?;
-        let mut pts = vec![p0];
-        pts.extend_from_slice(&route.points);
-        (pts, d)
-    } else {
-        (
-            shortest_route(map, f, p0, to).map_err(infeasible)?.points,
-            0.0,
-        )
-    };
-    // A goal that is the lead-in's end (a straight route), or collinear points: the route
-    // from q is [q, to] with q == to only if `to` is q, which the lead-in's halving keeps off.
-    points_out.dedup_by(|b, a| (b[0] - a[0]).hypot(b[1] - a[1]) <= 1e-9);
-    let length = points_out
-        .windows(2)
-        .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
-        .sum();
-    let route = Route {
-        points: points_out,
-        length,
-    };
-    let smoothed = smooth(map, &route, f)?;
+    let velocity = if moving { start.velocity } else { [0.0, 0.0] };
+    let (way, lead_in) = moving_goal_path(map, f, start.position, velocity, to, limits.max_accel)?;
+    let smoothed = way.smoothed;
     let path = &smoothed.path;
     let h0 = start.heading;
     let h1 = heading.map_or(h0, |h| h0 + wrap_angle(h - h0));
@@ -240,4 +198,78 @@ pub fn start_heading(h0: f64, slope: f64, h1: f64, len: f64) -> Result<HeadingLa
         (mid, hm),
         (len, h1),
     ])?))
+}
+
+/// The path from `from` (world frame, m), where the robot moves at `velocity` (m/s), to `to`
+/// around the shapes of `map` for a footprint of radius `f` (m): a straight lead-in along the
+/// velocity, then the shortest route, rounded (module docs, step 2; `max_accel` (m/s²) sets
+/// the lead-in's length). At rest (`velocity` zero) it is the plain route from `from`. Returns
+/// the path and the lead-in's length (m; 0 at rest). Its first tangent is the velocity's
+/// direction. The returned route is the polyline with the lead-in (start, lead-in's end,
+/// the route's corners, goal).
+///
+/// # Errors
+/// [`PlanningError::Infeasible`] for a non-finite velocity, a lead-in not clear of the map
+/// even at 1 mm, or no route (the map's reason); [`PlanningError::InvalidPath`] from the
+/// smoothing.
+pub fn moving_goal_path(
+    map: &Map,
+    f: f64,
+    from: [f64; 2],
+    velocity: [f64; 2],
+    to: [f64; 2],
+    max_accel: f64,
+) -> Result<(GoalPath, f64), PlanningError> {
+    let [vx, vy] = velocity;
+    let speed = vx.hypot(vy);
+    if !speed.is_finite() {
+        return Err(PlanningError::Infeasible(format!(
+            "the start velocity ({vx}, {vy}) m/s is not finite"
+        )));
+    }
+    let infeasible = |e: crate::map::MapError| PlanningError::Infeasible(e.to_string());
+    let p0 = from;
+    let (mut pts, lead_in) = if speed > 0.0 {
+        let u = [vx / speed, vy / speed];
+        let far = (to[0] - p0[0]).hypot(to[1] - p0[1]);
+        let mut d = (LEAD_IN_FACTOR * speed * speed / (2.0 * max_accel)).max(MIN_LEAD_IN);
+        if far > 2.0 * MIN_LEAD_IN {
+            d = d.min(far / 2.0);
+        }
+        let q = loop {
+            let q = [p0[0] + d * u[0], p0[1] + d * u[1]];
+            if segment_clear(map, p0, q, f) {
+                break q;
+            }
+            d /= 2.0;
+            if d < MIN_LEAD_IN {
+                return Err(PlanningError::Infeasible(format!(
+                    "the motion ({vx:.4}, {vy:.4}) m/s at ({:.4}, {:.4}) heads into a shape of {} \
+                     within {MIN_LEAD_IN} m for a footprint of {f} m",
+                    p0[0], p0[1], map.source_name
+                )));
+            }
+        };
+        let route = shortest_route(map, f, q, to).map_err(infeasible)?;
+        let mut pts = vec![p0];
+        pts.extend_from_slice(&route.points);
+        (pts, d)
+    } else {
+        (
+            shortest_route(map, f, p0, to).map_err(infeasible)?.points,
+            0.0,
+        )
+    };
+    // The goal at the lead-in's end: the route from there is that one point twice.
+    pts.dedup_by(|b, a| (b[0] - a[0]).hypot(b[1] - a[1]) <= 1e-9);
+    let length = pts
+        .windows(2)
+        .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
+        .sum();
+    let route = Route {
+        points: pts,
+        length,
+    };
+    let smoothed = smooth(map, &route, f)?;
+    Ok((GoalPath { route, smoothed }, lead_in))
 }
