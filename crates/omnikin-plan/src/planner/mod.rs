@@ -55,8 +55,9 @@
 //!      (the wheel-rate cap `v_max(s) = max_rate / max_i |∂w_i/∂v(s)|`, with `|A_i|` raised by
 //!      its estimated bulge between nodes). The backward pass finds, from rest at the end,
 //!      the largest `x_k` from which the end is still reachable (the largest start of the
-//!      cell's polygon whose end is reachable); the forward pass then accelerates from rest as
-//!      hard as the cell allows without leaving the reachable set. No step can get stuck, and
+//!      cell's polygon whose end is reachable); the forward pass then accelerates from rest
+//!      (or from a given start speed, [`plan_from_velocity`], which must be within the first
+//!      node's reachable value) as hard as the cell allows without leaving the reachable set. No step can get stuck, and
 //!      the joint limits of all motors are respected at every node. Jerk is not limited in
 //!      this mode.
 //! 4. **Sampling** at the requested rate: pose, world twist, motor rates from the core
