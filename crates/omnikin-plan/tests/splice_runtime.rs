@@ -345,3 +345,70 @@ fn a_splice_time_outside_the_running_plan_is_refused() {
         assert!(e.contains("is not inside the running plan"), "{e}");
     }
 }
+
+/// The points as the link carries them (f32) and back.
+fn f32_points(pts: &[PlanPoint<f64>]) -> Vec<PlanPoint<f64>> {
+    let r = |v: f64| f64::from(v as f32);
+    pts.iter()
+        .map(|p| PlanPoint {
+            t: r(p.t),
+            pose: Pose2::new(r(p.pose.x), r(p.pose.y), r(p.pose.heading)),
+            twist: omnikin::Twist2::new(r(p.twist.vx), r(p.twist.vy), r(p.twist.yaw_rate)),
+        })
+        .collect()
+}
+
+/// Splices at a tenth to nine tenths of the running plan (accelerating, cruising round the
+/// circle, braking), toward goals ahead, aside and behind, with every point rounded to f32 as
+/// on the wire (the operator re-plans from the rounded points the robot holds): each is
+/// accepted, followed to its end without a stop, and ends at its goal.
+#[test]
+fn splices_from_f32_points_at_any_time_are_accepted_and_followed() {
+    let (robot, map, opts, a) = setup();
+    let a = f32_points(&a);
+    let end_a = a.last().unwrap().t;
+    let mut rows = Vec::new();
+    for (frac, goal) in [
+        (0.1, [1.9, 1.6]),
+        (0.3, [2.2, -0.6]),
+        (0.5, [0.3, 1.0]),
+        (0.7, [1.9, 1.6]),
+        (0.9, [0.2, -0.5]),
+    ] {
+        let t_s = f64::from((frac * end_a) as f32);
+        let spliced = splice_to_goal(&a, t_s, goal, None, &map, 0.15, &robot, &opts)
+            .unwrap_or_else(|e| panic!("at {frac}: {e}"));
+        let b = f32_points(&points(&spliced.planned.plan));
+        let mut rig = Rig::new(&robot);
+        rig.upload(1, &a, false).unwrap();
+        rig.run_to(t_s - 0.3);
+        rig.upload(2, &b, true)
+            .unwrap_or_else(|e| panic!("at {frac}: {e:?}"));
+        rig.run_out();
+        let end = rig
+            .log
+            .iter()
+            .position(|s| s.mode != Mode::Trajectory)
+            .unwrap();
+        let end_b = b.last().unwrap().t;
+        assert!(
+            rig.log[end - 1].plan_time >= end_b - 2.0 * DT - 1e-9,
+            "at {frac}: left trajectory mode at {} (B ends at {end_b})",
+            rig.log[end - 1].plan_time
+        );
+        let last = rig.log.last().unwrap();
+        let miss = (last.pose.x - goal[0]).hypot(last.pose.y - goal[1]);
+        assert!(miss < 2e-3, "at {frac}: ends {miss} m from the goal");
+        let (_, tw) = plan_reference(&a, t_s).unwrap();
+        rows.push(format!(
+            "t_s {t_s:.3} s at {:.3} m/s: lead-in {:.4} m, replacement {:.3} s, end {miss:.1e} m \
+             from the goal",
+            tw.vx.hypot(tw.vy),
+            spliced.lead_in,
+            end_b - t_s
+        ));
+    }
+    for r in rows {
+        println!("{r}");
+    }
+}
