@@ -9,11 +9,14 @@
 //!    the robot follows (the uploaded, decimated ones).
 //! 2. **The path** leaves the start along the velocity `û = v/|v|`: a straight lead-in to
 //!    `q = p + d û` with `d = 1.25 v²/(2 a)` (`a` the requested acceleration: a little more than
-//!    the distance in which the robot can brake, so even a reversal at `q` is reachable), halved while the lead-in is
-//!    not clear of the map for the footprint, then the shortest collision-free route from `q` to
-//!    the goal ([`super::map::route::shortest_route`]), the whole polyline rounded by
+//!    the braking distance), halved while the lead-in is not clear of the map for the
+//!    footprint, then the shortest collision-free route from `q` to the goal
+//!    ([`super::map::route::shortest_route`]), the whole polyline rounded by
 //!    [`super::map::smooth::smooth`] (fillets, or stops where no fillet is clear). Its first
-//!    tangent is `û`.
+//!    tangent is `û`. A robot whose moves stop where a fillet meets a straight (set-point
+//!    steering, a swerve: its steer rates follow the curvature) must brake on the straight
+//!    before the first fillet, which the fillet at `q` shortens: for it the lead-in is
+//!    lengthened (while it stays clear, at most four times) until that straight is `d`.
 //! 3. **The heading** starts at `ψ` with `dψ/ds = ψ̇/|v|` (so `ψ̇ = ψ'(s) ṡ` matches): constant when
 //!    both `ψ̇` and the turn to the goal's heading are zero, otherwise a natural cubic spline
 //!    through `(0, ψ)`, `(L/2, ψ_m)`, `(L, ψ_goal)` whose middle value `ψ_m` is solved for the
@@ -137,7 +140,15 @@ pub fn splice_to_goal(
     let speed = vx.hypot(vy);
     let moving = speed > START_TOLERANCE;
     let velocity = if moving { start.velocity } else { [0.0, 0.0] };
-    let (way, lead_in) = moving_goal_path(map, f, start.position, velocity, to, limits.max_accel)?;
+    let (way, lead_in) = moving_goal_path(
+        map,
+        f,
+        start.position,
+        velocity,
+        to,
+        limits.max_accel,
+        robot,
+    )?;
     let smoothed = way.smoothed;
     let path = &smoothed.path;
     let h0 = start.heading;
@@ -203,7 +214,8 @@ pub fn start_heading(h0: f64, slope: f64, h1: f64, len: f64) -> Result<HeadingLa
 /// The path from `from` (world frame, m), where the robot moves at `velocity` (m/s), to `to`
 /// around the shapes of `map` for a footprint of radius `f` (m): a straight lead-in along the
 /// velocity, then the shortest route, rounded (module docs, step 2; `max_accel` (m/s²) sets
-/// the lead-in's length). At rest (`velocity` zero) it is the plain route from `from`. Returns
+/// the lead-in's length, lengthened past the first fillet for a `robot` with set-point
+/// steering). At rest (`velocity` zero) it is the plain route from `from`. Returns
 /// the path and the lead-in's length (m; 0 at rest). Its first tangent is the velocity's
 /// direction. The returned route is the polyline with the lead-in (start, lead-in's end,
 /// the route's corners, goal).
@@ -219,6 +231,7 @@ pub fn moving_goal_path(
     velocity: [f64; 2],
     to: [f64; 2],
     max_accel: f64,
+    robot: &RobotModel,
 ) -> Result<(GoalPath, f64), PlanningError> {
     let [vx, vy] = velocity;
     let speed = vx.hypot(vy);
@@ -229,37 +242,81 @@ pub fn moving_goal_path(
     }
     let infeasible = |e: crate::map::MapError| PlanningError::Infeasible(e.to_string());
     let p0 = from;
-    let (mut pts, lead_in) = if speed > 0.0 {
-        let u = [vx / speed, vy / speed];
-        let far = (to[0] - p0[0]).hypot(to[1] - p0[1]);
-        let mut d = (LEAD_IN_FACTOR * speed * speed / (2.0 * max_accel)).max(MIN_LEAD_IN);
-        if far > 2.0 * MIN_LEAD_IN {
-            d = d.min(far / 2.0);
+    if speed == 0.0 {
+        let route = shortest_route(map, f, p0, to).map_err(infeasible)?;
+        return Ok((path_of(map, f, route.points)?, 0.0));
+    }
+    let u = [vx / speed, vy / speed];
+    // The path with a lead-in of `lead` m, or `None` when the lead-in is not clear.
+    let with_lead = |lead: f64| -> Result<Option<GoalPath>, PlanningError> {
+        let q = [p0[0] + lead * u[0], p0[1] + lead * u[1]];
+        if !segment_clear(map, p0, q, f) {
+            return Ok(None);
         }
-        let q = loop {
-            let q = [p0[0] + d * u[0], p0[1] + d * u[1]];
-            if segment_clear(map, p0, q, f) {
-                break q;
-            }
-            d /= 2.0;
-            if d < MIN_LEAD_IN {
-                return Err(PlanningError::Infeasible(format!(
-                    "the motion ({vx:.4}, {vy:.4}) m/s at ({:.4}, {:.4}) heads into a shape of {} \
-                     within {MIN_LEAD_IN} m for a footprint of {f} m",
-                    p0[0], p0[1], map.source_name
-                )));
-            }
-        };
         let route = shortest_route(map, f, q, to).map_err(infeasible)?;
         let mut pts = vec![p0];
         pts.extend_from_slice(&route.points);
-        (pts, d)
-    } else {
-        (
-            shortest_route(map, f, p0, to).map_err(infeasible)?.points,
-            0.0,
-        )
+        path_of(map, f, pts).map(Some)
     };
+    let far = (to[0] - p0[0]).hypot(to[1] - p0[1]);
+    let mut d = (LEAD_IN_FACTOR * speed * speed / (2.0 * max_accel)).max(MIN_LEAD_IN);
+    if far > 2.0 * MIN_LEAD_IN {
+        d = d.min(far / 2.0);
+    }
+    let mut way = loop {
+        if let Some(way) = with_lead(d)? {
+            break way;
+        }
+        d /= 2.0;
+        if d < MIN_LEAD_IN {
+            return Err(PlanningError::Infeasible(format!(
+                "the motion ({vx:.4}, {vy:.4}) m/s at ({:.4}, {:.4}) heads into a shape of {} \
+                 within {MIN_LEAD_IN} m for a footprint of {f} m",
+                p0[0], p0[1], map.source_name
+            )));
+        }
+    };
+    // A robot that stops where a fillet meets a straight (a swerve) brakes on the straight
+    // before the first fillet, which the fillet at the lead-in's end shortens: lengthen the
+    // lead-in until that straight is `d`, while it stays clear.
+    let mut lead = d;
+    let rounds = if robot.model.kind().steer_is_set_point() {
+        LEAD_IN_ROUNDS
+    } else {
+        0
+    };
+    for _ in 0..rounds {
+        let straight = first_straight(&way.smoothed.path);
+        if straight >= d * (1.0 - 1e-9) {
+            break;
+        }
+        lead += d - straight;
+        match with_lead(lead)? {
+            Some(w) => way = w,
+            None => {
+                lead -= d - straight;
+                break;
+            }
+        }
+    }
+    Ok((way, lead))
+}
+
+/// Rounds of lengthening the lead-in ([`moving_goal_path`]).
+const LEAD_IN_ROUNDS: usize = 4;
+
+/// The length of `path`'s first straight piece, m (0 when it starts curving).
+fn first_straight(path: &crate::path::Path) -> f64 {
+    match path.joins().first() {
+        Some(j) if j.before.curvature == 0.0 => j.s,
+        Some(_) => 0.0,
+        None if path.at(0.0).curvature == 0.0 => path.length(),
+        None => 0.0,
+    }
+}
+
+/// The polyline `pts` (repeated points dropped) as a route, and smoothed.
+fn path_of(map: &Map, f: f64, mut pts: Vec<[f64; 2]>) -> Result<GoalPath, PlanningError> {
     // The goal at the lead-in's end: the route from there is that one point twice.
     pts.dedup_by(|b, a| (b[0] - a[0]).hypot(b[1] - a[1]) <= 1e-9);
     let length = pts
@@ -271,5 +328,5 @@ pub fn moving_goal_path(
         length,
     };
     let smoothed = smooth(map, &route, f)?;
-    Ok((GoalPath { route, smoothed }, lead_in))
+    Ok(GoalPath { route, smoothed })
 }

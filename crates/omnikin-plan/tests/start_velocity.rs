@@ -281,3 +281,45 @@ proptest! {
         prop_assert!(moving.plan.duration() <= rest.plan.duration() + 1e-9);
     }
 }
+
+/// A swerve stops where a fillet meets a straight, so a moving goal start must brake on the
+/// straight before the first fillet: `moving_goal_path` lengthens its lead-in for it (not for a
+/// kiwi, which passes the fillet's ends at speed), and the plan starts at the velocity. Before
+/// the lengthening this start was refused (0.168 m/s at most on a 0.028 m first move).
+#[test]
+fn a_swerve_goal_start_brakes_before_the_first_fillet() {
+    use omnikin_plan::map::Map;
+    use omnikin_plan::splice::{moving_goal_path, start_heading};
+    let map = Map::from_toml("[[keep_out]]\ncircle = [5.0, 5.0, 0.3]\n", "open.toml").unwrap();
+    let mut o = opts(0.5);
+    let Timing::TimeOptimal { limits } = &mut o.timing else {
+        unreachable!()
+    };
+    limits.max_accel = 0.5;
+    let (v, w) = ([0.2, 0.1], 0.05);
+    let speed = f64::hypot(v[0], v[1]);
+    let braking = 1.25 * speed * speed / (2.0 * 0.5);
+    for (name, lengthened) in [("swerve4", true), ("kiwi", false)] {
+        let r = robot(name);
+        let (way, lead) = moving_goal_path(&map, 0.5, [0.0, 0.0], v, [3.0, 1.0], 0.5, &r).unwrap();
+        let path = &way.smoothed.path;
+        assert_eq!(
+            lead > braking * (1.0 + 1e-9),
+            lengthened,
+            "{name}: lead-in {lead} m"
+        );
+        let law = start_heading(0.0, w / speed, 0.5, path.length()).unwrap();
+        let start = StartVelocity {
+            vx: v[0],
+            vy: v[1],
+            yaw_rate: Some(w),
+        };
+        let planned =
+            plan_from_velocity(path, &law, &r, &o, start).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let s0 = planned.plan.samples[0].twist;
+        assert!((s0.vx - v[0]).abs() <= START_TOLERANCE, "{name}");
+        assert!((s0.vy - v[1]).abs() <= START_TOLERANCE, "{name}");
+        assert!((s0.yaw_rate - w).abs() <= START_TOLERANCE, "{name}");
+        within_limits(&planned, &r).unwrap_or_else(|e| panic!("{name}: {e}"));
+    }
+}

@@ -65,9 +65,17 @@ pub(crate) fn goal(
     };
     let speed = start.speed();
     let way = if speed > 0.0 {
-        moving_goal_path(&map, f, from, [start.vx, start.vy], to, limits.max_accel)
-            .map_err(|e| value_error(e.to_string()))?
-            .0
+        moving_goal_path(
+            &map,
+            f,
+            from,
+            [start.vx, start.vy],
+            to,
+            limits.max_accel,
+            robot,
+        )
+        .map_err(|e| value_error(e.to_string()))?
+        .0
     } else {
         goal_path(&map, f, from, to).map_err(|e| value_error(e.to_string()))?
     };

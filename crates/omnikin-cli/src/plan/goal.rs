@@ -63,7 +63,15 @@ pub(super) fn goal(a: &GoalArgs) -> Result<()> {
     let speed = start.speed();
     // Moving: a lead-in along the velocity, then the route; at rest the route from the start.
     let (way, lead_in) = if speed > 0.0 {
-        moving_goal_path(&map, f, from, [start.vx, start.vy], to, limits.max_accel)?
+        moving_goal_path(
+            &map,
+            f,
+            from,
+            [start.vx, start.vy],
+            to,
+            limits.max_accel,
+            &robot,
+        )?
     } else {
         (goal_path(&map, f, from, to)?, 0.0)
     };
