@@ -235,3 +235,90 @@ fn waypoints_through_an_obstacle_are_refused_or_repaired_with_map() {
             .any(|s| clearance([s.pose.x, s.pose.y]) < 0.0)
     );
 }
+
+/// `--start-velocity`: the goal plan leaves the start at the given velocity and yaw rate (its
+/// first sample within 1e-9), stays clear of every shape, ends at the goal at rest, and is
+/// faster than from rest; a start beyond the max speed is refused naming it and the excess;
+/// `plan waypoints` takes it with `--time-optimal` only.
+#[test]
+fn a_goal_plan_can_start_moving() {
+    let common = [
+        "plan",
+        "goal",
+        "--robot",
+        "kiwi",
+        "--map",
+        MAP,
+        "--from",
+        "0.5,0.5",
+        "--to",
+        "9.5,9.5,1.5",
+        "--footprint-radius",
+        "0.3",
+        "--max-speed",
+        "0.3",
+    ];
+    let (ok, out, err) = run(&[&common[..], &["--start-velocity", "0.2,0.1,0.05"]].concat());
+    assert!(ok, "{err}");
+    assert!(err.contains("from (0.2, 0.1) m/s, a lead-in of"), "{err}");
+    let plan = Plan::read_csv(&out[..], "stdout").unwrap();
+    let s0 = plan.samples[0];
+    assert!((s0.twist.vx - 0.2).abs() < 1e-9, "{:?}", s0.twist);
+    assert!((s0.twist.vy - 0.1).abs() < 1e-9, "{:?}", s0.twist);
+    assert!((s0.twist.yaw_rate - 0.05).abs() < 1e-9, "{:?}", s0.twist);
+    for s in &plan.samples {
+        let c = clearance([s.pose.x, s.pose.y]);
+        assert!(c >= 0.3 * (1.0 - 1e-9), "t = {} s: {c} m from a shape", s.t);
+    }
+    let last = plan.samples.last().unwrap();
+    assert!((last.pose.x - 9.5).abs() < 1e-6 && (last.pose.y - 9.5).abs() < 1e-6);
+    assert!((last.pose.heading - 1.5).abs() < 1e-6);
+    assert!(last.twist.vx.hypot(last.twist.vy) < 1e-9);
+    let (ok, rest, err) = run(&common);
+    assert!(ok, "{err}");
+    let rest = Plan::read_csv(&rest[..], "stdout").unwrap();
+    assert!(
+        plan.duration() < rest.duration(),
+        "{} s moving, {} s from rest",
+        plan.duration(),
+        rest.duration()
+    );
+    let (ok, _, err) = run(&[&common[..], &["--start-velocity", "0.4,0"]].concat());
+    assert!(!ok);
+    assert!(
+        err.contains("start speed 0.400000 m/s is above the 0.300000 m/s that max speed allows")
+            && err.contains("by 33.333 %"),
+        "{err}"
+    );
+    let (ok, _, err) = run(&[&common[..], &["--start-velocity", "0.4"]].concat());
+    assert!(!ok && err.contains("expected VX,VY or VX,VY,W"), "{err}");
+    // Waypoints: along the first leg; without --time-optimal refused by the argument parser.
+    let dir = test_dir::TestDir::file("plan-goal-start", "wp.csv");
+    std::fs::write(dir.path(), "x,y\n0,0\n1,0\n1.5,0.8\n").unwrap();
+    let wp = dir.path().to_str().unwrap();
+    let args = [
+        "plan",
+        "waypoints",
+        wp,
+        "--robot",
+        "kiwi",
+        "--corners",
+        "fillet",
+        "--fillet-radius",
+        "0.3",
+        "--max-speed",
+        "1",
+        "--start-velocity",
+        "0.5,0",
+    ];
+    let (ok, _, err) = run(&args);
+    assert!(!ok && err.contains("--time-optimal"), "{err}");
+    let (ok, out, err) = run(&[&args[..], &["--time-optimal"]].concat());
+    assert!(ok, "{err}");
+    assert!(err.contains("starts moving (--start-velocity)"), "{err}");
+    assert!(!err.contains("Sphere paper"), "{err}");
+    let plan = Plan::read_csv(&out[..], "stdout").unwrap();
+    assert!((plan.samples[0].twist.vx - 0.5).abs() < 1e-9);
+    let (ok, _, err) = run(&[&args[..12], &["0.5,0.1", "--time-optimal"]].concat());
+    assert!(!ok && err.contains("off the path's first tangent"), "{err}");
+}

@@ -15,6 +15,7 @@
 //! | [`generators`] | paper 000's experiments: the square (eq. 6.1) and the circle (eq. 6.3) |
 //! | [`map`] | maps (keep-out circles and polygons, keep-in polygon), the footprint, the shortest collision-free route and its smoothing |
 //! | [`limits`] | the stated limits: most samples, grid cells and waypoints, and the plausible range of every physical parameter |
+//! | [`splice`] | re-planning on the move: a plan from a running plan's reference at a splice time to a new goal, which the runtime takes over without a stop |
 //! | [`steer_steps`] | a plan's steer-angle steps that its steer rates do not explain (a re-steer at rest between two samples) |
 //! | [`tilt`] | a sphere's quasi-static platform tilt along a plan, and slowing the moves that exceed a limit |
 //! | [`waypoints`] | waypoint files (CSV or TOML) with `file:line` errors |
@@ -50,6 +51,7 @@ pub mod path;
 pub mod planner;
 pub mod profile;
 pub mod robot;
+pub mod splice;
 pub mod steer_steps;
 pub mod tilt;
 pub mod waypoints;

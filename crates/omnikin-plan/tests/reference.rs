@@ -79,6 +79,20 @@ fn reference_duration(
     v_user: f64,
     a_user: f64,
 ) -> f64 {
+    reference_from(robot, path, law, v_user, a_user, Some(0.0)).0
+}
+
+/// [`reference_duration`] from the start speed `x0 = ṡ²` (m²/s²) to rest: the duration, and
+/// the largest start `x` from which the end is reachable (the backward pass's first node when
+/// `x0` is `None`, which then also starts the forward pass).
+fn reference_from(
+    robot: &RobotModel,
+    path: &Path,
+    law: &HeadingLaw,
+    v_user: f64,
+    a_user: f64,
+    x0: Option<f64>,
+) -> (f64, f64) {
     let len = path.length();
     let n = (len / H).ceil() as usize;
     let h = len / n as f64;
@@ -117,7 +131,9 @@ fn reference_duration(
             lo
         })
         .collect();
-    x[0] = 0.0;
+    if let Some(x0) = x0 {
+        x[0] = x0;
+    }
     x[n] = 0.0;
     // Forward: accelerate as hard as the start node of each step allows.
     for i in 0..n {
@@ -129,9 +145,10 @@ fn reference_duration(
         let (lo, _) = accel_range(&a[i + 1], &b[i + 1], x[i + 1], a_user, accel);
         x[i] = x[i].min(x[i + 1] - 2.0 * h * lo.min(0.0));
     }
-    (0..n)
+    let duration = (0..n)
         .map(|i| 2.0 * (s[i + 1] - s[i]) / (x[i].sqrt() + x[i + 1].sqrt()))
-        .sum()
+        .sum();
+    (duration, x[0])
 }
 
 /// Waypoints as a random walk: steps of 0.4–1.2 m, turning at most 90° each time.
@@ -241,6 +258,97 @@ fn time_optimal_durations_are_within_one_percent_of_the_reference() {
         100.0 * median,
         100.0 * worst
     );
+    assert!(
+        worst.abs() <= 0.01,
+        "worst {:+.3} %: {worst_what}",
+        100.0 * worst
+    );
+}
+
+/// A plan that starts moving ([`plan_from_velocity`]) against the reference from the same
+/// start speed: random start speeds between 5 % and 95 % of the largest start from which the
+/// reference can still stop at the end, along the path's first tangent. Each plan's first
+/// sample moves at the given velocity (within 1e-9), every motor limit holds at the samples,
+/// the plan is no slower than the same path from rest, and its duration is within 1 % of the
+/// reference's.
+#[test]
+fn moving_starts_are_within_one_percent_of_the_reference() {
+    use omnikin_plan::planner::{START_TOLERANCE, StartVelocity, plan_from_velocity, plan_peaks};
+    let mut rng = Rng(0xD1B5_4A32_D192_ED03);
+    let robots = ["kiwi", "x-drive", "mecanum", "sphere-omni", "ballbot"];
+    let mut rows: Vec<(f64, String)> = Vec::new();
+    while rows.len() < 24 {
+        let pts = waypoints(&mut rng);
+        let Ok(path) = Path::spline(&pts) else {
+            continue;
+        };
+        let law = match (rng.next() * 3.0) as usize {
+            0 => HeadingLaw::Constant(rng.range(-3.0, 3.0)),
+            1 => HeadingLaw::Tangent {
+                offset: rng.range(-1.0, 1.0),
+            },
+            _ => HeadingLaw::Profile(
+                HeadingProfile::new(&[(0.0, 0.0), (path.length(), rng.range(-6.0, 6.0))]).unwrap(),
+            ),
+        };
+        let name = robots[(rng.next() * robots.len() as f64) as usize];
+        let robot = RobotModel::from_description(&RobotDescription::preset(name).unwrap()).unwrap();
+        let (v, a) = (rng.range(0.3, 3.0), rng.range(0.5, 6.0));
+        let opts = PlanOptions {
+            timing: Timing::TimeOptimal {
+                limits: MotionLimits {
+                    max_speed: v,
+                    max_accel: a,
+                    ..MotionLimits::default()
+                },
+            },
+            on_limit: OnLimit::Retime,
+            rate: 100.0,
+            initial_steer: InitialSteer::Aligned,
+        };
+        let (_, x_max) = reference_from(&robot, &path, &law, v, a, None);
+        let v0 = rng.range(0.05, 0.95) * x_max.sqrt();
+        let t = path.at(0.0).tangent;
+        let start = StartVelocity {
+            vx: v0 * t[0],
+            vy: v0 * t[1],
+            yaw_rate: None,
+        };
+        let what = format!(
+            "spline {} waypoints, {law:?}, {name}, {v:.2} m/s, {a:.2} m/s², from {v0:.4} m/s \
+             (largest {:.4})",
+            pts.len(),
+            x_max.sqrt()
+        );
+        let planned = plan_from_velocity(&path, &law, &robot, &opts, start)
+            .unwrap_or_else(|e| panic!("{what}: {e}"));
+        let first = planned.plan.samples[0].twist;
+        assert!(
+            (first.vx - start.vx).abs() <= START_TOLERANCE
+                && (first.vy - start.vy).abs() <= START_TOLERANCE,
+            "{what}: first sample {first:?}"
+        );
+        for p in plan_peaks(&planned.plan, &robot) {
+            if let Some(l) = p.limit {
+                assert!(p.value <= l * (1.0 + 1e-9), "{what}: {p:?}");
+            }
+        }
+        let got = planned.plan.duration();
+        let rest = plan(&path, &law, &robot, &opts).unwrap().plan.duration();
+        assert!(got <= rest + 1e-9, "{what}: {got} s, from rest {rest} s");
+        let want = reference_from(&robot, &path, &law, v, a, Some(v0 * v0)).0;
+        rows.push((
+            got / want - 1.0,
+            format!("{what}: {got:.4} s vs reference {want:.4} s (from rest {rest:.4} s)"),
+        ));
+    }
+    let (worst, worst_what) = rows
+        .iter()
+        .max_by(|p, q| p.0.abs().total_cmp(&q.0.abs()))
+        .unwrap();
+    for (r, what) in &rows {
+        println!("{:+.3} %  {what}", 100.0 * r);
+    }
     assert!(
         worst.abs() <= 0.01,
         "worst {:+.3} %: {worst_what}",

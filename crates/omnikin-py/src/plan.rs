@@ -1,15 +1,17 @@
 //! `omnikin.plan(robot, "square" | "circle" | "waypoints" | "goal", **options)` (goal in
 //! [`crate::plan_goal`]): the requests of
 //! `omnikin plan` (crates/omnikin-cli/src/plan/request.rs) with the same options, defaults and
-//! checks, planned by [`omnikin_plan::planner::plan`] without the GIL; the plan comes back as
-//! its CSV columns.
+//! checks, planned by [`omnikin_plan::planner::plan_from_velocity`] (from rest unless
+//! `start_velocity` is given) without the GIL; the plan comes back as its CSV columns.
 
 use numpy::ndarray::Array2;
 use numpy::prelude::IntoPyArray;
 use omnikin_plan::generators::{Circle, Square};
 use omnikin_plan::heading::{HeadingLaw, HeadingProfile};
 use omnikin_plan::path::{Corners, Path};
-use omnikin_plan::planner::{MotionLimits, OnLimit, PlanOptions, Timing, plan};
+use omnikin_plan::planner::{
+    MotionLimits, OnLimit, PlanOptions, StartVelocity, Timing, plan_from_velocity,
+};
 use omnikin_plan::profile::ProfileKind;
 use omnikin_plan::steer_steps::{MAX_UNEXPLAINED_STEER_STEP, unexplained_steer_step};
 use omnikin_plan::waypoints::Waypoints;
@@ -245,6 +247,29 @@ fn waypoints(o: &mut Options, d: &PyRobot, robot: &RobotModel) -> PyResult<Reque
     Ok((path, heading, opts, ctx))
 }
 
+/// `start_velocity = [vx, vy]` or `[vx, vy, yaw_rate]` (world frame, m/s, rad/s; the CLI's
+/// `--start-velocity`): the plan starts moving; at rest when not given.
+fn start_velocity(o: &mut Options) -> PyResult<StartVelocity> {
+    match o.list("start_velocity")?.as_deref() {
+        None => Ok(StartVelocity::REST),
+        Some(&[vx, vy]) => Ok(StartVelocity {
+            vx,
+            vy,
+            yaw_rate: None,
+        }),
+        Some(&[vx, vy, w]) => Ok(StartVelocity {
+            vx,
+            vy,
+            yaw_rate: Some(w),
+        }),
+        Some(v) => Err(value_error(format!(
+            "start_velocity: expected [vx, vy] or [vx, vy, yaw_rate] (m/s, m/s, rad/s; world \
+             frame), got {} values",
+            v.len()
+        ))),
+    }
+}
+
 /// The plan's columns (its CSV header) and values, one row per column (`(columns, samples)`).
 pub fn columns<'py>(py: Python<'py>, p: &Plan) -> PyResult<(Vec<String>, Bound<'py, PyAny>)> {
     let cols = p.columns();
@@ -290,11 +315,16 @@ pub fn plan_columns<'py>(
     let model =
         RobotModel::from_description(&robot.desc).map_err(|e| planning_error(e, String::new))?;
     let mut o = Options::new(options);
+    // Only the waypoint and goal plans start moving (an unread option is refused below).
+    let start = match kind {
+        "waypoints" | "goal" => start_velocity(&mut o)?,
+        _ => StartVelocity::REST,
+    };
     let (path, heading, opts, ctx) = match kind {
         "square" => square(&mut o, robot, &model)?,
         "circle" => circle(&mut o, robot, &model)?,
         "waypoints" => waypoints(&mut o, robot, &model)?,
-        "goal" => crate::plan_goal::goal(&mut o, robot, &model)?,
+        "goal" => crate::plan_goal::goal(&mut o, robot, &model, start)?,
         k => {
             return Err(value_error(format!(
                 "kind {k:?}: plan square, circle, waypoints or goal"
@@ -303,7 +333,7 @@ pub fn plan_columns<'py>(
     };
     o.finish(&format!("plan {kind}"))?;
     let planned = py
-        .detach(|| plan(&path, &heading, &model, &opts))
+        .detach(|| plan_from_velocity(&path, &heading, &model, &opts, start))
         .map_err(|e| planning_error(e, || ctx))?;
     // As `omnikin plan` (crates/omnikin-cli/src/plan/write.rs): a steer step the plan's
     // steer rates do not explain is a warning (omnikin.simulate may refuse the plan).

@@ -5,7 +5,8 @@ use omnikin_plan::RobotModel;
 use omnikin_plan::map::Map;
 use omnikin_plan::map::footprint::checked_footprint;
 use omnikin_plan::map::goal::{goal_heading, goal_path};
-use omnikin_plan::planner::{MotionLimits, OnLimit, PlanOptions, Timing};
+use omnikin_plan::planner::{MotionLimits, OnLimit, PlanOptions, StartVelocity, Timing};
+use omnikin_plan::splice::{moving_goal_path, start_heading};
 use pyo3::prelude::*;
 
 use crate::arrays::value_error;
@@ -31,7 +32,14 @@ fn pose(o: &mut Options, name: &'static str) -> PyResult<([f64; 2], Option<f64>)
 /// The goal request: map file, start and goal poses, footprint radius (default the robot
 /// file's `footprint_radius`, else from its geometry, as the CLI), the motion limits and the
 /// rate.
-pub(crate) fn goal(o: &mut Options, d: &PyRobot, robot: &RobotModel) -> PyResult<Request> {
+/// With a `start` velocity the path leaves the start along it and the heading starts at its
+/// yaw rate, as `plan goal --start-velocity`.
+pub(crate) fn goal(
+    o: &mut Options,
+    d: &PyRobot,
+    robot: &RobotModel,
+    start: StartVelocity,
+) -> PyResult<Request> {
     let Some(file) = o.opt_str("map")? else {
         return Err(value_error(
             "goal needs map (a MAP.toml path: [[keep_out]] circle/polygon tables, optional \
@@ -48,9 +56,6 @@ pub(crate) fn goal(o: &mut Options, d: &PyRobot, robot: &RobotModel) -> PyResult
     )
     .map_err(|e| value_error(e.to_string()))?
     .0;
-    let way = goal_path(&map, f, from, to).map_err(|e| value_error(e.to_string()))?;
-    let path = way.smoothed.path;
-    let heading = goal_heading(h0, h1, path.length()).map_err(|e| value_error(e.to_string()))?;
     let limits = MotionLimits {
         max_speed: o.positive("max_speed", 0.2)?,
         max_accel: o.positive("max_accel", 0.5)?,
@@ -58,6 +63,33 @@ pub(crate) fn goal(o: &mut Options, d: &PyRobot, robot: &RobotModel) -> PyResult
         max_yaw_accel: o.positive("max_yaw_accel", 2.0)?,
         ..MotionLimits::default()
     };
+    let speed = start.speed();
+    let way = if speed > 0.0 {
+        moving_goal_path(
+            &map,
+            f,
+            from,
+            [start.vx, start.vy],
+            to,
+            limits.max_accel,
+            robot,
+        )
+        .map_err(|e| value_error(e.to_string()))?
+        .0
+    } else {
+        goal_path(&map, f, from, to).map_err(|e| value_error(e.to_string()))?
+    };
+    let path = way.smoothed.path;
+    let heading = match start.yaw_rate {
+        Some(w) if speed > 0.0 => start_heading(
+            h0.unwrap_or(0.0),
+            w / speed,
+            h1.or(h0).unwrap_or(0.0),
+            path.length(),
+        ),
+        _ => goal_heading(h0, h1, path.length()),
+    }
+    .map_err(|e| value_error(e.to_string()))?;
     let opts = PlanOptions {
         timing: Timing::TimeOptimal { limits },
         on_limit: OnLimit::Retime,

@@ -179,3 +179,32 @@ def test_goal_errors_name_the_map_line():
                      goal=[4.65, 8.17])
     with pytest.raises(ValueError, match="start: expected"):
         omnikin.plan("sphere-omni", "goal", map=str(ROOT / MAP), start=[0.5], goal=[1, 1])
+
+
+def test_start_velocity_matches_cli(cli, tmp_path):
+    # A plan that starts moving: the same as `--start-velocity`, its first sample at the given
+    # velocity; the goal plan leaves the start along it.
+    wp = tmp_path / "wp.csv"
+    wp.write_text("x,y\n0,0\n1,0\n1.5,0.8\n")
+    got = omnikin.plan("kiwi", "waypoints", file=str(wp), corners="fillet", fillet_radius=0.3,
+                       time_optimal=True, max_speed=1.0, start_velocity=[0.5, 0.0])
+    f = tmp_path / "plan.csv"
+    cli.run("plan", "waypoints", wp, "--robot", "kiwi", "--corners", "fillet",
+            "--fillet-radius", "0.3", "--time-optimal", "--max-speed", "1",
+            "--start-velocity", "0.5,0", "--out", f)
+    assert_table(got, read_csv(f))
+    assert abs(got["vx"][0] - 0.5) < 1e-9 and abs(got["vy"][0]) < 1e-9
+    options = {"map": str(ROOT / MAP), "start": [0.5, 0.5], "goal": [9.5, 9.5, 1.5],
+               "footprint_radius": 0.2, "max_speed": 0.3, "start_velocity": [0.2, 0.1, 0.05]}
+    got = omnikin.plan("kiwi", "goal", **options)
+    g = tmp_path / "goal.csv"
+    cli.run("plan", "goal", "--robot", "kiwi", "--map", MAP, "--from", "0.5,0.5",
+            "--to", "9.5,9.5,1.5", "--footprint-radius", "0.2", "--max-speed", "0.3",
+            "--start-velocity", "0.2,0.1,0.05", "--out", g)
+    assert_table(got, read_csv(g))
+    for col, want in (("vx", 0.2), ("vy", 0.1), ("yaw_rate", 0.05)):
+        assert abs(got[col][0] - want) < 1e-9, (col, got[col][0])
+    with pytest.raises(ValueError, match="above the 0.300000 m/s that max speed allows"):
+        omnikin.plan("kiwi", "goal", **{**options, "start_velocity": [0.4, 0.0]})
+    with pytest.raises(ValueError, match="unknown|start_velocity"):
+        omnikin.plan("kiwi", "square", start_velocity=[0.1, 0.0])

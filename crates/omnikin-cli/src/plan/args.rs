@@ -239,6 +239,17 @@ pub struct WaypointArgs {
     /// Footprint radius for --map, m [default: the robot file's geometry, see `plan goal`].
     #[arg(long, allow_hyphen_values = true, value_parser = positive, requires = "map")]
     pub footprint_radius: Option<f64>,
+    /// Start moving: world-frame velocity VX,VY (m/s) along the path's first tangent, and
+    /// optionally the yaw rate W (rad/s), which must be the heading law's at that speed. The
+    /// time-optimal timing starts at this speed instead of rest.
+    #[arg(
+        long,
+        allow_hyphen_values = true,
+        value_name = "VX,VY[,W]",
+        requires = "time_optimal",
+        conflicts_with = "max_tilt"
+    )]
+    pub start_velocity: Option<List>,
     #[command(flatten)]
     pub common: Common,
 }
@@ -275,6 +286,17 @@ pub struct GoalArgs {
     /// Max yaw acceleration, rad/s² [default: 2, or the robot's body limit if lower].
     #[arg(long, allow_hyphen_values = true, value_parser = positive)]
     pub max_yaw_accel: Option<f64>,
+    /// Start moving: world-frame velocity VX,VY (m/s) and optionally the yaw rate W (rad/s).
+    /// The path leaves the start along the velocity (a straight lead-in, then the shortest
+    /// route), the heading starts turning at W (default: the heading law's own rate), and the
+    /// time-optimal timing starts at this speed instead of rest.
+    #[arg(
+        long,
+        allow_hyphen_values = true,
+        value_name = "VX,VY[,W]",
+        conflicts_with = "max_tilt"
+    )]
+    pub start_velocity: Option<List>,
     #[command(flatten)]
     pub common: Common,
 }

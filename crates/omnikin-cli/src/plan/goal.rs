@@ -10,7 +10,8 @@ use omnikin_plan::map::goal::{goal_heading, goal_path};
 use omnikin_plan::map::route::shortest_route;
 use omnikin_plan::map::smooth::smooth;
 use omnikin_plan::path::Path;
-use omnikin_plan::planner::{OnLimit, PlanOptions, Timing, plan};
+use omnikin_plan::planner::{OnLimit, PlanOptions, Timing, plan_from_velocity};
+use omnikin_plan::splice::{moving_goal_path, start_heading};
 use omnikin_plan::waypoints::Waypoints;
 
 use super::args::{GoalArgs, HeadingArg, WaypointArgs};
@@ -50,9 +51,6 @@ pub(super) fn goal(a: &GoalArgs) -> Result<()> {
     let (from, h0) = pose(&a.from, "--from")?;
     let (to, h1) = pose(&a.to, "--to")?;
     let (f, source) = footprint(a.footprint_radius, &d)?;
-    let way = goal_path(&map, f, from, to)?;
-    let path = &way.smoothed.path;
-    let heading = goal_heading(h0, h1, path.length())?;
     let limits = motion_limits(
         &d,
         a.max_speed,
@@ -61,6 +59,33 @@ pub(super) fn goal(a: &GoalArgs) -> Result<()> {
         a.max_yaw_rate,
         a.max_yaw_accel,
     )?;
+    let start = super::setup::start_velocity(a.start_velocity.as_ref())?;
+    let speed = start.speed();
+    // Moving: a lead-in along the velocity, then the route; at rest the route from the start.
+    let (way, lead_in) = if speed > 0.0 {
+        moving_goal_path(
+            &map,
+            f,
+            from,
+            [start.vx, start.vy],
+            to,
+            limits.max_accel,
+            &robot,
+        )?
+    } else {
+        (goal_path(&map, f, from, to)?, 0.0)
+    };
+    let path = &way.smoothed.path;
+    let heading = match start.yaw_rate {
+        // The heading starts turning at the given yaw rate (dψ/ds = W / speed).
+        Some(w) if speed > 0.0 => start_heading(
+            h0.unwrap_or(0.0),
+            w / speed,
+            h1.or(h0).unwrap_or(0.0),
+            path.length(),
+        )?,
+        _ => goal_heading(h0, h1, path.length())?,
+    };
     let mut opts = PlanOptions {
         timing: Timing::TimeOptimal { limits },
         on_limit: OnLimit::Retime,
@@ -89,9 +114,27 @@ pub(super) fn goal(a: &GoalArgs) -> Result<()> {
         a.max_speed,
         limits.max_accel
     );
+    let what = if speed > 0.0 {
+        format!(
+            "{what}; from ({}, {}) m/s, a lead-in of {lead_in:.4} m along it",
+            num(start.vx),
+            num(start.vy)
+        )
+    } else {
+        what
+    };
     let lean = super::lean::apply(&d, &mut opts);
-    let planned = plan(path, &heading, &robot, &opts)?;
-    finish_leaning(&a.common, &d, &robot, &what, &planned, lean, Some(&map))
+    let planned = plan_from_velocity(path, &heading, &robot, &opts, start)?;
+    finish_leaning(
+        &a.common,
+        &d,
+        &robot,
+        &what,
+        &planned,
+        lean,
+        Some(&map),
+        speed > 0.0,
+    )
 }
 
 /// `plan waypoints --map`: `Ok((path, map, repair))` when the path keeps the footprint clear of every

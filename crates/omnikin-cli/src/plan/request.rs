@@ -7,7 +7,9 @@ use omnikin_plan::PlanningError;
 use omnikin_plan::generators::{Circle, Square};
 use omnikin_plan::heading::{HeadingLaw, HeadingProfile};
 use omnikin_plan::path::{Corners, Path};
-use omnikin_plan::planner::{OnLimit, PlanOptions, Timing, plan};
+use omnikin_plan::planner::{
+    OnLimit, PlanOptions, StartVelocity, Timing, plan, plan_from_velocity,
+};
 use omnikin_plan::waypoints::Waypoints;
 
 use super::args::{
@@ -43,7 +45,7 @@ pub(super) fn square(a: &SquareArgs) -> Result<()> {
             format!("square at {} m/s is too fast for {}", a.speed, d.name)
         })
     })?;
-    finish_leaning(&a.common, &d, &robot, &what, &planned, lean, None)
+    finish_leaning(&a.common, &d, &robot, &what, &planned, lean, None, false)
 }
 
 pub(super) fn circle(a: &CircleArgs) -> Result<()> {
@@ -82,7 +84,7 @@ pub(super) fn circle(a: &CircleArgs) -> Result<()> {
             )
         })
     })?;
-    finish_leaning(&a.common, &d, &robot, &what, &planned, lean, None)
+    finish_leaning(&a.common, &d, &robot, &what, &planned, lean, None, false)
 }
 
 pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
@@ -161,13 +163,41 @@ pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
             )
         }
     );
+    let start = super::setup::start_velocity(a.start_velocity.as_ref())?;
+    let what = if start == StartVelocity::REST {
+        what
+    } else {
+        format!(
+            "{what}, from ({}, {}) m/s",
+            crate::args::num(start.vx),
+            crate::args::num(start.vy)
+        )
+    };
     let lean = super::lean::apply(&d, &mut opts);
-    let planned = plan(&path, &heading, &robot, &opts).map_err(|e| {
+    let planned = plan_from_velocity(&path, &heading, &robot, &opts, start).map_err(|e| {
         too_fast(e, || {
-            format!("{file}: the requested timing is too fast for {}", d.name)
+            if start == StartVelocity::REST {
+                format!("{file}: the requested timing is too fast for {}", d.name)
+            } else {
+                format!(
+                    "{file}: {} cannot start this plan at --start-velocity {},{}",
+                    d.name,
+                    crate::args::num(start.vx),
+                    crate::args::num(start.vy)
+                )
+            }
         })
     })?;
-    finish_leaning(&a.common, &d, &robot, &what, &planned, lean, map.as_ref())
+    finish_leaning(
+        &a.common,
+        &d,
+        &robot,
+        &what,
+        &planned,
+        lean,
+        map.as_ref(),
+        start != StartVelocity::REST,
+    )
 }
 
 /// A waypoint heading beyond ±2π is valid (the planner turns that far) but is far more often

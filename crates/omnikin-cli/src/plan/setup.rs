@@ -69,7 +69,9 @@ pub(super) fn motion_limits(
     })
 }
 
-/// [`finish`](super::write::finish), then a ballbot's lean-limit line.
+/// [`finish`](super::write::finish), then a ballbot's lean-limit line. `start_velocity`: the
+/// plan starts moving because `--start-velocity` asked it to.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn finish_leaning(
     c: &Common,
     d: &RobotDescription,
@@ -78,8 +80,9 @@ pub(super) fn finish_leaning(
     planned: &omnikin_plan::planner::Planned,
     lean: Option<super::lean::LeanLimit>,
     map: Option<&omnikin_plan::map::Map>,
+    start_velocity: bool,
 ) -> Result<()> {
-    finish(c, d, robot, what, planned, map)?;
+    finish(c, d, robot, what, planned, map, start_velocity)?;
     if let Some(l) = &lean {
         super::lean::report(l, &planned.plan);
     }
@@ -121,5 +124,30 @@ pub(super) fn initial_steer(c: &Common, robot: &RobotModel) -> Result<InitialSte
             Ok(InitialSteer::Given(omnikin_plan::per_wheel(g)))
         }
         None => Ok(InitialSteer::Aligned),
+    }
+}
+
+/// `--start-velocity VX,VY[,W]` (world frame, m/s, m/s, rad/s; conventions.md): at rest when
+/// not given.
+pub(super) fn start_velocity(
+    l: Option<&crate::args::List>,
+) -> Result<omnikin_plan::planner::StartVelocity> {
+    use omnikin_plan::planner::StartVelocity;
+    match l.map(|l| l.0.as_slice()) {
+        None => Ok(StartVelocity::REST),
+        Some(&[vx, vy]) => Ok(StartVelocity {
+            vx,
+            vy,
+            yaw_rate: None,
+        }),
+        Some(&[vx, vy, w]) => Ok(StartVelocity {
+            vx,
+            vy,
+            yaw_rate: Some(w),
+        }),
+        Some(v) => bail!(
+            "--start-velocity: expected VX,VY or VX,VY,W (m/s, m/s, rad/s; world frame), got {} values",
+            v.len()
+        ),
     }
 }

@@ -20,6 +20,7 @@ pub(super) fn finish(
     what: &str,
     planned: &Planned,
     map: Option<&omnikin_plan::map::Map>,
+    start_velocity: bool,
 ) -> Result<()> {
     let (slowed, tilt_lines) = super::tilt::apply(d, c.max_tilt, planned)?;
     let planned = slowed.as_ref().unwrap_or(planned);
@@ -40,7 +41,7 @@ pub(super) fn finish(
         let title = format!("{} — {}", d.name, what.split(':').next().unwrap_or(what));
         plan_figure("--plot", svg, &title, plan, robot, map)?;
     }
-    summary(c, d, robot, what, planned);
+    summary(c, d, robot, what, planned, start_velocity);
     for line in tilt_lines {
         crate::errln!("{line}");
     }
@@ -69,7 +70,14 @@ fn write_plan<W: Write>(plan: &Plan, format: Format, mut out: W) -> Result<()> {
     Ok(())
 }
 
-fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, planned: &Planned) {
+fn summary(
+    c: &Common,
+    d: &RobotDescription,
+    robot: &RobotModel,
+    what: &str,
+    planned: &Planned,
+    start_velocity: bool,
+) {
     let r = &planned.report;
     let n = planned.plan.samples.len();
     crate::errln!("plan: {what}");
@@ -193,10 +201,17 @@ fn summary(c: &Common, d: &RobotDescription, robot: &RobotModel, what: &str, pla
     if r.starts_moving
         && let Some(s) = planned.plan.samples.first()
     {
-        crate::errln!(
-            "note: the plan starts at full speed (the Sphere paper's law): at t = 0 the wheels must already turn at {} rad/s; use --ramp to start from rest",
-            list(&s.wheel_rates[..n], 3)
-        );
+        if start_velocity {
+            crate::errln!(
+                "starts moving (--start-velocity): at t = 0 the wheels turn at {} rad/s",
+                list(&s.wheel_rates[..n], 3)
+            );
+        } else {
+            crate::errln!(
+                "note: the plan starts at full speed (the Sphere paper's law): at t = 0 the wheels must already turn at {} rad/s; use --ramp to start from rest",
+                list(&s.wheel_rates[..n], 3)
+            );
+        }
     }
     if robot.steerable()
         && let Some((g, _)) = planned.plan.samples.first().and_then(|s| s.steer)

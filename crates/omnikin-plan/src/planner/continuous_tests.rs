@@ -102,7 +102,7 @@ fn no_motor_exceeds_its_limit_between_the_samples() {
                         initial_steer: InitialSteer::Aligned,
                     };
                     let what = format!("{pk} {law_name} {name} {rate} Hz");
-                    let (moves, _) = plan_moves(&path, &law, &robot, &opts)
+                    let (moves, _) = plan_moves(&path, &law, &robot, &opts, 0.0)
                         .unwrap_or_else(|e| panic!("{what}: {e}"));
                     let ctx = context(&path, &law, &robot, &opts);
                     let (ratio, t, ch) = dense_peak(&ctx, &moves);

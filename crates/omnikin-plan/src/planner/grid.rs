@@ -89,6 +89,9 @@ pub(super) struct Move {
     /// Factor (≤ 1) per grid cell on the motor limits the time-optimal pass aims at, lowered
     /// around a residual excess the final check on the samples finds (empty: 1 everywhere).
     pub(super) limit_scale: Vec<f64>,
+    /// `x = σ̇²` the move starts with (m²/s²): 0 from rest, the square of the start speed for
+    /// a plan's first move when it starts moving ([`super::plan_from_velocity`]).
+    pub(super) x_start: f64,
 }
 
 impl Ctx<'_> {
@@ -170,6 +173,7 @@ impl Ctx<'_> {
             Some(mv),
         )?;
         out.t0 = mv.t0;
+        out.x_start = mv.x_start;
         Ok(Some(out))
     }
 
@@ -339,6 +343,7 @@ impl Ctx<'_> {
             timing: MoveTiming::Constant { v: 1.0 },
             t0: 0.0,
             limit_scale: Vec::new(),
+            x_start: 0.0,
         })
     }
 

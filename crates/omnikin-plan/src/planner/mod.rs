@@ -55,8 +55,9 @@
 //!      (the wheel-rate cap `v_max(s) = max_rate / max_i |∂w_i/∂v(s)|`, with `|A_i|` raised by
 //!      its estimated bulge between nodes). The backward pass finds, from rest at the end,
 //!      the largest `x_k` from which the end is still reachable (the largest start of the
-//!      cell's polygon whose end is reachable); the forward pass then accelerates from rest as
-//!      hard as the cell allows without leaving the reachable set. No step can get stuck, and
+//!      cell's polygon whose end is reachable); the forward pass then accelerates from rest
+//!      (or from a given start speed, [`plan_from_velocity`], which must be within the first
+//!      node's reachable value) as hard as the cell allows without leaving the reachable set. No step can get stuck, and
 //!      the joint limits of all motors are respected at every node. Jerk is not limited in
 //!      this mode.
 //! 4. **Sampling** at the requested rate: pose, world twist, motor rates from the core
@@ -105,7 +106,7 @@ mod time_optimal;
 mod timing;
 
 pub use limiter::{Limiter, Retiming};
-pub use options::{InitialSteer, MotionLimits, OnLimit, PlanOptions, Timing};
+pub use options::{InitialSteer, MotionLimits, OnLimit, PlanOptions, StartVelocity, Timing};
 pub use report::{MoveKind, MoveSummary, Peak, PlanReport, Planned, plan_peaks};
 
 use crate::PlanningError;
@@ -149,7 +150,111 @@ pub fn plan(
     robot: &RobotModel,
     opts: &PlanOptions,
 ) -> Result<Planned, PlanningError> {
-    plan_moves(path, heading, robot, opts).map(|(_, planned)| planned)
+    plan_moves(path, heading, robot, opts, 0.0).map(|(_, planned)| planned)
+}
+
+/// Largest disagreement (m/s, rad/s) between a [`StartVelocity`] and the motion the path and
+/// heading law give at the start speed: the first sample's velocity and yaw rate are the
+/// path's (tangent × speed, `ψ'(0)` × speed), so they equal the given ones within it.
+pub const START_TOLERANCE: f64 = 1e-9;
+
+/// [`plan`] from a moving start: the robot moves at `start` (world frame) at the path's first
+/// point, and the time-optimal pass starts at that speed instead of rest (its forward pass
+/// begins at `x = ṡ²` of the start speed; module docs, step 3). The first sample's velocity
+/// and yaw rate are the given ones within [`START_TOLERANCE`]; every limit is checked as in
+/// [`plan`]. Used to re-plan on the move and splice the new plan into a running one. At rest
+/// (zero velocity and yaw rate) it is [`plan`], sample for sample.
+///
+/// # Errors
+/// As [`plan`], and [`PlanningError::InvalidParameter`] for a non-finite start velocity;
+/// [`PlanningError::Infeasible`] when
+/// * the timing is not [`Timing::TimeOptimal`] (the profiles start from rest);
+/// * the velocity is off the path's first tangent by more than [`START_TOLERANCE`] (naming
+///   the angle and the perpendicular part), or the yaw rate is not the heading law's at that
+///   speed (naming both), or a yaw rate is given without a speed (a turn in place from a
+///   yaw rate);
+/// * a steerable robot is given initial steer angles ([`InitialSteer::Given`]): a moving start
+///   needs its modules along the motion ([`InitialSteer::Aligned`]), not a re-steer at rest;
+/// * the start speed is above what the speed limits allow at the start, or above the speed
+///   from which the first move can still end at rest within the limits (naming the limit,
+///   the largest start speed and the excess in %).
+pub fn plan_from_velocity(
+    path: &Path,
+    heading: &HeadingLaw,
+    robot: &RobotModel,
+    opts: &PlanOptions,
+    start: StartVelocity,
+) -> Result<Planned, PlanningError> {
+    for (name, v) in [
+        ("start velocity vx", start.vx),
+        ("start velocity vy", start.vy),
+        ("start yaw rate", start.yaw_rate.unwrap_or(0.0)),
+    ] {
+        if !v.is_finite() {
+            return Err(PlanningError::InvalidParameter {
+                name,
+                value: v,
+                rule: "must be finite (m/s, rad/s)",
+            });
+        }
+    }
+    let speed = start.speed();
+    let yaw_rate = start.yaw_rate.unwrap_or(0.0);
+    if speed == 0.0 && yaw_rate == 0.0 {
+        return plan(path, heading, robot, opts);
+    }
+    if speed == 0.0 {
+        return Err(PlanningError::Infeasible(format!(
+            "a start yaw rate ({yaw_rate} rad/s) needs a start speed: a plan starts at rest or \
+             moving along its path, and its heading follows the arc length"
+        )));
+    }
+    if !matches!(opts.timing, Timing::TimeOptimal { .. }) {
+        return Err(PlanningError::Infeasible(
+            "a start velocity needs the time-optimal timing (the trapezoid, S-curve and \
+             constant-speed timings start from rest or at their own speed)"
+                .into(),
+        ));
+    }
+    if robot.steerable() && matches!(opts.initial_steer, InitialSteer::Given(_)) {
+        return Err(PlanningError::Infeasible(
+            "a moving start needs the steer angles along the motion (aligned), not given \
+             initial steer angles (their re-steer happens at rest)"
+                .into(),
+        ));
+    }
+    let first = path.at_side(0.0, crate::heading::Side::After);
+    let [tx, ty] = first.tangent;
+    let perp = (start.vx * ty - start.vy * tx).abs();
+    let along = start.vx * tx + start.vy * ty;
+    if perp > START_TOLERANCE || along <= 0.0 {
+        return Err(PlanningError::Infeasible(format!(
+            "the start velocity ({}, {}) m/s is {:.4}° off the path's first tangent ({tx:.6}, \
+             {ty:.6}): its part across the path is {perp:.3e} m/s (at most {START_TOLERANCE:e})",
+            start.vx,
+            start.vy,
+            (start.vx * ty - start.vy * tx)
+                .atan2(along)
+                .abs()
+                .to_degrees()
+        )));
+    }
+    let dpsi = match heading {
+        HeadingLaw::Constant(_) => 0.0,
+        HeadingLaw::Tangent { .. } => first.curvature,
+        HeadingLaw::Profile(p) => p.at(0.0, crate::heading::Side::After).1,
+    };
+    if let Some(w) = start.yaw_rate
+        && (w - dpsi * speed).abs() > START_TOLERANCE
+    {
+        return Err(PlanningError::Infeasible(format!(
+            "the start yaw rate {w} rad/s is not the heading law's {:.9} rad/s at the start \
+             speed {speed} m/s (dψ/ds = {dpsi:.9} rad/m at the start; off by {:.3e} rad/s)",
+            dpsi * speed,
+            w - dpsi * speed
+        )));
+    }
+    plan_moves(path, heading, robot, opts, speed * speed).map(|(_, planned)| planned)
 }
 
 /// The context of a plan: the request's path, heading law and robot with what is derived
@@ -186,10 +291,21 @@ fn plan_moves(
     heading: &HeadingLaw,
     robot: &RobotModel,
     opts: &PlanOptions,
+    x_start: f64,
 ) -> Result<(Vec<Move>, Planned), PlanningError> {
     validate_request(heading, opts)?;
     let ctx = context(path, heading, robot, opts);
     let mut moves = build_moves(&ctx, opts)?;
+    if x_start > 0.0 {
+        // Only a travel move can start moving (a moving start has no turn in place or
+        // re-steer before it: `plan_from_velocity` takes aligned steering).
+        if !matches!(moves[0].kind, geometry::Kind::Travel { .. }) {
+            return Err(PlanningError::Infeasible(
+                "a moving start needs the plan to begin by travelling along the path".into(),
+            ));
+        }
+        moves[0].x_start = x_start;
+    }
     if matches!(opts.timing, Timing::ConstantSpeed { .. }) && moves.len() != 1 {
         return Err(PlanningError::Infeasible(format!(
             "a constant-speed law cannot stop, but this path/heading law needs {} stops",

@@ -129,3 +129,33 @@ pub struct PlanOptions {
     /// first sample, which it keeps while at rest).
     pub initial_steer: InitialSteer,
 }
+
+/// The motion a plan starts with when it does not start at rest
+/// ([`super::plan_from_velocity`]): world frame (conventions.md), SI units.
+///
+/// The velocity must lie along the path's first tangent (the plan moves along its path), and
+/// the yaw rate, when given, must be the heading law's `dψ/ds` at the start times the speed
+/// (`ψ̇ = ψ'(s) ṡ`, paper 000, §5: the heading is a function of the arc length).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StartVelocity {
+    /// World-frame velocity along x, m/s.
+    pub vx: f64,
+    /// World-frame velocity along y, m/s.
+    pub vy: f64,
+    /// Yaw rate, rad/s; `None`: whatever the heading law gives at the start speed.
+    pub yaw_rate: Option<f64>,
+}
+
+impl StartVelocity {
+    /// At rest (a plan from it is [`super::plan`]'s, sample for sample).
+    pub const REST: Self = Self {
+        vx: 0.0,
+        vy: 0.0,
+        yaw_rate: None,
+    };
+
+    /// The speed `√(vx² + vy²)`, m/s.
+    pub fn speed(&self) -> f64 {
+        self.vx.hypot(self.vy)
+    }
+}

@@ -23,12 +23,13 @@ pub(super) const MIN_MOVE_PERIODS: f64 = 2.0;
 
 /// Slows every move shorter than [`MIN_MOVE_PERIODS`] sample periods at `rate` Hz uniformly
 /// ([`MoveTiming::dilate`]) to last exactly that long; its rates and accelerations only
-/// shrink, so no limit it kept is lost.
+/// shrink, so no limit it kept is lost. A move that starts moving is left alone: slowing it
+/// would change its start speed, and its first sample, at its start, already shows its motion.
 pub(super) fn resolve_short_moves(moves: &mut [Move], rate: f64) {
     let min = MIN_MOVE_PERIODS / rate;
     for mv in moves {
         let d = mv.timing.duration(mv.len);
-        if d > 0.0 && d < min {
+        if d > 0.0 && d < min && mv.x_start == 0.0 {
             mv.timing.dilate(d / min);
         }
     }

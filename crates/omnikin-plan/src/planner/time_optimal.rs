@@ -147,7 +147,8 @@ fn largest_end(rows: &[[f64; 2]], who: &[u8], x: f64, y_max: f64) -> (f64, Optio
 }
 
 /// The time-optimal timing of one move (see the module docs): a reachability pass backward
-/// from rest at the end, then the greedy forward pass from rest at the start, on `x = σ̇²`.
+/// from rest at the end, then the greedy forward pass from the move's start (rest, or
+/// `mv.x_start` for a plan that starts moving), on `x = σ̇²`.
 /// Returns the grid timing and, per cell, what limited it.
 pub(super) fn time_optimal(
     robot: &RobotModel,
@@ -272,8 +273,15 @@ pub(super) fn time_optimal_storing(
             }
         }
     }
-    // Forward: from rest, the largest admissible end value that stays reachable.
+    // A move that starts moving (`x_start > 0`): its start must be within the speed caps and
+    // the reachable set, up to the rounding of a speed read back from a plan's points.
+    if mv.x_start > 0.0 {
+        start_within(mv, cap[0], cap_src[0], reach[0], reach_src[0])?;
+    }
+    // Forward: from the start (rest, or `x_start`), the largest admissible end value that
+    // stays reachable.
     let mut x = vec![0.0; n + 1];
+    x[0] = mv.x_start;
     let mut who = Vec::with_capacity(n);
     let mut end = kept_rows.len();
     for k in 0..n {
@@ -307,4 +315,41 @@ pub(super) fn time_optimal_storing(
         t[k + 1] = t[k] + 2.0 * (sig[k + 1] - sig[k]) / den;
     }
     Ok((MoveTiming::Grid { x, t }, who))
+}
+
+/// Relative excess of a start `x = σ̇²` over its bound that counts as rounding: a speed read
+/// back from a plan's f32 points (the link's) is within 1e-7 of the planner's, whose speed
+/// caps stay [`MARGIN`] (1e-4) below every motor limit.
+const START_ROUNDING: f64 = 1e-6;
+
+/// Checks a moving start against the first node's speed cap `cap` (set by `cap_src`) and the
+/// largest start `reach` from which the move's end is reachable at rest within every limit (set
+/// by `reach_src`): an error names the limit and the excess.
+fn start_within(
+    mv: &Move,
+    cap: f64,
+    cap_src: Limiter,
+    reach: f64,
+    reach_src: Limiter,
+) -> Result<(), PlanningError> {
+    let v = mv.x_start.sqrt();
+    let pct = |bound: f64| 100.0 * (v / bound.sqrt() - 1.0);
+    if mv.x_start > cap * (1.0 + START_ROUNDING) {
+        return Err(PlanningError::Infeasible(format!(
+            "start speed {v:.6} m/s is above the {:.6} m/s that {cap_src} allows at the start \
+             of the path (by {:.3} %)",
+            cap.sqrt(),
+            pct(cap)
+        )));
+    }
+    if mv.x_start > reach * (1.0 + START_ROUNDING) {
+        return Err(PlanningError::Infeasible(format!(
+            "start speed {v:.6} m/s is above the {2:.6} m/s from which the first move \
+             ({0:.6} m along the path) can still end at rest within {reach_src} (by {1:.3} %)",
+            mv.len,
+            pct(reach),
+            reach.sqrt()
+        )));
+    }
+    Ok(())
 }

@@ -92,7 +92,11 @@ def plan(robot: Union[Robot, str], kind: str, **options: Any) -> Table:
       (``[x, y]`` or ``[x, y, heading]``; m, rad, world frame; required), ``footprint_radius``
       (m; default the robot file's ``footprint_radius``, else from its geometry), ``max_speed``,
       ``max_accel``, ``max_yaw_rate``, ``max_yaw_accel``: the shortest collision-free route,
-      filleted, timed time-optimally.
+      filleted, timed time-optimally;
+    - waypoints (with ``time_optimal``) and goal: ``start_velocity`` (``[vx, vy]`` or
+      ``[vx, vy, yaw_rate]``; world frame, m/s, rad/s): the plan starts moving, as
+      ``--start-velocity`` (waypoints: along the path's first tangent; goal: the path leaves
+      the start along it).
 
     Returns the plan CSV's columns ``t, x, y, heading, vx, vy, yaw_rate, w1..wN`` (world frame;
     s, m, rad, m/s, rad/s) and, for steerable kinds, ``s1..sN, sd1..sdN`` (rad, rad/s). A
