@@ -255,8 +255,10 @@ fn a_start_velocity_needs_the_time_optimal_timing() {
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
-    /// Any start speed up to the from-rest plan's top speed on a filleted route with a heading
-    /// profile: the first sample moves at it, the limits hold, no slower than from rest.
+    /// Any start speed up to the largest the planner accepts on a filleted route with a
+    /// heading profile (found by bisection: at the start the spin's wheel rates cap it below
+    /// the from-rest plan's top speed — sphere-omni 0.753 of 0.79 m/s): the first sample moves
+    /// at it, the limits hold, no slower than from rest.
     #[test]
     fn random_start_speeds(frac in 0.0..1.0f64, name in prop::sample::select(vec!["kiwi", "mecanum", "sphere-omni", "swerve4"])) {
         let path = Path::polyline(
@@ -267,7 +269,21 @@ proptest! {
         let r = robot(name);
         let rest = plan(&path, &law, &r, &opts(1.5)).unwrap();
         let top = rest.plan.samples.iter().map(|s| s.twist.vx.hypot(s.twist.vy)).fold(0.0, f64::max);
-        let v = frac * top;
+        let accepted = |v: f64| {
+            plan_from_velocity(&path, &law, &r, &opts(1.5), start_along(&path, v, None)).is_ok()
+        };
+        let (mut lo, mut hi) = (0.0, top);
+        if accepted(top) {
+            lo = top;
+        } else {
+            for _ in 0..40 {
+                let mid = 0.5 * (lo + hi);
+                if accepted(mid) { lo = mid } else { hi = mid }
+            }
+        }
+        // The cap is the start's, not a collapse of the planner: most of the top speed.
+        prop_assert!(lo > 0.5 * top, "{name}: largest accepted start {lo} of top speed {top}");
+        let v = frac * lo;
         let start = start_along(&path, v, None);
         let moving = plan_from_velocity(&path, &law, &r, &opts(1.5), start);
         let moving = match moving {
