@@ -510,7 +510,8 @@ pub(crate) fn contact_sentence(
     tallies: &[(String, omnikin_sim::reproduce::ContactTally)],
 ) -> String {
     use omnikin_sim::reproduce::{ContactTally, EventCount};
-    let kinds: [(&str, fn(&ContactTally) -> EventCount); 4] = [
+    type Kind = fn(&ContactTally) -> EventCount;
+    let kinds: [(&str, Kind); 4] = [
         ("roller slips", |t| t.roller_slips),
         ("lift-offs", |t| t.lift_offs),
         ("floor-cone exits", |t| t.floor_slips),
