@@ -535,7 +535,7 @@ fn sensitivity(a: &ReproduceArgs) -> Result<()> {
     )?;
     crate::errln!(
         "{} robots × {} series in {:.1} s",
-        1 + 2 * omnikin_sim::dynamics::sphere::priors::PRIORS.len(),
+        3 + 2 * omnikin_sim::dynamics::sphere::priors::PRIORS.len(),
         series.len(),
         start.elapsed().as_secs_f64()
     );

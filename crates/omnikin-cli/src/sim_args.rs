@@ -233,7 +233,8 @@ pub struct ReproduceArgs {
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u64).range(0..=10_000))]
     pub prior_samples: u64,
     /// Print the sensitivity table instead of re-running the paper: each `[dynamics]` value
-    /// of the robot file at both ends of its plausible range (the others as the file has them),
+    /// of the robot file at both ends of its plausible range (the fitted com_depth at its parts
+    /// range, 0.06–0.10 m; the others as the file has them),
     /// every series run once without jitter (max deviation %, radius ratio); runs no trials
     /// and writes nothing.
     #[arg(long, conflicts_with_all = ["fit_to_paper", "shard"])]

@@ -245,8 +245,8 @@ fn sensitivity_prints_each_value_at_both_ends_and_a_floor_override_is_said() {
         "{stderr}"
     );
     let rows: Vec<&str> = stdout.lines().filter(|l| l.starts_with("| ")).collect();
-    // Header, nominal, two ends of each of the 11 values.
-    assert_eq!(rows.len(), 1 + 1 + 22, "{stdout}");
+    // Header, nominal, the fitted com_depth's two ends, two ends of each of the 11 values.
+    assert_eq!(rows.len(), 1 + 1 + 2 + 22, "{stdout}");
     assert!(rows[0].contains("circle-0.5: dev % / ratio") && rows[0].contains("square-0.1: dev %"));
     assert!(rows[1].starts_with("| nominal (the file) |"));
     for key in [

@@ -447,10 +447,12 @@ pub fn prior_band(
     }))
 }
 
-/// The sensitivity table: each value of [`crate::dynamics::sphere::priors::PRIORS`] at both
-/// ends of its range (the others as in `base`), every series run once without jitter, as
-/// Markdown: one row per value and end, one column per series (largest deviation % of the
-/// path; for circles also the radius ratio), the nominal robot first.
+/// The sensitivity table: the fitted `com_depth` at both ends of its parts range
+/// ([`crate::dynamics::sphere::priors::COM_DEPTH_PARTS_RANGE`]) and each value of
+/// [`crate::dynamics::sphere::priors::PRIORS`] at both ends of its range (the others as in
+/// `base`), every series run once without jitter, as Markdown: one row per value and end, one
+/// column per series (largest deviation % of the path; for circles also the radius ratio),
+/// the nominal robot first.
 ///
 /// # Errors
 /// Any run's error.
@@ -458,9 +460,14 @@ pub fn sensitivity_markdown(
     base: SphereDynamics,
     series: &[Series],
 ) -> Result<String, DynamicsError> {
-    use crate::dynamics::sphere::priors::PRIORS;
+    use crate::dynamics::sphere::priors::{COM_DEPTH_PARTS_RANGE, PRIORS};
     use rayon::prelude::*;
     let mut robots: Vec<(String, SphereDynamics)> = vec![("nominal (the file)".into(), base)];
+    for h in [COM_DEPTH_PARTS_RANGE.0, COM_DEPTH_PARTS_RANGE.1] {
+        let mut p = base;
+        p.com_depth = h;
+        robots.push((format!("`com_depth` = {h} m (fitted: parts range)"), p));
+    }
     for p in &PRIORS {
         for v in [p.low, p.high] {
             let unit = if p.unit.is_empty() {

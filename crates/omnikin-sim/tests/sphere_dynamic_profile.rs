@@ -153,8 +153,17 @@ fn prior_bands_are_thread_independent_and_the_sensitivity_table_starts_at_the_fi
     let rows: Vec<&str> = table.lines().skip(3).collect();
     assert_eq!(
         rows.len(),
-        2 * omnikin_sim::dynamics::sphere::priors::PRIORS.len()
+        2 + 2 * omnikin_sim::dynamics::sphere::priors::PRIORS.len()
     );
+    // The fitted depth at the ends of its parts range moves the fitted circle's ratio the way
+    // the lean law says: a deeper centre of mass leans less.
+    let ratio = |prefix: &str| -> f64 {
+        let row = rows.iter().find(|r| r.starts_with(prefix)).unwrap();
+        let cell = row.trim_end_matches(" |").rsplit(" | ").next().unwrap();
+        cell.rsplit(" / ").next().unwrap().parse().unwrap()
+    };
+    assert!(ratio("| `com_depth` = 0.1 m") < r1.unwrap());
+    assert!(ratio("| `com_depth` = 0.06 m") > r1.unwrap());
     let pivot_low = rows
         .iter()
         .find(|r| r.starts_with("| `pivot_friction` = 0.008"))

@@ -29,6 +29,12 @@ pub struct Prior {
     pub source: &'static str,
 }
 
+/// The range of the one fitted value, `com_depth`, from where the platform's parts can sit
+/// (docs/sphere-dynamics.md: motors and wheels at the wheel centres 57 mm below the shell
+/// centre, the battery at most ≈ 0.13 m down), m. The sensitivity table sets it to both ends;
+/// the prior band keeps the fitted value (the fit conditions it on the paper's 1.4).
+pub const COM_DEPTH_PARTS_RANGE: (f64, f64) = (0.06, 0.10);
+
 /// The ranges of docs/sphere-dynamics.md's parameter tables, for the rate motor model.
 pub const PRIORS: [Prior; 11] = [
     Prior {
