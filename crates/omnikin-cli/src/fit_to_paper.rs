@@ -40,6 +40,7 @@ pub fn run(path: &Path, rate: f64) -> Result<()> {
     let d = RobotDescription::from_toml_str(&text, &shown)?;
     let base =
         SphereDynamics::from_description(&d).with_context(|| format!("--robot-file {shown}"))?;
+    crate::sim_report::say_floor_overrides(&d, &base);
     // Refuse before the search, not after it: the rules of any output file.
     crate::output::check_file("--robot-file", path)?;
     let series = rp::sphere_2019_series(&d, rate)?;

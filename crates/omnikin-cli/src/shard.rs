@@ -71,6 +71,10 @@ struct Manifest {
     names: BTreeMap<String, String>,
     /// The shard's runs files.
     runs: Vec<Runs>,
+    /// reproduce with the dynamic profile: each of the shard's dynamic trials' contact events
+    /// by series, in trial order (the runs' range of that series' dynamic runs file).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    contacts: BTreeMap<String, Vec<omnikin_sim::dynamics::sphere::ContactEvents>>,
 }
 
 /// `f64` → text that parses back to the same bits.
@@ -94,6 +98,7 @@ impl Manifest {
             inputs: BTreeMap::new(),
             names: BTreeMap::new(),
             runs: Vec::new(),
+            contacts: BTreeMap::new(),
         }
     }
 
@@ -278,6 +283,7 @@ fn reproduce_inputs(
     let mut m = BTreeMap::new();
     m.insert("trials".into(), info.trials.to_string());
     m.insert("dynamic_trials".into(), info.dynamic_trials.to_string());
+    m.insert("prior_samples".into(), info.prior_samples.to_string());
     m.insert("seed".into(), info.seed.to_string());
     m.insert("rate".into(), exact(info.rate));
     m.insert("profiles".into(), info.profiles.join(","));
@@ -345,7 +351,10 @@ pub fn reproduce_shard(
                 s,
                 &ranges,
                 &|| pb.inc(1),
-                |name, _, run| {
+                |name, _, run, events| {
+                    if let Some(e) = events {
+                        m.contacts.entry(s.name.clone()).or_default().push(e);
+                    }
                     let (_, path, w) = writers
                         .iter_mut()
                         .find(|(n, _, _)| *n == name)
@@ -840,6 +849,7 @@ fn merge_reproduce(
         ReproduceInfo {
             trials: count("trials")?,
             dynamic_trials: count("dynamic_trials")?,
+            prior_samples: count("prior_samples")?,
             seed: m.input(first, "seed")?.parse().ok().with_context(|| {
                 format!("{}: seed is not a number", first.join(MANIFEST).display())
             })?,
@@ -865,6 +875,11 @@ fn merge_reproduce(
     create_dir_for(&a.out, &["table.md", "table.csv", "metrics.json"])?;
     let total: u64 = series.len() as u64 * runs.iter().map(|r| r.1 as u64).sum::<u64>();
     let pb = crate::sim_report::progress_bar(total, "merging the Sphere paper's re-run");
+    let report_dynamic_trials = if profiles.contains(&"dynamic") {
+        info.dynamic_trials
+    } else {
+        0
+    };
     let mut report = crate::sim_report::Report::new(&a.out, info).figure_format(a.figure_format);
     for s in &series {
         let outcomes = pool
@@ -877,7 +892,26 @@ fn merge_reproduce(
                 )
             })
             .map_err(visit_err)?;
-        report.add(s, &outcomes)?;
+        let tally = if report_dynamic_trials > 0 {
+            // The shards in shard order hold the trials in trial order.
+            let events: Vec<_> = shards
+                .iter()
+                .flat_map(|sh| sh.m.contacts.get(&s.name).into_iter().flatten())
+                .copied()
+                .collect();
+            if events.len() != report_dynamic_trials {
+                bail!(
+                    "{}: the shards hold the contact events of {} of its {report_dynamic_trials} dynamic trials (shards of an older omnikin, or edited)",
+                    s.name,
+                    events.len()
+                );
+            }
+            Some(rp::ContactTally::of(&events))
+        } else {
+            None
+        };
+        let band = report.prior_band(s, pool)?;
+        report.add(s, &outcomes, tally, band)?;
     }
     pb.finish_and_clear();
     report.finish(start)

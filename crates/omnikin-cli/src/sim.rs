@@ -85,6 +85,9 @@ fn simulate_dynamic(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Resu
         ..DynamicOptions::default()
     };
     let plant = DynamicPlant::new(d, plan, &opts)?;
+    if let omnikin_sim::dynamic_run::DynamicPlant::Sphere(p) = &plant {
+        crate::sim_report::say_floor_overrides(d, p);
+    }
     let figure = a.figure_format.file_name("figure");
     create_dir_for(&a.out, &["metrics.json", "trials.csv", "mean.csv", &figure])?;
     let sim = plant.run(d, plan, &opts)?;
@@ -377,6 +380,9 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
             .unwrap_or_else(crate::fit_to_paper::preset_file);
         return crate::fit_to_paper::run(&path, a.rate);
     }
+    if a.sensitivity {
+        return sensitivity(a);
+    }
     let kinematic: Vec<&str> = a
         .profiles
         .iter()
@@ -407,15 +413,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
             d
         }
     };
-    let (robot_file, robot_toml) = match &a.robot_file {
-        Some(p) => {
-            crate::output::input("--robot-file", p);
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("--robot-file {}: cannot read", p.display()))?;
-            (p.display().to_string(), text)
-        }
-        None => (PRESET_LABEL.to_string(), preset_toml()?.to_string()),
-    };
+    let (robot_file, robot_toml) = reproduce_robot_file(a)?;
     let d = RobotDescription::from_toml_str(&robot_toml, &robot_file)?;
     let robot = d.build::<f64>()?;
     let series = rp::sphere_2019_series(&d, a.rate)?;
@@ -460,6 +458,11 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
     let info = ReproduceInfo {
         trials: a.trials as usize,
         dynamic_trials: dyn_trials,
+        prior_samples: if run_dynamic {
+            a.prior_samples as usize
+        } else {
+            0
+        },
         seed: a.seed,
         rate: a.rate,
         profiles: runs.iter().map(|r| r.0).collect(),
@@ -474,11 +477,12 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
     let pb = progress_bar(total, "reproducing the Sphere paper");
     let mut report = Report::new(&out, info).figure_format(a.figure_format);
     for s in &series {
+        let contacts = rp::ContactRecorder::default();
         let outcomes = pool.install(|| {
             rp::evaluate_series(
                 s,
                 &runs,
-                &|name, i| plants.trial(s, name, i).map(omnikin_sim::trial_run),
+                &|name, i| plants.run_recording(s, name, i, &contacts),
                 &|| pb.inc(1),
             )
         });
@@ -486,8 +490,54 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
             MonteCarloError::Sim(e) | MonteCarloError::Visit(e) => anyhow::Error::new(e),
             e => anyhow::Error::new(e),
         })?;
-        report.add(s, &outcomes)?;
+        let tally = (dyn_trials > 0).then(|| rp::ContactTally::of(&contacts.into_events()));
+        let band = report.prior_band(s, &pool)?;
+        report.add(s, &outcomes, tally, band)?;
     }
     pb.finish_and_clear();
     report.finish(start)
+}
+
+/// The robot file `reproduce` plans and simulates with: `--robot-file` (its path and text) or
+/// the built-in preset.
+fn reproduce_robot_file(a: &ReproduceArgs) -> Result<(String, String)> {
+    Ok(match &a.robot_file {
+        Some(p) => {
+            crate::output::input("--robot-file", p);
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("--robot-file {}: cannot read", p.display()))?;
+            (p.display().to_string(), text)
+        }
+        None => (PRESET_LABEL.to_string(), preset_toml()?.to_string()),
+    })
+}
+
+/// `reproduce sphere-2019 --sensitivity`: the robot file's `[dynamics]` values, each at both
+/// ends of its plausible range, through the eight series (deterministic runs), as a Markdown
+/// table on stdout.
+fn sensitivity(a: &ReproduceArgs) -> Result<()> {
+    use omnikin_sim::reproduce as rp;
+    let start = std::time::Instant::now();
+    let (robot_file, robot_toml) = reproduce_robot_file(a)?;
+    let d = RobotDescription::from_toml_str(&robot_toml, &robot_file)?;
+    let info = DynamicInfo::new(&robot_file, &robot_toml, &d)?;
+    let series = rp::sphere_2019_series(&d, a.rate)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads.unwrap_or(0))
+        .build()
+        .context("cannot start worker threads")?;
+    let table = pool
+        .install(|| rp::sensitivity_markdown(info.params, &series))
+        .with_context(|| format!("{robot_file}: sensitivity"))?;
+    crate::outln!(
+        "Sensitivity of the dynamic model ({robot_file}, com_depth {} m): each value at both ends of its plausible range, the others as the file has them; each series run once without trial jitter (max deviation % of the path; circles: / radius ratio).\n\n{table}",
+        info.params.com_depth
+    )?;
+    crate::errln!(
+        "{} robots × {} series in {:.1} s",
+        3 + 2 * omnikin_sim::dynamics::sphere::priors::PRIORS.len(),
+        series.len(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
 }

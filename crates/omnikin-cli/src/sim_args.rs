@@ -219,6 +219,20 @@ pub struct ReproduceArgs {
     /// robots/sphere-omni.toml).
     #[arg(long, value_name = "PATH")]
     pub robot_file: Option<PathBuf>,
+    /// Robots drawn from the `[dynamics]` values' plausible ranges (uniform, independent;
+    /// `com_depth` kept at the file's fitted value) for the dynamic profile's prior band: each
+    /// series run once per robot without trial jitter, its 5th–95th percentile of the max
+    /// deviation and radius ratio beside the dynamic figures (table column, metrics.json
+    /// `series.*.dynamic_prior_band`); 0 leaves it out.
+    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u64).range(0..=10_000))]
+    pub prior_samples: u64,
+    /// Print the sensitivity table instead of re-running the paper: each `[dynamics]` value
+    /// of the robot file at both ends of its plausible range (the fitted com_depth at its parts
+    /// range, 0.06–0.10 m; the others as the file has them),
+    /// every series run once without jitter (max deviation %, radius ratio); runs no trials
+    /// and writes nothing.
+    #[arg(long, conflicts_with_all = ["fit_to_paper", "shard"])]
+    pub sensitivity: bool,
 }
 
 /// A profile of `omnikin reproduce` (`--profiles`).

@@ -60,6 +60,7 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
     let robot = d.build::<f64>()?;
     let params = SphereDynamics::from_description(d)
         .with_context(|| format!("--plant dynamic: robot {}", d.name))?;
+    crate::sim_report::say_floor_overrides(d, &params);
     let body = d.body_limits();
     let rate = c
         .control_rate

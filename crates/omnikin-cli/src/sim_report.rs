@@ -251,6 +251,21 @@ pub(crate) fn preset_toml() -> Result<&'static str> {
         .context("the sphere-omni preset is missing")
 }
 
+/// Says on stderr when a robot file's `[dynamics]` names a floor and gives some of its values
+/// explicitly too: which ones override the surface's (`omnikin_sim`'s `floor_note`).
+pub(crate) fn say_floor_overrides(
+    d: &RobotDescription,
+    params: &omnikin_sim::dynamics::sphere::SphereDynamics,
+) {
+    let overrides = d
+        .sphere_dynamics
+        .as_ref()
+        .is_some_and(|s| !s.floor_overrides().is_empty());
+    if overrides && let Some(note) = omnikin_sim::dynamics::sphere::floor_note(d, params) {
+        crate::errln!("note: robot {}: {note}", d.name);
+    }
+}
+
 /// The dynamic profile's robot file as loaded: the parameters and what the outputs say about
 /// them.
 #[derive(Clone, Debug)]
@@ -266,6 +281,7 @@ impl DynamicInfo {
     pub fn new(robot_file: &str, robot_toml: &str, d: &RobotDescription) -> Result<Self> {
         let params = omnikin_sim::dynamics::sphere::SphereDynamics::from_description(d)
             .with_context(|| format!("{robot_file}: [dynamics]"))?;
+        say_floor_overrides(d, &params);
         let source = omnikin_sim::reproduce::DynamicSource::new(robot_file, robot_toml, &params);
         Ok(Self { params, source })
     }
@@ -279,6 +295,8 @@ pub(crate) struct ReproduceInfo {
     pub trials: usize,
     /// Trials per series of the dynamic profile (0 when it does not run).
     pub dynamic_trials: usize,
+    /// Robots drawn from the priors for the dynamic profile's prior band (0: none).
+    pub prior_samples: usize,
     /// `--seed`.
     pub seed: u64,
     /// `--rate`, Hz.
@@ -304,6 +322,8 @@ pub(crate) struct Report<'a> {
     all: serde_json::Map<String, serde_json::Value>,
     figures: usize,
     format: FigureFormat,
+    /// The dynamic profile's contact events over each series' trials, in series order.
+    tallies: Vec<(String, omnikin_sim::reproduce::ContactTally)>,
 }
 
 impl<'a> Report<'a> {
@@ -316,6 +336,7 @@ impl<'a> Report<'a> {
             all: serde_json::Map::new(),
             figures: 0,
             format: FigureFormat::Svg,
+            tallies: Vec::new(),
         }
     }
 
@@ -324,11 +345,31 @@ impl<'a> Report<'a> {
         Self { format, ..self }
     }
 
-    /// One series' outcomes: its figures, its metrics and its table row.
+    /// The dynamic profile's prior band of series `s` (`None` without the dynamic profile or
+    /// with `prior_samples` 0), its robots run on `pool`.
+    pub fn prior_band(
+        &self,
+        s: &omnikin_sim::reproduce::Series,
+        pool: &rayon::ThreadPool,
+    ) -> Result<Option<omnikin_sim::reproduce::PriorBand>> {
+        let Some(d) = self.info.dynamic.as_ref() else {
+            return Ok(None);
+        };
+        pool.install(|| {
+            omnikin_sim::reproduce::prior_band(d.params, s, self.info.prior_samples, self.info.seed)
+        })
+        .with_context(|| format!("{}: prior band", s.name))
+    }
+
+    /// One series' outcomes: its figures, its metrics and its table row; `tally`, the
+    /// dynamic profile's contact events over its trials, and `band`, its prior band (when
+    /// they were made).
     pub fn add(
         &mut self,
         s: &omnikin_sim::reproduce::Series,
         outcomes: &[omnikin_sim::reproduce::Outcome],
+        tally: Option<omnikin_sim::reproduce::ContactTally>,
+        band: Option<omnikin_sim::reproduce::PriorBand>,
     ) -> Result<()> {
         for o in outcomes {
             if o.profile == "ideal" {
@@ -381,9 +422,19 @@ impl<'a> Report<'a> {
                     "floor_slips": c.floor_slips,
                     "lost_steps": c.lost_steps,
                 });
+                if let Some(t) = tally {
+                    series["dynamic_contact_events"] = json!(t);
+                }
+                if let Some(b) = band {
+                    series["dynamic_prior_band"] = json!(b);
+                }
+            }
+            if let Some(t) = tally {
+                self.tallies.push((s.name.clone(), t));
             }
         }
-        self.rows.push(omnikin_sim::reproduce::row(s, outcomes));
+        self.rows
+            .push(omnikin_sim::reproduce::row(s, outcomes, band.as_ref()));
         Ok(())
     }
 
@@ -407,6 +458,8 @@ impl<'a> Report<'a> {
         let (g, p) = rp::spin_slip_fit();
         let meta = json!({
             "trials": info.trials, "dynamic_trials": dyn_trials, "seed": info.seed,
+            "dynamic_prior_samples": source.map(|_| info.prior_samples),
+            "dynamic_prior_band_note": source.map(|_| "series.*.dynamic_prior_band: 5th and 95th percentiles of the deterministic model's max deviation (% of path) and radius ratio over dynamic_prior_samples robots drawn uniformly from each [dynamics] value's plausible range (omnikin_sim::dynamics::sphere::priors::PRIORS; com_depth kept), no trial jitter"),
             "profiles": info.profiles,
             "plan_rate_hz": info.rate,
             "spin_slip_gain": g, "spin_slip_exponent": p,
@@ -416,7 +469,7 @@ impl<'a> Report<'a> {
                 "name": f.fitted_name, "value": f.fitted_value, "unit": "m",
                 "comment": f.fitted_comment,
             })),
-            "dynamic_contact_events_note": source.map(|_| "series.*.dynamic_nominal_contact_events: roller slips and lift-offs per wheel, floor-cone exits (steps), lost steps per wheel, of the deterministic model with the robot file's values (no trial jitter)"),
+            "dynamic_contact_events_note": source.map(|_| "series.*.dynamic_nominal_contact_events: roller slips and lift-offs per wheel, floor-cone exits (steps), lost steps per wheel, of the deterministic model with the robot file's values (no trial jitter); series.*.dynamic_contact_events: the same events over every trial of the dynamic profile (each with its jitter), summed over the wheels: total, trials_with_any, max_per_trial"),
             "series": self.all,
         });
         write_file(&out.join("metrics.json"), |w| {
@@ -427,6 +480,9 @@ impl<'a> Report<'a> {
             )
         })?;
         crate::outln!("{md}")?;
+        if !self.tallies.is_empty() {
+            crate::errln!("{}", contact_sentence(&self.tallies));
+        }
         crate::errln!(
             "wrote {dir}/table.md, {dir}/table.csv, {dir}/metrics.json and {n} figures in {:.1} s",
             start.elapsed().as_secs_f64(),
@@ -435,4 +491,44 @@ impl<'a> Report<'a> {
         );
         Ok(())
     }
+}
+
+/// The dynamic profile's contact events over the trials of each series, in one sentence for
+/// stderr: per kind, the series with any (trials with any of the trials, most in one trial).
+pub(crate) fn contact_sentence(
+    tallies: &[(String, omnikin_sim::reproduce::ContactTally)],
+) -> String {
+    use omnikin_sim::reproduce::{ContactTally, EventCount};
+    type Kind = fn(&ContactTally) -> EventCount;
+    let kinds: [(&str, Kind); 4] = [
+        ("roller slips", |t| t.roller_slips),
+        ("lift-offs", |t| t.lift_offs),
+        ("floor-cone exits", |t| t.floor_slips),
+        ("lost steps", |t| t.lost_steps),
+    ];
+    let parts: Vec<String> = kinds
+        .iter()
+        .map(|(kind, get)| {
+            let hit: Vec<String> = tallies
+                .iter()
+                .filter(|(_, t)| get(t).total > 0)
+                .map(|(name, t)| {
+                    let c = get(t);
+                    format!(
+                        "{name} {}/{} (≤ {})",
+                        c.trials_with_any, t.trials, c.max_per_trial
+                    )
+                })
+                .collect();
+            if hit.is_empty() {
+                format!("{kind} in no trial")
+            } else {
+                format!("{kind} in {}", hit.join(", "))
+            }
+        })
+        .collect();
+    format!(
+        "dynamic profile, contact events over every trial (trials with any / trials, most in one trial): {}",
+        parts.join("; ")
+    )
 }

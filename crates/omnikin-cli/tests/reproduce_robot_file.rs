@@ -211,3 +211,61 @@ fn fit_to_paper_writes_only_the_one_line_and_only_with_force() {
     let ratio = plan_and_simulate(&d, file.to_str().unwrap(), "2");
     assert!((ratio - 1.4).abs() < 0.01, "fitted file: {ratio}");
 }
+
+/// `reproduce sphere-2019 --sensitivity` prints the nominal row and each `[dynamics]` value at
+/// both ends of its range for the eight series, writes nothing; a robot file that names a
+/// floor and gives one of its values too is told so on stderr.
+#[test]
+fn sensitivity_prints_each_value_at_both_ends_and_a_floor_override_is_said() {
+    let d = tmp("sensitivity");
+    let file = d.join("carpet.toml");
+    let text: String = PRESET
+        .replace(
+            "floor = \"vinyl\"",
+            "floor = \"carpet\"\npivot_friction = 0.03",
+        )
+        .to_string();
+    assert!(
+        text.contains("floor = \"carpet\""),
+        "the preset names its floor"
+    );
+    std::fs::write(&file, &text).unwrap();
+    let out = omnikin()
+        .current_dir(&*d)
+        .args(["reproduce", "sphere-2019", "--sensitivity", "--robot-file"])
+        .arg(&file)
+        .assert()
+        .success();
+    let stdout = String::from_utf8_lossy(&out.get_output().stdout).to_string();
+    let stderr = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+    assert!(
+        stderr.contains("dynamics.floor = \"carpet\"")
+            && stderr.contains("overridden")
+            && stderr.contains("pivot_friction = 0.03"),
+        "{stderr}"
+    );
+    let rows: Vec<&str> = stdout.lines().filter(|l| l.starts_with("| ")).collect();
+    // Header, nominal, the fitted com_depth's two ends, two ends of each of the 11 values.
+    assert_eq!(rows.len(), 1 + 1 + 2 + 22, "{stdout}");
+    assert!(rows[0].contains("circle-0.5: dev % / ratio") && rows[0].contains("square-0.1: dev %"));
+    assert!(rows[1].starts_with("| nominal (the file) |"));
+    for key in [
+        "pivot_friction",
+        "roller_friction",
+        "platform_mass",
+        "tracked_height",
+    ] {
+        assert_eq!(
+            rows.iter()
+                .filter(|r| r.starts_with(&format!("| `{key}` = ")))
+                .count(),
+            2,
+            "{key}"
+        );
+    }
+    assert_eq!(
+        std::fs::read_dir(&*d).unwrap().count(),
+        1,
+        "--sensitivity writes nothing"
+    );
+}

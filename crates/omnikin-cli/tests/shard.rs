@@ -168,6 +168,78 @@ fn two_reproduce_shards_merge_into_one_runs_table() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// The dynamic profile counts every trial's contact events: a merge of shards gives the
+/// same counts as one run (the shards carry each trial's events), a series that slips
+/// (the 0.5 m/s square's hard starts) has slips in every trial, and the ramped 0.1 m/s square
+/// none of any kind; stderr says it in a sentence.
+#[test]
+fn the_dynamic_profile_counts_every_trials_contacts_and_shards_keep_them() {
+    let d = tmp("contacts");
+    let run = |out: &Path, extra: &[&str]| {
+        omnikin()
+            .args(["reproduce", "sphere-2019", "--profiles", "dynamic"])
+            .args([
+                "--dynamic-trials",
+                "3",
+                "--prior-samples",
+                "3",
+                "--out",
+                s(out),
+            ])
+            .args(extra)
+            .assert()
+            .success()
+    };
+    let one = d.join("one");
+    let stderr = String::from_utf8_lossy(&run(&one, &[]).get_output().stderr).to_string();
+    assert!(
+        stderr.contains("contact events over every trial")
+            && stderr.contains("roller slips in ")
+            && stderr.contains("square-0.5 3/3"),
+        "{stderr}"
+    );
+    for k in 1..=2 {
+        run(
+            &d.join(format!("shard-{k}")),
+            &["--shard", &format!("{k}/2")],
+        );
+    }
+    let merged = d.join("merged");
+    omnikin()
+        .args(["merge", s(&d.join("shard-1")), s(&d.join("shard-2"))])
+        .args(["--out", s(&merged)])
+        .assert()
+        .success();
+    same_files(&one, &merged, &["metrics.json", "table.csv", "table.md"]);
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(one.join("metrics.json")).unwrap()).unwrap();
+    let c = |series: &str, kind: &str, key: &str| {
+        m["series"][series]["dynamic_contact_events"][kind][key]
+            .as_u64()
+            .unwrap_or_else(|| panic!("{series}.{kind}.{key}: {}", m["series"][series]))
+    };
+    assert_eq!(
+        m["series"]["square-0.5"]["dynamic_contact_events"]["trials"],
+        3
+    );
+    // The prior band (3 robots from the priors) beside the figures, recomputed alike by the
+    // merge.
+    let band = &m["series"]["circle-0.4"]["dynamic_prior_band"];
+    assert_eq!(band["samples"], 3, "{band}");
+    let r = band["radius_ratio"].as_array().unwrap();
+    assert!(r[0].as_f64().unwrap() <= r[1].as_f64().unwrap(), "{band}");
+    assert!(m["series"]["square-0.1"]["dynamic_prior_band"]["radius_ratio"].is_null());
+    assert!(c("square-0.5", "roller_slips", "total") > 0);
+    assert_eq!(c("square-0.5", "roller_slips", "trials_with_any"), 3);
+    assert!(c("square-0.5", "roller_slips", "max_per_trial") > 0);
+    for kind in ["roller_slips", "lift_offs", "floor_slips", "lost_steps"] {
+        for key in ["total", "trials_with_any", "max_per_trial"] {
+            assert_eq!(c("square-0.1", kind, key), 0, "square-0.1 {kind}.{key}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 #[test]
 fn merge_refuses_what_is_not_one_whole_run() {
     let d = tmp("errors");

@@ -279,6 +279,237 @@ pub fn nominal_contact_events(
     Ok(crate::dynamics::sphere::simulate_plan(params, &series.plan)?.contact_events)
 }
 
+/// How often one kind of contact event happened over the trials of a Monte Carlo
+/// ([`ContactTally`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct EventCount {
+    /// Events over all trials (all wheels together for the per-wheel kinds).
+    pub total: u64,
+    /// Trials with at least one event.
+    pub trials_with_any: u64,
+    /// Most events in one trial.
+    pub max_per_trial: u64,
+}
+
+impl EventCount {
+    fn add(&mut self, n: u64) {
+        self.total += n;
+        self.trials_with_any += u64::from(n > 0);
+        self.max_per_trial = self.max_per_trial.max(n);
+    }
+}
+
+/// The dynamic profile's contact events counted over every trial of a series (each trial with
+/// its own jitter and fluctuation), beside the deterministic run's [`nominal_contact_events`]:
+/// roller slips and lift-offs (summed over the three wheels), steps whose floor force left
+/// its friction cone, and stepper steps lost.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct ContactTally {
+    /// Trials counted.
+    pub trials: u64,
+    /// Roller–shell slides ([`crate::dynamics::sphere::ContactEvents::roller_slips`]).
+    pub roller_slips: EventCount,
+    /// Wheel lift-offs ([`crate::dynamics::sphere::ContactEvents::lift_offs`]).
+    pub lift_offs: EventCount,
+    /// Steps outside the floor's friction cone
+    /// ([`crate::dynamics::sphere::ContactEvents::floor_slips`]).
+    pub floor_slips: EventCount,
+    /// Full steps lost by the steppers
+    /// ([`crate::dynamics::sphere::ContactEvents::lost_steps`]; 0 with `motor = "rate"`).
+    pub lost_steps: EventCount,
+}
+
+impl ContactTally {
+    /// The tally of `trials`' events, in any order (the counts do not depend on it).
+    pub fn of<'a>(
+        trials: impl IntoIterator<Item = &'a crate::dynamics::sphere::ContactEvents>,
+    ) -> Self {
+        let mut t = Self::default();
+        for e in trials {
+            t.trials += 1;
+            t.roller_slips.add(e.roller_slips.iter().sum());
+            t.lift_offs.add(e.lift_offs.iter().sum());
+            t.floor_slips.add(e.floor_slips);
+            t.lost_steps.add(e.lost_steps.iter().sum());
+        }
+        t
+    }
+}
+
+/// Collects each dynamic trial's contact events as the Monte Carlo's workers produce them
+/// (any thread, any order; a trial simulated twice by the metrics' second pass is kept once).
+#[derive(Debug, Default)]
+pub struct ContactRecorder {
+    by_trial:
+        std::sync::Mutex<std::collections::BTreeMap<usize, crate::dynamics::sphere::ContactEvents>>,
+}
+
+impl ContactRecorder {
+    /// Records trial `i`'s events.
+    pub fn record(&self, i: usize, e: crate::dynamics::sphere::ContactEvents) {
+        // A poisoned lock only means another worker panicked; its map is still whole.
+        let mut m = self.by_trial.lock().unwrap_or_else(|p| p.into_inner());
+        m.insert(i, e);
+    }
+
+    /// The events recorded, in trial order.
+    pub fn into_events(self) -> Vec<crate::dynamics::sphere::ContactEvents> {
+        let m = self
+            .by_trial
+            .into_inner()
+            .unwrap_or_else(|p| p.into_inner());
+        m.into_values().collect()
+    }
+}
+
+/// The seed offset of the prior draws: robot `k` of the prior band draws from
+/// [`crate::trial_rng`]`(seed ^ PRIOR_SEED_OFFSET, k)`, a stream the trials never use.
+pub const PRIOR_SEED_OFFSET: u64 = 0x5052_494f_5253; // "PRIORS"
+
+/// Default robots drawn for the prior bands (`reproduce --prior-samples`).
+pub const DEFAULT_PRIOR_SAMPLES: usize = 20;
+
+/// The dynamic figures of one series run once, deterministically (no trial jitter, no
+/// tracking noise), through the model `params`: largest deviation (% of the path) and, for a
+/// circle, the radius ratio.
+///
+/// # Errors
+/// The dynamics' error; the metrics' error as [`DynamicsError::Input`].
+pub fn deterministic_figures(
+    params: SphereDynamics,
+    series: &Series,
+) -> Result<(f64, Option<f64>), DynamicsError> {
+    let t = crate::dynamics::sphere::simulate_plan(params, &series.plan)?.trial;
+    let m = crate::metrics::evaluate(&series.plan, &[crate::trial_run(t)])
+        .map_err(|_| DynamicsError::Input {
+            what: "series",
+            value: f64::NAN,
+            rule: "the run could not be evaluated against its plan",
+        })?
+        .metrics;
+    Ok((m.max_deviation_pct_of_path, m.radius_ratio))
+}
+
+/// The band of a series' dynamic figures that the parameters' plausible ranges give
+/// ([`crate::dynamics::sphere::priors`]): 5th and 95th percentiles over `samples` robots drawn
+/// from the priors, each run once without trial jitter.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct PriorBand {
+    /// Robots drawn.
+    pub samples: usize,
+    /// Largest deviation, % of the path: [p5, p95].
+    pub max_deviation_pct_of_path: [f64; 2],
+    /// Radius ratio (circles): [p5, p95].
+    pub radius_ratio: Option<[f64; 2]>,
+}
+
+/// The 5th and 95th percentiles of `v` (nearest rank on the sorted values; `v` not empty).
+fn p5_p95(v: &mut [f64]) -> [f64; 2] {
+    v.sort_by(f64::total_cmp);
+    let rank = |q: f64| {
+        let k = (q * v.len() as f64).ceil() as usize;
+        v[k.clamp(1, v.len()) - 1]
+    };
+    [rank(0.05), rank(0.95)]
+}
+
+/// The prior band of `series` for the robot `base` (the file's `[dynamics]`): `samples` robots
+/// from [`crate::dynamics::sphere::priors::draw`], robot `k` from
+/// [`crate::trial_rng`]`(seed ^ PRIOR_SEED_OFFSET, k)`, run in parallel on the current rayon
+/// pool (the result does not depend on the thread count). `None` for `samples` = 0.
+///
+/// # Errors
+/// Any run's error.
+pub fn prior_band(
+    base: SphereDynamics,
+    series: &Series,
+    samples: usize,
+    seed: u64,
+) -> Result<Option<PriorBand>, DynamicsError> {
+    use rayon::prelude::*;
+    if samples == 0 {
+        return Ok(None);
+    }
+    let figures = (0..samples)
+        .into_par_iter()
+        .map(|k| {
+            let mut rng = crate::trial_rng(seed ^ PRIOR_SEED_OFFSET, k);
+            let p = crate::dynamics::sphere::priors::draw(&base, &mut rng);
+            deterministic_figures(p, series)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut dev: Vec<f64> = figures.iter().map(|f| f.0).collect();
+    let mut ratio: Vec<f64> = figures.iter().filter_map(|f| f.1).collect();
+    Ok(Some(PriorBand {
+        samples,
+        max_deviation_pct_of_path: p5_p95(&mut dev),
+        radius_ratio: (ratio.len() == samples).then(|| p5_p95(&mut ratio)),
+    }))
+}
+
+/// The sensitivity table: the fitted `com_depth` at both ends of its parts range
+/// ([`crate::dynamics::sphere::priors::COM_DEPTH_PARTS_RANGE`]) and each value of
+/// [`crate::dynamics::sphere::priors::PRIORS`] at both ends of its range (the others as in
+/// `base`), every series run once without jitter, as Markdown: one row per value and end, one
+/// column per series (largest deviation % of the path; for circles also the radius ratio),
+/// the nominal robot first.
+///
+/// # Errors
+/// Any run's error.
+pub fn sensitivity_markdown(
+    base: SphereDynamics,
+    series: &[Series],
+) -> Result<String, DynamicsError> {
+    use crate::dynamics::sphere::priors::{COM_DEPTH_PARTS_RANGE, PRIORS};
+    use rayon::prelude::*;
+    let mut robots: Vec<(String, SphereDynamics)> = vec![("nominal (the file)".into(), base)];
+    for h in [COM_DEPTH_PARTS_RANGE.0, COM_DEPTH_PARTS_RANGE.1] {
+        let mut p = base;
+        p.com_depth = h;
+        robots.push((format!("`com_depth` = {h} m (fitted: parts range)"), p));
+    }
+    for p in &PRIORS {
+        for v in [p.low, p.high] {
+            let unit = if p.unit.is_empty() {
+                String::new()
+            } else {
+                format!(" {}", p.unit)
+            };
+            robots.push((format!("`{}` = {v}{unit}", p.key), p.set(&base, v)));
+        }
+    }
+    let cells = robots
+        .par_iter()
+        .map(|(_, p)| {
+            series
+                .iter()
+                .map(|s| {
+                    deterministic_figures(*p, s).map(|(d, r)| match r {
+                        Some(r) => format!("{d:.2} / {r:.3}"),
+                        None => format!("{d:.2}"),
+                    })
+                })
+                .collect::<Result<Vec<_>, _>>()
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut s = format!(
+        "| value (others as the file) | {} |\n|---|{}\n",
+        series
+            .iter()
+            .map(|s| match s.experiment {
+                Experiment::Circle => format!("{}: dev % / ratio", s.name),
+                Experiment::Square => format!("{}: dev %", s.name),
+            })
+            .collect::<Vec<_>>()
+            .join(" | "),
+        "---|".repeat(series.len())
+    );
+    for ((name, _), row) in robots.iter().zip(cells) {
+        s.push_str(&format!("| {name} | {} |\n", row.join(" | ")));
+    }
+    Ok(s)
+}
+
 /// The three kinematic profiles, by name (the dynamic one is [`dynamic_profile`]).
 pub fn profiles() -> [(&'static str, Profile); 3] {
     [
@@ -344,15 +575,50 @@ impl<'a> Plants<'a> {
     /// # Errors
     /// [`SimError::Mismatch`] for a profile that does not run; the trial's error.
     pub fn trial(&self, series: &Series, name: &str, i: usize) -> Result<crate::Trial, SimError> {
+        self.trial_with_events(series, name, i).map(|(t, _)| t)
+    }
+
+    /// [`Plants::trial`] with, for the dynamic profile, the trial's contact events
+    /// ([`DynamicProfile::trial_with_events`]; `None` for a kinematic profile).
+    ///
+    /// # Errors
+    /// As [`Plants::trial`].
+    pub fn trial_with_events(
+        &self,
+        series: &Series,
+        name: &str,
+        i: usize,
+    ) -> Result<(crate::Trial, Option<crate::dynamics::sphere::ContactEvents>), SimError> {
         let mut rng = crate::trial_rng(self.seed, i);
         if name == "dynamic" {
             if let Some(d) = self.dynamic {
-                return d.trial(&series.plan, &mut rng);
+                return d
+                    .trial_with_events(&series.plan, &mut rng)
+                    .map(|(t, e)| (t, Some(e)));
             }
         } else if let Some((_, p)) = self.kinematic.iter().find(|(n, _)| *n == name) {
-            return crate::simulate_trial(self.robot, &series.plan, p, &mut rng);
+            return crate::simulate_trial(self.robot, &series.plan, p, &mut rng).map(|t| (t, None));
         }
         Err(SimError::Mismatch(format!("profile {name} does not run")))
+    }
+
+    /// Trial `i` of `series` under `name` as the metrics take it ([`crate::trial_run`]), its
+    /// contact events (dynamic profile) handed to `contacts`. What `reproduce` evaluates.
+    ///
+    /// # Errors
+    /// As [`Plants::trial`].
+    pub fn run_recording(
+        &self,
+        series: &Series,
+        name: &str,
+        i: usize,
+        contacts: &ContactRecorder,
+    ) -> Result<Run, SimError> {
+        let (t, e) = self.trial_with_events(series, name, i)?;
+        if let Some(e) = e {
+            contacts.record(i, e);
+        }
+        Ok(crate::trial_run(t))
     }
 }
 
@@ -436,7 +702,8 @@ pub fn run_series(
 
 /// Simulates the trials `range(profile)` of `series` under each of `runs` (profile name,
 /// trials) — one shard's part ([`crate::shard`]) — and hands each trial's
-/// [`crate::trial_run`] to `visit(profile, i, run)` in trial order, without metrics.
+/// [`crate::trial_run`] and (dynamic profile) contact events to `visit(profile, i, run,
+/// events)` in trial order, without metrics.
 ///
 /// # Errors
 /// A trial's error ([`MonteCarloError::Sim`]) or `visit`'s ([`MonteCarloError::Visit`]).
@@ -445,14 +712,23 @@ pub fn shard_series<E: Send>(
     series: &Series,
     runs: &[(&'static str, core::ops::Range<usize>)],
     progress: &(dyn Fn() + Sync),
-    mut visit: impl FnMut(&'static str, usize, Run) -> Result<(), E>,
+    mut visit: impl FnMut(
+        &'static str,
+        usize,
+        Run,
+        Option<crate::dynamics::sphere::ContactEvents>,
+    ) -> Result<(), E>,
 ) -> Result<(), MonteCarloError<E>> {
     for (name, range) in runs {
         crate::simulate_range(
-            &|i| plants.trial(series, name, i).map(crate::trial_run),
+            &|i| {
+                plants
+                    .trial_with_events(series, name, i)
+                    .map(|(t, e)| (crate::trial_run(t), e))
+            },
             range.clone(),
             progress,
-            |i, run| visit(name, i, run),
+            |i, (run, e)| visit(name, i, run, e),
         )?;
     }
     Ok(())
@@ -493,10 +769,19 @@ pub struct Row {
     pub dynamic_max_deviation_from_mean_m: Option<f64>,
     /// Dynamic profile: fitted/planned radius (circles).
     pub dynamic_radius_ratio: Option<f64>,
+    /// Dynamic profile's prior band ([`PriorBand`]): max deviation % of path, 5th percentile.
+    pub dynamic_prior_max_deviation_pct_p5: Option<f64>,
+    /// Prior band: max deviation % of path, 95th percentile.
+    pub dynamic_prior_max_deviation_pct_p95: Option<f64>,
+    /// Prior band: radius ratio, 5th percentile (circles).
+    pub dynamic_prior_radius_ratio_p5: Option<f64>,
+    /// Prior band: radius ratio, 95th percentile (circles).
+    pub dynamic_prior_radius_ratio_p95: Option<f64>,
 }
 
-/// Builds a table row from a series' outcomes (in [`profiles`] order).
-pub fn row(series: &Series, outcomes: &[Outcome]) -> Row {
+/// Builds a table row from a series' outcomes (in [`profiles`] order) and the dynamic
+/// profile's prior band, when drawn.
+pub fn row(series: &Series, outcomes: &[Outcome], band: Option<&PriorBand>) -> Row {
     let m = |name: &str| {
         outcomes
             .iter()
@@ -526,6 +811,10 @@ pub fn row(series: &Series, outcomes: &[Outcome]) -> Row {
         dynamic_max_deviation_pct_of_path: d.map(|m| m.max_deviation_pct_of_path),
         dynamic_max_deviation_from_mean_m: d.map(|m| m.max_deviation_from_mean_m),
         dynamic_radius_ratio: d.and_then(|m| m.radius_ratio),
+        dynamic_prior_max_deviation_pct_p5: band.map(|b| b.max_deviation_pct_of_path[0]),
+        dynamic_prior_max_deviation_pct_p95: band.map(|b| b.max_deviation_pct_of_path[1]),
+        dynamic_prior_radius_ratio_p5: band.and_then(|b| b.radius_ratio.map(|r| r[0])),
+        dynamic_prior_radius_ratio_p95: band.and_then(|b| b.radius_ratio.map(|r| r[1])),
     }
 }
 
@@ -544,12 +833,28 @@ pub fn table_markdown(
     let mut s = format!(
         "# Paper 000 (sphere, 2019) re-run in simulation\n\n{trials} trials per series and profile{dyn_trials}, seed {seed}. Deviation = distance of a tracked point from the planned path; \
          % = of the planned path length; deviation from the mean = largest distance of a run from the mean trajectory at the same time.\n\n\
-         | series | speed [m/s] | paper reports | ideal: max dev [%] | hardware: max dev [%] | hardware: max dev from mean [mm] | hardware: radius ratio | spin-slip (fit): max dev [%] | spin-slip (fit): radius ratio | dynamic: max dev [%] | dynamic: max dev from mean [mm] | dynamic: radius ratio |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|\n"
+         | series | speed [m/s] | paper reports | ideal: max dev [%] | hardware: max dev [%] | hardware: max dev from mean [mm] | hardware: radius ratio | spin-slip (fit): max dev [%] | spin-slip (fit): radius ratio | dynamic: max dev [%] | dynamic: max dev from mean [mm] | dynamic: radius ratio | dynamic, prior band p5–p95: max dev [%] / ratio |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
     );
     for r in rows {
+        let band = match (
+            r.dynamic_prior_max_deviation_pct_p5,
+            r.dynamic_prior_max_deviation_pct_p95,
+        ) {
+            (Some(a), Some(b)) => {
+                let ratio = match (
+                    r.dynamic_prior_radius_ratio_p5,
+                    r.dynamic_prior_radius_ratio_p95,
+                ) {
+                    (Some(x), Some(y)) => format!(" / {x:.3}–{y:.3}"),
+                    _ => String::new(),
+                };
+                format!("{a:.2}–{b:.2}{ratio}")
+            }
+            _ => "—".into(),
+        };
         s.push_str(&format!(
-            "| {} | {:.1} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {:.1} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {band} |\n",
             r.series,
             r.speed_m_per_s,
             r.paper,
@@ -596,7 +901,9 @@ pub fn table_markdown(
              * **Predictions (not fitted):** circle radius ratio {} at 0.1 m/s, {} at 0.2 m/s, {} at 0.5 m/s (paper 1.6); \
              largest run-to-mean deviation on the squares {} / {} / {} / {} mm at 0.1 / 0.2 / 0.4 / 0.5 m/s (paper: up to 110 mm on the fast runs).\n\
              * **Variation per trial:** the hardware profile's wheel-radius error (1 %), speed fluctuation (1 % per plan interval) and tracking noise (2 mm), \
-             3 % on the centre-of-mass depth and 20 % (log-normal) on the pivot friction; seeded per trial, identical for any thread count.\n",
+             3 % on the centre-of-mass depth and 20 % (log-normal) on the pivot friction; seeded per trial, identical for any thread count.\n\
+             * **Prior band** (last column, when drawn: `--prior-samples`): 5th–95th percentile of the deterministic model's figures over robots drawn uniformly from each `[dynamics]` value's plausible range \
+             (`omnikin_sim::dynamics::sphere::priors`; `com_depth` held at the file's fitted value), separate from the per-trial variation.\n",
             src.robot_file,
             src.fitted_name,
             src.fitted_value,
@@ -661,6 +968,10 @@ mod tests {
             dynamic_max_deviation_pct_of_path: Some(3.0),
             dynamic_max_deviation_from_mean_m: Some(0.02),
             dynamic_radius_ratio: None,
+            dynamic_prior_max_deviation_pct_p5: None,
+            dynamic_prior_max_deviation_pct_p95: None,
+            dynamic_prior_radius_ratio_p5: None,
+            dynamic_prior_radius_ratio_p95: None,
         };
         let text = table_csv(&[row]);
         let mut r = csv::Reader::from_reader(text.as_bytes());

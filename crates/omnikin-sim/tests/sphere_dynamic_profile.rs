@@ -109,3 +109,64 @@ fn the_fit_meets_its_target_inside_its_bracket() {
     assert_eq!(at(fit.value), fit.achieved_radius_ratio);
     assert!(at(fit.value - 0.01) > 1.4 && at(fit.value + 0.01) < 1.4);
 }
+
+/// The prior band: the same on 1 and 3 threads, p5 ≤ p95, and its draws really vary the robot
+/// (the band of the 0.4 m/s circle is wider than rounding); `samples` = 0 gives none. The
+/// sensitivity table's nominal row is the deterministic run of the file's robot, and a value
+/// moved to an end of its range moves a figure.
+#[test]
+fn prior_bands_are_thread_independent_and_the_sensitivity_table_starts_at_the_file() {
+    use omnikin_sim::reproduce::{deterministic_figures, prior_band, sensitivity_markdown};
+    let d = RobotDescription::preset("sphere-omni").unwrap();
+    let p = SphereDynamics::from_description(&d).unwrap();
+    let series = omnikin_sim::reproduce::sphere_2019_series(&d, 100.0).unwrap();
+    let c4 = series.iter().find(|s| s.name == "circle-0.4").unwrap();
+    let band = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| prior_band(p, c4, 6, 2019))
+            .unwrap()
+            .unwrap()
+    };
+    let b1 = band(1);
+    assert_eq!(b1, band(3), "thread count");
+    assert_eq!(b1.samples, 6);
+    let [lo, hi] = b1.radius_ratio.expect("a circle has a ratio band");
+    assert!(lo.is_finite() && hi - lo > 1e-3, "{lo} .. {hi}");
+    let [dlo, dhi] = b1.max_deviation_pct_of_path;
+    assert!(dlo <= dhi);
+    assert_eq!(prior_band(p, c4, 0, 2019).unwrap(), None);
+    let sq = series.iter().find(|s| s.name == "square-0.1").unwrap();
+    assert_eq!(prior_band(p, sq, 3, 1).unwrap().unwrap().radius_ratio, None);
+    // The sensitivity table on two series: the nominal row is the file's deterministic run.
+    let two = [series[0].clone(), c4.clone()];
+    let table = sensitivity_markdown(p, &two).unwrap();
+    let (d0, _) = deterministic_figures(p, &two[0]).unwrap();
+    let (d1, r1) = deterministic_figures(p, c4).unwrap();
+    let nominal = format!(
+        "| nominal (the file) | {d0:.2} | {d1:.2} / {:.3} |",
+        r1.unwrap()
+    );
+    assert!(table.contains(&nominal), "{nominal}\n{table}");
+    let rows: Vec<&str> = table.lines().skip(3).collect();
+    assert_eq!(
+        rows.len(),
+        2 + 2 * omnikin_sim::dynamics::sphere::priors::PRIORS.len()
+    );
+    // The fitted depth at the ends of its parts range moves the fitted circle's ratio the way
+    // the lean law says: a deeper centre of mass leans less.
+    let ratio = |prefix: &str| -> f64 {
+        let row = rows.iter().find(|r| r.starts_with(prefix)).unwrap();
+        let cell = row.trim_end_matches(" |").rsplit(" | ").next().unwrap();
+        cell.rsplit(" / ").next().unwrap().parse().unwrap()
+    };
+    assert!(ratio("| `com_depth` = 0.1 m") < r1.unwrap());
+    assert!(ratio("| `com_depth` = 0.06 m") > r1.unwrap());
+    let pivot_low = rows
+        .iter()
+        .find(|r| r.starts_with("| `pivot_friction` = 0.008"))
+        .unwrap();
+    assert!(!pivot_low.ends_with(&nominal[nominal.find(" | ").unwrap()..]));
+}

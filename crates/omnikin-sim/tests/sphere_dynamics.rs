@@ -510,13 +510,19 @@ fn parameters_come_from_the_robot_file() {
     let dyn_ = file["dynamics"].as_table().unwrap();
     let value = |k: &str| dyn_[k].as_float().unwrap();
     assert_eq!(
-        (p.com_depth, p.pivot_friction, p.shell_mass, p.platform_mass),
+        (p.com_depth, p.shell_mass, p.platform_mass),
         (
             value("com_depth"),
-            value("pivot_friction"),
             value("shell_mass"),
             value("platform_mass")
         )
+    );
+    // The preset names its floor; the surface gives exactly the values the file stated
+    // explicitly before (its com_depth was fitted with them).
+    assert_eq!(dyn_["floor"].as_str(), Some("vinyl"));
+    assert_eq!(
+        (p.pivot_friction, p.rolling_resistance, p.floor_friction),
+        (0.021, 0.005, 0.4)
     );
     let mut refit = d;
     refit.com_depth = p.com_depth;
@@ -548,6 +554,60 @@ pivot_friction = 0.02
         SphereDynamics::from_description(&ballbot),
         Err(DynamicsError::Kind("ballbot"))
     ));
+}
+
+/// `floor = NAME` sets the three floor values from the table (for the file's robot), and a
+/// value given beside it overrides the surface's and is named by `floor_note`.
+#[test]
+fn a_named_floor_sets_the_floor_values_and_explicit_ones_override_it() {
+    use omnikin::description::{FloorSurface, RobotDescription};
+    use omnikin_sim::dynamics::sphere::{FloorCoefficients, floor_note};
+    let file = |dynamics: &str| {
+        let text = format!(
+            "kind = \"sphere-omni\"\n[geometry]\nshell_radius = 0.15\nwheel_radius = 0.07\n\
+             tilt_deg = 45.0\nroller_angle_deg = 45.0\nazimuths_deg = [0.0, 120.0, 240.0]\n\
+             [dynamics]\n{dynamics}\n"
+        );
+        let d = RobotDescription::from_toml_str(&text, "t.toml").unwrap();
+        let p = SphereDynamics::from_description(&d).unwrap();
+        (p, floor_note(&d, &p))
+    };
+    for s in FloorSurface::ALL {
+        let (p, note) = file(&format!("floor = \"{}\"", s.name()));
+        let c = FloorCoefficients::reference(s);
+        assert_eq!(
+            (p.pivot_friction, p.rolling_resistance, p.floor_friction),
+            (c.pivot_friction, c.rolling_resistance, c.floor_friction),
+            "{}",
+            s.name()
+        );
+        let note = note.unwrap();
+        assert!(
+            note.contains(s.name()) && !note.contains("overridden"),
+            "{note}"
+        );
+    }
+    // Concrete is harder than vinyl: a smaller Hertz patch, less pivot friction.
+    assert!(
+        FloorCoefficients::reference(FloorSurface::Concrete).pivot_friction
+            < FloorCoefficients::reference(FloorSurface::Vinyl).pivot_friction
+    );
+    let (p, note) = file("floor = \"carpet\"\npivot_friction = 0.05");
+    let carpet = FloorCoefficients::reference(FloorSurface::Carpet);
+    assert_eq!(p.pivot_friction, 0.05);
+    assert_eq!(p.rolling_resistance, carpet.rolling_resistance);
+    assert_eq!(p.floor_friction, carpet.floor_friction);
+    let note = note.unwrap();
+    assert!(
+        note.contains("overridden") && note.contains("pivot_friction = 0.05"),
+        "{note}"
+    );
+    // A heavier platform presses a larger patch: M ∝ N^{4/3} (Hertz).
+    let (p, _) = file("floor = \"vinyl\"\nplatform_mass = 4.5");
+    let ratio: f64 = (5.0f64 / 2.5).powf(4.0 / 3.0);
+    assert!((p.pivot_friction / 0.021 - ratio).abs() < 1e-12);
+    // No floor named, nothing to say.
+    assert_eq!(file("pivot_friction = 0.03").1, None);
 }
 
 #[test]

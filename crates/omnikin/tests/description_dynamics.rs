@@ -146,3 +146,35 @@ platform_mass = 2.0
     let e = RobotDescription::from_toml_str(text, "c.toml").unwrap_err();
     assert_eq!(e.field, "dynamics", "{e}");
 }
+
+#[test]
+fn the_floor_is_chosen_by_name_and_a_wrong_name_is_refused() {
+    use omnikin::description::FloorSurface;
+    for s in FloorSurface::ALL {
+        let spec = with(&format!("floor = \"{}\"", s.name()))
+            .unwrap()
+            .sphere_dynamics
+            .unwrap();
+        assert_eq!(spec.floor, Some(s));
+        assert!(spec.floor_overrides().is_empty());
+    }
+    let spec = with("floor = \"carpet\"\nfloor_friction = 0.3\npivot_friction = 0.05")
+        .unwrap()
+        .sphere_dynamics
+        .unwrap();
+    assert_eq!(spec.floor_overrides(), ["pivot_friction", "floor_friction"]);
+    // Without a named floor the explicit values override nothing.
+    let spec = with("pivot_friction = 0.05")
+        .unwrap()
+        .sphere_dynamics
+        .unwrap();
+    assert!(spec.floor_overrides().is_empty());
+    let e = with("floor = \"parquet\"").unwrap_err().to_string();
+    assert!(
+        e.contains("floor") && e.contains("parquet"),
+        "the error names the field and the bad value: {e}"
+    );
+    for s in FloorSurface::ALL {
+        assert!(e.contains(s.name()), "the error lists {}: {e}", s.name());
+    }
+}

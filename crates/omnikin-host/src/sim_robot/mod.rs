@@ -105,6 +105,7 @@ impl SimRobot {
         let plant = if dynamic {
             let params = omnikin_sim::dynamics::sphere::SphereDynamics::from_description(desc)
                 .with_context(|| format!("--plant dynamic: robot {}", desc.name))?;
+            crate::sim_report::say_floor_overrides(desc, &params);
             SilPlant::dynamic(robot, params, Pose2::default())
                 .with_context(|| format!("--plant dynamic: robot {}", desc.name))?
         } else {

@@ -25,6 +25,8 @@
 //! roller_viscous = 1.0                      # sliding roller's viscous part [N s/m]
 //! roller_preload = 0.0                      # normal preload per wheel [N]
 //! floor_friction = 0.4                      # shell-floor mu (the floor force's cone)
+//! floor = "vinyl"                           # or linoleum, carpet, concrete: sets the three
+//!                                           # floor values above unless they are given
 //! max_tilt_deg = 20.0                       # platform tilt a plan should not exceed [deg]
 //! ```
 //!
@@ -53,6 +55,63 @@ pub enum MotorModel {
     /// stiffness, up to a pull-out torque that falls with speed; beyond it the rotor slips
     /// poles (loses steps) and stays stalled unless the command lets it catch a pole again.
     Stepper,
+}
+
+/// The floor a `sphere-omni` robot rolls on (`floor = "linoleum" | "vinyl" | "carpet" |
+/// "concrete"` in `[dynamics]`; any other name is rejected naming the key and the four
+/// names). It sets the floor's three values — pivot friction, rolling resistance, shell–floor
+/// friction coefficient — from `omnikin-sim`'s table of surfaces (sources and which values are
+/// estimates: its `dynamics::sphere::floor` module); a value given explicitly in the same
+/// table overrides the surface's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FloorSurface {
+    /// Linoleum sheet (the same contact row as vinyl: no source separates their moduli).
+    Linoleum,
+    /// Sheet vinyl (plasticised PVC wear layer), a lab floor: the `sphere-omni` preset's.
+    Vinyl,
+    /// Low-pile carpet.
+    Carpet,
+    /// Smooth (sealed or painted) concrete.
+    Concrete,
+}
+
+impl FloorSurface {
+    /// Every surface, in the order the error message lists them.
+    pub const ALL: [FloorSurface; 4] = [
+        FloorSurface::Linoleum,
+        FloorSurface::Vinyl,
+        FloorSurface::Carpet,
+        FloorSurface::Concrete,
+    ];
+
+    /// The name the robot file uses.
+    pub fn name(self) -> &'static str {
+        match self {
+            FloorSurface::Linoleum => "linoleum",
+            FloorSurface::Vinyl => "vinyl",
+            FloorSurface::Carpet => "carpet",
+            FloorSurface::Concrete => "concrete",
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for FloorSurface {
+    /// A surface by its [`name`](FloorSurface::name); any other text is refused naming the key
+    /// `dynamics.floor` and the accepted names.
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let text = String::deserialize(d)?;
+        FloorSurface::ALL
+            .into_iter()
+            .find(|s| s.name() == text)
+            .ok_or_else(|| {
+                let names: std::vec::Vec<&str> =
+                    FloorSurface::ALL.iter().map(|s| s.name()).collect();
+                serde::de::Error::custom(format!(
+                    "dynamics.floor = \"{text}\" is not a floor surface; accepted: {}",
+                    names.join(", ")
+                ))
+            })
+    }
 }
 
 /// The `[dynamics]` table of a `sphere-omni` robot file, as given: `None` = the dynamic model's
@@ -99,11 +158,32 @@ pub struct SphereDynamicsSpec {
     pub roller_preload: Option<f64>,
     /// Shell–floor friction coefficient (the floor force's cone).
     pub floor_friction: Option<f64>,
+    /// Named floor surface: sets `pivot_friction`, `rolling_resistance` and `floor_friction`
+    /// unless they are given here too (the given values then override the surface's).
+    pub floor: Option<FloorSurface>,
     /// Largest platform tilt a plan should cause, degrees.
     pub max_tilt_deg: Option<f64>,
 }
 
 impl SphereDynamicsSpec {
+    /// With a named [`floor`](Self::floor): the floor keys given explicitly beside it, which
+    /// override the surface's values (in the order `pivot_friction`, `rolling_resistance`,
+    /// `floor_friction`); empty without a named floor.
+    pub fn floor_overrides(&self) -> std::vec::Vec<&'static str> {
+        if self.floor.is_none() {
+            return std::vec::Vec::new();
+        }
+        [
+            ("pivot_friction", self.pivot_friction),
+            ("rolling_resistance", self.rolling_resistance),
+            ("floor_friction", self.floor_friction),
+        ]
+        .into_iter()
+        .filter(|(_, v)| v.is_some())
+        .map(|(k, _)| k)
+        .collect()
+    }
+
     /// The platform's principal moments, kg·m², when given (checked to be three by parsing).
     pub fn platform_moments(&self) -> Option<[f64; 3]> {
         match self.platform_inertia.as_deref() {

@@ -66,7 +66,7 @@ pub use body_limits::{
     BODY_ACCEL_RANGE, BODY_JERK_RANGE, BodyLimits, DEFAULT_ACCEL, DEFAULT_YAW_ACCEL,
     DIRECTION_STEP_DEG, LimitSource, YAW_ACCEL_RANGE,
 };
-pub use dynamics::{MotorModel, SphereDynamicsSpec};
+pub use dynamics::{FloorSurface, MotorModel, SphereDynamicsSpec};
 pub use events::{EventLevels, EventSpec};
 pub use footprint::{FOOTPRINT_SLACK, geometry_reach};
 

@@ -2,6 +2,10 @@
 //! platform on three omni-wheels driven by stepper motors.
 //!
 //! * [`params`]: [`SphereDynamics`], the physical parameters with their sources.
+//! * [`priors`]: [`priors::PRIORS`], each value's plausible range, for the prior bands and the
+//!   sensitivity table of `reproduce sphere-2019`.
+//! * [`floor`]: [`FloorCoefficients`], the named floor surfaces' pivot friction, rolling
+//!   resistance and friction coefficient (`floor = "vinyl"` …).
 //! * `equations`: mass matrix, generalised forces, constraint rows, accelerations, projection.
 //! * [`sim`]: [`SphereSim`], the constraint-keeping RK4 integrator and what each step reports.
 //! * [`stepper`]: [`Stepper`], the hybrid stepper's torque–angle law, pull-out curve and lost
@@ -164,15 +168,18 @@
 //! "Dynamics notes".
 
 mod equations;
+pub mod floor;
 pub mod monte_carlo;
 pub mod params;
+pub mod priors;
 pub mod robot_file;
 pub mod sim;
 pub mod stepper;
 pub mod trial;
 
+pub use floor::FloorCoefficients;
 pub use monte_carlo::{DynamicFit, DynamicProfile, fit_com_depth, radius_ratio};
-pub use params::{DynamicsError, SphereDynamics};
+pub use params::{DynamicsError, SphereDynamics, floor_note};
 pub use robot_file::{com_depth_comment, write_fitted_com_depth};
 pub use sim::{ContactEvents, Residuals, SphereSim, SphereState, SphereStep};
 pub use stepper::Stepper;

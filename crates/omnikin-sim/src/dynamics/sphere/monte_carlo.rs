@@ -16,6 +16,7 @@ use rand_distr::{Distribution, StandardNormal};
 use serde::Serialize;
 
 use super::params::{DynamicsError, SphereDynamics};
+use super::sim::ContactEvents;
 use super::trial::simulate_plan;
 use crate::metrics::fit_circle;
 use crate::{SimError, Trial};
@@ -76,6 +77,22 @@ impl DynamicProfile {
     /// [`SimError::Mismatch`] with the dynamics' error (a plan not for the sphere's three
     /// wheels, invalid parameters, a diverging state).
     pub fn trial<R: Rng + ?Sized>(&self, plan: &Plan, rng: &mut R) -> Result<Trial, SimError> {
+        self.trial_with_events(plan, rng).map(|(t, _)| t)
+    }
+
+    /// [`DynamicProfile::trial`] with the trial's contact events (roller slips, lift-offs,
+    /// floor-cone exits, lost steps over the run, [`SphereSim::contact_events`]); the same
+    /// draws, so the trial is the same.
+    ///
+    /// [`SphereSim::contact_events`]: super::SphereSim::contact_events
+    ///
+    /// # Errors
+    /// As [`DynamicProfile::trial`].
+    pub fn trial_with_events<R: Rng + ?Sized>(
+        &self,
+        plan: &Plan,
+        rng: &mut R,
+    ) -> Result<(Trial, ContactEvents), SimError> {
         let (p, scale) = self.draw_robot(rng);
         let mut n = || -> f64 { StandardNormal.sample(rng) };
         let mut plan = plan.clone();
@@ -86,16 +103,16 @@ impl DynamicProfile {
                 }
             }
         }
-        let mut t = simulate_plan(p, &plan)
-            .map_err(|e| SimError::Mismatch(format!("dynamic plant: {e}")))?
-            .trial;
+        let run = simulate_plan(p, &plan)
+            .map_err(|e| SimError::Mismatch(format!("dynamic plant: {e}")))?;
+        let (mut t, events) = (run.trial, run.contact_events);
         if self.tracking_noise_std > 0.0 {
             for xy in t.tracked.iter_mut() {
                 xy[0] += self.tracking_noise_std * n();
                 xy[1] += self.tracking_noise_std * n();
             }
         }
-        Ok(t)
+        Ok((t, events))
     }
 }
 

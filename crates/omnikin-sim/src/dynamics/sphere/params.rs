@@ -171,7 +171,9 @@ impl SphereDynamics {
 
     /// The parameters of a `sphere-omni` description: its geometry, and its `[dynamics]`
     /// table's values over [`SphereDynamics::paper_000`]'s (an absent `shell_inertia` is
-    /// `⅔ m_s R²` of the file's shell).
+    /// `⅔ m_s R²` of the file's shell; a named `floor` sets the three floor values from
+    /// [`super::floor`]'s table, for the file's masses and radius, and the floor values given
+    /// explicitly override it: [`floor_note`] says which).
     ///
     /// # Errors
     /// [`DynamicsError::Kind`] for another kind; [`DynamicsError::Parameter`] naming the
@@ -215,6 +217,13 @@ impl SphereDynamics {
             set(&mut p.stepper_steps_per_rev, s.stepper_steps_per_rev);
             set(&mut p.stepper_corner_speed, s.stepper_corner_speed);
             set(&mut p.stepper_damping, s.stepper_damping);
+            // A named floor first; the floor values given explicitly then override it.
+            if let Some(surface) = s.floor {
+                let c = super::floor::FloorCoefficients::of(surface, p.total_mass() * p.gravity, r);
+                p.pivot_friction = c.pivot_friction;
+                p.rolling_resistance = c.rolling_resistance;
+                p.floor_friction = c.floor_friction;
+            }
             set(&mut p.pivot_friction, s.pivot_friction);
             set(&mut p.pivot_velocity_scale, s.pivot_velocity_scale);
             set(&mut p.rolling_resistance, s.rolling_resistance);
@@ -425,4 +434,45 @@ fn nonneg(field: &'static str, v: f64) -> Result<f64, DynamicsError> {
     } else {
         Err(bad(field, v, "must be non-negative"))
     }
+}
+
+/// What a robot file's named floor gave, for the commands to print: `None` without
+/// `floor = …` in `[dynamics]`; otherwise the surface's three values for this robot and the
+/// explicitly given keys that override them (`robot`'s parameters are `params`, from
+/// [`SphereDynamics::from_description`]).
+pub fn floor_note(robot: &RobotDescription, params: &SphereDynamics) -> Option<String> {
+    let spec = robot.sphere_dynamics.as_ref()?;
+    let surface = spec.floor?;
+    let c = super::floor::FloorCoefficients::of(
+        surface,
+        params.total_mass() * params.gravity,
+        params.geometry.shell_radius,
+    );
+    let overrides: Vec<String> = spec
+        .floor_overrides()
+        .into_iter()
+        .map(|k| {
+            let (given, table) = match k {
+                "pivot_friction" => (params.pivot_friction, c.pivot_friction),
+                "rolling_resistance" => (params.rolling_resistance, c.rolling_resistance),
+                _ => (params.floor_friction, c.floor_friction),
+            };
+            format!("{k} = {given} (the surface's {table})")
+        })
+        .collect();
+    let base = format!(
+        "dynamics.floor = \"{}\": pivot_friction {} N m, rolling_resistance {}, floor_friction {}",
+        surface.name(),
+        c.pivot_friction,
+        c.rolling_resistance,
+        c.floor_friction
+    );
+    Some(if overrides.is_empty() {
+        base
+    } else {
+        format!(
+            "{base}; overridden by the values given in [dynamics]: {}",
+            overrides.join(", ")
+        )
+    })
 }

@@ -128,7 +128,7 @@ pub struct SphereStep {
 }
 
 /// Contact events so far, per wheel (see [`SphereSim::contact_events`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct ContactEvents {
     /// Times each roller started sliding on the shell.
     pub roller_slips: [u64; 3],
