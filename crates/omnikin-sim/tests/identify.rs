@@ -58,6 +58,7 @@ fn record(
                 encoders,
                 reference: Reference::from_table(&refr).unwrap(),
                 gyro,
+                imu_rates: None,
             }
         })
         .collect()

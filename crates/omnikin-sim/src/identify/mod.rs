@@ -40,8 +40,12 @@
 //! The condition number of the remaining problem is
 //! reported; values are never invented for a direction the data do not constrain.
 //!
-//! What this does **not** do: the dynamic parameters (`[dynamics]` of the sphere and the
-//! ballbot), slip or outlier rejection (a run with wheel slip biases the fit: use runs inside
+//! ## Dynamics
+//! For sphere-omni with IMU logs, the platform's centre-of-mass depth from the rocking after
+//! stops ([`rocking`]), with the other `[dynamics]` values taken from the file.
+//!
+//! What this does **not** do: the other dynamic parameters (the sphere's damping and
+//! frictions, the ballbot's `[dynamics]`), slip or outlier rejection (a run with wheel slip biases the fit: use runs inside
 //! the robot's limits, as `omnikin plan sysid` writes them), time offsets between the logs.
 
 pub mod lsq;
@@ -51,6 +55,7 @@ pub mod plans;
 pub mod report;
 pub mod residual_series;
 pub mod robot_file;
+pub mod rocking;
 pub mod runs;
 
 use omnikin::Pose2;
@@ -143,6 +148,82 @@ pub struct Identified {
     /// Each run's pose residuals against time, before (the prior) and after (the estimate),
     /// in the order of the runs.
     pub series: Vec<RunResiduals>,
+    /// The dynamic parameters: sphere-omni's `dynamics.com_depth` (m) from the rocking after
+    /// stops, when a run has an IMU log ([`rocking`]); empty otherwise.
+    pub dynamics: Vec<Estimate>,
+    /// The rocking fitted after each stop (sphere-omni with IMU logs).
+    pub rocking: Vec<rocking::Rocking>,
+}
+
+/// The name of the sphere's centre-of-mass depth among [`Identified::dynamics`].
+pub const COM_DEPTH: &str = "dynamics.com_depth";
+
+/// Sphere-omni's `com_depth` from the rocking after the runs' stops (see [`rocking`]): the
+/// estimate (held at the prior, with the reason, when no run has a stop with an IMU log) and
+/// the rocking of each stop. Nothing for another kind, or when no run has an IMU log.
+fn sphere_dynamics(
+    prior: &RobotDescription,
+    runs: &[Run],
+) -> Result<(Vec<Estimate>, Vec<rocking::Rocking>), IdentifyError> {
+    use crate::dynamics::sphere::SphereDynamics;
+    if prior.kind() != "sphere-omni" || runs.iter().all(|r| r.imu_rates.is_none()) {
+        return Ok((Vec::new(), Vec::new()));
+    }
+    let p = SphereDynamics::from_description(prior)
+        .map_err(|e| IdentifyError::Fit(format!("the robot file's [dynamics]: {e}")))?;
+    let found: Vec<rocking::Rocking> = runs
+        .iter()
+        .filter_map(|r| Some(rocking::rockings(&r.encoders, r.imu_rates.as_ref()?)))
+        .flatten()
+        .collect();
+    let held = |why: &str| Estimate {
+        name: COM_DEPTH.into(),
+        unit: "m",
+        prior: p.com_depth,
+        value: p.com_depth,
+        sigma: 0.0,
+        status: Status::Fixed(why.into()),
+    };
+    // Only stops whose rocking the fit resolves: natural frequency within 20 % (1σ).
+    let usable: Vec<&rocking::Rocking> = found
+        .iter()
+        .filter(|r| r.natural.1 > 0.0 && r.natural.1 < 0.2 * r.natural.0)
+        .collect();
+    if usable.is_empty() {
+        let why = if found.is_empty() {
+            "no stop from speed followed by 1.5 s at rest with an IMU log (the `stop` plan of plan sysid)"
+        } else {
+            "the rocking after the stops is too weak to fit (a stop as short as the `stop` plan's is needed)"
+        };
+        return Ok((vec![held(why)], found));
+    }
+    // Each stop's depth through the model; the inverse-variance mean.
+    let (mut sw, mut sh) = (0.0, 0.0);
+    for r in &usable {
+        let (h, sd) = rocking::com_depth_from(&p, r).ok_or_else(|| {
+            IdentifyError::Fit(format!(
+                "{COM_DEPTH}: the rocking at {:.4} rad/s after the stop at {} s of {} has no \
+                 centre-of-mass depth inside the shell for the file's other [dynamics] values \
+                 (shell_mass, shell_inertia, platform_mass, platform_inertia)",
+                r.natural.0, r.t0, r.file
+            ))
+        })?;
+        let w = 1.0 / (sd * sd);
+        sw += w;
+        sh += w * h;
+    }
+    let (h, h_sd) = (sh / sw, 1.0 / sw.sqrt());
+    Ok((
+        vec![Estimate {
+            name: COM_DEPTH.into(),
+            unit: "m",
+            prior: p.com_depth,
+            value: h,
+            sigma: h_sd,
+            status: Status::Fitted,
+        }],
+        found,
+    ))
 }
 
 /// Initial start pose of a run: the reference at the log's first time (or its first sample);
@@ -316,6 +397,7 @@ pub fn identify(
                 encoders: model::consistent_log(&robot, &r.encoders)?,
                 reference: r.reference.clone(),
                 gyro: r.gyro.clone(),
+                imu_rates: None,
             })
         })
         .collect::<Option<_>>()
@@ -406,7 +488,14 @@ pub fn identify(
     } else {
         Vec::new()
     };
-    let fitted = params::apply(prior, &x[..l.geometry]);
+    let mut fitted = params::apply(prior, &x[..l.geometry]);
+    let (dynamics, rocking) = sphere_dynamics(prior, runs)?;
+    if let Some(e) = dynamics.iter().find(|e| e.status == Status::Fitted) {
+        fitted
+            .sphere_dynamics
+            .get_or_insert_with(Default::default)
+            .com_depth = Some(e.value);
+    }
     let series = fitted
         .build::<f64>()
         .ok()
@@ -434,6 +523,8 @@ pub fn identify(
         gyro_rms: group_rms(&r, &groups, Group::Gyro, gyro_sigma),
         condition,
         residuals: sol.residuals,
+        dynamics,
+        rocking,
     })
 }
 

@@ -7,6 +7,7 @@
 //! | `along-across` | a square at constant heading: forward, left, back, right | the drive angles against each other (one heading for both directions) |
 //! | `spin` | spin in place one way, stop, back | wheel positions (`p × d`), mount geometry, gyro scale |
 //! | `figure-eight` | forward at constant speed, a full circle left then one right | all of the above together, gyro bias against scale |
+//! | `stop` (sphere-omni) | forward, then a short stop and [`STOP_REST`] s at rest | the platform's centre-of-mass depth from the rocking after the stop (IMU) |
 //!
 //! Every segment is a body twist with cosine ramps `v(t) = V sin²(π t / 2τ)` up and down
 //! (peak acceleration `π V / 2τ`), held between them, then half a second at rest. The
@@ -14,8 +15,11 @@
 //! rates half of `max_steer_rate`), and the ramps so the wheels' acceleration stays within
 //! half of `max_wheel_accel`: the plans stay well inside the limits, which keeps wheel slip —
 //! the one thing the identification cannot model — small. Without limits in the file, 10 rad/s
-//! and 50 rad/s² are assumed. The sphere's rocking and spin-decay and the ballbot's sways
-//! (dynamic parameters) are not planned here.
+//! and 50 rad/s² are assumed. The sphere's `stop` is the exception: its stop ramp is as short
+//! as half the wheel-acceleration limit allows (the other ramps are 1 s or longer), so that the
+//! platform, swung forward by the deceleration, rocks freely afterwards on the locked wheels;
+//! its speed is half the wheel-rate limit's. The sphere's spin decay and the ballbot's sways
+//! are not planned here.
 //!
 //! A swerve turns its modules at rest before each segment (`steer_to`): every segment's
 //! twist has one direction, so the module angles are constant while the wheels roll, and a
@@ -226,6 +230,54 @@ fn build(
     Ok(Plan { wheels: n, samples })
 }
 
+/// Seconds at rest after the sphere's `stop` (the rocking's record).
+pub const STOP_REST: f64 = 4.0;
+
+/// The sphere's `stop`: forward at `amplitude` (unit twist `vx = 1`) with a cosine ramp of
+/// `tau` s up, held 1.5 s, stopped with a cosine ramp of `tau_stop` s, then [`STOP_REST`] s at
+/// rest; poses integrated as [`build`] does.
+fn build_stop(
+    robot: &Robot<f64>,
+    amplitude: f64,
+    tau: f64,
+    tau_stop: f64,
+    rate: f64,
+) -> Result<Plan, SysidPlanError> {
+    let dt = 1.0 / rate;
+    let n = robot.wheels();
+    let s = |u: f64| (std::f64::consts::FRAC_PI_2 * u).sin().powi(2);
+    let hold = 1.5;
+    let len = tau + hold + tau_stop + STOP_REST;
+    let count = (len / dt).ceil() as usize + 1;
+    let mut pose = Pose2::new(0.0, 0.0, 0.0);
+    let mut samples = Vec::with_capacity(count);
+    for k in 0..count {
+        let t = k as f64 * dt;
+        let e = if t < tau {
+            s(t / tau)
+        } else if t < tau + hold {
+            1.0
+        } else if t < tau + hold + tau_stop {
+            s((tau + hold + tau_stop - t) / tau_stop)
+        } else {
+            0.0
+        };
+        let tw = Twist2::new(amplitude * e, 0.0, 0.0);
+        let a = robot
+            .inverse(tw, &Actuators::zero())
+            .map_err(|e| SysidPlanError::Robot(format!("stop: {e}")))?;
+        samples.push(Sample::new(
+            t,
+            pose,
+            tw.to_world(pose.heading),
+            &a.wheel_rates[..n],
+            None,
+        ));
+        pose = omnikin::se2::integrate(pose, tw, dt);
+    }
+    Ok(Plan { wheels: n, samples })
+}
+
 /// Largest wheel rate, wheel acceleration and steer rate of a plan.
 fn peaks(plan: &Plan) -> (f64, f64, f64) {
     let n = plan.wheels;
@@ -318,6 +370,32 @@ pub fn sysid_plans(desc: &RobotDescription, rate: f64) -> Result<Vec<SysidPlan>,
         out.push(SysidPlan {
             name,
             identifies,
+            plan,
+        });
+    }
+    if desc.kind() == "sphere-omni" {
+        // Half the rate limit; the ramps from the peak wheel acceleration `π w / 2τ` of a
+        // cosine ramp: 1 s (or longer) up, the stop as short as half the limit allows, at
+        // least one sample.
+        let probe = build_stop(&robot, 1.0, 1.0, 1.0, rate)?;
+        let (w, _, _) = peaks(&probe);
+        let amp = 0.5 * max_rate / w.max(1e-12);
+        let peak = 0.5 * max_rate;
+        let tau = (std::f64::consts::PI * peak / (2.0 * 0.5 * max_accel)).max(1.0);
+        let mut tau_stop = (std::f64::consts::PI * peak / (2.0 * 0.5 * max_accel)).max(1.0 / rate);
+        let mut plan = build_stop(&robot, amp, tau, tau_stop, rate)?;
+        // The sampled ramp's steps exceed the continuous peak by up to one sample's change.
+        for _ in 0..16 {
+            let (_, a, _) = peaks(&plan);
+            if a <= 0.5 * max_accel {
+                break;
+            }
+            tau_stop *= a / (0.5 * max_accel) * 1.05;
+            plan = build_stop(&robot, amp, tau, tau_stop, rate)?;
+        }
+        out.push(SysidPlan {
+            name: "stop",
+            identifies: "the platform's centre-of-mass depth (com_depth) from the rocking after a short stop: record the IMU log",
             plan,
         });
     }

@@ -188,6 +188,22 @@ fn edits(id: &Identified) -> Vec<Edit> {
             }
         }
     }
+    if let Some(e) = id
+        .dynamics
+        .iter()
+        .find(|e| e.name == super::COM_DEPTH && e.status == Status::Fitted)
+    {
+        out.push(Edit {
+            table: "[dynamics]",
+            index: 0,
+            key: "com_depth",
+            value: num(e.value),
+            comment: format!(
+                "identified: {} from the rocking after stops {src}",
+                describe(e, e.value, e.sigma, "m")
+            ),
+        });
+    }
     out
 }
 
@@ -308,6 +324,12 @@ fn check(text: &str, want: &RobotDescription) -> Result<(), IdentifyError> {
         }
         (Geometry::Ballbot(a), Geometry::Ballbot(b)) => close(a.wheel_radius, b.wheel_radius),
         _ => false,
+    } && match (&back.sphere_dynamics, &want.sphere_dynamics) {
+        (Some(a), Some(b)) => match (a.com_depth, b.com_depth) {
+            (Some(x), Some(y)) => close(x, y),
+            (x, y) => x == y,
+        },
+        (a, b) => a.is_none() && b.is_none(),
     };
     if same {
         Ok(())
@@ -349,6 +371,8 @@ mod tests {
                 })
                 .collect(),
             gyro: Vec::new(),
+            dynamics: Vec::new(),
+            rocking: Vec::new(),
             position_rms: 0.0,
             heading_rms: None,
             gyro_rms: None,

@@ -1,0 +1,360 @@
+//! The sphere's centre-of-mass depth from the rocking after a stop (`omnikin identify --robot
+//! sphere-omni` with IMU logs of the `stop` test plan).
+//!
+//! **Physics** ([`crate::dynamics::sphere`], "Motors holding fixed rates"): with its wheels
+//! held (encoders still) the robot is one rigid body rocking about the floor contact; for small
+//! tilts its free motion is a pendulum of natural frequency
+//!
+//! ```text
+//! ω_n² = m_p g h / (I_s + m_s R² + I_p + m_p (R − h)²)
+//! ```
+//!
+//! ([`crate::dynamics::sphere::SphereDynamics::rocking_frequency`]), `h` the platform's
+//! centre-of-mass depth below the shell centre, `I_p` its inertia about the rocking axis. The
+//! other values are the robot file's (masses and inertias are weighed and computed, the depth
+//! is what is hard to measure).
+//!
+//! **Estimate.** Each stop is found in the encoder log (moving, then every wheel still for at
+//! least [`MIN_REST`] s). Over the rest that follows (at most [`MAX_WINDOW`] s), the IMU's
+//! body rates `gx`, `gy` are fitted by least squares with one damped oscillation shared by both
+//! axes, `g(t) = e^{−σ τ} (A cos ω_d τ + B sin ω_d τ) + c` (its own `A, B, c` per axis), started
+//! from the best frequency of a grid. `ω_n² = ω_d² + σ²`; its 1σ from the fit's
+//! (`σ² (JᵀJ)⁻¹`, inflated for correlated residuals, the correlation of `ω_d` and `σ`
+//! neglected). Stops are pooled by inverse
+//! variance; `h` is the root below `R` of `m_p ω_n² (R − h)² − m_p g h + ω_n² (I_s + m_s R² +
+//! I_p) = 0` (the smaller root of the quadratic), its 1σ `|dh/dω_n|` times that of `ω_n`.
+//!
+//! What it does not estimate: the damping. The model's rocking loses energy to the rolling
+//! resistance, a regularised Coulomb torque (`C_rr M g R` at speeds above its scale): it
+//! shortens the amplitude by a fixed amount per swing instead of a fixed ratio, and the fitted
+//! `σ` mixes it with the window's length; it is reported, not written.
+
+use super::lsq;
+use super::runs::{EncoderLog, ImuRates};
+use crate::dynamics::sphere::SphereDynamics;
+
+/// Shortest rest after a stop that is fitted, s.
+pub const MIN_REST: f64 = 1.5;
+/// Longest window fitted after a stop, s.
+pub const MAX_WINDOW: f64 = 4.0;
+
+/// The rocking after one stop.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rocking {
+    /// The IMU log (as named in messages).
+    pub file: String,
+    /// Start of the fitted window (the first still sample), s.
+    pub t0: f64,
+    /// Its length, s.
+    pub duration: f64,
+    /// Damped frequency `ω_d` and its 1σ, rad/s.
+    pub damped: (f64, f64),
+    /// Decay rate `σ` of the envelope and its 1σ, 1/s.
+    pub decay: (f64, f64),
+    /// Natural frequency `ω_n = √(ω_d² + σ²)` and its 1σ, rad/s.
+    pub natural: (f64, f64),
+    /// Share of the rocking's energy about the platform's x axis (the rest about y), in [0, 1].
+    pub x_share: f64,
+    /// Largest fitted rate amplitude, rad/s.
+    pub amplitude: f64,
+    /// RMS of the fit's residuals, rad/s.
+    pub residual_rms: f64,
+}
+
+/// The stops of an encoder log: indices `k` where the wheels were moving over `k − 1 → k`
+/// and then stay still for at least [`MIN_REST`] s; with the index of the last still sample.
+pub fn stops(log: &EncoderLog) -> Vec<(usize, usize)> {
+    let n = log.t.len();
+    if n < 3 {
+        return Vec::new();
+    }
+    let speed: Vec<f64> = (1..n)
+        .map(|k| {
+            let dt = log.t[k] - log.t[k - 1];
+            let (a, b) = (&log.angles[k - 1].wheel, &log.angles[k].wheel);
+            a.iter()
+                .zip(b)
+                .map(|(a, b)| ((b - a) / dt).abs())
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    let peak = speed.iter().cloned().fold(0.0, f64::max);
+    if peak <= 0.0 {
+        return Vec::new();
+    }
+    // Still: below 2 % of the run's peak wheel rate (a few counts of a quantised encoder).
+    let still = |s: f64| s < 0.02 * peak;
+    let mut out = Vec::new();
+    let mut k = 1;
+    while k < speed.len() {
+        // speed[k] is the interval k → k+1.
+        if !still(speed[k - 1]) && still(speed[k]) {
+            let mut e = k;
+            while e < speed.len() && still(speed[e]) {
+                e += 1;
+            }
+            // Samples k..=e are still.
+            if log.t[e] - log.t[k] >= MIN_REST {
+                out.push((k, e));
+            }
+            k = e + 1;
+        } else {
+            k += 1;
+        }
+    }
+    out
+}
+
+/// The damped oscillation of both axes at `p = [ω_d, σ, A_x, B_x, c_x, A_y, B_y, c_y]`.
+fn model(p: &[f64], tau: f64) -> [f64; 2] {
+    let e = (-p[1] * tau).exp();
+    let (s, c) = (p[0] * tau).sin_cos();
+    [
+        e * (p[2] * c + p[3] * s) + p[4],
+        e * (p[5] * c + p[6] * s) + p[7],
+    ]
+}
+
+/// For fixed `ω_d` and `σ`, the amplitudes and offsets of both axes by linear least squares,
+/// and the sum of squared residuals.
+fn linear(tau: &[f64], g: &[[f64; 2]], w: f64, sigma: f64) -> Option<([f64; 6], f64)> {
+    use omnikin::nalgebra::{DMatrix, DVector};
+    let m = tau.len();
+    let a = DMatrix::from_fn(m, 3, |i, j| {
+        let e = (-sigma * tau[i]).exp();
+        match j {
+            0 => e * (w * tau[i]).cos(),
+            1 => e * (w * tau[i]).sin(),
+            _ => 1.0,
+        }
+    });
+    let svd = a.clone().svd(true, true);
+    let mut p = [0.0; 6];
+    let mut ss = 0.0;
+    for axis in 0..2 {
+        let b = DVector::from_fn(m, |i, _| g[i][axis]);
+        let x = svd.solve(&b, 1e-12).ok()?;
+        let r = &a * &x - &b;
+        ss += r.norm_squared();
+        p[3 * axis..3 * axis + 3].copy_from_slice(x.as_slice());
+    }
+    Some((p, ss))
+}
+
+/// Fits the rocking in `imu` over `[t0, t1]` (see the module docs). `None` when the window
+/// has too few samples or the fit fails.
+pub fn fit_window(imu: &ImuRates, t0: f64, t1: f64) -> Option<Rocking> {
+    let idx: Vec<usize> = (0..imu.t.len())
+        .filter(|&k| imu.t[k] >= t0 && imu.t[k] <= t1)
+        .collect();
+    if idx.len() < 20 {
+        return None;
+    }
+    let tau: Vec<f64> = idx.iter().map(|&k| imu.t[k] - t0).collect();
+    let g: Vec<[f64; 2]> = idx.iter().map(|&k| imu.rate[k]).collect();
+    let span = tau[tau.len() - 1];
+    // Frequencies the window resolves: at least one cycle, at most a quarter of the sample rate.
+    let dt = span / (tau.len() - 1) as f64;
+    let (lo, hi) = (
+        std::f64::consts::TAU / span,
+        std::f64::consts::PI / (2.0 * dt),
+    );
+    if !(hi > lo) {
+        return None;
+    }
+    let mut best: Option<(f64, f64, [f64; 6], f64)> = None;
+    let steps = 400;
+    for i in 0..=steps {
+        let w = lo * (hi / lo).powf(i as f64 / steps as f64);
+        for frac in [0.0, 0.05, 0.15, 0.4] {
+            let s = frac * w;
+            if let Some((p, ss)) = linear(&tau, &g, w, s)
+                && best.as_ref().is_none_or(|b| ss < b.3)
+            {
+                best = Some((w, s, p, ss));
+            }
+        }
+    }
+    let (w, s, p, _) = best?;
+    let x0 = [w, s, p[0], p[1], p[2], p[3], p[4], p[5]];
+    let scale = p[..2]
+        .iter()
+        .chain(&p[3..5])
+        .fold(0.0f64, |m, v| m.max(v.abs()))
+        .max(1e-9);
+    let h = [
+        1e-6 * w,
+        1e-6 * w,
+        1e-6 * scale,
+        1e-6 * scale,
+        1e-6 * scale,
+        1e-6 * scale,
+        1e-6 * scale,
+        1e-6 * scale,
+    ];
+    let f = |x: &[f64]| -> Option<Vec<f64>> {
+        let mut r = Vec::with_capacity(2 * tau.len());
+        for (t, gk) in tau.iter().zip(&g) {
+            let m = model(x, *t);
+            r.push(m[0] - gk[0]);
+            r.push(m[1] - gk[1]);
+        }
+        Some(r)
+    };
+    let sol = lsq::solve(&f, &x0, &h, &[true; 8]).ok()?;
+    // The residuals of a model that is not exactly the plant's (or of a real IMU's drift) are
+    // correlated: inflate the white-noise 1σ by sqrt((1 + ρ)/(1 − ρ)), ρ their lag-1
+    // autocorrelation per axis (clamped to [0, 0.99]), as the kinematic fit does.
+    let r = f(&sol.x)?;
+    let (mut lag, mut zero) = (0.0, 0.0);
+    for axis in 0..2 {
+        let series: Vec<f64> = r.iter().skip(axis).step_by(2).copied().collect();
+        zero += series.iter().map(|v| v * v).sum::<f64>();
+        lag += series.windows(2).map(|w| w[0] * w[1]).sum::<f64>();
+    }
+    let rho = if zero > 0.0 {
+        (lag / zero).clamp(0.0, 0.99)
+    } else {
+        0.0
+    };
+    let inflation = ((1.0 + rho) / (1.0 - rho)).sqrt();
+    let (wd, sd) = (sol.x[0].abs(), sol.sigma[0] * inflation);
+    let (decay, decay_sd) = (sol.x[1], sol.sigma[1] * inflation);
+    let wn = (wd * wd + decay * decay).sqrt();
+    let wn_sd = ((wd / wn * sd).powi(2) + (decay / wn * decay_sd).powi(2)).sqrt();
+    let ex = sol.x[2].powi(2) + sol.x[3].powi(2);
+    let ey = sol.x[5].powi(2) + sol.x[6].powi(2);
+    Some(Rocking {
+        file: imu.file.clone(),
+        t0,
+        duration: span,
+        damped: (wd, sd),
+        decay: (decay, decay_sd),
+        natural: (wn, wn_sd),
+        x_share: if ex + ey > 0.0 { ex / (ex + ey) } else { 0.5 },
+        amplitude: ex.max(ey).sqrt(),
+        residual_rms: sol.residual_rms,
+    })
+}
+
+/// Every stop's rocking in one run.
+pub fn rockings(encoders: &EncoderLog, imu: &ImuRates) -> Vec<Rocking> {
+    stops(encoders)
+        .into_iter()
+        .filter_map(|(a, b)| {
+            let t0 = encoders.t[a];
+            let t1 = encoders.t[b].min(t0 + MAX_WINDOW);
+            fit_window(imu, t0, t1)
+        })
+        .collect()
+}
+
+/// The natural frequency (rad/s) the dynamic model `p` with depth `h` shows when it rocks
+/// freely from rest, tilted by `tilt` (rad) about the axis of `x_share` (the share of the
+/// rocking about the platform's x axis), its wheels held: sampled every `dt` s for `duration`
+/// s and fitted as the logs are ([`fit_window`]).
+pub fn model_frequency(
+    p: &SphereDynamics,
+    h: f64,
+    tilt: f64,
+    x_share: f64,
+    dt: f64,
+    duration: f64,
+) -> Option<f64> {
+    use crate::dynamics::sphere::{SphereSim, SphereState};
+    use omnikin::nalgebra::UnitQuaternion;
+    let mut q = *p;
+    q.com_depth = h;
+    let x = x_share.clamp(0.0, 1.0);
+    let state = SphereState {
+        orientation: UnitQuaternion::from_euler_angles(
+            tilt * x.sqrt(),
+            tilt * (1.0 - x).sqrt(),
+            0.0,
+        ),
+        ..SphereState::at_rest(0.0, 0.0, 0.0)
+    };
+    let mut sim = SphereSim::with_state(q, state).ok()?;
+    let n = (duration / dt).round() as usize;
+    let mut rates = ImuRates {
+        file: "model".into(),
+        t: Vec::with_capacity(n + 1),
+        rate: Vec::with_capacity(n + 1),
+    };
+    let body = |s: &SphereState| {
+        let w = s.orientation.inverse() * s.platform_rate;
+        [w.x, w.y]
+    };
+    rates.t.push(0.0);
+    rates.rate.push(body(&sim.state()));
+    for k in 1..=n {
+        sim.step(dt, [0.0; 3]).ok()?;
+        rates.t.push(k as f64 * dt);
+        rates.rate.push(body(&sim.state()));
+    }
+    Some(fit_window(&rates, 0.0, duration)?.natural.0)
+}
+
+/// The depth `h` (m) and its 1σ at which the dynamic model `p` rocks as `r` did: the small-tilt
+/// formula's depth ([`com_depth`]) corrected by the secant method until the model's own
+/// rocking ([`model_frequency`], from the amplitude the log shows) has `r`'s natural
+/// frequency (to 1e-6 relative); 1σ that of the frequency over the model's `dω_n/dh`. The
+/// formula alone is biased by the swing's amplitude (a pendulum slows as it swings wider) and
+/// by the rolling resistance. `None` when the model does not reach the frequency.
+pub fn com_depth_from(p: &SphereDynamics, r: &Rocking) -> Option<(f64, f64)> {
+    let ip = r.x_share * p.platform_inertia[0][0] + (1.0 - r.x_share) * p.platform_inertia[1][1];
+    let (h0, _) = com_depth(p, ip, r.natural.0, 0.0)?;
+    let tilt = r.amplitude / r.damped.0;
+    let dt = r.duration / 200.0;
+    let dt = dt.min(0.02);
+    let f = |h: f64| model_frequency(p, h, tilt, r.x_share, dt, r.duration);
+    let radius = p.geometry.shell_radius;
+    let (mut a, mut b) = (h0, (h0 * 1.02).min(0.5 * (h0 + radius)));
+    let (mut fa, mut fb) = (f(a)? - r.natural.0, f(b)? - r.natural.0);
+    for _ in 0..12 {
+        if fb == fa {
+            break;
+        }
+        let c = (b - (fb * (b - a) / (fb - fa))).clamp(1e-6 * radius, radius * (1.0 - 1e-6));
+        a = b;
+        fa = fb;
+        b = c;
+        fb = f(b)? - r.natural.0;
+        if fb.abs() < 1e-6 * r.natural.0 {
+            break;
+        }
+    }
+    if fb.abs() > 1e-3 * r.natural.0 {
+        return None;
+    }
+    // The slope over a 1 % step.
+    let step = 0.01 * b;
+    let slope = (f(b + step)? - f(b - step)?) / (2.0 * step);
+    (slope != 0.0).then(|| (b, r.natural.1 / slope.abs()))
+}
+
+/// The centre-of-mass depth (m) and its 1σ for a natural rocking frequency `wn ± wn_sd`
+/// (rad/s) of the robot `p` (its other values), rocking about an axis whose platform inertia
+/// is `ip` (kg·m²). `None` when no depth inside the shell rocks that fast.
+pub fn com_depth(p: &SphereDynamics, ip: f64, wn: f64, wn_sd: f64) -> Option<(f64, f64)> {
+    let r = p.geometry.shell_radius;
+    let (mp, g) = (p.platform_mass, p.gravity);
+    let k = p.shell_inertia + p.shell_mass * r * r + ip;
+    let w2 = wn * wn;
+    // m_p ω² h² − (2 m_p ω² R + m_p g) h + ω² (m_p R² + K) = 0, the smaller root.
+    let a = mp * w2;
+    let b = -(2.0 * mp * w2 * r + mp * g);
+    let c = w2 * (mp * r * r + k);
+    let disc = b * b - 4.0 * a * c;
+    if !(disc >= 0.0) || a <= 0.0 {
+        return None;
+    }
+    // The smaller root, in the form that does not cancel.
+    let h = 2.0 * c / (-b + disc.sqrt());
+    if !(h > 0.0 && h < r) {
+        return None;
+    }
+    let d = k + mp * (r - h) * (r - h);
+    let dh_dw = 2.0 * wn * d / (mp * g + 2.0 * w2 * mp * (r - h));
+    Some((h, dh_dw.abs() * wn_sd))
+}
