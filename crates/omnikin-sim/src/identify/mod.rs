@@ -488,6 +488,7 @@ pub fn identify(
     } else {
         Vec::new()
     };
+    check_excitation(prior, estimates.iter().chain(&gyro), condition)?;
     let mut fitted = params::apply(prior, &x[..l.geometry]);
     let (dynamics, rocking) = sphere_dynamics(prior, runs)?;
     if let Some(e) = dynamics.iter().find(|e| e.status == Status::Fitted) {
@@ -526,6 +527,70 @@ pub fn identify(
         dynamics,
         rocking,
     })
+}
+
+/// The size against which a fitted value's 1σ is judged, and the largest change from the prior
+/// that is still a calibration ([`check_excitation`]): a scale's own size 1, changed by at
+/// most 0.5 (a wheel half or one and a half times the file's is another wheel); a length's
+/// prior magnitude, at least the robot's size (`footprint_radius`, else 0.1 m), changed by at
+/// most ten times that; an angle 1 rad either; a gyro bias 0.1 and 1 rad/s.
+fn excitation_scale(e: &Estimate, size: f64) -> (f64, f64) {
+    match e.unit {
+        "m" => {
+            let s = e.prior.abs().max(size);
+            (s, 10.0 * s)
+        }
+        "rad" => (1.0, 1.0),
+        "rad/s" => (0.1, 1.0),
+        _ => (1.0, 0.5),
+    }
+}
+
+/// Refuses a fit whose runs do not excite a parameter the rank test let through (a nearly
+/// blind direction: the damped solver then runs along it, to wheel radii of nanometres or
+/// positions of kilometres): a fitted value whose 1σ exceeds its [`excitation_scale`] or is
+/// zero (a singular covariance), or that moved from the prior by more than the largest
+/// calibration change, or is not finite. The error names each such parameter with its value,
+/// 1σ and prior, and the condition number.
+fn check_excitation<'a>(
+    prior: &RobotDescription,
+    estimates: impl Iterator<Item = &'a Estimate>,
+    condition: f64,
+) -> Result<(), IdentifyError> {
+    let size = prior.footprint_radius.unwrap_or(0.1);
+    let mut singular = false;
+    let bad: Vec<String> = estimates
+        .filter(|e| e.status == Status::Fitted)
+        .inspect(|e| singular |= e.sigma == 0.0)
+        .filter(|e| {
+            let (s, change) = excitation_scale(e, size);
+            !(e.value.is_finite()
+                && e.sigma > 0.0
+                && e.sigma <= s
+                && (e.value - e.prior).abs() <= change)
+        })
+        .map(|e| {
+            let u = if e.unit.is_empty() { "" } else { " " };
+            format!(
+                "{} ({:.4e}{u}{} ± {:.2e}, prior {}{u}{})",
+                e.name, e.value, e.unit, e.sigma, e.prior, e.unit
+            )
+        })
+        .collect();
+    if bad.is_empty() {
+        return Ok(());
+    }
+    let how = if singular {
+        "the covariance is singular".to_string()
+    } else {
+        format!("condition {condition:.3e}")
+    };
+    Err(IdentifyError::Fit(format!(
+        "not enough excitation: these runs do not determine {} ({how}); \
+         add runs that move them (omnikin plan sysid: spin for the wheel positions, along-across \
+         for the drive angles and radii, figure-eight for all and the gyro); nothing was written",
+        bad.join(", ")
+    )))
 }
 
 /// `sqrt((1 + ρ) / (1 − ρ))`, ρ the lag-1 autocorrelation of the residual series (x, y and
