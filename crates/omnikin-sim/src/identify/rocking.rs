@@ -159,7 +159,7 @@ pub fn fit_window(imu: &ImuRates, t0: f64, t1: f64) -> Option<Rocking> {
         std::f64::consts::TAU / span,
         std::f64::consts::PI / (2.0 * dt),
     );
-    if !(hi > lo) {
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     let mut best: Option<(f64, f64, [f64; 6], f64)> = None;
@@ -346,7 +346,7 @@ pub fn com_depth(p: &SphereDynamics, ip: f64, wn: f64, wn_sd: f64) -> Option<(f6
     let b = -(2.0 * mp * w2 * r + mp * g);
     let c = w2 * (mp * r * r + k);
     let disc = b * b - 4.0 * a * c;
-    if !(disc >= 0.0) || a <= 0.0 {
+    if disc.is_nan() || disc < 0.0 || a <= 0.0 {
         return None;
     }
     // The smaller root, in the form that does not cancel.
