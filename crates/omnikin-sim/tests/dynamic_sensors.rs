@@ -7,7 +7,9 @@
 use omnikin::description::RobotDescription;
 use omnikin_sim::dynamics::sphere::{DynamicTrial, SphereDynamics, simulate_plan};
 use omnikin_sim::identify::runs::Run;
-use omnikin_sim::identify::{COM_DEPTH, Identified, Options, Status, identify, model, plans};
+use omnikin_sim::identify::{
+    COM_DEPTH, Identified, Options, ROLLING_RESISTANCE, Status, identify, model, plans,
+};
 use omnikin_sim::sensors::{
     ImuProfile, SensorProfile, Sensors, emit_with_attitude, write_encoder_log, write_fixes,
     write_imu,
@@ -230,11 +232,27 @@ fn the_logs_read_back_through_identifys_readers() {
 }
 
 fn with_com_depth(scale: f64) -> (RobotDescription, f64) {
+    with_dynamics(scale, 1.0).0
+}
+
+/// The preset with its depth and its rolling resistance scaled; with the true values.
+fn with_dynamics(depth: f64, resistance: f64) -> ((RobotDescription, f64), f64) {
     let mut d = RobotDescription::preset("sphere-omni").unwrap();
     let dy = d.sphere_dynamics.as_mut().unwrap();
-    let h = dy.com_depth.unwrap() * scale;
+    let h = dy.com_depth.unwrap() * depth;
+    let c = dy.rolling_resistance.unwrap() * resistance;
     dy.com_depth = Some(h);
-    (d, h)
+    dy.rolling_resistance = Some(c);
+    ((d, h), c)
+}
+
+/// `name`'s estimate: fitted, within `tol` (relative) and 2σ of `truth`.
+fn assert_within(id: &Identified, name: &str, truth: f64, tol: f64) {
+    let e = id.dynamics.iter().find(|e| e.name == name).unwrap();
+    eprintln!("{e:?} (true {truth})");
+    assert_eq!(e.status, Status::Fitted, "{e:?}");
+    assert!((e.value - truth).abs() < tol * truth, "{e:?} vs {truth}");
+    assert!((e.value - truth).abs() < 2.0 * e.sigma, "{e:?} vs {truth}");
 }
 
 fn identify_com_depth(truth: &RobotDescription, profile: &SensorProfile, seed: u64) -> Identified {
@@ -255,25 +273,18 @@ fn identify_com_depth(truth: &RobotDescription, profile: &SensorProfile, seed: u
 /// default sensor profile: recovered within 10 % and within 2σ.
 #[test]
 fn com_depth_20_percent_off_is_recovered_from_the_rocking() {
-    let (truth, h) = with_com_depth(1.2);
+    let ((truth, h), c) = with_dynamics(1.2, 1.0);
     let id = identify_com_depth(&truth, &SensorProfile::typical(), 10);
-    let e = id.dynamics.iter().find(|e| e.name == COM_DEPTH).unwrap();
-    eprintln!("{:?}\n{:?}", e, id.rocking);
-    assert_eq!(e.status, Status::Fitted);
-    assert!((e.value - h).abs() < 0.1 * h, "{} vs {h}", e.value);
-    assert!(
-        (e.value - h).abs() < 2.0 * e.sigma,
-        "{} ± {} vs {h}",
-        e.value,
-        e.sigma
-    );
+    eprintln!("{:?}", id.rocking);
+    assert_within(&id, COM_DEPTH, h, 0.1);
+    assert_within(&id, ROLLING_RESISTANCE, c, 0.1);
 }
 
 /// Values of our own: 25 % shallower than the preset, with a noisy IMU (5 mrad/s per axis,
 /// a constant bias on each axis): within 10 % and 2σ.
 #[test]
 fn a_shallower_com_depth_from_a_noisy_imu() {
-    let (truth, h) = with_com_depth(0.75);
+    let ((truth, h), c) = with_dynamics(0.75, 1.0);
     let profile = SensorProfile {
         imu: Some(ImuProfile {
             gyro_noise_std: 0.005,
@@ -283,16 +294,8 @@ fn a_shallower_com_depth_from_a_noisy_imu() {
         ..SensorProfile::typical()
     };
     let id = identify_com_depth(&truth, &profile, 20);
-    let e = id.dynamics.iter().find(|e| e.name == COM_DEPTH).unwrap();
-    eprintln!("{e:?}");
-    assert_eq!(e.status, Status::Fitted);
-    assert!((e.value - h).abs() < 0.1 * h, "{} vs {h}", e.value);
-    assert!(
-        (e.value - h).abs() < 2.0 * e.sigma,
-        "{} ± {} vs {h}",
-        e.value,
-        e.sigma
-    );
+    assert_within(&id, COM_DEPTH, h, 0.1);
+    assert_within(&id, ROLLING_RESISTANCE, c, 0.1);
 }
 
 /// Without a stop in the runs the depth is held at the prior, and the table says why.
@@ -309,4 +312,14 @@ fn without_a_stop_com_depth_is_held_with_the_reason() {
     };
     assert_eq!(e.value, e.prior);
     eprintln!("{why}; {:?}", id.rocking);
+}
+
+/// The friction case: the rolling resistance twice the preset's (with the depth 20 %
+/// deeper), from the rocking's decay: both within 10 % and 2σ.
+#[test]
+fn rolling_resistance_twice_the_preset_is_recovered_from_the_decay() {
+    let ((truth, h), c) = with_dynamics(1.2, 2.0);
+    let id = identify_com_depth(&truth, &SensorProfile::typical(), 30);
+    assert_within(&id, COM_DEPTH, h, 0.1);
+    assert_within(&id, ROLLING_RESISTANCE, c, 0.1);
 }

@@ -41,10 +41,11 @@
 //! reported; values are never invented for a direction the data do not constrain.
 //!
 //! ## Dynamics
-//! For sphere-omni with IMU logs, the platform's centre-of-mass depth from the rocking after
-//! stops ([`rocking`]), with the other `[dynamics]` values taken from the file.
+//! For sphere-omni with IMU logs, the platform's centre-of-mass depth and the rolling
+//! resistance from the rocking after stops ([`rocking`]), with the other `[dynamics]` values
+//! taken from the file.
 //!
-//! What this does **not** do: the other dynamic parameters (the sphere's damping and
+//! What this does **not** do: the other dynamic parameters (the sphere's pivot and roller
 //! frictions, the ballbot's `[dynamics]`), slip or outlier rejection (a run with wheel slip biases the fit: use runs inside
 //! the robot's limits, as `omnikin plan sysid` writes them), time offsets between the logs.
 
@@ -148,8 +149,9 @@ pub struct Identified {
     /// Each run's pose residuals against time, before (the prior) and after (the estimate),
     /// in the order of the runs.
     pub series: Vec<RunResiduals>,
-    /// The dynamic parameters: sphere-omni's `dynamics.com_depth` (m) from the rocking after
-    /// stops, when a run has an IMU log ([`rocking`]); empty otherwise.
+    /// The dynamic parameters: sphere-omni's `dynamics.com_depth` (m) and
+    /// `dynamics.rolling_resistance` from the rocking after stops, when a run has an IMU log
+    /// ([`rocking`]); empty otherwise.
     pub dynamics: Vec<Estimate>,
     /// The rocking fitted after each stop (sphere-omni with IMU logs).
     pub rocking: Vec<rocking::Rocking>,
@@ -158,9 +160,13 @@ pub struct Identified {
 /// The name of the sphere's centre-of-mass depth among [`Identified::dynamics`].
 pub const COM_DEPTH: &str = "dynamics.com_depth";
 
-/// Sphere-omni's `com_depth` from the rocking after the runs' stops (see [`rocking`]): the
-/// estimate (held at the prior, with the reason, when no run has a stop with an IMU log) and
-/// the rocking of each stop. Nothing for another kind, or when no run has an IMU log.
+/// The name of the sphere's rolling resistance among [`Identified::dynamics`].
+pub const ROLLING_RESISTANCE: &str = "dynamics.rolling_resistance";
+
+/// Sphere-omni's `com_depth` and `rolling_resistance` from the rocking after the runs' stops
+/// (see [`rocking`]): the estimates (held at the prior, with the reason, when no run has a stop
+/// with an IMU log) and the rocking of each stop. Nothing for another kind, or when no run has
+/// an IMU log.
 fn sphere_dynamics(
     prior: &RobotDescription,
     runs: &[Run],
@@ -176,14 +182,10 @@ fn sphere_dynamics(
         .filter_map(|r| Some(rocking::rockings(&r.encoders, r.imu_rates.as_ref()?)))
         .flatten()
         .collect();
-    let held = |why: &str| Estimate {
-        name: COM_DEPTH.into(),
-        unit: "m",
-        prior: p.com_depth,
-        value: p.com_depth,
-        sigma: 0.0,
-        status: Status::Fixed(why.into()),
-    };
+    let priors = [
+        (COM_DEPTH, "m", p.com_depth),
+        (ROLLING_RESISTANCE, "", p.rolling_resistance),
+    ];
     // Only stops whose rocking the fit resolves: natural frequency within 20 % (1σ).
     let usable: Vec<&rocking::Rocking> = found
         .iter()
@@ -195,35 +197,53 @@ fn sphere_dynamics(
         } else {
             "the rocking after the stops is too weak to fit (a stop as short as the `stop` plan's is needed)"
         };
-        return Ok((vec![held(why)], found));
+        let held = priors
+            .iter()
+            .map(|&(name, unit, prior)| Estimate {
+                name: name.into(),
+                unit,
+                prior,
+                value: prior,
+                sigma: 0.0,
+                status: Status::Fixed(why.into()),
+            })
+            .collect();
+        return Ok((held, found));
     }
-    // Each stop's depth through the model; the inverse-variance mean.
-    let (mut sw, mut sh) = (0.0, 0.0);
+    // Each stop's values through the model; the inverse-variance means.
+    let mut sums = [(0.0, 0.0); 2];
     for r in &usable {
-        let (h, sd) = rocking::com_depth_from(&p, r).ok_or_else(|| {
+        let fit = rocking::depth_and_resistance(&p, r).ok_or_else(|| {
             IdentifyError::Fit(format!(
-                "{COM_DEPTH}: the rocking at {:.4} rad/s after the stop at {} s of {} has no \
-                 centre-of-mass depth inside the shell for the file's other [dynamics] values \
-                 (shell_mass, shell_inertia, platform_mass, platform_inertia)",
-                r.natural.0, r.t0, r.file
+                "{COM_DEPTH}, {ROLLING_RESISTANCE}: the rocking at {:.4} rad/s, decaying at \
+                 {:.4} /s, after the stop at {} s of {} is not reached by the dynamic model with \
+                 a depth inside the shell and the file's other [dynamics] values (shell_mass, \
+                 shell_inertia, platform_mass, platform_inertia)",
+                r.natural.0, r.decay.0, r.t0, r.file
             ))
         })?;
-        let w = 1.0 / (sd * sd);
-        sw += w;
-        sh += w * h;
+        for (k, (v, sd)) in [fit.com_depth, fit.rolling_resistance]
+            .into_iter()
+            .enumerate()
+        {
+            let w = 1.0 / (sd * sd);
+            sums[k].0 += w;
+            sums[k].1 += w * v;
+        }
     }
-    let (h, h_sd) = (sh / sw, 1.0 / sw.sqrt());
-    Ok((
-        vec![Estimate {
-            name: COM_DEPTH.into(),
-            unit: "m",
-            prior: p.com_depth,
-            value: h,
-            sigma: h_sd,
+    let estimates = priors
+        .iter()
+        .zip(sums)
+        .map(|(&(name, unit, prior), (sw, sv))| Estimate {
+            name: name.into(),
+            unit,
+            prior,
+            value: sv / sw,
+            sigma: 1.0 / sw.sqrt(),
             status: Status::Fitted,
-        }],
-        found,
-    ))
+        })
+        .collect();
+    Ok((estimates, found))
 }
 
 /// Initial start pose of a run: the reference at the log's first time (or its first sample);
@@ -491,11 +511,13 @@ pub fn identify(
     check_excitation(prior, estimates.iter().chain(&gyro), condition)?;
     let mut fitted = params::apply(prior, &x[..l.geometry]);
     let (dynamics, rocking) = sphere_dynamics(prior, runs)?;
-    if let Some(e) = dynamics.iter().find(|e| e.status == Status::Fitted) {
-        fitted
-            .sphere_dynamics
-            .get_or_insert_with(Default::default)
-            .com_depth = Some(e.value);
+    for e in dynamics.iter().filter(|e| e.status == Status::Fitted) {
+        let spec = fitted.sphere_dynamics.get_or_insert_with(Default::default);
+        match e.name.as_str() {
+            COM_DEPTH => spec.com_depth = Some(e.value),
+            ROLLING_RESISTANCE => spec.rolling_resistance = Some(e.value),
+            _ => {}
+        }
     }
     let series = fitted
         .build::<f64>()

@@ -1,5 +1,5 @@
-//! The sphere's centre-of-mass depth from the rocking after a stop (`omnikin identify --robot
-//! sphere-omni` with IMU logs of the `stop` test plan).
+//! The sphere's centre-of-mass depth and rolling resistance from the rocking after a stop
+//! (`omnikin identify --robot sphere-omni` with IMU logs of the `stop` test plan).
 //!
 //! **Physics** ([`crate::dynamics::sphere`], "Motors holding fixed rates"): with its wheels
 //! held (encoders still) the robot is one rigid body rocking about the floor contact; for small
@@ -20,14 +20,18 @@
 //! axes, `g(t) = e^{−σ τ} (A cos ω_d τ + B sin ω_d τ) + c` (its own `A, B, c` per axis), started
 //! from the best frequency of a grid. `ω_n² = ω_d² + σ²`; its 1σ from the fit's
 //! (`σ² (JᵀJ)⁻¹`, inflated for correlated residuals, the correlation of `ω_d` and `σ`
-//! neglected). Stops are pooled by inverse
-//! variance; `h` is the root below `R` of `m_p ω_n² (R − h)² − m_p g h + ω_n² (I_s + m_s R² +
-//! I_p) = 0` (the smaller root of the quadratic), its 1σ `|dh/dω_n|` times that of `ω_n`.
+//! neglected). The depth and the rolling resistance are those at which the dynamic model,
+//! released from rest at the swing's amplitude with its wheels held, shows the same natural
+//! frequency and decay when fitted the same way ([`depth_and_resistance`]), started from the
+//! small-tilt formula's depth ([`com_depth`]: the root below `R` of
+//! `m_p ω_n² (R − h)² − m_p g h + ω_n² (I_s + m_s R² + I_p) = 0`). Their 1σ are the frequency's
+//! and the decay's through the model's Jacobian; stops are pooled by inverse variance.
 //!
-//! What it does not estimate: the damping. The model's rocking loses energy to the rolling
-//! resistance, a regularised Coulomb torque (`C_rr M g R` at speeds above its scale): it
-//! shortens the amplitude by a fixed amount per swing instead of a fixed ratio, and the fitted
-//! `σ` mixes it with the window's length; it is reported, not written.
+//! **The decay** is the rolling resistance's: with held wheels it is the rocking's only loss
+//! in the model (a regularised Coulomb torque `C_rr M g R` at speeds above its scale, which
+//! shortens each swing by a fixed amount rather than a fixed ratio — why the decay is matched
+//! through the model and not read as a damping ratio). A real robot's other losses (the
+//! motors' compliance, the rollers' hysteresis) land in this one number.
 
 use super::lsq;
 use super::runs::{EncoderLog, ImuRates};
@@ -249,22 +253,24 @@ pub fn rockings(encoders: &EncoderLog, imu: &ImuRates) -> Vec<Rocking> {
         .collect()
 }
 
-/// The natural frequency (rad/s) the dynamic model `p` with depth `h` shows when it rocks
-/// freely from rest, tilted by `tilt` (rad) about the axis of `x_share` (the share of the
-/// rocking about the platform's x axis), its wheels held: sampled every `dt` s for `duration`
-/// s and fitted as the logs are ([`fit_window`]).
-pub fn model_frequency(
+/// The rocking the dynamic model `p`, with depth `h` (m) and rolling resistance `c_rr`, shows
+/// when it rocks freely from rest, tilted by `tilt` (rad) about the axis of `x_share` (the
+/// share of the rocking about the platform's x axis), its wheels held: sampled every `dt` s
+/// for `duration` s and fitted as the logs are ([`fit_window`]).
+pub fn model_rocking(
     p: &SphereDynamics,
     h: f64,
+    c_rr: f64,
     tilt: f64,
     x_share: f64,
     dt: f64,
     duration: f64,
-) -> Option<f64> {
+) -> Option<Rocking> {
     use crate::dynamics::sphere::{SphereSim, SphereState};
     use omnikin::nalgebra::UnitQuaternion;
     let mut q = *p;
     q.com_depth = h;
+    q.rolling_resistance = c_rr;
     let x = x_share.clamp(0.0, 1.0);
     let state = SphereState {
         orientation: UnitQuaternion::from_euler_angles(
@@ -292,45 +298,111 @@ pub fn model_frequency(
         rates.t.push(k as f64 * dt);
         rates.rate.push(body(&sim.state()));
     }
-    Some(fit_window(&rates, 0.0, duration)?.natural.0)
+    fit_window(&rates, 0.0, duration)
 }
 
-/// The depth `h` (m) and its 1σ at which the dynamic model `p` rocks as `r` did: the small-tilt
-/// formula's depth ([`com_depth`]) corrected by the secant method until the model's own
-/// rocking ([`model_frequency`], from the amplitude the log shows) has `r`'s natural
-/// frequency (to 1e-6 relative); 1σ that of the frequency over the model's `dω_n/dh`. The
-/// formula alone is biased by the swing's amplitude (a pendulum slows as it swings wider) and
-/// by the rolling resistance. `None` when the model does not reach the frequency.
-pub fn com_depth_from(p: &SphereDynamics, r: &Rocking) -> Option<(f64, f64)> {
-    let ip = r.x_share * p.platform_inertia[0][0] + (1.0 - r.x_share) * p.platform_inertia[1][1];
-    let (h0, _) = com_depth(p, ip, r.natural.0, 0.0)?;
-    let tilt = r.amplitude / r.damped.0;
-    let dt = r.duration / 200.0;
-    let dt = dt.min(0.02);
-    let f = |h: f64| model_frequency(p, h, tilt, r.x_share, dt, r.duration);
-    let radius = p.geometry.shell_radius;
-    let (mut a, mut b) = (h0, (h0 * 1.02).min(0.5 * (h0 + radius)));
-    let (mut fa, mut fb) = (f(a)? - r.natural.0, f(b)? - r.natural.0);
-    for _ in 0..12 {
-        if fb == fa {
+/// The root of `g` by the secant method from `x0`, `x1`, kept within `[lo, hi]`, to `|g|` below
+/// `tol`. `None` when `g` fails or no root is reached.
+fn secant(
+    g: impl Fn(f64) -> Option<f64>,
+    x0: f64,
+    x1: f64,
+    (lo, hi): (f64, f64),
+    tol: f64,
+) -> Option<f64> {
+    let (mut a, mut b) = (x0, x1);
+    let (mut ga, mut gb) = (g(a)?, g(b)?);
+    for _ in 0..16 {
+        if gb.abs() < tol {
+            return Some(b);
+        }
+        if gb == ga {
             break;
         }
-        let c = (b - (fb * (b - a) / (fb - fa))).clamp(1e-6 * radius, radius * (1.0 - 1e-6));
+        let c = (b - gb * (b - a) / (gb - ga)).clamp(lo, hi);
         a = b;
-        fa = fb;
+        ga = gb;
         b = c;
-        fb = f(b)? - r.natural.0;
-        if fb.abs() < 1e-6 * r.natural.0 {
+        gb = g(b)?;
+    }
+    (gb.abs() < tol).then_some(b)
+}
+
+/// What the model-matched rocking gives ([`depth_and_resistance`]): value and 1σ of each.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RockingFit {
+    /// The platform's centre-of-mass depth `com_depth`, m.
+    pub com_depth: (f64, f64),
+    /// The rolling-resistance coefficient `rolling_resistance` (`C_rr`), 1.
+    pub rolling_resistance: (f64, f64),
+}
+
+/// The depth `h` (m) and the rolling resistance `C_rr` at which the dynamic model `p` rocks as
+/// `r` did: released from rest at the swing's amplitude with its wheels held, the model's
+/// rocking, fitted as the log's was ([`model_rocking`]), has `r`'s natural frequency and decay
+/// rate. Alternating secant solves (the depth for the frequency, then `C_rr` for the decay),
+/// from the small-tilt formula's depth ([`com_depth`]) and the file's `C_rr`, until both hold to
+/// 1e-6 relative. 1σ: the frequency's and the decay's, mapped through the inverse of the
+/// model's 2 × 2 Jacobian (central differences of 1 %). The formula alone is biased by the
+/// swing's amplitude (a pendulum slows as it swings wider) and by the rolling resistance; the
+/// rocking's only loss with held wheels is the rolling resistance (a Coulomb torque
+/// `C_rr M g R` above its velocity scale). `None` when the model does not reach the values.
+pub fn depth_and_resistance(p: &SphereDynamics, r: &Rocking) -> Option<RockingFit> {
+    let ip = r.x_share * p.platform_inertia[0][0] + (1.0 - r.x_share) * p.platform_inertia[1][1];
+    let (mut h, _) = com_depth(p, ip, r.natural.0, 0.0)?;
+    let mut c = p.rolling_resistance.max(1e-4);
+    let tilt = r.amplitude / r.damped.0;
+    let dt = (r.duration / 200.0).min(0.02);
+    let model = |h: f64, c: f64| model_rocking(p, h, c, tilt, r.x_share, dt, r.duration);
+    let radius = p.geometry.shell_radius;
+    let depth = (1e-6 * radius, radius * (1.0 - 1e-6));
+    let (wn, decay) = (r.natural.0, r.decay.0);
+    for _ in 0..6 {
+        let h_new = secant(
+            |h| Some(model(h, c)?.natural.0 - wn),
+            h,
+            (h * 1.02).min(0.5 * (h + radius)),
+            depth,
+            1e-6 * wn,
+        )?;
+        let c_new = secant(
+            |c| Some(model(h_new, c)?.decay.0 - decay),
+            c,
+            c * 1.1,
+            (0.0, 1.0),
+            1e-6 * wn,
+        )?;
+        let done = (h_new - h).abs() < 1e-6 * h && (c_new - c).abs() < 1e-6 * c.max(1e-6);
+        (h, c) = (h_new, c_new);
+        if done {
             break;
         }
     }
-    if fb.abs() > 1e-3 * r.natural.0 {
+    // The model's Jacobian of (natural frequency, decay) in (h, C_rr).
+    let (dh, dc) = (0.01 * h, 0.01 * c.max(1e-4));
+    let at = |h: f64, c: f64| model(h, c).map(|m| [m.natural.0, m.decay.0]);
+    let (hp, hm) = (at(h + dh, c)?, at(h - dh, c)?);
+    let (cp, cm) = (at(h, c + dc)?, at(h, (c - dc).max(0.0))?);
+    let dc_span = c + dc - (c - dc).max(0.0);
+    let j = [
+        [(hp[0] - hm[0]) / (2.0 * dh), (cp[0] - cm[0]) / dc_span],
+        [(hp[1] - hm[1]) / (2.0 * dh), (cp[1] - cm[1]) / dc_span],
+    ];
+    let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+    if det == 0.0 || !det.is_finite() {
         return None;
     }
-    // The slope over a 1 % step.
-    let step = 0.01 * b;
-    let slope = (f(b + step)? - f(b - step)?) / (2.0 * step);
-    (slope != 0.0).then(|| (b, r.natural.1 / slope.abs()))
+    // J⁻¹ = [[d, −b], [−c, a]] / det; Cov = J⁻¹ diag(s_w², s_σ²) J⁻ᵀ.
+    let inv = [
+        [j[1][1] / det, -j[0][1] / det],
+        [-j[1][0] / det, j[0][0] / det],
+    ];
+    let (sw, sd) = (r.natural.1, r.decay.1);
+    let sigma = |row: [f64; 2]| ((row[0] * sw).powi(2) + (row[1] * sd).powi(2)).sqrt();
+    Some(RockingFit {
+        com_depth: (h, sigma(inv[0])),
+        rolling_resistance: (c, sigma(inv[1])),
+    })
 }
 
 /// The centre-of-mass depth (m) and its 1σ for a natural rocking frequency `wn ± wn_sd`
