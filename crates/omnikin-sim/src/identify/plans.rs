@@ -18,7 +18,8 @@
 //! and 50 rad/s² are assumed. The sphere's `stop` is the exception: its stop ramp is as short
 //! as half the wheel-acceleration limit allows (the other ramps are 1 s or longer), so that the
 //! platform, swung forward by the deceleration, rocks freely afterwards on the locked wheels;
-//! its speed is half the wheel-rate limit's. The sphere's spin decay and the ballbot's sways
+//! its speed is half the wheel-rate limit's, or less: low enough that the file's dynamic model
+//! tilts by at most 95 % of its `max_tilt_deg`. The sphere's spin decay and the ballbot's sways
 //! are not planned here.
 //!
 //! A swerve turns its modules at rest before each segment (`steer_to`): every segment's
@@ -374,15 +375,16 @@ pub fn sysid_plans(desc: &RobotDescription, rate: f64) -> Result<Vec<SysidPlan>,
         });
     }
     if desc.kind() == "sphere-omni" {
-        // Half the rate limit; the ramps from the peak wheel acceleration `π w / 2τ` of a
-        // cosine ramp: 1 s (or longer) up, the stop as short as half the limit allows, at
-        // least one sample.
+        // Half the rate limit (less if the swing would pass max_tilt_deg, below); the ramps
+        // from the peak wheel acceleration `π w / 2τ` of a cosine ramp: 1 s (or longer) up,
+        // the stop as short as half the limit allows, at least one sample.
         let probe = build_stop(&robot, 1.0, 1.0, 1.0, rate)?;
         let (w, _, _) = peaks(&probe);
         let amp = 0.5 * max_rate / w.max(1e-12);
         let peak = 0.5 * max_rate;
         let tau = (std::f64::consts::PI * peak / (2.0 * 0.5 * max_accel)).max(1.0);
         let mut tau_stop = (std::f64::consts::PI * peak / (2.0 * 0.5 * max_accel)).max(1.0 / rate);
+        let mut amp = amp;
         let mut plan = build_stop(&robot, amp, tau, tau_stop, rate)?;
         // The sampled ramp's steps exceed the continuous peak by up to one sample's change.
         for _ in 0..16 {
@@ -392,6 +394,28 @@ pub fn sysid_plans(desc: &RobotDescription, rate: f64) -> Result<Vec<SysidPlan>,
             }
             tau_stop *= a / (0.5 * max_accel) * 1.05;
             plan = build_stop(&robot, amp, tau, tau_stop, rate)?;
+        }
+        // The swing after the stop within the file's `max_tilt_deg`, as the file's dynamic model
+        // has it: slower until the model's largest tilt is within 95 % of it.
+        let max_tilt = desc
+            .sphere_dynamics
+            .as_ref()
+            .and_then(|s| s.max_tilt_deg)
+            .map(f64::to_radians);
+        if let (Some(limit), Ok(model)) = (
+            max_tilt,
+            crate::dynamics::sphere::SphereDynamics::from_description(desc),
+        ) {
+            for _ in 0..8 {
+                let Ok(run) = crate::dynamics::sphere::simulate_plan(model, &plan) else {
+                    break;
+                };
+                if run.max_tilt <= 0.95 * limit {
+                    break;
+                }
+                amp *= 0.9 * limit / run.max_tilt;
+                plan = build_stop(&robot, amp, tau, tau_stop, rate)?;
+            }
         }
         out.push(SysidPlan {
             name: "stop",

@@ -351,13 +351,22 @@ pub fn depth_and_resistance(p: &SphereDynamics, r: &Rocking) -> Option<RockingFi
     let ip = r.x_share * p.platform_inertia[0][0] + (1.0 - r.x_share) * p.platform_inertia[1][1];
     let (mut h, _) = com_depth(p, ip, r.natural.0, 0.0)?;
     let mut c = p.rolling_resistance.max(1e-4);
-    let tilt = r.amplitude / r.damped.0;
+    let mut tilt = r.amplitude / r.damped.0;
     let dt = (r.duration / 200.0).min(0.02);
-    let model = |h: f64, c: f64| model_rocking(p, h, c, tilt, r.x_share, dt, r.duration);
     let radius = p.geometry.shell_radius;
     let depth = (1e-6 * radius, radius * (1.0 - 1e-6));
-    let (wn, decay) = (r.natural.0, r.decay.0);
-    for _ in 0..6 {
+    let (wn, decay, amp) = (r.natural.0, r.decay.0, r.amplitude);
+    for _ in 0..8 {
+        // The release tilt for the swing's fitted amplitude, the depth for the frequency, the
+        // rolling resistance for the decay.
+        let tilt_new = secant(
+            |t| Some(model_rocking(p, h, c, t, r.x_share, dt, r.duration)?.amplitude - amp),
+            tilt,
+            tilt * 1.05,
+            (1e-6, 1.2),
+            1e-6 * amp,
+        )?;
+        let model = |h: f64, c: f64| model_rocking(p, h, c, tilt_new, r.x_share, dt, r.duration);
         let h_new = secant(
             |h| Some(model(h, c)?.natural.0 - wn),
             h,
@@ -372,12 +381,15 @@ pub fn depth_and_resistance(p: &SphereDynamics, r: &Rocking) -> Option<RockingFi
             (0.0, 1.0),
             1e-6 * wn,
         )?;
-        let done = (h_new - h).abs() < 1e-6 * h && (c_new - c).abs() < 1e-6 * c.max(1e-6);
-        (h, c) = (h_new, c_new);
+        let done = (h_new - h).abs() < 1e-6 * h
+            && (c_new - c).abs() < 1e-6 * c.max(1e-6)
+            && (tilt_new - tilt).abs() < 1e-6 * tilt;
+        (h, c, tilt) = (h_new, c_new, tilt_new);
         if done {
             break;
         }
     }
+    let model = |h: f64, c: f64| model_rocking(p, h, c, tilt, r.x_share, dt, r.duration);
     // The model's Jacobian of (natural frequency, decay) in (h, C_rr).
     let (dh, dc) = (0.01 * h, 0.01 * c.max(1e-4));
     let at = |h: f64, c: f64| model(h, c).map(|m| [m.natural.0, m.decay.0]);
