@@ -15,14 +15,15 @@
 //! is what is hard to measure).
 //!
 //! **Estimate.** Each stop is found in the encoder log (moving, then every wheel still for at
-//! least [`MIN_REST`] s). Over the rest that follows (at most [`MAX_WINDOW`] s), the IMU's
-//! body rates `gx`, `gy` are fitted by least squares with one damped oscillation shared by both
-//! axes, `g(t) = e^{−σ τ} (A cos ω_d τ + B sin ω_d τ) + c` (its own `A, B, c` per axis), started
-//! from the best frequency of a grid. `ω_n² = ω_d² + σ²`; its 1σ from the fit's
+//! least [`MIN_REST`] s). From the swing's first turning point to the end of the rest (at most
+//! [`MAX_WINDOW`] s after the stop), the IMU's body rates `gx`, `gy` are fitted by least
+//! squares with one damped oscillation shared by both axes,
+//! `g(t) = e^{−σ τ} (A cos ω_d τ + B sin ω_d τ) + c` (its own `A, B, c` per axis), started from
+//! the best frequency of a grid. `ω_n² = ω_d² + σ²`; its 1σ from the fit's
 //! (`σ² (JᵀJ)⁻¹`, inflated for correlated residuals, the correlation of `ω_d` and `σ`
 //! neglected). The depth and the rolling resistance are those at which the dynamic model,
-//! released from rest at the swing's amplitude with its wheels held, shows the same natural
-//! frequency and decay when fitted the same way ([`depth_and_resistance`]), started from the
+//! released from rest at the tilt that gives the swing's amplitude, with its wheels held, shows
+//! the same natural frequency, decay and amplitude when fitted the same way ([`depth_and_resistance`]), started from the
 //! small-tilt formula's depth ([`com_depth`]: the root below `R` of
 //! `m_p ω_n² (R − h)² − m_p g h + ω_n² (I_s + m_s R² + I_p) = 0`). Their 1σ are the frequency's
 //! and the decay's through the model's Jacobian; stops are pooled by inverse variance.
@@ -241,14 +242,35 @@ pub fn fit_window(imu: &ImuRates, t0: f64, t1: f64) -> Option<Rocking> {
     })
 }
 
-/// Every stop's rocking in one run.
+/// Every stop's rocking in one run. The window of each: from the first turning point of the
+/// swing after the wheels stop (the sample nearest the first sign change of the rate about the
+/// rocking's main axis: the platform at its largest tilt, at rest, as [`model_rocking`]
+/// releases the model) to the end of the rest, at most [`MAX_WINDOW`] s after the stop.
 pub fn rockings(encoders: &EncoderLog, imu: &ImuRates) -> Vec<Rocking> {
     stops(encoders)
         .into_iter()
         .filter_map(|(a, b)| {
-            let t0 = encoders.t[a];
-            let t1 = encoders.t[b].min(t0 + MAX_WINDOW);
-            fit_window(imu, t0, t1)
+            let stop = encoders.t[a];
+            let t1 = encoders.t[b].min(stop + MAX_WINDOW);
+            let idx: Vec<usize> = (0..imu.t.len())
+                .filter(|&k| imu.t[k] >= stop && imu.t[k] <= t1)
+                .collect();
+            // The main axis: the larger mean square over the window.
+            let ms = |axis: usize| idx.iter().map(|&k| imu.rate[k][axis].powi(2)).sum::<f64>();
+            let axis = usize::from(ms(1) > ms(0));
+            let turn = idx
+                .windows(2)
+                .find(|w| imu.rate[w[0]][axis] * imu.rate[w[1]][axis] <= 0.0)
+                .map_or(stop, |w| {
+                    // The sample nearer to the sign change.
+                    let (r0, r1) = (imu.rate[w[0]][axis], imu.rate[w[1]][axis]);
+                    if r0.abs() <= r1.abs() {
+                        imu.t[w[0]]
+                    } else {
+                        imu.t[w[1]]
+                    }
+                });
+            fit_window(imu, turn, t1)
         })
         .collect()
 }
