@@ -22,9 +22,9 @@
 //! the best frequency of a grid. `ω_n² = ω_d² + σ²`; its 1σ from the fit's
 //! (`σ² (JᵀJ)⁻¹`, inflated for correlated residuals, the correlation of `ω_d` and `σ`
 //! neglected). The depth and the rolling resistance are those at which the dynamic model,
-//! released from rest at the tilt that gives the swing's amplitude, with its wheels held, shows
-//! the same natural frequency, decay and amplitude when fitted the same way ([`depth_and_resistance`]), started from the
-//! small-tilt formula's depth ([`com_depth`]: the root below `R` of
+//! released from rest at the tilt that gives the swing's amplitude, with its wheels held,
+//! shows the same natural frequency, decay and amplitude when fitted the same way
+//! ([`depth_and_resistance`]), started from the small-tilt formula's depth ([`com_depth`]: the root below `R` of
 //! `m_p ω_n² (R − h)² − m_p g h + ω_n² (I_s + m_s R² + I_p) = 0`). Their 1σ are the frequency's
 //! and the decay's through the model's Jacobian; stops are pooled by inverse variance.
 //!
@@ -360,10 +360,11 @@ pub struct RockingFit {
 }
 
 /// The depth `h` (m) and the rolling resistance `C_rr` at which the dynamic model `p` rocks as
-/// `r` did: released from rest at the swing's amplitude with its wheels held, the model's
-/// rocking, fitted as the log's was ([`model_rocking`]), has `r`'s natural frequency and decay
-/// rate. Alternating secant solves (the depth for the frequency, then `C_rr` for the decay),
-/// from the small-tilt formula's depth ([`com_depth`]) and the file's `C_rr`, until both hold to
+/// `r` did: released from rest at the tilt that gives `r`'s amplitude, with its wheels held,
+/// the model's rocking, fitted as the log's was ([`model_rocking`]), has `r`'s natural
+/// frequency and decay rate. Alternating secant solves (the release tilt for the amplitude, the
+/// depth for the frequency, `C_rr` for the decay), from the small-tilt formula's depth
+/// ([`com_depth`]) and the file's `C_rr`, until all hold to
 /// 1e-6 relative. 1σ: the frequency's and the decay's, mapped through the inverse of the
 /// model's 2 × 2 Jacobian (central differences of 1 %). The formula alone is biased by the
 /// swing's amplitude (a pendulum slows as it swings wider) and by the rolling resistance; the
