@@ -469,6 +469,45 @@ mod tests {
         }
     }
 
+    /// The sphere gets a fifth plan, `stop`: within half its wheel-rate and acceleration
+    /// limits, ending with [`STOP_REST`] s at rest, and its file's dynamic model swings by at
+    /// most 95 % of `max_tilt_deg` (at half the rate limit the preset's swung 25°).
+    #[test]
+    fn the_spheres_stop_swings_within_its_tilt_limit() {
+        use crate::dynamics::sphere::{SphereDynamics, simulate_plan};
+        let d = RobotDescription::preset("sphere-omni").unwrap();
+        let plans = sysid_plans(&d, 50.0).unwrap();
+        assert_eq!(plans.len(), 5);
+        let stop = &plans.iter().find(|p| p.name == "stop").unwrap().plan;
+        let (w, a, _) = peaks(stop);
+        assert!(
+            w <= 0.5 * d.limits.max_wheel_rate.unwrap() * (1.0 + 1e-9),
+            "{w}"
+        );
+        assert!(a <= 0.5 * d.limits.max_wheel_accel.unwrap() * 1.001, "{a}");
+        let still = stop
+            .samples
+            .iter()
+            .rev()
+            .take_while(|s| s.wheel_rates[..3].iter().all(|r| *r == 0.0))
+            .count();
+        assert!(still as f64 / 50.0 >= STOP_REST - 0.05, "{still}");
+        let limit = d
+            .sphere_dynamics
+            .as_ref()
+            .unwrap()
+            .max_tilt_deg
+            .unwrap()
+            .to_radians();
+        let run = simulate_plan(SphereDynamics::from_description(&d).unwrap(), stop).unwrap();
+        assert!(run.max_tilt <= 0.95 * limit, "{} of {limit}", run.max_tilt);
+        assert!(
+            run.max_tilt > 0.5 * limit,
+            "the stop still swings: {}",
+            run.max_tilt
+        );
+    }
+
     /// A swerve's modules turn only at rest, between segments, within half the steer limits,
     /// and keep one angle while the wheels roll (a reversal would otherwise flip them by π in
     /// one sample): the steer angles of consecutive samples differ by at most the limit × dt.
