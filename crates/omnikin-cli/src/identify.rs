@@ -1,6 +1,7 @@
-//! `omnikin identify`: a robot's wheel geometry and gyro bias/scale from recorded runs, written
-//! as a robot file with a comment per value (`omnikin_sim::identify` does the work; this reads
-//! the files, prints the table and writes the file).
+//! `omnikin identify`: a robot's wheel geometry and gyro bias/scale (and the sphere's rocking
+//! parameters) from recorded runs, written as a robot file with a comment per value
+//! (`omnikin_sim::identify` does the work; this reads the files, prints the table and writes
+//! the file).
 
 use std::path::PathBuf;
 
@@ -32,7 +33,8 @@ pub struct IdentifyArgs {
     #[arg(long, num_args = 1.., value_name = "RUN.csv")]
     pub tracked: Vec<PathBuf>,
     /// IMU logs, one per run: t,gx,gy,gz,… (rad/s); their gz is the gyro instead of the encoder
-    /// logs' gyro_z.
+    /// logs' gyro_z. For sphere-omni, their gx, gy after a stop (plan sysid's stop.csv) give
+    /// [dynamics] com_depth and rolling_resistance from the platform's rocking.
     #[arg(long, num_args = 1.., value_name = "IMU.csv")]
     pub imu: Vec<PathBuf>,
     /// The identified robot file: the input file with the fitted values, each with a comment

@@ -44,13 +44,14 @@ fn emit_sensors(
     robot: &omnikin::Robot<f64>,
     i: usize,
     trial: &Trial,
+    attitude: Option<&[omnikin_sim::sensors::PlatformAttitude]>,
     profile: &omnikin_sim::sensors::SensorProfile,
     seed: u64,
 ) -> Result<()> {
     use omnikin_sim::sensors::{
-        emit_trial, write_encoder_log, write_fixes, write_imu, write_truth,
+        emit_trial_with_attitude, write_encoder_log, write_fixes, write_imu, write_truth,
     };
-    let s = emit_trial(robot, i, trial, profile, seed);
+    let s = emit_trial_with_attitude(robot, i, trial, attitude, profile, seed);
     let d = dir.join("sensors").join(format!("trial-{i:03}"));
     crate::output::create_subdir("--out", &d)?;
     write_file(&d.join("encoders.csv"), |w| {
@@ -73,9 +74,20 @@ fn emit_sensors(
 fn simulate_dynamic(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<()> {
     use omnikin_sim::dynamic_run::{DynamicOptions, DynamicPlant, check_kind, one_trial_note};
     check_kind(d)?;
-    if a.disturbances.is_some() || a.emit_sensors {
-        bail!("--plant dynamic does not take --disturbances or --emit-sensors yet");
+    if a.disturbances.is_some() {
+        bail!("--plant dynamic does not take --disturbances yet");
     }
+    let sensors = if a.emit_sensors {
+        let sp = sensor_profile(a.sensors.as_deref())?;
+        if sp.tilt.is_some() {
+            bail!(
+                "--sensors: [tilt] sets a constant platform tilt for the kinematic plant; the dynamic plant tilts the platform itself (its IMU carries the model's roll and pitch): remove [tilt] or use --plant kinematic"
+            );
+        }
+        Some(sp)
+    } else {
+        None
+    };
     if a.trials > 1 {
         crate::errln!("note: {}", one_trial_note(d));
     }
@@ -92,6 +104,10 @@ fn simulate_dynamic(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Resu
     create_dir_for(&a.out, &["metrics.json", "trials.csv", "mean.csv", &figure])?;
     let sim = plant.run(d, plan, &opts)?;
     write_dynamic_run(&a.out, plan, &sim)?;
+    if let Some(sp) = &sensors {
+        let robot = d.build::<f64>()?;
+        emit_sensors(&a.out, &robot, 0, sim.trial(), sim.attitude(), sp, a.seed)?;
+    }
     crate::mcap_log::one_trial(a.mcap.as_deref(), plan, sim.trial())?;
     crate::figures::trajectory_figure(
         "--out",
@@ -110,6 +126,12 @@ fn simulate_dynamic(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Resu
         "wrote {}/{{metrics.json, trials.csv, mean.csv, {figure}}}",
         a.out.display().to_string().trim_end_matches('/')
     );
+    if sensors.is_some() {
+        crate::errln!(
+            "sensor logs: {}/sensors/trial-000/{{encoders.csv, fixes.csv, imu.csv, truth.csv}}",
+            a.out.display().to_string().trim_end_matches('/')
+        );
+    }
     Ok(())
 }
 
@@ -228,7 +250,7 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
                     write_trial(&mut trials_csv, i, trial)
                         .with_context(|| format!("cannot write {}", trials_path.display()))?;
                     if let Some(sp) = &sensors {
-                        emit_sensors(&a.out, &robot, i, trial, sp, a.seed)?;
+                        emit_sensors(&a.out, &robot, i, trial, None, sp, a.seed)?;
                     }
                     if let Some(m) = mcap.as_mut().filter(|_| i < mcap_trials) {
                         crate::mcap_log::trial(m, i, trial, &plan)?;

@@ -41,7 +41,9 @@ pub struct SimulateArgs {
     #[arg(long, value_enum, default_value_t = FigureFormat::Svg)]
     pub figure_format: FigureFormat,
     /// Also write what each trial's sensors recorded, for `omnikin odometry`:
-    /// DIR/sensors/trial-NNN/{encoders.csv, fixes.csv, imu.csv, truth.csv}.
+    /// DIR/sensors/trial-NNN/{encoders.csv, fixes.csv, imu.csv, truth.csv}. With --plant
+    /// dynamic (sphere-omni) the IMU rides the model's tilting platform and the encoders read
+    /// the model's wheel angles.
     #[arg(long)]
     pub emit_sensors: bool,
     /// Sensor profile for --emit-sensors (TOML: counts_per_rev, [gyro], [yaw], [imu], [camera],

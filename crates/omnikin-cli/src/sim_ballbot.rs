@@ -20,8 +20,13 @@ use crate::sim_args::SimulateArgs;
 
 /// Runs the ballbot's dynamic simulate (module doc) through [`omnikin_sim::dynamic_run`].
 pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<()> {
-    if a.disturbances.is_some() || a.emit_sensors {
-        bail!("--plant dynamic does not take --disturbances or --emit-sensors yet");
+    if a.disturbances.is_some() {
+        bail!("--plant dynamic does not take --disturbances yet");
+    }
+    if a.emit_sensors {
+        bail!(
+            "--emit-sensors: not yet for the ballbot's dynamic plant (sphere-omni's dynamic plant and the kinematic plants only)"
+        );
     }
     if a.trials > 1 {
         crate::errln!("note: {}", one_trial_note(d));

@@ -337,3 +337,168 @@ fn identify_recovers_a_perturbed_swerve4_end_to_end() {
         modules[0].wheel_radius
     );
 }
+
+/// The sphere end to end with the dynamic plant: `plan sysid` writes the `stop` plan;
+/// `simulate --plant dynamic --emit-sensors` with a robot file whose platform's centre of mass
+/// is 20 % deeper writes the four logs; `identify` with the preset as prior writes that depth
+/// back within 10 % and 2σ, with its comment, and reports the rocking in `--json`.
+#[test]
+fn identify_finds_the_spheres_com_depth_from_dynamic_logs() {
+    let dir = TestDir::new("identify", "sphere-dynamic");
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../robots/sphere-omni.toml"),
+    )
+    .unwrap();
+    let prior = RobotDescription::from_toml_str(&text, "sphere-omni.toml").unwrap();
+    let h = prior.sphere_dynamics.as_ref().unwrap().com_depth.unwrap() * 1.2;
+    let truth: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("com_depth") {
+                format!("com_depth = {h}")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(dir.join("sphere-true.toml"), truth).unwrap();
+    omnikin()
+        .current_dir(&*dir)
+        .args(["plan", "sysid", "--robot", "sphere-omni", "--out", "plans"])
+        .assert()
+        .success();
+    let readme = std::fs::read_to_string(dir.join("plans/README.txt")).unwrap();
+    assert!(
+        readme.contains("stop.csv") && readme.contains("com_depth"),
+        "{readme}"
+    );
+    let mut args: Vec<String> = Vec::new();
+    for flag in ["encoders", "fixes", "imu"] {
+        args.push(format!("--{flag}"));
+        for p in ["spin", "stop"] {
+            args.push(format!("sim-{p}/sensors/trial-000/{flag}.csv"));
+        }
+    }
+    for p in ["spin", "stop"] {
+        omnikin()
+            .current_dir(&*dir)
+            .args([
+                "simulate",
+                "--robot",
+                "sphere-true.toml",
+                "--plant",
+                "dynamic",
+            ])
+            .args(["--emit-sensors", "--out", &format!("sim-{p}")])
+            .arg(format!("plans/{p}.csv"))
+            .assert()
+            .success()
+            .stderr(predicate::str::contains("sensor logs: "));
+        for f in ["encoders", "fixes", "imu", "truth"] {
+            assert!(
+                dir.join(format!("sim-{p}/sensors/trial-000/{f}.csv"))
+                    .is_file()
+            );
+        }
+    }
+    let out = omnikin()
+        .current_dir(&*dir)
+        .args([
+            "identify",
+            "--robot",
+            "sphere-omni",
+            "--out",
+            "identified.toml",
+        ])
+        .arg("--json")
+        .args(&args)
+        .assert()
+        .success();
+    let json: serde_json::Value =
+        serde_json::from_slice(&out.get_output().stdout).expect("one JSON object");
+    let p = json["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == "dynamics.com_depth")
+        .unwrap_or_else(|| panic!("{json}"));
+    let (v, s) = (p["value"].as_f64().unwrap(), p["sigma"].as_f64().unwrap());
+    assert_eq!(p["status"], "fitted", "{p}");
+    assert!(
+        (v - h).abs() < 0.1 * h && (v - h).abs() < 2.0 * s,
+        "{p} vs {h}"
+    );
+    assert_eq!(json["rocking"].as_array().unwrap().len(), 1, "{json}");
+    let written = std::fs::read_to_string(dir.join("identified.toml")).unwrap();
+    let line = written
+        .lines()
+        .find(|l| l.starts_with("com_depth"))
+        .unwrap();
+    assert!(
+        line.contains("# identified: ") && line.contains("rocking"),
+        "{line}"
+    );
+    let d = RobotDescription::from_toml_str(&written, "identified.toml").unwrap();
+    let back = d.sphere_dynamics.unwrap().com_depth.unwrap();
+    assert!((back - v).abs() < 1e-8, "{back} vs {v}");
+}
+
+/// One poorly exciting run (the kiwi's `along` alone) is refused with "not enough
+/// excitation", naming what it does not determine; no robot file is written.
+#[test]
+fn identify_refuses_a_run_that_does_not_excite_the_geometry() {
+    let dir = TestDir::new("identify", "not-excited");
+    let (enc, fixes) = recorded(&dir);
+    omnikin()
+        .current_dir(&*dir)
+        .args(["identify", "--robot", "kiwi", "--out", "k.toml"])
+        .arg("--encoders")
+        .arg(&enc[0])
+        .arg("--fixes")
+        .arg(&fixes[0])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains(
+            "not enough excitation: these runs do not determine wheels[",
+        ));
+    assert!(!dir.join("k.toml").exists());
+}
+
+/// The dynamic plant tilts the platform itself: a sensor profile's constant `[tilt]` is
+/// refused with `--plant dynamic`, naming the section, and the ballbot's dynamic plant does not
+/// emit logs yet.
+#[test]
+fn dynamic_emit_sensors_refuses_a_constant_tilt_and_the_ballbot() {
+    let dir = TestDir::new("identify", "dynamic-refusals");
+    omnikin()
+        .current_dir(&*dir)
+        .args(["plan", "sysid", "--robot", "sphere-omni", "--out", "plans"])
+        .assert()
+        .success();
+    std::fs::write(dir.join("tilt.toml"), "[tilt]\nroll = 0.1\npitch = 0.0\n").unwrap();
+    omnikin()
+        .current_dir(&*dir)
+        .args(["simulate", "--robot", "sphere-omni", "--plant", "dynamic"])
+        .args(["--emit-sensors", "--sensors", "tilt.toml", "--out", "o"])
+        .arg("plans/stop.csv")
+        .assert()
+        .failure()
+        .stderr(
+            predicate::str::contains("[tilt]").and(predicate::str::contains("--plant kinematic")),
+        );
+    omnikin()
+        .current_dir(&*dir)
+        .args(["plan", "sysid", "--robot", "ballbot", "--out", "bplans"])
+        .assert()
+        .success();
+    omnikin()
+        .current_dir(&*dir)
+        .args(["simulate", "--robot", "ballbot", "--plant", "dynamic"])
+        .args(["--emit-sensors", "--out", "b", "bplans/along.csv"])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains(
+            "--emit-sensors: not yet for the ballbot",
+        ));
+}

@@ -68,12 +68,21 @@ def test_identify_matches_the_cli_and_recovers_the_radius(cli, logs):
 
 def test_identify_takes_dicts_of_columns(logs):
     d, enc, fixes = logs
-    by_path = omnikin.identify("kiwi", enc[:1], fixes=fixes[:1])
-    by_dict = omnikin.identify(omnikin.Robot("kiwi"), read_csv(enc[0]), fixes=read_csv(fixes[0]))
+    by_path = omnikin.identify("kiwi", enc, fixes=fixes)
+    by_dict = omnikin.identify(omnikin.Robot("kiwi"), [read_csv(e) for e in enc],
+                               fixes=[read_csv(f) for f in fixes])
     for a, b in zip(by_path["parameters"], by_dict["parameters"]):
         assert a["name"] == b["name"]
         np.testing.assert_allclose(a["value"], b["value"], rtol=1e-9, atol=1e-12)
-    assert "encoders[0], fixes[0]" in by_dict["robot_file"]
+    assert "encoders[0], encoders[1], fixes[0], fixes[1]" in by_dict["robot_file"]
+
+
+def test_identify_refuses_a_run_that_does_not_excite_the_geometry(logs):
+    # The square alone (along-across) passes the rank test but leaves wheel positions and the
+    # radii nearly blind: refused, naming them, as the CLI does.
+    d, enc, fixes = logs
+    with pytest.raises(ValueError, match=r"not enough excitation: .*wheels\[1\]\.position\.x"):
+        omnikin.identify("kiwi", read_csv(enc[0]), fixes=read_csv(fixes[0]))
 
 
 def test_identify_refuses_bad_input_naming_it(logs):

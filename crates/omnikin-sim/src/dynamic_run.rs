@@ -397,6 +397,16 @@ impl DynamicSimulation {
         }
     }
 
+    /// The platform's attitude per sample of [`DynamicSimulation::trial`] for the IMU of
+    /// [`crate::sensors::emit_with_attitude`]: the sphere's; `None` for the ballbot (its logs
+    /// are not emitted yet).
+    pub fn attitude(&self) -> Option<&[crate::sensors::PlatformAttitude]> {
+        match &self.outcome {
+            DynamicOutcome::Sphere(r) => Some(&r.attitude),
+            DynamicOutcome::Ballbot(_) => None,
+        }
+    }
+
     /// The lines the CLI prints after the metrics' summary: the largest tilt and pull-outs of
     /// the sphere; the ballbot's tilt, saturation and torque, and its fall.
     pub fn summary_lines(&self, plant: &DynamicPlant) -> Vec<String> {

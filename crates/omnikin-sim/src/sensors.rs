@@ -18,6 +18,12 @@
 //!   measure the shell's (ball's) rate relative to the platform in the tilted platform frame,
 //!   `Rᵀ ω̃`, so their angles are the plant's level ones mapped by `G Rᵀ G⁻¹`
 //!   ([`crate::odometry::tilt::shell_maps`]); the other kinds' wheel angles are the plant's.
+//! * with a per-sample [`PlatformAttitude`] ([`emit_with_attitude`], the sphere's dynamic plant),
+//!   both on the platform as the dynamic model moves it: the IMU (at the shell centre, the
+//!   platform frame's origin) reads the model's body rates, the accelerometer
+//!   `Rₖᵀ (a + g e₃)` and the magnetometer `Rₖᵀ B` with `Rₖ = Rz(ψₖ) Ry(pitchₖ) Rx(rollₖ)` the
+//!   platform's orientation at sample k; the encoder log's `gyro_z` is the body rate's z; the
+//!   wheel angles are the model's own (slipping, stalled), not mapped;
 //! * **camera fixes** of the robot centre every `period` seconds with Gaussian noise, a fixed
 //!   latency (the fix is stamped with the time it was taken and carries its arrival time) and
 //!   occasional outliers.
@@ -111,6 +117,43 @@ impl TiltProfile {
             [0.0, cr, -sr],
             [-sp, cp * sr, cp * cr],
         ]
+    }
+}
+
+/// The attitude of the platform carrying the inertial sensors at one sample, as a dynamic
+/// model has it: `R = Rz(heading) Ry(pitch) Rx(roll)` (body → world, the heading from the
+/// trial's pose) and the platform's angular velocity in its own frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PlatformAttitude {
+    /// Roll about the platform's x axis, rad.
+    pub roll: f64,
+    /// Pitch about the platform's y axis, rad.
+    pub pitch: f64,
+    /// Angular velocity of the platform, platform frame (x forward, y left, z up), rad/s.
+    pub body_rate: [f64; 3],
+}
+
+impl PlatformAttitude {
+    /// The attitude of the sphere's platform in `state`: roll and pitch of its orientation's
+    /// z–y–x Euler angles, and `Qᵀ ω`.
+    pub fn of(state: &crate::dynamics::sphere::SphereState) -> Self {
+        let (roll, pitch, _) = state.orientation.euler_angles();
+        let w = state.orientation.inverse() * state.platform_rate;
+        Self {
+            roll,
+            pitch,
+            body_rate: [w.x, w.y, w.z],
+        }
+    }
+
+    /// The tilt rotation `Ry(pitch) Rx(roll)` (platform → heading frame), row-major.
+    fn matrix(&self) -> [[f64; 3]; 3] {
+        TiltProfile {
+            roll: self.roll,
+            pitch: self.pitch,
+            accel_noise_std: 0.0,
+        }
+        .matrix()
     }
 }
 
@@ -489,8 +532,21 @@ pub fn emit_trial(
     profile: &SensorProfile,
     seed: u64,
 ) -> Sensors {
+    emit_trial_with_attitude(robot, index, trial, None, profile, seed)
+}
+
+/// [`emit_trial`] with the platform's attitude per sample ([`emit_with_attitude`]): the logs of
+/// `omnikin simulate --plant dynamic --emit-sensors`, on the same random stream.
+pub fn emit_trial_with_attitude(
+    robot: &Robot<f64>,
+    index: usize,
+    trial: &Trial,
+    attitude: Option<&[PlatformAttitude]>,
+    profile: &SensorProfile,
+    seed: u64,
+) -> Sensors {
     let mut rng = crate::trial_rng(seed ^ 0x5E45_0125_5E45_0125, index);
-    emit(robot, trial, profile, &mut rng)
+    emit_with_attitude(robot, trial, attitude, profile, &mut rng)
 }
 
 /// The sensor logs a robot running `trial` would have recorded (see the module docs). `robot`
@@ -502,19 +558,48 @@ pub fn emit(
     profile: &SensorProfile,
     rng: &mut ChaCha8Rng,
 ) -> Sensors {
+    emit_with_attitude(robot, trial, None, profile, rng)
+}
+
+/// As [`emit`], with the inertial sensors on a platform whose attitude a dynamic model gives
+/// per sample (`attitude[k]` at `trial.t[k]`; see the module docs): the IMU and the encoder
+/// log's gyro read the model's body rates and tilt, and the wheel angles are written as the
+/// trial has them. `None` is [`emit`]. A [`SensorProfile::tilt`] is ignored when `attitude` is
+/// given (the model tilts the platform); callers refuse it first.
+pub fn emit_with_attitude(
+    robot: &Robot<f64>,
+    trial: &Trial,
+    attitude: Option<&[PlatformAttitude]>,
+    profile: &SensorProfile,
+    rng: &mut ChaCha8Rng,
+) -> Sensors {
     let wheels = robot.wheels();
     let steerable = robot.steerable();
     let t = &trial.t;
-    let n = t.len().min(trial.pose.len()).min(trial.wheel_angles.len());
+    let mut n = t.len().min(trial.pose.len()).min(trial.wheel_angles.len());
+    if let Some(a) = attitude {
+        n = n.min(a.len());
+    }
     let heading = |k: usize| trial.pose[k].heading;
     let mut out = Sensors::default();
     if let Some(g) = profile.gyro {
         out.gyro_bias = g.bias + g.bias_std * gauss(rng);
     }
-    let tilt = profile.tilt.map(|p| (p, p.matrix()));
+    let tilt = match attitude {
+        Some(_) => None,
+        None => profile.tilt.map(|p| (p, p.matrix())),
+    };
+    // The platform's tilt at sample k: the model's, else the profile's constant one.
+    let tilt_at = |k: usize| -> Option<[[f64; 3]; 3]> {
+        match attitude {
+            Some(a) => Some(a[k].matrix()),
+            None => tilt.map(|(_, m)| m),
+        }
+    };
     // A tilted sphere's or ballbot's wheels measure the shell's (ball's) rate relative to the
     // platform in the tilted platform frame: the level angles mapped by G Rᵀ G⁻¹ (linear, R
-    // constant, so the cumulative angles map as their increments do).
+    // constant, so the cumulative angles map as their increments do). A dynamic model's wheel
+    // angles are already the platform's own.
     let wheel_tilt = tilt.and_then(|(_, m)| {
         let (g, g_inv) = crate::odometry::tilt::shell_maps(robot)?;
         let r = omnikin::nalgebra::Matrix3::from_fn(|i, j| m[i][j]);
@@ -543,10 +628,12 @@ pub fn emit(
                 .map(|x| quantise(x, profile.steer_counts_per_rev))
         });
         let rate = derivative(&t[..n], k, heading);
-        // The body rate of the (tilted) platform turning about the vertical: Rᵀ ψ̇ e₃.
-        let body = match &tilt {
-            Some((_, m)) => transpose_times(m, [0.0, 0.0, rate]),
-            None => [0.0, 0.0, rate],
+        // The body rate of the (tilted) platform turning about the vertical: Rᵀ ψ̇ e₃; a
+        // dynamic model's own body rate.
+        let body = match (attitude, &tilt) {
+            (Some(a), _) => a[k].body_rate,
+            (None, Some((_, m))) => transpose_times(m, [0.0, 0.0, rate]),
+            (None, None) => [0.0, 0.0, rate],
         };
         let gyro_z = profile
             .gyro
@@ -582,13 +669,17 @@ pub fn emit(
             let (s, c) = heading(k).sin_cos();
             let wz = derivative(&t[..n], k, heading);
             let f = imu.field;
-            let level = |v: [f64; 3]| match &tilt {
-                Some((_, m)) => transpose_times(m, v),
+            let m = tilt_at(k);
+            let level = |v: [f64; 3]| match &m {
+                Some(m) => transpose_times(m, v),
                 None => v,
             };
             let mut row = ImuRow {
                 t: t[k],
-                gyro: level([0.0, 0.0, wz]),
+                gyro: match attitude {
+                    Some(a) => a[k].body_rate,
+                    None => level([0.0, 0.0, wz]),
+                },
                 accel: level(specific_force(k)),
                 mag: level([c * f[0] + s * f[1], -s * f[0] + c * f[1], f[2]]),
             };

@@ -40,8 +40,13 @@
 //! The condition number of the remaining problem is
 //! reported; values are never invented for a direction the data do not constrain.
 //!
-//! What this does **not** do: the dynamic parameters (`[dynamics]` of the sphere and the
-//! ballbot), slip or outlier rejection (a run with wheel slip biases the fit: use runs inside
+//! ## Dynamics
+//! For sphere-omni with IMU logs, the platform's centre-of-mass depth and the rolling
+//! resistance from the rocking after stops ([`rocking`]), with the other `[dynamics]` values
+//! taken from the file.
+//!
+//! What this does **not** do: the other dynamic parameters (the sphere's pivot and roller
+//! frictions, the ballbot's `[dynamics]`), slip or outlier rejection (a run with wheel slip biases the fit: use runs inside
 //! the robot's limits, as `omnikin plan sysid` writes them), time offsets between the logs.
 
 pub mod lsq;
@@ -51,6 +56,7 @@ pub mod plans;
 pub mod report;
 pub mod residual_series;
 pub mod robot_file;
+pub mod rocking;
 pub mod runs;
 
 use omnikin::Pose2;
@@ -143,6 +149,101 @@ pub struct Identified {
     /// Each run's pose residuals against time, before (the prior) and after (the estimate),
     /// in the order of the runs.
     pub series: Vec<RunResiduals>,
+    /// The dynamic parameters: sphere-omni's `dynamics.com_depth` (m) and
+    /// `dynamics.rolling_resistance` from the rocking after stops, when a run has an IMU log
+    /// ([`rocking`]); empty otherwise.
+    pub dynamics: Vec<Estimate>,
+    /// The rocking fitted after each stop (sphere-omni with IMU logs).
+    pub rocking: Vec<rocking::Rocking>,
+}
+
+/// The name of the sphere's centre-of-mass depth among [`Identified::dynamics`].
+pub const COM_DEPTH: &str = "dynamics.com_depth";
+
+/// The name of the sphere's rolling resistance among [`Identified::dynamics`].
+pub const ROLLING_RESISTANCE: &str = "dynamics.rolling_resistance";
+
+/// Sphere-omni's `com_depth` and `rolling_resistance` from the rocking after the runs' stops
+/// (see [`rocking`]): the estimates (held at the prior, with the reason, when no run has a stop
+/// with an IMU log) and the rocking of each stop. Nothing for another kind, or when no run has
+/// an IMU log.
+fn sphere_dynamics(
+    prior: &RobotDescription,
+    runs: &[Run],
+) -> Result<(Vec<Estimate>, Vec<rocking::Rocking>), IdentifyError> {
+    use crate::dynamics::sphere::SphereDynamics;
+    if prior.kind() != "sphere-omni" || runs.iter().all(|r| r.imu_rates.is_none()) {
+        return Ok((Vec::new(), Vec::new()));
+    }
+    let p = SphereDynamics::from_description(prior)
+        .map_err(|e| IdentifyError::Fit(format!("the robot file's [dynamics]: {e}")))?;
+    let found: Vec<rocking::Rocking> = runs
+        .iter()
+        .filter_map(|r| Some(rocking::rockings(&r.encoders, r.imu_rates.as_ref()?)))
+        .flatten()
+        .collect();
+    let priors = [
+        (COM_DEPTH, "m", p.com_depth),
+        (ROLLING_RESISTANCE, "", p.rolling_resistance),
+    ];
+    // Only stops whose rocking the fit resolves: natural frequency within 20 % (1σ).
+    let usable: Vec<&rocking::Rocking> = found
+        .iter()
+        .filter(|r| r.natural.1 > 0.0 && r.natural.1 < 0.2 * r.natural.0)
+        .collect();
+    if usable.is_empty() {
+        let why = if found.is_empty() {
+            "no stop from speed followed by 1.5 s at rest with an IMU log (the `stop` plan of plan sysid)"
+        } else {
+            "the rocking after the stops is too weak to fit (a stop as short as the `stop` plan's is needed)"
+        };
+        let held = priors
+            .iter()
+            .map(|&(name, unit, prior)| Estimate {
+                name: name.into(),
+                unit,
+                prior,
+                value: prior,
+                sigma: 0.0,
+                status: Status::Fixed(why.into()),
+            })
+            .collect();
+        return Ok((held, found));
+    }
+    // Each stop's values through the model; the inverse-variance means.
+    let mut sums = [(0.0, 0.0); 2];
+    for r in &usable {
+        let fit = rocking::depth_and_resistance(&p, r).ok_or_else(|| {
+            IdentifyError::Fit(format!(
+                "{COM_DEPTH}, {ROLLING_RESISTANCE}: the rocking at {:.4} rad/s, decaying at \
+                 {:.4} /s, after the stop at {} s of {} is not reached by the dynamic model with \
+                 a depth inside the shell and the file's other [dynamics] values (shell_mass, \
+                 shell_inertia, platform_mass, platform_inertia)",
+                r.natural.0, r.decay.0, r.t0, r.file
+            ))
+        })?;
+        for (k, (v, sd)) in [fit.com_depth, fit.rolling_resistance]
+            .into_iter()
+            .enumerate()
+        {
+            let w = 1.0 / (sd * sd);
+            sums[k].0 += w;
+            sums[k].1 += w * v;
+        }
+    }
+    let estimates = priors
+        .iter()
+        .zip(sums)
+        .map(|(&(name, unit, prior), (sw, sv))| Estimate {
+            name: name.into(),
+            unit,
+            prior,
+            value: sv / sw,
+            sigma: 1.0 / sw.sqrt(),
+            status: Status::Fitted,
+        })
+        .collect();
+    Ok((estimates, found))
 }
 
 /// Initial start pose of a run: the reference at the log's first time (or its first sample);
@@ -316,6 +417,7 @@ pub fn identify(
                 encoders: model::consistent_log(&robot, &r.encoders)?,
                 reference: r.reference.clone(),
                 gyro: r.gyro.clone(),
+                imu_rates: None,
             })
         })
         .collect::<Option<_>>()
@@ -406,7 +508,17 @@ pub fn identify(
     } else {
         Vec::new()
     };
-    let fitted = params::apply(prior, &x[..l.geometry]);
+    check_excitation(prior, estimates.iter().chain(&gyro), condition)?;
+    let mut fitted = params::apply(prior, &x[..l.geometry]);
+    let (dynamics, rocking) = sphere_dynamics(prior, runs)?;
+    for e in dynamics.iter().filter(|e| e.status == Status::Fitted) {
+        let spec = fitted.sphere_dynamics.get_or_insert_with(Default::default);
+        match e.name.as_str() {
+            COM_DEPTH => spec.com_depth = Some(e.value),
+            ROLLING_RESISTANCE => spec.rolling_resistance = Some(e.value),
+            _ => {}
+        }
+    }
     let series = fitted
         .build::<f64>()
         .ok()
@@ -434,7 +546,73 @@ pub fn identify(
         gyro_rms: group_rms(&r, &groups, Group::Gyro, gyro_sigma),
         condition,
         residuals: sol.residuals,
+        dynamics,
+        rocking,
     })
+}
+
+/// The size against which a fitted value's 1σ is judged, and the largest change from the prior
+/// that is still a calibration ([`check_excitation`]): a scale's own size 1, changed by at
+/// most 0.5 (a wheel half or one and a half times the file's is another wheel); a length's
+/// prior magnitude, at least the robot's size (`footprint_radius`, else 0.1 m), changed by at
+/// most ten times that; an angle 1 rad either; a gyro bias 0.1 and 1 rad/s.
+fn excitation_scale(e: &Estimate, size: f64) -> (f64, f64) {
+    match e.unit {
+        "m" => {
+            let s = e.prior.abs().max(size);
+            (s, 10.0 * s)
+        }
+        "rad" => (1.0, 1.0),
+        "rad/s" => (0.1, 1.0),
+        _ => (1.0, 0.5),
+    }
+}
+
+/// Refuses a fit whose runs do not excite a parameter the rank test let through (a nearly
+/// blind direction: the damped solver then runs along it, to wheel radii of nanometres or
+/// positions of kilometres): a fitted value whose 1σ exceeds its [`excitation_scale`] or is
+/// zero (a singular covariance), or that moved from the prior by more than the largest
+/// calibration change, or is not finite. The error names each such parameter with its value,
+/// 1σ and prior, and the condition number.
+fn check_excitation<'a>(
+    prior: &RobotDescription,
+    estimates: impl Iterator<Item = &'a Estimate>,
+    condition: f64,
+) -> Result<(), IdentifyError> {
+    let size = prior.footprint_radius.unwrap_or(0.1);
+    let mut singular = false;
+    let bad: Vec<String> = estimates
+        .filter(|e| e.status == Status::Fitted)
+        .inspect(|e| singular |= e.sigma == 0.0)
+        .filter(|e| {
+            let (s, change) = excitation_scale(e, size);
+            !(e.value.is_finite()
+                && e.sigma > 0.0
+                && e.sigma <= s
+                && (e.value - e.prior).abs() <= change)
+        })
+        .map(|e| {
+            let u = if e.unit.is_empty() { "" } else { " " };
+            format!(
+                "{} ({:.4e}{u}{} ± {:.2e}, prior {}{u}{})",
+                e.name, e.value, e.unit, e.sigma, e.prior, e.unit
+            )
+        })
+        .collect();
+    if bad.is_empty() {
+        return Ok(());
+    }
+    let how = if singular {
+        "the covariance is singular".to_string()
+    } else {
+        format!("condition {condition:.3e}")
+    };
+    Err(IdentifyError::Fit(format!(
+        "not enough excitation: these runs do not determine {} ({how}); \
+         add runs that move them (omnikin plan sysid: spin for the wheel positions, along-across \
+         for the drive angles and radii, figure-eight for all and the gyro); nothing was written",
+        bad.join(", ")
+    )))
 }
 
 /// `sqrt((1 + ρ) / (1 − ρ))`, ρ the lag-1 autocorrelation of the residual series (x, y and

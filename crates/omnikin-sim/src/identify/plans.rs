@@ -7,6 +7,7 @@
 //! | `along-across` | a square at constant heading: forward, left, back, right | the drive angles against each other (one heading for both directions) |
 //! | `spin` | spin in place one way, stop, back | wheel positions (`p × d`), mount geometry, gyro scale |
 //! | `figure-eight` | forward at constant speed, a full circle left then one right | all of the above together, gyro bias against scale |
+//! | `stop` (sphere-omni) | forward, then a short stop and [`STOP_REST`] s at rest | the platform's centre-of-mass depth from the rocking after the stop (IMU) |
 //!
 //! Every segment is a body twist with cosine ramps `v(t) = V sin²(π t / 2τ)` up and down
 //! (peak acceleration `π V / 2τ`), held between them, then half a second at rest. The
@@ -14,8 +15,12 @@
 //! rates half of `max_steer_rate`), and the ramps so the wheels' acceleration stays within
 //! half of `max_wheel_accel`: the plans stay well inside the limits, which keeps wheel slip —
 //! the one thing the identification cannot model — small. Without limits in the file, 10 rad/s
-//! and 50 rad/s² are assumed. The sphere's rocking and spin-decay and the ballbot's sways
-//! (dynamic parameters) are not planned here.
+//! and 50 rad/s² are assumed. The sphere's `stop` is the exception: its stop ramp is as short
+//! as half the wheel-acceleration limit allows (the other ramps are 1 s or longer), so that the
+//! platform, swung forward by the deceleration, rocks freely afterwards on the locked wheels;
+//! its speed is half the wheel-rate limit's, or less: low enough that the file's dynamic model
+//! tilts by at most 95 % of its `max_tilt_deg`. The sphere's spin decay and the ballbot's sways
+//! are not planned here.
 //!
 //! A swerve turns its modules at rest before each segment (`steer_to`): every segment's
 //! twist has one direction, so the module angles are constant while the wheels roll, and a
@@ -226,6 +231,54 @@ fn build(
     Ok(Plan { wheels: n, samples })
 }
 
+/// Seconds at rest after the sphere's `stop` (the rocking's record).
+pub const STOP_REST: f64 = 4.0;
+
+/// The sphere's `stop`: forward at `amplitude` (unit twist `vx = 1`) with a cosine ramp of
+/// `tau` s up, held 1.5 s, stopped with a cosine ramp of `tau_stop` s, then [`STOP_REST`] s at
+/// rest; poses integrated as [`build`] does.
+fn build_stop(
+    robot: &Robot<f64>,
+    amplitude: f64,
+    tau: f64,
+    tau_stop: f64,
+    rate: f64,
+) -> Result<Plan, SysidPlanError> {
+    let dt = 1.0 / rate;
+    let n = robot.wheels();
+    let s = |u: f64| (std::f64::consts::FRAC_PI_2 * u).sin().powi(2);
+    let hold = 1.5;
+    let len = tau + hold + tau_stop + STOP_REST;
+    let count = (len / dt).ceil() as usize + 1;
+    let mut pose = Pose2::new(0.0, 0.0, 0.0);
+    let mut samples = Vec::with_capacity(count);
+    for k in 0..count {
+        let t = k as f64 * dt;
+        let e = if t < tau {
+            s(t / tau)
+        } else if t < tau + hold {
+            1.0
+        } else if t < tau + hold + tau_stop {
+            s((tau + hold + tau_stop - t) / tau_stop)
+        } else {
+            0.0
+        };
+        let tw = Twist2::new(amplitude * e, 0.0, 0.0);
+        let a = robot
+            .inverse(tw, &Actuators::zero())
+            .map_err(|e| SysidPlanError::Robot(format!("stop: {e}")))?;
+        samples.push(Sample::new(
+            t,
+            pose,
+            tw.to_world(pose.heading),
+            &a.wheel_rates[..n],
+            None,
+        ));
+        pose = omnikin::se2::integrate(pose, tw, dt);
+    }
+    Ok(Plan { wheels: n, samples })
+}
+
 /// Largest wheel rate, wheel acceleration and steer rate of a plan.
 fn peaks(plan: &Plan) -> (f64, f64, f64) {
     let n = plan.wheels;
@@ -321,6 +374,55 @@ pub fn sysid_plans(desc: &RobotDescription, rate: f64) -> Result<Vec<SysidPlan>,
             plan,
         });
     }
+    if desc.kind() == "sphere-omni" {
+        // Half the rate limit (less if the swing would pass max_tilt_deg, below); the ramps
+        // from the peak wheel acceleration `π w / 2τ` of a cosine ramp: 1 s (or longer) up,
+        // the stop as short as half the limit allows, at least one sample.
+        let probe = build_stop(&robot, 1.0, 1.0, 1.0, rate)?;
+        let (w, _, _) = peaks(&probe);
+        let amp = 0.5 * max_rate / w.max(1e-12);
+        let peak = 0.5 * max_rate;
+        let tau = (std::f64::consts::PI * peak / (2.0 * 0.5 * max_accel)).max(1.0);
+        let mut tau_stop = (std::f64::consts::PI * peak / (2.0 * 0.5 * max_accel)).max(1.0 / rate);
+        let mut amp = amp;
+        let mut plan = build_stop(&robot, amp, tau, tau_stop, rate)?;
+        // The sampled ramp's steps exceed the continuous peak by up to one sample's change.
+        for _ in 0..16 {
+            let (_, a, _) = peaks(&plan);
+            if a <= 0.5 * max_accel {
+                break;
+            }
+            tau_stop *= a / (0.5 * max_accel) * 1.05;
+            plan = build_stop(&robot, amp, tau, tau_stop, rate)?;
+        }
+        // The swing after the stop within the file's `max_tilt_deg`, as the file's dynamic model
+        // has it: slower until the model's largest tilt is within 95 % of it.
+        let max_tilt = desc
+            .sphere_dynamics
+            .as_ref()
+            .and_then(|s| s.max_tilt_deg)
+            .map(f64::to_radians);
+        if let (Some(limit), Ok(model)) = (
+            max_tilt,
+            crate::dynamics::sphere::SphereDynamics::from_description(desc),
+        ) {
+            for _ in 0..8 {
+                let Ok(run) = crate::dynamics::sphere::simulate_plan(model, &plan) else {
+                    break;
+                };
+                if run.max_tilt <= 0.95 * limit {
+                    break;
+                }
+                amp *= 0.9 * limit / run.max_tilt;
+                plan = build_stop(&robot, amp, tau, tau_stop, rate)?;
+            }
+        }
+        out.push(SysidPlan {
+            name: "stop",
+            identifies: "the platform's centre-of-mass depth (com_depth) from the rocking after a short stop: record the IMU log",
+            plan,
+        });
+    }
     Ok(out)
 }
 
@@ -365,6 +467,45 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The sphere gets a fifth plan, `stop`: within half its wheel-rate and acceleration
+    /// limits, ending with [`STOP_REST`] s at rest, and its file's dynamic model swings by at
+    /// most 95 % of `max_tilt_deg` (at half the rate limit the preset's swung 25°).
+    #[test]
+    fn the_spheres_stop_swings_within_its_tilt_limit() {
+        use crate::dynamics::sphere::{SphereDynamics, simulate_plan};
+        let d = RobotDescription::preset("sphere-omni").unwrap();
+        let plans = sysid_plans(&d, 50.0).unwrap();
+        assert_eq!(plans.len(), 5);
+        let stop = &plans.iter().find(|p| p.name == "stop").unwrap().plan;
+        let (w, a, _) = peaks(stop);
+        assert!(
+            w <= 0.5 * d.limits.max_wheel_rate.unwrap() * (1.0 + 1e-9),
+            "{w}"
+        );
+        assert!(a <= 0.5 * d.limits.max_wheel_accel.unwrap() * 1.001, "{a}");
+        let still = stop
+            .samples
+            .iter()
+            .rev()
+            .take_while(|s| s.wheel_rates[..3].iter().all(|r| *r == 0.0))
+            .count();
+        assert!(still as f64 / 50.0 >= STOP_REST - 0.05, "{still}");
+        let limit = d
+            .sphere_dynamics
+            .as_ref()
+            .unwrap()
+            .max_tilt_deg
+            .unwrap()
+            .to_radians();
+        let run = simulate_plan(SphereDynamics::from_description(&d).unwrap(), stop).unwrap();
+        assert!(run.max_tilt <= 0.95 * limit, "{} of {limit}", run.max_tilt);
+        assert!(
+            run.max_tilt > 0.5 * limit,
+            "the stop still swings: {}",
+            run.max_tilt
+        );
     }
 
     /// A swerve's modules turn only at rest, between segments, within half the steer limits,

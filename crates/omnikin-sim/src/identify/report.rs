@@ -12,7 +12,7 @@ pub fn table(id: &Identified) -> String {
         "{:<26} {:>12} {:>12} {:>10} {:>11}  unit\n",
         "parameter", "prior", "estimate", "1σ", "change"
     );
-    for e in id.geometry.iter().chain(&id.gyro) {
+    for e in id.geometry.iter().chain(&id.gyro).chain(&id.dynamics) {
         let line = match &e.status {
             Status::Fitted => format!(
                 "{:<26} {:>12.6} {:>12.6} {:>10.2e} {:>+11.2e}  {}",
@@ -57,12 +57,20 @@ fn estimate(e: &Estimate) -> serde_json::Value {
 }
 
 /// The result as one JSON object: `parameters` (each with `name`, `unit`, `prior`, `value`,
-/// `sigma`, `status` `fitted`/`held` and the `reason` when held), the residual RMS
+/// `sigma`, `status` `fitted`/`held` and the `reason` when held; sphere-omni's
+/// `dynamics.com_depth` among them), the rocking fitted after each stop (`rocking`), the
+/// residual RMS
 /// (`position_rms_m`, `heading_rms_rad`, `gyro_window_rms_rad`), `condition`, `residuals`,
 /// and per run its files and position residual RMS before and after the fit (`runs`).
 pub fn json(id: &Identified) -> serde_json::Value {
     serde_json::json!({
-        "parameters": id.geometry.iter().chain(&id.gyro).map(estimate).collect::<Vec<_>>(),
+        "parameters": id.geometry.iter().chain(&id.gyro).chain(&id.dynamics).map(estimate).collect::<Vec<_>>(),
+        "rocking": id.rocking.iter().map(|r| serde_json::json!({
+            "imu": r.file, "t0_s": r.t0, "duration_s": r.duration,
+            "natural_rad_s": r.natural.0, "natural_sigma_rad_s": r.natural.1,
+            "damped_rad_s": r.damped.0, "decay_1_s": r.decay.0,
+            "amplitude_rad_s": r.amplitude, "residual_rms_rad_s": r.residual_rms,
+        })).collect::<Vec<_>>(),
         "position_rms_m": id.position_rms,
         "heading_rms_rad": id.heading_rms,
         "gyro_window_rms_rad": id.gyro_rms,

@@ -188,6 +188,27 @@ fn edits(id: &Identified) -> Vec<Edit> {
             }
         }
     }
+    for (name, key) in [
+        (super::COM_DEPTH, "com_depth"),
+        (super::ROLLING_RESISTANCE, "rolling_resistance"),
+    ] {
+        if let Some(e) = id
+            .dynamics
+            .iter()
+            .find(|e| e.name == name && e.status == Status::Fitted)
+        {
+            out.push(Edit {
+                table: "[dynamics]",
+                index: 0,
+                key,
+                value: num(e.value),
+                comment: format!(
+                    "identified: {} from the rocking after stops {src}",
+                    describe(e, e.value, e.sigma, e.unit)
+                ),
+            });
+        }
+    }
     out
 }
 
@@ -308,6 +329,17 @@ fn check(text: &str, want: &RobotDescription) -> Result<(), IdentifyError> {
         }
         (Geometry::Ballbot(a), Geometry::Ballbot(b)) => close(a.wheel_radius, b.wheel_radius),
         _ => false,
+    } && match (&back.sphere_dynamics, &want.sphere_dynamics) {
+        (Some(a), Some(b)) => [
+            (a.com_depth, b.com_depth),
+            (a.rolling_resistance, b.rolling_resistance),
+        ]
+        .into_iter()
+        .all(|pair| match pair {
+            (Some(x), Some(y)) => close(x, y),
+            (x, y) => x == y,
+        }),
+        (a, b) => a.is_none() && b.is_none(),
     };
     if same {
         Ok(())
@@ -349,6 +381,8 @@ mod tests {
                 })
                 .collect(),
             gyro: Vec::new(),
+            dynamics: Vec::new(),
+            rocking: Vec::new(),
             position_rms: 0.0,
             heading_rms: None,
             gyro_rms: None,

@@ -33,6 +33,46 @@ pub struct GyroLog {
     pub rate: Vec<f64>,
 }
 
+/// The IMU's body rates about the platform's x and y axes (`gx`, `gy` of an IMU log): the
+/// sphere's rocking ([`super::rocking`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImuRates {
+    /// The file, as named in messages.
+    pub file: String,
+    /// Sample times, s.
+    pub t: Vec<f64>,
+    /// `[gx, gy]` per sample, rad/s (body frame).
+    pub rate: Vec<[f64; 2]>,
+}
+
+impl ImuRates {
+    /// The `gx`, `gy` columns of an IMU log (`t,gx,gy,gz,…`, body frame, rad/s).
+    ///
+    /// # Errors
+    /// [`IdentifyError::Input`] naming the file when a column is missing, and the line and
+    /// column of a rate beyond `omnikin_plan::limits::MAX_PLAN_RATE`.
+    pub fn from_imu_table(table: &NumericTable) -> Result<Self, IdentifyError> {
+        let idx = table
+            .require(&["t", "gx", "gy"], "an IMU log (t,gx,gy,gz,…)")
+            .map_err(table_error)?;
+        bounded(
+            table,
+            &idx[1..],
+            omnikin_plan::limits::MAX_PLAN_RATE,
+            "rad/s",
+        )?;
+        Ok(Self {
+            file: table.file.clone(),
+            t: table.rows.iter().map(|(_, r)| r[idx[0]]).collect(),
+            rate: table
+                .rows
+                .iter()
+                .map(|(_, r)| [r[idx[1]], r[idx[2]]])
+                .collect(),
+        })
+    }
+}
+
 /// A reference trajectory: where the robot really was (world frame).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Reference {
@@ -55,6 +95,8 @@ pub struct Run {
     pub reference: Reference,
     /// The gyro, if recorded.
     pub gyro: Option<GyroLog>,
+    /// The IMU's x and y body rates, when an IMU log was given.
+    pub imu_rates: Option<ImuRates>,
 }
 
 fn table_error(e: crate::table::TableError) -> IdentifyError {
@@ -150,7 +192,8 @@ impl EncoderLog {
 impl Run {
     /// One run from its tables: the encoder log of a robot with `wheels` wheels (`steerable`:
     /// with `s1..sN`), the reference (fixes or tracked run) and, optionally, an IMU log whose
-    /// `gz` replaces the encoder log's `gyro_z` as the gyro.
+    /// `gz` replaces the encoder log's `gyro_z` as the gyro (and whose `gx`, `gy` are kept for
+    /// the sphere's rocking).
     ///
     /// # Errors
     /// Those of [`EncoderLog::from_table`], [`Reference::from_table`] and
@@ -163,13 +206,18 @@ impl Run {
         steerable: bool,
     ) -> Result<Self, IdentifyError> {
         let (encoders, mut gyro) = EncoderLog::from_table(encoders, wheels, steerable)?;
+        let mut imu_rates = None;
         if let Some(imu) = imu {
             gyro = Some(GyroLog::from_imu_table(imu)?);
+            if imu.col("gx").is_some() && imu.col("gy").is_some() {
+                imu_rates = Some(ImuRates::from_imu_table(imu)?);
+            }
         }
         Ok(Self {
             encoders,
             reference: Reference::from_table(reference)?,
             gyro,
+            imu_rates,
         })
     }
 }

@@ -9,6 +9,7 @@ use omnikin_plan::Plan;
 use super::params::{DynamicsError, SphereDynamics};
 use super::sim::{ContactEvents, SphereSim, SphereState};
 use crate::Trial;
+use crate::sensors::PlatformAttitude;
 
 /// One plan run through the dynamic model.
 #[derive(Clone, Debug, PartialEq)]
@@ -20,6 +21,12 @@ pub struct DynamicTrial {
     pub trial: Trial,
     /// Platform tilt at each sample, rad.
     pub tilt: Vec<f64>,
+    /// The platform's z axis in the world frame at each sample (the tilt's direction).
+    pub platform_z: Vec<[f64; 3]>,
+    /// The platform's attitude at each sample: roll and pitch of its orientation
+    /// `Q = Rz(ψ) Ry(pitch) Rx(roll)` and its angular velocity in its own frame, what the IMU
+    /// of [`crate::sensors::emit_with_attitude`] is mounted on.
+    pub attitude: Vec<PlatformAttitude>,
     /// Shell spin `Ω3` at each sample, rad/s.
     pub shell_spin: Vec<f64>,
     /// Largest tilt over the run, rad.
@@ -87,6 +94,8 @@ pub fn simulate_plan(params: SphereDynamics, plan: &Plan) -> Result<DynamicTrial
     let n = plan.samples.len();
     let mut trial = Trial::with_capacity(3, n);
     let mut tilt = Vec::with_capacity(n);
+    let mut platform_z = Vec::with_capacity(n);
+    let mut attitude = Vec::with_capacity(n);
     let mut shell_spin = Vec::with_capacity(n);
     let mut peak_torque = [0.0f64; 3];
     let mut min_normal = [f64::INFINITY; 3];
@@ -119,6 +128,8 @@ pub fn simulate_plan(params: SphereDynamics, plan: &Plan) -> Result<DynamicTrial
         0.0,
     );
     tilt.push(st.tilt());
+    platform_z.push(k.into());
+    attitude.push(PlatformAttitude::of(&st));
     shell_spin.push(st.shell_rate.z);
     for w in plan.samples.windows(2) {
         let r = w[1].wheel_rates;
@@ -172,12 +183,16 @@ pub fn simulate_plan(params: SphereDynamics, plan: &Plan) -> Result<DynamicTrial
             res,
         );
         tilt.push(step.tilt);
+        platform_z.push(step.platform_z);
+        attitude.push(PlatformAttitude::of(&sim.state()));
         shell_spin.push(step.shell_spin);
     }
     let max_tilt = tilt.iter().cloned().fold(0.0, f64::max);
     Ok(DynamicTrial {
         trial,
         tilt,
+        platform_z,
+        attitude,
         shell_spin,
         max_tilt,
         pull_outs: sim.pull_outs(),
