@@ -257,11 +257,7 @@ pub(crate) fn say_floor_overrides(
     d: &RobotDescription,
     params: &omnikin_sim::dynamics::sphere::SphereDynamics,
 ) {
-    let overrides = d
-        .sphere_dynamics
-        .as_ref()
-        .is_some_and(|s| !s.floor_overrides().is_empty());
-    if overrides && let Some(note) = omnikin_sim::dynamics::sphere::floor_note(d, params) {
+    if let Some(note) = omnikin_sim::dynamics::sphere::floor_override_note(d, params) {
         crate::errln!("note: robot {}: {note}", d.name);
     }
 }

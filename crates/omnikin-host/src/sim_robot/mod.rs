@@ -105,7 +105,9 @@ impl SimRobot {
         let plant = if dynamic {
             let params = omnikin_sim::dynamics::sphere::SphereDynamics::from_description(desc)
                 .with_context(|| format!("--plant dynamic: robot {}", desc.name))?;
-            crate::sim_report::say_floor_overrides(desc, &params);
+            if let Some(note) = omnikin_sim::dynamics::sphere::floor_override_note(desc, &params) {
+                errln!("note: robot {}: {note}", desc.name);
+            }
             SilPlant::dynamic(robot, params, Pose2::default())
                 .with_context(|| format!("--plant dynamic: robot {}", desc.name))?
         } else {

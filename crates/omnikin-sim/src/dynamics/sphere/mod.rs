@@ -179,7 +179,7 @@ pub mod trial;
 
 pub use floor::FloorCoefficients;
 pub use monte_carlo::{DynamicFit, DynamicProfile, fit_com_depth, radius_ratio};
-pub use params::{DynamicsError, SphereDynamics, floor_note};
+pub use params::{DynamicsError, SphereDynamics, floor_note, floor_override_note};
 pub use robot_file::{com_depth_comment, write_fitted_com_depth};
 pub use sim::{ContactEvents, Residuals, SphereSim, SphereState, SphereStep};
 pub use stepper::Stepper;

@@ -436,6 +436,21 @@ fn nonneg(field: &'static str, v: f64) -> Result<f64, DynamicsError> {
     }
 }
 
+/// [`floor_note`] only when the file overrides some of its named floor's values (what every
+/// command says before it runs the dynamic plant: an override is worth a line, a plain named
+/// floor is not).
+pub fn floor_override_note(robot: &RobotDescription, params: &SphereDynamics) -> Option<String> {
+    let overrides = robot
+        .sphere_dynamics
+        .as_ref()
+        .is_some_and(|s| !s.floor_overrides().is_empty());
+    if overrides {
+        floor_note(robot, params)
+    } else {
+        None
+    }
+}
+
 /// What a robot file's named floor gave, for the commands to print: `None` without
 /// `floor = …` in `[dynamics]`; otherwise the surface's three values for this robot and the
 /// explicitly given keys that override them (`robot`'s parameters are `params`, from
