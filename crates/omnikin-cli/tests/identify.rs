@@ -440,8 +440,33 @@ fn identify_finds_the_spheres_com_depth_from_dynamic_logs() {
         "{line}"
     );
     let d = RobotDescription::from_toml_str(&written, "identified.toml").unwrap();
-    let back = d.sphere_dynamics.unwrap().com_depth.unwrap();
+    let spec = d.sphere_dynamics.unwrap();
+    let back = spec.com_depth.unwrap();
     assert!((back - v).abs() < 1e-8, "{back} vs {v}");
+    // The preset leaves the rolling resistance to its named floor: the identified value gets
+    // a line of its own in [dynamics], which overrides the floor's.
+    let rr = json["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == "dynamics.rolling_resistance")
+        .unwrap_or_else(|| panic!("{json}"));
+    assert_eq!(rr["status"], "fitted", "{rr}");
+    let rr_line = written
+        .lines()
+        .find(|l| l.starts_with("rolling_resistance = "))
+        .unwrap_or_else(|| panic!("{written}"));
+    assert!(rr_line.contains("# identified: "), "{rr_line}");
+    let rr_back = spec.rolling_resistance.unwrap();
+    assert!(
+        (rr_back - rr["value"].as_f64().unwrap()).abs() < 1e-8,
+        "{rr_back} vs {rr}"
+    );
+    assert!(
+        spec.floor_overrides().contains(&"rolling_resistance"),
+        "{:?}",
+        spec.floor_overrides()
+    );
 }
 
 /// One poorly exciting run (the kiwi's `along` alone) is refused with "not enough

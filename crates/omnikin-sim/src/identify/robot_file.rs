@@ -230,12 +230,16 @@ pub fn rewrite(text: &str, id: &Identified, from: &str) -> Result<String, Identi
     let mut lines: Vec<String> = Vec::new();
     let mut table = String::new();
     let mut counts: std::collections::HashMap<String, usize> = Default::default();
+    // Where each table's first occurrence starts (the line after its header), for a key the
+    // file leaves to a default or a named value (`floor = "vinyl"` gives rolling_resistance).
+    let mut starts: std::collections::HashMap<String, usize> = Default::default();
     for line in text.lines() {
         let t = line.trim();
         if t.starts_with('[') {
             table = t.split('#').next().unwrap_or("").trim().to_string();
             *counts.entry(table.clone()).or_insert(0) += 1;
             lines.push(line.to_string());
+            starts.entry(table.clone()).or_insert(lines.len());
             continue;
         }
         let index = counts.get(&table).map_or(0, |c| c.saturating_sub(1));
@@ -273,6 +277,25 @@ pub fn rewrite(text: &str, id: &Identified, from: &str) -> Result<String, Identi
             }
             None => lines.push(line.to_string()),
         }
+    }
+    // Keys the file does not write (a default, or a value its named floor gives): a line of
+    // their own at the top of their table, where an explicit value overrides the name. A key
+    // written some other way (an inline table) would appear twice: the read-back check below
+    // refuses that file.
+    let mut inserted: Vec<(usize, String)> = Vec::new();
+    edits.retain(|e| match starts.get(e.table) {
+        Some(&at) if e.index == 0 => {
+            inserted.push((at, format!("{} = {}  # {}", e.key, e.value, e.comment)));
+            false
+        }
+        _ => true,
+    });
+    // From the bottom up, so that each position still means what it did; keys of one table
+    // keep their order.
+    let mut inserted: Vec<(usize, (usize, String))> = inserted.into_iter().enumerate().collect();
+    inserted.sort_by_key(|(i, (at, _))| std::cmp::Reverse((*at, *i)));
+    for (_, (at, line)) in inserted {
+        lines.insert(at, line);
     }
     if let Some(e) = edits.first() {
         return Err(IdentifyError::Fit(format!(
