@@ -238,9 +238,11 @@ fn with_com_depth(scale: f64) -> (RobotDescription, f64) {
 /// The preset with its depth and its rolling resistance scaled; with the true values.
 fn with_dynamics(depth: f64, resistance: f64) -> ((RobotDescription, f64), f64) {
     let mut d = RobotDescription::preset("sphere-omni").unwrap();
+    // The rolling resistance as loaded: the preset leaves it to its named floor.
+    let loaded = omnikin_sim::dynamics::sphere::SphereDynamics::from_description(&d).unwrap();
     let dy = d.sphere_dynamics.as_mut().unwrap();
     let h = dy.com_depth.unwrap() * depth;
-    let c = dy.rolling_resistance.unwrap() * resistance;
+    let c = loaded.rolling_resistance * resistance;
     dy.com_depth = Some(h);
     dy.rolling_resistance = Some(c);
     ((d, h), c)
