@@ -45,6 +45,7 @@ mod plan;
 pub mod csv_number;
 pub mod generators;
 pub mod heading;
+pub mod lean;
 pub mod limits;
 pub mod map;
 pub mod path;

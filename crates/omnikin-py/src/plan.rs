@@ -250,23 +250,15 @@ fn waypoints(o: &mut Options, d: &PyRobot, robot: &RobotModel) -> PyResult<Reque
 /// `start_velocity = [vx, vy]` or `[vx, vy, yaw_rate]` (world frame, m/s, rad/s; the CLI's
 /// `--start-velocity`): the plan starts moving; at rest when not given.
 fn start_velocity(o: &mut Options) -> PyResult<StartVelocity> {
-    match o.list("start_velocity")?.as_deref() {
+    match o.list("start_velocity")? {
         None => Ok(StartVelocity::REST),
-        Some(&[vx, vy]) => Ok(StartVelocity {
-            vx,
-            vy,
-            yaw_rate: None,
+        Some(v) => StartVelocity::from_components(&v).ok_or_else(|| {
+            value_error(format!(
+                "start_velocity: expected [vx, vy] or [vx, vy, yaw_rate] (m/s, m/s, rad/s; world \
+                 frame), got {} values",
+                v.len()
+            ))
         }),
-        Some(&[vx, vy, w]) => Ok(StartVelocity {
-            vx,
-            vy,
-            yaw_rate: Some(w),
-        }),
-        Some(v) => Err(value_error(format!(
-            "start_velocity: expected [vx, vy] or [vx, vy, yaw_rate] (m/s, m/s, rad/s; world \
-             frame), got {} values",
-            v.len()
-        ))),
     }
 }
 
@@ -320,7 +312,7 @@ pub fn plan_columns<'py>(
         "waypoints" | "goal" => start_velocity(&mut o)?,
         _ => StartVelocity::REST,
     };
-    let (path, heading, opts, ctx) = match kind {
+    let (path, heading, mut opts, ctx) = match kind {
         "square" => square(&mut o, robot, &model)?,
         "circle" => circle(&mut o, robot, &model)?,
         "waypoints" => waypoints(&mut o, robot, &model)?,
@@ -332,6 +324,8 @@ pub fn plan_columns<'py>(
         }
     };
     o.finish(&format!("plan {kind}"))?;
+    // As `omnikin plan`: a ballbot's acceleration is held to its lean limit.
+    let lean = omnikin_plan::lean::apply(&robot.desc, &mut opts);
     let planned = py
         .detach(|| plan_from_velocity(&path, &heading, &model, &opts, start))
         .map_err(|e| planning_error(e, || ctx))?;
@@ -348,6 +342,26 @@ pub fn plan_columns<'py>(
             ))
             .unwrap_or_default(),
             2,
+        )?;
+    }
+    // As `omnikin plan` (crates/omnikin-cli/src/plan/setup.rs): a plan past the robot's body
+    // limits is one a robot tracks with a lag, and that omnikin.Link refuses to upload.
+    let mut body = robot.desc.body_limits();
+    if let Some(l) = &lean {
+        if let Some(w) = l.report(&planned.plan).warning {
+            crate::sim::warn(py, &w)?;
+        }
+        // The lean limit's own check, above, is the acceleration's.
+        body.max_accel = f64::INFINITY;
+    }
+    let peaks = omnikin_host::body_limits::peaks(&planned.plan);
+    for e in omnikin_host::body_limits::plan_excess(&body, &peaks) {
+        crate::sim::warn(
+            py,
+            &format!(
+                "{e}: a robot holds itself to that limit (omnikin robot, omnikin.SimRobot), so \
+                 it will lag behind this plan, and omnikin.Link.run_plan refuses to upload it"
+            ),
         )?;
     }
     columns(py, &planned.plan)

@@ -124,3 +124,24 @@ def test_the_links_errors_name_pythons_keywords(tmp_path):
         with pytest.raises(RuntimeError, match="sends key; drop key") as e:
             omnikin.Link(robot.address, key=keyed, timeout_s=1.0)
         assert "--" not in str(e.value), e.value
+
+
+def test_a_plan_past_the_robots_body_limits_warns_as_the_cli_does(cli, tmp_path):
+    """`omnikin.plan` says what `omnikin plan` says when a plan asks more than the robot's body
+    limits (the paper's square at 0.3 m/s starts in 0.05 s: 6 m/s² on a 1 m/s² swerve) — the
+    plan a Link then refuses to upload — and nothing for one within them."""
+    import warnings
+
+    with pytest.warns(UserWarning, match=r"the plan asks 6 m/s² of acceleration at t = 0\.04 s, more than the robot's 1 m/s²") as w:
+        fast = omnikin.plan("swerve4", "square", side=0.3, speed=0.3)
+    assert "omnikin.Link.run_plan refuses" in str(w[0].message)
+    out = tmp_path / "sq.csv"
+    r = cli.run("plan", "square", "--robot", "swerve4", "--side", "0.3", "--speed", "0.3", "--out", out)
+    cli_warning = [l for l in r.stderr.splitlines() if l.startswith("warning: the plan asks")]
+    assert cli_warning and cli_warning[0].split(":")[1].strip() in str(w[0].message), (cli_warning, w[0].message)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        omnikin.plan("kiwi", "waypoints", points=[[0, 0], [0.5, 0]])
+    with omnikin.SimRobot("swerve4", time_scale=8) as robot, omnikin.Link(robot.address) as link:
+        with pytest.raises(ValueError, match="not uploaded: the plan asks 6 m/s²"):
+            link.run_plan(fast)

@@ -123,7 +123,7 @@ pub(super) fn goal(a: &GoalArgs) -> Result<()> {
     } else {
         what
     };
-    let lean = super::lean::apply(&d, &mut opts);
+    let lean = omnikin_plan::lean::apply(&d, &mut opts);
     let planned = plan_from_velocity(path, &heading, &robot, &opts, start)?;
     finish_leaning(
         &a.common,

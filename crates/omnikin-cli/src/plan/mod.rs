@@ -10,7 +10,6 @@
 mod args;
 mod figure;
 mod goal;
-mod lean;
 mod request;
 mod setup;
 pub mod sysid;

@@ -32,7 +32,7 @@ pub(super) fn square(a: &SquareArgs) -> Result<()> {
     };
     let mut opts = sq.options(a.common.rate, on_limit);
     opts.initial_steer = initial_steer(&a.common, &robot)?;
-    let lean = super::lean::apply(&d, &mut opts);
+    let lean = omnikin_plan::lean::apply(&d, &mut opts);
     let what = format!(
         "square (Sphere paper, eq. 6.1): side {} m, speed {} m/s, ramps {} % of the leg time ({:.3} s), heading 0",
         a.side,
@@ -59,7 +59,7 @@ pub(super) fn circle(a: &CircleArgs) -> Result<()> {
     };
     let mut opts = c.options(a.common.rate);
     opts.initial_steer = initial_steer(&a.common, &robot)?;
-    let lean = super::lean::apply(&d, &mut opts);
+    let lean = omnikin_plan::lean::apply(&d, &mut opts);
     let what = format!(
         "circle (Sphere paper, eq. 6.3): radius {} m, omega {} rad/s ({:.3} m/s), {} turn(s), heading = {}, {}",
         a.radius,
@@ -173,7 +173,7 @@ pub(super) fn waypoints(a: &WaypointArgs) -> Result<()> {
             crate::args::num(start.vy)
         )
     };
-    let lean = super::lean::apply(&d, &mut opts);
+    let lean = omnikin_plan::lean::apply(&d, &mut opts);
     let planned = plan_from_velocity(&path, &heading, &robot, &opts, start).map_err(|e| {
         too_fast(e, || {
             if start == StartVelocity::REST {

@@ -2,7 +2,7 @@
 //! (`request.rs`) and `plan goal` (`goal.rs`): the robot, the motion limits its body limits
 //! allow, the initial steer, and the summary with a ballbot's lean limit.
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use omnikin::description::RobotDescription;
 use omnikin_plan::RobotModel;
 use omnikin_plan::planner::{InitialSteer, MotionLimits};
@@ -78,13 +78,17 @@ pub(super) fn finish_leaning(
     robot: &RobotModel,
     what: &str,
     planned: &omnikin_plan::planner::Planned,
-    lean: Option<super::lean::LeanLimit>,
+    lean: Option<omnikin_plan::lean::LeanLimit>,
     map: Option<&omnikin_plan::map::Map>,
     start_velocity: bool,
 ) -> Result<()> {
     finish(c, d, robot, what, planned, map, start_velocity)?;
     if let Some(l) = &lean {
-        super::lean::report(l, &planned.plan);
+        let r = l.report(&planned.plan);
+        crate::errln!("{}", r.line);
+        if let Some(w) = r.warning {
+            crate::errln!("warning: {w}");
+        }
     }
     // What `omnikin robot` slews at: a plan asking for more is tracked with a lag (a
     // ballbot's acceleration is the lean limit's, reported above).
@@ -133,21 +137,13 @@ pub(super) fn start_velocity(
     l: Option<&crate::args::List>,
 ) -> Result<omnikin_plan::planner::StartVelocity> {
     use omnikin_plan::planner::StartVelocity;
-    match l.map(|l| l.0.as_slice()) {
+    match l {
         None => Ok(StartVelocity::REST),
-        Some(&[vx, vy]) => Ok(StartVelocity {
-            vx,
-            vy,
-            yaw_rate: None,
+        Some(l) => StartVelocity::from_components(&l.0).with_context(|| {
+            format!(
+                "--start-velocity: expected VX,VY or VX,VY,W (m/s, m/s, rad/s; world frame), got {} values",
+                l.0.len()
+            )
         }),
-        Some(&[vx, vy, w]) => Ok(StartVelocity {
-            vx,
-            vy,
-            yaw_rate: Some(w),
-        }),
-        Some(v) => bail!(
-            "--start-velocity: expected VX,VY or VX,VY,W (m/s, m/s, rad/s; world frame), got {} values",
-            v.len()
-        ),
     }
 }

@@ -158,4 +158,23 @@ impl StartVelocity {
     pub fn speed(&self) -> f64 {
         self.vx.hypot(self.vy)
     }
+
+    /// From its components as the front ends take them (`--start-velocity VX,VY[,W]`,
+    /// Python's `start_velocity=[vx, vy(, yaw_rate)]`; world frame, m/s, rad/s); `None` for
+    /// another number of values.
+    pub fn from_components(v: &[f64]) -> Option<Self> {
+        match *v {
+            [vx, vy] => Some(Self {
+                vx,
+                vy,
+                yaw_rate: None,
+            }),
+            [vx, vy, w] => Some(Self {
+                vx,
+                vy,
+                yaw_rate: Some(w),
+            }),
+            _ => None,
+        }
+    }
 }
