@@ -19,7 +19,7 @@ pub struct OptionNames {
     pub mcap: &'static str,
     /// The robot's CSV log.
     pub log: &'static str,
-    /// Who the operator side is, for "is `…` running there".
+    /// What serves a robot, as the message "is … running there" names it.
     pub robot_program: &'static str,
 }
 
@@ -33,7 +33,7 @@ impl OptionNames {
         timeout: "--timeout",
         mcap: "--mcap",
         log: "--log",
-        robot_program: "omnikin robot",
+        robot_program: "`omnikin robot`",
     };
 
     /// Python's `omnikin.Link` / `omnikin.SimRobot` keywords.

@@ -489,11 +489,7 @@ impl Session {
             _ => anyhow::anyhow!(
                 "no answer from the robot at {} within {t:.1} s: nothing came back (is {} running there, is {} right?)",
                 self.addr,
-                if n == OptionNames::CLI {
-                    "`omnikin robot`"
-                } else {
-                    n.robot_program
-                },
+                n.robot_program,
                 n.connect
             ),
         }
