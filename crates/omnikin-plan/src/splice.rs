@@ -302,6 +302,58 @@ pub fn moving_goal_path(
     Ok((way, lead))
 }
 
+/// Why a goal request has no path: the map's answer (no route, a start inside a shape) or the
+/// planner's (a lead-in that cannot be laid, a heading law). Displayed as the inner error.
+#[derive(Debug, thiserror::Error)]
+pub enum GoalRequestError {
+    /// The map refused the route.
+    #[error(transparent)]
+    Map(#[from] crate::map::MapError),
+    /// The lead-in or the heading law.
+    #[error(transparent)]
+    Planning(#[from] PlanningError),
+}
+
+/// A goal request's path, lead-in and heading law — what `omnikin plan goal` and
+/// `omnikin.plan(robot, "goal", ...)` both plan: from rest the shortest route from `from` to
+/// `to` ([`goal_path`](crate::map::goal::goal_path)) with the heading law from `headings[0]` to
+/// `headings[1]` ([`goal_heading`](crate::map::goal::goal_heading)); moving (`start` not at
+/// rest) a lead-in along the velocity first ([`moving_goal_path`]) and a heading that starts
+/// turning at the given yaw rate (`dψ/ds = W / speed`, [`start_heading`]). World frame; m, rad.
+///
+/// # Errors
+/// [`GoalRequestError`]: the map's or the planner's, as the functions above give them.
+#[allow(clippy::too_many_arguments)]
+pub fn goal_request(
+    map: &Map,
+    f: f64,
+    from: [f64; 2],
+    to: [f64; 2],
+    headings: [Option<f64>; 2],
+    start: &StartVelocity,
+    max_accel: f64,
+    robot: &RobotModel,
+) -> Result<(GoalPath, f64, HeadingLaw), GoalRequestError> {
+    let [h0, h1] = headings;
+    let speed = start.speed();
+    let (way, lead_in) = if speed > 0.0 {
+        moving_goal_path(map, f, from, [start.vx, start.vy], to, max_accel, robot)?
+    } else {
+        (crate::map::goal::goal_path(map, f, from, to)?, 0.0)
+    };
+    let length = way.smoothed.path.length();
+    let heading = match start.yaw_rate {
+        Some(w) if speed > 0.0 => start_heading(
+            h0.unwrap_or(0.0),
+            w / speed,
+            h1.or(h0).unwrap_or(0.0),
+            length,
+        )?,
+        _ => crate::map::goal::goal_heading(h0, h1, length)?,
+    };
+    Ok((way, lead_in, heading))
+}
+
 /// Rounds of lengthening the lead-in ([`moving_goal_path`]).
 const LEAD_IN_ROUNDS: usize = 4;
 

@@ -4,9 +4,8 @@
 use omnikin_plan::RobotModel;
 use omnikin_plan::map::Map;
 use omnikin_plan::map::footprint::checked_footprint;
-use omnikin_plan::map::goal::{goal_heading, goal_path};
 use omnikin_plan::planner::{MotionLimits, OnLimit, PlanOptions, StartVelocity, Timing};
-use omnikin_plan::splice::{moving_goal_path, start_heading};
+use omnikin_plan::splice::goal_request;
 use pyo3::prelude::*;
 
 use crate::arrays::value_error;
@@ -63,33 +62,10 @@ pub(crate) fn goal(
         max_yaw_accel: o.positive("max_yaw_accel", 2.0)?,
         ..MotionLimits::default()
     };
-    let speed = start.speed();
-    let way = if speed > 0.0 {
-        moving_goal_path(
-            &map,
-            f,
-            from,
-            [start.vx, start.vy],
-            to,
-            limits.max_accel,
-            robot,
-        )
-        .map_err(|e| value_error(e.to_string()))?
-        .0
-    } else {
-        goal_path(&map, f, from, to).map_err(|e| value_error(e.to_string()))?
-    };
+    let (way, _, heading) =
+        goal_request(&map, f, from, to, [h0, h1], &start, limits.max_accel, robot)
+            .map_err(|e| value_error(e.to_string()))?;
     let path = way.smoothed.path;
-    let heading = match start.yaw_rate {
-        Some(w) if speed > 0.0 => start_heading(
-            h0.unwrap_or(0.0),
-            w / speed,
-            h1.or(h0).unwrap_or(0.0),
-            path.length(),
-        ),
-        _ => goal_heading(h0, h1, path.length()),
-    }
-    .map_err(|e| value_error(e.to_string()))?;
     let opts = PlanOptions {
         timing: Timing::TimeOptimal { limits },
         on_limit: OnLimit::Retime,

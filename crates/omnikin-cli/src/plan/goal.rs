@@ -6,12 +6,11 @@ use anyhow::{Result, bail};
 use omnikin::description::RobotDescription;
 use omnikin_plan::map::Map;
 use omnikin_plan::map::footprint::{FootprintSource, checked_footprint};
-use omnikin_plan::map::goal::{goal_heading, goal_path};
 use omnikin_plan::map::route::shortest_route;
 use omnikin_plan::map::smooth::smooth;
 use omnikin_plan::path::Path;
 use omnikin_plan::planner::{OnLimit, PlanOptions, Timing, plan_from_velocity};
-use omnikin_plan::splice::{moving_goal_path, start_heading};
+use omnikin_plan::splice::goal_request;
 use omnikin_plan::waypoints::Waypoints;
 
 use super::args::{GoalArgs, HeadingArg, WaypointArgs};
@@ -62,30 +61,17 @@ pub(super) fn goal(a: &GoalArgs) -> Result<()> {
     let start = super::setup::start_velocity(a.start_velocity.as_ref())?;
     let speed = start.speed();
     // Moving: a lead-in along the velocity, then the route; at rest the route from the start.
-    let (way, lead_in) = if speed > 0.0 {
-        moving_goal_path(
-            &map,
-            f,
-            from,
-            [start.vx, start.vy],
-            to,
-            limits.max_accel,
-            &robot,
-        )?
-    } else {
-        (goal_path(&map, f, from, to)?, 0.0)
-    };
+    let (way, lead_in, heading) = goal_request(
+        &map,
+        f,
+        from,
+        to,
+        [h0, h1],
+        &start,
+        limits.max_accel,
+        &robot,
+    )?;
     let path = &way.smoothed.path;
-    let heading = match start.yaw_rate {
-        // The heading starts turning at the given yaw rate (dψ/ds = W / speed).
-        Some(w) if speed > 0.0 => start_heading(
-            h0.unwrap_or(0.0),
-            w / speed,
-            h1.or(h0).unwrap_or(0.0),
-            path.length(),
-        )?,
-        _ => goal_heading(h0, h1, path.length())?,
-    };
     let mut opts = PlanOptions {
         timing: Timing::TimeOptimal { limits },
         on_limit: OnLimit::Retime,
