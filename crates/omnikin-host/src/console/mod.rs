@@ -1,9 +1,14 @@
-//! The console's side that is not HTTP: the [`hub::Hub`] where the pages' commands and the
-//! robot's stream meet, the [`relay`] that owns the robot link (an operator session) and turns
-//! telemetry into the pages' JSON, the recording and the Foxglove stream
-//! ([`foxglove_hub`]). The web server (the page, its WebSocket, the access rules) is the front
-//! end's (`omnikin console`).
+//! The console: the [`hub::Hub`] where the pages' commands and the robot's stream meet, the
+//! [`relay`] that owns the robot link (an operator session) and turns telemetry into the pages'
+//! JSON, the recording and the Foxglove stream ([`foxglove_hub`]), and the web server
+//! ([`server::ConsoleServer`]: the page, its WebSocket, the access rules — [`gate`], [`http`],
+//! [`ws`], [`foxglove_ws`]) that `omnikin console` runs.
 
 pub mod foxglove_hub;
+pub mod foxglove_ws;
+pub mod gate;
+pub mod http;
 pub mod hub;
 pub mod relay;
+pub mod server;
+pub mod ws;

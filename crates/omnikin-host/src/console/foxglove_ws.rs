@@ -1,6 +1,6 @@
 //! `console --foxglove ADDR`: the console's telemetry live over the Foxglove WebSocket protocol
 //! (`foxglove.websocket.v1`), on the same channels and with the same JSON messages as the MCAP
-//! files (the MCAP writer's [`Encoder`](crate::mcap_log::Encoder)), so Foxglove's "Open
+//! files (the MCAP writer's [`Encoder`](omnikin_io::mcap_log::Encoder)), so Foxglove's "Open
 //! connection" shows what a recording would hold.
 //!
 //! Read-only: the server advertises the channels, takes `subscribe` / `unsubscribe` and sends
@@ -17,10 +17,10 @@ use serde_json::json;
 use tungstenite::protocol::{Role, WebSocketConfig};
 use tungstenite::{Error, Message, WebSocket};
 
+pub use super::foxglove_hub::FoxHub;
+use super::foxglove_hub::{advertise, apply, message_data};
 use super::http;
 use super::hub::Hub;
-pub use omnikin_host::console::foxglove_hub::FoxHub;
-use omnikin_host::console::foxglove_hub::{advertise, apply, message_data};
 
 /// The subprotocol Foxglove asks for.
 pub const SUBPROTOCOL: &str = "foxglove.websocket.v1";
