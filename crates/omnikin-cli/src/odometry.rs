@@ -1,7 +1,8 @@
 //! `omnikin odometry LOG.csv --robot R [--imu] [--fixes FIXES.csv] --out poses.csv [--plot F.svg|png|pdf]`:
 //! wheel odometry (and camera fusion) over a recorded encoder log. The pipeline is
-//! [`omnikin_sim::odometry::OdometryStream`]; this file parses the arguments, streams the log
-//! through it row by row into the outputs, prints the summary and draws the plot.
+//! [`omnikin_sim::odometry::OdometryStream`]; this file parses the arguments and streams the log
+//! through it row by row into the outputs; the summary's sentences are
+//! [`omnikin_sim::odometry::report`]'s and the figure [`omnikin_plot::odometry`]'s.
 //!
 //! Input: the encoder log of conventions.md (`t,q1..qN` cumulative wheel angles in rad, or
 //! counts with `--counts-per-rev`, one per wheel of the robot; `s1..sN` steer angles for the
@@ -11,22 +12,19 @@
 //! at the time it was taken. Output: `t,x,y,heading` per log row. Bad files are rejected with
 //! `FILE:LINE: column NAME: what is wrong`.
 
-use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use omnikin::Pose2;
-use omnikin::estimate::fusion::Recovery;
+use omnikin_plot::odometry::OdometryFigure;
 use omnikin_sim::odometry::{
-    EventOverrides, FixRecord, FixResult, OdometryOptions, OdometryRow, OdometryStream,
-    ThresholdSource, TiltReport, read_fix_rows,
+    EventOverrides, OdometryOptions, OdometryStream, read_fix_rows, report,
 };
 // The log and fixes parser lives in the library so that it can be fuzzed (fuzz/).
 use omnikin_sim::table::NumericRows;
 
 use crate::args::{Triple, finite_f64};
-use crate::plot::Decimator;
 
 /// `omnikin odometry`.
 #[derive(clap::Args, Debug)]
@@ -185,12 +183,12 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     // are kept whole (16 bytes per point) and thinned when drawn, as before.
     let mut lines = match &args.plot {
         Some(_) if std::fs::metadata(&args.log).is_ok_and(|m| m.is_file()) => {
-            Some(FigureLines::new(
+            Some(OdometryFigure::new(
                 NumericRows::open(&args.log)?.count_rows()?,
                 fix_file.is_some(),
             ))
         }
-        Some(_) => Some(FigureLines::new(0, fix_file.is_some())),
+        Some(_) => Some(OdometryFigure::new(0, fix_file.is_some())),
         None => None,
     };
     crate::output::catch_signals()?;
@@ -219,32 +217,8 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
     crate::output::check_interrupted()?;
     let r = stream.finish()?;
     if let Some(file) = &fix_file {
-        for f in &r.fixes {
-            match f.result {
-                FixResult::Rejected { mahalanobis2, gate } => crate::errln!(
-                    "warning: {}:{}: fix at t = {} s rejected as an outlier (d² = {mahalanobis2:.1} > {gate:.1})",
-                    file,
-                    f.line,
-                    f.t
-                ),
-                FixResult::Recovered { recovery, rejected } => crate::errln!(
-                    "event: {}:{}: fix at t = {} s ends {rejected} rejections in a row: {}",
-                    file,
-                    f.line,
-                    f.t,
-                    match recovery {
-                        Recovery::Reinitialised => "they agree, pose re-initialised at it",
-                        Recovery::Inflated => "they disagree, covariance inflated and fused",
-                    }
-                ),
-                FixResult::Initialised => crate::errln!(
-                    "event: {}:{}: fix at t = {} s sets the initial pose (no --initial-pose)",
-                    file,
-                    f.line,
-                    f.t
-                ),
-                _ => {}
-            }
+        for line in report::fix_messages(file, &r.fixes) {
+            crate::errln!("{line}");
         }
     }
     out.commit()?;
@@ -252,276 +226,20 @@ pub fn run(args: &OdometryArgs) -> Result<()> {
         m.finish()?;
     }
 
-    let sum = &r.summary;
-    let end = sum.end;
-    crate::errln!(
-        "robot: {} ({}); heading from {}",
-        sum.robot,
-        sum.kind,
-        sum.heading_source.describe()
-    );
-    crate::errln!(
-        "{} samples over {:.3} s; odometry path {:.4} m; end pose x {:.4} m, y {:.4} m, heading {:.4} rad",
-        sum.samples,
-        sum.duration,
-        sum.path_length,
-        end.x,
-        end.y,
-        end.heading
-    );
-    // Kinds fitted by least squares (more motors than the twist has components) report slip.
-    if let Some((slip, at)) = sum.max_slip {
-        crate::errln!(
-            "largest slip residual {} m/s at t = {} s",
-            if slip < 1e9 {
-                format!("{slip:.4}")
-            } else {
-                crate::args::num(slip)
-            },
-            crate::args::num(at)
-        );
-    }
-    if let Some(spin) = sum.mean_shell_spin {
-        crate::errln!(
-            "mean shell/ball spin about the vertical (from wheels + IMU heading): {spin:.4} rad/s"
-        );
-    }
-    if let Some(s) = sum.shell_spin {
-        let tilt = match s.tilt {
-            TiltReport::Compensated {
-                mean_tilt,
-                max_tilt,
-                tilt_std,
-                spin_std,
-                uncompensated,
-            } => format!(
-                "platform tilt compensated: mean {mean_tilt:.4} rad, max {max_tilt:.4} rad, \
-                 ± {tilt_std:.4} rad (1σ, {spin_std:.4} rad/s of the bound); gyro_z alone \
-                 gives {uncompensated:.4} rad/s"
-            ),
-            TiltReport::NotCompensated(why) => format!("platform tilt not compensated: {why}"),
-        };
-        crate::errln!(
-            "shell/ball spin Ω3 {:.4} ± {:.4} rad/s (1σ; corrected for the gyro bias and wheel scale {}; {tilt})",
-            s.mean,
-            s.std,
-            if s.from_fixes {
-                "estimated from the fixes"
-            } else {
-                "within their priors, no fixes"
-            }
-        );
-    }
-    if let Some(why) = sum.shell_spin_unobservable {
-        crate::errln!("shell/ball spin Ω3 not observable: {why}");
-    }
-    if let Some(f) = &sum.fixes {
-        crate::errln!(
-            "fixes: {} fused, {} rejected as outliers, {} arrived too late (> --max-latency), {} after the log; fused end differs from pure odometry by {:.4} m",
-            f.accepted,
-            f.rejected,
-            f.too_late,
-            f.after_log,
-            f.fused_minus_odometry
-        );
-        crate::errln!(
-            "recoveries: {} re-initialised, {} inflated",
-            f.reinitialised,
-            f.inflated
-        );
-        if let Some((b, sb)) = f.gyro_bias {
-            crate::errln!("estimated gyro bias {b:.6} ± {sb:.6} rad/s (1σ)");
-        }
-        if let Some((k, sk)) = f.wheel_scale {
-            crate::errln!("estimated wheel scale {k:.5} ± {sk:.5} (1σ; true/measured travel)");
-        }
-    }
-    let thresholds: Vec<String> = sum
-        .event_thresholds
-        .rows()
-        .iter()
-        .map(|(name, v, unit, source)| {
-            format!(
-                "{name} {v} {unit} ({})",
-                match source {
-                    ThresholdSource::Given => "--".to_string() + &name.replace('_', "-"),
-                    ThresholdSource::RobotFile =>
-                        format!("[events] of {}", description.source_name),
-                    ThresholdSource::Default => "default".to_string(),
-                }
-            )
-        })
-        .collect();
-    // Said when it matters: a threshold not at its default, or events found with them.
-    let all_default = sum
-        .event_thresholds
-        .rows()
-        .iter()
-        .all(|r| matches!(r.3, ThresholdSource::Default));
-    if !all_default || !r.events.is_empty() {
-        crate::errln!("event thresholds: {}", thresholds.join(", "));
-    }
-    for e in &r.events {
-        crate::errln!(
-            "event: {} from t = {} s to {} s (peak {:.3} {})",
-            e.kind.name(),
-            e.start,
-            e.end,
-            e.peak,
-            match e.kind {
-                omnikin_sim::odometry::EventKind::Collision => "m/s² deceleration",
-                omnikin_sim::odometry::EventKind::Slip => "rad/s or m/s",
-            }
-        );
+    for line in report::summary_lines(&r, &description.source_name) {
+        crate::errln!("{line}");
     }
     crate::errln!("wrote {}", args.out.display());
     if let Some(path) = &args.events {
-        let mut text = String::from("kind,start,end,peak\n");
-        for e in &r.events {
-            let _ = writeln!(text, "{},{},{},{}", e.kind.name(), e.start, e.end, e.peak);
-        }
+        let text = report::events_csv(&r);
         crate::output::write_file("--events", path, |w| {
             std::io::Write::write_all(w, text.as_bytes())
         })?;
         crate::errln!("wrote {}", path.display());
     }
     if let (Some(svg), Some(lines)) = (&args.plot, lines) {
-        figure("--plot", svg, lines, &r.fixes, truth.as_ref())?;
+        lines.write("--plot", svg, &r.fixes, truth.as_ref())?;
         crate::errln!("wrote {}", svg.display());
     }
-    Ok(())
-}
-
-/// The figure's lines, thinned as the rows come ([`crate::plot::Decimator`]): the same points
-/// as the whole lines thinned at drawing time.
-struct FigureLines {
-    /// The wheel odometry: path (x, y) and heading (t, heading).
-    odometry: [Decimator; 2],
-    /// The fused estimate, when there are fixes: path and heading.
-    fused: Option<[Decimator; 2]>,
-}
-
-impl FigureLines {
-    /// Lines of `rows` points (0: not known, every point kept); the fused ones only when
-    /// `fused`.
-    fn new(rows: usize, fused: bool) -> Self {
-        let pair = || [Decimator::new(rows), Decimator::new(rows)];
-        Self {
-            odometry: pair(),
-            fused: fused.then(pair),
-        }
-    }
-
-    fn push(&mut self, row: &OdometryRow) {
-        let (o, e) = (row.odometry, row.estimate);
-        self.odometry[0].push((o.x, o.y));
-        self.odometry[1].push((row.t, o.heading));
-        if let Some(f) = self.fused.as_mut() {
-            f[0].push((e.x, e.y));
-            f[1].push((row.t, e.heading));
-        }
-    }
-}
-
-fn figure(
-    flag: &str,
-    svg: &Path,
-    lines: FigureLines,
-    fixes: &[FixRecord],
-    truth: Option<&omnikin_sim::track::Track>,
-) -> Result<()> {
-    crate::plot::svg_file(flag, svg, (1300, 640), |root| {
-        draw(root, lines, fixes, truth)
-    })
-}
-
-/// The fixes' marks in the figure, by what became of them: fused (dots), rejected by the gate
-/// (crosses), and never used (rings: too late, or after the log). Empty groups are left out.
-fn fix_marks(fixes: &[FixRecord]) -> Vec<crate::plot::Series> {
-    use crate::plot::{Marker, PALETTE, Series};
-    let group = |keep: fn(&FixResult) -> bool| -> Vec<(f64, f64)> {
-        fixes
-            .iter()
-            .filter(|f| keep(&f.result))
-            .map(|f| (f.x, f.y))
-            .collect()
-    };
-    let fused = group(|r| {
-        matches!(
-            r,
-            FixResult::Accepted { .. } | FixResult::Initialised | FixResult::Recovered { .. }
-        )
-    });
-    let rejected = group(|r| matches!(r, FixResult::Rejected { .. }));
-    let unused = group(|r| matches!(r, FixResult::TooLate | FixResult::AfterLog));
-    [
-        (fused, "fixes fused", PALETTE[2], Marker::Dot),
-        (
-            rejected,
-            "fixes rejected (outliers)",
-            PALETTE[3],
-            Marker::Cross,
-        ),
-        (
-            unused,
-            "fixes not used (too late or after the log)",
-            PALETTE[5],
-            Marker::Ring,
-        ),
-    ]
-    .into_iter()
-    .filter(|(p, ..)| !p.is_empty())
-    .map(|(p, label, colour, marker)| Series::marks(label, p, colour, marker))
-    .collect()
-}
-
-fn draw(
-    root: &crate::plot::Area,
-    lines: FigureLines,
-    fixes: &[FixRecord],
-    truth: Option<&omnikin_sim::track::Track>,
-) -> Result<()> {
-    use crate::plot::{PALETTE, Series, draw_err, time_panel, xy_panel};
-    use plotters::prelude::*;
-    root.fill(&WHITE).map_err(draw_err)?;
-    let fused = lines.fused.is_some();
-    let title = if fused {
-        "odometry fused with camera fixes"
-    } else {
-        "wheel odometry"
-    };
-    let root = root.titled(title, ("sans-serif", 22)).map_err(draw_err)?;
-    let (left, right) = root.split_horizontally(700);
-    let [odometry_path, odometry_heading] = lines.odometry.map(Decimator::finish);
-    let mut paths = vec![Series::solid("wheel odometry", odometry_path, PALETTE[0])];
-    let mut headings = vec![Series::solid(
-        "wheel odometry",
-        odometry_heading,
-        PALETTE[0],
-    )];
-    if let Some(f) = lines.fused {
-        let [path, heading] = f.map(Decimator::finish);
-        paths.push(Series::solid("fused with fixes", path, PALETTE[1]));
-        headings.push(Series::solid("fused with fixes", heading, PALETTE[1]));
-        paths.extend(fix_marks(fixes));
-    }
-    if let Some(t) = truth {
-        let path = t.xy.iter().map(|p| (p[0], p[1])).collect();
-        paths.insert(0, Series::dashed("ground truth", path, BLACK));
-        if let Some(h) = &t.heading {
-            let heading = t.t.iter().copied().zip(h.iter().copied()).collect();
-            headings.insert(0, Series::dashed("ground truth", heading, BLACK));
-        }
-    }
-    xy_panel(
-        &left,
-        "estimated path (world frame)",
-        "x [m]",
-        "y [m]",
-        &paths,
-        &[],
-        &[],
-    )?;
-    time_panel(&right, "heading", "heading [rad]", &headings, &[], None)?;
     Ok(())
 }

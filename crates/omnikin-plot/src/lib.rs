@@ -20,6 +20,7 @@ pub mod figures;
 mod file;
 pub mod identify;
 mod legend;
+pub mod odometry;
 mod overlay;
 pub mod ticks;
 

@@ -30,6 +30,7 @@ use omnikin::estimate::fusion::Recovery;
 use crate::table::{NumericRows, NumericTable, TableError};
 
 pub mod events;
+pub mod report;
 pub mod stream;
 pub mod tilt;
 pub use events::{
