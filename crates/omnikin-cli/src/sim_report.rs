@@ -62,45 +62,31 @@ pub(crate) fn write_file(
     crate::output::write_file("--out", path, write)
 }
 
-/// Writes `mean.csv`: the mean trajectory, its 95 % half-widths, and the plan.
+/// Writes `mean.csv`: the mean trajectory, its 95 % half-widths, and the plan
+/// ([`omnikin_sim::run_columns`]).
 pub fn write_mean(path: &Path, plan: &Plan, mean: &MeanTrajectory) -> Result<()> {
+    use omnikin_sim::run_columns::{MEAN_COLUMNS, csv_line, mean_row};
     write_file(path, |w| {
-        writeln!(w, "t,x,y,x_ci95,y_ci95,plan_x,plan_y")?;
-        for (k, s) in plan.samples.iter().enumerate() {
-            let (m, h) = (mean.mean[k], mean.half_width[k]);
-            writeln!(
-                w,
-                "{},{},{},{},{},{},{}",
-                s.t, m[0], m[1], h[0], h[1], s.pose.x, s.pose.y
-            )?;
+        writeln!(w, "{}", MEAN_COLUMNS.join(","))?;
+        for k in 0..plan.samples.len() {
+            writeln!(w, "{}", csv_line(&mean_row(plan, mean, k)))?;
         }
         Ok(())
     })
 }
 
-/// Header of `trials.csv` for a robot of `wheels` wheels: one encoder column `q1..qN` per wheel.
+/// Header of `trials.csv` for a robot of `wheels` wheels ([`omnikin_sim::run_columns`]).
 pub(crate) fn trials_header(wheels: usize) -> String {
-    let mut h = String::from("trial,t,x,y,heading,tracked_x,tracked_y,slip_residual");
-    for i in 1..=wheels {
-        h.push_str(&format!(",q{i}"));
-    }
-    h
+    omnikin_sim::run_columns::trial_columns(wheels).join(",")
 }
 
 /// Writes trial `i`'s rows of `trials.csv`.
 pub(crate) fn write_trial(w: &mut impl Write, i: usize, tr: &Trial) -> std::io::Result<()> {
-    let wheels = tr.wheels.min(omnikin::MAX_WHEELS);
+    use omnikin_sim::run_columns::{csv_line, trial_row};
+    let mut row = Vec::new();
     for k in 0..tr.t.len() {
-        let (p, q) = (tr.pose[k], tr.tracked[k]);
-        write!(
-            w,
-            "{i},{},{},{},{},{},{},{}",
-            tr.t[k], p.x, p.y, p.heading, q[0], q[1], tr.slip_residual[k],
-        )?;
-        for a in &tr.encoder_angles[k][..wheels] {
-            write!(w, ",{a}")?;
-        }
-        writeln!(w)?;
+        trial_row(i, tr, k, &mut row);
+        writeln!(w, "{}", csv_line(&row))?;
     }
     Ok(())
 }

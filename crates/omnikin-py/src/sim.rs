@@ -78,42 +78,25 @@ pub(crate) fn load_plan(
     }
 }
 
-/// The mean trajectory's columns (`mean.csv`).
+/// The mean trajectory's columns (`mean.csv`, [`omnikin_sim::run_columns`]).
 fn mean_table<'py>(py: Python<'py>, plan: &Plan, mean: &MeanTrajectory) -> PyResult<Table<'py>> {
-    let cols = ["t", "x", "y", "x_ci95", "y_ci95", "plan_x", "plan_y"];
-    let mut v = vec![Vec::with_capacity(plan.samples.len()); cols.len()];
-    for (k, s) in plan.samples.iter().enumerate() {
-        let (m, h) = (mean.mean[k], mean.half_width[k]);
-        for (c, x) in [s.t, m[0], m[1], h[0], h[1], s.pose.x, s.pose.y]
-            .into_iter()
-            .enumerate()
-        {
+    use omnikin_sim::run_columns::{MEAN_COLUMNS, mean_row};
+    let mut v = vec![Vec::with_capacity(plan.samples.len()); MEAN_COLUMNS.len()];
+    for k in 0..plan.samples.len() {
+        for (c, x) in mean_row(plan, mean, k).into_iter().enumerate() {
             v[c].push(x);
         }
     }
-    table(py, cols.iter().map(|s| s.to_string()).collect(), v)
+    table(py, MEAN_COLUMNS.iter().map(|s| s.to_string()).collect(), v)
 }
 
-/// Appends trial `i` to the `trials.csv` columns.
+/// Appends trial `i` to the `trials.csv` columns ([`omnikin_sim::run_columns::trial_row`]).
 fn add_trial(v: &mut [Vec<f64>], i: usize, tr: &Trial) {
-    let wheels = tr.wheels.min(omnikin::MAX_WHEELS);
+    let mut row = Vec::new();
     for k in 0..tr.t.len() {
-        let (p, q) = (tr.pose[k], tr.tracked[k]);
-        let row = [
-            i as f64,
-            tr.t[k],
-            p.x,
-            p.y,
-            p.heading,
-            q[0],
-            q[1],
-            tr.slip_residual[k],
-        ];
-        for (c, x) in row.into_iter().enumerate() {
-            v[c].push(x);
-        }
-        for (w, a) in tr.encoder_angles[k][..wheels].iter().enumerate() {
-            v[8 + w].push(*a);
+        omnikin_sim::run_columns::trial_row(i, tr, k, &mut row);
+        for (c, x) in row.iter().enumerate() {
+            v[c].push(*x);
         }
     }
 }
@@ -210,25 +193,6 @@ fn emit_logs(
     Ok(out)
 }
 
-/// The trials' columns (`trials.csv`) for `k` wheels.
-fn trial_columns(k: usize) -> Vec<String> {
-    let mut cols: Vec<String> = [
-        "trial",
-        "t",
-        "x",
-        "y",
-        "heading",
-        "tracked_x",
-        "tracked_y",
-        "slip_residual",
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect();
-    cols.extend((1..=k).map(|i| format!("q{i}")));
-    cols
-}
-
 /// A user warning with `msg`, attributed to the caller's line: stack level 2 skips the
 /// wrapper in `omnikin/__init__.py` that called the native function.
 pub(crate) fn warn(py: Python<'_>, msg: &str) -> PyResult<()> {
@@ -299,7 +263,7 @@ fn simulate_dynamic<'py>(
         }
     };
     Ok((
-        table(py, trial_columns(3), v)?,
+        table(py, omnikin_sim::run_columns::trial_columns(3), v)?,
         mean_table(py, &plan, &sim.evaluation.mean)?,
         sim.metrics_json.to_string(),
         extras,
@@ -427,7 +391,7 @@ pub fn simulate_native<'py>(
     };
     let mut logs: Vec<Vec<(String, Vec<u8>)>> = Vec::new();
     let reference = tracked_reference(&plan, profile.tracking.offset.unwrap_or([0.0; 2]));
-    let cols = trial_columns(model.wheels());
+    let cols = omnikin_sim::run_columns::trial_columns(model.wheels());
     let mut v = vec![Vec::new(); cols.len()];
     let n = trials as usize;
     let mc = py.detach(|| {

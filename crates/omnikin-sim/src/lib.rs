@@ -55,6 +55,7 @@ pub mod plant_step;
 pub mod pose_error;
 pub mod profile;
 pub mod reproduce;
+pub mod run_columns;
 pub mod sensors;
 pub mod shard;
 pub mod sil;
