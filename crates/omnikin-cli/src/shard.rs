@@ -793,7 +793,7 @@ fn merge_simulate(
         })
         .map_err(visit_err)?;
     pb.finish_and_clear();
-    crate::sim_report::finish_simulation(&a.out, &info, &reference, mc, a.figure_format)
+    crate::sim_report::finish_simulation(&a.out, &info, &reference, mc, &a.figure_format)
 }
 
 fn merge_reproduce(
@@ -880,7 +880,7 @@ fn merge_reproduce(
     } else {
         0
     };
-    let mut report = crate::sim_report::Report::new(&a.out, info).figure_format(a.figure_format);
+    let mut report = crate::sim_report::Report::new(&a.out, info, &a.figure_format);
     for s in &series {
         let outcomes = pool
             .install(|| {
@@ -910,7 +910,7 @@ fn merge_reproduce(
         } else {
             None
         };
-        let band = report.prior_band(s, pool)?;
+        let band = pool.install(|| report.prior_band(s))?;
         report.add(s, &outcomes, tally, band)?;
     }
     pb.finish_and_clear();

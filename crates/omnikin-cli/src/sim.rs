@@ -286,7 +286,7 @@ pub fn simulate(a: &SimulateArgs) -> Result<()> {
             a.out.display().to_string().trim_end_matches('/')
         );
     }
-    finish_simulation(&a.out, &info, &reference, mc, a.figure_format)
+    finish_simulation(&a.out, &info, &reference, mc, &a.figure_format)
 }
 
 pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
@@ -497,7 +497,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
     }
     let total: u64 = series.len() as u64 * runs.iter().map(|r| r.1 as u64).sum::<u64>();
     let pb = progress_bar(total, "reproducing the Sphere paper");
-    let mut report = Report::new(&out, info).figure_format(a.figure_format);
+    let mut report = Report::new(&out, info, &a.figure_format);
     for s in &series {
         let contacts = rp::ContactRecorder::default();
         let outcomes = pool.install(|| {
@@ -513,7 +513,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
             e => anyhow::Error::new(e),
         })?;
         let tally = (dyn_trials > 0).then(|| rp::ContactTally::of(&contacts.into_events()));
-        let band = report.prior_band(s, &pool)?;
+        let band = pool.install(|| report.prior_band(s))?;
         report.add(s, &outcomes, tally, band)?;
     }
     pb.finish_and_clear();

@@ -416,3 +416,23 @@ fn distance(ts: &[f64], plan_xy: &[(f64, f64)], xy: &[[f64; 2]]) -> Vec<(f64, f6
         .map(|((t, q), p)| (*t, MM * (p[0] - q.0).hypot(p[1] - q.1)))
         .collect()
 }
+
+/// The simulation report's figures ([`omnikin_io::sim_output`]) in this format, drawn by
+/// [`trajectory_figure`] (errors name `--out`).
+impl omnikin_io::sim_output::RunFigures for crate::FigureFormat {
+    fn file_name(&self, stem: &str) -> String {
+        crate::FigureFormat::file_name(*self, stem)
+    }
+
+    fn draw(
+        &self,
+        path: &Path,
+        title: &str,
+        plan: &Plan,
+        runs: &[Run],
+        mean: &MeanTrajectory,
+        n_runs: usize,
+    ) -> Result<()> {
+        trajectory_figure("--out", path, title, plan, runs, mean, n_runs)
+    }
+}
