@@ -461,8 +461,8 @@ fn main() -> ExitCode {
     };
     output::set_force(cli.force);
     mcap_log::set_profile(match cli.mcap_profile {
-        McapProfile::Foxglove => mcap_log::ros2::Profile::Foxglove,
-        McapProfile::Ros2 => mcap_log::ros2::Profile::Ros2,
+        McapProfile::Foxglove => mcap_log::ros2::LogProfile::Foxglove,
+        McapProfile::Ros2 => mcap_log::ros2::LogProfile::Ros2,
     });
     match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,

@@ -8,7 +8,7 @@ use anyhow::{Context, Result, bail};
 use omnikin::description::RobotDescription;
 use omnikin_plan::Plan;
 use omnikin_sim::metrics::{evaluate, tracked_reference};
-use omnikin_sim::track::{Alignment, Track};
+use omnikin_sim::track::{Track, TrackAlignment};
 use omnikin_sim::{MonteCarloError, Profile, Trial};
 use serde_json::json;
 
@@ -317,7 +317,7 @@ pub fn evaluate_tracks(a: &EvaluateArgs) -> Result<()> {
         &Plan::load_csv(plan_path)?,
         a.tracking_offset.unwrap_or([0.0; 2]),
     );
-    let align = Alignment {
+    let align = TrackAlignment {
         motion_threshold_m: a.motion_threshold,
         align_position: !a.no_align_position,
     };

@@ -15,7 +15,7 @@ use omnikin_sim::dynamic_run::{
 };
 use omnikin_sim::metrics::{MeanTrajectory, evaluate, tracked_reference};
 use omnikin_sim::sensors::SensorProfile;
-use omnikin_sim::track::Alignment;
+use omnikin_sim::track::TrackAlignment;
 use omnikin_sim::{Profile, Trial};
 use pyo3::prelude::*;
 use serde_json::json;
@@ -485,7 +485,7 @@ pub fn evaluate_native<'py>(
     }
     let (plan, plan_name) = load_plan(plan_path, plan_columns)?;
     let plan = tracked_reference(&plan, tracking_offset.unwrap_or([0.0; 2]));
-    let align = Alignment {
+    let align = TrackAlignment {
         motion_threshold_m: motion_threshold,
         align_position,
     };

@@ -58,14 +58,14 @@ pub struct TrackError {
 
 /// How a track is put on the plan's clock and frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Alignment {
+pub struct TrackAlignment {
     /// Displacement from the first position that counts as "moving", m.
     pub motion_threshold_m: f64,
     /// Also translate the track so its position at the start of motion is the plan's.
     pub align_position: bool,
 }
 
-impl Default for Alignment {
+impl Default for TrackAlignment {
     fn default() -> Self {
         Self {
             motion_threshold_m: 0.005,
@@ -309,7 +309,7 @@ impl Track {
     /// the path, so its deviation from the path would be 0: a robot that did not move would
     /// score a perfect run. (A plan that does not move either, e.g. a turn on the spot, is
     /// fine.)
-    pub fn did_not_move(&self, plan: &Plan, align: Alignment) -> Option<String> {
+    pub fn did_not_move(&self, plan: &Plan, align: TrackAlignment) -> Option<String> {
         let moved = self.max_displacement();
         let plan_moves = plan.samples.first().map_or(0.0, |s0| {
             plan.samples
@@ -329,7 +329,7 @@ impl Track {
     /// plan's, positions (and headings) are linearly interpolated at every plan sample time
     /// (held at the ends), and with `align_position` the track is translated so that both start
     /// moving from the same point.
-    pub fn resample(&self, plan: &Plan, align: Alignment) -> Run {
+    pub fn resample(&self, plan: &Plan, align: TrackAlignment) -> Run {
         let (shift, offset) = self.alignment_on(plan, align);
         let mut j = 0usize;
         let mut xy = Vec::with_capacity(plan.samples.len());
@@ -358,7 +358,7 @@ impl Track {
 
     /// The track's clock shift (track time − plan time, s) and translation (m) that
     /// [`Track::resample`] applies: start of motion matched to the plan's.
-    fn alignment_on(&self, plan: &Plan, align: Alignment) -> (f64, [f64; 2]) {
+    fn alignment_on(&self, plan: &Plan, align: TrackAlignment) -> (f64, [f64; 2]) {
         let plan_xy: Vec<[f64; 2]> = plan.samples.iter().map(|s| [s.pose.x, s.pose.y]).collect();
         let kp = Self::motion_start(&plan_xy, align.motion_threshold_m);
         let kt = Self::motion_start(&self.xy, align.motion_threshold_m);
@@ -377,7 +377,7 @@ impl Track {
     /// The run's emergency stops ([`Track::estops`]) on the plan's clock and frame, with the
     /// alignment [`Track::resample`] uses — a stop before the plan's start or after its end
     /// keeps its time (a figure shows what its axis covers).
-    pub fn estops_on(&self, plan: &Plan, align: Alignment) -> Vec<EStopMark> {
+    pub fn estops_on(&self, plan: &Plan, align: TrackAlignment) -> Vec<EStopMark> {
         if self.estops.is_empty() {
             return Vec::new();
         }
@@ -429,7 +429,7 @@ mod tests {
             }))
             .collect();
         let track = Track::read_csv(text.as_bytes(), "cam.csv").unwrap();
-        let run = track.resample(&line_plan(), Alignment::default());
+        let run = track.resample(&line_plan(), TrackAlignment::default());
         let plan = line_plan();
         for (p, s) in run.xy.iter().zip(&plan.samples) {
             assert!(
@@ -458,16 +458,16 @@ mod tests {
             .collect();
         let track = Track::read_csv(text.as_bytes(), "log.csv").unwrap();
         assert_eq!(track.estops, vec![50, 60]);
-        let marks = track.estops_on(&line_plan(), Alignment::default());
+        let marks = track.estops_on(&line_plan(), TrackAlignment::default());
         assert_eq!(marks.len(), 2);
         for (m, (t, x)) in marks.iter().zip([(1.5, 0.05), (2.5, 0.15)]) {
             assert!((m.t - t).abs() < 1e-9, "{m:?}");
             assert!((m.xy[0] - x).abs() < 1e-9 && m.xy[1].abs() < 1e-9, "{m:?}");
         }
         // Without alignment the position stays the recorded one, the clock is still aligned.
-        let raw = Alignment {
+        let raw = TrackAlignment {
             align_position: false,
-            ..Alignment::default()
+            ..TrackAlignment::default()
         };
         let m = track.estops_on(&line_plan(), raw)[0];
         assert!((m.xy[0] - 2.05).abs() < 1e-9 && (m.xy[1] - 1.0).abs() < 1e-9);
@@ -494,15 +494,17 @@ mod tests {
             .chain((0..=30).map(|k| format!("{},{},0\n", k as f64 * 0.1, 0.001 * (k % 3) as f64)))
             .collect();
         let track = Track::read_csv(still.as_bytes(), "still.csv").unwrap();
-        let why = track.did_not_move(&plan, Alignment::default()).unwrap();
+        let why = track
+            .did_not_move(&plan, TrackAlignment::default())
+            .unwrap();
         assert!(
             why.contains("did not move") && why.contains("0.2000 m"),
             "{why}"
         );
         // A lower threshold sees the 2 mm as motion.
-        let low = Alignment {
+        let low = TrackAlignment {
             motion_threshold_m: 0.001,
-            ..Alignment::default()
+            ..TrackAlignment::default()
         };
         assert_eq!(track.did_not_move(&plan, low), None);
         // A plan that does not move either is fine.
@@ -510,7 +512,7 @@ mod tests {
         for s in &mut spot.samples {
             s.pose.x = 0.0;
         }
-        assert_eq!(track.did_not_move(&spot, Alignment::default()), None);
+        assert_eq!(track.did_not_move(&spot, TrackAlignment::default()), None);
     }
 
     #[test]

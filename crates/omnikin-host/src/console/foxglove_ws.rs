@@ -41,7 +41,7 @@ pub fn admit(head: &[u8], policy: &http::Policy) -> Result<String, http::Refusal
         .push(("origin".into(), format!("http://{host}")));
     req.path = "/ws".into();
     let key = match http::route(&req, policy)? {
-        http::Route::WebSocket(k) => k,
+        http::PageRoute::WebSocket(k) => k,
         // `route` gives a websocket or a refusal for `/ws`.
         _ => return Err((400, "bad request: a websocket upgrade is required")),
     };

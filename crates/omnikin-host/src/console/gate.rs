@@ -4,8 +4,8 @@
 //! slot (issue 30, observation 5: 50 slowloris connections held all 16 HTTP and 4 Foxglove
 //! slots for the 5 s head timeout of the thread-per-connection design).
 //!
-//! A [`Gate`] owns a non-blocking listener and its unfinished connections ("pending"), all
-//! registered with one [`mio::Poll`]. Each [`Gate::turn`] accepts, reads what arrived and hands
+//! A [`HeadGate`] owns a non-blocking listener and its unfinished connections ("pending"), all
+//! registered with one [`mio::Poll`]. Each [`HeadGate::turn`] accepts, reads what arrived and hands
 //! every complete head to the caller with its socket; the caller applies the access rules and
 //! only then gives it a worker. The rules for pending connections:
 //! - a complete head within [`HEAD_TIMEOUT`] of the accept, else `408` and closed (nginx's
@@ -62,7 +62,7 @@ struct Pending {
 }
 
 /// A listener and the connections it has accepted that have not sent a complete head.
-pub struct Gate {
+pub struct HeadGate {
     poll: Poll,
     events: Events,
     listener: MioListener,
@@ -74,7 +74,7 @@ pub struct Gate {
     retry_accept: bool,
 }
 
-impl Gate {
+impl HeadGate {
     /// Takes a bound listener (made non-blocking here).
     pub fn new(listener: TcpListener) -> std::io::Result<Self> {
         listener.set_nonblocking(true)?;
@@ -82,7 +82,7 @@ impl Gate {
         let poll = Poll::new()?;
         poll.registry()
             .register(&mut listener, LISTENER, Interest::READABLE)?;
-        Ok(Gate {
+        Ok(HeadGate {
             poll,
             events: Events::with_capacity(256),
             listener,
@@ -286,14 +286,14 @@ mod tests {
     use super::*;
     use std::io::Write;
 
-    fn gate() -> (Gate, SocketAddr) {
+    fn gate() -> (HeadGate, SocketAddr) {
         let l = TcpListener::bind("127.0.0.1:0").unwrap();
         let at = l.local_addr().unwrap();
-        (Gate::new(l).unwrap(), at)
+        (HeadGate::new(l).unwrap(), at)
     }
 
     /// Turns the gate until `done` holds or 5 s pass; the heads it handed over.
-    fn turn_until(g: &mut Gate, done: impl Fn(&Gate, &[Head]) -> bool) -> Vec<Head> {
+    fn turn_until(g: &mut HeadGate, done: impl Fn(&HeadGate, &[Head]) -> bool) -> Vec<Head> {
         let mut heads = Vec::new();
         let end = Instant::now() + Duration::from_secs(5);
         while !done(g, &heads) && Instant::now() < end {

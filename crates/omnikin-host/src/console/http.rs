@@ -105,7 +105,7 @@ pub struct Policy {
 
 /// Where an allowed request goes.
 #[derive(Debug, PartialEq)]
-pub enum Route {
+pub enum PageRoute {
     /// The page (its HTML).
     Page,
     /// An embedded asset: content type and body.
@@ -145,7 +145,7 @@ fn loopback_host(host: &str, port: u16) -> bool {
 /// server when bound to loopback (403); the token (403); then the path — `/`, `/app.js`,
 /// `/style.css`, and `/ws`, a websocket upgrade whose Origin is this page's own origin
 /// (`http://` + the Host header; 403 otherwise) — and 404 for anything else.
-pub fn route(r: &Request, p: &Policy) -> Result<Route, Refusal> {
+pub fn route(r: &Request, p: &Policy) -> Result<PageRoute, Refusal> {
     if r.method != "GET" {
         return Err((405, "method not allowed: the console serves GET only"));
     }
@@ -174,9 +174,9 @@ pub fn route(r: &Request, p: &Policy) -> Result<Route, Refusal> {
         ));
     }
     match r.path.as_str() {
-        "/" | "/index.html" => Ok(Route::Page),
-        "/app.js" => Ok(Route::Asset("text/javascript; charset=utf-8", APP_JS)),
-        "/style.css" => Ok(Route::Asset("text/css; charset=utf-8", STYLE_CSS)),
+        "/" | "/index.html" => Ok(PageRoute::Page),
+        "/app.js" => Ok(PageRoute::Asset("text/javascript; charset=utf-8", APP_JS)),
+        "/style.css" => Ok(PageRoute::Asset("text/css; charset=utf-8", STYLE_CSS)),
         "/ws" => {
             let origin_ok = r.count("origin") == 1
                 && r.header("origin").is_some_and(|o| {
@@ -199,7 +199,7 @@ pub fn route(r: &Request, p: &Policy) -> Result<Route, Refusal> {
             let version = r.header("sec-websocket-version") == Some("13");
             match r.header("sec-websocket-key") {
                 Some(k) if upgrade && connection && version && !k.is_empty() && k.len() <= 64 => {
-                    Ok(Route::WebSocket(k.to_string()))
+                    Ok(PageRoute::WebSocket(k.to_string()))
                 }
                 _ => Err((
                     400,
@@ -302,11 +302,11 @@ mod tests {
         let r = req(&format!(
             "GET /?token={T} HTTP/1.1\r\nHost: localhost:8090\r\n\r\n"
         ));
-        assert_eq!(route(&r, &p), Ok(Route::Page));
+        assert_eq!(route(&r, &p), Ok(PageRoute::Page));
         let r = req(&format!(
             "GET /app.js?x=1&token={T} HTTP/1.1\r\nHost: [::1]:8090\r\n\r\n"
         ));
-        assert!(matches!(route(&r, &p), Ok(Route::Asset(..))));
+        assert!(matches!(route(&r, &p), Ok(PageRoute::Asset(..))));
     }
 
     #[test]
@@ -335,7 +335,7 @@ mod tests {
         let r = req(&format!(
             "GET /?token={T} HTTP/1.1\r\nHost: robot-pc.lan:8090\r\n\r\n"
         ));
-        assert_eq!(route(&r, &open), Ok(Route::Page));
+        assert_eq!(route(&r, &open), Ok(PageRoute::Page));
         let r = req("GET / HTTP/1.1\r\nHost: robot-pc.lan:8090\r\n\r\n");
         assert_eq!(route(&r, &open).unwrap_err().0, 403);
     }
@@ -348,7 +348,7 @@ mod tests {
                 &ws_req("127.0.0.1:8090", Some("http://127.0.0.1:8090"), T),
                 &p
             ),
-            Ok(Route::WebSocket("dGhlIHNhbXBsZSBub25jZQ==".into()))
+            Ok(PageRoute::WebSocket("dGhlIHNhbXBsZSBub25jZQ==".into()))
         );
         for o in [
             None,

@@ -1,7 +1,7 @@
 //! The console's web server — `omnikin console` and any other front end: a local web page that
 //! shows and drives the robot, relayed over the operator link (`drive`'s session).
 //!
-//! Threads, no async runtime: one [`gate::Gate`] per listening socket (the page's on the
+//! Threads, no async runtime: one [`gate::HeadGate`] per listening socket (the page's on the
 //! caller's thread in [`ConsoleServer::run`], Foxglove's on its own) reads the request heads of
 //! every new connection without a thread each; a head that passes the access rules gets a
 //! worker thread, one per HTTP exchange or websocket ([`http`], [`ws`], [`foxglove_ws`]); the
@@ -251,7 +251,7 @@ impl ConsoleServer {
                 .spawn(move || foxglove_accept(listener, policy, hub, fox))?;
         }
         let mut gate =
-            gate::Gate::new(self.listener).context("--listen: cannot poll the socket")?;
+            gate::HeadGate::new(self.listener).context("--listen: cannot poll the socket")?;
         let http_slots = Arc::new(AtomicUsize::new(0));
         let page_slots = Arc::new(AtomicUsize::new(0));
         let policy = self.policy;
@@ -350,7 +350,7 @@ fn page_head(
 /// One admitted request on its worker: the response, or the websocket of a page.
 fn exchange(
     mut stream: TcpStream,
-    route: http::Route,
+    route: http::PageRoute,
     rest: Vec<u8>,
     slot: Slot,
     policy: &http::Policy,
@@ -363,7 +363,7 @@ fn exchange(
         return;
     }
     match route {
-        http::Route::Page => {
+        http::PageRoute::Page => {
             let _ = http::respond(
                 &mut stream,
                 200,
@@ -371,10 +371,10 @@ fn exchange(
                 http::page(&policy.token).as_bytes(),
             );
         }
-        http::Route::Asset(ctype, body) => {
+        http::PageRoute::Asset(ctype, body) => {
             let _ = http::respond(&mut stream, 200, ctype, body.as_bytes());
         }
-        http::Route::WebSocket(key) => {
+        http::PageRoute::WebSocket(key) => {
             let Some(_page) = Slot::take(pages, MAX_PAGES) else {
                 let _ = http::respond(&mut stream, 503, "text/plain", b"too many pages open\n");
                 return;
@@ -404,7 +404,7 @@ fn foxglove_accept(
     hub: Arc<Hub>,
     fox: Arc<foxglove_ws::FoxHub>,
 ) {
-    let mut gate = match gate::Gate::new(l) {
+    let mut gate = match gate::HeadGate::new(l) {
         Ok(g) => g,
         Err(e) => {
             errln!("console: --foxglove: cannot poll the socket: {e}");

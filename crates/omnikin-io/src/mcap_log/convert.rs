@@ -30,7 +30,7 @@ use serde_json::Value;
 
 use super::foxglove::{self as fg, Counters, Topic};
 use super::proto::Encoding;
-use super::{McapLog, Sample};
+use super::{LogRow, McapLog};
 
 pub use super::MAX_INPUT_BYTES;
 
@@ -836,7 +836,7 @@ fn log_to_mcap(t: &mut Table, log: &mut McapLog) -> Result<usize> {
         };
         log.sample_under(
             &prefix,
-            &Sample {
+            &LogRow {
                 t: time,
                 pose,
                 truth,

@@ -1,7 +1,7 @@
 //! MCAP logs (`--mcap FILE` on `simulate`, `odometry`, `robot`, `drive`) with Foxglove's
 //! schemas, and `omnikin convert` between MCAP and the CSV logs.
 //!
-//! A command hands [`McapLog`] one [`Sample`] per row of its CSV log (the robot's time, the
+//! A command hands [`McapLog`] one [`LogRow`] per row of its CSV log (the robot's time, the
 //! estimate, the true pose in simulation, the wheels, the link counters, mode and faults);
 //! the log's [`Encoder`] turns it into one message on each channel the sample has data for
 //! (see [`foxglove::TOPICS`]) and derives `/events` from mode and fault changes. So a channel
@@ -59,20 +59,20 @@ pub const ENCODING: Encoding = Encoding::Protobuf;
 pub const FLUSH_EVERY: Duration = Duration::from_secs(1);
 
 /// The profile of the MCAP logs this process writes from now on (a global flag like
-/// `--force`: `--mcap-profile`); [`ros2::Profile::Foxglove`] until set.
+/// `--force`: `--mcap-profile`); [`ros2::LogProfile::Foxglove`] until set.
 static ROS2: AtomicBool = AtomicBool::new(false);
 
 /// Sets the profile of every [`McapLog`] created afterwards (`--mcap-profile`).
-pub fn set_profile(p: ros2::Profile) {
-    ROS2.store(p == ros2::Profile::Ros2, Ordering::Relaxed);
+pub fn set_profile(p: ros2::LogProfile) {
+    ROS2.store(p == ros2::LogProfile::Ros2, Ordering::Relaxed);
 }
 
 /// The profile [`McapLog::create`] uses ([`set_profile`]).
-pub fn profile() -> ros2::Profile {
+pub fn profile() -> ros2::LogProfile {
     if ROS2.load(Ordering::Relaxed) {
-        ros2::Profile::Ros2
+        ros2::LogProfile::Ros2
     } else {
-        ros2::Profile::Foxglove
+        ros2::LogProfile::Foxglove
     }
 }
 
@@ -93,7 +93,7 @@ impl Write for Sink {
 
 /// One row of a command's log, in the robot's time: what the channels show.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Sample {
+pub struct LogRow {
     /// Robot time, s (≥ 0): the MCAP log time.
     pub t: f64,
     /// The pose estimate (world frame; m, m, rad): `/pose` and `/tf`.
@@ -128,7 +128,7 @@ struct Previous {
     state: Option<(Mode, Faults)>,
 }
 
-/// Samples to channel messages: the one step from a [`Sample`] to Foxglove messages, shared by
+/// Samples to channel messages: the one step from a [`LogRow`] to Foxglove messages, shared by
 /// the MCAP writer and a live Foxglove server (stateful: measured rates and events compare
 /// each sample with the previous one under the same prefix).
 pub struct Encoder {
@@ -150,7 +150,7 @@ impl Encoder {
     /// under `prefix` (`""`, or `/trial-NNN`), in this order: `/pose`, `/tf` always;
     /// `/truth`, `/reference`, `/wheels`, `/link` when the sample has them; `/events` when the
     /// mode changed or a fault appeared since the previous sample.
-    pub fn messages(&mut self, prefix: &str, s: &Sample, ns: u64) -> Vec<(Topic, Value)> {
+    pub fn messages(&mut self, prefix: &str, s: &LogRow, ns: u64) -> Vec<(Topic, Value)> {
         use foxglove as fg;
         let mut out = vec![
             (fg::POSE, fg::pose_in_frame(ns, s.pose)),
@@ -187,7 +187,7 @@ impl Encoder {
     /// The messages of one sample in the `ros2` profile ([`ros2::messages`]), with the same
     /// bookkeeping as [`Encoder::messages`] (rates and events against the previous sample
     /// under `prefix`).
-    pub fn ros2_messages(&mut self, prefix: &str, s: &Sample, ns: u64) -> Vec<ros2::Message> {
+    pub fn ros2_messages(&mut self, prefix: &str, s: &LogRow, ns: u64) -> Vec<ros2::Message> {
         let step = self.step(prefix, s);
         let events = s.state.map_or_else(Vec::new, |now| events(step.state, now));
         ros2::messages(
@@ -204,7 +204,7 @@ impl Encoder {
 
     /// Compares `s` with the previous sample under `prefix` (then remembers `s`): the time
     /// step, the encoders' rates, the previous estimate and mode/faults.
-    fn step(&mut self, prefix: &str, s: &Sample) -> Step {
+    fn step(&mut self, prefix: &str, s: &LogRow) -> Step {
         let prev = self.previous.entry(prefix.to_string()).or_default();
         let dt = s.t - prev.t;
         let measured = |now: &Option<Vec<f64>>, before: &Option<Vec<f64>>| match (now, before) {
@@ -246,7 +246,7 @@ pub struct McapLog {
     path: String,
     encoder: Encoder,
     encoding: Encoding,
-    profile: ros2::Profile,
+    profile: ros2::LogProfile,
     schemas: HashMap<&'static str, u16>,
     channels: HashMap<String, u16>,
     sequence: u32,
@@ -278,8 +278,8 @@ impl McapLog {
             // indexes and read whole chunks); convert never used them.
             .emit_message_indexes(false)
             .profile(match profile() {
-                ros2::Profile::Foxglove => "",
-                ros2::Profile::Ros2 => "ros2",
+                ros2::LogProfile::Foxglove => "",
+                ros2::LogProfile::Ros2 => "ros2",
             })
             .library(concat!("omnikin ", env!("CARGO_PKG_VERSION")))
             .create(NoSeek::new(Sink(out)))
@@ -390,22 +390,22 @@ impl McapLog {
     /// `ros2` profile).
     pub fn plan(&mut self, t: f64, poses: &[Pose2<f64>]) -> Result<()> {
         let ns = self.ns(t)?;
-        if self.profile == ros2::Profile::Ros2 {
+        if self.profile == ros2::LogProfile::Ros2 {
             return self.ros2_message(&ros2::plan(ns, poses), ns);
         }
         self.message("", foxglove::PLAN, ns, &foxglove::poses_in_frame(ns, poses))
     }
 
     /// Writes one row: [`sample_under`](Self::sample_under) without a prefix.
-    pub fn sample(&mut self, s: &Sample) -> Result<()> {
+    pub fn sample(&mut self, s: &LogRow) -> Result<()> {
         self.sample_under("", s)
     }
 
     /// Writes one row on the channels under `prefix` (`""` or `/trial-NNN`): the messages of
     /// [`Encoder::messages`].
-    pub fn sample_under(&mut self, prefix: &str, s: &Sample) -> Result<()> {
+    pub fn sample_under(&mut self, prefix: &str, s: &LogRow) -> Result<()> {
         let ns = self.ns(s.t)?;
-        if self.profile == ros2::Profile::Ros2 {
+        if self.profile == ros2::LogProfile::Ros2 {
             for m in self.encoder.ros2_messages(prefix, s, ns) {
                 self.ros2_message(&m, ns)?;
             }
@@ -527,7 +527,7 @@ pub fn runtime_cycle(
     steerable: bool,
 ) -> Result<()> {
     let n = usize::from(s.wheels).min(omnikin::MAX_WHEELS);
-    log.sample(&Sample {
+    log.sample(&LogRow {
         t: s.time_us as f64 * 1e-6,
         pose: s.pose,
         truth: Some(truth),
@@ -541,16 +541,16 @@ pub fn runtime_cycle(
     })
 }
 
-/// The [`Sample`] of a telemetry frame (robot time, estimate, reference in trajectory mode,
+/// The [`LogRow`] of a telemetry frame (robot time, estimate, reference in trajectory mode,
 /// commanded rates and encoder angles of the robot's wheels, counters, mode and faults).
-pub fn telemetry_sample(t: &omnikin::link::Telemetry) -> Sample {
+pub fn telemetry_sample(t: &omnikin::link::Telemetry) -> LogRow {
     let n = usize::from(t.wheels).min(omnikin::MAX_WHEELS);
     let v = |a: &[f32]| a[..n].iter().map(|&x| f64::from(x)).collect::<Vec<f64>>();
     let p = |a: [f32; 3]| Pose2::new(f64::from(a[0]), f64::from(a[1]), f64::from(a[2]));
     // Kinds without steer motors send zeros: steer columns only when some are non-zero.
     let steer = t.steer_rates[..n].iter().any(|&x| x != 0.0)
         || t.steer_angles[..n].iter().any(|&x| x != 0.0);
-    Sample {
+    LogRow {
         t: t.time_us as f64 * 1e-6,
         pose: p(t.pose),
         truth: None,
@@ -570,7 +570,7 @@ pub fn telemetry_sample(t: &omnikin::link::Telemetry) -> Sample {
 pub fn telemetry_sample_with_truth(
     t: &omnikin::link::Telemetry,
     truth: Option<omnikin::link::SimTruth>,
-) -> Sample {
+) -> LogRow {
     let mut s = telemetry_sample(t);
     s.truth = truth
         .filter(|x| x.time_us == t.time_us)
@@ -649,7 +649,7 @@ pub fn trial(
         let (p, q) = (tr.pose[k], tr.tracked[k]);
         log.sample_under(
             &prefix,
-            &Sample {
+            &LogRow {
                 t: tr.t[k],
                 pose: Pose2::new(q[0], q[1], p.heading),
                 truth: Some(p),
@@ -681,7 +681,7 @@ impl PoseLog {
 
     /// Writes the estimate `pose` at log time `t` (s).
     pub fn push(&mut self, t: f64, pose: Pose2<f64>) -> Result<()> {
-        self.0.sample(&Sample {
+        self.0.sample(&LogRow {
             t,
             pose,
             ..Default::default()

@@ -5,7 +5,7 @@
 //! with its dependencies, [`RosMessage::MSGDEF`]), message encoding `cdr`, and per channel the
 //! metadata rosbag2's MCAP storage reads: `offered_qos_profiles` (the QoS rosbag2 records, as
 //! YAML: reliable, volatile, keep-last history of the publisher unknown) and `topic_type_hash`
-//! (the RIHS01 hash). A [`Sample`] becomes, in `conventions.md`'s ROS 2 names and REP-105 frames:
+//! (the RIHS01 hash). A [`LogRow`] becomes, in `conventions.md`'s ROS 2 names and REP-105 frames:
 //!
 //! | channel | type | from |
 //! |---|---|---|
@@ -27,12 +27,12 @@ use omnikin_ros2::msg::{
     TransformStamped, Twist, TwistWithCovariance, Vector3, to_cdr,
 };
 
-use super::Sample;
+use super::LogRow;
 use super::foxglove::Level;
 
 /// Which messages an MCAP log holds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Profile {
+pub enum LogProfile {
     /// Foxglove's schemas (protobuf), the default: `/pose`, `/tf`, `/truth`, `/reference`,
     /// `/wheels`, `/link`, `/events`, `/plan`.
     #[default]
@@ -162,7 +162,7 @@ pub fn body_twist(before: Option<Pose2<f64>>, now: Pose2<f64>, dt: f64) -> [f64;
 #[allow(clippy::too_many_arguments)]
 pub fn messages(
     prefix: &str,
-    s: &Sample,
+    s: &LogRow,
     ns: u64,
     before: Option<Pose2<f64>>,
     dt: f64,
@@ -276,7 +276,7 @@ pub fn plan(ns: u64, poses: &[Pose2<f64>]) -> Message {
 /// The row's joints: `wheel_i` then `steer_i`; positions are the encoder angles, velocities
 /// their rates (`measured`) or, without encoders, the commanded rates.
 fn joint_states(
-    s: &Sample,
+    s: &LogRow,
     ns: u64,
     measured: (Option<Vec<f64>>, Option<Vec<f64>>),
 ) -> Option<JointState> {
@@ -358,13 +358,13 @@ mod tests {
 
     #[test]
     fn a_row_becomes_odometry_tf_joints_and_diagnostics() {
-        let s = Sample {
+        let s = LogRow {
             t: 1.5,
             pose: Pose2::new(0.5, -0.25, 0.3),
             truth: Some(Pose2::new(0.51, -0.25, 0.3)),
             wheel_angles: Some(vec![1.0, 2.0, 3.0]),
             commanded: Some(vec![0.1, 0.2, 0.3]),
-            ..Sample::default()
+            ..LogRow::default()
         };
         let ev = vec![(Level::Error, "e-stop".to_string())];
         let m = messages(

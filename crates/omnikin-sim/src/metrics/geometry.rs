@@ -6,7 +6,7 @@ use serde::Serialize;
 
 /// A circle fitted to points (geometric least squares).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct Circle {
+pub struct FittedCircle {
     /// Centre, m.
     pub center: [f64; 2],
     /// Radius, m.
@@ -41,7 +41,7 @@ pub fn distance_to_path(p: [f64; 2], path: &[[f64; 2]]) -> f64 {
 
 /// Fits a circle to `points`: the algebraic (Kåsa) fit refined by Gauss–Newton on the
 /// geometric distances. `None` for fewer than 3 points or collinear points.
-pub fn fit_circle(points: &[[f64; 2]]) -> Option<Circle> {
+pub fn fit_circle(points: &[[f64; 2]]) -> Option<FittedCircle> {
     if points.len() < 3 {
         return None;
     }
@@ -102,7 +102,7 @@ pub fn fit_circle(points: &[[f64; 2]]) -> Option<Circle> {
         .sum::<f64>()
         / n)
         .sqrt();
-    (r.is_finite() && r > 0.0).then_some(Circle {
+    (r.is_finite() && r > 0.0).then_some(FittedCircle {
         center: [a + cx, b + cy],
         radius: r,
         rms_residual: rms,

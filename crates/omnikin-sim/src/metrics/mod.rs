@@ -17,7 +17,7 @@ mod stats;
 
 pub use crate::path_index::PathIndex;
 pub use evaluator::{Evaluation, Evaluator, RunDistances, SecondPass, evaluate};
-pub use geometry::{Circle, distance_to_path, fit_circle};
+pub use geometry::{FittedCircle, distance_to_path, fit_circle};
 pub use stats::{MeanTrajectory, mean_trajectory, t_quantile};
 
 use omnikin_plan::Plan;
@@ -71,9 +71,9 @@ pub struct Metrics {
     /// Largest half-width of the 95 % band (norm of the x and y half-widths), m.
     pub ci95_max_half_width_m: f64,
     /// Circle fitted to the plan (when the plan is a circle: residual < 1 % of the radius).
-    pub planned_circle: Option<Circle>,
+    pub planned_circle: Option<FittedCircle>,
     /// Circle fitted to the mean trajectory (when the plan is a circle).
-    pub fitted_circle: Option<Circle>,
+    pub fitted_circle: Option<FittedCircle>,
     /// Fitted radius of the mean trajectory / planned radius (paper 000: 1.4 at 0.4 m/s, 1.6 at
     /// 0.5 m/s).
     pub radius_ratio: Option<f64>,
