@@ -438,3 +438,41 @@ fn without_a_spin_stop_pivot_friction_is_held_with_the_reason() {
     assert!(id.spin_decay.is_empty());
     assert_eq!(id.rocking.len(), 1);
 }
+
+/// A spin stop whose gyro shows no decay (the rate already zero at the stop: a gyro that was
+/// not recording, say) holds the pivot friction with a reason that names the decay, not the
+/// missing stop.
+#[test]
+fn a_spin_stop_without_a_decay_holds_pivot_friction_naming_the_decay() {
+    let prior = RobotDescription::preset("sphere-omni").unwrap();
+    let mut runs: Vec<Run> = ["spin", "spin-stop"]
+        .iter()
+        .enumerate()
+        .map(|(i, name)| {
+            let run = run_dynamic(&prior, &plan(&prior, name));
+            read_back(
+                &emit(&prior, &run, &SensorProfile::typical(), 60 + i as u64),
+                name,
+            )
+        })
+        .collect();
+    let stop = omnikin_sim::identify::rocking::stops(&runs[1].encoders)[0].0;
+    let t_stop = runs[1].encoders.t[stop];
+    let gyro = runs[1].gyro.as_mut().unwrap();
+    for (t, r) in gyro.t.iter().zip(gyro.rate.iter_mut()) {
+        if *t >= t_stop {
+            *r = 0.0;
+        }
+    }
+    let id = identify(&prior, &runs, &Options::default()).unwrap();
+    let e = id
+        .dynamics
+        .iter()
+        .find(|e| e.name == PIVOT_FRICTION)
+        .unwrap();
+    let Status::Fixed(why) = &e.status else {
+        panic!("{e:?}")
+    };
+    assert!(why.contains("does not decay"), "{why}");
+    assert!(id.spin_decay.is_empty());
+}

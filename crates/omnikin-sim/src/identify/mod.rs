@@ -213,17 +213,20 @@ fn sphere_dynamics(prior: &RobotDescription, runs: &[Run]) -> Result<SphereFound
         .map_err(|e| IdentifyError::Fit(e.to_string()))?;
     let mut found = Vec::new();
     let mut spins = Vec::new();
+    let mut spin_stops = 0;
     for r in runs {
-        let (s, others) = spin_decay::spin_decays(
+        let stops = spin_decay::spin_decays(
             &robot,
             p.geometry.shell_radius,
             &r.encoders,
             r.gyro.as_ref(),
         );
-        spins.extend(s);
+        spins.extend(stops.spins);
+        spin_stops += stops.spin_stops;
         if let Some(imu) = &r.imu_rates {
             found.extend(
-                others
+                stops
+                    .others
                     .into_iter()
                     .filter_map(|stop| rocking::rocking_after(&r.encoders, imu, stop)),
             );
@@ -236,10 +239,12 @@ fn sphere_dynamics(prior: &RobotDescription, runs: &[Run]) -> Result<SphereFound
     if with_gyro {
         let prior_value = [(PIVOT_FRICTION, "N m", p.pivot_friction)];
         if spins.is_empty() {
-            estimates.extend(held(
-                &prior_value,
-                "no stop of a spin in place followed by 1.5 s at rest with a gyro (the `spin-stop` plan of plan sysid)",
-            ));
+            let why = if spin_stops == 0 {
+                "no stop of a spin in place followed by 1.5 s at rest with a gyro (the `spin-stop` plan of plan sysid)"
+            } else {
+                "the spin after the stop does not decay towards rest over 10 gyro samples in its gyro log (a spin at speed, stopped as shortly as the `spin-stop` plan's, is needed)"
+            };
+            estimates.extend(held(&prior_value, why));
         } else {
             let (mut sw, mut sv) = (0.0, 0.0);
             for d in &spins {

@@ -208,31 +208,42 @@ pub fn fit_decay(gyro: &GyroLog, stop: f64, t1: f64, sign: f64) -> Option<SpinDe
     })
 }
 
+/// The stops of one run, sorted by what they ended ([`spin_decays`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RunStops {
+    /// The decay fitted after each spin stop with a gyro.
+    pub spins: Vec<SpinDecay>,
+    /// Spin stops found in the encoder log (fitted or not).
+    pub spin_stops: usize,
+    /// The other stops (translations), as `(first still, last still)` encoder indices, for
+    /// the rocking ([`super::rocking::rocking_after`]).
+    pub others: Vec<(usize, usize)>,
+}
+
 /// Every spin stop's decay in one run ([`spin_before`] with `radius`, m; then [`fit_decay`]
-/// from the stop to the end of its rest, at most [`MAX_WINDOW`] s after it). The other stops
-/// (translations) are returned as their `(first still, last still)` encoder indices, for the
-/// rocking.
+/// from the stop to the end of its rest, at most [`MAX_WINDOW`] s after it), and the other
+/// stops.
 pub fn spin_decays(
     robot: &omnikin::Robot<f64>,
     radius: f64,
     encoders: &EncoderLog,
     gyro: Option<&GyroLog>,
-) -> (Vec<SpinDecay>, Vec<(usize, usize)>) {
-    let mut spins = Vec::new();
-    let mut others = Vec::new();
+) -> RunStops {
+    let mut out = RunStops::default();
     for (a, b) in stops(encoders) {
         match spin_before(robot, encoders, a, radius) {
             Some(sign) => {
+                out.spin_stops += 1;
                 let stop = encoders.t[a];
                 let t1 = encoders.t[b].min(stop + MAX_WINDOW);
                 if let Some(d) = gyro.and_then(|g| fit_decay(g, stop, t1, sign)) {
-                    spins.push(d);
+                    out.spins.push(d);
                 }
             }
-            None => others.push((a, b)),
+            None => out.others.push((a, b)),
         }
     }
-    (spins, others)
+    out
 }
 
 /// The decay the dynamic model `p`, with pivot friction `tau_p` (N·m), shows when it spins
