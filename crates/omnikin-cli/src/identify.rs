@@ -1,5 +1,5 @@
 //! `omnikin identify`: a robot's wheel geometry and gyro bias/scale (and the sphere's rocking
-//! parameters) from recorded runs, written as a robot file with a comment per value
+//! parameters and pivot friction) from recorded runs, written as a robot file with a comment per value
 //! (`omnikin_sim::identify` does the work; this reads the files, prints the table and writes
 //! the file).
 
@@ -34,7 +34,8 @@ pub struct IdentifyArgs {
     pub tracked: Vec<PathBuf>,
     /// IMU logs, one per run: t,gx,gy,gz,… (rad/s); their gz is the gyro instead of the encoder
     /// logs' gyro_z. For sphere-omni, their gx, gy after a stop (plan sysid's stop.csv) give
-    /// [dynamics] com_depth and rolling_resistance from the platform's rocking.
+    /// [dynamics] com_depth and rolling_resistance from the platform's rocking; the gyro after
+    /// the stop of a spin in place (spin-stop.csv) gives pivot_friction from the spin's decay.
     #[arg(long, num_args = 1.., value_name = "IMU.csv")]
     pub imu: Vec<PathBuf>,
     /// The identified robot file: the input file with the fitted values, each with a comment

@@ -164,18 +164,20 @@ fn sensor_tables<'py>(py: Python<'py>, logs: &[(String, Vec<u8>)]) -> PyResult<N
         .collect()
 }
 
-/// The CSV texts of trial `i`'s sensor logs.
+/// The CSV texts of trial `i`'s sensor logs; `attitude`: the dynamic plant's platform attitude
+/// per sample (the IMU on the tilting platform), `None` for the kinematic plant.
 fn emit_logs(
     robot: &omnikin::Robot<f64>,
     i: usize,
     trial: &Trial,
+    attitude: Option<&[omnikin_sim::sensors::PlatformAttitude]>,
     profile: &SensorProfile,
     seed: u64,
 ) -> std::io::Result<Vec<(String, Vec<u8>)>> {
     use omnikin_sim::sensors::{
-        emit_trial, write_encoder_log, write_fixes, write_imu, write_truth,
+        emit_trial_with_attitude, write_encoder_log, write_fixes, write_imu, write_truth,
     };
-    let s = emit_trial(robot, i, trial, profile, seed);
+    let s = emit_trial_with_attitude(robot, i, trial, attitude, profile, seed);
     let mut out = Vec::new();
     let mut w = Vec::new();
     write_encoder_log(&s.encoder, &mut w)?;
@@ -205,7 +207,9 @@ pub(crate) fn warn(py: Python<'_>, msg: &str) -> PyResult<()> {
 }
 
 /// `omnikin.simulate(..., plant="dynamic")`: the plan once through the robot's dynamic plant
-/// ([`omnikin_sim::dynamic_run`], as `omnikin simulate --plant dynamic`).
+/// ([`omnikin_sim::dynamic_run`], as `omnikin simulate --plant dynamic`); with `emit_sensors`
+/// (sphere-omni only, as the CLI) the sensor logs of the run, the IMU on the model's tilting
+/// platform, under the profile `sensors` (default: the typical one).
 #[allow(clippy::too_many_arguments)]
 fn simulate_dynamic<'py>(
     py: Python<'py>,
@@ -214,6 +218,7 @@ fn simulate_dynamic<'py>(
     plan_name: String,
     disturbances: Option<&str>,
     emit_sensors: bool,
+    sensors: Option<&str>,
     trials: u64,
     seed: u64,
     initial_tilt_deg: Option<f64>,
@@ -222,11 +227,27 @@ fn simulate_dynamic<'py>(
     let d = &robot.desc;
     let err = |e: DynamicError| value_error(e.to_string());
     dynamic_run::check_kind(d).map_err(err)?;
-    if disturbances.is_some() || emit_sensors {
+    if disturbances.is_some() {
         return Err(value_error(
-            "plant=\"dynamic\" does not take disturbances or emit_sensors yet",
+            "plant=\"dynamic\" does not take disturbances yet",
         ));
     }
+    let sensor_profile = if emit_sensors {
+        if d.robot_kind().balances() {
+            return Err(value_error(
+                "emit_sensors: not yet for the ballbot's dynamic plant (sphere-omni's dynamic plant and the kinematic plants only)",
+            ));
+        }
+        let sp = sensor_profile(sensors)?;
+        if sp.tilt.is_some() {
+            return Err(value_error(
+                "sensors: [tilt] sets a constant platform tilt for the kinematic plant; the dynamic plant tilts the platform itself (its IMU carries the model's roll and pitch): remove [tilt] or use plant=\"kinematic\"",
+            ));
+        }
+        Some(sp)
+    } else {
+        None
+    };
     if trials > 1 {
         warn(py, &format!("note: {}", dynamic_run::one_trial_note(d)))?;
     }
@@ -262,12 +283,20 @@ fn simulate_dynamic<'py>(
             )]
         }
     };
+    let sensor_logs = match &sensor_profile {
+        Some(sp) => {
+            let logs = emit_logs(&robot.model, 0, sim.trial(), sim.attitude(), sp, seed)
+                .map_err(|e| value_error(format!("sensor logs of trial 0: {e}")))?;
+            vec![sensor_tables(py, &logs)?]
+        }
+        None => Vec::new(),
+    };
     Ok((
         table(py, omnikin_sim::run_columns::trial_columns(3), v)?,
         mean_table(py, &plan, &sim.evaluation.mean)?,
         sim.metrics_json.to_string(),
         extras,
-        Vec::new(),
+        sensor_logs,
     ))
 }
 
@@ -349,6 +378,7 @@ pub fn simulate_native<'py>(
             plan_name,
             disturbances,
             emit_sensors,
+            sensors,
             trials,
             seed,
             initial_tilt_deg,
@@ -412,7 +442,7 @@ pub fn simulate_native<'py>(
                     add_trial(&mut v, i, trial);
                     if let Some(sp) = &sensor_profile {
                         logs.push(
-                            emit_logs(model, i, trial, sp, seed)
+                            emit_logs(model, i, trial, None, sp, seed)
                                 .map_err(|e| format!("sensor logs of trial {i}: {e}"))?,
                         );
                     }

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import omnikin
-from conftest import read_csv
+from conftest import ROOT, read_csv
 from test_plan_sim import assert_metrics, assert_table
 
 
@@ -83,8 +83,15 @@ def test_dynamic_errors_are_the_clis(cli, tmp_path):
         omnikin.simulate("ballbot", ballbot, initial_tilt_deg=2.0)
     with pytest.raises(ValueError, match="need a ballbot"):
         omnikin.simulate("sphere-omni", caster, plant="dynamic", push=[(1, 1)])
-    with pytest.raises(ValueError, match="does not take disturbances or emit_sensors"):
+    with pytest.raises(ValueError, match="emit_sensors: not yet for the ballbot's dynamic plant"):
         omnikin.simulate("ballbot", ballbot, plant="dynamic", emit_sensors=True)
+    with pytest.raises(ValueError, match="does not take disturbances yet"):
+        omnikin.simulate("sphere-omni", caster, plant="dynamic", disturbances="d.toml")
+    tilt = tmp_path / "tilt.toml"
+    tilt.write_text("[tilt]\nroll = 0.1\npitch = 0.0\n")
+    with pytest.raises(ValueError, match=r"sensors: \[tilt\] sets a constant platform tilt"):
+        omnikin.simulate("sphere-omni", caster, plant="dynamic", emit_sensors=True,
+                         sensors=str(tilt))
     with pytest.raises(ValueError, match=r"push 1: impulse 0 N·s must be in \(0, 1000\]"):
         omnikin.simulate("ballbot", ballbot, plant="dynamic", push=[(0, 1)])
     with pytest.raises(ValueError, match="push 2: expected"):
@@ -125,6 +132,66 @@ def test_emit_sensors_matches_cli(cli, tmp_path, robot, sensors):
         for name, table in logs.items():
             assert_table(table, read_csv(d / f"{name}.csv"))
     assert "sensors" not in omnikin.simulate(robot, plan, trials=1)
+
+
+def test_sphere_dynamic_emit_sensors_matches_cli(cli, tmp_path):
+    """plant="dynamic" with emit_sensors: the sphere's logs (IMU on the model's tilting
+    platform) equal the files of `simulate --plant dynamic --emit-sensors`, with the default
+    and with a noisy profile; the IMU's gx, gy rock after the `stop` plan's stop, and
+    `identify` reads the logs back (as the CLI's files)."""
+    cli.run("plan", "sysid", "--robot", "sphere-omni", "--out", tmp_path / "plans", "--force")
+    plan = tmp_path / "plans" / "stop.csv"
+    f = tmp_path / "sensors.toml"
+    f.write_text(
+        "counts_per_rev = 4096\n"
+        "[imu]\ngyro_noise_std = 0.002\ngyro_bias = [0.001, 0.0, 0.002]\n"
+        "accel_noise_std = 0.01\nmag_noise_std = 0.1\nfield = [0.0, 20.0, -45.0]\n"
+        "[camera]\nperiod = 0.1\nlatency = 0.1\nnoise_std = 0.005\n"
+        "outlier_probability = 0.0\noutlier_distance = 0.5\n")
+    for extra, kw in [([], {}), (["--sensors", f, "--seed", "9"], {"sensors": str(f), "seed": 9})]:
+        out = tmp_path / f"sim{len(extra)}"
+        cli.run("simulate", plan, "--robot", "sphere-omni", "--plant", "dynamic",
+                "--emit-sensors", *extra, "--out", out)
+        got = omnikin.simulate("sphere-omni", plan, plant="dynamic", emit_sensors=True, **kw)
+        assert_sim(got, out, str(plan))
+        assert len(got["sensors"]) == 1
+        logs = got["sensors"][0]
+        d = out / "sensors" / "trial-000"
+        assert sorted(logs) == sorted(p.stem for p in d.iterdir())
+        for name, table in logs.items():
+            assert_table(table, read_csv(d / f"{name}.csv"))
+        imu = logs["imu"]
+        # The platform rocks after the stop: body rates about x or y of a tenth of a rad/s.
+        rest = imu["t"] > plan_stop_time(got)
+        assert np.abs(np.hstack([imu["gx"][rest], imu["gy"][rest]])).max() > 0.1
+    assert "sensors" not in omnikin.simulate("sphere-omni", plan, plant="dynamic")
+
+
+def test_sphere_pivot_friction_identified_in_memory(cli, tmp_path):
+    """The loop in Python: the `spin` and `spin-stop` plans through a sphere whose floor's
+    pivot friction is twice the preset's (plant="dynamic", emit_sensors=True), then
+    omnikin.identify on the logs' columns: the friction within 10 % and 2σ, written into the
+    identified robot file."""
+    cli.run("plan", "sysid", "--robot", "sphere-omni", "--out", tmp_path / "plans", "--force")
+    text = (ROOT / "robots" / "sphere-omni.toml").read_text()
+    truth = tmp_path / "sphere-true.toml"
+    truth.write_text(text.replace('floor = "vinyl"', 'floor = "vinyl"\npivot_friction = 0.042', 1))
+    logs = [omnikin.simulate(str(truth), tmp_path / "plans" / f"{p}.csv", plant="dynamic",
+                             emit_sensors=True)["sensors"][0] for p in ["spin", "spin-stop"]]
+    r = omnikin.identify("sphere-omni", [l["encoders"] for l in logs],
+                         fixes=[l["fixes"] for l in logs], imu=[l["imu"] for l in logs])
+    v, s = r["estimates"]["dynamics.pivot_friction"], r["sigma"]["dynamics.pivot_friction"]
+    assert abs(v - 0.042) < 0.1 * 0.042 and abs(v - 0.042) < 2 * s, (v, s)
+    assert len(r["spin_decay"]) == 1
+    assert "pivot_friction = " in r["robot_file"] and "spin's decay" in r["robot_file"]
+
+
+def plan_stop_time(sim) -> float:
+    """The time the plan's wheels stop for the last time (the mean's plan columns stop
+    moving)."""
+    m = sim["mean"]
+    v = np.hypot(np.diff(m["plan_x"]), np.diff(m["plan_y"]))
+    return float(m["t"][1:][v > 1e-9].max())
 
 
 def test_waypoints_from_an_array_match_the_file(cli, tmp_path):

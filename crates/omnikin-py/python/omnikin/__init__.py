@@ -135,7 +135,10 @@ def simulate(
     platform (deterministic), or the ballbot balanced by its controller on the 3D model
     (sensor noise seeded by ``seed``), starting ``initial_tilt_deg`` degrees toward +x and
     pushed by ``push``: a list of ``(impulse N·s, time s[, direction deg from +x])``, time from
-    the start of the 1 s lead-in. A fall is a result: ``metrics["fallen"]``.
+    the start of the 1 s lead-in. A fall is a result: ``metrics["fallen"]``. With
+    ``emit_sensors`` (sphere-omni only, as the CLI) the run's logs, the IMU on the model's
+    tilting platform (its gyro reads the platform's body rates): what ``identify`` needs for
+    the sphere's ``com_depth``, ``rolling_resistance`` and ``pivot_friction``.
 
     Returns ``{"trials": ..., "mean": ..., "metrics": ...}``: the columns of ``trials.csv``
     (``trial, t, x, y, heading, tracked_x, tracked_y, slip_residual, q1..qN``; world frame) and

@@ -104,7 +104,8 @@ def simulate(
     """``{"trials": Table, "mean": Table, "metrics": dict}`` as ``omnikin simulate``'s
     ``trials.csv``, ``mean.csv`` and ``metrics.json``; ``plant="dynamic"`` (sphere-omni,
     ballbot: one trial; ballbot ``initial_tilt_deg`` toward +x, ``push`` of ``(N·s, s[, deg])``)
-    adds ``"dynamics"`` or ``"cycles"``; ``emit_sensors`` adds ``"sensors"`` (per trial:
+    adds ``"dynamics"`` or ``"cycles"``; ``emit_sensors`` (kinematic, or the sphere's dynamic
+    plant) adds ``"sensors"`` (per trial:
     ``encoders``, ``truth``[, ``fixes``, ``imu``] tables)."""
 
 def evaluate(

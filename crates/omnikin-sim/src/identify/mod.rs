@@ -42,11 +42,12 @@
 //!
 //! ## Dynamics
 //! For sphere-omni with IMU logs, the platform's centre-of-mass depth and the rolling
-//! resistance from the rocking after stops ([`rocking`]), with the other `[dynamics]` values
-//! taken from the file.
+//! resistance from the rocking after stops ([`rocking`]), and with a gyro the floor's pivot
+//! friction from the decay of a spin after a stop ([`spin_decay`]), with the other `[dynamics]`
+//! values taken from the file.
 //!
-//! What this does **not** do: the other dynamic parameters (the sphere's pivot and roller
-//! frictions, the ballbot's `[dynamics]`), slip or outlier rejection (a run with wheel slip biases the fit: use runs inside
+//! What this does **not** do: the other dynamic parameters (the sphere's roller friction, the
+//! ballbot's `[dynamics]`), slip or outlier rejection (a run with wheel slip biases the fit: use runs inside
 //! the robot's limits, as `omnikin plan sysid` writes them), time offsets between the logs.
 
 pub mod lsq;
@@ -58,6 +59,7 @@ pub mod residual_series;
 pub mod robot_file;
 pub mod rocking;
 pub mod runs;
+pub mod spin_decay;
 
 use omnikin::Pose2;
 use omnikin::description::RobotDescription;
@@ -151,10 +153,13 @@ pub struct Identified {
     pub series: Vec<RunResiduals>,
     /// The dynamic parameters: sphere-omni's `dynamics.com_depth` (m) and
     /// `dynamics.rolling_resistance` from the rocking after stops, when a run has an IMU log
-    /// ([`rocking`]); empty otherwise.
+    /// ([`rocking`]), and `dynamics.pivot_friction` (N·m) from the decay of a spin after a
+    /// stop, when a run has a gyro ([`spin_decay`]); empty otherwise.
     pub dynamics: Vec<Estimate>,
     /// The rocking fitted after each stop (sphere-omni with IMU logs).
     pub rocking: Vec<rocking::Rocking>,
+    /// The spin's decay fitted after each stop of a spin in place (sphere-omni with a gyro).
+    pub spin_decay: Vec<spin_decay::SpinDecay>,
 }
 
 /// The name of the sphere's centre-of-mass depth among [`Identified::dynamics`].
@@ -163,25 +168,116 @@ pub const COM_DEPTH: &str = "dynamics.com_depth";
 /// The name of the sphere's rolling resistance among [`Identified::dynamics`].
 pub const ROLLING_RESISTANCE: &str = "dynamics.rolling_resistance";
 
+/// The name of the sphere's floor pivot friction (N·m) among [`Identified::dynamics`].
+pub const PIVOT_FRICTION: &str = "dynamics.pivot_friction";
+
+/// What [`sphere_dynamics`] finds: the estimates, each stop's rocking and each spin's decay.
+type SphereFound = (
+    Vec<Estimate>,
+    Vec<rocking::Rocking>,
+    Vec<spin_decay::SpinDecay>,
+);
+
+/// `priors` held at their values with the reason `why`.
+fn held(priors: &[(&str, &'static str, f64)], why: &str) -> Vec<Estimate> {
+    priors
+        .iter()
+        .map(|&(name, unit, prior)| Estimate {
+            name: name.into(),
+            unit,
+            prior,
+            value: prior,
+            sigma: 0.0,
+            status: Status::Fixed(why.into()),
+        })
+        .collect()
+}
+
 /// Sphere-omni's `com_depth` and `rolling_resistance` from the rocking after the runs' stops
-/// (see [`rocking`]): the estimates (held at the prior, with the reason, when no run has a stop
-/// with an IMU log) and the rocking of each stop. Nothing for another kind, or when no run has
-/// an IMU log.
-fn sphere_dynamics(
-    prior: &RobotDescription,
-    runs: &[Run],
-) -> Result<(Vec<Estimate>, Vec<rocking::Rocking>), IdentifyError> {
+/// (see [`rocking`]), when a run has an IMU log, and its `pivot_friction` from the decay of the
+/// spin after each stop of a spin in place (see [`spin_decay`]), when a run has a gyro: the
+/// estimates (held at the prior, with the reason, when no run has such a stop), each stop's
+/// rocking and each spin's decay. Nothing for another kind, or when no run has a gyro or an
+/// IMU log.
+fn sphere_dynamics(prior: &RobotDescription, runs: &[Run]) -> Result<SphereFound, IdentifyError> {
     use crate::dynamics::sphere::SphereDynamics;
-    if prior.kind() != "sphere-omni" || runs.iter().all(|r| r.imu_rates.is_none()) {
-        return Ok((Vec::new(), Vec::new()));
+    let with_imu = runs.iter().any(|r| r.imu_rates.is_some());
+    let with_gyro = runs.iter().any(|r| r.gyro.is_some());
+    if prior.kind() != "sphere-omni" || !(with_imu || with_gyro) {
+        return Ok((Vec::new(), Vec::new(), Vec::new()));
     }
     let p = SphereDynamics::from_description(prior)
         .map_err(|e| IdentifyError::Fit(format!("the robot file's [dynamics]: {e}")))?;
-    let found: Vec<rocking::Rocking> = runs
-        .iter()
-        .filter_map(|r| Some(rocking::rockings(&r.encoders, r.imu_rates.as_ref()?)))
-        .flatten()
-        .collect();
+    let robot = prior
+        .build::<f64>()
+        .map_err(|e| IdentifyError::Fit(e.to_string()))?;
+    let mut found = Vec::new();
+    let mut spins = Vec::new();
+    let mut spin_stops = 0;
+    for r in runs {
+        let stops = spin_decay::spin_decays(
+            &robot,
+            p.geometry.shell_radius,
+            &r.encoders,
+            r.gyro.as_ref(),
+        );
+        spins.extend(stops.spins);
+        spin_stops += stops.spin_stops;
+        if let Some(imu) = &r.imu_rates {
+            found.extend(
+                stops
+                    .others
+                    .into_iter()
+                    .filter_map(|stop| rocking::rocking_after(&r.encoders, imu, stop)),
+            );
+        }
+    }
+    let mut estimates = Vec::new();
+    if with_imu {
+        estimates.extend(rocking_estimates(&p, &found)?);
+    }
+    if with_gyro {
+        let prior_value = [(PIVOT_FRICTION, "N m", p.pivot_friction)];
+        if spins.is_empty() {
+            let why = if spin_stops == 0 {
+                "no stop of a spin in place followed by 1.5 s at rest with a gyro (the `spin-stop` plan of plan sysid)"
+            } else {
+                "the spin after the stop does not decay towards rest over 10 gyro samples in its gyro log (a spin at speed, stopped as shortly as the `spin-stop` plan's, is needed)"
+            };
+            estimates.extend(held(&prior_value, why));
+        } else {
+            let (mut sw, mut sv) = (0.0, 0.0);
+            for d in &spins {
+                let (v, sd) = spin_decay::pivot_friction(&p, d).ok_or_else(|| {
+                    IdentifyError::Fit(format!(
+                        "{PIVOT_FRICTION}: the spin's decay at {:.4} rad/s² after the stop at {} s \
+                         of {} is not reached by the dynamic model with the file's shell_inertia \
+                         and platform_inertia",
+                        d.deceleration.0, d.stop, d.file
+                    ))
+                })?;
+                let w = 1.0 / (sd * sd).max(1e-300);
+                sw += w;
+                sv += w * v;
+            }
+            estimates.push(Estimate {
+                name: PIVOT_FRICTION.into(),
+                unit: "N m",
+                prior: p.pivot_friction,
+                value: sv / sw,
+                sigma: 1.0 / sw.sqrt(),
+                status: Status::Fitted,
+            });
+        }
+    }
+    Ok((estimates, found, spins))
+}
+
+/// `com_depth` and `rolling_resistance` from the rockings `found` (see [`sphere_dynamics`]).
+fn rocking_estimates(
+    p: &crate::dynamics::sphere::SphereDynamics,
+    found: &[rocking::Rocking],
+) -> Result<Vec<Estimate>, IdentifyError> {
     let priors = [
         (COM_DEPTH, "m", p.com_depth),
         (ROLLING_RESISTANCE, "", p.rolling_resistance),
@@ -197,23 +293,12 @@ fn sphere_dynamics(
         } else {
             "the rocking after the stops is too weak to fit (a stop as short as the `stop` plan's is needed)"
         };
-        let held = priors
-            .iter()
-            .map(|&(name, unit, prior)| Estimate {
-                name: name.into(),
-                unit,
-                prior,
-                value: prior,
-                sigma: 0.0,
-                status: Status::Fixed(why.into()),
-            })
-            .collect();
-        return Ok((held, found));
+        return Ok(held(&priors, why));
     }
     // Each stop's values through the model; the inverse-variance means.
     let mut sums = [(0.0, 0.0); 2];
     for r in &usable {
-        let fit = rocking::depth_and_resistance(&p, r).ok_or_else(|| {
+        let fit = rocking::depth_and_resistance(p, r).ok_or_else(|| {
             IdentifyError::Fit(format!(
                 "{COM_DEPTH}, {ROLLING_RESISTANCE}: the rocking at {:.4} rad/s, decaying at \
                  {:.4} /s, after the stop at {} s of {} is not reached by the dynamic model with \
@@ -231,7 +316,7 @@ fn sphere_dynamics(
             sums[k].1 += w * v;
         }
     }
-    let estimates = priors
+    Ok(priors
         .iter()
         .zip(sums)
         .map(|(&(name, unit, prior), (sw, sv))| Estimate {
@@ -242,8 +327,7 @@ fn sphere_dynamics(
             sigma: 1.0 / sw.sqrt(),
             status: Status::Fitted,
         })
-        .collect();
-    Ok((estimates, found))
+        .collect())
 }
 
 /// Initial start pose of a run: the reference at the log's first time (or its first sample);
@@ -510,12 +594,13 @@ pub fn identify(
     };
     check_excitation(prior, estimates.iter().chain(&gyro), condition)?;
     let mut fitted = params::apply(prior, &x[..l.geometry]);
-    let (dynamics, rocking) = sphere_dynamics(prior, runs)?;
+    let (dynamics, rocking, spin_decay) = sphere_dynamics(prior, runs)?;
     for e in dynamics.iter().filter(|e| e.status == Status::Fitted) {
         let spec = fitted.sphere_dynamics.get_or_insert_with(Default::default);
         match e.name.as_str() {
             COM_DEPTH => spec.com_depth = Some(e.value),
             ROLLING_RESISTANCE => spec.rolling_resistance = Some(e.value),
+            PIVOT_FRICTION => spec.pivot_friction = Some(e.value),
             _ => {}
         }
     }
@@ -548,6 +633,7 @@ pub fn identify(
         residuals: sol.residuals,
         dynamics,
         rocking,
+        spin_decay,
     })
 }
 

@@ -7,7 +7,8 @@
 //! | `along-across` | a square at constant heading: forward, left, back, right | the drive angles against each other (one heading for both directions) |
 //! | `spin` | spin in place one way, stop, back | wheel positions (`p × d`), mount geometry, gyro scale |
 //! | `figure-eight` | forward at constant speed, a full circle left then one right | all of the above together, gyro bias against scale |
-//! | `stop` (sphere-omni) | forward, then a short stop and [`STOP_REST`] s at rest | the platform's centre-of-mass depth from the rocking after the stop (IMU) |
+//! | `stop` (sphere-omni) | forward, then a short stop and [`STOP_REST`] s at rest | the platform's centre-of-mass depth and the rolling resistance from the rocking after the stop (IMU) |
+//! | `spin-stop` (sphere-omni) | a spin in place, then a short stop and [`STOP_REST`] s at rest | the floor's pivot friction from the decay of the spin after the stop (IMU `gz`) |
 //!
 //! Every segment is a body twist with cosine ramps `v(t) = V sin²(π t / 2τ)` up and down
 //! (peak acceleration `π V / 2τ`), held between them, then half a second at rest. The
@@ -19,8 +20,9 @@
 //! as half the wheel-acceleration limit allows (the other ramps are 1 s or longer), so that the
 //! platform, swung forward by the deceleration, rocks freely afterwards on the locked wheels;
 //! its speed is half the wheel-rate limit's, or less: low enough that the file's dynamic model
-//! tilts by at most 95 % of its `max_tilt_deg`. The sphere's spin decay and the ballbot's sways
-//! are not planned here.
+//! tilts by at most 95 % of its `max_tilt_deg`. Its `spin-stop` is the same for a spin in place:
+//! the wheels lock the platform to the shell, and the whole robot's spin then decays under the
+//! floor's pivot friction alone. The ballbot's sways are not planned here.
 //!
 //! A swerve turns its modules at rest before each segment (`steer_to`): every segment's
 //! twist has one direction, so the module angles are constant while the wheels roll, and a
@@ -35,7 +37,8 @@ use omnikin_plan::{Plan, Sample};
 /// One test plan and what it is for.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SysidPlan {
-    /// File stem: `along`, `along-across`, `spin`, `figure-eight`.
+    /// File stem: `along`, `along-across`, `spin`, `figure-eight`; for sphere-omni also `stop`
+    /// and `spin-stop`.
     pub name: &'static str,
     /// What the plan identifies (one sentence, for the plan file's companion and the docs).
     pub identifies: &'static str,
@@ -234,11 +237,13 @@ fn build(
 /// Seconds at rest after the sphere's `stop` (the rocking's record).
 pub const STOP_REST: f64 = 4.0;
 
-/// The sphere's `stop`: forward at `amplitude` (unit twist `vx = 1`) with a cosine ramp of
-/// `tau` s up, held 1.5 s, stopped with a cosine ramp of `tau_stop` s, then [`STOP_REST`] s at
-/// rest; poses integrated as [`build`] does.
+/// The sphere's `stop` and `spin-stop`: the unit body twist `unit` (`vx = 1` forward, or
+/// `yaw_rate = 1` a spin in place) at `amplitude` with a cosine ramp of `tau` s up, held 1.5 s,
+/// stopped with a cosine ramp of `tau_stop` s, then [`STOP_REST`] s at rest; poses integrated
+/// as [`build`] does.
 fn build_stop(
     robot: &Robot<f64>,
+    unit: Twist2<f64>,
     amplitude: f64,
     tau: f64,
     tau_stop: f64,
@@ -263,7 +268,8 @@ fn build_stop(
         } else {
             0.0
         };
-        let tw = Twist2::new(amplitude * e, 0.0, 0.0);
+        let e = amplitude * e;
+        let tw = Twist2::new(unit.vx * e, unit.vy * e, unit.yaw_rate * e);
         let a = robot
             .inverse(tw, &Actuators::zero())
             .map_err(|e| SysidPlanError::Robot(format!("stop: {e}")))?;
@@ -277,6 +283,59 @@ fn build_stop(
         pose = omnikin::se2::integrate(pose, tw, dt);
     }
     Ok(Plan { wheels: n, samples })
+}
+
+/// The sphere's stop plan along `unit` (see [`build_stop`]): at half the wheel-rate limit (less
+/// if the file's dynamic model would tilt past 95 % of `max_tilt_deg`), ramps from the peak
+/// wheel acceleration `π w / 2τ` of a cosine ramp: 1 s (or longer) up, the stop as short as
+/// half the acceleration limit allows, at least one sample.
+fn sphere_stop(
+    desc: &RobotDescription,
+    robot: &Robot<f64>,
+    unit: Twist2<f64>,
+    (max_rate, max_accel): (f64, f64),
+    rate: f64,
+) -> Result<Plan, SysidPlanError> {
+    let probe = build_stop(robot, unit, 1.0, 1.0, 1.0, rate)?;
+    let (w, _, _) = peaks(&probe);
+    let amp = 0.5 * max_rate / w.max(1e-12);
+    let peak = 0.5 * max_rate;
+    let tau = (std::f64::consts::PI * peak / (2.0 * 0.5 * max_accel)).max(1.0);
+    let mut tau_stop = (std::f64::consts::PI * peak / (2.0 * 0.5 * max_accel)).max(1.0 / rate);
+    let mut amp = amp;
+    let mut plan = build_stop(robot, unit, amp, tau, tau_stop, rate)?;
+    // The sampled ramp's steps exceed the continuous peak by up to one sample's change.
+    for _ in 0..16 {
+        let (_, a, _) = peaks(&plan);
+        if a <= 0.5 * max_accel {
+            break;
+        }
+        tau_stop *= a / (0.5 * max_accel) * 1.05;
+        plan = build_stop(robot, unit, amp, tau, tau_stop, rate)?;
+    }
+    // The swing after the stop within the file's `max_tilt_deg`, as the file's dynamic model
+    // has it: slower until the model's largest tilt is within 95 % of it.
+    let max_tilt = desc
+        .sphere_dynamics
+        .as_ref()
+        .and_then(|s| s.max_tilt_deg)
+        .map(f64::to_radians);
+    if let (Some(limit), Ok(model)) = (
+        max_tilt,
+        crate::dynamics::sphere::SphereDynamics::from_description(desc),
+    ) {
+        for _ in 0..8 {
+            let Ok(run) = crate::dynamics::sphere::simulate_plan(model, &plan) else {
+                break;
+            };
+            if run.max_tilt <= 0.95 * limit {
+                break;
+            }
+            amp *= 0.9 * limit / run.max_tilt;
+            plan = build_stop(robot, unit, amp, tau, tau_stop, rate)?;
+        }
+    }
+    Ok(plan)
 }
 
 /// Largest wheel rate, wheel acceleration and steer rate of a plan.
@@ -298,7 +357,7 @@ fn peaks(plan: &Plan) -> (f64, f64, f64) {
     (w, a, s)
 }
 
-/// The four test plans of the module table for `desc`, sampled at `rate` Hz, each at half the
+/// The test plans of the module table for `desc` (four; six for sphere-omni), sampled at `rate` Hz, each at half the
 /// file's limits.
 ///
 /// # Errors
@@ -375,52 +434,16 @@ pub fn sysid_plans(desc: &RobotDescription, rate: f64) -> Result<Vec<SysidPlan>,
         });
     }
     if desc.kind() == "sphere-omni" {
-        // Half the rate limit (less if the swing would pass max_tilt_deg, below); the ramps
-        // from the peak wheel acceleration `π w / 2τ` of a cosine ramp: 1 s (or longer) up,
-        // the stop as short as half the limit allows, at least one sample.
-        let probe = build_stop(&robot, 1.0, 1.0, 1.0, rate)?;
-        let (w, _, _) = peaks(&probe);
-        let amp = 0.5 * max_rate / w.max(1e-12);
-        let peak = 0.5 * max_rate;
-        let tau = (std::f64::consts::PI * peak / (2.0 * 0.5 * max_accel)).max(1.0);
-        let mut tau_stop = (std::f64::consts::PI * peak / (2.0 * 0.5 * max_accel)).max(1.0 / rate);
-        let mut amp = amp;
-        let mut plan = build_stop(&robot, amp, tau, tau_stop, rate)?;
-        // The sampled ramp's steps exceed the continuous peak by up to one sample's change.
-        for _ in 0..16 {
-            let (_, a, _) = peaks(&plan);
-            if a <= 0.5 * max_accel {
-                break;
-            }
-            tau_stop *= a / (0.5 * max_accel) * 1.05;
-            plan = build_stop(&robot, amp, tau, tau_stop, rate)?;
-        }
-        // The swing after the stop within the file's `max_tilt_deg`, as the file's dynamic model
-        // has it: slower until the model's largest tilt is within 95 % of it.
-        let max_tilt = desc
-            .sphere_dynamics
-            .as_ref()
-            .and_then(|s| s.max_tilt_deg)
-            .map(f64::to_radians);
-        if let (Some(limit), Ok(model)) = (
-            max_tilt,
-            crate::dynamics::sphere::SphereDynamics::from_description(desc),
-        ) {
-            for _ in 0..8 {
-                let Ok(run) = crate::dynamics::sphere::simulate_plan(model, &plan) else {
-                    break;
-                };
-                if run.max_tilt <= 0.95 * limit {
-                    break;
-                }
-                amp *= 0.9 * limit / run.max_tilt;
-                plan = build_stop(&robot, amp, tau, tau_stop, rate)?;
-            }
-        }
+        let limits = (max_rate, max_accel);
         out.push(SysidPlan {
             name: "stop",
-            identifies: "the platform's centre-of-mass depth (com_depth) from the rocking after a short stop: record the IMU log",
-            plan,
+            identifies: "the platform's centre-of-mass depth (com_depth) and rolling_resistance from the rocking after a short stop: record the IMU log",
+            plan: sphere_stop(desc, &robot, Twist2::new(1.0, 0.0, 0.0), limits, rate)?,
+        });
+        out.push(SysidPlan {
+            name: "spin-stop",
+            identifies: "the floor's pivot friction (pivot_friction) from the spin's decay after a short stop of a spin in place: record the IMU log",
+            plan: sphere_stop(desc, &robot, Twist2::new(0.0, 0.0, 1.0), limits, rate)?,
         });
     }
     Ok(out)
@@ -469,7 +492,7 @@ mod tests {
         }
     }
 
-    /// The sphere gets a fifth plan, `stop`: within half its wheel-rate and acceleration
+    /// The sphere gets a fifth plan, `stop` (and a sixth, `spin-stop`): within half its wheel-rate and acceleration
     /// limits, ending with [`STOP_REST`] s at rest, and its file's dynamic model swings by at
     /// most 95 % of `max_tilt_deg` (at half the rate limit the preset's swung 25°).
     #[test]
@@ -477,7 +500,7 @@ mod tests {
         use crate::dynamics::sphere::{SphereDynamics, simulate_plan};
         let d = RobotDescription::preset("sphere-omni").unwrap();
         let plans = sysid_plans(&d, 50.0).unwrap();
-        assert_eq!(plans.len(), 5);
+        assert_eq!(plans.len(), 6);
         let stop = &plans.iter().find(|p| p.name == "stop").unwrap().plan;
         let (w, a, _) = peaks(stop);
         assert!(
@@ -506,6 +529,24 @@ mod tests {
             "the stop still swings: {}",
             run.max_tilt
         );
+        // The spin's stop: within the same limits, a spin in place (it turns, it does not
+        // travel), ending with the same rest.
+        let spin = &plans.iter().find(|p| p.name == "spin-stop").unwrap().plan;
+        let (w, a, _) = peaks(spin);
+        assert!(
+            w <= 0.5 * d.limits.max_wheel_rate.unwrap() * (1.0 + 1e-9),
+            "{w}"
+        );
+        assert!(a <= 0.5 * d.limits.max_wheel_accel.unwrap() * 1.001, "{a}");
+        let last = spin.samples.last().unwrap();
+        assert!(last.pose.heading.abs() > 1.0 && last.pose.x.hypot(last.pose.y) < 1e-9);
+        let still = spin
+            .samples
+            .iter()
+            .rev()
+            .take_while(|s| s.wheel_rates[..3].iter().all(|r| *r == 0.0))
+            .count();
+        assert!(still as f64 / 50.0 >= STOP_REST - 0.05, "{still}");
     }
 
     /// A swerve's modules turn only at rest, between segments, within half the steer limits,

@@ -58,8 +58,10 @@ fn estimate(e: &Estimate) -> serde_json::Value {
 
 /// The result as one JSON object: `parameters` (each with `name`, `unit`, `prior`, `value`,
 /// `sigma`, `status` `fitted`/`held` and the `reason` when held; sphere-omni's
-/// `dynamics.com_depth` among them), the rocking fitted after each stop (`rocking`), the
-/// residual RMS
+/// `dynamics.com_depth`, `dynamics.rolling_resistance` and `dynamics.pivot_friction` among
+/// them), the rocking fitted after each stop (`rocking`), the spin's decay fitted after each
+/// stop of a spin in place (`spin_decay`: deceleration and its 1σ in rad/s², time to rest in s,
+/// null when the spin did not come to rest in the window), the residual RMS
 /// (`position_rms_m`, `heading_rms_rad`, `gyro_window_rms_rad`), `condition`, `residuals`,
 /// and per run its files and position residual RMS before and after the fit (`runs`).
 pub fn json(id: &Identified) -> serde_json::Value {
@@ -70,6 +72,13 @@ pub fn json(id: &Identified) -> serde_json::Value {
             "natural_rad_s": r.natural.0, "natural_sigma_rad_s": r.natural.1,
             "damped_rad_s": r.damped.0, "decay_1_s": r.decay.0,
             "amplitude_rad_s": r.amplitude, "residual_rms_rad_s": r.residual_rms,
+        })).collect::<Vec<_>>(),
+        "spin_decay": id.spin_decay.iter().map(|d| serde_json::json!({
+            "gyro": d.file, "stop_s": d.stop, "t0_s": d.t0, "duration_s": d.duration,
+            "initial_rate_rad_s": d.initial_rate,
+            "deceleration_rad_s2": d.deceleration.0, "deceleration_sigma_rad_s2": d.deceleration.1,
+            "to_rest_s": d.to_rest, "offset_rad_s": d.offset, "samples": d.samples,
+            "residual_rms_rad_s": d.residual_rms,
         })).collect::<Vec<_>>(),
         "position_rms_m": id.position_rms,
         "heading_rms_rad": id.heading_rms,

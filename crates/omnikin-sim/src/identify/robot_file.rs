@@ -188,9 +188,18 @@ fn edits(id: &Identified) -> Vec<Edit> {
             }
         }
     }
-    for (name, key) in [
-        (super::COM_DEPTH, "com_depth"),
-        (super::ROLLING_RESISTANCE, "rolling_resistance"),
+    for (name, key, how) in [
+        (super::COM_DEPTH, "com_depth", "the rocking after stops"),
+        (
+            super::ROLLING_RESISTANCE,
+            "rolling_resistance",
+            "the rocking after stops",
+        ),
+        (
+            super::PIVOT_FRICTION,
+            "pivot_friction",
+            "the spin's decay after stops",
+        ),
     ] {
         if let Some(e) = id
             .dynamics
@@ -203,7 +212,7 @@ fn edits(id: &Identified) -> Vec<Edit> {
                 key,
                 value: num(e.value),
                 comment: format!(
-                    "identified: {} from the rocking after stops {src}",
+                    "identified: {} from {how} {src}",
                     describe(e, e.value, e.sigma, e.unit)
                 ),
             });
@@ -356,6 +365,7 @@ fn check(text: &str, want: &RobotDescription) -> Result<(), IdentifyError> {
         (Some(a), Some(b)) => [
             (a.com_depth, b.com_depth),
             (a.rolling_resistance, b.rolling_resistance),
+            (a.pivot_friction, b.pivot_friction),
         ]
         .into_iter()
         .all(|pair| match pair {
@@ -406,6 +416,7 @@ mod tests {
             gyro: Vec::new(),
             dynamics: Vec::new(),
             rocking: Vec::new(),
+            spin_decay: Vec::new(),
             position_rms: 0.0,
             heading_rms: None,
             gyro_rms: None,

@@ -242,37 +242,45 @@ pub fn fit_window(imu: &ImuRates, t0: f64, t1: f64) -> Option<Rocking> {
     })
 }
 
-/// Every stop's rocking in one run. The window of each: from the first turning point of the
-/// swing after the wheels stop (the sample nearest the first sign change of the rate about the
-/// rocking's main axis: the platform at its largest tilt, at rest, as [`model_rocking`]
-/// releases the model) to the end of the rest, at most [`MAX_WINDOW`] s after the stop.
+/// Every stop's rocking in one run ([`rocking_after`] of each of [`stops`]).
 pub fn rockings(encoders: &EncoderLog, imu: &ImuRates) -> Vec<Rocking> {
     stops(encoders)
         .into_iter()
-        .filter_map(|(a, b)| {
-            let stop = encoders.t[a];
-            let t1 = encoders.t[b].min(stop + MAX_WINDOW);
-            let idx: Vec<usize> = (0..imu.t.len())
-                .filter(|&k| imu.t[k] >= stop && imu.t[k] <= t1)
-                .collect();
-            // The main axis: the larger mean square over the window.
-            let ms = |axis: usize| idx.iter().map(|&k| imu.rate[k][axis].powi(2)).sum::<f64>();
-            let axis = usize::from(ms(1) > ms(0));
-            let turn = idx
-                .windows(2)
-                .find(|w| imu.rate[w[0]][axis] * imu.rate[w[1]][axis] <= 0.0)
-                .map_or(stop, |w| {
-                    // The sample nearer to the sign change.
-                    let (r0, r1) = (imu.rate[w[0]][axis], imu.rate[w[1]][axis]);
-                    if r0.abs() <= r1.abs() {
-                        imu.t[w[0]]
-                    } else {
-                        imu.t[w[1]]
-                    }
-                });
-            fit_window(imu, turn, t1)
-        })
+        .filter_map(|stop| rocking_after(encoders, imu, stop))
         .collect()
+}
+
+/// The rocking after the stop `(a, b)` of [`stops`] (first and last still encoder sample). The
+/// window: from the first turning point of the swing after the wheels stop (the sample nearest
+/// the first sign change of the rate about the rocking's main axis: the platform at its largest
+/// tilt, at rest, as [`model_rocking`] releases the model) to the end of the rest, at most
+/// [`MAX_WINDOW`] s after the stop. `None` when [`fit_window`] fails.
+pub fn rocking_after(
+    encoders: &EncoderLog,
+    imu: &ImuRates,
+    (a, b): (usize, usize),
+) -> Option<Rocking> {
+    let stop = encoders.t[a];
+    let t1 = encoders.t[b].min(stop + MAX_WINDOW);
+    let idx: Vec<usize> = (0..imu.t.len())
+        .filter(|&k| imu.t[k] >= stop && imu.t[k] <= t1)
+        .collect();
+    // The main axis: the larger mean square over the window.
+    let ms = |axis: usize| idx.iter().map(|&k| imu.rate[k][axis].powi(2)).sum::<f64>();
+    let axis = usize::from(ms(1) > ms(0));
+    let turn = idx
+        .windows(2)
+        .find(|w| imu.rate[w[0]][axis] * imu.rate[w[1]][axis] <= 0.0)
+        .map_or(stop, |w| {
+            // The sample nearer to the sign change.
+            let (r0, r1) = (imu.rate[w[0]][axis], imu.rate[w[1]][axis]);
+            if r0.abs() <= r1.abs() {
+                imu.t[w[0]]
+            } else {
+                imu.t[w[1]]
+            }
+        });
+    fit_window(imu, turn, t1)
 }
 
 /// The rocking the dynamic model `p`, with depth `h` (m) and rolling resistance `c_rr`, shows
