@@ -676,7 +676,7 @@ impl Session {
                     "re-plan ({reason}) at plan time {now:.3} s: plan {id} spliced at {t_s:.3} s at {:.3} m/s, {:.3} m in {:.2} s to the goal, {} points uploaded in {secs:.2} s",
                     rec.speed,
                     spliced.smoothed.path.length(),
-                    spliced.planned.plan.duration() - t_s,
+                    spliced.planned.plan.duration(),
                     pts.len()
                 ));
                 out.splices.push(rec);
