@@ -44,7 +44,7 @@ pub struct DriveArgs {
     /// (docs/seeing-the-robot.md), kept on every exit path like --out.
     #[arg(long, value_name = "FILE", global = true)]
     pub mcap: Option<PathBuf>,
-    /// Forward camera fixes while `velocity`, `plan` or `telemetry` runs: a CSV
+    /// Forward camera fixes while `velocity`, `plan`, `goal` or `telemetry` runs: a CSV
     /// `t,x,y[,heading][,arrival]` (t = capture time in the robot's clock, s; `-` reads stdin),
     /// each sent when the robot's clock reaches its arrival time (default t).
     #[arg(long, value_name = "FILE|-", global = true)]
@@ -228,10 +228,13 @@ pub fn run(a: &DriveArgs) -> Result<()> {
     if let Some(path) = &a.fixes {
         if !matches!(
             a.action,
-            DriveAction::Velocity { .. } | DriveAction::Plan { .. } | DriveAction::Telemetry { .. }
+            DriveAction::Velocity { .. }
+                | DriveAction::Plan { .. }
+                | DriveAction::Telemetry { .. }
+                | DriveAction::Goal { .. }
         ) {
             bail!(
-                "--fixes forwards fixes while velocity, plan or telemetry runs; not with this action"
+                "--fixes forwards fixes while velocity, plan, goal or telemetry runs; not with this action"
             );
         }
         s.fixes = Some(omnikin_host::fixes::FixFeeder::open(
