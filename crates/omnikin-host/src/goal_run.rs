@@ -19,7 +19,9 @@
 //!    telemetry clock's rate); a splice the robot refuses (its `rejected` count grows: too
 //!    late, off the plan, no room) is retried twice with twice the lead.
 //! 4. **When no splice can be laid** (the motion heads into a new shape closer than the
-//!    lead-in, or three refusals), the robot is stopped and a fresh plan uploaded from its
+//!    lead-in, three refusals, or the plan ends too soon for one while its rest comes closer
+//!    than the clearance to a new shape; a rest that keeps clear is left to run), the robot
+//!    is stopped and a fresh plan uploaded from its
 //!    estimate at rest ([`GoalDriven::stops`] counts these).
 
 use std::net::{SocketAddr, UdpSocket};
@@ -579,16 +581,20 @@ impl Session {
     ) -> Result<()> {
         match self.splice(run, reason, out, say)? {
             Ok(()) => Ok(()),
-            Err(SpliceFailed::TooLate) => {
+            Err(SpliceFailed::TooLate) if self.rest_is_clear(run) => {
                 say(format!(
-                    "re-plan ({reason}): the plan ends before a splice could reach the robot; left as it is"
+                    "re-plan ({reason}): the plan ends before a splice could reach the robot, and its rest keeps clear of the map: left as it is"
                 ));
                 Ok(())
             }
             Err(why) => {
                 let why = match why {
                     SpliceFailed::Plan(e) => e,
-                    _ => format!("the robot refused {SPLICE_ATTEMPTS} splices"),
+                    SpliceFailed::TooLate => {
+                        "the plan ends too soon for one, and its rest comes too close to a shape"
+                            .into()
+                    }
+                    SpliceFailed::Refused => format!("the robot refused {SPLICE_ATTEMPTS} splices"),
                 };
                 say(format!(
                     "re-plan ({reason}): no splice ({why}); stopping to re-plan at rest"
@@ -616,6 +622,24 @@ impl Session {
                 Ok(())
             }
         }
+    }
+
+    /// Whether the running plan, from the robot's plan time on, keeps the planned clearance
+    /// from every shape of the map (within the route's tolerance), sampled every 2 cm.
+    fn rest_is_clear(&self, run: &Run<'_>) -> bool {
+        let now = self.latest.map_or(0.0, |t| f64::from(t.plan_time));
+        let f = run.spec.clearance * (1.0 - omnikin_plan::map::route::CLEAR_TOLERANCE);
+        run.running.windows(2).filter(|w| w[1].t >= now).all(|w| {
+            let (a, b) = (w[0].pose, w[1].pose);
+            let n = ((b.x - a.x).hypot(b.y - a.y) / 0.02).ceil().max(1.0) as usize;
+            (0..=n).all(|k| {
+                let u = k as f64 / n as f64;
+                run.spec
+                    .map
+                    .clearance([a.x + u * (b.x - a.x), a.y + u * (b.y - a.y)])
+                    >= f
+            })
+        })
     }
 
     /// Plans and uploads a splice, retrying with a longer lead when the robot refuses it.
@@ -699,6 +723,10 @@ impl Session {
     pub fn upload_splice(&mut self, id: u16, points: Vec<WirePoint>) -> Result<bool> {
         let rejected = |s: &Session| s.latest.map_or(0, |t| t.rejected);
         let n = points.len() as u16;
+        // The session's MCAP log gets the replacement on `/plan`, as the first plan.
+        if let Some(m) = self.mcap.as_mut() {
+            omnikin_io::mcap_log::drive_plan(m, self.latest.map_or(0, |t| t.time_us), &points)?;
+        }
         let mut up = PlanUpload::new(id, points, false, false);
         loop {
             let before = rejected(self);
@@ -735,5 +763,73 @@ fn describe(s: &Shape) -> String {
             format!("circle at ({}, {}) radius {radius} m", centre[0], centre[1])
         }
         Shape::Polygon(v) => format!("polygon of {} vertices", v.len()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn obstacles_become_map_toml_that_the_map_rules_check() {
+        let t = obstacle_toml(Some(&[1.0, 2.0, 0.25]), None).unwrap();
+        let m = Map::from_toml(&t, "x").unwrap();
+        assert_eq!(
+            m.keep_out[0].shape,
+            Shape::Circle {
+                centre: [1.0, 2.0],
+                radius: 0.25
+            }
+        );
+        let t = obstacle_toml(None, Some("0,0, 1,0, 1,1")).unwrap();
+        assert!(
+            matches!(&Map::from_toml(&t, "x").unwrap().keep_out[0].shape, Shape::Polygon(v) if v.len() == 3)
+        );
+        // Clockwise: the map's rule names it.
+        let t = obstacle_toml(None, Some("0,0,1,1,1,0")).unwrap();
+        let e = Map::from_toml(&t, "x").unwrap_err().to_string();
+        assert!(e.contains("clockwise"), "{e}");
+        let e = obstacle_toml(Some(&[1.0, 2.0]), None)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--circle: expected X,Y,R"), "{e}");
+        let e = obstacle_toml(None, Some("0,0,1,x,1,1"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--polygon: item 4"), "{e}");
+        let e = format!(
+            "{:#}",
+            obstacle_toml(Some(&[f64::NAN, 0.0, 1.0]), None).unwrap_err()
+        );
+        assert!(e.contains("finite"), "{e}");
+        assert!(obstacle_toml(None, None).is_err());
+    }
+
+    #[test]
+    fn an_obstacle_travels_to_the_listener_and_its_answer_back() {
+        let (l, rx) = ObstacleListener::bind("127.0.0.1:0", "--control").unwrap();
+        let addr = l.local_addr().to_string();
+        let goal = std::thread::spawn(move || {
+            let req = rx.recv_timeout(Duration::from_secs(5)).unwrap();
+            assert!(req.toml.contains("circle"));
+            req.reply.unwrap().send(Ok("added".into())).unwrap();
+            let req = rx.recv_timeout(Duration::from_secs(5)).unwrap();
+            req.reply
+                .unwrap()
+                .send(Err("covers the goal".into()))
+                .unwrap();
+        });
+        let t = obstacle_toml(Some(&[1.0, 2.0, 0.25]), None).unwrap();
+        assert_eq!(
+            send_obstacle(&addr, &t, Duration::from_secs(5)).unwrap(),
+            "added"
+        );
+        let e = send_obstacle(&addr, &t, Duration::from_secs(5)).unwrap_err();
+        assert_eq!(e.to_string(), "covers the goal");
+        goal.join().unwrap();
+        let e = ObstacleListener::bind("192.0.2.1:7480", "--control")
+            .err()
+            .unwrap();
+        assert!(e.to_string().contains("loopback"), "{e}");
     }
 }
