@@ -565,8 +565,28 @@ fn drive_goal(s: &mut Session, g: &GoalFlags<'_>) -> Result<()> {
     if g.replan_tolerance == 0.0 {
         bail!("--replan-tolerance 0: must be > 0 m");
     }
-    if !(g.max_speed > 0.0 && g.max_yaw_rate > 0.0) {
-        bail!("--max-speed and --max-yaw-rate must be > 0");
+    // Bounded below too: a plan at a crawl would have unbounded samples.
+    for (flag, v, lo, hi, unit) in [
+        ("--max-speed", Some(g.max_speed), 1e-3, 100.0, "m/s"),
+        (
+            "--max-yaw-rate",
+            Some(g.max_yaw_rate),
+            1e-3,
+            1000.0,
+            "rad/s",
+        ),
+        ("--max-accel", g.max_accel, 1e-3, 1000.0, "m/s²"),
+    ] {
+        if let Some(v) = v
+            && !(lo..=hi).contains(&v)
+        {
+            bail!("{flag} {v}: must be between {lo} and {hi} {unit}");
+        }
+    }
+    if let Some(r) = g.footprint_radius
+        && !(r > 0.0 && r <= 100.0)
+    {
+        bail!("--footprint-radius {r}: must be > 0 and at most 100 m");
     }
     let d = crate::kinematics::resolve_robot(g.robot)?;
     let model = omnikin_plan::RobotModel::from_description(&d)?;

@@ -165,6 +165,34 @@ fn bad_input_is_an_error_naming_the_flag() {
     );
     let err = goal(&[&base[..], &["4", "--map", HALL, "--robot", "sphere-omni"]].concat());
     assert!(err.contains("goal: expected X,Y or X,Y,H"), "{err}");
+    for (flag, val, says) in [
+        (
+            "--max-speed",
+            "1e-9",
+            "--max-speed 0.000000001: must be between 0.001 and 100 m/s",
+        ),
+        ("--max-accel", "0", "--max-accel 0: must be between"),
+        (
+            "--replan-tolerance",
+            "0",
+            "--replan-tolerance 0: must be > 0 m",
+        ),
+        ("--margin", "-1", "--margin -1: must be between 0 and 10 m"),
+        (
+            "--footprint-radius",
+            "0",
+            "--footprint-radius 0: must be > 0",
+        ),
+    ] {
+        let err = goal(
+            &[
+                &base[..],
+                &["4,3", "--map", HALL, "--robot", "sphere-omni", flag, val],
+            ]
+            .concat(),
+        );
+        assert!(err.contains(says), "{flag} {val}: {err}");
+    }
     let err = goal(
         &[
             &base[..],
