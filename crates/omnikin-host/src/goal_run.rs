@@ -403,6 +403,13 @@ impl Session {
         self.first_telemetry("telemetry (the robot's pose)")?;
         let t = self.latest.context("no telemetry")?;
         let from = [f64::from(t.pose[0]), f64::from(t.pose[1])];
+        if (from[0] - spec.goal[0]).hypot(from[1] - spec.goal[1]) < 1e-3 {
+            bail!(
+                "the robot's estimate ({:.4}, {:.4}) is already at the goal (within 1 mm): nothing to drive",
+                from[0],
+                from[1]
+            );
+        }
         let t0 = Instant::now();
         let (p, len) = plan_at_rest(spec, from, f64::from(t.pose[2])).with_context(|| {
             format!("from the robot's estimate ({:.3}, {:.3})", from[0], from[1])
