@@ -127,9 +127,10 @@ pub enum DriveAction {
         duration: f64,
     },
     /// Drive to a goal across a map: plan from the robot's estimate around the shapes, upload,
-    /// and while it runs re-plan — when `drive obstacle` adds a shape, or the estimate drifts
-    /// more than --replan-tolerance from the plan's reference — by splicing a new plan onto
-    /// the running one at its reference, which the robot takes without stopping.
+    /// and while it runs re-plan: when `drive obstacle` adds a shape, by splicing a new plan
+    /// onto the running one at its reference, which the robot takes without stopping; when the
+    /// estimate drifts more than --replan-tolerance from the reference, from the estimate
+    /// after a stop.
     Goal {
         /// The goal X,Y[,H] (world frame; m, m, rad; heading default: kept).
         #[arg(allow_hyphen_values = true, value_name = "X,Y[,H]")]

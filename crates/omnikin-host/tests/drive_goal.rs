@@ -211,3 +211,111 @@ fn an_obstacle_added_mid_run_is_spliced_around_without_a_stop_and_the_truth_stay
     assert!(gap > 0.0, "the true shell touched a shape (gap {gap} m)");
     assert!(miss < 0.1, "ended {miss} m from the goal");
 }
+
+/// The robot held still for 1.5 s of robot time (`robot --sim --obstacle`: its wheels
+/// blocked) while its plan's reference runs on: the estimate drifts past the tolerance, and
+/// the run stops it and re-plans from the estimate (the runtime splices only on its
+/// reference, which the robot is away from: a splice there took the true shell 9.7 cm into a
+/// shape as the position loop pulled the robot back across a corner). The truth keeps off
+/// the shapes and the robot reaches the goal.
+#[test]
+fn a_drift_past_the_tolerance_stops_and_re_plans_from_the_estimate() {
+    let desc = RobotDescription::preset("sphere-omni").unwrap();
+    let (footprint, _) = footprint_radius(&desc);
+    let sim = SimOptions {
+        obstacle: Some((6.0, 1.5)),
+        ..SimOptions::default()
+    };
+    let log = std::env::temp_dir().join(format!(
+        "omnikin-drive-goal-drift-{}.csv",
+        std::process::id()
+    ));
+    let mut serve = ServeOptions::new("127.0.0.1:0");
+    serve.time_scale = TIME_SCALE;
+    serve.telemetry_rate = 50.0;
+    serve.max_time = Some(200.0);
+    serve.log = Some(log.clone());
+    let server = RobotServer::new(&desc, &sim, serve).unwrap();
+    let addr = server.local_addr().unwrap().to_string();
+    let stop = std::sync::Arc::new(AtomicBool::new(false));
+    let stop2 = stop.clone();
+    let robot = std::thread::spawn(move || server.run(Some(&stop2)).unwrap());
+    let mut map = Map::from_toml(MAP, "cluttered.toml").unwrap();
+    let moved = |p: &mut [f64; 2]| {
+        p[0] += SHIFT[0];
+        p[1] += SHIFT[1];
+    };
+    for o in map.keep_out.iter_mut().chain(map.keep_in.iter_mut()) {
+        match &mut o.shape {
+            Shape::Circle { centre, .. } => moved(centre),
+            Shape::Polygon(v) => v.iter_mut().for_each(moved),
+        }
+    }
+    let mut spec = GoalSpec {
+        map: map.clone(),
+        goal: GOAL,
+        heading: None,
+        clearance: footprint + MARGIN,
+        robot: RobotModel::from_description(&desc).unwrap(),
+        options: PlanOptions {
+            timing: Timing::TimeOptimal {
+                limits: MotionLimits {
+                    max_speed: 0.3,
+                    max_accel: 0.5,
+                    max_jerk: 5.0,
+                    max_yaw_rate: 1.0,
+                    max_yaw_accel: 2.0,
+                },
+            },
+            on_limit: OnLimit::Retime,
+            rate: 20.0,
+            initial_steer: InitialSteer::Aligned,
+        },
+        replan_tolerance: 0.1,
+    };
+    let mut s = Session::open(&addr, None, 20.0, 3.0, None, OptionNames::CLI).unwrap();
+    let (_tx, rx) = mpsc::channel::<ObstacleRequest>();
+    let mut lines = Vec::new();
+    let driven = s
+        .drive_goal(&mut spec, &rx, &mut |line| {
+            eprintln!("{line}");
+            lines.push(line);
+        })
+        .unwrap();
+    s.finish().unwrap();
+    stop.store(true, Ordering::SeqCst);
+    robot.join().unwrap();
+    let text = std::fs::read_to_string(&log).unwrap();
+    let _ = std::fs::remove_file(&log);
+    let mut rows = text.lines();
+    let head: Vec<&str> = rows.next().unwrap().split(',').collect();
+    let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
+    let (cx, cy) = (col("true_x"), col("true_y"));
+    let truth: Vec<[f64; 2]> = rows
+        .map(|r| {
+            let v: Vec<f64> = r
+                .split(',')
+                .map(|x| x.parse().unwrap_or(f64::NAN))
+                .collect();
+            [v[cx], v[cy]]
+        })
+        .collect();
+    let gap = truth
+        .iter()
+        .map(|p| map.clearance(*p) - footprint)
+        .fold(f64::INFINITY, f64::min);
+    let end = truth.last().unwrap();
+    let miss = (end[0] - GOAL[0]).hypot(end[1] - GOAL[1]);
+    eprintln!(
+        "drift: {} stop(s) to re-plan, max |estimate - reference| {:.4} m; smallest true gap {gap:.4} m; end {miss:.4} m from the goal",
+        driven.stops, driven.max_deviation
+    );
+    assert!(
+        lines.iter().any(|l| l.starts_with("re-plan (drift ")),
+        "{lines:#?}"
+    );
+    assert!(driven.splices.is_empty(), "{lines:#?}");
+    assert_eq!(driven.stops, 1, "{lines:#?}");
+    assert!(gap > 0.0, "the true shell touched a shape (gap {gap} m)");
+    assert!(miss < 0.01, "ended {miss} m from the goal");
+}
