@@ -75,7 +75,7 @@ before(async () => {
   start(['robot', '--sim', '--robot', 'sphere-omni', '--listen', robotAddr, '--watchdog', String(WATCHDOG_S),
     '--max-time', '600'], 'robot');
   const con = start(['console', '--connect', robotAddr, '--listen', '127.0.0.1:0', '--for', '300',
-    '--record-dir', tmp], 'console');
+    '--record-dir', tmp, '--map', join(root, 'examples/maps/hall.toml')], 'console');
   const line = await until('the console URL', () => con.out.match(/http:\/\/127\.0\.0\.1:\d+\/\?token=[0-9a-f]{32}/), 15000);
   url = line[0];
   base = url.replace(/\/\?token=.*/, '');
@@ -114,6 +114,10 @@ test('the page connects and shows the pose', async () => {
   await until('link connected', async () => (await text('link-state')) === 'connected');
   const p = await until('telemetry', async () => { const p = await pose(); return Number.isFinite(p.t) && p; });
   assert.match(p.text, /x -?\d+\.\d+ m, y -?\d+\.\d+ m, heading -?\d+\.\d+ rad/);
+  // The console's --map (examples/maps/hall.toml) reached the page, which draws it.
+  const map = await until('the map', async () => page.evaluate(() => typeof map === 'object' && map
+    && { out: map.keep_out.length, keepIn: map.keep_in && map.keep_in.length }));
+  assert.deepEqual(map, { out: 4, keepIn: 4 });
   // A simulated robot sends its plant's truth: shown beside the estimate (ideal plant: equal).
   const truth = await until('the truth readout', async () => {
     const t = await page.$eval('[data-testid="truth"]', (e) => ({

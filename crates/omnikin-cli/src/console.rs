@@ -46,6 +46,10 @@ pub struct ConsoleArgs {
     /// pose to the plan's start" is ticked.
     #[arg(long, value_name = "METERS", default_value_t = 0.1, allow_hyphen_values = true, value_parser = crate::args::start_tolerance_m)]
     pub start_tolerance: f64,
+    /// A map (the format of `omnikin plan goal --map`) drawn under the robot: its keep-out
+    /// shapes and keep-in boundary.
+    #[arg(long, value_name = "MAP.toml")]
+    pub map: Option<PathBuf>,
     /// The robot being driven (preset or robot file, as its `omnikin robot --robot`): an
     /// uploaded plan asking more than its body limits (`omnikin check`) is refused, naming the
     /// limit and the plan's peak.
@@ -69,6 +73,12 @@ fn socket_address(flag: &str, addr: &str, example: &str) -> Result<std::net::Soc
 
 /// Runs the console until Ctrl-C or `--for`.
 pub fn run(a: &ConsoleArgs) -> Result<()> {
+    // `--map`: read first (a bad map fails here, naming the line).
+    let map = a
+        .map
+        .as_deref()
+        .map(omnikin_plan::map::Map::load)
+        .transpose()?;
     // `--robot`: its body limits, checked at every plan upload (a bad file fails here).
     let robot_limits = match &a.robot {
         Some(r) => {
@@ -94,6 +104,7 @@ pub fn run(a: &ConsoleArgs) -> Result<()> {
         foxglove,
         start_tolerance_m: a.start_tolerance,
         robot_limits,
+        map,
     })?;
     crate::output::catch_signals()?;
     for w in server.warnings() {

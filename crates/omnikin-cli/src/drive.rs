@@ -3,7 +3,9 @@
 //!
 //! Shape: `omnikin drive --connect ADDR [--key FILE] [--heartbeat HZ] ACTION`, with ACTION one
 //! of `hello`, `velocity --vx --vy --yaw-rate [--world] --for S`, `plan PLAN.csv`, `stop`,
-//! `estop`, `clear`, `telemetry --out LOG.csv [--for S]`, `teleop`. `velocity`, `plan` and
+//! `estop`, `clear`, `telemetry --out LOG.csv [--for S]`, `teleop`, `goal X,Y[,H] --map
+//! MAP.toml --robot R` (re-planned on the way: [`omnikin_host::goal_run`]) and `obstacle
+//! --circle X,Y,R | --polygon …` (sent to a running `drive goal`, which needs no `--connect`). `velocity`, `plan` and
 //! `telemetry` take `--out LOG.csv` to record every telemetry frame, and `--fixes FILE|-` to
 //! forward camera fixes while they run ([`omnikin_host::fixes`]).
 
@@ -24,9 +26,10 @@ use omnikin_host::wire_plan::plan_points;
 /// `omnikin drive`.
 #[derive(clap::Args, Debug)]
 pub struct DriveArgs {
-    /// The robot: HOST:PORT (UDP), udp:HOST:PORT or serial:PATH[@BAUD].
+    /// The robot: HOST:PORT (UDP), udp:HOST:PORT or serial:PATH[@BAUD] (every action but
+    /// `obstacle`).
     #[arg(long, value_name = "ADDR")]
-    pub connect: String,
+    pub connect: Option<String>,
     /// Shared key file (16-64 bytes), the same as the robot's --key.
     #[arg(long, value_name = "FILE", global = true)]
     pub key: Option<PathBuf>,
@@ -41,7 +44,7 @@ pub struct DriveArgs {
     /// (docs/seeing-the-robot.md), kept on every exit path like --out.
     #[arg(long, value_name = "FILE", global = true)]
     pub mcap: Option<PathBuf>,
-    /// Forward camera fixes while `velocity`, `plan` or `telemetry` runs: a CSV
+    /// Forward camera fixes while `velocity`, `plan`, `goal` or `telemetry` runs: a CSV
     /// `t,x,y[,heading][,arrival]` (t = capture time in the robot's clock, s; `-` reads stdin),
     /// each sent when the robot's clock reaches its arrival time (default t).
     #[arg(long, value_name = "FILE|-", global = true)]
@@ -123,6 +126,64 @@ pub enum DriveAction {
         #[arg(long = "for", value_name = "SECONDS", default_value_t = 5.0, allow_hyphen_values = true, value_parser = crate::args::run_for_s)]
         duration: f64,
     },
+    /// Drive to a goal across a map: plan from the robot's estimate around the shapes, upload,
+    /// and while it runs re-plan: when `drive obstacle` adds a shape, by splicing a new plan
+    /// onto the running one at its reference, which the robot takes without stopping; when the
+    /// estimate drifts more than --replan-tolerance from the reference, from the estimate
+    /// after a stop.
+    Goal {
+        /// The goal X,Y[,H] (world frame; m, m, rad; heading default: kept).
+        #[arg(allow_hyphen_values = true, value_name = "X,Y[,H]")]
+        goal: crate::args::List,
+        /// The map (the format of `omnikin plan goal --map`).
+        #[arg(long, value_name = "MAP.toml")]
+        map: PathBuf,
+        /// The robot being driven (preset or robot file, as its `omnikin robot --robot`):
+        /// its wheel limits time the plans, its footprint keeps them off the shapes.
+        #[arg(long)]
+        robot: String,
+        /// Footprint radius, m [default: the robot's, as `omnikin check` prints it].
+        #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+        footprint_radius: Option<f64>,
+        /// Extra clearance the plans keep beyond the footprint, m: room for tracking errors
+        /// (a plan touches the inflated shapes, so without it any error is a touch).
+        #[arg(long, default_value_t = 0.05, allow_hyphen_values = true, value_parser = finite_f64)]
+        margin: f64,
+        /// Max speed along the path, m/s.
+        #[arg(long, default_value_t = 0.2, allow_hyphen_values = true, value_parser = finite_f64)]
+        max_speed: f64,
+        /// Max acceleration, m/s² [default: 0.5, or the robot's body limit if lower].
+        #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+        max_accel: Option<f64>,
+        /// Max yaw rate, rad/s.
+        #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = finite_f64)]
+        max_yaw_rate: f64,
+        /// Re-plan when the robot's estimate is farther than this from the plan's reference, m.
+        #[arg(long, value_name = "METERS", default_value_t = omnikin_host::goal_run::DEFAULT_REPLAN_TOLERANCE, allow_hyphen_values = true, value_parser = finite_f64)]
+        replan_tolerance: f64,
+        /// Where to take obstacles from `drive obstacle` (a loopback HOST:PORT).
+        #[arg(long, value_name = "ADDR", default_value = omnikin_host::goal_run::DEFAULT_CONTROL)]
+        control: String,
+        /// First set the robot's pose estimate to X,Y[,H] (m, m, rad; heading default 0).
+        #[arg(long, allow_hyphen_values = true, value_name = "X,Y[,H]")]
+        set_pose: Option<crate::args::List>,
+        /// Record telemetry to this CSV file.
+        #[arg(long, value_name = "FILE")]
+        out: Option<PathBuf>,
+    },
+    /// Add a keep-out shape to the map of a running `drive goal` (which re-plans around it
+    /// without stopping, and answers what it did). No `--connect`: it talks to the goal run.
+    Obstacle {
+        /// A circle X,Y,R (world frame, m).
+        #[arg(long, allow_hyphen_values = true, value_name = "X,Y,R")]
+        circle: Option<crate::args::List>,
+        /// A polygon X1,Y1,X2,Y2,X3,Y3[,…] (world frame, m, counter-clockwise).
+        #[arg(long, allow_hyphen_values = true, value_name = "X1,Y1,X2,Y2,…")]
+        polygon: Option<String>,
+        /// The running `drive goal`'s --control address.
+        #[arg(long, value_name = "ADDR", default_value = omnikin_host::goal_run::DEFAULT_CONTROL)]
+        control: String,
+    },
     /// Interactive keyboard driving (needs a terminal): w/s forward/back, a/d left/right,
     /// q/e turn, space stop, x e-stop, c clear, Esc or Ctrl-C quits (with a stop).
     Teleop {
@@ -137,8 +198,28 @@ pub enum DriveAction {
 
 /// Runs one `drive` action.
 pub fn run(a: &DriveArgs) -> Result<()> {
+    if let DriveAction::Obstacle {
+        circle,
+        polygon,
+        control,
+    } = &a.action
+    {
+        let toml = omnikin_host::goal_run::obstacle_toml(
+            circle.as_ref().map(|c| c.0.as_slice()),
+            polygon.as_deref(),
+        )?;
+        let answer = omnikin_host::goal_run::send_obstacle(
+            control,
+            &toml,
+            crate::args::duration("--timeout", a.timeout)?,
+        )?;
+        return crate::outln!("drive goal at {control}: {answer}");
+    }
+    let Some(connect) = &a.connect else {
+        bail!("--connect ADDR (the robot's address) is required for this action");
+    };
     let mut s = Session::open(
-        &a.connect,
+        connect,
         a.key.as_deref(),
         a.heartbeat,
         a.timeout,
@@ -148,10 +229,13 @@ pub fn run(a: &DriveArgs) -> Result<()> {
     if let Some(path) = &a.fixes {
         if !matches!(
             a.action,
-            DriveAction::Velocity { .. } | DriveAction::Plan { .. } | DriveAction::Telemetry { .. }
+            DriveAction::Velocity { .. }
+                | DriveAction::Plan { .. }
+                | DriveAction::Telemetry { .. }
+                | DriveAction::Goal { .. }
         ) {
             bail!(
-                "--fixes forwards fixes while velocity, plan or telemetry runs; not with this action"
+                "--fixes forwards fixes while velocity, plan, goal or telemetry runs; not with this action"
             );
         }
         s.fixes = Some(omnikin_host::fixes::FixFeeder::open(
@@ -241,6 +325,37 @@ pub fn run(a: &DriveArgs) -> Result<()> {
             }
             print_status(&s)?;
         }
+        DriveAction::Goal {
+            goal,
+            map,
+            robot,
+            footprint_radius,
+            margin,
+            max_speed,
+            max_accel,
+            max_yaw_rate,
+            replan_tolerance,
+            control,
+            set_pose,
+            out,
+        } => {
+            let g = GoalFlags {
+                goal,
+                map,
+                robot,
+                footprint_radius: *footprint_radius,
+                margin: *margin,
+                max_speed: *max_speed,
+                max_accel: *max_accel,
+                max_yaw_rate: *max_yaw_rate,
+                replan_tolerance: *replan_tolerance,
+                control,
+                set_pose: set_pose.as_ref(),
+            };
+            s.record(out.as_deref())?;
+            drive_goal(&mut s, &g)?;
+        }
+        DriveAction::Obstacle { .. } => unreachable!("handled before the session"),
         DriveAction::Teleop { speed, turn } => {
             if !std::io::IsTerminal::is_terminal(&std::io::stdin()) {
                 bail!("teleop needs an interactive terminal (stdin is not a TTY)");
@@ -395,6 +510,145 @@ fn follow_plan(s: &mut Session, path: &Path, start: StartCheck, robot: Option<&s
     )?;
     print_status(s)?;
     Ok(())
+}
+
+/// `drive goal`'s flags.
+struct GoalFlags<'a> {
+    goal: &'a crate::args::List,
+    map: &'a Path,
+    robot: &'a str,
+    footprint_radius: Option<f64>,
+    margin: f64,
+    max_speed: f64,
+    max_accel: Option<f64>,
+    max_yaw_rate: f64,
+    replan_tolerance: f64,
+    control: &'a str,
+    set_pose: Option<&'a crate::args::List>,
+}
+
+/// `X,Y[,H]` of `flag` (heading `None` when not given).
+fn pose_flag(l: &crate::args::List, flag: &str) -> Result<([f64; 2], Option<f64>)> {
+    match l.0.as_slice() {
+        &[x, y] => Ok(([x, y], None)),
+        &[x, y, h] => {
+            omnikin_plan::limits::check_magnitude(
+                "heading",
+                h,
+                omnikin_plan::limits::MAX_HEADING,
+                "rad",
+            )
+            .map_err(|e| anyhow::anyhow!("{flag}: {e}"))?;
+            Ok(([x, y], Some(h)))
+        }
+        v => bail!(
+            "{flag}: expected X,Y or X,Y,H (m, m, rad), got {} values",
+            v.len()
+        ),
+    }
+}
+
+/// `drive goal`: the flags read and checked, the obstacle socket bound, then the goal run of
+/// [`omnikin_host::goal_run`].
+fn drive_goal(s: &mut Session, g: &GoalFlags<'_>) -> Result<()> {
+    use omnikin_host::goal_run::{GoalSpec, ObstacleListener};
+    use omnikin_plan::map::Map;
+    use omnikin_plan::planner::{InitialSteer, OnLimit, PlanOptions, Timing};
+    let (goal, heading) = pose_flag(g.goal, "goal")?;
+    for (flag, v) in [
+        ("--margin", g.margin),
+        ("--replan-tolerance", g.replan_tolerance),
+    ] {
+        if !(0.0..=10.0).contains(&v) {
+            bail!("{flag} {v}: must be between 0 and 10 m");
+        }
+    }
+    if g.replan_tolerance == 0.0 {
+        bail!("--replan-tolerance 0: must be > 0 m");
+    }
+    // Bounded below too: a plan at a crawl would have unbounded samples.
+    for (flag, v, lo, hi, unit) in [
+        ("--max-speed", Some(g.max_speed), 1e-3, 100.0, "m/s"),
+        (
+            "--max-yaw-rate",
+            Some(g.max_yaw_rate),
+            1e-3,
+            1000.0,
+            "rad/s",
+        ),
+        ("--max-accel", g.max_accel, 1e-3, 1000.0, "m/s²"),
+    ] {
+        if let Some(v) = v
+            && !(lo..=hi).contains(&v)
+        {
+            bail!("{flag} {v}: must be between {lo} and {hi} {unit}");
+        }
+    }
+    if let Some(r) = g.footprint_radius
+        && !(r > 0.0 && r <= 100.0)
+    {
+        bail!("--footprint-radius {r}: must be > 0 and at most 100 m");
+    }
+    let d = crate::kinematics::resolve_robot(g.robot)?;
+    let model = omnikin_plan::RobotModel::from_description(&d)?;
+    let map = Map::load(g.map)?;
+    let (f, source) = omnikin_plan::map::footprint::checked_footprint(
+        &d,
+        g.footprint_radius,
+        "--footprint-radius",
+    )?;
+    let limits = crate::plan::setup::motion_limits(
+        &d,
+        g.max_speed,
+        g.max_accel,
+        omnikin_plan::planner::MotionLimits::default().max_jerk,
+        g.max_yaw_rate,
+        None,
+    )?;
+    map.check_point(goal, f + g.margin, "the goal")?;
+    let mut spec = GoalSpec {
+        map,
+        goal,
+        heading,
+        clearance: f + g.margin,
+        robot: model,
+        options: PlanOptions {
+            timing: Timing::TimeOptimal { limits },
+            on_limit: OnLimit::Retime,
+            rate: 20.0,
+            initial_steer: InitialSteer::Aligned,
+        },
+        replan_tolerance: g.replan_tolerance,
+    };
+    let (listener, obstacles) = ObstacleListener::bind(g.control, "--control")?;
+    if let Some(p) = g.set_pose {
+        let (xy, h) = pose_flag(p, "--set-pose")?;
+        s.hello()?;
+        s.set_pose([xy[0], xy[1], h.unwrap_or(0.0)])?;
+    }
+    crate::outln!(
+        "drive goal: footprint {f} m ({}) + margin {} m; obstacles: omnikin drive obstacle --control {} --circle X,Y,R",
+        source.describe(),
+        g.margin,
+        listener.local_addr()
+    )?;
+    // Each line as the run goes (a closed stdout is noticed at the end).
+    let r = s.drive_goal(&mut spec, &obstacles, &mut |line| {
+        let _ = crate::outln!("{line}");
+    });
+    let r = refused(s, r)?;
+    let e = r.end_pose;
+    crate::outln!(
+        "goal reached: {} re-plan(s) spliced without stopping, {} with a stop; max |pose - reference| {:.4} m while following; end pose ({:.4}, {:.4}, {:.4}), {:.4} m from the goal",
+        r.splices.len(),
+        r.stops,
+        r.max_deviation,
+        e[0],
+        e[1],
+        e[2],
+        (f64::from(e[0]) - goal[0]).hypot(f64::from(e[1]) - goal[1])
+    )?;
+    print_status(s)
 }
 
 /// What the robot says at the end of an action: the fixes forwarded, its estimate (once fixes

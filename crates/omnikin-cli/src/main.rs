@@ -368,6 +368,10 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
                     files.extend(out.as_deref().map(|p| ("--out", p)));
                 }
                 drive::DriveAction::Telemetry { out, .. } => files.push(("--out", out)),
+                drive::DriveAction::Goal { map, out, .. } => {
+                    inputs.push(("--map", map));
+                    files.extend(out.as_deref().map(|p| ("--out", p)));
+                }
                 _ => {}
             }
         }

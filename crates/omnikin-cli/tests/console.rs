@@ -571,3 +571,32 @@ fn foxglove_clients_get_the_mcap_channels_live() {
     }
     assert!(n10 >= 5 && n11 >= 5, "pose {n10}, wheels {n11}");
 }
+
+#[test]
+fn the_map_reaches_the_page_and_a_bad_map_is_refused_naming_its_line() {
+    let robot = Robot::start(&["--max-time", "60"]);
+    let map = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/maps/hall.toml");
+    let c = Console::start_with(&robot.addr, &["--map", map]);
+    let mut p = c.page();
+    let m = p.wait_for(Duration::from_secs(10), "the map", |m| m["type"] == "map");
+    assert_eq!(m["keep_out"].as_array().map(Vec::len), Some(4), "{m}");
+    assert_eq!(m["keep_out"][0]["circle"], json!([1.2, 0.4, 0.3]));
+    assert_eq!(m["keep_in"][1], json!([4.5, -0.5]));
+    let bad = common::tmp("console", "bad-map");
+    let f = bad.join("bad.toml");
+    std::fs::write(&f, "[[keep_out]]\ncircle = [1, 2]\n").unwrap();
+    let out = Command::new(BIN)
+        .args([
+            "console",
+            "--connect",
+            &robot.addr,
+            "--listen",
+            "127.0.0.1:0",
+        ])
+        .args(["--map", f.to_str().unwrap(), "--for", "1"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.toml:2"), "{err}");
+}

@@ -11,6 +11,7 @@ let ws = null;
 let config = { speed: 0.2, turn: 1.0 };
 let robot = null;          // link info (RobotInfo)
 let last = null;           // newest telemetry
+let map = null;            // the console's --map: { keep_out: [{circle}|{polygon}], keep_in }
 let plan = null;           // plan being run / loaded: { name, points: [[x,y,h],...] }
 let planState = '';
 const TRAIL_MAX = 4000;    // trail points kept
@@ -66,6 +67,7 @@ function handle(m) {
     case 'link': robot = m.robot || robot; setLink(m.state, m.detail, m); break;
     case 'telemetry': telemetry(m); break;
     case 'plan': plan = m; disarm(); planInfo(); break;
+    case 'map': map = m; break;
     case 'pose_set': trail.push(null); trailBreaks++; $('map').dataset.trailBreaks = trailBreaks; break;
     case 'plan_status': planStatus(m); break;
     case 'event': addEvent(m.level, m.text, m.robot_t); break;
@@ -412,6 +414,7 @@ function drawMap() {
   // View: everything of interest, at least 1 m across, equal scale on both axes.
   const pts = [];
   if (plan) for (const p of plan.points) pts.push(p);
+  if (map && map.keep_in) for (const p of map.keep_in) pts.push(p);
   for (const p of trail) if (p) pts.push(p);
   if (last) pts.push(last.pose, last.reference);
   if (last && last.truth) pts.push(last.truth);
@@ -441,6 +444,22 @@ function drawMap() {
   ctx.beginPath(); ctx.moveTo(X(0), Y(0)); ctx.lineTo(X(step), Y(0)); ctx.moveTo(X(0), Y(0)); ctx.lineTo(X(0), Y(step)); ctx.stroke();
   ctx.fillStyle = '#6b7280'; ctx.fillText('x', X(step) + 3, Y(0) + 4); ctx.fillText('y', X(0) - 4, Y(step) - 4);
   ctx.fillText(`grid ${+step.toFixed(3)} m`, W - 80, 14);
+  // Map: the keep-in boundary and the keep-out shapes.
+  if (map) {
+    ctx.lineWidth = 1.5;
+    if (map.keep_in) {
+      ctx.strokeStyle = '#6b7280'; ctx.beginPath();
+      map.keep_in.forEach((p, i) => (i ? ctx.lineTo(X(p[0]), Y(p[1])) : ctx.moveTo(X(p[0]), Y(p[1]))));
+      ctx.closePath(); ctx.stroke();
+    }
+    ctx.fillStyle = 'rgba(185, 28, 28, 0.18)'; ctx.strokeStyle = 'rgba(185, 28, 28, 0.7)';
+    for (const o of map.keep_out) {
+      ctx.beginPath();
+      if (o.circle) ctx.arc(X(o.circle[0]), Y(o.circle[1]), o.circle[2] * s, 0, 2 * Math.PI);
+      else o.polygon.forEach((p, i) => (i ? ctx.lineTo(X(p[0]), Y(p[1])) : ctx.moveTo(X(p[0]), Y(p[1]))));
+      ctx.closePath(); ctx.fill(); ctx.stroke();
+    }
+  }
   // Trail.
   if (trail.length > 1) {
     ctx.strokeStyle = 'rgba(13, 148, 136, 0.75)'; ctx.lineWidth = 4; ctx.beginPath();

@@ -59,6 +59,22 @@ impl Session {
         })
     }
 
+    /// Sets the robot's pose estimate to `pose` `[x, y, heading]` (world; m, m, rad),
+    /// confirmed when its telemetry shows it (within 0.1 mm).
+    pub fn set_pose(&mut self, pose: [f64; 3]) -> Result<()> {
+        let m = Message::SetPose {
+            x: pose[0] as f32,
+            y: pose[1] as f32,
+            heading: pose[2] as f32,
+        };
+        self.until(&m, "set-pose", |s| {
+            s.latest.is_some_and(|t| {
+                (f64::from(t.pose[0]) - pose[0]).abs() < 1e-4
+                    && (f64::from(t.pose[1]) - pose[1]).abs() < 1e-4
+            })
+        })
+    }
+
     /// Sends `m` every heartbeat for `dur`, receiving all the while (telemetry logged, fixes
     /// forwarded); fails when the session is lost.
     pub fn repeat(&mut self, m: &Message, dur: Duration) -> Result<()> {

@@ -20,7 +20,8 @@
 //!   e-stop, clear, a velocity for a while, listening; [`plan_run`]: a plan driven (the start
 //!   checked, uploaded, followed to its end, or streamed as velocities to a robot that takes no
 //!   plans); [`plan_upload`]: the upload's steps as one state machine, which the console's
-//!   relay runs too.
+//!   relay runs too; [`goal_run`]: a goal reached across a map, re-planned on the way (an
+//!   obstacle added, a drift) by splices the robot takes without stopping.
 //!
 //! * [`console`]: the console without its web server — the hub where the pages and the robot
 //!   meet, the relay that owns the robot link, the Foxglove stream.
@@ -35,6 +36,7 @@ pub mod body_limits;
 pub mod console;
 pub mod console_operator;
 pub mod fixes;
+pub mod goal_run;
 pub mod link_io;
 pub mod names;
 pub mod operator;

@@ -11,7 +11,7 @@ mod args;
 mod figure;
 mod goal;
 mod request;
-mod setup;
+pub(crate) mod setup;
 pub mod sysid;
 mod tilt;
 mod write;

@@ -13,7 +13,7 @@ use super::write::finish;
 /// The motion limits of a request: `--max-accel` and `--max-yaw-accel` bounded by the robot's
 /// body limits (their defaults lowered to them; a larger value given is refused, a ballbot's
 /// acceleration is left to its lean limit).
-pub(super) fn motion_limits(
+pub(crate) fn motion_limits(
     d: &RobotDescription,
     max_speed: f64,
     max_accel_arg: Option<f64>,

@@ -68,6 +68,8 @@ pub struct ConsoleOptions {
     pub start_tolerance_m: f64,
     /// The robot's name and body limits: an uploaded plan asking more is refused.
     pub robot_limits: Option<(String, BodyLimits)>,
+    /// A map drawn under the robot (its keep-out shapes and keep-in boundary).
+    pub map: Option<omnikin_plan::map::Map>,
 }
 
 /// A console bound to its sockets, the robot's address and key checked, not yet serving.
@@ -223,6 +225,9 @@ impl ConsoleServer {
                 "record_dir": o.record_dir.display().to_string()}),
             Some("config"),
         );
+        if let Some(m) = &o.map {
+            hub.publish(&super::map_view::map_message(m), Some("map"));
+        }
         let fox_hub = self
             .foxglove
             .as_ref()

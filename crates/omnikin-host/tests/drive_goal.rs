@@ -1,0 +1,321 @@
+//! `drive goal --map` end to end, in process: a simulated sphere (`robot --sim`'s server: the
+//! kinematic plant under the `examples/profiles/noisy.toml` disturbances, seeded) served on
+//! loopback UDP, and the operator's goal run on the example cluttered map. Mid-run an obstacle
+//! is dropped on the path ahead (as `drive obstacle` sends it); the run must splice a
+//! replacement that the robot takes without stopping — its true speed stays up around the
+//! splice — reach the goal, and the simulated **truth** must keep the shell off every shape,
+//! the added one included, at every control cycle.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::time::Duration;
+
+use omnikin::description::RobotDescription;
+use omnikin_host::goal_run::{GoalSpec, ObstacleRequest, ReplanReason, obstacle_toml};
+use omnikin_host::names::OptionNames;
+use omnikin_host::operator::Session;
+use omnikin_host::robot_serve::{RobotServer, ServeOptions};
+use omnikin_host::sim_robot::SimOptions;
+use omnikin_plan::RobotModel;
+use omnikin_plan::map::footprint::footprint_radius;
+use omnikin_plan::map::goal::{goal_heading, goal_path};
+use omnikin_plan::map::{Map, Shape};
+use omnikin_plan::planner::{InitialSteer, MotionLimits, OnLimit, PlanOptions, Timing, plan};
+
+const MAP: &str = include_str!("../../../examples/maps/cluttered.toml");
+/// Robot time per wall time.
+const TIME_SCALE: f64 = 5.0;
+/// Clearance the plans keep beyond the footprint, m.
+const MARGIN: f64 = 0.08;
+/// The simulated robot starts at the origin: the map is moved by (-0.5, -0.5) so that the
+/// origin is its (0.5, 0.5), a free corner.
+const SHIFT: [f64; 2] = [-0.5, -0.5];
+const START: [f64; 3] = [0.0, 0.0, 0.0];
+const GOAL: [f64; 2] = [4.7, 6.1];
+/// Wall seconds after the first plan's upload when the obstacle is sent.
+const OBSTACLE_AFTER: f64 = 1.0;
+
+#[test]
+fn an_obstacle_added_mid_run_is_spliced_around_without_a_stop_and_the_truth_stays_clear() {
+    let desc = RobotDescription::preset("sphere-omni").unwrap();
+    let (footprint, _) = footprint_radius(&desc);
+    let profile = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/profiles/noisy.toml"
+    );
+    let sim = SimOptions {
+        disturbances: Some(profile.into()),
+        seed: 40,
+        ..SimOptions::default()
+    };
+    let log = std::env::temp_dir().join(format!("omnikin-drive-goal-{}.csv", std::process::id()));
+    let mut serve = ServeOptions::new("127.0.0.1:0");
+    serve.time_scale = TIME_SCALE;
+    serve.telemetry_rate = 50.0;
+    serve.max_time = Some(200.0);
+    serve.log = Some(log.clone());
+    let server = RobotServer::new(&desc, &sim, serve).unwrap();
+    let addr = server.local_addr().unwrap().to_string();
+    let stop = std::sync::Arc::new(AtomicBool::new(false));
+    let stop2 = stop.clone();
+    let robot = std::thread::spawn(move || server.run(Some(&stop2)).unwrap());
+
+    let limits = MotionLimits {
+        max_speed: 0.3,
+        max_accel: 0.5,
+        max_jerk: 5.0,
+        max_yaw_rate: 1.0,
+        max_yaw_accel: 2.0,
+    };
+    let options = PlanOptions {
+        timing: Timing::TimeOptimal { limits },
+        on_limit: OnLimit::Retime,
+        rate: 20.0,
+        initial_steer: InitialSteer::Aligned,
+    };
+    let mut map = Map::from_toml(MAP, "cluttered.toml").unwrap();
+    let moved = |p: &mut [f64; 2]| {
+        p[0] += SHIFT[0];
+        p[1] += SHIFT[1];
+    };
+    for o in map.keep_out.iter_mut().chain(map.keep_in.iter_mut()) {
+        match &mut o.shape {
+            Shape::Circle { centre, .. } => moved(centre),
+            Shape::Polygon(v) => v.iter_mut().for_each(moved),
+        }
+    }
+    let model = RobotModel::from_description(&desc).unwrap();
+    let clearance = footprint + MARGIN;
+    // The first plan, as the run will make it (from the start at rest): the obstacle goes on
+    // it well ahead of where the robot will be when it arrives.
+    let way = goal_path(&map, clearance, [START[0], START[1]], GOAL).unwrap();
+    let law = goal_heading(Some(0.0), None, way.smoothed.path.length()).unwrap();
+    let first = plan(&way.smoothed.path, &law, &model, &options)
+        .unwrap()
+        .plan;
+    let ahead = TIME_SCALE * OBSTACLE_AFTER + 6.0;
+    let at = first
+        .samples
+        .iter()
+        .find(|s| s.t >= ahead)
+        .expect("the plan is long enough")
+        .pose;
+    let obstacle = obstacle_toml(Some(&[at.x, at.y, 0.15]), None).unwrap();
+    let circle = (at.x, at.y, 0.15);
+
+    let mut spec = GoalSpec {
+        map: map.clone(),
+        goal: GOAL,
+        heading: None,
+        clearance,
+        robot: model,
+        options,
+        replan_tolerance: 0.1,
+    };
+    let mut s = Session::open(&addr, None, 20.0, 3.0, None, OptionNames::CLI).unwrap();
+    s.hello().unwrap();
+    let (tx, rx) = mpsc::channel::<ObstacleRequest>();
+    let (reply_tx, reply_rx) = mpsc::channel();
+    let mut lines = Vec::new();
+    let mut sender = None;
+    let mut tx = Some(tx);
+    let driven = s
+        .drive_goal(&mut spec, &rx, &mut |line| {
+            eprintln!("{line}");
+            if let Some(tx) = tx.take() {
+                // The first plan is up: send the obstacle a little later.
+                let req = ObstacleRequest {
+                    toml: obstacle.clone(),
+                    source: "the test".into(),
+                    reply: Some(reply_tx.clone()),
+                };
+                sender = Some(std::thread::spawn(move || {
+                    std::thread::sleep(Duration::from_secs_f64(OBSTACLE_AFTER));
+                    tx.send(req).unwrap();
+                }));
+            }
+            lines.push(line);
+        })
+        .unwrap();
+    s.finish().unwrap();
+    stop.store(true, Ordering::SeqCst);
+    robot.join().unwrap();
+    sender.unwrap().join().unwrap();
+    let answer = reply_rx.recv_timeout(Duration::from_secs(1)).unwrap();
+    eprintln!("obstacle answer: {answer:?}");
+    assert!(answer.unwrap().contains("spliced"), "{lines:#?}");
+    assert_eq!(driven.stops, 0, "no stop to re-plan: {lines:#?}");
+    let obstacle_splices: Vec<_> = driven
+        .splices
+        .iter()
+        .filter(|r| matches!(r.reason, ReplanReason::Obstacle(_)))
+        .collect();
+    assert_eq!(obstacle_splices.len(), 1, "{lines:#?}");
+    let sp = obstacle_splices[0];
+    assert!(sp.speed > 0.1, "spliced while moving: {sp:?}");
+
+    // The robot's log: every control cycle's true pose.
+    let text = std::fs::read_to_string(&log).unwrap();
+    let _ = std::fs::remove_file(&log);
+    let mut rows = text.lines();
+    let head: Vec<&str> = rows.next().unwrap().split(',').collect();
+    let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
+    let (ct, cx, cy) = (col("t"), col("true_x"), col("true_y"));
+    let truth: Vec<[f64; 3]> = rows
+        .map(|r| {
+            let v: Vec<f64> = r
+                .split(',')
+                .map(|x| x.parse().unwrap_or(f64::NAN))
+                .collect();
+            [v[ct], v[cx], v[cy]]
+        })
+        .collect();
+    let mut all = map.clone();
+    all.keep_out.push(omnikin_plan::map::Obstacle {
+        shape: Shape::Circle {
+            centre: [circle.0, circle.1],
+            radius: circle.2,
+        },
+        line: 0,
+    });
+    let gap = truth
+        .iter()
+        .map(|p| all.clearance([p[1], p[2]]) - footprint)
+        .fold(f64::INFINITY, f64::min);
+    // The true speed over 0.1 s windows around the splice (±0.5 s of robot time).
+    let t_switch = sp.asked_robot_time + sp.t_s - sp.asked_at;
+    let near: Vec<&[f64; 3]> = truth
+        .iter()
+        .filter(|p| (p[0] - t_switch).abs() <= 0.6)
+        .collect();
+    let slowest = near
+        .windows(11)
+        .map(|w| {
+            let (a, b) = (w[0], w[10]);
+            (b[1] - a[1]).hypot(b[2] - a[2]) / (b[0] - a[0])
+        })
+        .fold(f64::INFINITY, f64::min);
+    let end = truth.last().unwrap();
+    let miss = (end[1] - GOAL[0]).hypot(end[2] - GOAL[1]);
+    eprintln!(
+        "splice at robot time {t_switch:.3} s at {:.3} m/s (reference): slowest true speed within 0.5 s of it {slowest:.3} m/s; smallest true gap to a shape {gap:.4} m; end {miss:.4} m from the goal; {} splices, max |estimate - reference| {:.4} m",
+        sp.speed,
+        driven.splices.len(),
+        driven.max_deviation
+    );
+    assert!(near.len() > 100, "the log covers the splice");
+    assert!(
+        slowest > 0.5 * sp.speed,
+        "slowed to {slowest} m/s at the splice"
+    );
+    assert!(gap > 0.0, "the true shell touched a shape (gap {gap} m)");
+    assert!(miss < 0.1, "ended {miss} m from the goal");
+}
+
+/// The robot held still for 1.5 s of robot time (`robot --sim --obstacle`: its wheels
+/// blocked) while its plan's reference runs on: the estimate drifts past the tolerance, and
+/// the run stops it and re-plans from the estimate (the runtime splices only on its
+/// reference, which the robot is away from: a splice there took the true shell 9.7 cm into a
+/// shape as the position loop pulled the robot back across a corner). The truth keeps off
+/// the shapes and the robot reaches the goal.
+#[test]
+fn a_drift_past_the_tolerance_stops_and_re_plans_from_the_estimate() {
+    let desc = RobotDescription::preset("sphere-omni").unwrap();
+    let (footprint, _) = footprint_radius(&desc);
+    let sim = SimOptions {
+        obstacle: Some((6.0, 1.5)),
+        ..SimOptions::default()
+    };
+    let log = std::env::temp_dir().join(format!(
+        "omnikin-drive-goal-drift-{}.csv",
+        std::process::id()
+    ));
+    let mut serve = ServeOptions::new("127.0.0.1:0");
+    serve.time_scale = TIME_SCALE;
+    serve.telemetry_rate = 50.0;
+    serve.max_time = Some(200.0);
+    serve.log = Some(log.clone());
+    let server = RobotServer::new(&desc, &sim, serve).unwrap();
+    let addr = server.local_addr().unwrap().to_string();
+    let stop = std::sync::Arc::new(AtomicBool::new(false));
+    let stop2 = stop.clone();
+    let robot = std::thread::spawn(move || server.run(Some(&stop2)).unwrap());
+    let mut map = Map::from_toml(MAP, "cluttered.toml").unwrap();
+    let moved = |p: &mut [f64; 2]| {
+        p[0] += SHIFT[0];
+        p[1] += SHIFT[1];
+    };
+    for o in map.keep_out.iter_mut().chain(map.keep_in.iter_mut()) {
+        match &mut o.shape {
+            Shape::Circle { centre, .. } => moved(centre),
+            Shape::Polygon(v) => v.iter_mut().for_each(moved),
+        }
+    }
+    let mut spec = GoalSpec {
+        map: map.clone(),
+        goal: GOAL,
+        heading: None,
+        clearance: footprint + MARGIN,
+        robot: RobotModel::from_description(&desc).unwrap(),
+        options: PlanOptions {
+            timing: Timing::TimeOptimal {
+                limits: MotionLimits {
+                    max_speed: 0.3,
+                    max_accel: 0.5,
+                    max_jerk: 5.0,
+                    max_yaw_rate: 1.0,
+                    max_yaw_accel: 2.0,
+                },
+            },
+            on_limit: OnLimit::Retime,
+            rate: 20.0,
+            initial_steer: InitialSteer::Aligned,
+        },
+        replan_tolerance: 0.1,
+    };
+    let mut s = Session::open(&addr, None, 20.0, 3.0, None, OptionNames::CLI).unwrap();
+    let (_tx, rx) = mpsc::channel::<ObstacleRequest>();
+    let mut lines = Vec::new();
+    let driven = s
+        .drive_goal(&mut spec, &rx, &mut |line| {
+            eprintln!("{line}");
+            lines.push(line);
+        })
+        .unwrap();
+    s.finish().unwrap();
+    stop.store(true, Ordering::SeqCst);
+    robot.join().unwrap();
+    let text = std::fs::read_to_string(&log).unwrap();
+    let _ = std::fs::remove_file(&log);
+    let mut rows = text.lines();
+    let head: Vec<&str> = rows.next().unwrap().split(',').collect();
+    let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
+    let (cx, cy) = (col("true_x"), col("true_y"));
+    let truth: Vec<[f64; 2]> = rows
+        .map(|r| {
+            let v: Vec<f64> = r
+                .split(',')
+                .map(|x| x.parse().unwrap_or(f64::NAN))
+                .collect();
+            [v[cx], v[cy]]
+        })
+        .collect();
+    let gap = truth
+        .iter()
+        .map(|p| map.clearance(*p) - footprint)
+        .fold(f64::INFINITY, f64::min);
+    let end = truth.last().unwrap();
+    let miss = (end[0] - GOAL[0]).hypot(end[1] - GOAL[1]);
+    eprintln!(
+        "drift: {} stop(s) to re-plan, max |estimate - reference| {:.4} m; smallest true gap {gap:.4} m; end {miss:.4} m from the goal",
+        driven.stops, driven.max_deviation
+    );
+    assert!(
+        lines.iter().any(|l| l.starts_with("re-plan (drift ")),
+        "{lines:#?}"
+    );
+    assert!(driven.splices.is_empty(), "{lines:#?}");
+    assert_eq!(driven.stops, 1, "{lines:#?}");
+    assert!(gap > 0.0, "the true shell touched a shape (gap {gap} m)");
+    assert!(miss < 0.01, "ended {miss} m from the goal");
+}
