@@ -13,4 +13,6 @@
 //! `robot_state_publisher` and RViz.
 
 pub mod msg;
+pub mod node;
+pub mod rmw;
 pub mod urdf;
