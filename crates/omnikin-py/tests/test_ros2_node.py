@@ -1,0 +1,181 @@
+"""`omnikin robot --sim --ros2` seen from an independent ROS 2 peer: a client on `eclipse-zenoh`
+(no ROS installed) that speaks rmw_zenoh's wire format, with messages encoded and decoded by
+`rosbags` and keys built from the RIHS01 hashes `rosbags` computes.
+
+The client listens on a loopback TCP port and the node connects to it (two Zenoh peers, no
+router). The binary must be built with the `ros2` feature (scripts/python-tests.sh does).
+"""
+
+import json
+import math
+import socket
+import subprocess
+import threading
+import time
+
+import pytest
+
+zenoh = pytest.importorskip("zenoh")
+from rosbags.typesys import Stores, get_typestore  # noqa: E402
+
+TS = get_typestore(Stores.ROS2_JAZZY)
+Twist = TS.types["geometry_msgs/msg/Twist"]
+Vector3 = TS.types["geometry_msgs/msg/Vector3"]
+
+
+def free_tcp_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def dds(type_name: str) -> str:
+    pkg, kind, name = type_name.split("/")
+    return f"{pkg}::{kind}::dds_::{name}_"
+
+
+def key(topic: str, type_name: str, domain: int = 0) -> str:
+    """rmw_zenoh's key of a topic: <domain>/<topic>/<dds type>/<RIHS01 hash>."""
+    return f"{domain}/{topic.strip('/')}/{dds(type_name)}/{TS.hash_rihs01(type_name)}"
+
+
+def attachment(seq: int) -> bytes:
+    """rmw_zenoh's (Jazzy) attachment, written with zenoh's own serializer."""
+    from zenoh.ext import Int64, z_serialize
+
+    head = z_serialize(
+        ("sequence_number", Int64(seq), "source_timestamp", Int64(time.time_ns()), "source_gid")
+    ).to_bytes()
+    return head + bytes(range(16))
+
+
+def yaw(q) -> float:
+    return 2.0 * math.atan2(q.z, q.w)
+
+
+def wrap(a: float) -> float:
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def test_a_simulated_kiwi_is_a_ros2_node_a_zenoh_client_drives(cli, tmp_path):
+    help_text = cli.run("robot", "--help").stdout
+    assert "--ros2" in help_text
+    port = free_tcp_port()
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"peer"')
+    conf.insert_json5("listen/endpoints", json.dumps([f"tcp/127.0.0.1:{port}"]))
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    client = zenoh.open(conf)
+    odom_key = key("/odom", "nav_msgs/msg/Odometry")
+    cmd_key = key("/cmd_vel", "geometry_msgs/msg/Twist")
+    odoms = []
+    lock = threading.Lock()
+
+    def on_odom(sample):
+        att = sample.attachment.to_bytes() if sample.attachment is not None else None
+        msg = TS.deserialize_cdr(sample.payload.to_bytes(), "nav_msgs/msg/Odometry")
+        with lock:
+            odoms.append((str(sample.key_expr), msg, att))
+
+    sub = client.declare_subscriber(odom_key, on_odom)
+    robot = subprocess.Popen(
+        [str(cli.path), "robot", "--sim", "--robot", "kiwi", "--ros2",
+         "--zenoh", f"tcp/127.0.0.1:{port}", "--max-time", "13"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        # The graph: the node, its odom publisher and its cmd_vel subscription, as rmw_zenoh's
+        # liveliness tokens.
+        tokens = []
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline:
+            tokens = [str(r.ok.key_expr) for r in client.liveliness().get("@ros2_lv/0/**") if r.ok]
+            if any("/MS/" in t for t in tokens) and any("/NN/" in t for t in tokens):
+                break
+            time.sleep(0.2)
+        assert robot.poll() is None, robot.communicate()
+        node = [t for t in tokens if "/NN/" in t]
+        assert len(node) == 1 and node[0].endswith("/NN/%/%/omnikin"), tokens
+        zid = node[0].split("/")[2]
+        odom_tok = f"/MP/%/%/omnikin/%odom/{dds('nav_msgs/msg/Odometry')}/{TS.hash_rihs01('nav_msgs/msg/Odometry')}/"
+        cmd_tok = f"/MS/%/%/omnikin/%cmd_vel/{dds('geometry_msgs/msg/Twist')}/{TS.hash_rihs01('geometry_msgs/msg/Twist')}/"
+        assert any(t.startswith(f"@ros2_lv/0/{zid}/0/") and odom_tok in t for t in tokens), tokens
+        assert any(cmd_tok in t for t in tokens), tokens
+        for topic, ty in [("/tf", "tf2_msgs/msg/TFMessage"),
+                          ("%joint_states", "sensor_msgs/msg/JointState"),
+                          ("/diagnostics", "diagnostic_msgs/msg/DiagnosticArray")]:
+            name = topic.replace("/", "%")
+            assert any(f"/MP/%/%/omnikin/{name}/{dds(ty)}/{TS.hash_rihs01(ty)}/" in t for t in tokens), (ty, tokens)
+
+        # cmd_vel: 7 s of one twist at 20 Hz, every other sample with rmw_zenoh's attachment,
+        # and one malformed sample (counted and dropped).
+        v = (0.2, 0.1, 0.3)
+        twist = Twist(linear=Vector3(x=v[0], y=v[1], z=0.0), angular=Vector3(x=0.0, y=0.0, z=v[2]))
+        cdr = bytes(TS.serialize_cdr(twist, "geometry_msgs/msg/Twist"))
+        pub = client.declare_publisher(cmd_key)
+        pub.put(b"\x00\x01\x00\x00\x01\x02")
+        start = time.monotonic()
+        i = 0
+        while time.monotonic() - start < 7.0:
+            i += 1
+            if i % 2:
+                pub.put(cdr, attachment=attachment(i))
+            else:
+                pub.put(cdr)
+            time.sleep(0.05)
+        # Silence: the node brings the robot to a controlled stop.
+        time.sleep(2.0)
+        with lock:
+            got = list(odoms)
+        out, err = robot.communicate(timeout=30)
+    finally:
+        if robot.poll() is None:
+            robot.kill()
+            robot.communicate()
+        sub.undeclare()
+        client.close()
+    assert robot.returncode == 0, err
+    summary = json.loads(out)
+    r = summary["ros2"]
+    assert r["bad_samples"] >= 1, r
+    assert r["cmd_vel"] >= 100 and 0 < r["cmd_vel_with_attachment"] < r["cmd_vel"], r
+    assert r["silence_stops"] >= 1, r
+
+    assert got and all(k == odom_key for k, _, _ in got)
+    # rmw_zenoh's attachment on every publication, the sequence counting up from 1.
+    seqs = []
+    for _, _, att in got:
+        assert att is not None and att.startswith(b"\x0fsequence_number") and len(att) == 76
+        seqs.append(int.from_bytes(att[16:24], "little", signed=True))
+    assert seqs[0] >= 1 and all(b > a for a, b in zip(seqs, seqs[1:]))
+    msgs = [m for _, m, _ in got]
+    assert all(m.header.frame_id == "odom" and m.child_frame_id == "base_link" for m in msgs)
+
+    def t(m) -> float:
+        return m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
+
+    # Steady motion: from 1 s after the robot reaches the commanded twist, 5 s.
+    moving = [m for m in msgs if abs(m.twist.twist.linear.x - v[0]) < 1e-3
+              and abs(m.twist.twist.angular.z - v[2]) < 1e-3]
+    assert moving, "the robot never reached the commanded twist"
+    t1 = t(moving[0]) + 1.0
+    window = [m for m in msgs if t1 <= t(m) <= t1 + 5.0]
+    # At the control rate (100 Hz): every cycle's odom arrives.
+    assert len(window) >= 0.9 * 100 * 5, len(window)
+    a, b = window[0], window[-1]
+    dt = t(b) - t(a)
+    assert abs(dt - 5.0) < 0.05, dt
+    # The integrated command: a constant robot-frame twist turns the displacement with the
+    # heading (exact closed form from the first pose's heading).
+    h0 = yaw(a.pose.pose.orientation)
+    dth = v[2] * dt
+    lx = (v[0] * math.sin(dth) - v[1] * (1 - math.cos(dth))) / v[2]
+    ly = (v[0] * (1 - math.cos(dth)) + v[1] * math.sin(dth)) / v[2]
+    ex = a.pose.pose.position.x + math.cos(h0) * lx - math.sin(h0) * ly
+    ey = a.pose.pose.position.y + math.sin(h0) * lx + math.cos(h0) * ly
+    err_pos = math.hypot(b.pose.pose.position.x - ex, b.pose.pose.position.y - ey)
+    assert err_pos < 0.01, (err_pos, (ex, ey), b.pose.pose.position)
+    assert abs(wrap(yaw(b.pose.pose.orientation) - h0 - dth)) < 0.01
+    # After cmd_vel fell silent: at rest.
+    last = msgs[-1].twist.twist
+    assert abs(last.linear.x) < 1e-3 and abs(last.linear.y) < 1e-3 and abs(last.angular.z) < 1e-3, last
