@@ -78,9 +78,21 @@ def test_a_simulated_kiwi_is_a_ros2_node_a_zenoh_client_drives(cli, tmp_path):
             odoms.append((str(sample.key_expr), msg, att))
 
     sub = client.declare_subscriber(odom_key, on_odom)
+    others = {"tf": [], "joint_states": [], "diagnostics": []}
+    types = {"tf": "tf2_msgs/msg/TFMessage", "joint_states": "sensor_msgs/msg/JointState",
+             "diagnostics": "diagnostic_msgs/msg/DiagnosticArray"}
+
+    def collect(name):
+        def on(sample):
+            m = TS.deserialize_cdr(sample.payload.to_bytes(), types[name])
+            with lock:
+                others[name].append(m)
+        return on
+
+    subs = [client.declare_subscriber(key(f"/{n}", ty), collect(n)) for n, ty in types.items()]
     robot = subprocess.Popen(
         [str(cli.path), "robot", "--sim", "--robot", "kiwi", "--ros2",
-         "--zenoh", f"tcp/127.0.0.1:{port}", "--max-time", "13"],
+         "--zenoh", f"tcp/127.0.0.1:{port}", "--max-time", "14"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )
     try:
@@ -127,6 +139,12 @@ def test_a_simulated_kiwi_is_a_ros2_node_a_zenoh_client_drives(cli, tmp_path):
         time.sleep(2.0)
         with lock:
             got = list(odoms)
+        # E-stop and clear: std_msgs/msg/Empty on estop and clear, seen on diagnostics.
+        empty = bytes(TS.serialize_cdr(TS.types["std_msgs/msg/Empty"](), "std_msgs/msg/Empty"))
+        client.put(key("/estop", "std_msgs/msg/Empty"), empty)
+        time.sleep(0.6)
+        client.put(key("/clear", "std_msgs/msg/Empty"), empty)
+        time.sleep(0.6)
         out, err = robot.communicate(timeout=30)
     finally:
         if robot.poll() is None:
@@ -140,6 +158,16 @@ def test_a_simulated_kiwi_is_a_ros2_node_a_zenoh_client_drives(cli, tmp_path):
     assert r["bad_samples"] >= 1, r
     assert r["cmd_vel"] >= 100 and 0 < r["cmd_vel_with_attachment"] < r["cmd_vel"], r
     assert r["silence_stops"] >= 1, r
+    assert r["estop_requests"] == 1 and r["clear_requests"] == 1, r
+
+    tf = others["tf"][-1].transforms[0]
+    assert (tf.header.frame_id, tf.child_frame_id) == ("odom", "base_link")
+    js = others["joint_states"][-1]
+    assert list(js.name) == ["wheel_1", "wheel_2", "wheel_3"] and len(js.position) == 3
+    levels = [(d.status[0].level, {kv.key: kv.value for kv in d.status[0].values}["mode"])
+              for d in others["diagnostics"]]
+    assert (2, "estop") in levels, levels
+    assert levels[-1][0] == 0 and levels[-1][1] != "estop", levels
 
     assert got and all(k == odom_key for k, _, _ in got)
     # rmw_zenoh's attachment on every publication, the sequence counting up from 1.
