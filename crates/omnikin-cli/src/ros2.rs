@@ -102,7 +102,7 @@ mod imp {
     }
 
     fn open_node(n: &NodeArgs) -> Result<Ros2Node> {
-        if !(n.cmd_timeout > 0.0) {
+        if n.cmd_timeout.is_nan() || n.cmd_timeout <= 0.0 {
             anyhow::bail!("--cmd-timeout must be > 0 s (got {})", n.cmd_timeout);
         }
         let node = Ros2Node::open(&options(n))?;

@@ -488,11 +488,13 @@ fn serve(
             cmd = Some((c, Instant::now()));
             stopping = false;
         }
+        // Each asked once per request, in three frames: the link is a datagram link, and
+        // both are idempotent (the e-stop's latch, the clear of a latch).
         let (estop, clear) = node.take_requests();
-        if estop {
+        for _ in 0..if estop { 3 } else { 0 } {
             s.send(&Message::EStop)?;
         }
-        if clear {
+        for _ in 0..if clear && !estop { 3 } else { 0 } {
             s.send(&Message::Clear)?;
         }
         let m = match cmd {
