@@ -207,3 +207,53 @@ def test_a_simulated_kiwi_is_a_ros2_node_a_zenoh_client_drives(cli, tmp_path):
     # After cmd_vel fell silent: at rest.
     last = msgs[-1].twist.twist
     assert abs(last.linear.x) < 1e-3 and abs(last.linear.y) < 1e-3 and abs(last.angular.z) < 1e-3, last
+
+
+def test_stamped_cmd_vel_in_a_namespace_and_domain(cli):
+    """--stamped: cmd_vel is geometry_msgs/msg/TwistStamped; --namespace and --domain move the
+    keys and tokens; the samples drive the robot (its summary counts them)."""
+    port = free_tcp_port()
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"peer"')
+    conf.insert_json5("listen/endpoints", json.dumps([f"tcp/127.0.0.1:{port}"]))
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    client = zenoh.open(conf)
+    robot = subprocess.Popen(
+        [str(cli.path), "robot", "--sim", "--robot", "mecanum", "--ros2", "--stamped",
+         "--namespace", "robot1", "--domain", "7", "--zenoh", f"tcp/127.0.0.1:{port}",
+         "--max-time", "4"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        ty = "geometry_msgs/msg/TwistStamped"
+        want = f"/MS/%/%robot1/omnikin/%robot1%cmd_vel/{dds(ty)}/{TS.hash_rihs01(ty)}/"
+        tokens = []
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and not any(want in t for t in tokens):
+            tokens = [str(r.ok.key_expr) for r in client.liveliness().get("@ros2_lv/7/**") if r.ok]
+            time.sleep(0.2)
+        assert any(want in t for t in tokens), tokens
+        Header = TS.types["std_msgs/msg/Header"]
+        Time = TS.types["builtin_interfaces/msg/Time"]
+        msg = TS.types[ty](
+            header=Header(stamp=Time(sec=1, nanosec=2), frame_id="base_link"),
+            twist=Twist(linear=Vector3(x=0.1, y=-0.1, z=0.0), angular=Vector3(x=0.0, y=0.0, z=0.0)),
+        )
+        cdr = bytes(TS.serialize_cdr(msg, ty))
+        pub = client.declare_publisher(key("/robot1/cmd_vel", ty, domain=7))
+        for i in range(20):
+            pub.put(cdr, attachment=attachment(i + 1))
+            time.sleep(0.05)
+        out, err = robot.communicate(timeout=30)
+    finally:
+        if robot.poll() is None:
+            robot.kill()
+            robot.communicate()
+        client.close()
+    assert robot.returncode == 0, err
+    summary = json.loads(out)
+    assert summary["ros2"]["cmd_vel"] == 20 and summary["ros2"]["cmd_vel_with_attachment"] == 20, summary["ros2"]
+    assert summary["ros2"]["bad_samples"] == 0
+    # It moved forward and right (robot frame), 0.1 m/s each way for about a second.
+    x, y = summary["pose"][0], summary["pose"][1]
+    assert x > 0.05 and y < -0.05, summary["pose"]
