@@ -257,3 +257,63 @@ def test_stamped_cmd_vel_in_a_namespace_and_domain(cli):
     # It moved forward and right (robot frame), 0.1 m/s each way for about a second.
     x, y = summary["pose"][0], summary["pose"][1]
     assert x > 0.05 and y < -0.05, summary["pose"]
+
+
+def test_ros2_connect_bridges_a_robot_on_the_link(cli):
+    """`omnikin ros2 --connect`: the node for a robot served elsewhere (here `robot --sim
+    --listen`), over the link; odom arrives at the robot's telemetry rate, cmd_vel moves it."""
+    port = free_tcp_port()
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        udp = s.getsockname()[1]
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"peer"')
+    conf.insert_json5("listen/endpoints", json.dumps([f"tcp/127.0.0.1:{port}"]))
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    client = zenoh.open(conf)
+    odoms = []
+    sub = client.declare_subscriber(
+        key("/odom", "nav_msgs/msg/Odometry"),
+        lambda s: odoms.append(TS.deserialize_cdr(s.payload.to_bytes(), "nav_msgs/msg/Odometry")),
+    )
+    robot = subprocess.Popen(
+        [str(cli.path), "robot", "--sim", "--robot", "kiwi", "--listen", f"127.0.0.1:{udp}",
+         "--max-time", "8"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    time.sleep(0.3)
+    bridge = subprocess.Popen(
+        [str(cli.path), "ros2", "--connect", f"127.0.0.1:{udp}", "--zenoh", f"tcp/127.0.0.1:{port}"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and not odoms:
+            time.sleep(0.1)
+        assert odoms, bridge.poll()
+        cdr = bytes(TS.serialize_cdr(
+            Twist(linear=Vector3(x=0.2, y=0.0, z=0.0), angular=Vector3(x=0.0, y=0.0, z=0.0)),
+            "geometry_msgs/msg/Twist"))
+        pub = client.declare_publisher(key("/cmd_vel", "geometry_msgs/msg/Twist"))
+        for _ in range(30):
+            pub.put(cdr)
+            time.sleep(0.05)
+        time.sleep(1.0)
+        n = len(odoms)
+        time.sleep(1.0)
+        rate = len(odoms) - n
+    finally:
+        bridge.send_signal(2)
+        try:
+            _, err = bridge.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            bridge.kill()
+            _, err = bridge.communicate()
+        robot.kill()
+        robot.communicate()
+        sub.undeclare()
+        client.close()
+    # The robot's default telemetry rate, 20 Hz.
+    assert 15 <= rate <= 25, rate
+    assert odoms[-1].pose.pose.position.x > 0.1, odoms[-1].pose.pose.position
+    assert '"cmd_vel":30' in err, err

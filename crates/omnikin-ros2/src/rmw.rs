@@ -373,4 +373,37 @@ mod tests {
         assert_eq!(Attachment::decode(&renamed), None);
         assert_ne!(gid("a"), gid("b"));
     }
+
+    #[test]
+    fn any_bytes_decode_or_are_refused_without_a_panic() {
+        // Every one-byte change of both layouts, and pseudo-random inputs of 0..100 bytes.
+        let a = Attachment {
+            sequence_number: 1,
+            source_timestamp: 2,
+            source_gid: [3; 16],
+        };
+        let mut bare = Vec::new();
+        bare.extend_from_slice(&1i64.to_le_bytes());
+        bare.extend_from_slice(&2i64.to_le_bytes());
+        bare.extend_from_slice(&[3; 16]);
+        assert_eq!(Attachment::decode(&bare), Some(a));
+        for base in [a.encode(), bare] {
+            for i in 0..base.len() {
+                for v in [0u8, 1, 0x0f, 0x7f, 0x80, 0xff] {
+                    let mut b = base.clone();
+                    b[i] = v;
+                    let _ = Attachment::decode(&b);
+                }
+            }
+        }
+        let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+        for _ in 0..20_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let n = (x % 100) as usize;
+            let b: Vec<u8> = (0..n).map(|i| (x >> (i % 8 * 8)) as u8).collect();
+            let _ = Attachment::decode(&b);
+        }
+    }
 }
