@@ -482,8 +482,8 @@ fn serve(
     let mut stopping = false;
     while !stop() {
         if let Some(c) = node.take_command() {
-            if cmd.is_none_or(|(_, at)| at.elapsed() >= timeout) {
-                next = Instant::now(); // a new motion: send at once
+            if cmd.is_none_or(|(old, at)| old != c || at.elapsed() >= timeout) {
+                next = Instant::now(); // a new motion or a changed one: send at once
             }
             cmd = Some((c, Instant::now()));
             stopping = false;
