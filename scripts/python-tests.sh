@@ -39,14 +39,17 @@ pip=("$tmp/venv/bin/pip" --disable-pip-version-check --quiet)
 # mcap + mcap-protobuf-support: test_mcap_logs.py reads `robot --mcap` files with the standard
 # readers, and runs docs/python.md's example, which builds a pandas DataFrame.
 # yourdfpy: test_urdf.py reads `omnikin urdf` with an independent URDF parser; rosbags:
-# test_ros2_messages.py re-makes the ROS 2 CDR fixture of crates/omnikin-ros2.
-"${pip[@]}" install pytest matplotlib mcap mcap-protobuf-support pandas yourdfpy rosbags \
-  || skip "cannot install pytest, matplotlib, mcap, mcap-protobuf-support, pandas, yourdfpy and rosbags from PyPI"
+# test_ros2_messages.py re-makes the ROS 2 CDR fixture of crates/omnikin-ros2. eclipse-zenoh:
+# test_ros2_node.py is a ROS 2 peer (rmw_zenoh's wire format) of `robot --sim --ros2`.
+"${pip[@]}" install pytest matplotlib mcap mcap-protobuf-support pandas yourdfpy rosbags eclipse-zenoh \
+  || skip "cannot install pytest, matplotlib, mcap, mcap-protobuf-support, pandas, yourdfpy, rosbags and eclipse-zenoh from PyPI"
 # --locked: the extension builds against the committed Cargo.lock, like every other crate.
 # The dev profile shares target/debug with `cargo test` (same settings, see Cargo.toml), so in CI
 # only the extension's own crates compile here (~15 s instead of a release build of everything).
 MATURIN_PEP517_ARGS="--locked --profile ${PYTHON_WHEEL_PROFILE:-dev}" "${pip[@]}" install ./crates/omnikin-py
-cargo build -p omnikin-cli --locked --quiet
+# With the ROS 2 node (feature ros2): Zenoh compiles here, not in the tests stage (docs/ros2.md
+# has its cost).
+cargo build -p omnikin-cli --features ros2 --locked --quiet
 # From another directory: the tests import the installed package, not the source tree.
 cd "$tmp"
 OMNIKIN_BIN="$root/target/debug/omnikin" MPLBACKEND=Agg \

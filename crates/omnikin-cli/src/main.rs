@@ -30,6 +30,7 @@ mod odometry;
 mod plan;
 mod robot;
 mod robot_args;
+mod ros2;
 mod shard;
 mod shell;
 mod sim;
@@ -134,6 +135,10 @@ enum Command {
     /// and drives it (dead-man teleop by keyboard or gamepad, e-stop, plan upload), relayed
     /// over the same link as `drive`. Prints the URL to open, with its per-start token.
     Console(console::ConsoleArgs),
+    /// The robot on a link as a native ROS 2 node over Zenoh (rmw_zenoh's keys, no ROS
+    /// installation): cmd_vel in; odom, tf, joint_states, imu, diagnostics out (docs/ros2.md;
+    /// needs the `ros2` cargo feature).
+    Ros2(ros2::Ros2Args),
     /// Convert an MCAP log (--mcap of simulate, odometry, robot, drive) to one CSV file per
     /// channel, or CSV logs back to MCAP.
     Convert(convert::ConvertArgs),
@@ -376,6 +381,7 @@ fn io_rules(c: &Command) -> anyhow::Result<()> {
             }
         }
         Command::Console(a) => inputs.extend(a.key.as_deref().map(|p| ("--key", p))),
+        Command::Ros2(a) => inputs.extend(a.key.as_deref().map(|p| ("--key", p))),
         Command::Convert(a) => {
             inputs.push(("IN", &a.input));
             files.extend(a.mcap.as_deref().map(|p| ("--mcap", p)));
@@ -435,6 +441,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Robot(a) => robot::run(&a),
         Command::Drive(a) => drive::run(&a),
         Command::Console(a) => console::run(&a),
+        Command::Ros2(a) => ros2::connect(&a),
         Command::Convert(a) => convert::run(&a),
         Command::Completions(a) => shell::completions(&a),
         Command::Man(a) => shell::man(&a),

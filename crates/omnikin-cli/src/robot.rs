@@ -13,6 +13,9 @@ pub fn run(a: &RobotArgs) -> Result<()> {
             "--sim is required: on a real robot the runtime runs in firmware (examples/firmware-cortex-m4)"
         );
     }
+    if a.ros2 {
+        return crate::ros2::robot(a);
+    }
     let desc = crate::kinematics::resolve_robot(&a.robot)?;
     let server = RobotServer::new(&desc, &a.sim_options(), a.serve_options())?;
     crate::output::catch_signals()?;

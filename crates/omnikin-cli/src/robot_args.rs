@@ -19,9 +19,10 @@ pub struct RobotArgs {
     /// [limits] become the runtime's motor limits.
     #[arg(long)]
     pub robot: String,
-    /// Where to serve the link: HOST:PORT (UDP, e.g. 127.0.0.1:7000) or serial:PATH[@BAUD].
-    #[arg(long, value_name = "ADDR")]
-    pub listen: String,
+    /// Where to serve the link: HOST:PORT (UDP, e.g. 127.0.0.1:7000) or serial:PATH[@BAUD]
+    /// [with --ros2: default 127.0.0.1:0, a free loopback port].
+    #[arg(long, value_name = "ADDR", required_unless_present = "ros2")]
+    pub listen: Option<String>,
     /// Plant disturbances: ideal (default), hardware, spin-slip, or a profile TOML file.
     #[arg(long, value_name = "PROFILE")]
     pub disturbances: Option<String>,
@@ -95,6 +96,14 @@ pub struct RobotArgs {
     /// refused, drive it with velocity commands; it falls if e-stopped).
     #[arg(long, value_enum, default_value_t = crate::sim_args::PlantKind::Kinematic)]
     pub plant: crate::sim_args::PlantKind,
+    /// Also be a ROS 2 node over Zenoh: cmd_vel in (through the runtime's limits and
+    /// watchdog); odom, tf, joint_states, imu, diagnostics out at the control rate
+    /// (docs/ros2.md; needs the `ros2` cargo feature).
+    #[arg(long)]
+    pub ros2: bool,
+    /// The ROS 2 node (with --ros2).
+    #[command(flatten)]
+    pub node: crate::ros2::NodeArgs,
 }
 
 /// `--obstacle AT:FOR`: 0 ≤ AT ≤ 10⁶ s, 0 < FOR ≤ 10⁶ s.
@@ -135,7 +144,7 @@ impl RobotArgs {
     /// How these flags serve it.
     pub fn serve_options(&self) -> ServeOptions {
         ServeOptions {
-            listen: self.listen.clone(),
+            listen: self.listen.clone().unwrap_or_else(|| "127.0.0.1:0".into()),
             key: self.key.clone(),
             insecure: self.insecure,
             telemetry_rate: self.telemetry_rate,

@@ -30,6 +30,9 @@
 //!   the sphere's dynamics, the balancing ballbot), built from [`sim_robot::SimOptions`];
 //!   [`robot_serve`]: the robot's side of the link that serves it (`omnikin robot --sim`,
 //!   Python's `omnikin.SimRobot`).
+//!
+//! * `ros2_node` (feature `ros2`): the robot as a native ROS 2 node over Zenoh, an operator of
+//!   the link like `drive` (`omnikin robot --sim --ros2`, `omnikin ros2 --connect`).
 
 pub mod actions;
 pub mod body_limits;
@@ -43,6 +46,8 @@ pub mod operator;
 pub mod plan_run;
 pub mod plan_upload;
 pub mod robot_serve;
+#[cfg(feature = "ros2")]
+pub mod ros2_node;
 pub mod sim_robot;
 pub mod telemetry_log;
 pub mod wire_plan;

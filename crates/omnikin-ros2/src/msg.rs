@@ -391,3 +391,34 @@ impl RosMessage for DiagnosticArray {
     const TYPE_HASH: &'static str =
         "RIHS01_5a8a36efb05fb25070fa0fb3810290c0e6cd4862b54a8fb975a1ee8dc55a333e";
 }
+
+/// `std_msgs/msg/Empty`: no fields. CDR writes the one byte every C++ ROS 2 type support
+/// writes for an empty structure (`structure_needs_at_least_one_field`, 0), so its payload is
+/// `00 01 00 00 00` (as `rosbags` writes it).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Empty {
+    /// Always 0; any value is accepted on reading.
+    pub structure_needs_at_least_one_field: u8,
+}
+
+impl RosMessage for Empty {
+    const MSGDEF: &'static str = "";
+    const TYPE_NAME: &'static str = "std_msgs/msg/Empty";
+    const TYPE_HASH: &'static str =
+        "RIHS01_20b625256f32d5dbc0d04fee44f43c41e51c70d3502f84b4a08e7a9c26a96312";
+}
+
+#[cfg(test)]
+mod empty_tests {
+    use super::*;
+
+    #[test]
+    fn an_empty_message_is_one_zero_byte_as_rosbags_writes_it() {
+        assert_eq!(to_cdr(&Empty::default()), [0, 1, 0, 0, 0]);
+        assert_eq!(
+            from_cdr::<Empty>(&[0, 1, 0, 0, 0]).ok(),
+            Some(Empty::default())
+        );
+        assert_eq!(Empty::dds_type_name(), "std_msgs::msg::dds_::Empty_");
+    }
+}

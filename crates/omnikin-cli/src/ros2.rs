@@ -1,0 +1,228 @@
+//! `omnikin robot --sim … --ros2` and `omnikin ros2 --connect ROBOT`: the robot as a native
+//! ROS 2 node over Zenoh (`omnikin_host::ros2_node`, cargo feature `ros2`). The simulated
+//! robot is served on a loopback link as `robot --sim` serves it, and the node is its operator,
+//! exactly as it is of a real robot with `ros2 --connect`.
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+
+use crate::args::finite_f64;
+
+/// The node's flags, shared by `robot --ros2` and `ros2`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct NodeArgs {
+    /// Zenoh endpoint to connect to: rmw_zenoh's router (`ros2 run rmw_zenoh_cpp rmw_zenohd`)
+    /// or a peer; repeat for more.
+    #[arg(
+        long = "zenoh",
+        value_name = "ENDPOINT",
+        default_value = "tcp/127.0.0.1:7447"
+    )]
+    pub zenoh: Vec<String>,
+    /// Zenoh endpoint to listen on, for peers that connect to this node [default:
+    /// tcp/127.0.0.1:0].
+    #[arg(long, value_name = "ENDPOINT")]
+    pub zenoh_listen: Vec<String>,
+    /// Also find Zenoh peers by UDP multicast scouting (off: only --zenoh and what the router
+    /// tells).
+    #[arg(long)]
+    pub zenoh_multicast: bool,
+    /// ROS domain id (ROS_DOMAIN_ID), 0-232.
+    #[arg(long, default_value_t = 0)]
+    pub domain: u32,
+    /// Namespace of the node and its relative topics (cmd_vel, odom, joint_states, imu,
+    /// estop, clear; tf and diagnostics stay absolute).
+    #[arg(long, default_value = "")]
+    pub namespace: String,
+    /// Node name.
+    #[arg(long, default_value = "omnikin")]
+    pub node_name: String,
+    /// cmd_vel is geometry_msgs/msg/TwistStamped (nav2's enable_stamped_cmd_vel) instead of
+    /// Twist.
+    #[arg(long)]
+    pub stamped: bool,
+    /// Largest rate of odom, tf, joint_states and imu, Hz (robot time) [default: every
+    /// telemetry frame; `robot --ros2` sends telemetry at the control rate].
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub ros2_rate: Option<f64>,
+    /// cmd_vel silence (s) after which the robot is brought to a controlled stop.
+    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub cmd_timeout: f64,
+}
+
+/// `omnikin ros2`.
+#[derive(clap::Args, Debug)]
+pub struct Ros2Args {
+    /// The robot's link address: HOST:PORT (UDP) or serial:PATH[@BAUD].
+    #[arg(long, value_name = "ROBOT_ADDR")]
+    pub connect: String,
+    /// Shared key file (the robot's): the session is authenticated.
+    #[arg(long, value_name = "FILE")]
+    pub key: Option<PathBuf>,
+    /// Heartbeat (command repeat) rate, Hz.
+    #[arg(long, default_value_t = 20.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub heartbeat: f64,
+    /// No telemetry for this long (s): the session is lost and the command fails.
+    #[arg(long, default_value_t = 2.0, allow_hyphen_values = true, value_parser = finite_f64)]
+    pub timeout: f64,
+    #[command(flatten)]
+    /// The node.
+    pub node: NodeArgs,
+}
+
+#[cfg(feature = "ros2")]
+mod imp {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    use anyhow::{Context, Result, anyhow};
+    use omnikin_host::names::OptionNames;
+    use omnikin_host::operator::Session;
+    use omnikin_host::robot_serve::RobotServer;
+    use omnikin_host::ros2_node::{self, Ros2Node, Ros2Options};
+
+    use super::{NodeArgs, Ros2Args};
+    use crate::robot_args::RobotArgs;
+
+    fn options(n: &NodeArgs) -> Ros2Options {
+        let mut o = Ros2Options::new();
+        o.connect.clone_from(&n.zenoh);
+        if !n.zenoh_listen.is_empty() {
+            o.listen.clone_from(&n.zenoh_listen);
+        }
+        o.multicast = n.zenoh_multicast;
+        o.domain = n.domain;
+        o.namespace.clone_from(&n.namespace);
+        o.node_name.clone_from(&n.node_name);
+        o.stamped = n.stamped;
+        o.rate = n.ros2_rate;
+        o.cmd_timeout = n.cmd_timeout;
+        o
+    }
+
+    fn open_node(n: &NodeArgs) -> Result<Ros2Node> {
+        if n.cmd_timeout.is_nan() || n.cmd_timeout <= 0.0 {
+            anyhow::bail!("--cmd-timeout must be > 0 s (got {})", n.cmd_timeout);
+        }
+        let node = Ros2Node::open(&options(n))?;
+        let (cmd, odom) = node.keys();
+        let i = node.info();
+        omnikin_io::errln!(
+            "ros2: node {}{}{} on domain {} (zenoh {}, connecting to {}): cmd_vel on {cmd}, odom on {odom}",
+            i.namespace,
+            if i.namespace.ends_with('/') { "" } else { "/" },
+            i.name,
+            i.domain,
+            i.zid,
+            n.zenoh.join(", ")
+        );
+        Ok(node)
+    }
+
+    /// `robot --sim … --ros2`.
+    pub fn robot(a: &RobotArgs) -> Result<()> {
+        let desc = crate::kinematics::resolve_robot(&a.robot)?;
+        let mut serve = a.serve_options();
+        // The node publishes at the control rate unless --ros2-rate says otherwise.
+        let control = a.rate.unwrap_or(100.0);
+        serve.telemetry_rate = a.node.ros2_rate.unwrap_or(control).max(a.telemetry_rate);
+        let key = serve.key.clone();
+        let server = RobotServer::new(&desc, &a.sim_options(), serve)?;
+        let addr = server
+            .local_addr()
+            .context("--ros2 needs a UDP --listen address (the node reaches the robot there)")?;
+        let mut node = open_node(&a.node)?;
+        crate::output::catch_signals()?;
+        let stop = Arc::new(AtomicBool::new(false));
+        let done = Arc::new(AtomicBool::new(false));
+        let (stop2, done2) = (stop.clone(), done.clone());
+        let robot = std::thread::spawn(move || {
+            let r = server.run(Some(&stop2));
+            done2.store(true, Ordering::SeqCst);
+            r
+        });
+        let local = if addr.ip().is_unspecified() {
+            std::net::SocketAddr::from(([127, 0, 0, 1], addr.port()))
+        } else {
+            addr
+        };
+        let bridged = Session::open(
+            &local.to_string(),
+            key.as_deref(),
+            20.0,
+            2.0,
+            None,
+            OptionNames::CLI,
+        )
+        .and_then(|mut s| ros2_node::run(&mut s, &mut node, &|| done.load(Ordering::SeqCst)));
+        stop.store(true, Ordering::SeqCst);
+        let served = robot
+            .join()
+            .map_err(|_| anyhow!("the simulated robot's thread panicked"))??;
+        if let Err(e) = bridged
+            && served.interrupted.is_none()
+        {
+            return Err(e);
+        }
+        let mut summary = served.summary;
+        if let Some(m) = summary.as_object_mut() {
+            m.insert("ros2".into(), serde_json::to_value(node.counters)?);
+        }
+        crate::outln!("{summary}")?;
+        match served.interrupted {
+            Some(sig) => Err(sig.into()),
+            None => Ok(()),
+        }
+    }
+
+    /// `ros2 --connect`.
+    pub fn connect(a: &Ros2Args) -> Result<()> {
+        let mut s = Session::open(
+            &a.connect,
+            a.key.as_deref(),
+            a.heartbeat,
+            a.timeout,
+            None,
+            OptionNames::CLI,
+        )?;
+        let mut node = open_node(&a.node)?;
+        crate::output::catch_signals()?;
+        let r = ros2_node::run(&mut s, &mut node, &|| false);
+        omnikin_io::errln!(
+            "ros2: {}",
+            serde_json::to_string(&node.counters).unwrap_or_default()
+        );
+        r.map(|_| ())
+    }
+}
+
+#[cfg(not(feature = "ros2"))]
+mod imp {
+    use anyhow::{Result, bail};
+
+    use super::Ros2Args;
+    use crate::robot_args::RobotArgs;
+
+    const MISSING: &str = "this omnikin was built without the ROS 2 node: build it with `cargo build -p omnikin-cli --features ros2` (or `cargo install … --features ros2`)";
+
+    pub fn robot(_: &RobotArgs) -> Result<()> {
+        bail!("--ros2: {MISSING}")
+    }
+
+    pub fn connect(_: &Ros2Args) -> Result<()> {
+        bail!("ros2: {MISSING}")
+    }
+}
+
+/// `robot --sim … --ros2`: the simulated robot and its node until `--max-time` or a signal;
+/// the robot's JSON summary (with the node's counters under `ros2`) on stdout.
+pub fn robot(a: &crate::robot_args::RobotArgs) -> Result<()> {
+    imp::robot(a)
+}
+
+/// `ros2 --connect ROBOT_ADDR`: the node for a robot on the link, until a signal or the
+/// session is lost.
+pub fn connect(a: &Ros2Args) -> Result<()> {
+    imp::connect(a)
+}

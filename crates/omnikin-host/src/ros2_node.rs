@@ -1,0 +1,543 @@
+//! The robot as a native ROS 2 node over Zenoh (feature `ros2`): `omnikin robot --sim --ros2`
+//! and `omnikin ros2 --connect`. No ROS installation: the node writes what rmw_zenoh writes
+//! ([`omnikin_ros2::rmw`]: key expressions, liveliness tokens, attachments) with the `zenoh`
+//! crate, so `ros2 topic list`, `ros2 topic echo /odom`, nav2 and RViz on a machine running
+//! rmw_zenoh see it as a node.
+//!
+//! The node is an operator of the robot's link ([`crate::operator::Session`]): `cmd_vel`
+//! becomes the link's robot-frame velocity command, which the robot's runtime holds to its
+//! limits and watchdog; when `cmd_vel` falls silent for [`Ros2Options::cmd_timeout`] the node
+//! sends a controlled stop (and if the node itself dies, the robot's watchdog stops the robot).
+//! Each telemetry frame (at the rate [`Ros2Options::rate`] at most) becomes, in the node's
+//! namespace:
+//!
+//! | topic | type | what |
+//! |---|---|---|
+//! | `cmd_vel` (in) | `geometry_msgs/msg/Twist` (`TwistStamped` with `stamped`) | robot frame (`base_link`): `linear.x`, `linear.y` m/s, `angular.z` rad/s |
+//! | `odom` | `nav_msgs/msg/Odometry` | `odom` → `base_link`: the estimate, the measured twist, the fusion filter's covariance |
+//! | `tf` | `tf2_msgs/msg/TFMessage` | `odom` → `base_link` |
+//! | `joint_states` | `sensor_msgs/msg/JointState` | `wheel_i`, `steer_i`: encoder angles, commanded rates |
+//! | `imu` | `sensor_msgs/msg/Imu` | gyro and accelerometer, when the robot sends them |
+//! | `diagnostics` | `diagnostic_msgs/msg/DiagnosticArray` | mode and faults, at 1 Hz and on every change |
+//! | `estop`, `clear` (in) | `std_msgs/msg/Empty` | any sample: latch the e-stop / clear it (topics, not `std_srvs/srv/Trigger` services: `docs/ros2.md`) |
+//!
+//! Stamps are the robot's clock mapped once onto the Unix epoch at the first telemetry frame
+//! (so differences are exact robot time; with `--time-scale` other than 1 they drift from the
+//! wall clock). An incoming sample is read with or without rmw_zenoh's attachment; one that
+//! does not decode (or is larger than [`MAX_SAMPLE`]) is counted and dropped.
+
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use anyhow::{Result, anyhow, bail};
+use omnikin::link::{Estimate, Message, RobotInfo, Telemetry};
+use omnikin::runtime::{Frame, Mode};
+use omnikin_ros2::msg::{
+    DiagnosticArray, Empty, Imu, JointState, Odometry, TfMessage, Time, Twist, TwistStamped,
+    from_cdr, to_cdr,
+};
+use omnikin_ros2::node::{self as conv, Frames};
+use omnikin_ros2::rmw::{Attachment, Entity, NodeInfo, Qos, gid, topic_key};
+use zenoh::Wait;
+use zenoh::handlers::{RingChannel, RingChannelHandler};
+use zenoh::liveliness::LivelinessToken;
+use zenoh::pubsub::{Publisher, Subscriber};
+use zenoh::sample::Sample;
+
+use crate::operator::Session;
+
+/// The largest incoming sample decoded, bytes (a `TwistStamped` with a 4 KiB `frame_id`);
+/// larger ones are counted as bad and dropped unread.
+pub const MAX_SAMPLE: usize = 4096;
+
+/// Samples a subscription holds between two reads (the oldest are dropped first).
+const QUEUE: usize = 16;
+
+/// The node's options (`--zenoh`, `--zenoh-listen`, `--domain`, `--namespace`, `--stamped`,
+/// `--ros2-rate`).
+#[derive(Clone, Debug)]
+pub struct Ros2Options {
+    /// Zenoh endpoints to connect to (a router or a peer), e.g. `tcp/127.0.0.1:7447`.
+    pub connect: Vec<String>,
+    /// Zenoh endpoints to listen on (other peers connect here).
+    pub listen: Vec<String>,
+    /// Find peers by UDP multicast scouting too (off: only `connect`, and the peers a router
+    /// tells of).
+    pub multicast: bool,
+    /// ROS domain id (`ROS_DOMAIN_ID`), 0–232.
+    pub domain: u32,
+    /// Namespace of the node and its relative topics (`""`: none).
+    pub namespace: String,
+    /// Node name.
+    pub node_name: String,
+    /// `cmd_vel` is `geometry_msgs/msg/TwistStamped` (ROS 2 Jazzy's nav2 option
+    /// `enable_stamped_cmd_vel`) instead of `Twist`.
+    pub stamped: bool,
+    /// Largest publication rate of `odom`, `tf`, `joint_states`, `imu`, Hz (robot time);
+    /// `None`: every telemetry frame.
+    pub rate: Option<f64>,
+    /// `cmd_vel` silence after which the node sends a controlled stop, s.
+    pub cmd_timeout: f64,
+}
+
+impl Ros2Options {
+    /// The defaults: connect to `tcp/127.0.0.1:7447` (rmw_zenoh's router), listen on a free
+    /// loopback port, no multicast, domain 0, no namespace, node `omnikin`, `Twist`, every
+    /// telemetry frame, 0.5 s command timeout.
+    pub fn new() -> Self {
+        Ros2Options {
+            connect: vec!["tcp/127.0.0.1:7447".into()],
+            listen: vec!["tcp/127.0.0.1:0".into()],
+            multicast: false,
+            domain: 0,
+            namespace: String::new(),
+            node_name: "omnikin".into(),
+            stamped: false,
+            rate: None,
+            cmd_timeout: 0.5,
+        }
+    }
+}
+
+impl Default for Ros2Options {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// What the node counted (the `ros2` object of the commands' JSON summary).
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct Ros2Counters {
+    /// `cmd_vel` samples taken.
+    pub cmd_vel: u64,
+    /// Of those, with rmw_zenoh's attachment.
+    pub cmd_vel_with_attachment: u64,
+    /// Incoming samples dropped: not CDR of the type, too large, or not finite.
+    pub bad_samples: u64,
+    /// Controlled stops sent after `cmd_vel` fell silent.
+    pub silence_stops: u64,
+    /// `odom` messages published.
+    pub odom: u64,
+    /// E-stops and clears asked on the `estop` and `clear` topics.
+    pub estop_requests: u64,
+    /// Clears asked.
+    pub clear_requests: u64,
+}
+
+struct Pub {
+    publisher: Publisher<'static>,
+    gid: [u8; 16],
+    seq: i64,
+    _token: LivelinessToken,
+}
+
+impl Pub {
+    fn put(&mut self, bytes: Vec<u8>) -> Result<()> {
+        self.seq += 1;
+        let a = Attachment {
+            sequence_number: self.seq,
+            source_timestamp: i64::try_from(unix_ns()).unwrap_or(i64::MAX),
+            source_gid: self.gid,
+        };
+        self.publisher
+            .put(bytes)
+            .attachment(a.encode())
+            .wait()
+            .map_err(|e| anyhow!("zenoh: cannot publish: {e}"))
+    }
+}
+
+struct Sub {
+    subscriber: Subscriber<RingChannelHandler<Sample>>,
+    _token: LivelinessToken,
+}
+
+/// The node: a Zenoh session, its publishers and subscriptions, and their liveliness tokens.
+pub struct Ros2Node {
+    session: zenoh::Session,
+    info: NodeInfo,
+    _node_token: LivelinessToken,
+    next_id: u32,
+    options: Ros2Options,
+    odom: Pub,
+    tf: Pub,
+    joints: Pub,
+    imu: Option<Pub>,
+    diag: Pub,
+    cmd_vel: Sub,
+    estop: Sub,
+    clear: Sub,
+    /// What the node counted.
+    pub counters: Ros2Counters,
+}
+
+fn unix_ns() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
+}
+
+fn zerr(what: &str) -> impl FnOnce(zenoh::Error) -> anyhow::Error + '_ {
+    move |e| anyhow!("zenoh: {what}: {e}")
+}
+
+impl Ros2Node {
+    /// Opens the Zenoh session (peer mode) and declares the node, its publishers and its
+    /// subscriptions with their liveliness tokens.
+    ///
+    /// # Errors
+    /// A bad endpoint or domain, a listen endpoint that cannot be bound.
+    pub fn open(o: &Ros2Options) -> Result<Self> {
+        if o.domain > 232 {
+            bail!("--domain {}: a ROS domain id is 0 to 232", o.domain);
+        }
+        if let Some(r) = o.rate
+            && !(r.is_finite() && r > 0.0)
+        {
+            bail!("--ros2-rate must be > 0 Hz (got {r})");
+        }
+        if !o
+            .node_name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_')
+            || o.node_name.is_empty()
+        {
+            bail!("node name {:?}: letters, digits and _ only", o.node_name);
+        }
+        let ns_ok = o
+            .namespace
+            .split('/')
+            .all(|p| p.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'));
+        if !ns_ok {
+            bail!(
+                "--namespace {:?}: names of letters, digits and _ separated by /",
+                o.namespace
+            );
+        }
+        let mut c = zenoh::Config::default();
+        let json = |v: &[String]| serde_json::to_string(v).unwrap_or_else(|_| "[]".into());
+        c.insert_json5("mode", "\"peer\"")
+            .and_then(|_| c.insert_json5("connect/endpoints", &json(&o.connect)))
+            .and_then(|_| c.insert_json5("listen/endpoints", &json(&o.listen)))
+            .and_then(|_| {
+                c.insert_json5(
+                    "scouting/multicast/enabled",
+                    if o.multicast { "true" } else { "false" },
+                )
+            })
+            .map_err(|e| anyhow!("--zenoh: {e}"))?;
+        let session = zenoh::open(c)
+            .wait()
+            .map_err(zerr("cannot open a session"))?;
+        let info = NodeInfo::new(
+            o.domain,
+            session.zid().to_string(),
+            &o.namespace,
+            &o.node_name,
+        );
+        let node_token = session
+            .liveliness()
+            .declare_token(info.node_token())
+            .wait()
+            .map_err(zerr("cannot declare the node"))?;
+        let mut next_id = 1;
+        let publisher = |topic: &str, token: String, key: String| -> Result<Pub> {
+            let publisher = session.declare_publisher(key).wait().map_err(zerr(topic))?;
+            let t = session
+                .liveliness()
+                .declare_token(token.clone())
+                .wait()
+                .map_err(zerr(topic))?;
+            Ok(Pub {
+                publisher,
+                gid: gid(&token),
+                seq: 0,
+                _token: t,
+            })
+        };
+        macro_rules! declare_pub {
+            ($ty:ty, $topic:expr) => {{
+                let topic = info.resolve($topic);
+                let id = next_id;
+                next_id += 1;
+                publisher(
+                    $topic,
+                    info.entity_token::<$ty>(id, Entity::Publisher, &topic, Qos::KEEP_LAST_10),
+                    topic_key::<$ty>(o.domain, &topic),
+                )?
+            }};
+        }
+        let odom = declare_pub!(Odometry, "odom");
+        let tf = declare_pub!(TfMessage, "/tf");
+        let joints = declare_pub!(JointState, "joint_states");
+        let diag = declare_pub!(DiagnosticArray, "/diagnostics");
+        let subscribe = |topic: &str, token: String, key: String| -> Result<Sub> {
+            let subscriber = session
+                .declare_subscriber(key)
+                .with(RingChannel::new(QUEUE))
+                .wait()
+                .map_err(zerr(topic))?;
+            let t = session
+                .liveliness()
+                .declare_token(token)
+                .wait()
+                .map_err(zerr(topic))?;
+            Ok(Sub {
+                subscriber,
+                _token: t,
+            })
+        };
+        macro_rules! declare_sub {
+            ($ty:ty, $topic:expr) => {{
+                let topic = info.resolve($topic);
+                let id = next_id;
+                next_id += 1;
+                subscribe(
+                    $topic,
+                    info.entity_token::<$ty>(id, Entity::Subscription, &topic, Qos::KEEP_LAST_10),
+                    topic_key::<$ty>(o.domain, &topic),
+                )?
+            }};
+        }
+        let cmd_vel = if o.stamped {
+            declare_sub!(TwistStamped, "cmd_vel")
+        } else {
+            declare_sub!(Twist, "cmd_vel")
+        };
+        let estop = declare_sub!(Empty, "estop");
+        let clear = declare_sub!(Empty, "clear");
+        Ok(Ros2Node {
+            session,
+            info,
+            _node_token: node_token,
+            next_id,
+            options: o.clone(),
+            odom,
+            tf,
+            joints,
+            imu: None,
+            diag,
+            cmd_vel,
+            estop,
+            clear,
+            counters: Ros2Counters::default(),
+        })
+    }
+
+    /// The node's identity: domain, Zenoh session id, namespace, name.
+    pub fn info(&self) -> &NodeInfo {
+        &self.info
+    }
+
+    /// The keys the node's entities use, for the log line: `cmd_vel`'s and `odom`'s.
+    pub fn keys(&self) -> (String, String) {
+        (
+            self.cmd_vel.subscriber.key_expr().to_string(),
+            self.odom.publisher.key_expr().to_string(),
+        )
+    }
+
+    /// Takes the newest valid `cmd_vel` command of those received since the last call
+    /// (`[vx, vy, yaw_rate]`, robot frame, m/s and rad/s); the others are counted.
+    pub fn take_command(&mut self) -> Option<[f64; 3]> {
+        let mut newest = None;
+        while let Ok(Some(s)) = self.cmd_vel.subscriber.try_recv() {
+            let bytes = s.payload().to_bytes();
+            let twist = if bytes.len() > MAX_SAMPLE {
+                None
+            } else if self.options.stamped {
+                from_cdr::<TwistStamped>(&bytes).ok().map(|t| t.twist)
+            } else {
+                from_cdr::<Twist>(&bytes).ok()
+            };
+            match twist.as_ref().and_then(conv::command) {
+                Some(c) => {
+                    self.counters.cmd_vel += 1;
+                    if s.attachment()
+                        .is_some_and(|a| Attachment::decode(&a.to_bytes()).is_some())
+                    {
+                        self.counters.cmd_vel_with_attachment += 1;
+                    }
+                    newest = Some(c);
+                }
+                None => self.counters.bad_samples += 1,
+            }
+        }
+        newest
+    }
+
+    /// Whether a sample arrived on `estop` (then `clear`) since the last call.
+    fn take_requests(&mut self) -> (bool, bool) {
+        let drain = |s: &Sub| {
+            let mut any = false;
+            while let Ok(Some(_)) = s.subscriber.try_recv() {
+                any = true;
+            }
+            any
+        };
+        let e = drain(&self.estop);
+        let c = drain(&self.clear);
+        self.counters.estop_requests += u64::from(e);
+        self.counters.clear_requests += u64::from(c);
+        (e, c)
+    }
+
+    /// Publishes `odom`, `tf`, `joint_states` and (when the telemetry carries one) `imu` of
+    /// `t` stamped `stamp`; `steer`: the robot has steer motors.
+    ///
+    /// # Errors
+    /// Zenoh refusing a publication.
+    pub fn publish(
+        &mut self,
+        t: &Telemetry,
+        e: Option<&Estimate>,
+        steer: bool,
+        stamp: Time,
+    ) -> Result<()> {
+        let frames = Frames::default();
+        self.odom
+            .put(to_cdr(&conv::odometry(t, e, stamp, &frames)))?;
+        self.counters.odom += 1;
+        self.tf.put(to_cdr(&conv::tf(t, stamp, &frames)))?;
+        self.joints
+            .put(to_cdr(&conv::joint_states(t, steer, stamp)))?;
+        if conv::has_imu(t) {
+            if self.imu.is_none() {
+                self.imu = Some(self.declare_imu()?);
+            }
+            if let Some(p) = self.imu.as_mut() {
+                p.put(to_cdr(&conv::imu(t, stamp, &frames)))?;
+            }
+        }
+        Ok(())
+    }
+
+    fn declare_imu(&mut self) -> Result<Pub> {
+        let topic = self.info.resolve("imu");
+        let id = self.next_id;
+        self.next_id += 1;
+        let token = self
+            .info
+            .entity_token::<Imu>(id, Entity::Publisher, &topic, Qos::KEEP_LAST_10);
+        let publisher = self
+            .session
+            .declare_publisher(topic_key::<Imu>(self.options.domain, &topic))
+            .wait()
+            .map_err(zerr("imu"))?;
+        let t = self
+            .session
+            .liveliness()
+            .declare_token(token.clone())
+            .wait()
+            .map_err(zerr("imu"))?;
+        Ok(Pub {
+            publisher,
+            gid: gid(&token),
+            seq: 0,
+            _token: t,
+        })
+    }
+
+    /// Publishes `diagnostics` of `t`.
+    ///
+    /// # Errors
+    /// Zenoh refusing a publication.
+    pub fn publish_diagnostics(&mut self, t: &Telemetry, stamp: Time) -> Result<()> {
+        let name = format!("{}: robot", self.options.node_name);
+        self.diag.put(to_cdr(&conv::diagnostics(t, &name, stamp)))
+    }
+}
+
+/// Runs the node on an operator session until `stop()` holds or the session fails:
+/// handshake, then `cmd_vel` → velocity commands (a controlled stop after
+/// [`Ros2Options::cmd_timeout`] of silence), telemetry → topics. Leaves the session with a
+/// stop and `Bye` on every exit.
+///
+/// # Errors
+/// The session's (handshake, lost link, signal) and Zenoh's.
+pub fn run(s: &mut Session, node: &mut Ros2Node, stop: &dyn Fn() -> bool) -> Result<RobotInfo> {
+    let info = s.hello()?;
+    let r = serve(s, node, &info, stop);
+    if r.is_err() && s.op.confirmed() {
+        let _ = s.send(&Message::Stop);
+    }
+    let f = s.finish();
+    r.and(f).map(|_| info)
+}
+
+fn serve(
+    s: &mut Session,
+    node: &mut Ros2Node,
+    info: &RobotInfo,
+    stop: &dyn Fn() -> bool,
+) -> Result<()> {
+    let steer = info.kind.steerable();
+    let timeout = Duration::try_from_secs_f64(node.options.cmd_timeout)
+        .map_err(|_| anyhow!("command timeout {} s", node.options.cmd_timeout))?;
+    let period_us = node.options.rate.map(|r| (1e6 / r) as u64);
+    let mut cmd: Option<([f64; 3], Instant)> = None;
+    let mut next = Instant::now();
+    let mut offset_ns: Option<i128> = None;
+    let mut last_pub: Option<u64> = None;
+    let mut last_diag: Option<(u64, Mode, u16)> = None;
+    let mut stopping = false;
+    while !stop() {
+        if let Some(c) = node.take_command() {
+            if cmd.is_none_or(|(old, at)| old != c || at.elapsed() >= timeout) {
+                next = Instant::now(); // a new motion or a changed one: send at once
+            }
+            cmd = Some((c, Instant::now()));
+            stopping = false;
+        }
+        // Each asked once per request, in three frames: the link is a datagram link, and
+        // both are idempotent (the e-stop's latch, the clear of a latch).
+        let (estop, clear) = node.take_requests();
+        for _ in 0..if estop { 3 } else { 0 } {
+            s.send(&Message::EStop)?;
+        }
+        for _ in 0..if clear && !estop { 3 } else { 0 } {
+            s.send(&Message::Clear)?;
+        }
+        let m = match cmd {
+            Some((c, at)) if at.elapsed() < timeout => Message::SetVelocity {
+                frame: Frame::Robot,
+                vx: c[0] as f32,
+                vy: c[1] as f32,
+                yaw_rate: c[2] as f32,
+            },
+            Some(_) => {
+                cmd = None;
+                stopping = true;
+                node.counters.silence_stops += 1;
+                next = Instant::now();
+                Message::Stop
+            }
+            None if stopping => Message::Stop,
+            None => Message::Heartbeat,
+        };
+        let fresh = s.beat(&mut next, &m)?;
+        s.alive()?;
+        let Some(t) = s.latest.filter(|_| fresh) else {
+            continue;
+        };
+        if stopping && matches!(t.mode, Mode::Idle | Mode::EStop) {
+            stopping = false;
+        }
+        let off =
+            *offset_ns.get_or_insert_with(|| i128::from(unix_ns()) - i128::from(t.time_us) * 1000);
+        let ns = u64::try_from(off + i128::from(t.time_us) * 1000).unwrap_or(0);
+        let stamp = conv::stamp_ns(ns);
+        if period_us.is_none_or(|p| last_pub.is_none_or(|l| t.time_us >= l.saturating_add(p))) {
+            let e = s.estimate.filter(|e| e.time_us == t.time_us);
+            node.publish(&t, e.as_ref(), steer, stamp)?;
+            last_pub = Some(t.time_us);
+        }
+        let due = last_diag.is_none_or(|(at, mode, faults)| {
+            t.time_us >= at.saturating_add(1_000_000) || mode != t.mode || faults != t.faults.0
+        });
+        if due {
+            node.publish_diagnostics(&t, stamp)?;
+            last_diag = Some((t.time_us, t.mode, t.faults.0));
+        }
+    }
+    Ok(())
+}
