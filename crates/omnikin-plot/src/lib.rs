@@ -1,5 +1,6 @@
 //! omnikin's figures, for every front end: the trajectory figures of plans, simulations and
-//! evaluations in the Sphere paper's style ([`figures`]), the identification residuals
+//! evaluations in the Sphere paper's style ([`figures`]), a plan's path, wheel and steer rates
+//! ([`plan`]), the odometry's path and heading ([`odometry`]), the identification residuals
 //! ([`identify`]), and the drawing helpers beneath them.
 //!
 //! The helpers (pure Rust, `plotters` SVG backend, no system fonts, the DejaVu Sans of
@@ -21,6 +22,7 @@ mod file;
 pub mod identify;
 mod legend;
 pub mod odometry;
+pub mod plan;
 mod overlay;
 pub mod ticks;
 

@@ -8,7 +8,6 @@
 //! limit.
 
 mod args;
-mod figure;
 mod goal;
 mod request;
 pub(crate) mod setup;

@@ -10,7 +10,7 @@ use omnikin_plan::planner::{Limiter, MoveKind, Planned};
 use omnikin_plan::{Plan, Quantity, RobotModel};
 
 use super::args::{Common, Format};
-use super::figure::plan_figure;
+use omnikin_plot::plan::plan_figure;
 
 /// Writes the plan, the figure and the summary.
 pub(super) fn finish(

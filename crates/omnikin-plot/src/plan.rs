@@ -9,11 +9,15 @@ use anyhow::Result;
 use omnikin_plan::map::{Map, Shape};
 use omnikin_plan::{Plan, RobotModel};
 
-use crate::plot::{self, Arrow, PALETTE, Series};
+use crate::{Arrow, PALETTE, Series};
 
-/// Draws the plan: the path with direction arrows (left), wheel rates over time (top right),
-/// steer rates (robots with steering) or speed and yaw rate (bottom right).
-pub(super) fn plan_figure(
+/// Draws the plan to `svg` (.svg, .png or .pdf; errors name `flag`) under `title`: the path
+/// with direction arrows and `map`'s shapes (left), wheel rates over time (top right), steer
+/// rates (robots with steering) or speed and yaw rate (bottom right).
+///
+/// # Errors
+/// An unknown extension or a file that cannot be written.
+pub fn plan_figure(
     flag: &str,
     svg: &FsPath,
     title: &str,
@@ -21,7 +25,7 @@ pub(super) fn plan_figure(
     robot: &RobotModel,
     map: Option<&Map>,
 ) -> Result<()> {
-    plot::svg_file(flag, svg, (1300, 640), |root| {
+    crate::svg_file(flag, svg, (1300, 640), |root| {
         draw_plan(root, title, plan, robot, map)
     })
 }
@@ -55,17 +59,17 @@ fn map_outlines(map: &Map) -> Vec<Series> {
 }
 
 fn draw_plan(
-    root: &plot::Area,
+    root: &crate::Area,
     title: &str,
     plan: &Plan,
     robot: &RobotModel,
     map: Option<&Map>,
 ) -> Result<()> {
     use plotters::prelude::*;
-    root.fill(&WHITE).map_err(plot::draw_err)?;
+    root.fill(&WHITE).map_err(crate::draw_err)?;
     let root = root
-        .titled(&crate::plot::svg_text(title), ("sans-serif", 22))
-        .map_err(plot::draw_err)?;
+        .titled(&crate::svg_text(title), ("sans-serif", 22))
+        .map_err(crate::draw_err)?;
     let (left, right) = root.split_horizontally(600);
     let (top, bottom) = right.split_vertically(305);
     let s = &plan.samples;
@@ -90,7 +94,7 @@ fn draw_plan(
             next += total / 12.0;
         }
     }
-    plot::xy_panel(
+    crate::xy_panel(
         &left,
         "path (world frame), arrows = direction of motion",
         "x [m]",
@@ -116,7 +120,7 @@ fn draw_plan(
         })
         .collect();
     let steered = robot.steerable();
-    plot::time_panel(
+    crate::time_panel(
         &top,
         if steered { "roll rates" } else { "wheel rates" },
         "rate [rad/s]",
@@ -137,7 +141,7 @@ fn draw_plan(
                 )
             })
             .collect();
-        plot::time_panel(
+        crate::time_panel(
             &bottom,
             "steer rates",
             "steer rate [rad/s]",
@@ -162,7 +166,7 @@ fn draw_plan(
                 .collect(),
             PALETTE[5],
         );
-        plot::time_panel(
+        crate::time_panel(
             &bottom,
             "speed and yaw rate",
             "[m/s], [rad/s]",
