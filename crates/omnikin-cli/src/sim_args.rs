@@ -249,6 +249,9 @@ pub enum ReproduceProfile {
     /// The shell + platform dynamics of the robot file (its one fitted parameter written
     /// there by --fit-to-paper).
     Dynamic,
+    /// The core runtime in closed loop on the dynamic plant (tilt feedback designed from the
+    /// robot file's dynamics, paper 000's camera); --dynamic-trials trials.
+    ClosedLoop,
 }
 
 impl ReproduceProfile {
@@ -258,7 +261,7 @@ impl ReproduceProfile {
             ReproduceProfile::Ideal => Some("ideal"),
             ReproduceProfile::Hardware => Some("hardware"),
             ReproduceProfile::SpinSlip => Some("spin-slip"),
-            ReproduceProfile::Dynamic => None,
+            ReproduceProfile::Dynamic | ReproduceProfile::ClosedLoop => None,
         }
     }
 }
