@@ -40,7 +40,6 @@ fn options(d: &RobotDescription, params: SphereDynamics, variant: &str) -> Close
                 let s: f64 = p[4..].parse().unwrap_or(0.01);
                 o.camera.as_mut().unwrap().0.heading_noise_std = Some(s);
             }
-            "legacy" => o.config.fusion.position_fix_moves_heading = true,
             "tilt" => o.config.tilt = Some(closed_loop::tilt_feedback(&params)),
             // Diagnostics: the designed gain times a factor, the lean reference times a factor.
             p if p.starts_with("tiltc") => {

@@ -155,15 +155,6 @@ pub struct FusionConfig<T> {
     /// Heading standard deviation before the first fix of [`PoseFusion::awaiting_fix`], rad
     /// (> 0). Default 0.5.
     pub unknown_heading_std: T,
-    /// Whether a fix **without** a heading may move the heading and the gyro bias (default
-    /// `true`: the optimal Kalman gain, which moves them through their correlation with the
-    /// position). `false` keeps them to the odometry's heading source — a Schmidt ("consider")
-    /// update: the gain's heading and bias rows are zeroed and the covariance is updated in
-    /// Joseph form, which stays exact for any gain (Simon, *Optimal State Estimation*, 2006,
-    /// §7.5). For a robot whose position odometry is wrong in a way its heading is not (a
-    /// leaning sphere with its heading on the gyro), the optimal gain would turn the position
-    /// error into a heading error.
-    pub position_fix_moves_heading: bool,
 }
 
 impl<T: Real> Default for FusionConfig<T> {
@@ -180,7 +171,6 @@ impl<T: Real> Default for FusionConfig<T> {
             recovery_spread: T::of(0.05),
             recovery_heading_std: T::of(0.2),
             unknown_heading_std: T::of(0.5),
-            position_fix_moves_heading: true,
         }
     }
 }
@@ -890,12 +880,7 @@ impl<T: Real, const N: usize> PoseFusion<T, N> {
             if sv.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
                 continue;
             }
-            let mut k: Vec5<T> = s.p.column(i) / sv;
-            if m == 2 && !self.config.position_fix_moves_heading {
-                // Schmidt update: heading and gyro bias are considered, not estimated.
-                k[2] = T::zero();
-                k[3] = T::zero();
-            }
+            let k: Vec5<T> = s.p.column(i) / sv;
             s.x += k * nu;
             let mut ikh = Mat5::<T>::identity();
             for j in 0..STATES {

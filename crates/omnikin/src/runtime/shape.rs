@@ -1,7 +1,12 @@
 //! Command shaping, step 5 of the cycle: the target twist becomes motor set-points within
 //! every limit — desaturation at the measured steer angles → body slew (acceleration, jerk) →
 //! inverse kinematics → motor-acceleration limit → final rate clamp — and, for kinds whose
-//! steer angles are set-points (swerve), the steer-angle loop.
+//! steer angles are set-points (swerve), the steer-angle loop. With [`Config::tilt`] (a
+//! sphere's pendulous platform) the tilt feedback's velocity is added between the slew and the
+//! inverse kinematics ([`TiltFeedback`]); the slew keeps the command without it.
+//!
+//! [`Config::tilt`]: super::Config::tilt
+//! [`TiltFeedback`]: super::TiltFeedback
 //!
 //! ## Steering
 //! * Rate-driven steering (the caster, [`Kind::steer_is_set_point`] `false`): the inverse's
@@ -33,8 +38,7 @@ use super::cycle_inverse::CycleInverse;
 use super::hal::MotorCommand;
 use super::limits::saturation_scale;
 use super::plan::zero_twist;
-use super::status::Faults;
-use super::status::Mode;
+use super::status::{Faults, Mode};
 
 impl<T: Real, const N: usize> Runtime<T, N> {
     /// Desaturation → slew → inverse kinematics → motor-acceleration limit → final rate
