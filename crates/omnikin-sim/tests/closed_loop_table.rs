@@ -6,6 +6,13 @@
 //! ```text
 //! CL_TRIALS=20 CL_VARIANTS=open,nocam,cam cargo test -p omnikin-sim --test closed_loop_table -- --ignored --nocapture
 //! ```
+//!
+//! A variant is `open` (the dynamic profile, open loop) or parts joined by `+`: `cam` (paper
+//! 000's camera, position only; the default), `nocam`, `camhS` (the camera with a heading of
+//! noise `S` rad), `tilt` (the tilt feedback designed from the preset), `tiltcF` / `tiltlF`
+//! (its gain / lean per acceleration times `F`), `tilthF` (designed from a model whose
+//! `com_depth` is `F` times the plant's). `CL_SERIES` picks series, `CL_SEED` the seed (2019),
+//! `CL_DIAG` prints each trial's fixes, estimate and heading errors and largest tilt.
 
 use omnikin::description::RobotDescription;
 use omnikin_sim::closed_loop::{self, ClosedLoopOptions};
