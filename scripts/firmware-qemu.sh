@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds examples/firmware-cortex-m4 for thumbv7em-none-eabihf and runs it under QEMU
 # (mps2-an386, Cortex-M4F): the omnikin runtime and link for the three paper robots and a mecanum base against an
-# in-firmware plant, and the ballbot's balance controller against its linearised planar models, reported over semihosting. Exits 0 when every check printed PASS.
+# in-firmware plant, the sphere's tilt feedback, and the ballbot's balance controller against its linearised planar models, reported over semihosting. Exits 0 when every check printed PASS.
 #
 # If the Rust target or QEMU cannot be installed (offline machine, no package manager
 # rights), it says so clearly and exits 0 with "skipped" — CI stays green but the log shows
@@ -63,8 +63,8 @@ if [ $rc -ne 0 ] || ! grep -q "^ALL PASS$" <<<"$out"; then
     exit 1
 fi
 n=$(grep -c ": PASS$" <<<"$out")
-if [ "$n" -ne 5 ]; then
-    echo "firmware-qemu: FAILED: expected 5 checks to pass (4 robots, the ballbot balance controller), saw $n"
+if [ "$n" -ne 6 ]; then
+    echo "firmware-qemu: FAILED: expected 6 checks to pass (4 robots, the sphere tilt feedback, the ballbot balance controller), saw $n"
     exit 1
 fi
 # Memory budgets (bench/budgets.toml [firmware]): the Runtime's size, the peak stack and the
@@ -95,4 +95,4 @@ for item in "runtime_bytes:${runtime:-}:Runtime<f32, 256>" "peak_stack_bytes:${s
     fi
 done
 [ "$over" -eq 0 ] || exit 1
-echo "firmware-qemu: OK (4 robots and the ballbot balance controller passed on the Cortex-M4F)"
+echo "firmware-qemu: OK (4 robots, the sphere tilt feedback and the ballbot balance controller passed on the Cortex-M4F)"

@@ -8,9 +8,11 @@ use std::time::Instant;
 
 use omnikin::ballbot::{Ballbot, BallbotParams};
 use omnikin::caster::{Caster3, CasterParams};
-use omnikin::runtime::hal::{EncoderAngles, Encoders, MotorCommand, MotorOutputs, NoImu};
+use omnikin::runtime::hal::{
+    EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOutputs, NoImu,
+};
 use omnikin::runtime::limits::RateLimits;
-use omnikin::runtime::{Command, Config, Faults, Frame, Runtime, Status};
+use omnikin::runtime::{Command, Config, Faults, Frame, Runtime, Status, TiltFeedback};
 use omnikin::sphere::{SphereOmni, SphereParams};
 use omnikin::{Pose2, Robot, Twist2};
 
@@ -78,6 +80,16 @@ impl Encoders<f64> for Enc {
     }
 }
 
+/// An IMU reading a fixed sample (read through `black_box`).
+pub struct TableImu(pub ImuSample<f64>);
+
+impl Imu<f64> for TableImu {
+    type Error = ();
+    fn read(&mut self) -> Result<Option<ImuSample<f64>>, ()> {
+        Ok(Some(black_box(self.0)))
+    }
+}
+
 /// Motor drivers of the simulated board: keep the last set-points.
 pub struct Motors(pub MotorCommand<f64>);
 
@@ -132,6 +144,36 @@ impl Loop {
         self.prepare(inputs);
         self.rt
             .cycle(self.now_us, &mut self.enc, &mut NoImu, &mut self.motors)
+    }
+
+    /// The sphere's loop with the tilt feedback (`Config::tilt`, paper 000's preset: gain
+    /// 8.61 /s, `R` 0.15 m, lean 0.146 rad per m/s²) and the heading from the gyro's vertical
+    /// component: what [`Loop::step_tilted`] measures.
+    pub fn tilted(robot: Robot<f64>) -> Self {
+        let mut lp = Self::new(robot);
+        let mut cfg = *lp.rt.config();
+        cfg.tilt = Some(TiltFeedback {
+            gain: 8.61,
+            shell_radius: 0.15,
+            lean_per_accel: 0.146,
+        });
+        cfg.heading_from_gyro = true;
+        lp.rt = Runtime::new(*lp.rt.robot(), cfg, Pose2::new(0.0, 0.0, 0.0)).expect("valid config");
+        lp
+    }
+
+    /// [`Loop::step`] with an IMU on a rocking platform (gyro and accelerometer from the
+    /// table), for a loop built by [`Loop::tilted`].
+    #[inline(never)]
+    pub fn step_tilted(&mut self, inputs: &Inputs) -> Faults {
+        self.prepare(inputs);
+        let t = inputs.twist[self.k];
+        let mut imu = TableImu(ImuSample {
+            gyro: [0.3 * t.vy, -0.3 * t.vx, t.yaw_rate],
+            accel: [0.5 * t.vx, 0.5 * t.vy, 9.81],
+        });
+        self.rt
+            .cycle(self.now_us, &mut self.enc, &mut imu, &mut self.motors)
     }
 
     /// The runtime's status after the latest cycle (a telemetry frame's content).

@@ -434,6 +434,31 @@ pub fn check(a: &CheckArgs) -> Result<()> {
     if robot.kind().balances() {
         crate::balance_check::report(&d, &mut text, &mut j)?;
     }
+    if robot.kind() == omnikin::Kind::Sphere
+        && let Ok(p) = omnikin_sim::dynamics::sphere::SphereDynamics::from_description(&d)
+    {
+        // The closed loop's tilt feedback (`simulate --closed-loop`), designed from [dynamics].
+        let tf = omnikin_sim::closed_loop::tilt_feedback(&p);
+        let m = omnikin_sim::closed_loop::tilt_margins(&p, &tf);
+        text += &format!(
+            "tilt feedback (closed loop, from [dynamics]): gain {:.3} /s, lean {:.4} rad per m/s²; \
+             rocking {:.3} rad/s, damping ratio {:.3}; crossover {:.2} rad/s, phase margin {:.0}°, \
+             delay margin {:.1} ms (the 100 Hz loop's own delay ≈ 15 ms)\n",
+            tf.gain,
+            tf.lean_per_accel,
+            m.open_frequency,
+            m.damping_ratio,
+            m.crossover,
+            m.phase_margin_deg,
+            1e3 * m.delay_margin
+        );
+        j["tilt_feedback"] = json!({
+            "gain_per_s": tf.gain, "lean_per_accel": tf.lean_per_accel,
+            "rocking_rad_per_s": m.open_frequency, "damping_ratio": m.damping_ratio,
+            "crossover_rad_per_s": m.crossover, "phase_margin_deg": m.phase_margin_deg,
+            "delay_margin_s": m.delay_margin,
+        });
+    }
     j["limits"] = json!({
         "max_wheel_rate": d.limits.max_wheel_rate, "max_wheel_accel": d.limits.max_wheel_accel,
         "max_steer_rate": d.limits.max_steer_rate, "max_steer_accel": d.limits.max_steer_accel,

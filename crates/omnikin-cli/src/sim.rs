@@ -411,7 +411,11 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
         .filter_map(|p| p.kinematic_name())
         .collect();
     let run_dynamic = a.profiles.contains(&ReproduceProfile::Dynamic) && a.dynamic_trials > 0;
-    if kinematic.is_empty() && !run_dynamic {
+    let run_closed = a.profiles.contains(&ReproduceProfile::ClosedLoop) && a.dynamic_trials > 0;
+    if run_closed && a.shard.is_some() {
+        bail!("--profiles closed-loop does not run in shards yet (run it without --shard)");
+    }
+    if kinematic.is_empty() && !run_dynamic && !run_closed {
         bail!(
             "--profiles: nothing to run (the dynamic profile needs --dynamic-trials > 0; the \
              kinematic ones are ideal, hardware, spin-slip)"
@@ -439,7 +443,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
     let d = RobotDescription::from_toml_str(&robot_toml, &robot_file)?;
     let robot = d.build::<f64>()?;
     let series = rp::sphere_2019_series(&d, a.rate)?;
-    let dyn_trials = if run_dynamic {
+    let dyn_trials = if run_dynamic || run_closed {
         a.dynamic_trials as usize
     } else {
         0
@@ -469,13 +473,21 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
         .build()
         .context("cannot start worker threads")?;
     // The dynamic profile: the robot file's [dynamics] as loaded, nothing overridden.
-    let dynamic = if run_dynamic {
+    let dynamic = if run_dynamic || run_closed {
         Some(DynamicInfo::new(&robot_file, &robot_toml, &d)?)
     } else {
         None
     };
-    let profile = dynamic.as_ref().map(|i| rp::dynamic_profile(i.params));
-    let plants = rp::Plants::new(&robot, a.seed, &kinematic, profile.as_ref());
+    let profile = dynamic
+        .as_ref()
+        .filter(|_| run_dynamic)
+        .map(|i| rp::dynamic_profile(i.params));
+    let closed = dynamic
+        .as_ref()
+        .filter(|_| run_closed)
+        .map(|i| rp::paper_000_closed_loop(&d, i.params));
+    let plants = rp::Plants::new(&robot, a.seed, &kinematic, profile.as_ref())
+        .with_closed_loop(closed.as_ref());
     let runs = plants.runs(a.trials as usize, dyn_trials);
     let info = ReproduceInfo {
         trials: a.trials as usize,
@@ -512,7 +524,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
             MonteCarloError::Sim(e) | MonteCarloError::Visit(e) => anyhow::Error::new(e),
             e => anyhow::Error::new(e),
         })?;
-        let tally = (dyn_trials > 0).then(|| rp::ContactTally::of(&contacts.into_events()));
+        let tally = run_dynamic.then(|| rp::ContactTally::of(&contacts.into_events()));
         let band = pool.install(|| report.prior_band(s))?;
         report.add(s, &outcomes, tally, band)?;
     }

@@ -249,6 +249,9 @@ pub enum ReproduceProfile {
     /// The shell + platform dynamics of the robot file (its one fitted parameter written
     /// there by --fit-to-paper).
     Dynamic,
+    /// The core runtime in closed loop on the dynamic plant (tilt feedback designed from the
+    /// robot file's dynamics, paper 000's camera); --dynamic-trials trials.
+    ClosedLoop,
 }
 
 impl ReproduceProfile {
@@ -258,7 +261,7 @@ impl ReproduceProfile {
             ReproduceProfile::Ideal => Some("ideal"),
             ReproduceProfile::Hardware => Some("hardware"),
             ReproduceProfile::SpinSlip => Some("spin-slip"),
-            ReproduceProfile::Dynamic => None,
+            ReproduceProfile::Dynamic | ReproduceProfile::ClosedLoop => None,
         }
     }
 }
@@ -288,6 +291,14 @@ pub struct ClosedLoopArgs {
     /// With --closed-loop: no camera frames captured in [START, END), s from the plan's start.
     #[arg(long, value_name = "START,END", requires = "closed_loop", conflicts_with = "no_camera", value_parser = parse_window)]
     pub camera_outage: Option<[f64; 2]>,
+    /// With --closed-loop: the camera also measures the heading (two markers), with this noise,
+    /// rad (default: position only, as paper 000's video tracked one point).
+    #[arg(long, value_name = "RAD", requires = "closed_loop", conflicts_with = "no_camera", value_parser = crate::args::finite_f64)]
+    pub camera_heading_noise: Option<f64>,
+    /// With --closed-loop: no tilt feedback (the runtime as a level robot's: rate set-points
+    /// from the trajectory loop only).
+    #[arg(long, requires = "closed_loop")]
+    pub no_tilt_feedback: bool,
     /// With --closed-loop: the runtime's control rate, Hz (default 100, `omnikin robot`'s).
     #[arg(long, value_name = "HZ", requires = "closed_loop", value_parser = crate::args::control_rate_hz)]
     pub control_rate: Option<f64>,
@@ -325,6 +336,7 @@ impl ClosedLoopArgs {
         if let Some(n) = self.camera_noise {
             p.noise_std = n;
         }
+        p.heading_noise_std = self.camera_heading_noise;
         let g = CameraGaps {
             dropout_probability: self.camera_dropout.unwrap_or(0.0),
             outage: self.camera_outage,

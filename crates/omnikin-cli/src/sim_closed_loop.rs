@@ -26,6 +26,7 @@ fn camera_json(c: &Option<(CameraProfile, CameraGaps)>) -> serde_json::Value {
         None => serde_json::Value::Null,
         Some((p, g)) => json!({
             "rate_hz": 1.0 / p.period, "latency_s": p.latency, "noise_std_m": p.noise_std,
+            "heading_noise_std_rad": p.heading_noise_std,
             "dropout_probability": g.dropout_probability, "outage_s": g.outage,
         }),
     }
@@ -65,13 +66,16 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
     let rate = c
         .control_rate
         .unwrap_or(omnikin_host::sim_robot::options::DEFAULT_RATE_HZ);
-    let config = closed_loop::config(
+    let mut config = closed_loop::config(
         rate,
         d.limits.max_wheel_rate,
         d.limits.max_wheel_accel,
         body.max_accel,
         body.max_yaw_accel,
     );
+    // The tilt feedback designed from the model as the robot file states it (the trials'
+    // robots vary about it).
+    config.tilt = (!c.no_tilt_feedback).then(|| closed_loop::tilt_feedback(&params));
     config
         .validate()
         .map_err(|e| anyhow::anyhow!("--closed-loop: runtime configuration: {e}"))?;
@@ -114,6 +118,10 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
         "robot": d.name, "kind": d.kind(), "plan": a.plan.display().to_string(),
         "plant": "dynamic", "closed_loop": true, "trials": a.trials, "seed": a.seed,
         "control_rate_hz": rate, "camera": camera_json(&camera),
+        "tilt_feedback": config.tilt.map(|t| json!({
+            "gain_per_s": t.gain, "lean_per_accel_rad_s2_per_m": t.lean_per_accel,
+            "shell_radius_m": t.shell_radius, "damping_ratio": closed_loop::TILT_DAMPING_RATIO,
+        })),
         "variation": "DynamicProfile::hardware (1 % wheel radius, 1 % speed, 3 % com_depth, 20 % pivot friction)",
         "max_tilt_rad": max(&|t| t.max_tilt),
         "pull_outs": sum(&|t| t.pull_outs.iter().sum()),

@@ -427,6 +427,60 @@ fn reproduce_profiles_selects_what_runs_without_changing_its_numbers() {
     );
 }
 
+/// `--profiles dynamic,closed-loop`: the closed loop's columns beside the open loop's (same
+/// trials), its own table in table.md, the fast circles within 3 % of their radius where the
+/// open loop misses by ≥ 30 %; not in shards.
+#[test]
+fn reproduce_closed_loop_profile_sits_beside_the_open_loop() {
+    let d = tmp("repro-closed");
+    let out = d.join("cl");
+    omnikin()
+        .args([
+            "reproduce",
+            "sphere-2019",
+            "--profiles",
+            "dynamic,closed-loop",
+        ])
+        .args([
+            "--dynamic-trials",
+            "2",
+            "--prior-samples",
+            "0",
+            "--threads",
+            "1",
+        ])
+        .args(["--out", out.to_str().unwrap()])
+        .assert()
+        .success();
+    let csv = std::fs::read_to_string(out.join("table.csv")).unwrap();
+    let mut r = csv::Reader::from_reader(csv.as_bytes());
+    let header: Vec<String> = r.headers().unwrap().iter().map(str::to_string).collect();
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let (open, closed, dev) = (
+        col("dynamic_radius_ratio"),
+        col("closed_loop_radius_ratio"),
+        col("closed_loop_max_deviation_pct_of_path"),
+    );
+    for rec in r.records() {
+        let rec = rec.unwrap();
+        let d: f64 = rec[dev].parse().unwrap();
+        assert!(d < 7.0, "{}: {d} %", &rec[0]);
+        if &rec[0] == "circle-0.4" || &rec[0] == "circle-0.5" {
+            let (o, c): (f64, f64) = (rec[open].parse().unwrap(), rec[closed].parse().unwrap());
+            assert!(o > 1.3 && (c - 1.0).abs() < 0.03, "{}: {o} / {c}", &rec[0]);
+        }
+    }
+    let md = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(md.contains("## Closed loop"), "{md}");
+    omnikin()
+        .args(["reproduce", "sphere-2019", "--profiles", "closed-loop"])
+        .args(["--dynamic-trials", "2", "--shard", "1/2"])
+        .args(["--out", d.join("shard").to_str().unwrap()])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("does not run in shards"));
+}
+
 #[test]
 fn evaluate_marks_the_emergency_stops_of_a_runs_mode_column() {
     let d = tmp("estop");

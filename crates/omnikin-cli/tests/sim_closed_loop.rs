@@ -90,6 +90,21 @@ fn writes_the_usual_files_and_counts_the_fixes() {
     let b = metrics(&blind);
     assert_eq!(b["simulation"]["camera"], Value::Null);
     assert_eq!(b["simulation"]["fixes_sent"], 0);
+    // The tilt feedback is on by default, designed for ζ = 1/√2 from the robot file; the
+    // 0.4 m/s circle then lands within 3 % of its radius, and without it ≥ 10 % too large.
+    let t = &s["tilt_feedback"];
+    assert!(
+        (t["damping_ratio"].as_f64().unwrap() - 0.5f64.sqrt()).abs() < 1e-12,
+        "{t}"
+    );
+    assert!(t["gain_per_s"].as_f64().is_some_and(|g| g > 0.0), "{t}");
+    let ratio = m["radius_ratio"].as_f64().unwrap();
+    assert!((ratio - 1.0).abs() < 0.03, "{ratio}");
+    let level = metrics(&run("level", &["--no-tilt-feedback"]));
+    assert_eq!(level["simulation"]["tilt_feedback"], Value::Null);
+    assert!(level["radius_ratio"].as_f64().unwrap() > 1.1, "{level}");
+    let two = metrics(&run("markers", &["--camera-heading-noise", "0.01"]));
+    assert_eq!(two["simulation"]["camera"]["heading_noise_std_rad"], 0.01);
 }
 
 /// Misplaced or bad options name the flag and the rule.

@@ -837,7 +837,7 @@ fn merge_reproduce(
     let known: Vec<&'static str> = rp::profiles()
         .iter()
         .map(|p| p.0)
-        .chain(["dynamic"])
+        .chain(["dynamic", "closed-loop"])
         .collect();
     let profiles: Vec<&'static str> =
         m.input(first, "profiles")?
@@ -879,7 +879,7 @@ fn merge_reproduce(
         .map(|p| {
             (
                 *p,
-                if *p == "dynamic" {
+                if *p == "dynamic" || *p == "closed-loop" {
                     info.dynamic_trials
                 } else {
                     info.trials

@@ -22,10 +22,13 @@
 //! second stream of it for the camera: one seed, one result, on any number of threads.
 //!
 //! The controller is the runtime's own (`v = v_ref + k_position · (p_ref − p̂)`, clamped to
-//! `max_correction`; docs of [`omnikin::runtime`]); nothing here adds control. What is weak:
-//! the gains are [`Config::new`]'s, not designed from the linearised dynamics, and the
-//! runtime's odometry is the level kinematic model's, blind to the lean (the camera corrects
-//! it, with its latency).
+//! `max_correction`; docs of [`omnikin::runtime`]) with, when [`Config::tilt`] is set, its tilt
+//! feedback and lean feed-forward ([`omnikin::runtime::TiltFeedback`], designed here by
+//! [`tilt_feedback`] from the dynamics, its linearised figures by [`tilt_margins`]); nothing
+//! here adds control. What is weak: the trajectory gains are [`Config::new`]'s, not designed
+//! from the linearised dynamics, and the runtime's odometry is the level kinematic model's,
+//! blind to the lean (the camera corrects it, with its latency). docs/closed-loop.md has the
+//! measured table.
 
 use omnikin::runtime::hal::{Encoders, Imu, MotorCommand, MotorOutputs};
 use omnikin::runtime::{CameraFix, Command, CommandError, Config, FixCounters, PlanPoint, Runtime};
@@ -77,6 +80,8 @@ pub struct ClosedLoopTrial {
     pub fixes_sent: u64,
     /// Distance between the runtime's estimate and the true shell centre at each sample, m.
     pub estimate_error: Vec<f64>,
+    /// |wrapped runtime heading − true platform heading| at each sample, rad.
+    pub heading_error: Vec<f64>,
 }
 
 /// Why a closed-loop run could not be made.
@@ -281,7 +286,12 @@ pub fn run(
         plant.advance(dt)?;
     }
     let trial = resample(plan, &samples);
-    let estimate_error = interpolate_error(plan, &samples);
+    let estimate_error = interpolate_error(plan, &samples, |s| {
+        (s.estimate.x - s.pose.x).hypot(s.estimate.y - s.pose.y)
+    });
+    let heading_error = interpolate_error(plan, &samples, |s| {
+        omnikin::wrap_angle(s.estimate.heading - s.pose.heading).abs()
+    });
     let sim = plant.dynamics();
     Ok(ClosedLoopTrial {
         trial,
@@ -290,6 +300,7 @@ pub fn run(
         fixes: rt.fix_counters(),
         fixes_sent: sent,
         estimate_error,
+        heading_error,
     })
 }
 
@@ -338,15 +349,14 @@ fn resample(plan: &Plan, samples: &[Sample]) -> Trial {
     trial
 }
 
-/// |estimate − true centre| at the plan's sample times.
-fn interpolate_error(plan: &Plan, samples: &[Sample]) -> Vec<f64> {
+/// `e(cycle)` (an error of the estimate) at the plan's sample times.
+fn interpolate_error(plan: &Plan, samples: &[Sample], e: impl Fn(&Sample) -> f64) -> Vec<f64> {
     let t0 = plan.samples[0].t;
     plan.samples
         .iter()
         .map(|s| {
             let (j, u) = bracket(samples, s.t - t0);
             let (a, b) = (&samples[j], &samples[j + 1]);
-            let e = |s: &Sample| (s.estimate.x - s.pose.x).hypot(s.estimate.y - s.pose.y);
             lerp(e(a), e(b), u)
         })
         .collect()
@@ -381,6 +391,84 @@ pub fn config(
     c.heading_from_gyro = true;
     c.fusion.noise.translation = ODOMETRY_TRANSLATION_NOISE;
     c
+}
+
+/// Damping ratio the tilt feedback is designed for ([`tilt_feedback`]): `1/√2`, the
+/// second-order design that is fastest without overshoot of the magnitude response (a choice
+/// made before any closed-loop run was compared, not fitted).
+pub const TILT_DAMPING_RATIO: f64 = core::f64::consts::FRAC_1_SQRT_2;
+
+/// The tilt feedback of [`omnikin::runtime::TiltFeedback`] designed from the dynamics `p`
+/// (the linearised rocking about the level platform, the derivation on that type):
+///
+/// * `J = I_s + m_s R² + I_p + m_p (R − h)²` (the rocking inertia about the floor contact,
+///   kg·m²; `I_p` the mean of the platform's two horizontal principal moments),
+///   `k = m_p g h` (N·m/rad), `B = M R² + I_s − m_p h R` (kg·m²);
+/// * gain `c = 2 ζ √(k J) / B`, 1/s, with `ζ` = [`TILT_DAMPING_RATIO`];
+/// * lean per acceleration `L = (M R − m_p h + I_s/R) / (m_p g h)`, rad per m/s² (the
+///   quasi-static lean, linearised).
+///
+/// Preset `sphere-omni` (`h` 0.0872 m): `c` ≈ 8.7 /s against the undamped rocking at
+/// ≈ 7.5 rad/s.
+pub fn tilt_feedback(
+    p: &crate::dynamics::sphere::SphereDynamics,
+) -> omnikin::runtime::TiltFeedback<f64> {
+    let r = p.geometry.shell_radius;
+    let (mp, h, ms, is) = (p.platform_mass, p.com_depth, p.shell_mass, p.shell_inertia);
+    let m = mp + ms;
+    let ip = 0.5 * (p.platform_inertia[0][0] + p.platform_inertia[1][1]);
+    let j = is + ms * r * r + ip + mp * (r - h) * (r - h);
+    let k = mp * p.gravity * h;
+    let b = m * r * r + is - mp * h * r;
+    omnikin::runtime::TiltFeedback {
+        gain: 2.0 * TILT_DAMPING_RATIO * (k * j).sqrt() / b,
+        shell_radius: r,
+        lean_per_accel: (m * r - mp * h + is / r) / k,
+    }
+}
+
+/// The tilt loop's linearised figures ([`tilt_margins`]), per horizontal axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TiltMargins {
+    /// The undamped rocking (rate-held wheels, no feedback), rad/s: `√(m_p g h / J)`.
+    pub open_frequency: f64,
+    /// The closed loop's damping ratio, `B c / (2 √(m_p g h J))`.
+    pub damping_ratio: f64,
+    /// The loop gain's upper crossover `|L(jω)| = 1`, rad/s (`L(s) = c B s / (J s² + m_p g h)`).
+    pub crossover: f64,
+    /// Phase margin at that crossover, degrees (90: `L` is ±90° away from its resonance).
+    pub phase_margin_deg: f64,
+    /// Delay margin, s: the pure delay that uses up the phase margin at the crossover. Compare
+    /// with the control loop's own delay (about 1.5 periods: one cycle's computation and the
+    /// zero-order hold's half period).
+    pub delay_margin: f64,
+}
+
+/// The tilt loop's figures for the feedback `tf` on the dynamics `p` (which need not be the
+/// ones it was designed from): the linearised per-axis model of
+/// [`omnikin::runtime::TiltFeedback`], `J θ̈ + B c θ̇ + m_p g h θ = 0`, its loop gain
+/// `L(s) = c B s / (J s² + m_p g h)` and the margins at its upper crossover
+/// `ω_c = (c B + √(c² B² + 4 J m_p g h)) / (2 J)`.
+pub fn tilt_margins(
+    p: &crate::dynamics::sphere::SphereDynamics,
+    tf: &omnikin::runtime::TiltFeedback<f64>,
+) -> TiltMargins {
+    let r = p.geometry.shell_radius;
+    let (mp, h, ms, is) = (p.platform_mass, p.com_depth, p.shell_mass, p.shell_inertia);
+    let ip = 0.5 * (p.platform_inertia[0][0] + p.platform_inertia[1][1]);
+    let j = is + ms * r * r + ip + mp * (r - h) * (r - h);
+    let k = mp * p.gravity * h;
+    let b = (mp + ms) * r * r + is - mp * h * r;
+    let cb = tf.gain * b;
+    let wn = (k / j).sqrt();
+    let wc = (cb + (cb * cb + 4.0 * j * k).sqrt()) / (2.0 * j);
+    TiltMargins {
+        open_frequency: wn,
+        damping_ratio: cb / (2.0 * (k * j).sqrt()),
+        crossover: wc,
+        phase_margin_deg: 90.0,
+        delay_margin: core::f64::consts::FRAC_PI_2 / wc,
+    }
 }
 
 /// Checks a camera profile and its gaps before a long run.

@@ -541,6 +541,7 @@ pub struct Plants<'a> {
     seed: u64,
     kinematic: Vec<(&'static str, Profile)>,
     dynamic: Option<&'a DynamicProfile>,
+    closed_loop: Option<&'a crate::closed_loop::ClosedLoopOptions>,
 }
 
 impl<'a> Plants<'a> {
@@ -559,14 +560,27 @@ impl<'a> Plants<'a> {
                 .filter(|(n, _)| kinematic.contains(n))
                 .collect(),
             dynamic,
+            closed_loop: None,
         }
     }
 
-    /// The profiles that run, in table order (kinematic ones, then `dynamic`), with their
-    /// trial counts: `trials` each, `dynamic_trials` for the dynamic one.
+    /// These plants with the `closed-loop` profile: the core runtime drives the dynamic plant
+    /// with `opts` ([`crate::closed_loop::run`]; [`paper_000_closed_loop`] for the re-run's).
+    pub fn with_closed_loop(
+        mut self,
+        opts: Option<&'a crate::closed_loop::ClosedLoopOptions>,
+    ) -> Self {
+        self.closed_loop = opts;
+        self
+    }
+
+    /// The profiles that run, in table order (kinematic ones, then `dynamic`, then
+    /// `closed-loop`), with their trial counts: `trials` each, `dynamic_trials` for the dynamic
+    /// and closed-loop ones.
     pub fn runs(&self, trials: usize, dynamic_trials: usize) -> Vec<(&'static str, usize)> {
         let kin = self.kinematic.iter().map(|(n, _)| (*n, trials));
         kin.chain(self.dynamic.map(|_| ("dynamic", dynamic_trials)))
+            .chain(self.closed_loop.map(|_| ("closed-loop", dynamic_trials)))
             .collect()
     }
 
@@ -589,6 +603,14 @@ impl<'a> Plants<'a> {
         name: &str,
         i: usize,
     ) -> Result<(crate::Trial, Option<crate::dynamics::sphere::ContactEvents>), SimError> {
+        if name == "closed-loop"
+            && let Some(o) = self.closed_loop
+        {
+            // Trial `i` draws from `trial_rng(seed, i)` inside, as every profile's.
+            return crate::closed_loop::run(*self.robot, &series.plan, o, self.seed, i)
+                .map(|c| (c.trial, None))
+                .map_err(|e| SimError::Mismatch(format!("closed loop: {e}")));
+        }
         let mut rng = crate::trial_rng(self.seed, i);
         if name == "dynamic" {
             if let Some(d) = self.dynamic {
@@ -777,6 +799,12 @@ pub struct Row {
     pub dynamic_prior_radius_ratio_p5: Option<f64>,
     /// Prior band: radius ratio, 95th percentile (circles).
     pub dynamic_prior_radius_ratio_p95: Option<f64>,
+    /// Closed-loop profile: max deviation, % of path (absent when it did not run).
+    pub closed_loop_max_deviation_pct_of_path: Option<f64>,
+    /// Closed-loop profile: max deviation of a run from the mean, m.
+    pub closed_loop_max_deviation_from_mean_m: Option<f64>,
+    /// Closed-loop profile: fitted/planned radius (circles).
+    pub closed_loop_radius_ratio: Option<f64>,
 }
 
 /// Builds a table row from a series' outcomes (in [`profiles`] order) and the dynamic
@@ -789,6 +817,7 @@ pub fn row(series: &Series, outcomes: &[Outcome], band: Option<&PriorBand>) -> R
             .map(|o| &o.metrics)
     };
     let (i, h, s, d) = (m("ideal"), m("hardware"), m("spin-slip"), m("dynamic"));
+    let c = m("closed-loop");
     Row {
         series: series.name.clone(),
         speed_m_per_s: series.speed,
@@ -815,6 +844,36 @@ pub fn row(series: &Series, outcomes: &[Outcome], band: Option<&PriorBand>) -> R
         dynamic_prior_max_deviation_pct_p95: band.map(|b| b.max_deviation_pct_of_path[1]),
         dynamic_prior_radius_ratio_p5: band.and_then(|b| b.radius_ratio.map(|r| r[0])),
         dynamic_prior_radius_ratio_p95: band.and_then(|b| b.radius_ratio.map(|r| r[1])),
+        closed_loop_max_deviation_pct_of_path: c.map(|m| m.max_deviation_pct_of_path),
+        closed_loop_max_deviation_from_mean_m: c.map(|m| m.max_deviation_from_mean_m),
+        closed_loop_radius_ratio: c.and_then(|m| m.radius_ratio),
+    }
+}
+
+/// The closed-loop profile of the re-run: the core runtime with the tilt feedback designed
+/// from `params` ([`crate::closed_loop::tilt_feedback`]), paper 000's camera (25 frames/s,
+/// 40 ms, 2 mm, position only), the robot's motor and body limits, 100 Hz, and the dynamic
+/// profile's trial-to-trial variation about `params` ([`dynamic_profile`]).
+pub fn paper_000_closed_loop(
+    d: &RobotDescription,
+    params: SphereDynamics,
+) -> crate::closed_loop::ClosedLoopOptions {
+    let body = d.body_limits();
+    let mut config = crate::closed_loop::config(
+        100.0,
+        d.limits.max_wheel_rate,
+        d.limits.max_wheel_accel,
+        body.max_accel,
+        body.max_yaw_accel,
+    );
+    config.tilt = Some(crate::closed_loop::tilt_feedback(&params));
+    crate::closed_loop::ClosedLoopOptions {
+        config,
+        profile: dynamic_profile(params),
+        camera: Some((
+            crate::sensors::CameraProfile::paper_000(),
+            crate::sensors::CameraGaps::default(),
+        )),
     }
 }
 
@@ -921,6 +980,35 @@ pub fn table_markdown(
             from_mean("square-0.5"),
         ));
     }
+    if rows
+        .iter()
+        .any(|r| r.closed_loop_max_deviation_pct_of_path.is_some())
+    {
+        s.push_str(
+            "\n## Closed loop (the core runtime on the dynamic plant, tilt feedback, paper 000's camera)\n\n\
+             Same trials as the dynamic profile (its variation, its count); the runtime's tilt feedback designed from the file's `[dynamics]`, \
+             the camera position-only at 25 frames/s, 40 ms, 2 mm (docs/closed-loop.md).\n\n\
+             | series | open loop (dynamic): max dev [%] / ratio | closed loop: max dev [%] | closed loop: max dev from mean [mm] | closed loop: radius ratio |\n\
+             |---|---|---|---|---|\n",
+        );
+        for r in rows {
+            let open = match (r.dynamic_max_deviation_pct_of_path, r.dynamic_radius_ratio) {
+                (Some(a), Some(b)) => format!("{a:.2} / {b:.3}"),
+                (Some(a), None) => format!("{a:.2}"),
+                _ => "—".into(),
+            };
+            s.push_str(&format!(
+                "| {} | {open} | {} | {} | {} |\n",
+                r.series,
+                fmt_opt(r.closed_loop_max_deviation_pct_of_path, 2),
+                fmt_opt(
+                    r.closed_loop_max_deviation_from_mean_m.map(|m| 1000.0 * m),
+                    1
+                ),
+                fmt_opt(r.closed_loop_radius_ratio, 3),
+            ));
+        }
+    }
     s
 }
 
@@ -972,6 +1060,9 @@ mod tests {
             dynamic_prior_max_deviation_pct_p95: None,
             dynamic_prior_radius_ratio_p5: None,
             dynamic_prior_radius_ratio_p95: None,
+            closed_loop_max_deviation_pct_of_path: None,
+            closed_loop_max_deviation_from_mean_m: None,
+            closed_loop_radius_ratio: None,
         };
         let text = table_csv(&[row]);
         let mut r = csv::Reader::from_reader(text.as_bytes());

@@ -182,3 +182,149 @@ fn a_seed_gives_one_run() {
     assert_eq!(a, run(&plan, &o, 3));
     assert_ne!(a.trial, run(&plan, &o, 4).trial);
 }
+
+/// The preset as loaded (the fitted `com_depth`, the vinyl floor): what paper 000's series
+/// and the targets are measured on.
+fn fitted() -> SphereDynamics {
+    SphereDynamics::from_description(&preset()).unwrap()
+}
+
+/// [`options`] on the fitted preset with the dynamic profile's hardware variation, and the
+/// tilt feedback designed from `model` (`None`: off).
+fn tilted(
+    camera: Option<(CameraProfile, CameraGaps)>,
+    model: Option<SphereDynamics>,
+) -> ClosedLoopOptions {
+    let mut o = options(camera);
+    o.profile = DynamicProfile::hardware(fitted());
+    o.config.tilt = model.map(|m| closed_loop::tilt_feedback(&m));
+    o
+}
+
+/// Max deviation (% of the path) and fitted radius ratio over `trials` trials, seed 7.
+fn score(plan: &Plan, opts: &ClosedLoopOptions, trials: usize) -> (f64, Option<f64>) {
+    let robot = preset().build::<f64>().unwrap();
+    let runs: Vec<Run> = (0..trials)
+        .map(|i| Run {
+            xy: closed_loop::run(robot, plan, opts, 7, i)
+                .unwrap()
+                .trial
+                .tracked,
+            heading: None,
+        })
+        .collect();
+    let m = evaluate(plan, &runs).unwrap().metrics;
+    (m.max_deviation_pct_of_path, m.radius_ratio)
+}
+
+/// The targets on paper 000's fast circles (4 trials each with the hardware variation, the
+/// camera position-only as the paper's video): with the tilt feedback designed from the
+/// linearised dynamics the 0.4 and 0.5 m/s circles land within 3 % of the 0.2 m radius and 7 %
+/// of the path; without it (the premise) they land ≥ 10 % too large.
+#[test]
+fn tilt_feedback_lands_the_fast_circles() {
+    for name in ["circle-0.4", "circle-0.5"] {
+        let plan = series(name);
+        let (dev, ratio) = score(&plan, &tilted(paper_camera(), Some(fitted())), 4);
+        let ratio = ratio.unwrap();
+        println!("{name}: {dev:.2} % / {ratio:.3}");
+        assert!(
+            dev < 7.0 && (ratio - 1.0).abs() < 0.03,
+            "{name}: {dev} % / {ratio}"
+        );
+        let (_, without) = score(&plan, &tilted(paper_camera(), None), 2);
+        assert!(without.unwrap() > 1.1, "the premise on {name}: {without:?}");
+    }
+}
+
+/// Every series of paper 000 within 7 % of the path in closed loop (camera, tilt feedback,
+/// 3 trials each), and within 10 % with the controller's centre-of-mass depth 20 % wrong either
+/// way (the plant keeps the fitted one).
+#[test]
+fn every_series_within_seven_percent_and_ten_with_the_depth_wrong() {
+    let names = [
+        "square-0.1",
+        "square-0.2",
+        "square-0.4",
+        "square-0.5",
+        "circle-0.1",
+        "circle-0.2",
+        "circle-0.4",
+        "circle-0.5",
+    ];
+    for name in names {
+        let plan = series(name);
+        let (dev, _) = score(&plan, &tilted(paper_camera(), Some(fitted())), 3);
+        assert!(dev < 7.0, "{name}: {dev} %");
+    }
+    for f in [0.8, 1.2] {
+        let mut m = fitted();
+        m.com_depth *= f;
+        for name in ["square-0.5", "circle-0.4", "circle-0.5"] {
+            let (dev, ratio) = score(&series(name), &tilted(paper_camera(), Some(m)), 2);
+            println!("com_depth x{f}: {name}: {dev:.2} % / {ratio:?}");
+            assert!(dev < 10.0, "com_depth x{f}: {name}: {dev} %");
+        }
+    }
+}
+
+/// The camera gone for 2 s in the middle of the 0.5 m/s circle (3 turns, from 2.75 s), tilt
+/// feedback on. Paper 000's measure is the deviation in % of the distance travelled; on a
+/// three-turn run that would allow 26 cm, so the bound here is 7 % of **one** turn's path
+/// (1.257 m: 88 mm, the single-turn series' allowance): the tracked point's distance from the
+/// planned circle stays under it while the camera is gone (bounded), and from 2 s after the
+/// return it is under it and within 1.5 cm of the uninterrupted run's over the same time
+/// (measured: 58 mm during, 40 mm after against 39 mm uninterrupted; the uninterrupted run
+/// rides 4–6 cm off the circle at this speed, see docs/closed-loop.md).
+#[test]
+fn with_tilt_feedback_a_camera_outage_stays_bounded_and_recovers_within_two_seconds() {
+    let plan = circle(5.0, 3.0);
+    let gaps = CameraGaps {
+        dropout_probability: 0.0,
+        outage: Some([2.75, 4.75]),
+    };
+    let out = run(
+        &plan,
+        &tilted(Some((CameraProfile::paper_000(), gaps)), Some(fitted())),
+        1,
+    );
+    let full = run(&plan, &tilted(paper_camera(), Some(fitted())), 1);
+    let end = plan.samples.last().unwrap().t + 1.0;
+    let (off, off_full) = (
+        off_circle(&plan, &out.trial),
+        off_circle(&plan, &full.trial),
+    );
+    let allowance = 0.07 * 2.0 * std::f64::consts::PI * 0.2;
+    let during = max_over(&plan, &off, 2.75, 4.79);
+    let after = max_over(&plan, &off, 6.79, end);
+    let after_full = max_over(&plan, &off_full, 6.79, end);
+    println!(
+        "off the circle: during {during:.4} m, from 2 s after {after:.4} m (uninterrupted {after_full:.4} m)"
+    );
+    assert!(during < allowance, "{during}");
+    assert!(
+        after < allowance && after < after_full + 0.015,
+        "{after} vs {after_full}"
+    );
+}
+
+/// The tilt feedback's design and `check`'s figures agree with the plant's own rocking
+/// (`SphereDynamics::rocking_frequency`, a separate code path for `J`): the designed damping
+/// ratio is [`closed_loop::TILT_DAMPING_RATIO`], the crossover lies above the rocking, and the
+/// delay margin exceeds the 100 Hz loop's own delay (≈ 15 ms) several times.
+#[test]
+fn the_tilt_design_matches_the_plants_rocking() {
+    let p = fitted();
+    let tf = closed_loop::tilt_feedback(&p);
+    let m = closed_loop::tilt_margins(&p, &tf);
+    assert!((m.open_frequency - p.rocking_frequency(0)).abs() < 1e-9 * m.open_frequency);
+    assert!((m.damping_ratio - closed_loop::TILT_DAMPING_RATIO).abs() < 1e-12);
+    assert!(m.crossover > m.open_frequency);
+    assert!(m.delay_margin > 4.0 * 0.015, "{m:?}");
+    // The same gain on a plant whose centre of mass is 20 % deeper: a stiffer pendulum (m_p g h
+    // up, J down) and less leverage (B = M R² + I_s − m_p h R down) damp less, ζ ≈ 0.59.
+    let mut deeper = p;
+    deeper.com_depth *= 1.2;
+    let z = closed_loop::tilt_margins(&deeper, &tf).damping_ratio;
+    assert!(z < m.damping_ratio && z > 0.5, "{z}");
+}

@@ -29,10 +29,13 @@ use omnikin::link::{
     RobotInfo, RobotLink, WirePoint, heapless, robot_info, serve,
 };
 use omnikin::runtime::hal::{
-    EncoderAngles, Encoders, Entropy, EntropyError, MotorCommand, MotorOutputs, NoImu, StepOutputs,
-    Steppers,
+    EncoderAngles, Encoders, Entropy, EntropyError, Imu, ImuSample, MotorCommand, MotorOutputs,
+    StepOutputs, Steppers,
 };
-use omnikin::runtime::{Config, ConfigError, Frame, Mode, PlanPoint, Runtime};
+use omnikin::runtime::limits::motor_rates;
+use omnikin::runtime::{
+    Command, Config, ConfigError, Frame, Mode, PlanPoint, Runtime, TiltFeedback,
+};
 use omnikin::sphere::{SphereOmni, SphereParams};
 use omnikin::{MAX_WHEELS, Pose2, Robot, Twist2, se2};
 use panic_semihosting as _;
@@ -282,10 +285,10 @@ fn run(
             Some(k) => {
                 let mut steppers = Steppers::new(StepPins(plant), 200, 16, 1.0e5);
                 steppers.steps_per_rad = [k; 2 * MAX_WHEELS];
-                rt.cycle(*now, &mut enc, &mut NoImu, &mut steppers);
+                rt.cycle(*now, &mut enc, &mut BoardImu(None), &mut steppers);
             }
             None => {
-                rt.cycle(*now, &mut enc, &mut NoImu, plant);
+                rt.cycle(*now, &mut enc, &mut BoardImu(None), plant);
             }
         }
         plant.advance();
@@ -496,6 +499,61 @@ fn main() -> ! {
     }
 }
 
+/// The board's IMU: none for the robots' runs (as `NoImu`), a fixed sample for the tilt check.
+/// One type for both, so the control cycle is compiled once for them (flash).
+struct BoardImu(Option<ImuSample<f32>>);
+
+impl Imu<f32> for BoardImu {
+    type Error = core::convert::Infallible;
+    fn read(&mut self) -> Result<Option<ImuSample<f32>>, Self::Error> {
+        Ok(self.0)
+    }
+}
+
+/// The sphere's tilt feedback (`Config::tilt`, docs/closed-loop.md) on this core in `f32`: the
+/// static runtime reset for the sphere with paper 000's designed feedback, at rest in velocity
+/// mode on a platform whose up direction reads `(0.05, −0.02, ·)`; its wheels must get the
+/// inverse kinematics of `Δv = −R c γ_xy`. Returns the largest wheel-rate error, rad/s.
+#[inline(never)]
+fn tilt_check(rt: &mut Runtime<f32, PLAN_CAPACITY>) -> Option<f32> {
+    let mut cfg = Config::new(100.0f32);
+    cfg.tilt = Some(TiltFeedback {
+        gain: 8.61,
+        shell_radius: 0.15,
+        lean_per_accel: 0.146,
+    });
+    cfg.heading_from_gyro = true;
+    let robot = Robot::Sphere(SphereOmni::new(SphereParams::preset()).ok()?);
+    rt.reset(robot, cfg, Pose2::default()).ok()?;
+    rt.handle(
+        Command::Velocity {
+            twist: Twist2::new(0.0, 0.0, 0.0),
+            frame: Frame::Robot,
+        },
+        0,
+    )
+    .ok()?;
+    let (x, y) = (0.05f32, -0.02f32);
+    let z = (1.0 - x * x - y * y).sqrt_f32();
+    let mut imu = BoardImu(Some(ImuSample {
+        gyro: [0.0; 3],
+        accel: [9.81 * x, 9.81 * y, 9.81 * z],
+    }));
+    let mut plant = Plant::new(None);
+    let mut enc = plant.reading();
+    rt.cycle(DT_US, &mut enc, &mut imu, &mut plant);
+    let k = -0.15 * 8.61;
+    let want = motor_rates(&robot, Twist2::new(k * x, k * y, 0.0), &[0.0; MAX_WHEELS]).ok()?;
+    Some(
+        plant
+            .rates
+            .wheel
+            .iter()
+            .zip(want.wheel)
+            .fold(0.0f32, |m, (a, b)| m.max((a - b).abs())),
+    )
+}
+
 /// Each robot's run on the static runtime and link, then the ballbot's balance controller.
 /// Whether every check passed.
 #[inline(never)]
@@ -558,6 +616,21 @@ fn drive_all(rt: &mut Runtime<f32, PLAN_CAPACITY>, wire: &mut Wire, cfg: Config<
                 hprintln!("{}: run failed", name);
                 all = false;
             }
+        }
+    }
+    match tilt_check(rt) {
+        Some(err) => {
+            let pass = err < 1e-4;
+            all &= pass;
+            hprintln!(
+                "sphere tilt feedback (f32): wheel rates within {:.2e} rad/s of the inverse kinematics of -R c gamma_xy: {}",
+                err,
+                if pass { "PASS" } else { "FAIL" }
+            );
+        }
+        None => {
+            hprintln!("sphere tilt feedback: reset or cycle failed");
+            all = false;
         }
     }
     match balance::run() {

@@ -31,7 +31,7 @@ const TELEMETRY_EVERY: u64 = 20;
 fn usage() -> ! {
     eprintln!(
         "usage: omnikin-cycle-driver WHAT N\n  WHAT: sphere|ballbot|caster (control cycle), \
-         or ROBOT-inverse|ROBOT-forward|ROBOT-odometry, or balance|balance-f64 (ballbot \
+         or sphere-tilt (the tilt feedback), or ROBOT-inverse|ROBOT-forward|ROBOT-odometry, or balance|balance-f64 (ballbot \
          balance controller)"
     );
     std::process::exit(2);
@@ -89,6 +89,18 @@ fn main() {
     let inp = Inputs::new();
     let k = |i: u64| i as usize & (K - 1);
     match (kernel, rob) {
+        ("tilt", Robot::Sphere(_)) => {
+            // The sphere's cycle with the tilt feedback and the gyro heading (not a budgeted
+            // kind: docs/closed-loop.md states its count).
+            let mut lp = Loop::tilted(rob);
+            for i in 1..n {
+                black_box(lp.step_tilted(&inp));
+                if i % TELEMETRY_EVERY == 0 {
+                    let st = lp.status();
+                    black_box(&st);
+                }
+            }
+        }
         ("cycle", _) => {
             let mut lp = Loop::new(rob);
             // A firmware loop at 1 kHz sends telemetry at 50 Hz: the status is built every

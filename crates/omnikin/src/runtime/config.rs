@@ -69,6 +69,47 @@ pub struct Config<T> {
     /// noise, gate, recovery, `max_latency` (how old a fix may be and still be fused at its
     /// capture time), gyro-bias and wheel-scale states. Default [`FusionConfig::default`].
     pub fusion: FusionConfig<T>,
+    /// Tilt feedback of a sphere's pendulous platform (`None`: off, the default). See
+    /// [`TiltFeedback`].
+    pub tilt: Option<TiltFeedback<T>>,
+}
+
+/// Tilt feedback for a sphere whose platform hangs like a pendulum below the shell centre
+/// (paper 000's robot): the commanded robot-frame velocity gets
+///
+/// ```text
+/// Δv = −R c (γ_xy − L a_xy)
+/// ```
+///
+/// before the inverse kinematics, where `γ` is the up direction in the platform frame (the
+/// IMU's accelerometer, normalised; `(0, 0, 1)` level), `a` the commanded robot-frame
+/// acceleration of this cycle (the slewed command's change, m/s²), `R`
+/// [`TiltFeedback::shell_radius`], `c` [`TiltFeedback::gain`] and `L`
+/// [`TiltFeedback::lean_per_accel`].
+///
+/// **Why `Δv ∝ tilt`.** Per horizontal axis, linearised about the level platform at rest
+/// (shell roll rate `φ̇`, platform pitch `θ` with the centre of mass at `x − h sin θ`; the
+/// wheels impose the relative rate `u = φ̇ − θ̇`, which is what a rate command sets):
+/// `J θ̈ + m_p g h θ = −B u̇`, `J = I_s + m_s R² + I_p + m_p (R − h)²`, `B = M R² + I_s − m_p h R`.
+/// Rate-controlled wheels leave this mode undamped; `u = u_ref + c θ` makes it
+/// `J θ̈ + B c θ̇ + m_p g h θ = −B u̇_ref`, damping ratio `ζ = B c / (2 √(J m_p g h))`.
+/// Feeding back the tilt *rate* would only change the mode's inertia. `L a` is the
+/// quasi-static lean of a steady acceleration linearised (`m_p g h θ = a (M R − m_p h +
+/// I_s/R)`, module doc of `omnikin_plan::tilt`), so a steady curve keeps its lean and the
+/// feedback acts on the rocking about it. A host computes the three numbers from the robot's
+/// dynamics (`omnikin_sim::closed_loop::tilt_feedback`).
+///
+/// With it, a gyro heading ([`Config::heading_from_gyro`]) integrates the angular velocity's
+/// vertical component (the gyro against the accelerometer's direction) instead of the gyro's
+/// z, which a leaning platform reads short by `cos θ`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TiltFeedback<T> {
+    /// `c`, 1/s: relative roll rate per radian of tilt.
+    pub gain: T,
+    /// `R`, m: the shell radius (the level model's `v = R u`).
+    pub shell_radius: T,
+    /// `L`, rad per m/s²: the quasi-static lean per unit acceleration.
+    pub lean_per_accel: T,
 }
 
 impl<T: Real> Config<T> {
@@ -102,6 +143,7 @@ impl<T: Real> Config<T> {
             events: EventThresholds::standard(),
             heading_from_gyro: false,
             fusion: FusionConfig::default(),
+            tilt: None,
         }
     }
 
@@ -230,6 +272,11 @@ impl<T: Real> Config<T> {
             });
         }
         nonneg(self.k_steer, "k_steer")?;
+        if let Some(t) = &self.tilt {
+            nonneg(t.gain, "tilt.gain")?;
+            pos(t.shell_radius, "tilt.shell_radius")?;
+            nonneg(t.lean_per_accel, "tilt.lean_per_accel")?;
+        }
         Ok(())
     }
 }

@@ -49,7 +49,7 @@ pub struct Runtime<T, const N: usize> {
     /// `robot.kind().steer_is_set_point()`: steer motors track the inverse's angles.
     pub(super) steer_set_point: bool,
     pub(super) config: Config<T>,
-    mode: Mode,
+    pub(super) mode: Mode,
     estop: bool,
     history: Faults,
     /// The faults of the latest cycle ([`Status::faults`]).
@@ -65,14 +65,14 @@ pub struct Runtime<T, const N: usize> {
     last_us: Option<u64>,
     last_rx_us: Option<u64>,
     velocity: (Twist2<T>, Frame),
-    plan: PlanBuffer<T, N>,
+    pub(super) plan: PlanBuffer<T, N>,
     /// Motor set-points of the previous cycle.
     pub(super) last_motor: MotorCommand<T>,
     /// Commanded robot-frame twist of the previous cycle.
     pub(super) last_command: Twist2<T>,
     /// Encoder angles of the newest successful read (the steer angles the inverse uses).
     pub(super) encoders: EncoderAngles<T>,
-    imu: Option<ImuSample<T>>,
+    pub(super) imu: Option<ImuSample<T>>,
     twist: Twist2<T>,
     slip_residual: T,
     /// Slip and collision events ([`Config::events`]).
@@ -81,6 +81,23 @@ pub struct Runtime<T, const N: usize> {
     /// a quarter of the smoothing time).
     event_steps: EventDecimator<T>,
     rejected: u32,
+}
+
+/// The heading rate an IMU sample gives, rad/s: the gyro's z (a platform that stays level),
+/// or, with `tilted` (a sphere's pendulous platform, [`Config::tilt`]), the angular velocity's
+/// component along the vertical, `ω · γ` with `γ` the accelerometer's direction (up in the
+/// platform frame): on a platform leaning by `θ` while it turns at `ψ̇`, the gyro's z reads
+/// `ψ̇ cos θ`, and the heading would lag by `1 − cos θ` of every turn (2 % at 0.2 rad).
+#[inline(always)]
+fn yaw_rate<T: Real>(s: &ImuSample<T>, tilted: bool) -> T {
+    if tilted {
+        let (g, w) = (s.accel, s.gyro);
+        let n = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+        if n > T::zero() {
+            return (w[0] * g[0] + w[1] * g[1] + w[2] * g[2]) / n;
+        }
+    }
+    s.gyro[2]
 }
 
 impl<T: Real, const N: usize> Runtime<T, N> {
@@ -516,7 +533,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         let base = *self.odo_base_us.get_or_insert(now_us);
         let t = T::of(now_us.saturating_sub(base) as f64 * 1e-6);
         let heading = match (cfg.heading_from_gyro, self.imu) {
-            (true, Some(s)) => HeadingInput::GyroRate(s.gyro[2]),
+            (true, Some(s)) => HeadingInput::GyroRate(yaw_rate(&s, cfg.tilt.is_some())),
             _ => HeadingInput::Wheels,
         };
         if !self.odo.time().is_none_or(|t0| t > t0) {

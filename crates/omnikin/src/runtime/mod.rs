@@ -127,7 +127,7 @@ pub use command::{
     CameraFix, Command, CommandError, FIX_HISTORY, FIX_MAX_COORDINATE, FIX_MAX_STD_XY, Frame,
     PlanPoint,
 };
-pub use config::{Config, ConfigError, RATE_HZ_RANGE};
+pub use config::{Config, ConfigError, RATE_HZ_RANGE, TiltFeedback};
 pub use controller::Runtime;
 pub use plan::SPLICE_MAX_JUMP;
 pub use reference::plan_reference;

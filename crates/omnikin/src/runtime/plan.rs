@@ -74,6 +74,11 @@ pub(super) struct PlanBuffer<T, const N: usize> {
     splice: bool,
     /// A complete splice was started: switch to it at its first point's time.
     armed: bool,
+    /// The feed-forward (world twist) of the previous [`PlanBuffer::follow`].
+    last_ff: Twist2<T>,
+    /// The planned world acceleration of the latest [`PlanBuffer::follow`]: the change of its
+    /// feed-forward over the cycle, m/s² (what a sphere's tilt feedback leans for).
+    pub(super) accel: [T; 2],
 }
 
 pub(super) fn zero_twist<T: Real>() -> Twist2<T> {
@@ -102,6 +107,8 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
             upload: 0,
             splice: false,
             armed: false,
+            last_ff: zero_twist(),
+            accel: [T::zero(); 2],
         }
     }
 
@@ -118,6 +125,8 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         self.len = 0;
         self.upload = 0;
         self.splice = false;
+        self.last_ff = zero_twist();
+        self.accel = [T::zero(); 2];
         self.armed = false;
     }
 
@@ -365,6 +374,13 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         self.reference = r;
         self.reference_time = self.time;
         self.time += dt;
+        if dt > T::zero() {
+            self.accel = [
+                (ff.vx - self.last_ff.vx) / dt,
+                (ff.vy - self.last_ff.vy) / dt,
+            ];
+        }
+        self.last_ff = ff;
         let (ex, ey) = (r.x - pose.x, r.y - pose.y);
         let (mut cx, mut cy) = (cfg.k_position * ex, cfg.k_position * ey);
         let cn = (cx * cx + cy * cy).sqrt();

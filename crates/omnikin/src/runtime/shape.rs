@@ -1,7 +1,12 @@
 //! Command shaping, step 5 of the cycle: the target twist becomes motor set-points within
 //! every limit — desaturation at the measured steer angles → body slew (acceleration, jerk) →
 //! inverse kinematics → motor-acceleration limit → final rate clamp — and, for kinds whose
-//! steer angles are set-points (swerve), the steer-angle loop.
+//! steer angles are set-points (swerve), the steer-angle loop. With [`Config::tilt`] (a
+//! sphere's pendulous platform) the tilt feedback's velocity is added between the slew and the
+//! inverse kinematics ([`TiltFeedback`]); the slew keeps the command without it.
+//!
+//! [`Config::tilt`]: super::Config::tilt
+//! [`TiltFeedback`]: super::TiltFeedback
 //!
 //! ## Steering
 //! * Rate-driven steering (the caster, [`Kind::steer_is_set_point`] `false`): the inverse's
@@ -32,7 +37,8 @@ use super::controller::Runtime;
 use super::cycle_inverse::CycleInverse;
 use super::hal::MotorCommand;
 use super::limits::saturation_scale;
-use super::status::Faults;
+use super::plan::zero_twist;
+use super::status::{Faults, Mode};
 
 impl<T: Real, const N: usize> Runtime<T, N> {
     /// Desaturation → slew → inverse kinematics → motor-acceleration limit → final rate
@@ -69,7 +75,41 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             want = Twist2::new(want.vx * scale, want.vy * scale, want.yaw_rate * scale);
         }
         let v_world = self.slew.step(to_world(want), dt, &cfg.slew);
+        // Tilt feedback (a sphere's pendulous platform, `Config::tilt`): added after the slew,
+        // which keeps the command without it.
+        let dv = match (&cfg.tilt, &self.imu) {
+            (Some(tf), Some(imu)) => {
+                let g = imu.accel;
+                let norm = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+                if norm > T::zero() {
+                    // The plan's acceleration (none outside a plan), at most the slew's limit:
+                    // a plan that starts at full speed asks a step.
+                    let [mut ax, mut ay] = if self.mode == Mode::Trajectory {
+                        self.plan.accel
+                    } else {
+                        [T::zero(); 2]
+                    };
+                    let an = (ax * ax + ay * ay).sqrt();
+                    if an > cfg.slew.accel {
+                        ax = ax * cfg.slew.accel / an;
+                        ay = ay * cfg.slew.accel / an;
+                    }
+                    let a = to_robot(Twist2::new(ax, ay, T::zero()));
+                    let k = -tf.shell_radius * tf.gain;
+                    Twist2::new(
+                        k * (g[0] / norm - tf.lean_per_accel * a.vx),
+                        k * (g[1] / norm - tf.lean_per_accel * a.vy),
+                        T::zero(),
+                    )
+                } else {
+                    zero_twist()
+                }
+            }
+            _ => zero_twist(),
+        };
         let mut v = to_robot(v_world);
+        v.vx += dv.vx;
+        v.vy += dv.vy;
         // Set-point steering: the module angles (and their feed-forward rates) of the inverse;
         // the wheel rates scaled by the cosine of each module's angle error.
         let mut set_points = None;
@@ -132,7 +172,11 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 lc.vy + s * (v.vy - lc.vy),
                 lc.yaw_rate + s * (v.yaw_rate - lc.yaw_rate),
             );
-            self.slew.set_velocity(to_world(v));
+            self.slew.set_velocity(to_world(Twist2::new(
+                v.vx - dv.vx,
+                v.vy - dv.vy,
+                v.yaw_rate,
+            )));
         }
         let k = saturation_scale(&rates, &cfg.rate_limits);
         if k < T::one() {
@@ -141,7 +185,11 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 *x *= k;
             }
             v = Twist2::new(v.vx * k, v.vy * k, v.yaw_rate * k);
-            self.slew.set_velocity(to_world(v));
+            self.slew.set_velocity(to_world(Twist2::new(
+                v.vx - dv.vx,
+                v.vy - dv.vy,
+                v.yaw_rate,
+            )));
         }
         if let Some(a) = set_points {
             rates.steer = self.steer_rates(&a, dt);
