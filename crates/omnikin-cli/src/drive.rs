@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-use omnikin::link::{Estimate, Message, Telemetry};
+use omnikin::link::{Message, Telemetry};
 use omnikin::runtime::Frame;
 use omnikin_plan::Plan;
 
@@ -651,58 +651,10 @@ fn drive_goal(s: &mut Session, g: &GoalFlags<'_>) -> Result<()> {
     print_status(s)
 }
 
-/// What the robot says at the end of an action: the fixes forwarded, its estimate (once fixes
-/// are in play), its mode, pose and faults, its link counters.
+/// What the robot says at the end of an action ([`Session::status_lines`]).
 fn print_status(s: &Session) -> Result<()> {
-    if let Some(f) = &s.fixes {
-        crate::outln!("{}", f.report(s.estimate.map(|e| e.fixes)))?;
-    }
-    // The estimate line once fixes are in play (this run forwards them, or the robot has
-    // had some): before that the pose is the wheel odometry and the line says nothing new.
-    let fixes_seen = |e: &Estimate| {
-        let f = e.fixes;
-        s.fixes.is_some() || f.accepted + f.rejected + f.too_late > 0
-    };
-    if let (Some(e), Some(t)) = (s.estimate.as_ref().filter(|e| fixes_seen(e)), &s.latest) {
-        crate::outln!(
-            "robot estimate: pose ({:.4} m, {:.4} m, {:.4} rad) ± ({:.4} m, {:.4} m, {:.4} rad) 1σ; wheel odometry ({:.4} m, {:.4} m, {:.4} rad)",
-            t.pose[0],
-            t.pose[1],
-            t.pose[2],
-            e.covariance[0].max(0.0).sqrt(),
-            e.covariance[1].max(0.0).sqrt(),
-            e.covariance[2].max(0.0).sqrt(),
-            e.odometry[0],
-            e.odometry[1],
-            e.odometry[2]
-        )?;
-    }
-    if let Some(t) = &s.latest {
-        crate::outln!(
-            "robot t {:.3} s: mode {}, pose ({:.4} m, {:.4} m, {:.4} rad), faults {}, history {}",
-            t.time_us as f64 * 1e-6,
-            t.mode,
-            t.pose[0],
-            t.pose[1],
-            t.pose[2],
-            t.faults,
-            t.fault_history
-        )?;
-        let l = &t.link;
-        crate::outln!(
-            "robot link: {} frames ok, dropped {} (framing {}, crc {}, version {}, auth {}, replay {}, malformed {}, session {}, entropy {}); commands rejected {}",
-            l.ok,
-            l.dropped(),
-            l.framing,
-            l.crc,
-            l.version,
-            l.auth,
-            l.replay,
-            l.malformed,
-            l.session,
-            l.entropy,
-            t.rejected
-        )?;
+    for line in s.status_lines() {
+        crate::outln!("{line}")?;
     }
     Ok(())
 }

@@ -3,7 +3,6 @@
 use anyhow::{Context, Result, bail};
 use omnikin::description::RobotDescription;
 use omnikin::drive::TorqueSpace;
-use omnikin::drive::report::REACH_DIRECTIONS_DEG;
 use omnikin::{Actuators, MAX_WHEELS, Robot, Twist2};
 use serde_json::json;
 
@@ -349,127 +348,17 @@ pub fn torques(a: &TorquesArgs) -> Result<()> {
     Ok(())
 }
 
-fn print_limits(d: &RobotDescription) -> Result<()> {
-    let l = &d.limits;
-    let show = |name: &str, v: Option<f64>, unit: &str| -> Result<()> {
-        match v {
-            Some(x) => crate::outln!("  {name:<16} {x} {unit}"),
-            None => crate::outln!("  {name:<16} (none)"),
-        }
-    };
-    crate::outln!("limits:")?;
-    show("max_wheel_rate", l.max_wheel_rate, "rad/s")?;
-    show("max_wheel_accel", l.max_wheel_accel, "rad/s²")?;
-    if l.max_steer_rate.is_some() || l.max_steer_accel.is_some() {
-        show("max_steer_rate", l.max_steer_rate, "rad/s")?;
-        show("max_steer_accel", l.max_steer_accel, "rad/s²")?;
-    }
-    // The body limits plan, simulate, robot and drive share (omnikin::description::BodyLimits).
-    let b = d.body_limits();
-    crate::outln!(
-        "  max_accel        {:.4} m/s² ({})",
-        b.max_accel,
-        b.max_accel_source.describe("max_accel")
-    )?;
-    crate::outln!(
-        "  max_yaw_accel    {:.4} rad/s² ({})",
-        b.max_yaw_accel,
-        b.max_yaw_accel_source.describe("max_yaw_accel")
-    )?;
-    show("max_jerk", b.max_jerk, "m/s³")?;
-    Ok(())
-}
-
+/// `omnikin check` ([`omnikin_sim::check`]).
 pub fn check(a: &CheckArgs) -> Result<()> {
-    let (d, robot) = load(&a.robot)?;
-    let warnings = d.plausibility();
-    let mut j = json!({
-        "name": d.name, "kind": d.kind(), "source": d.source_name, "valid": true,
-        "wheels": robot.wheels(), "motors": robot.motors(), "warnings": warnings,
-    });
-    let mut text = format!(
-        "robot: {} ({}, {}): valid{}\n",
-        d.name,
-        d.kind(),
-        d.source_name,
-        match warnings.len() {
-            0 => String::new(),
-            1 => ", with 1 warning (above)".into(),
-            n => format!(", with {n} warnings (above)"),
-        }
-    );
-    robot
-        .describe(&mut text)
-        .context("formatting the derived geometry")?;
-    // The disk a map's keep-out shapes are grown by (`plan goal --map`, `plan waypoints --map`).
-    let (footprint, source) = omnikin_plan::map::footprint::footprint_radius(&d);
-    text += &format!(
-        "footprint radius: {footprint:.4} m, from {} (maps grow their obstacles by it)\n",
-        source.describe()
-    );
-    j["footprint_radius"] = json!(footprint);
-    j["footprint_source"] = json!(source.describe());
-    if let Some(max) = d.limits.max_wheel_rate
-        && let Some(reach) = robot.reach(max, d.limits.max_steer_rate)
-    {
-        let what = if robot.steerable() {
-            "with the wheels steered along the motion"
-        } else {
-            "robot frame, no yaw, no spin"
-        };
-        text += &format!("fastest motion within the limits ({what}):\n");
-        for (dg, v) in REACH_DIRECTIONS_DEG.iter().zip(reach.speed) {
-            text += &format!("  direction {dg:>5.0}°: {v:.4} m/s\n");
-        }
-        text += &format!("  turning on the spot: {:.4} rad/s\n", reach.yaw_rate);
-        j["max_speed_m_per_s"] = json!(
-            REACH_DIRECTIONS_DEG
-                .iter()
-                .zip(reach.speed)
-                .map(|(dg, v)| json!({"direction_deg": dg, "speed": v}))
-                .collect::<Vec<_>>()
-        );
-        j["max_yaw_rate_rad_per_s"] = json!(reach.yaw_rate);
-    }
-    if robot.kind().balances() {
-        crate::balance_check::report(&d, &mut text, &mut j)?;
-    }
-    if robot.kind() == omnikin::Kind::Sphere
-        && let Ok(p) = omnikin_sim::dynamics::sphere::SphereDynamics::from_description(&d)
-    {
-        // The closed loop's tilt feedback (`simulate --closed-loop`), designed from [dynamics].
-        let tf = omnikin_sim::closed_loop::tilt_feedback(&p);
-        let m = omnikin_sim::closed_loop::tilt_margins(&p, &tf);
-        text += &format!(
-            "tilt feedback (closed loop, from [dynamics]): gain {:.3} /s, lean {:.4} rad per m/s²; \
-             rocking {:.3} rad/s, damping ratio {:.3}; crossover {:.2} rad/s, phase margin {:.0}°, \
-             delay margin {:.1} ms (the 100 Hz loop's own delay ≈ 15 ms)\n",
-            tf.gain,
-            tf.lean_per_accel,
-            m.open_frequency,
-            m.damping_ratio,
-            m.crossover,
-            m.phase_margin_deg,
-            1e3 * m.delay_margin
-        );
-        j["tilt_feedback"] = json!({
-            "gain_per_s": tf.gain, "lean_per_accel": tf.lean_per_accel,
-            "rocking_rad_per_s": m.open_frequency, "damping_ratio": m.damping_ratio,
-            "crossover_rad_per_s": m.crossover, "phase_margin_deg": m.phase_margin_deg,
-            "delay_margin_s": m.delay_margin,
-        });
-    }
-    j["limits"] = json!({
-        "max_wheel_rate": d.limits.max_wheel_rate, "max_wheel_accel": d.limits.max_wheel_accel,
-        "max_steer_rate": d.limits.max_steer_rate, "max_steer_accel": d.limits.max_steer_accel,
-        "max_accel": d.body_limits().max_accel, "max_yaw_accel": d.body_limits().max_yaw_accel,
-        "max_jerk": d.body_limits().max_jerk,
-    });
+    let d = resolve_robot(&a.robot)?;
+    let r = omnikin_sim::check::check(&d).map_err(anyhow::Error::msg)?;
     if a.json {
-        crate::outln!("{j}")?;
+        crate::outln!("{}", r.json)?;
     } else {
-        crate::outln!("{}", text.trim_end())?;
-        print_limits(&d)?;
+        crate::outln!("{}", r.text)?;
+        for line in &r.limits {
+            crate::outln!("{line}")?;
+        }
     }
     Ok(())
 }

@@ -17,7 +17,6 @@ use omnikin_plot as plot;
 use omnikin_plot::figures;
 // The host side of the link (crates/omnikin-host) under the paths the commands name it by.
 use omnikin_host::{body_limits, link_io};
-mod balance_check;
 mod console;
 mod convert;
 mod data_dir;
@@ -31,6 +30,7 @@ mod plan;
 mod robot;
 mod robot_args;
 mod ros2;
+mod ros2_args;
 mod shard;
 mod shell;
 mod sim;

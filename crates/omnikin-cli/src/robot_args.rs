@@ -103,7 +103,7 @@ pub struct RobotArgs {
     pub ros2: bool,
     /// The ROS 2 node (with --ros2).
     #[command(flatten)]
-    pub node: crate::ros2::NodeArgs,
+    pub node: crate::ros2_args::NodeArgs,
 }
 
 /// `--obstacle AT:FOR`: 0 ≤ AT ≤ 10⁶ s, 0 < FOR ≤ 10⁶ s.

@@ -16,6 +16,8 @@
 //!   due ([`fixes`]); [`console_operator`] is the same session driven from the console's loop;
 //!   [`wire_plan`] a plan as the link carries it.
 //!
+//! * [`session_status`]: the session's status in lines for a person (what `drive` prints
+//!   after every action).
 //! * [`actions`]: what an operator asks in its session, each confirmed by telemetry — stop,
 //!   e-stop, clear, a velocity for a while, listening; [`plan_run`]: a plan driven (the start
 //!   checked, uploaded, followed to its end, or streamed as velocities to a robot that takes no
@@ -48,6 +50,7 @@ pub mod plan_upload;
 pub mod robot_serve;
 #[cfg(feature = "ros2")]
 pub mod ros2_node;
+pub mod session_status;
 pub mod sim_robot;
 pub mod telemetry_log;
 pub mod wire_plan;

@@ -22,8 +22,8 @@ mod file;
 pub mod identify;
 mod legend;
 pub mod odometry;
-pub mod plan;
 mod overlay;
+pub mod plan;
 pub mod ticks;
 
 pub use decimate::{Decimator, decimate};

@@ -35,11 +35,15 @@
 //!   table of our figures next to the paper's.
 //! * [`identify`]: a robot's wheel geometry and gyro bias/scale fitted to recorded runs by
 //!   non-linear least squares, with 1σ and an observability test (`omnikin identify`).
+//! * [`check`]: what `omnikin check` says about a robot file (geometry, footprint, reach,
+//!   balance controller, tilt feedback margins, limits), as text and JSON.
+//! * [`run_columns`]: the columns of `trials.csv` and `mean.csv`, for every front end.
 //! * [`track`]: real tracked runs (`t,x,y[,heading]` CSV), aligned to a plan's start of motion
 //!   and resampled onto its time grid, so the same metrics apply to hardware experiments.
 #![warn(missing_docs)]
 
 pub mod camera;
+pub mod check;
 pub mod closed_loop;
 pub mod dynamic_run;
 pub mod dynamics;
