@@ -551,44 +551,18 @@ fn pose_flag(l: &crate::args::List, flag: &str) -> Result<([f64; 2], Option<f64>
 /// `drive goal`: the flags read and checked, the obstacle socket bound, then the goal run of
 /// [`omnikin_host::goal_run`].
 fn drive_goal(s: &mut Session, g: &GoalFlags<'_>) -> Result<()> {
-    use omnikin_host::goal_run::{GoalSpec, ObstacleListener};
+    use omnikin_host::goal_run::{GoalNumbers, GoalSpec, ObstacleListener};
     use omnikin_plan::map::Map;
     use omnikin_plan::planner::{InitialSteer, OnLimit, PlanOptions, Timing};
     let (goal, heading) = pose_flag(g.goal, "goal")?;
-    for (flag, v) in [
-        ("--margin", g.margin),
-        ("--replan-tolerance", g.replan_tolerance),
-    ] {
-        if !(0.0..=10.0).contains(&v) {
-            bail!("{flag} {v}: must be between 0 and 10 m");
-        }
-    }
-    if g.replan_tolerance == 0.0 {
-        bail!("--replan-tolerance 0: must be > 0 m");
-    }
-    // Bounded below too: a plan at a crawl would have unbounded samples.
-    for (flag, v, lo, hi, unit) in [
-        ("--max-speed", Some(g.max_speed), 1e-3, 100.0, "m/s"),
-        (
-            "--max-yaw-rate",
-            Some(g.max_yaw_rate),
-            1e-3,
-            1000.0,
-            "rad/s",
-        ),
-        ("--max-accel", g.max_accel, 1e-3, 1000.0, "m/s²"),
-    ] {
-        if let Some(v) = v
-            && !(lo..=hi).contains(&v)
-        {
-            bail!("{flag} {v}: must be between {lo} and {hi} {unit}");
-        }
-    }
-    if let Some(r) = g.footprint_radius
-        && !(r > 0.0 && r <= 100.0)
-    {
-        bail!("--footprint-radius {r}: must be > 0 and at most 100 m");
-    }
+    omnikin_host::goal_run::check_goal_numbers(&GoalNumbers {
+        margin: g.margin,
+        replan_tolerance: g.replan_tolerance,
+        max_speed: g.max_speed,
+        max_accel: g.max_accel,
+        max_yaw_rate: g.max_yaw_rate,
+        footprint_radius: g.footprint_radius,
+    })?;
     let d = crate::kinematics::resolve_robot(g.robot)?;
     let model = omnikin_plan::RobotModel::from_description(&d)?;
     let map = Map::load(g.map)?;

@@ -6,12 +6,11 @@ use std::path::Path;
 
 use anyhow::{Result, bail};
 use omnikin_sim::pose_error::{
-    Alignment, ErrorStats, PoseErrorOptions, PoseErrorSummary, RpeDelta, evaluate_run, summarize,
+    PoseErrorOptions, PoseErrorSummary, RpeDelta, evaluate_run, summarize,
 };
 use omnikin_sim::track::Track;
 use serde_json::json;
 
-use crate::sim_args::AlignArg;
 use crate::sim_args::EvaluateArgs;
 
 /// Runs `evaluate --truth`.
@@ -24,10 +23,7 @@ pub fn run(a: &EvaluateArgs, truth_path: &Path) -> Result<()> {
         (None, None) => RpeDelta::default(),
     };
     let options = PoseErrorOptions {
-        alignment: match a.align {
-            AlignArg::None => Alignment::None,
-            AlignArg::Se2 => Alignment::Se2,
-        },
+        alignment: a.align,
         rpe_delta,
     };
     let truth = Track::load(truth_path)?;
@@ -62,14 +58,7 @@ pub fn run(a: &EvaluateArgs, truth_path: &Path) -> Result<()> {
         runs.push(r);
     }
     let overall = summarize(&runs);
-    let delta = match rpe_delta {
-        RpeDelta::TimeS(t) => format!("Δ = {t} s"),
-        RpeDelta::DistanceM(d) => format!("Δ = {d} m"),
-    };
-    let align = match options.alignment {
-        Alignment::None => "none (the estimate's start pose is known)",
-        Alignment::Se2 => "se2 (least-squares rotation and translation)",
-    };
+    let (delta, align) = (rpe_delta.describe(), options.alignment.describe());
     if a.json {
         let per_run: Vec<_> = a
             .tracks
@@ -108,32 +97,10 @@ pub fn run(a: &EvaluateArgs, truth_path: &Path) -> Result<()> {
     Ok(())
 }
 
-/// `rms R, mean M, median D, max X` in mm or mrad.
-fn stats(s: &Option<ErrorStats>, unit: &str) -> String {
-    match s {
-        Some(s) => format!(
-            "rms {:.1}, mean {:.1}, median {:.1}, max {:.1} {unit}",
-            1e3 * s.rms,
-            1e3 * s.mean,
-            1e3 * s.median,
-            1e3 * s.max
-        ),
-        None => "—".into(),
-    }
-}
-
-/// Two lines per run: ATE (and heading error), RPE.
+/// Two lines per run: ATE (and heading error), RPE ([`PoseErrorSummary::lines`]).
 fn print_summary(name: &str, s: &PoseErrorSummary) -> Result<()> {
-    crate::outln!(
-        "{name}: {} samples; ATE {}; heading error {}",
-        s.samples,
-        stats(&s.ate_m, "mm"),
-        stats(&s.heading_error_rad, "mrad")
-    )?;
-    crate::outln!(
-        "{name}: RPE over {} pairs: translation {}; rotation {}",
-        s.rpe_translation_m.map_or(0, |r| r.count),
-        stats(&s.rpe_translation_m, "mm"),
-        stats(&s.rpe_rotation_rad, "mrad")
-    )
+    for line in s.lines(name) {
+        crate::outln!("{line}")?;
+    }
+    Ok(())
 }

@@ -105,7 +105,7 @@ pub struct EvaluateArgs {
     /// With --truth: the alignment before the ATE: `none` (the estimate's start pose is
     /// known) or `se2` (the least-squares rotation and translation, Umeyama/Horn in 2-D).
     #[arg(long, value_enum, default_value = "none", requires = "truth")]
-    pub align: crate::sim_args::AlignArg,
+    pub align: omnikin_sim::pose_error::Alignment,
     /// With --truth: RPE over pairs of samples this many seconds apart.
     #[arg(long, value_name = "S", requires = "truth", conflicts_with = "rpe_distance", value_parser = crate::args::finite_f64)]
     pub rpe_time: Option<f64>,
@@ -376,13 +376,4 @@ pub fn parse_shard(s: &str) -> Result<Shard, String> {
         omnikin_sim::shard::ShardError::Parse { rule, .. } => rule,
         e => e.to_string(),
     })
-}
-/// `--align`: the alignment before the ATE.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum AlignArg {
-    /// None: the estimate is scored in the truth's frame as it is (a robot that knows its
-    /// start pose).
-    None,
-    /// The least-squares rotation and translation in the plane (Umeyama/Horn, 2-D).
-    Se2,
 }

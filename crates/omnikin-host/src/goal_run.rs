@@ -77,6 +77,68 @@ pub struct GoalSpec {
     pub replan_tolerance: f64,
 }
 
+/// A goal request's numbers as a front end takes them (`drive goal`'s flags; m, m/s, m/s²,
+/// rad/s), checked by [`check_goal_numbers`] before anything is planned.
+#[derive(Clone, Copy, Debug)]
+pub struct GoalNumbers {
+    /// `--margin`: clearance added to the footprint, m.
+    pub margin: f64,
+    /// `--replan-tolerance`: drift from the reference that triggers a re-plan, m.
+    pub replan_tolerance: f64,
+    /// `--max-speed`, m/s.
+    pub max_speed: f64,
+    /// `--max-accel`, m/s² (`None`: the robot's body limit).
+    pub max_accel: Option<f64>,
+    /// `--max-yaw-rate`, rad/s.
+    pub max_yaw_rate: f64,
+    /// `--footprint-radius`, m (`None`: the robot file's).
+    pub footprint_radius: Option<f64>,
+}
+
+/// Refuses, naming the flag and the range, a margin or re-plan tolerance outside 0–10 m (the
+/// tolerance > 0), a speed, yaw rate or acceleration outside its plausible range (bounded
+/// below too: a plan at a crawl would have unbounded samples), a footprint radius outside
+/// (0, 100] m.
+///
+/// # Errors
+/// The first number out of its range.
+pub fn check_goal_numbers(g: &GoalNumbers) -> Result<()> {
+    for (flag, v) in [
+        ("--margin", g.margin),
+        ("--replan-tolerance", g.replan_tolerance),
+    ] {
+        if !(0.0..=10.0).contains(&v) {
+            bail!("{flag} {v}: must be between 0 and 10 m");
+        }
+    }
+    if g.replan_tolerance == 0.0 {
+        bail!("--replan-tolerance 0: must be > 0 m");
+    }
+    for (flag, v, lo, hi, unit) in [
+        ("--max-speed", Some(g.max_speed), 1e-3, 100.0, "m/s"),
+        (
+            "--max-yaw-rate",
+            Some(g.max_yaw_rate),
+            1e-3,
+            1000.0,
+            "rad/s",
+        ),
+        ("--max-accel", g.max_accel, 1e-3, 1000.0, "m/s²"),
+    ] {
+        if let Some(v) = v
+            && !(lo..=hi).contains(&v)
+        {
+            bail!("{flag} {v}: must be between {lo} and {hi} {unit}");
+        }
+    }
+    if let Some(r) = g.footprint_radius
+        && !(r > 0.0 && r <= 100.0)
+    {
+        bail!("--footprint-radius {r}: must be > 0 and at most 100 m");
+    }
+    Ok(())
+}
+
 /// Why a plan was replaced.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ReplanReason {

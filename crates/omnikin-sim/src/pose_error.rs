@@ -25,6 +25,7 @@ use crate::track::Track;
 
 /// How the estimate is put in the truth's frame before the ATE.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum Alignment {
     /// None: the estimate is compared as it is (the robot knew its start pose).
@@ -164,6 +165,61 @@ pub struct PoseErrorSummary {
     pub rpe_translation_m: Option<ErrorStats>,
     /// RPE, rotational, rad.
     pub rpe_rotation_rad: Option<ErrorStats>,
+}
+
+impl Alignment {
+    /// The alignment in words (`evaluate --truth`'s header line).
+    pub fn describe(self) -> &'static str {
+        match self {
+            Alignment::None => "none (the estimate's start pose is known)",
+            Alignment::Se2 => "se2 (least-squares rotation and translation)",
+        }
+    }
+}
+
+impl RpeDelta {
+    /// `Δ = 1 s` or `Δ = 0.5 m`.
+    pub fn describe(self) -> String {
+        match self {
+            RpeDelta::TimeS(t) => format!("Δ = {t} s"),
+            RpeDelta::DistanceM(d) => format!("Δ = {d} m"),
+        }
+    }
+}
+
+/// `rms R, mean M, median D, max X` in mm or mrad (`—` without values).
+fn stats_text(s: &Option<ErrorStats>, unit: &str) -> String {
+    match s {
+        Some(s) => format!(
+            "rms {:.1}, mean {:.1}, median {:.1}, max {:.1} {unit}",
+            1e3 * s.rms,
+            1e3 * s.mean,
+            1e3 * s.median,
+            1e3 * s.max
+        ),
+        None => "—".into(),
+    }
+}
+
+impl PoseErrorSummary {
+    /// Two lines for a person, each starting with `name`: the ATE and heading error (mm,
+    /// mrad), then the RPE's translation and rotation over its pairs.
+    pub fn lines(&self, name: &str) -> [String; 2] {
+        [
+            format!(
+                "{name}: {} samples; ATE {}; heading error {}",
+                self.samples,
+                stats_text(&self.ate_m, "mm"),
+                stats_text(&self.heading_error_rad, "mrad")
+            ),
+            format!(
+                "{name}: RPE over {} pairs: translation {}; rotation {}",
+                self.rpe_translation_m.map_or(0, |r| r.count),
+                stats_text(&self.rpe_translation_m, "mm"),
+                stats_text(&self.rpe_rotation_rad, "mrad")
+            ),
+        ]
+    }
 }
 
 impl RunErrors {
