@@ -527,34 +527,13 @@ struct GoalFlags<'a> {
     set_pose: Option<&'a crate::args::List>,
 }
 
-/// `X,Y[,H]` of `flag` (heading `None` when not given).
-fn pose_flag(l: &crate::args::List, flag: &str) -> Result<([f64; 2], Option<f64>)> {
-    match l.0.as_slice() {
-        &[x, y] => Ok(([x, y], None)),
-        &[x, y, h] => {
-            omnikin_plan::limits::check_magnitude(
-                "heading",
-                h,
-                omnikin_plan::limits::MAX_HEADING,
-                "rad",
-            )
-            .map_err(|e| anyhow::anyhow!("{flag}: {e}"))?;
-            Ok(([x, y], Some(h)))
-        }
-        v => bail!(
-            "{flag}: expected X,Y or X,Y,H (m, m, rad), got {} values",
-            v.len()
-        ),
-    }
-}
-
 /// `drive goal`: the flags read and checked, the obstacle socket bound, then the goal run of
 /// [`omnikin_host::goal_run`].
 fn drive_goal(s: &mut Session, g: &GoalFlags<'_>) -> Result<()> {
     use omnikin_host::goal_run::{GoalNumbers, GoalSpec, ObstacleListener};
     use omnikin_plan::map::Map;
     use omnikin_plan::planner::{InitialSteer, OnLimit, PlanOptions, Timing};
-    let (goal, heading) = pose_flag(g.goal, "goal")?;
+    let (goal, heading) = crate::plan::goal::pose(g.goal, "goal")?;
     omnikin_host::goal_run::check_goal_numbers(&GoalNumbers {
         margin: g.margin,
         replan_tolerance: g.replan_tolerance,
@@ -596,7 +575,7 @@ fn drive_goal(s: &mut Session, g: &GoalFlags<'_>) -> Result<()> {
     };
     let (listener, obstacles) = ObstacleListener::bind(g.control, "--control")?;
     if let Some(p) = g.set_pose {
-        let (xy, h) = pose_flag(p, "--set-pose")?;
+        let (xy, h) = crate::plan::goal::pose(p, "--set-pose")?;
         s.hello()?;
         s.set_pose([xy[0], xy[1], h.unwrap_or(0.0)])?;
     }

@@ -22,8 +22,9 @@ fn footprint(given: Option<f64>, d: &RobotDescription) -> Result<(f64, Footprint
     Ok(checked_footprint(d, given, "--footprint-radius")?)
 }
 
-/// `X,Y[,H]` of `flag`.
-fn pose(l: &List, flag: &str) -> Result<([f64; 2], Option<f64>)> {
+/// `X,Y[,H]` of `flag` (m, m, rad; heading `None` when not given): `plan goal`'s and `drive
+/// goal`'s poses.
+pub(crate) fn pose(l: &List, flag: &str) -> Result<([f64; 2], Option<f64>)> {
     match l.0.as_slice() {
         &[x, y] => Ok(([x, y], None)),
         &[x, y, h] => {

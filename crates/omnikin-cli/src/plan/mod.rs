@@ -8,7 +8,7 @@
 //! limit.
 
 mod args;
-mod goal;
+pub(crate) mod goal;
 mod request;
 pub(crate) mod setup;
 pub mod sysid;
