@@ -4,24 +4,15 @@
 //! progress, the link's counters, and the robot's estimate when it sends one.
 
 use omnikin::link::{Estimate, Telemetry};
+use omnikin_io::telemetry_schema;
 
-/// Telemetry CSV header for a robot of `wheels` wheels (`steer`: with steer motors): pose
-/// columns first (the pose CSV of the conventions), commanded wheel rates `w1..wN`, encoder
-/// wheel angles `q1..qN` and, for kinds with steer motors, steer angles `s1..sN` (so the log
-/// is an encoder log for `omnikin odometry`), then the rest.
+/// Telemetry CSV header for a robot of `wheels` wheels (`steer`: with steer motors): the
+/// columns of [`omnikin_io::telemetry_schema`] (pose columns first, the pose CSV of the
+/// conventions; commanded wheel rates `w1..wN`, encoder wheel angles `q1..qN` and, for kinds
+/// with steer motors, steer angles `s1..sN`, so the log is an encoder log for
+/// `omnikin odometry`; then the rest), then [`ESTIMATE_COLUMNS`].
 pub fn telemetry_header(wheels: usize, steer: bool) -> String {
-    let mut h = String::from("t,x,y,heading,vx,vy,yaw_rate,cmd_vx,cmd_vy,cmd_yaw_rate");
-    let mut cols = |p: &str| {
-        for i in 1..=wheels {
-            h.push_str(&format!(",{p}{i}"));
-        }
-    };
-    cols("w");
-    cols("q");
-    if steer {
-        cols("s");
-    }
-    h.push_str(",gyro_z,mode,faults,fault_history,plan_id,plan_received,plan_len,plan_time,ref_x,ref_y,ref_heading,rejected,last_command_t,rx_ok,rx_framing,rx_crc,rx_version,rx_auth,rx_replay,rx_malformed,rx_session,rx_entropy");
+    let mut h = telemetry_schema::csv_header(wheels, steer);
     h.push_str(ESTIMATE_COLUMNS);
     h
 }
@@ -52,58 +43,10 @@ pub fn estimate_cells(e: Option<&Estimate>) -> String {
     }
 }
 
-/// One telemetry CSV row in the columns of [`telemetry_header`].
+/// One telemetry CSV row in the columns of [`telemetry_header`] without the estimate's
+/// ([`estimate_cells`] adds them).
 pub fn telemetry_row(t: &Telemetry, wheels: usize, steer: bool) -> String {
-    let l = &t.link;
-    let mut r = format!(
-        "{:.6},{},{},{},{},{},{},{},{},{}",
-        t.time_us as f64 * 1e-6,
-        t.pose[0],
-        t.pose[1],
-        t.pose[2],
-        t.twist[0],
-        t.twist[1],
-        t.twist[2],
-        t.command[0],
-        t.command[1],
-        t.command[2],
-    );
-    let mut cols = |v: &[f32]| {
-        for x in v.iter().take(wheels) {
-            r.push_str(&format!(",{x}"));
-        }
-    };
-    cols(&t.wheel_rates);
-    cols(&t.wheel_angles);
-    if steer {
-        cols(&t.steer_angles);
-    }
-    r.push_str(&format!(
-        ",{},{},{},{},{},{},{},{},{},{},{},{},{:.6},{},{},{},{},{},{},{},{},{}",
-        t.gyro[2],
-        t.mode,
-        t.faults,
-        t.fault_history,
-        t.plan.id,
-        t.plan.received,
-        t.plan.len,
-        t.plan_time,
-        t.reference[0],
-        t.reference[1],
-        t.reference[2],
-        t.rejected,
-        t.last_command_us as f64 * 1e-6,
-        l.ok,
-        l.framing,
-        l.crc,
-        l.version,
-        l.auth,
-        l.replay,
-        l.malformed,
-        l.session,
-        l.entropy,
-    ));
-    r
+    telemetry_schema::csv_row(t, wheels, steer)
 }
 
 /// The telemetry log kept in memory (Python's `omnikin.Link`): the header and rows of the CSV

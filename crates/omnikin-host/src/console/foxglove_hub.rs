@@ -69,7 +69,7 @@ pub fn advertise() -> Value {
         .iter()
         .map(|t| {
             json!({"id": channel_id(*t), "topic": t.name, "encoding": fg::MESSAGE_ENCODING,
-                "schemaName": t.schema.name, "schema": t.schema.data,
+                "schemaName": t.schema.name, "schema": t.schema.text(),
                 "schemaEncoding": fg::SCHEMA_ENCODING})
         })
         .collect();

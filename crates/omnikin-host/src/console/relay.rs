@@ -32,6 +32,7 @@ use crate::operator::RobotBusy;
 use crate::plan_upload::{PlanUpload, Progress};
 use crate::wire_plan::plan_points;
 use omnikin_io::mcap_log::McapLog;
+use omnikin_io::telemetry_schema;
 
 /// How long a page's teleop command stays valid: the page repeats it every 50 ms while the
 /// dead-man is held; without a repeat for this long the relay stops the robot.
@@ -873,11 +874,6 @@ impl Relay {
     }
 }
 
-fn counters(c: &LinkCounters) -> Value {
-    json!({"ok": c.ok, "dropped": c.dropped(), "framing": c.framing, "crc": c.crc, "version": c.version,
-        "auth": c.auth, "replay": c.replay, "malformed": c.malformed, "session": c.session, "entropy": c.entropy})
-}
-
 /// Measured wheel rates, rad/s: the encoder angles' difference over the robot time between
 /// two telemetry frames (`None` without a previous frame or when no time passed).
 pub fn measured_rates(a: &Telemetry, b: &Telemetry) -> Option<Vec<f64>> {
@@ -893,7 +889,9 @@ pub fn measured_rates(a: &Telemetry, b: &Telemetry) -> Option<Vec<f64>> {
     )
 }
 
-/// The pages' telemetry message.
+/// The pages' telemetry message: the frame's fields as [`omnikin_io::telemetry_schema`] names
+/// them, and what the console derives (the true pose in simulation, the measured wheel rates,
+/// the tracking and twist errors, its own link counters and frame count).
 fn telemetry_json(
     t: &Telemetry,
     prev: Option<&Telemetry>,
@@ -902,37 +900,23 @@ fn telemetry_json(
     op: &LinkCounters,
     frames: u64,
 ) -> Value {
-    let n = (t.wheels as usize).min(omnikin::MAX_WHEELS);
     let twist_err =
         ((t.command[0] - t.twist[0]).powi(2) + (t.command[1] - t.twist[1]).powi(2)).sqrt();
-    json!({
+    let mut m = telemetry_schema::json_fields(t, steer);
+    let derived = json!({
         "type": "telemetry",
-        "t": t.time_us as f64 * 1e-6,
-        "mode": t.mode.name(),
-        "faults": t.faults.to_string(),
-        "fault_history": t.fault_history.to_string(),
-        "pose": t.pose,
         "truth": truth.map(|x| x.pose),
-        "twist": t.twist,
-        "command": t.command,
-        "wheels": n,
-        "wheel_cmd": &t.wheel_rates[..n],
         "wheel_meas": prev.and_then(|p| measured_rates(p, t)),
-        "steer_angles": if steer { Some(&t.steer_angles[..n]) } else { None },
-        "plan": {"id": t.plan.id, "received": t.plan.received, "len": t.plan.len, "done": t.plan.done},
-        "plan_time": t.plan_time,
-        "reference": t.reference,
         "tracking_error_m": (t.mode == Mode::Trajectory)
             .then(|| (t.pose[0] - t.reference[0]).hypot(t.pose[1] - t.reference[1])),
         "twist_error": twist_err,
-        "slip_residual": t.slip_residual,
-        "rejected": t.rejected,
-        "ack_seq": t.ack_seq,
-        "estop_seq": t.estop_seq,
-        "robot_link": counters(&t.link),
-        "console_link": counters(op),
+        "console_link": telemetry_schema::counters_json(op),
         "frames": frames,
-    })
+    });
+    if let Value::Object(d) = derived {
+        m.extend(d);
+    }
+    Value::Object(m)
 }
 
 /// The faults to report between two consecutive telemetry frames: new in the history, and —

@@ -230,20 +230,16 @@ fn opt(x: Option<f64>) -> String {
     x.map(|v| v.to_string()).unwrap_or_default()
 }
 
-/// The CSV header of `/link`: the telemetry log's names.
-const LINK_COLUMNS: [&str; 11] = [
-    "rx_ok",
-    "rx_framing",
-    "rx_crc",
-    "rx_version",
-    "rx_auth",
-    "rx_replay",
-    "rx_malformed",
-    "rx_session",
-    "rx_entropy",
-    "rx_dropped",
-    "rejected",
-];
+/// The CSV columns of `/link`: the telemetry log's names for [`Counters::NAMES`] (the
+/// receive counters with its `rx_` prefix, `rx_dropped`, `rejected`; from
+/// [`crate::telemetry_schema`]).
+static LINK_COLUMNS: std::sync::LazyLock<[String; fg::COUNTER_COUNT]> =
+    std::sync::LazyLock::new(|| {
+        Counters::NAMES.map(|n| match n {
+            "rejected" => n.to_string(),
+            _ => format!("{}{n}", crate::telemetry_schema::RX_PREFIX),
+        })
+    });
 
 /// One of the rate arrays of a [`fg::WheelRates`].
 type RatesField = fn(&fg::WheelRates) -> &Option<Vec<f64>>;
@@ -383,7 +379,7 @@ fn channel_csv(
         }
         "omnikin.LinkCounters" => {
             s.push('t');
-            for c in LINK_COLUMNS {
+            for c in LINK_COLUMNS.iter() {
                 let _ = write!(s, ",{c}");
             }
             s.push('\n');
@@ -817,7 +813,7 @@ fn log_to_mcap(t: &mut Table, log: &mut McapLog) -> Result<usize> {
             _ => None,
         };
         let link = if has_link {
-            let mut v = [None; 11];
+            let mut v = [None; fg::COUNTER_COUNT];
             for (o, c) in v.iter_mut().zip(&link) {
                 if let Some(c) = c {
                     *o = r.count(*c)?;
@@ -948,7 +944,7 @@ impl ChannelSource {
                 fg::wheel_rates(ns, &w)
             }
             _ => {
-                let mut v = [None; 11];
+                let mut v = [None; fg::COUNTER_COUNT];
                 for (o, c) in v.iter_mut().zip(&self.link) {
                     if let Some(c) = c {
                         *o = r.count(*c)?;

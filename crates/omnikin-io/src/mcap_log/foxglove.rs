@@ -17,6 +17,8 @@
 
 use omnikin::Pose2;
 use omnikin::link::LinkCounters;
+
+use crate::telemetry_schema;
 use serde_json::{Value, json};
 
 /// MCAP `message_encoding` of every channel: JSON.
@@ -29,12 +31,34 @@ pub const WORLD: &str = "world";
 pub const BASE: &str = "base";
 
 /// A message schema: the name Foxglove (or our reader) knows it by, and its JSON Schema text.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy)]
 pub struct Schema {
     /// Schema name, e.g. `foxglove.PoseInFrame`.
     pub name: &'static str,
-    /// JSON Schema (draft 7 style, as Foxglove publishes them) of the messages.
-    pub data: &'static str,
+    /// JSON Schema (draft 7 style, as Foxglove publishes them) of the messages: a fixed text,
+    /// or derived once from [`crate::telemetry_schema`] (`omnikin.LinkCounters`).
+    pub data: fn() -> &'static str,
+}
+
+impl Schema {
+    /// Its JSON Schema text.
+    pub fn text(&self) -> &'static str {
+        (self.data)()
+    }
+}
+
+impl PartialEq for Schema {
+    /// Schemas are known by their names.
+    fn eq(&self, other: &Self) -> bool {
+        self.name == other.name
+    }
+}
+impl Eq for Schema {}
+
+impl std::fmt::Debug for Schema {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Schema").field("name", &self.name).finish()
+    }
 }
 
 /// A channel of the logs: its topic and the schema of its messages.
@@ -80,72 +104,95 @@ macro_rules! time {
 /// `foxglove.PoseInFrame`: a timestamped pose in a frame.
 pub const POSE_IN_FRAME: Schema = Schema {
     name: "foxglove.PoseInFrame",
-    data: concat!(
-        r#"{"title":"foxglove.PoseInFrame","description":"A timestamped pose for an object or reference frame in 3D space","type":"object","properties":{"timestamp":"#,
-        time!(),
-        r#","frame_id":{"type":"string"},"pose":"#,
-        pose!(),
-        r#"},"required":["timestamp","frame_id","pose"]}"#
-    ),
+    data: || {
+        concat!(
+            r#"{"title":"foxglove.PoseInFrame","description":"A timestamped pose for an object or reference frame in 3D space","type":"object","properties":{"timestamp":"#,
+            time!(),
+            r#","frame_id":{"type":"string"},"pose":"#,
+            pose!(),
+            r#"},"required":["timestamp","frame_id","pose"]}"#
+        )
+    },
 };
 
 /// `foxglove.PosesInFrame`: an array of poses in one frame (a planned path).
 pub const POSES_IN_FRAME: Schema = Schema {
     name: "foxglove.PosesInFrame",
-    data: concat!(
-        r#"{"title":"foxglove.PosesInFrame","description":"An array of timestamped poses for an object or reference frame in 3D space","type":"object","properties":{"timestamp":"#,
-        time!(),
-        r#","frame_id":{"type":"string"},"poses":{"type":"array","items":"#,
-        pose!(),
-        r#"}},"required":["timestamp","frame_id","poses"]}"#
-    ),
+    data: || {
+        concat!(
+            r#"{"title":"foxglove.PosesInFrame","description":"An array of timestamped poses for an object or reference frame in 3D space","type":"object","properties":{"timestamp":"#,
+            time!(),
+            r#","frame_id":{"type":"string"},"poses":{"type":"array","items":"#,
+            pose!(),
+            r#"}},"required":["timestamp","frame_id","poses"]}"#
+        )
+    },
 };
 
 /// `foxglove.FrameTransform`: the pose of a child frame in a parent frame.
 pub const FRAME_TRANSFORM: Schema = Schema {
     name: "foxglove.FrameTransform",
-    data: concat!(
-        r#"{"title":"foxglove.FrameTransform","description":"A transform between two reference frames in 3D space","type":"object","properties":{"timestamp":"#,
-        time!(),
-        r#","parent_frame_id":{"type":"string"},"child_frame_id":{"type":"string"},"translation":"#,
-        vec3!(),
-        r#","rotation":"#,
-        quat!(),
-        r#"},"required":["timestamp","parent_frame_id","child_frame_id","translation","rotation"]}"#
-    ),
+    data: || {
+        concat!(
+            r#"{"title":"foxglove.FrameTransform","description":"A transform between two reference frames in 3D space","type":"object","properties":{"timestamp":"#,
+            time!(),
+            r#","parent_frame_id":{"type":"string"},"child_frame_id":{"type":"string"},"translation":"#,
+            vec3!(),
+            r#","rotation":"#,
+            quat!(),
+            r#"},"required":["timestamp","parent_frame_id","child_frame_id","translation","rotation"]}"#
+        )
+    },
 };
 
 /// `foxglove.Log`: a log line (level 1 debug, 2 info, 3 warning, 4 error, 5 fatal).
 pub const LOG: Schema = Schema {
     name: "foxglove.Log",
-    data: concat!(
-        r#"{"title":"foxglove.Log","description":"A log message","type":"object","properties":{"timestamp":"#,
-        time!(),
-        r#","level":{"title":"foxglove.LogLevel","oneOf":[{"title":"UNKNOWN","const":0},{"title":"DEBUG","const":1},{"title":"INFO","const":2},{"title":"WARNING","const":3},{"title":"ERROR","const":4},{"title":"FATAL","const":5}]},"message":{"type":"string"},"name":{"type":"string"},"file":{"type":"string"},"line":{"type":"integer","minimum":0}},"required":["timestamp","level","message","name","file","line"]}"#
-    ),
+    data: || {
+        concat!(
+            r#"{"title":"foxglove.Log","description":"A log message","type":"object","properties":{"timestamp":"#,
+            time!(),
+            r#","level":{"title":"foxglove.LogLevel","oneOf":[{"title":"UNKNOWN","const":0},{"title":"DEBUG","const":1},{"title":"INFO","const":2},{"title":"WARNING","const":3},{"title":"ERROR","const":4},{"title":"FATAL","const":5}]},"message":{"type":"string"},"name":{"type":"string"},"file":{"type":"string"},"line":{"type":"integer","minimum":0}},"required":["timestamp","level","message","name","file","line"]}"#
+        )
+    },
 };
 
 /// `omnikin.WheelRates`: commanded and measured wheel and steer rates, rad/s, one entry per
 /// wheel (module) in the robot file's order; an array the source does not know is absent.
 pub const WHEEL_RATES: Schema = Schema {
     name: "omnikin.WheelRates",
-    data: concat!(
-        r#"{"title":"omnikin.WheelRates","description":"Commanded and measured wheel and steer rates, rad/s, in the robot file's wheel order (measured: encoder angle differences over the sample interval)","type":"object","properties":{"timestamp":"#,
-        time!(),
-        r#","commanded":{"type":"array","items":{"type":"number"},"description":"Commanded wheel rates, rad/s"},"commanded_steer":{"type":"array","items":{"type":"number"},"description":"Commanded steer rates, rad/s"},"measured":{"type":"array","items":{"type":"number"},"description":"Measured wheel rates, rad/s"},"measured_steer":{"type":"array","items":{"type":"number"},"description":"Measured steer rates, rad/s"}},"required":["timestamp"]}"#
-    ),
+    data: || {
+        concat!(
+            r#"{"title":"omnikin.WheelRates","description":"Commanded and measured wheel and steer rates, rad/s, in the robot file's wheel order (measured: encoder angle differences over the sample interval)","type":"object","properties":{"timestamp":"#,
+            time!(),
+            r#","commanded":{"type":"array","items":{"type":"number"},"description":"Commanded wheel rates, rad/s"},"commanded_steer":{"type":"array","items":{"type":"number"},"description":"Commanded steer rates, rad/s"},"measured":{"type":"array","items":{"type":"number"},"description":"Measured wheel rates, rad/s"},"measured_steer":{"type":"array","items":{"type":"number"},"description":"Measured steer rates, rad/s"}},"required":["timestamp"]}"#
+        )
+    },
 };
 
 /// `omnikin.LinkCounters`: the receive counters of the link (cumulative frame counts) and the
-/// runtime's rejected commands; a counter the source does not know is absent.
+/// runtime's rejected commands ([`Counters::NAMES`], from [`crate::telemetry_schema`]); a
+/// counter the source does not know is absent.
 pub const LINK_COUNTERS: Schema = Schema {
     name: "omnikin.LinkCounters",
-    data: concat!(
-        r#"{"title":"omnikin.LinkCounters","description":"Link receive counters (frames since start) and commands rejected by the runtime","type":"object","properties":{"timestamp":"#,
-        time!(),
-        r#","ok":{"type":"integer","minimum":0},"framing":{"type":"integer","minimum":0},"crc":{"type":"integer","minimum":0},"version":{"type":"integer","minimum":0},"auth":{"type":"integer","minimum":0},"replay":{"type":"integer","minimum":0},"malformed":{"type":"integer","minimum":0},"session":{"type":"integer","minimum":0},"entropy":{"type":"integer","minimum":0},"dropped":{"type":"integer","minimum":0},"rejected":{"type":"integer","minimum":0}},"required":["timestamp"]}"#
-    ),
+    data: link_counters_schema,
 };
+
+/// The JSON Schema of `omnikin.LinkCounters`, derived from [`Counters::NAMES`] once.
+fn link_counters_schema() -> &'static str {
+    static TEXT: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| {
+        let mut t = String::from(concat!(
+            r#"{"title":"omnikin.LinkCounters","description":"Link receive counters (frames since start) and commands rejected by the runtime","type":"object","properties":{"timestamp":"#,
+            time!()
+        ));
+        for name in Counters::NAMES {
+            t.push_str(&format!(r#","{name}":{{"type":"integer","minimum":0}}"#));
+        }
+        t.push_str(r#"},"required":["timestamp"]}"#);
+        t
+    });
+    &TEXT
+}
 
 /// `/pose`: the robot's pose estimate (`foxglove.PoseInFrame`, frame [`WORLD`]).
 pub const POSE: Topic = Topic {
@@ -312,99 +359,58 @@ pub fn wheel_rates(ns: u64, w: &WheelRates) -> Value {
     v
 }
 
-/// Link counters of one sample; `None`: unknown (a CSV log that has only some of them).
+/// How many `/link` counters there are: the [`LINK_COUNTERS`](crate::telemetry_schema::LINK_COUNTERS),
+/// [`DROPPED`](crate::telemetry_schema::DROPPED) and `rejected`.
+pub const COUNTER_COUNT: usize = telemetry_schema::LINK_COUNTERS.len() + 2;
+
+/// Link counters of one sample, in the order of [`Counters::NAMES`]; `None`: unknown (a CSV
+/// log that has only some of them).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Counters {
-    /// Frames accepted.
-    pub ok: Option<u64>,
-    /// Dropped: framing.
-    pub framing: Option<u64>,
-    /// Dropped: CRC.
-    pub crc: Option<u64>,
-    /// Dropped: protocol version.
-    pub version: Option<u64>,
-    /// Dropped: authentication.
-    pub auth: Option<u64>,
-    /// Dropped: replay.
-    pub replay: Option<u64>,
-    /// Dropped: malformed.
-    pub malformed: Option<u64>,
-    /// Dropped: other session.
-    pub session: Option<u64>,
-    /// Dropped: entropy failure.
-    pub entropy: Option<u64>,
-    /// All frames dropped.
-    pub dropped: Option<u64>,
-    /// Commands rejected by the runtime.
-    pub rejected: Option<u64>,
-}
+pub struct Counters(pub [Option<u64>; COUNTER_COUNT]);
 
 impl Counters {
-    /// The names of the counters, in the order of [`Counters::values`] (the `/link` fields).
-    pub const NAMES: [&'static str; 11] = [
-        "ok",
-        "framing",
-        "crc",
-        "version",
-        "auth",
-        "replay",
-        "malformed",
-        "session",
-        "entropy",
-        "dropped",
-        "rejected",
-    ];
+    /// The names of the counters (the `/link` fields): the telemetry schema's receive counters
+    /// ([`telemetry_schema::LINK_COUNTERS`]), then [`telemetry_schema::DROPPED`] (every frame
+    /// dropped) and `rejected` (commands the runtime rejected).
+    pub const NAMES: [&'static str; COUNTER_COUNT] = {
+        let mut n = [""; COUNTER_COUNT];
+        let mut i = 0;
+        while i < telemetry_schema::LINK_COUNTERS.len() {
+            n[i] = telemetry_schema::LINK_COUNTERS[i].name;
+            i += 1;
+        }
+        n[i] = telemetry_schema::DROPPED;
+        n[i + 1] = "rejected";
+        n
+    };
 
     /// Every counter of the link's [`LinkCounters`] and the runtime's rejected commands.
     pub fn from_link(c: &LinkCounters, rejected: u32) -> Self {
-        let s = |v: u32| Some(u64::from(v));
-        Self {
-            ok: s(c.ok),
-            framing: s(c.framing),
-            crc: s(c.crc),
-            version: s(c.version),
-            auth: s(c.auth),
-            replay: s(c.replay),
-            malformed: s(c.malformed),
-            session: s(c.session),
-            entropy: s(c.entropy),
-            dropped: s(c.dropped()),
-            rejected: s(rejected),
+        let mut v = [None; COUNTER_COUNT];
+        for (x, k) in v.iter_mut().zip(&telemetry_schema::LINK_COUNTERS) {
+            *x = Some(u64::from((k.value)(c)));
         }
+        v[COUNTER_COUNT - 2] = Some(u64::from(c.dropped()));
+        v[COUNTER_COUNT - 1] = Some(u64::from(rejected));
+        Self(v)
     }
 
     /// The counters in the order of [`Counters::NAMES`].
-    pub fn values(&self) -> [Option<u64>; 11] {
-        [
-            self.ok,
-            self.framing,
-            self.crc,
-            self.version,
-            self.auth,
-            self.replay,
-            self.malformed,
-            self.session,
-            self.entropy,
-            self.dropped,
-            self.rejected,
-        ]
+    pub fn values(&self) -> [Option<u64>; COUNTER_COUNT] {
+        self.0
     }
 
     /// Counters from values in the order of [`Counters::NAMES`].
-    pub fn from_values(v: [Option<u64>; 11]) -> Self {
-        Self {
-            ok: v[0],
-            framing: v[1],
-            crc: v[2],
-            version: v[3],
-            auth: v[4],
-            replay: v[5],
-            malformed: v[6],
-            session: v[7],
-            entropy: v[8],
-            dropped: v[9],
-            rejected: v[10],
-        }
+    pub fn from_values(v: [Option<u64>; COUNTER_COUNT]) -> Self {
+        Self(v)
+    }
+
+    /// The counter called `name` (`None`: unknown, or no such counter).
+    pub fn get(&self, name: &str) -> Option<u64> {
+        Self::NAMES
+            .iter()
+            .position(|n| *n == name)
+            .and_then(|i| self.0[i])
     }
 }
 
@@ -493,7 +499,7 @@ pub fn decode_wheel_rates(v: &Value) -> Option<WheelRates> {
 
 /// The counters of an `omnikin.LinkCounters` message.
 pub fn decode_link_counters(v: &Value) -> Option<Counters> {
-    let mut out = [None; 11];
+    let mut out = [None; COUNTER_COUNT];
     for (o, k) in out.iter_mut().zip(Counters::NAMES) {
         if let Some(x) = v.get(k) {
             *o = Some(x.as_u64()?);
@@ -564,9 +570,38 @@ mod tests {
     }
 
     fn check(schema: &Schema, v: &Value) {
-        let s: Value = serde_json::from_str(schema.data).expect("schema is JSON");
+        let s: Value = serde_json::from_str(schema.text()).expect("schema is JSON");
         assert_eq!(s["title"], schema.name);
         conforms(v, &s, schema.name).unwrap_or_else(|e| panic!("{e}: {v}"));
+    }
+
+    #[test]
+    fn the_link_counters_schema_is_derived_from_the_telemetry_schema() {
+        // The text the logs carried when it was written by hand: a file written today is
+        // read by the same readers.
+        let before = concat!(
+            r#"{"title":"omnikin.LinkCounters","description":"Link receive counters (frames since start) and commands rejected by the runtime","type":"object","properties":{"timestamp":"#,
+            time!(),
+            r#","ok":{"type":"integer","minimum":0},"framing":{"type":"integer","minimum":0},"crc":{"type":"integer","minimum":0},"version":{"type":"integer","minimum":0},"auth":{"type":"integer","minimum":0},"replay":{"type":"integer","minimum":0},"malformed":{"type":"integer","minimum":0},"session":{"type":"integer","minimum":0},"entropy":{"type":"integer","minimum":0},"dropped":{"type":"integer","minimum":0},"rejected":{"type":"integer","minimum":0}},"required":["timestamp"]}"#
+        );
+        assert_eq!(LINK_COUNTERS.text(), before);
+        // Every receive counter of the telemetry schema, by name, is a property.
+        let s: Value = serde_json::from_str(LINK_COUNTERS.text()).unwrap();
+        for c in &telemetry_schema::LINK_COUNTERS {
+            assert_eq!(s["properties"][c.name]["type"], "integer", "{}", c.name);
+        }
+        // The `/link` CSV columns `convert` writes are the telemetry log's own.
+        let log = telemetry_schema::csv_header(3, false);
+        for n in Counters::NAMES {
+            if n != telemetry_schema::DROPPED {
+                let col = if n == "rejected" {
+                    n.to_string()
+                } else {
+                    format!("rx_{n}")
+                };
+                assert!(log.split(',').any(|c| c == col), "{col}");
+            }
+        }
     }
 
     #[test]
@@ -620,7 +655,7 @@ mod tests {
         let v = link_counters(ns, &c);
         check(&LINK_COUNTERS, &v);
         assert_eq!(decode_link_counters(&v), Some(c));
-        assert_eq!(c.dropped, Some(3));
+        assert_eq!(c.get("dropped"), Some(3));
     }
 
     #[test]
@@ -639,7 +674,7 @@ mod tests {
         assert_eq!(topic("/trial-3"), None);
         // The time sub-schema is the same text in every schema.
         for t in TOPICS {
-            assert!(t.schema.data.contains(TIME), "{}", t.schema.name);
+            assert!(t.schema.text().contains(TIME), "{}", t.schema.name);
         }
     }
 }

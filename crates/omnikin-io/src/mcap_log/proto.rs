@@ -24,7 +24,8 @@
 //!   repeated float measured_steer = 5;
 //! }
 //! // Link receive counters (frames since start) and commands rejected by the runtime; a
-//! // counter the source does not know is absent.
+//! // counter the source does not know is absent. The fields are the telemetry schema's
+//! // counters (crate::telemetry_schema) in their order, numbered from 2: today
 //! message LinkCounters {
 //!   google.protobuf.Timestamp timestamp = 1;
 //!   optional uint64 ok = 2;        optional uint64 framing = 3;  optional uint64 crc = 4;
@@ -54,7 +55,7 @@ use prost_types::{
 };
 use serde_json::{Value, json};
 
-use super::foxglove::{Counters, Topic};
+use super::foxglove::{COUNTER_COUNT, Counters, Topic};
 
 /// MCAP `message_encoding` of the protobuf channels.
 pub const MESSAGE_ENCODING: &str = "protobuf";
@@ -102,7 +103,7 @@ impl Encoding {
     /// The schema data of `topic`'s schema in this encoding.
     pub fn schema_data(self, topic: Topic) -> &'static [u8] {
         match self {
-            Self::Json => topic.schema.data.as_bytes(),
+            Self::Json => topic.schema.text().as_bytes(),
             Self::Protobuf => schema(topic.schema.name),
         }
     }
@@ -145,93 +146,79 @@ pub struct WheelRates {
     pub measured_steer: Vec<f32>,
 }
 
-/// omnikin's `LinkCounters` (see the module docs; the counters in the order of
-/// [`Counters::NAMES`], fields 2 to 12).
-#[derive(Clone, PartialEq, Message)]
+/// omnikin's `LinkCounters`: the timestamp (field 1) and the counters in the order of
+/// [`Counters::NAMES`] as `optional uint64` fields 2, 3, … — the names and their number come
+/// from [`crate::telemetry_schema`], so this message (its encoder, decoder and descriptor,
+/// [`link_counters_descriptor`]) follows a counter added there.
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct LinkCounters {
     /// Sample time.
-    #[prost(message, optional, tag = "1")]
     pub timestamp: Option<fm::Timestamp>,
-    /// Frames accepted.
-    #[prost(uint64, optional, tag = "2")]
-    pub ok: Option<u64>,
-    /// Dropped: framing.
-    #[prost(uint64, optional, tag = "3")]
-    pub framing: Option<u64>,
-    /// Dropped: CRC.
-    #[prost(uint64, optional, tag = "4")]
-    pub crc: Option<u64>,
-    /// Dropped: protocol version.
-    #[prost(uint64, optional, tag = "5")]
-    pub version: Option<u64>,
-    /// Dropped: authentication.
-    #[prost(uint64, optional, tag = "6")]
-    pub auth: Option<u64>,
-    /// Dropped: replay.
-    #[prost(uint64, optional, tag = "7")]
-    pub replay: Option<u64>,
-    /// Dropped: malformed.
-    #[prost(uint64, optional, tag = "8")]
-    pub malformed: Option<u64>,
-    /// Dropped: other session.
-    #[prost(uint64, optional, tag = "9")]
-    pub session: Option<u64>,
-    /// Dropped: entropy failure.
-    #[prost(uint64, optional, tag = "10")]
-    pub entropy: Option<u64>,
-    /// All frames dropped.
-    #[prost(uint64, optional, tag = "11")]
-    pub dropped: Option<u64>,
-    /// Commands rejected by the runtime.
-    #[prost(uint64, optional, tag = "12")]
-    pub rejected: Option<u64>,
+    /// The counters; `None`: unknown (absent on the wire).
+    pub counters: Counters,
 }
 
-impl LinkCounters {
-    fn from_counters(timestamp: Option<fm::Timestamp>, c: &Counters) -> Self {
-        let [
-            ok,
-            framing,
-            crc,
-            version,
-            auth,
-            replay,
-            malformed,
-            session,
-            entropy,
-            dropped,
-            rejected,
-        ] = c.values();
-        Self {
-            timestamp,
-            ok,
-            framing,
-            crc,
-            version,
-            auth,
-            replay,
-            malformed,
-            session,
-            entropy,
-            dropped,
-            rejected,
+/// The field number of the `i`-th counter of [`Counters::NAMES`].
+fn counter_field(i: usize) -> u32 {
+    i as u32 + 2
+}
+
+impl Message for LinkCounters {
+    fn encode_raw(&self, buf: &mut impl prost::bytes::BufMut) {
+        if let Some(t) = &self.timestamp {
+            prost::encoding::message::encode(1, t, buf);
+        }
+        for (i, v) in self.counters.0.iter().enumerate() {
+            if let Some(v) = v {
+                prost::encoding::uint64::encode(counter_field(i), v, buf);
+            }
         }
     }
 
-    fn counters(&self) -> Counters {
-        Counters::from_values([
-            self.ok,
-            self.framing,
-            self.crc,
-            self.version,
-            self.auth,
-            self.replay,
-            self.malformed,
-            self.session,
-            self.entropy,
-            self.dropped,
-            self.rejected,
-        ])
+    fn merge_field(
+        &mut self,
+        tag: u32,
+        wire_type: prost::encoding::WireType,
+        buf: &mut impl prost::bytes::Buf,
+        ctx: prost::encoding::DecodeContext,
+    ) -> Result<(), prost::DecodeError> {
+        let counter = (tag as usize).checked_sub(2).filter(|&i| i < COUNTER_COUNT);
+        match (tag, counter) {
+            (1, _) => prost::encoding::message::merge(
+                wire_type,
+                self.timestamp.get_or_insert_with(Default::default),
+                buf,
+                ctx,
+            ),
+            (_, Some(i)) => prost::encoding::uint64::merge(
+                wire_type,
+                self.counters.0[i].get_or_insert(0),
+                buf,
+                ctx,
+            ),
+            _ => prost::encoding::skip_field(wire_type, tag, buf, ctx),
+        }
+    }
+
+    fn encoded_len(&self) -> usize {
+        let t = self
+            .timestamp
+            .as_ref()
+            .map_or(0, |t| prost::encoding::message::encoded_len(1, t));
+        let c: usize = self
+            .counters
+            .0
+            .iter()
+            .enumerate()
+            .filter_map(|(i, v)| {
+                v.map(|v| prost::encoding::uint64::encoded_len(counter_field(i), &v))
+            })
+            .sum();
+        t + c
+    }
+
+    fn clear(&mut self) {
+        *self = Self::default();
     }
 }
 
@@ -454,10 +441,11 @@ pub fn encode(topic: Topic, v: &Value) -> Result<Vec<u8>, String> {
             measured_steer: floats(v, "measured_steer"),
         }
         .encode_to_vec(),
-        "omnikin.LinkCounters" => LinkCounters::from_counters(
+        "omnikin.LinkCounters" => LinkCounters {
             timestamp,
-            &super::foxglove::decode_link_counters(v).ok_or("a counter is not a whole number")?,
-        )
+            counters: super::foxglove::decode_link_counters(v)
+                .ok_or("a counter is not a whole number")?,
+        }
         .encode_to_vec(),
         other => return Err(format!("no protobuf form for schema {other}")),
     })
@@ -556,7 +544,7 @@ pub fn to_json(topic: Topic, data: &[u8]) -> Result<Value, String> {
         "omnikin.LinkCounters" => {
             let m = LinkCounters::decode(data).map_err(bad)?;
             let mut v = json!({"timestamp": json_timestamp(m.timestamp)});
-            for (k, x) in Counters::NAMES.iter().zip(m.counters().values()) {
+            for (k, x) in Counters::NAMES.iter().zip(m.counters.values()) {
                 if let Some(x) = x {
                     v[*k] = json!(x);
                 }
@@ -608,7 +596,7 @@ mod tests {
             measured: Some(vec![0.25, 4.0]),
             measured_steer: Some(vec![-1.0]),
         };
-        let c = fg::Counters::from_values([Some(1); 11]);
+        let c = fg::Counters::from_values([Some(1); fg::COUNTER_COUNT]);
         for (topic, v) in [
             (fg::WHEELS, fg::wheel_rates(ns, &w)),
             (fg::LINK, fg::link_counters(ns, &c)),
@@ -660,10 +648,8 @@ mod tests {
             },
             3,
         );
-        let partial = fg::Counters {
-            ok: Some(0),
-            ..Default::default()
-        };
+        let mut partial = fg::Counters::default();
+        partial.0[0] = Some(0);
         let cases = [
             (fg::POSE, fg::pose_in_frame(ns, p)),
             (fg::TF, fg::frame_transform(ns, p)),
