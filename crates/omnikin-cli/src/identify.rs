@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use omnikin::description::{PRESETS, RobotDescription};
-use omnikin_sim::identify::runs::Run;
+use omnikin_sim::identify::runs::LoggedRun;
 use omnikin_sim::identify::{Options, identify, report, robot_file};
 use omnikin_sim::table::NumericTable;
 
@@ -69,7 +69,7 @@ fn robot_text(robot: &str) -> Result<String> {
 }
 
 /// The runs of the command line, one per encoder log.
-fn runs(a: &IdentifyArgs, desc: &RobotDescription) -> Result<Vec<Run>> {
+fn runs(a: &IdentifyArgs, desc: &RobotDescription) -> Result<Vec<LoggedRun>> {
     let robot = desc.build::<f64>()?;
     let n = a.encoders.len();
     let (flag, refs) = if a.tracked.is_empty() {
@@ -97,7 +97,7 @@ fn runs(a: &IdentifyArgs, desc: &RobotDescription) -> Result<Vec<Run>> {
     let mut out = Vec::with_capacity(n);
     for (i, log) in a.encoders.iter().enumerate() {
         let imu = a.imu.get(i).map(|p| table(p)).transpose()?;
-        out.push(Run::from_tables(
+        out.push(LoggedRun::from_tables(
             &table(log)?,
             &table(&refs[i])?,
             imu.as_ref(),

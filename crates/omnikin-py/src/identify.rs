@@ -1,10 +1,10 @@
 //! `omnikin.identify`: `omnikin identify` (a robot's wheel geometry and gyro from recorded
-//! runs) through the functions the CLI calls — [`Run::from_tables`],
+//! runs) through the functions the CLI calls — [`LoggedRun::from_tables`],
 //! [`omnikin_sim::identify::identify`], [`robot_file::rewrite`] and [`report`] — so the
 //! result is the CLI's, as a JSON string the Python layer turns into a dict.
 
 use numpy::PyReadonlyArray2;
-use omnikin_sim::identify::runs::Run;
+use omnikin_sim::identify::runs::LoggedRun;
 use omnikin_sim::identify::{Options, identify, report, robot_file};
 use omnikin_sim::table::NumericTable;
 use pyo3::prelude::*;
@@ -68,7 +68,7 @@ pub fn identify_native<'py>(
         files[1].push(ref_name);
         files[2].extend(imu.as_ref().map(|t| t.0.clone()));
         runs.push(
-            Run::from_tables(
+            LoggedRun::from_tables(
                 &log,
                 &reference,
                 imu.as_ref().map(|t| &t.1),

@@ -7,9 +7,9 @@
 
 use omnikin::description::RobotDescription;
 use omnikin_sim::dynamics::sphere::{DynamicTrial, SphereDynamics, simulate_plan};
-use omnikin_sim::identify::runs::Run;
+use omnikin_sim::identify::runs::LoggedRun;
 use omnikin_sim::identify::{
-    COM_DEPTH, Identified, Options, PIVOT_FRICTION, ROLLING_RESISTANCE, Status, identify, model,
+    COM_DEPTH, FitStatus, Identified, Options, PIVOT_FRICTION, ROLLING_RESISTANCE, identify, model,
     plans,
 };
 use omnikin_sim::sensors::{
@@ -42,7 +42,7 @@ fn emit(d: &RobotDescription, run: &DynamicTrial, profile: &SensorProfile, seed:
 
 /// The logs written as `simulate --emit-sensors` writes them and read back as `identify` reads
 /// them (encoders, camera fixes, IMU).
-fn read_back(s: &Sensors, tag: &str) -> Run {
+fn read_back(s: &Sensors, tag: &str) -> LoggedRun {
     let text = |f: &dyn Fn(&mut Vec<u8>)| {
         let mut v = Vec::new();
         f(&mut v);
@@ -54,7 +54,7 @@ fn read_back(s: &Sensors, tag: &str) -> Run {
     let enc = NumericTable::parse(&enc, &format!("{tag}/encoders.csv")).unwrap();
     let fixes = NumericTable::parse(&fixes, &format!("{tag}/fixes.csv")).unwrap();
     let imu = NumericTable::parse(&imu, &format!("{tag}/imu.csv")).unwrap();
-    Run::from_tables(&enc, &fixes, Some(&imu), 3, false).unwrap()
+    LoggedRun::from_tables(&enc, &fixes, Some(&imu), 3, false).unwrap()
 }
 
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -254,14 +254,14 @@ fn with_dynamics(depth: f64, resistance: f64) -> ((RobotDescription, f64), f64) 
 fn assert_within(id: &Identified, name: &str, truth: f64, tol: f64) {
     let e = id.dynamics.iter().find(|e| e.name == name).unwrap();
     eprintln!("{e:?} (true {truth})");
-    assert_eq!(e.status, Status::Fitted, "{e:?}");
+    assert_eq!(e.status, FitStatus::Fitted, "{e:?}");
     assert!((e.value - truth).abs() < tol * truth, "{e:?} vs {truth}");
     assert!((e.value - truth).abs() < 2.0 * e.sigma, "{e:?} vs {truth}");
 }
 
 fn identify_com_depth(truth: &RobotDescription, profile: &SensorProfile, seed: u64) -> Identified {
     let prior = RobotDescription::preset("sphere-omni").unwrap();
-    let runs: Vec<Run> = ["spin", "stop"]
+    let runs: Vec<LoggedRun> = ["spin", "stop"]
         .iter()
         .enumerate()
         .map(|(i, name)| {
@@ -311,7 +311,7 @@ fn without_a_stop_com_depth_is_held_with_the_reason() {
     let s = emit(&truth, &run, &SensorProfile::typical(), 5);
     let id = identify(&prior, &[read_back(&s, "spin")], &Options::default()).unwrap();
     let e = id.dynamics.iter().find(|e| e.name == COM_DEPTH).unwrap();
-    let Status::Fixed(why) = &e.status else {
+    let FitStatus::Fixed(why) = &e.status else {
         panic!("{e:?}")
     };
     assert_eq!(e.value, e.prior);
@@ -347,7 +347,7 @@ fn identify_pivot(
     names: &[&str],
 ) -> Identified {
     let prior = RobotDescription::preset("sphere-omni").unwrap();
-    let runs: Vec<Run> = names
+    let runs: Vec<LoggedRun> = names
         .iter()
         .enumerate()
         .map(|(i, name)| {
@@ -378,7 +378,7 @@ fn pivot_friction_twice_the_preset_is_recovered_from_the_spin_decay() {
     assert_within(&id, PIVOT_FRICTION, tau, 0.1);
     for name in [COM_DEPTH, ROLLING_RESISTANCE] {
         let e = id.dynamics.iter().find(|e| e.name == name).unwrap();
-        assert!(matches!(e.status, Status::Fixed(_)), "{e:?}");
+        assert!(matches!(e.status, FitStatus::Fixed(_)), "{e:?}");
     }
 }
 
@@ -413,7 +413,7 @@ fn a_low_pivot_friction_from_a_noisy_biased_gyro() {
 fn without_a_spin_stop_pivot_friction_is_held_with_the_reason() {
     let (truth, _) = with_pivot_friction(2.0);
     let prior = RobotDescription::preset("sphere-omni").unwrap();
-    let runs: Vec<Run> = ["spin", "stop"]
+    let runs: Vec<LoggedRun> = ["spin", "stop"]
         .iter()
         .enumerate()
         .map(|(i, name)| {
@@ -430,7 +430,7 @@ fn without_a_spin_stop_pivot_friction_is_held_with_the_reason() {
         .iter()
         .find(|e| e.name == PIVOT_FRICTION)
         .unwrap();
-    let Status::Fixed(why) = &e.status else {
+    let FitStatus::Fixed(why) = &e.status else {
         panic!("{e:?}")
     };
     assert!(why.contains("spin-stop"), "{why}");
@@ -445,7 +445,7 @@ fn without_a_spin_stop_pivot_friction_is_held_with_the_reason() {
 #[test]
 fn a_spin_stop_without_a_decay_holds_pivot_friction_naming_the_decay() {
     let prior = RobotDescription::preset("sphere-omni").unwrap();
-    let mut runs: Vec<Run> = ["spin", "spin-stop"]
+    let mut runs: Vec<LoggedRun> = ["spin", "spin-stop"]
         .iter()
         .enumerate()
         .map(|(i, name)| {
@@ -470,7 +470,7 @@ fn a_spin_stop_without_a_decay_holds_pivot_friction_naming_the_decay() {
         .iter()
         .find(|e| e.name == PIVOT_FRICTION)
         .unwrap();
-    let Status::Fixed(why) = &e.status else {
+    let FitStatus::Fixed(why) = &e.status else {
         panic!("{e:?}")
     };
     assert!(why.contains("does not decay"), "{why}");

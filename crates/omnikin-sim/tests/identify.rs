@@ -5,8 +5,8 @@
 //! back within 3σ and within stated tolerances. Seeded: the same numbers on every machine.
 
 use omnikin::description::{Geometry, RobotDescription};
-use omnikin_sim::identify::runs::{EncoderLog, Reference, Run};
-use omnikin_sim::identify::{Identified, Options, Status, identify, params, plans};
+use omnikin_sim::identify::runs::{EncoderLog, LoggedRun, Reference};
+use omnikin_sim::identify::{FitStatus, Identified, Options, identify, params, plans};
 use omnikin_sim::sensors::{
     GyroProfile, SensorProfile, emit, write_encoder_log, write_fixes, write_truth,
 };
@@ -33,7 +33,7 @@ fn record(
     sensors: &SensorProfile,
     reference: Reference_,
     seed: u64,
-) -> Vec<Run> {
+) -> Vec<LoggedRun> {
     let robot = truth.build::<f64>().unwrap();
     let plans = plans::sysid_plans(prior, RATE).unwrap();
     plans
@@ -54,7 +54,7 @@ fn record(
                 Reference_::Tracked => write_truth(&trial, &mut refr).unwrap(),
             }
             let refr = NumericTable::parse(std::str::from_utf8(&refr).unwrap(), "ref.csv").unwrap();
-            Run {
+            LoggedRun {
                 encoders,
                 reference: Reference::from_table(&refr).unwrap(),
                 gyro,
@@ -98,7 +98,7 @@ fn assert_recovered(id: &Identified, truth: &[f64], three_sigma: bool, tol: impl
     for (e, want) in id.geometry.iter().zip(truth) {
         let err = (e.value - want).abs();
         match &e.status {
-            Status::Fitted => {
+            FitStatus::Fitted => {
                 assert!(
                     !three_sigma || err <= 3.0 * e.sigma,
                     "{}: {} vs true {want}: error {err:e} > 3σ = {:e}",
@@ -119,7 +119,9 @@ fn assert_recovered(id: &Identified, truth: &[f64], three_sigma: bool, tol: impl
                     e.sigma
                 );
             }
-            Status::Fixed(_) => assert!(err < 1e-12, "{} was held at its prior but moved", e.name),
+            FitStatus::Fixed(_) => {
+                assert!(err < 1e-12, "{} was held at its prior but moved", e.name)
+            }
         }
     }
 }
@@ -259,7 +261,7 @@ fn a_caster3_from_camera_fixes_and_its_gyro() {
     );
     for name in ["mount_radius", "eccentricity", "wheel_radius_scale"] {
         let e = id.geometry.iter().find(|e| e.name == name).unwrap();
-        assert_eq!(e.status, Status::Fitted, "{name} was held");
+        assert_eq!(e.status, FitStatus::Fitted, "{name} was held");
     }
     assert_recovered(&id, &true_values(&prior, &truth), true, kiwi_tolerance);
 }
@@ -306,7 +308,7 @@ fn an_x_drive_from_camera_fixes_holds_what_it_cannot_see() {
     let held: Vec<&str> = id
         .geometry
         .iter()
-        .filter(|e| matches!(&e.status, Status::Fixed(reason) if !reason.is_empty()))
+        .filter(|e| matches!(&e.status, FitStatus::Fixed(reason) if !reason.is_empty()))
         .map(|e| e.name.as_str())
         .collect();
     assert_eq!(held.len(), 7 + 1, "held: {held:?}");
@@ -374,7 +376,7 @@ fn a_swerve4_from_camera_fixes_holds_its_gauge() {
     let held: Vec<&str> = id
         .geometry
         .iter()
-        .filter(|e| matches!(&e.status, Status::Fixed(_)))
+        .filter(|e| matches!(&e.status, FitStatus::Fixed(_)))
         .map(|e| e.name.as_str())
         .collect();
     assert_eq!(held.len(), 6, "held: {held:?}");

@@ -32,7 +32,7 @@
 //! for the same motion ([`model::consistent_log`]), so that the prior's own error does not
 //! make a gauge direction look observable — is tested ([`lsq::unobservable`]); each direction
 //! of parameter space the runs do not see holds one parameter at its prior, reported as
-//! [`Status::Fixed`] with the reason. What the wheel kinematics never see: an omni wheel's
+//! [`FitStatus::Fixed`] with the reason. What the wheel kinematics never see: an omni wheel's
 //! position along its own drive direction; with position-only references, the robot frame's
 //! orientation (one drive angle is held); without spins, the wheel positions; without a
 //! heading change, the gyro's scale; of a four-module swerve, 6 of its 12 numbers (a rotation
@@ -64,10 +64,10 @@ pub mod spin_decay;
 use omnikin::Pose2;
 use omnikin::description::RobotDescription;
 
-use model::Weights;
+use model::ResidualWeights;
 use params::Parameter;
 use residual_series::{PoseResiduals, RunResiduals};
-use runs::Run;
+use runs::LoggedRun;
 
 /// Why an identification failed. Every message names the file or parameter concerned.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -104,7 +104,7 @@ impl Default for Options {
 
 /// Whether a parameter was fitted.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Status {
+pub enum FitStatus {
     /// Estimated from the runs.
     Fitted,
     /// Held at its prior; the reason says why (which the runs do not determine).
@@ -113,7 +113,7 @@ pub enum Status {
 
 /// One parameter's result.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Estimate {
+pub struct ParameterEstimate {
     /// Name, as in [`params::parameters`] (`gyro.bias`, `gyro.scale` for the gyro).
     pub name: String,
     /// Unit (`""` for scales, `"m"`, `"rad"`, `"rad/s"`).
@@ -125,7 +125,7 @@ pub struct Estimate {
     /// 1σ from the covariance (0 when fixed).
     pub sigma: f64,
     /// Fitted or fixed, and why.
-    pub status: Status,
+    pub status: FitStatus,
 }
 
 /// The result of [`identify`].
@@ -134,9 +134,9 @@ pub struct Identified {
     /// The prior description with the fitted geometry.
     pub description: RobotDescription,
     /// The kinematic parameters, in [`params::parameters`] order.
-    pub geometry: Vec<Estimate>,
+    pub geometry: Vec<ParameterEstimate>,
     /// `gyro.bias` (rad/s) and `gyro.scale`, when a run had a gyro.
-    pub gyro: Vec<Estimate>,
+    pub gyro: Vec<ParameterEstimate>,
     /// RMS of the position residuals at the estimate, m.
     pub position_rms: f64,
     /// RMS of the heading residuals, rad (references with a heading).
@@ -155,7 +155,7 @@ pub struct Identified {
     /// `dynamics.rolling_resistance` from the rocking after stops, when a run has an IMU log
     /// ([`rocking`]), and `dynamics.pivot_friction` (N·m) from the decay of a spin after a
     /// stop, when a run has a gyro ([`spin_decay`]); empty otherwise.
-    pub dynamics: Vec<Estimate>,
+    pub dynamics: Vec<ParameterEstimate>,
     /// The rocking fitted after each stop (sphere-omni with IMU logs).
     pub rocking: Vec<rocking::Rocking>,
     /// The spin's decay fitted after each stop of a spin in place (sphere-omni with a gyro).
@@ -173,22 +173,22 @@ pub const PIVOT_FRICTION: &str = "dynamics.pivot_friction";
 
 /// What [`sphere_dynamics`] finds: the estimates, each stop's rocking and each spin's decay.
 type SphereFound = (
-    Vec<Estimate>,
+    Vec<ParameterEstimate>,
     Vec<rocking::Rocking>,
     Vec<spin_decay::SpinDecay>,
 );
 
 /// `priors` held at their values with the reason `why`.
-fn held(priors: &[(&str, &'static str, f64)], why: &str) -> Vec<Estimate> {
+fn held(priors: &[(&str, &'static str, f64)], why: &str) -> Vec<ParameterEstimate> {
     priors
         .iter()
-        .map(|&(name, unit, prior)| Estimate {
+        .map(|&(name, unit, prior)| ParameterEstimate {
             name: name.into(),
             unit,
             prior,
             value: prior,
             sigma: 0.0,
-            status: Status::Fixed(why.into()),
+            status: FitStatus::Fixed(why.into()),
         })
         .collect()
 }
@@ -199,7 +199,10 @@ fn held(priors: &[(&str, &'static str, f64)], why: &str) -> Vec<Estimate> {
 /// estimates (held at the prior, with the reason, when no run has such a stop), each stop's
 /// rocking and each spin's decay. Nothing for another kind, or when no run has a gyro or an
 /// IMU log.
-fn sphere_dynamics(prior: &RobotDescription, runs: &[Run]) -> Result<SphereFound, IdentifyError> {
+fn sphere_dynamics(
+    prior: &RobotDescription,
+    runs: &[LoggedRun],
+) -> Result<SphereFound, IdentifyError> {
     use crate::dynamics::sphere::SphereDynamics;
     let with_imu = runs.iter().any(|r| r.imu_rates.is_some());
     let with_gyro = runs.iter().any(|r| r.gyro.is_some());
@@ -260,13 +263,13 @@ fn sphere_dynamics(prior: &RobotDescription, runs: &[Run]) -> Result<SphereFound
                 sw += w;
                 sv += w * v;
             }
-            estimates.push(Estimate {
+            estimates.push(ParameterEstimate {
                 name: PIVOT_FRICTION.into(),
                 unit: "N m",
                 prior: p.pivot_friction,
                 value: sv / sw,
                 sigma: 1.0 / sw.sqrt(),
-                status: Status::Fitted,
+                status: FitStatus::Fitted,
             });
         }
     }
@@ -277,7 +280,7 @@ fn sphere_dynamics(prior: &RobotDescription, runs: &[Run]) -> Result<SphereFound
 fn rocking_estimates(
     p: &crate::dynamics::sphere::SphereDynamics,
     found: &[rocking::Rocking],
-) -> Result<Vec<Estimate>, IdentifyError> {
+) -> Result<Vec<ParameterEstimate>, IdentifyError> {
     let priors = [
         (COM_DEPTH, "m", p.com_depth),
         (ROLLING_RESISTANCE, "", p.rolling_resistance),
@@ -319,13 +322,13 @@ fn rocking_estimates(
     Ok(priors
         .iter()
         .zip(sums)
-        .map(|(&(name, unit, prior), (sw, sv))| Estimate {
+        .map(|(&(name, unit, prior), (sw, sv))| ParameterEstimate {
             name: name.into(),
             unit,
             prior,
             value: sv / sw,
             sigma: 1.0 / sw.sqrt(),
-            status: Status::Fitted,
+            status: FitStatus::Fitted,
         })
         .collect())
 }
@@ -333,7 +336,7 @@ fn rocking_estimates(
 /// Initial start pose of a run: the reference at the log's first time (or its first sample);
 /// the heading from the reference, else the angle between the reference's and the prior
 /// odometry's displacement to the reference point farthest from the start.
-fn start_guess(robot: &omnikin::Robot<f64>, run: &Run) -> Option<Pose2<f64>> {
+fn start_guess(robot: &omnikin::Robot<f64>, run: &LoggedRun) -> Option<Pose2<f64>> {
     let r = &run.reference;
     let t0 = run.encoders.t[0];
     let k0 = r.t.partition_point(|t| *t < t0).min(r.t.len() - 1);
@@ -389,10 +392,10 @@ impl Layout {
 /// All residuals for the value vector `x`, with the group of each.
 fn residuals(
     prior: &RobotDescription,
-    runs: &[Run],
+    runs: &[LoggedRun],
     l: Layout,
     x: &[f64],
-    w: &Weights,
+    w: &ResidualWeights,
     gyro_sigma: f64,
     window: f64,
 ) -> Option<(Vec<f64>, Vec<Group>)> {
@@ -446,7 +449,7 @@ fn group_rms(r: &[f64], groups: &[Group], g: Group, scale: f64) -> Option<f64> {
 /// encoder log; [`IdentifyError::Fit`] when the prior does not build or the fit cannot start.
 pub fn identify(
     prior: &RobotDescription,
-    runs: &[Run],
+    runs: &[LoggedRun],
     options: &Options,
 ) -> Result<Identified, IdentifyError> {
     if runs.is_empty() {
@@ -483,21 +486,21 @@ pub fn identify(
     // little while it spins, which is what fixes its start heading.
     let fixable: Vec<bool> = (0..n).map(|k| k < l.geometry || k >= l.gyro_at()).collect();
     let mut free = vec![true; n];
-    let mut w = Weights {
+    let mut w = ResidualWeights {
         position: options.position_sigma,
         heading: options.heading_sigma,
     };
     // Gyro windows: white noise integrated over a window is small; start at 1 mrad.
     let mut gyro_sigma = 1e-3;
     let window = options.gyro_window;
-    let f = |x: &[f64], w: &Weights, gs: f64| residuals(prior, runs, l, x, w, gs, window);
+    let f = |x: &[f64], w: &ResidualWeights, gs: f64| residuals(prior, runs, l, x, w, gs, window);
     // Observability is a property of the model, not of the prior's error: it is tested on the
     // logs the prior robot would have recorded for the same motion (see
     // `model::consistent_log`), where a gauge direction is exactly blind.
-    let consistent: Vec<Run> = runs
+    let consistent: Vec<LoggedRun> = runs
         .iter()
         .map(|r| {
-            Some(Run {
+            Some(LoggedRun {
                 encoders: model::consistent_log(&robot, &r.encoders)?,
                 reference: r.reference.clone(),
                 gyro: r.gyro.clone(),
@@ -545,7 +548,7 @@ pub fn identify(
         let (r, groups) = f(&s.x, &w, gyro_sigma)
             .ok_or_else(|| IdentifyError::Fit("the fitted robot does not build".into()))?;
         let floor = |v: Option<f64>, d: f64| v.unwrap_or(d).max(1e-9);
-        let next = Weights {
+        let next = ResidualWeights {
             position: floor(
                 group_rms(&r, &groups, Group::Position, w.position),
                 w.position,
@@ -571,15 +574,17 @@ pub fn identify(
         &own,
     )
     .map_or(sol.condition, |j| lsq::condition(&j, &own));
-    let estimate = |k: usize, name: String, unit: &'static str, prior: f64| Estimate {
+    let estimate = |k: usize, name: String, unit: &'static str, prior: f64| ParameterEstimate {
         name,
         unit,
         prior,
         value: sol.x[k],
         sigma: sol.sigma[k] * inflation,
-        status: reasons[k].clone().map_or(Status::Fitted, Status::Fixed),
+        status: reasons[k]
+            .clone()
+            .map_or(FitStatus::Fitted, FitStatus::Fixed),
     };
-    let estimates: Vec<Estimate> = geometry
+    let estimates: Vec<ParameterEstimate> = geometry
         .iter()
         .enumerate()
         .map(|(k, p)| estimate(k, p.name.clone(), p.quantity.unit(), p.prior))
@@ -595,7 +600,7 @@ pub fn identify(
     check_excitation(prior, estimates.iter().chain(&gyro), condition)?;
     let mut fitted = params::apply(prior, &x[..l.geometry]);
     let (dynamics, rocking, spin_decay) = sphere_dynamics(prior, runs)?;
-    for e in dynamics.iter().filter(|e| e.status == Status::Fitted) {
+    for e in dynamics.iter().filter(|e| e.status == FitStatus::Fitted) {
         let spec = fitted.sphere_dynamics.get_or_insert_with(Default::default);
         match e.name.as_str() {
             COM_DEPTH => spec.com_depth = Some(e.value),
@@ -642,7 +647,7 @@ pub fn identify(
 /// most 0.5 (a wheel half or one and a half times the file's is another wheel); a length's
 /// prior magnitude, at least the robot's size (`footprint_radius`, else 0.1 m), changed by at
 /// most ten times that; an angle 1 rad either; a gyro bias 0.1 and 1 rad/s.
-fn excitation_scale(e: &Estimate, size: f64) -> (f64, f64) {
+fn excitation_scale(e: &ParameterEstimate, size: f64) -> (f64, f64) {
     match e.unit {
         "m" => {
             let s = e.prior.abs().max(size);
@@ -662,13 +667,13 @@ fn excitation_scale(e: &Estimate, size: f64) -> (f64, f64) {
 /// 1σ and prior, and the condition number.
 fn check_excitation<'a>(
     prior: &RobotDescription,
-    estimates: impl Iterator<Item = &'a Estimate>,
+    estimates: impl Iterator<Item = &'a ParameterEstimate>,
     condition: f64,
 ) -> Result<(), IdentifyError> {
     let size = prior.footprint_radius.unwrap_or(0.1);
     let mut singular = false;
     let bad: Vec<String> = estimates
-        .filter(|e| e.status == Status::Fitted)
+        .filter(|e| e.status == FitStatus::Fitted)
         .inspect(|e| singular |= e.sigma == 0.0)
         .filter(|e| {
             let (s, change) = excitation_scale(e, size);
@@ -709,12 +714,12 @@ fn check_excitation<'a>(
 /// near 1 against camera fixes and larger against an exact tracked truth.
 fn correlation_inflation(
     prior: &RobotDescription,
-    runs: &[Run],
+    runs: &[LoggedRun],
     l: Layout,
     x: &[f64],
 ) -> Option<f64> {
     let robot = params::apply(prior, &x[..l.geometry]).build::<f64>().ok()?;
-    let unit = Weights {
+    let unit = ResidualWeights {
         position: 1.0,
         heading: 1.0,
     };

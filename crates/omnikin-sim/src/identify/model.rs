@@ -16,7 +16,7 @@
 
 use omnikin::{Actuators, EncoderAngles, Kind, Pose2, Robot, Twist2};
 
-use super::runs::{EncoderLog, GyroLog, Run};
+use super::runs::{EncoderLog, GyroLog, LoggedRun};
 
 /// Dead-reckons `log` with `robot` from `start` (the pose at the log's first sample): one pose
 /// per sample. `None` when the kinematics refuse an increment (non-finite angles).
@@ -95,7 +95,7 @@ pub fn pose_at(t: &[f64], poses: &[Pose2<f64>], time: f64) -> Option<Pose2<f64>>
 
 /// Weights of the two residual groups: the standard deviation each residual is divided by.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Weights {
+pub struct ResidualWeights {
     /// Position, m.
     pub position: f64,
     /// Heading, rad.
@@ -108,9 +108,9 @@ pub struct Weights {
 /// wrote, or `None` when the kinematics refuse the log.
 pub fn pose_residuals(
     robot: &Robot<f64>,
-    run: &Run,
+    run: &LoggedRun,
     start: Pose2<f64>,
-    w: Weights,
+    w: ResidualWeights,
     out: &mut Vec<f64>,
 ) -> Option<(usize, usize)> {
     let poses = dead_reckon(robot, &run.encoders, start)?;

@@ -20,7 +20,7 @@ use omnikin::description::{Geometry, RobotDescription};
 
 /// What a parameter measures (its unit, and its Jacobian step).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Quantity {
+pub enum ParameterQuantity {
     /// A dimensionless scale factor (1 = the prior).
     Scale,
     /// A length, m.
@@ -29,13 +29,13 @@ pub enum Quantity {
     Angle,
 }
 
-impl Quantity {
+impl ParameterQuantity {
     /// The unit as printed: `""`, `"m"`, `"rad"`.
     pub fn unit(self) -> &'static str {
         match self {
-            Quantity::Scale => "",
-            Quantity::Length => "m",
-            Quantity::Angle => "rad",
+            ParameterQuantity::Scale => "",
+            ParameterQuantity::Length => "m",
+            ParameterQuantity::Angle => "rad",
         }
     }
 
@@ -54,10 +54,10 @@ pub struct Parameter {
     /// The robot file's value.
     pub prior: f64,
     /// What it measures.
-    pub quantity: Quantity,
+    pub quantity: ParameterQuantity,
 }
 
-fn p(name: String, prior: f64, quantity: Quantity) -> Parameter {
+fn p(name: String, prior: f64, quantity: ParameterQuantity) -> Parameter {
     Parameter {
         name,
         prior,
@@ -67,7 +67,7 @@ fn p(name: String, prior: f64, quantity: Quantity) -> Parameter {
 
 /// The kinematic parameters of `desc` (see the module table), in a fixed order.
 pub fn parameters(desc: &RobotDescription) -> Vec<Parameter> {
-    use Quantity::{Angle, Length, Scale};
+    use ParameterQuantity::{Angle, Length, Scale};
     let mut out = Vec::new();
     match &desc.geometry {
         Geometry::Omni(wheels) => {

@@ -2,7 +2,7 @@
 //! `omnikin.identify`): the table of parameter, prior, estimate, 1σ and change with the
 //! residual RMS, and the same as one JSON object.
 
-use super::{Estimate, Identified, Status};
+use super::{FitStatus, Identified, ParameterEstimate};
 
 /// The table `omnikin identify` prints: a header, one line per parameter (a held one with its
 /// reason instead of an estimate), and a closing line with the residual RMS, the number of
@@ -14,7 +14,7 @@ pub fn table(id: &Identified) -> String {
     );
     for e in id.geometry.iter().chain(&id.gyro).chain(&id.dynamics) {
         let line = match &e.status {
-            Status::Fitted => format!(
+            FitStatus::Fitted => format!(
                 "{:<26} {:>12.6} {:>12.6} {:>10.2e} {:>+11.2e}  {}",
                 e.name,
                 e.prior,
@@ -23,7 +23,7 @@ pub fn table(id: &Identified) -> String {
                 e.value - e.prior,
                 e.unit
             ),
-            Status::Fixed(why) => {
+            FitStatus::Fixed(why) => {
                 format!("{:<26} {:>12.6} {:>12}  held: {why}", e.name, e.prior, "—")
             }
         };
@@ -45,10 +45,10 @@ pub fn table(id: &Identified) -> String {
     out
 }
 
-fn estimate(e: &Estimate) -> serde_json::Value {
+fn estimate(e: &ParameterEstimate) -> serde_json::Value {
     let (status, reason) = match &e.status {
-        Status::Fitted => ("fitted", None),
-        Status::Fixed(why) => ("held", Some(why.clone())),
+        FitStatus::Fitted => ("fitted", None),
+        FitStatus::Fixed(why) => ("held", Some(why.clone())),
     };
     serde_json::json!({
         "name": e.name, "unit": e.unit, "prior": e.prior, "value": e.value,

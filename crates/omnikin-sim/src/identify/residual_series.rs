@@ -11,7 +11,7 @@
 use omnikin::{Pose2, Robot};
 
 use super::model::{dead_reckon, pose_at};
-use super::runs::Run;
+use super::runs::LoggedRun;
 
 /// A run's pose residuals at the reference times inside its encoder log.
 #[derive(Clone, Debug, PartialEq)]
@@ -28,7 +28,7 @@ pub struct PoseResiduals {
 impl PoseResiduals {
     /// The residuals of `run` dead-reckoned by `robot` from `start`; `None` when the
     /// kinematics refuse the log.
-    pub fn of(robot: &Robot<f64>, run: &Run, start: Pose2<f64>) -> Option<Self> {
+    pub fn of(robot: &Robot<f64>, run: &LoggedRun, start: Pose2<f64>) -> Option<Self> {
         let poses = dead_reckon(robot, &run.encoders, start)?;
         let r = &run.reference;
         let mut out = Self {

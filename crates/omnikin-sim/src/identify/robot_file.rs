@@ -10,7 +10,7 @@
 
 use omnikin::description::{Geometry, RobotDescription};
 
-use super::{Estimate, Identified, IdentifyError, Status};
+use super::{FitStatus, Identified, IdentifyError, ParameterEstimate};
 
 /// One replacement: in table `table` (occurrence `index` for arrays of tables), key `key`.
 struct Edit {
@@ -30,17 +30,17 @@ fn num(v: f64) -> String {
     if s == "-0.0" { "0.0".into() } else { s }
 }
 
-fn describe(e: &Estimate, shown: f64, sigma: f64, unit: &str) -> String {
+fn describe(e: &ParameterEstimate, shown: f64, sigma: f64, unit: &str) -> String {
     match &e.status {
-        Status::Fitted => format!("{} ± {} {unit}", num(shown), num(sigma)),
-        Status::Fixed(_) => format!(
+        FitStatus::Fitted => format!("{} ± {} {unit}", num(shown), num(sigma)),
+        FitStatus::Fixed(_) => format!(
             "{} {unit} held at the prior (not identifiable from these runs)",
             num(shown)
         ),
     }
 }
 
-fn find<'a>(id: &'a Identified, name: &str) -> Option<&'a Estimate> {
+fn find<'a>(id: &'a Identified, name: &str) -> Option<&'a ParameterEstimate> {
     id.geometry.iter().find(|e| e.name == name)
 }
 
@@ -204,7 +204,7 @@ fn edits(id: &Identified) -> Vec<Edit> {
         if let Some(e) = id
             .dynamics
             .iter()
-            .find(|e| e.name == name && e.status == Status::Fitted)
+            .find(|e| e.name == name && e.status == FitStatus::Fitted)
         {
             out.push(Edit {
                 table: "[dynamics]",
@@ -404,13 +404,13 @@ mod tests {
             geometry: ps
                 .iter()
                 .zip(&values)
-                .map(|(p, v)| Estimate {
+                .map(|(p, v)| ParameterEstimate {
                     name: p.name.clone(),
                     unit: p.quantity.unit(),
                     prior: p.prior,
                     value: *v,
                     sigma: 1e-4,
-                    status: Status::Fitted,
+                    status: FitStatus::Fitted,
                 })
                 .collect(),
             gyro: Vec::new(),

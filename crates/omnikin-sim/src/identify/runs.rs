@@ -88,7 +88,7 @@ pub struct Reference {
 
 /// One run: what the robot's encoders said, where it really was, and its gyro if any.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Run {
+pub struct LoggedRun {
     /// The encoder log.
     pub encoders: EncoderLog,
     /// The reference trajectory.
@@ -189,7 +189,7 @@ impl EncoderLog {
     }
 }
 
-impl Run {
+impl LoggedRun {
     /// One run from its tables: the encoder log of a robot with `wheels` wheels (`steerable`:
     /// with `s1..sN`), the reference (fixes or tracked run) and, optionally, an IMU log whose
     /// `gz` replaces the encoder log's `gyro_z` as the gyro (and whose `gx`, `gy` are kept for

@@ -21,7 +21,7 @@
 //!   the fix reached the robot, default `t`). Each fix is handed to the filter when it arrives
 //!   and fused at the time it was taken.
 //!
-//! Errors name the table, the line and the column ([`OdometryError`]).
+//! Errors name the table, the line and the column ([`OdometryInputError`]).
 
 use omnikin::Pose2;
 use omnikin::description::RobotDescription;
@@ -370,7 +370,7 @@ pub struct OdometryRun {
 
 /// Why the pipeline stopped: a malformed or inconsistent input, named by file, line and column.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum OdometryError {
+pub enum OdometryInputError {
     /// A table error (a missing column).
     #[error(transparent)]
     Table(#[from] TableError),
@@ -397,8 +397,8 @@ pub enum OdometryError {
     },
 }
 
-fn input(file: &str, line: Option<usize>, message: String) -> OdometryError {
-    OdometryError::Input {
+fn input(file: &str, line: Option<usize>, message: String) -> OdometryInputError {
+    OdometryInputError::Input {
         file: file.to_string(),
         line,
         message,
@@ -415,8 +415,8 @@ fn num(v: f64) -> String {
     }
 }
 
-fn check_options(o: &OdometryOptions) -> Result<(), OdometryError> {
-    let bad = |option, message: String| Err(OdometryError::Option { option, message });
+fn check_options(o: &OdometryOptions) -> Result<(), OdometryInputError> {
+    let bad = |option, message: String| Err(OdometryInputError::Option { option, message });
     for (v, name) in [
         (o.fix_std, "fix_std"),
         (o.fix_heading_std, "fix_heading_std"),
@@ -471,9 +471,9 @@ fn check_options(o: &OdometryOptions) -> Result<(), OdometryError> {
 /// Reads the fixes table: `t,x,y` with optional `heading` and `arrival`, sorted by arrival.
 ///
 /// # Errors
-/// [`OdometryError::Table`] for missing columns, [`OdometryError::Input`] for an arrival
+/// [`OdometryInputError::Table`] for missing columns, [`OdometryInputError::Input`] for an arrival
 /// before the fix was taken.
-pub fn read_fixes(table: &NumericTable) -> Result<Vec<FixRecord>, OdometryError> {
+pub fn read_fixes(table: &NumericTable) -> Result<Vec<FixRecord>, OdometryInputError> {
     let columns = FixColumns::of(table.require(&["t", "x", "y"], FIX_COLUMNS)?, |n| {
         table.col(n)
     });
@@ -492,7 +492,7 @@ pub fn read_fixes(table: &NumericTable) -> Result<Vec<FixRecord>, OdometryError>
 /// As [`read_fixes`], and the table's own errors (a bad row, a time that does not increase).
 pub fn read_fix_rows<R: std::io::BufRead>(
     mut rows: NumericRows<R>,
-) -> Result<FixList, OdometryError> {
+) -> Result<FixList, OdometryInputError> {
     let columns = FixColumns::of(rows.require(&["t", "x", "y"], FIX_COLUMNS)?, |n| {
         rows.col(n)
     });
@@ -524,7 +524,7 @@ impl FixColumns {
     }
 
     /// The fix of row `v` (line `line` of `file`), its result not yet known.
-    fn record(&self, file: &str, line: usize, v: &[f64]) -> Result<FixRecord, OdometryError> {
+    fn record(&self, file: &str, line: usize, v: &[f64]) -> Result<FixRecord, OdometryInputError> {
         let t = v[self.txy[0]];
         let arr = self.arrival.map_or(t, |a| v[a]);
         if arr < t {
@@ -550,7 +550,7 @@ impl FixColumns {
 /// [`read_fixes`] reads) when given: [`OdometryStream`] over every row, the rows kept.
 ///
 /// # Errors
-/// [`OdometryError`] naming the table, line and column: missing wheel or steer columns, a log
+/// [`OdometryInputError`] naming the table, line and column: missing wheel or steer columns, a log
 /// of another robot (extra `q`/`s` columns), `imu` without a `yaw` or `gyro_z` column, an empty
 /// log, values outside the plausible ranges of `omnikin_plan::limits`, bad fixes or options.
 pub fn run(
@@ -558,7 +558,7 @@ pub fn run(
     log: &NumericTable,
     fixes: Option<&NumericTable>,
     options: &OdometryOptions,
-) -> Result<OdometryRun, OdometryError> {
+) -> Result<OdometryRun, OdometryInputError> {
     let fixes = match fixes {
         Some(table) => Some(FixList {
             file: table.file.clone(),

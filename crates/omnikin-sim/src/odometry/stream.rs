@@ -21,7 +21,7 @@ use omnikin::{MAX_WHEELS, Pose2};
 use super::events::{self, OdometryEvent, ResolvedThresholds};
 use super::tilt;
 use super::{
-    FixRecord, FixResult, FixSummary, HISTORY, HeadingSource, OdometryError, OdometryOptions,
+    FixRecord, FixResult, FixSummary, HISTORY, HeadingSource, OdometryInputError, OdometryOptions,
     OdometrySummary, ShellSpin, TiltReport, check_options, input, num,
 };
 use crate::table::require;
@@ -123,7 +123,7 @@ impl OdometryStream {
     /// columns are `header`, fusing `fixes` when given.
     ///
     /// # Errors
-    /// [`OdometryError`] naming the file, line 1 and the column: missing wheel or steer
+    /// [`OdometryInputError`] naming the file, line 1 and the column: missing wheel or steer
     /// columns, a log of another robot (extra `q`/`s` columns), `imu` without a `yaw` or
     /// `gyro_z` column; bad options; a robot description that does not build.
     pub fn new(
@@ -132,7 +132,7 @@ impl OdometryStream {
         header: &[String],
         fixes: Option<FixList>,
         options: &OdometryOptions,
-    ) -> Result<Self, OdometryError> {
+    ) -> Result<Self, OdometryInputError> {
         check_options(options)?;
         let robot = description.build::<f64>()?;
         let n = robot.wheels();
@@ -319,10 +319,10 @@ impl OdometryStream {
     /// estimate. Rows must come in log order (the table readers check that time increases).
     ///
     /// # Errors
-    /// [`OdometryError::Input`] naming the line and column: a value outside the plausible
+    /// [`OdometryInputError::Input`] naming the line and column: a value outside the plausible
     /// ranges of `omnikin_plan::limits`, a step the odometry or the filter refuses, a bad fix;
     /// a row narrower than the header.
-    pub fn push(&mut self, line: usize, values: &[f64]) -> Result<OdometryRow, OdometryError> {
+    pub fn push(&mut self, line: usize, values: &[f64]) -> Result<OdometryRow, OdometryInputError> {
         if values.len() != self.header.len() {
             return Err(input(
                 &self.log_file,
@@ -349,7 +349,7 @@ impl OdometryStream {
         }
         // Finite but meaningless angles and rates (a steer angle of 1e308 rad was used as
         // is): held to the plan file's bounds, naming the line and column.
-        let bounded = |col: usize, max: f64, unit: &str| -> Result<(), OdometryError> {
+        let bounded = |col: usize, max: f64, unit: &str| -> Result<(), OdometryInputError> {
             if at(col).abs() > max {
                 return Err(input(
                     log_file,
@@ -525,7 +525,7 @@ impl OdometryStream {
     }
 
     /// The first row (time `t0`, line `line`) starts the filter and the summary's clocks.
-    fn start_filter(&mut self, line: usize, t0: f64) -> Result<(), OdometryError> {
+    fn start_filter(&mut self, line: usize, t0: f64) -> Result<(), OdometryInputError> {
         let est = match self.options.initial_pose {
             Some(p) => PoseFusion::<f64, HISTORY>::new(
                 t0,
@@ -546,8 +546,8 @@ impl OdometryStream {
     /// Ends the run: the fixes' fates, the events and the summary.
     ///
     /// # Errors
-    /// [`OdometryError::Input`] when no row was pushed (`no samples after the header`).
-    pub fn finish(self) -> Result<OdometryEnd, OdometryError> {
+    /// [`OdometryInputError::Input`] when no row was pushed (`no samples after the header`).
+    pub fn finish(self) -> Result<OdometryEnd, OdometryInputError> {
         let (Some(est), Some((t_end, end))) = (self.est.as_deref(), self.last) else {
             return Err(input(
                 &self.log_file,
