@@ -188,6 +188,9 @@ struct Srv {
     _token: LivelinessToken,
 }
 
+/// A service call as received: the query and its rmw_zenoh attachment (when it had one).
+type Request = (Query, Option<Attachment>);
+
 /// A call being served: the query to answer, its rmw_zenoh attachment (when it had one), and
 /// the first link sequence number of the commands sent for it.
 struct Call {
@@ -446,12 +449,7 @@ impl Ros2Node {
     /// The calls of `estop` (then `clear`) received since the last call. A request that is
     /// not CDR of `std_srvs/srv/Trigger_Request` still counts (the request carries nothing)
     /// and is counted in `bad_samples` too.
-    fn take_requests(
-        &mut self,
-    ) -> (
-        Vec<(Query, Option<Attachment>)>,
-        Vec<(Query, Option<Attachment>)>,
-    ) {
+    fn take_requests(&mut self) -> (Vec<Request>, Vec<Request>) {
         let mut bad = 0;
         let mut drain = |s: &Srv| {
             let mut calls = Vec::new();
