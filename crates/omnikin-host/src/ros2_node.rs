@@ -19,6 +19,7 @@
 //! | `joint_states` | `sensor_msgs/msg/JointState` | `wheel_i`, `steer_i`: encoder angles, commanded rates |
 //! | `imu` | `sensor_msgs/msg/Imu` | gyro and accelerometer, when the robot sends them |
 //! | `diagnostics` | `diagnostic_msgs/msg/DiagnosticArray` | mode and faults, at 1 Hz and on every change |
+//! | `/clock` | `rosgraph_msgs/msg/Clock` | the stamps' time, with [`Ros2Options::clock`] only |
 //!
 //! and two services, `std_srvs/srv/Trigger`, as rmw_zenoh serves them (a Zenoh queryable on
 //! [`service_key`], an `SS` liveliness token, the reply on the service's key with the request's
@@ -35,8 +36,9 @@
 //! Stamps are the robot's clock mapped once onto the Unix epoch at the first telemetry frame
 //! (so differences are exact robot time; with `--time-scale` other than 1 they drift from the
 //! wall clock); with [`Ros2Options::clock`] (`robot --sim --ros2`) the node publishes that
-//! time on `/clock`, so nodes with `use_sim_time` agree with the stamps at any time scale. An incoming sample is read with or without rmw_zenoh's attachment; one that
-//! does not decode (or is larger than [`MAX_SAMPLE`]) is counted and dropped.
+//! time on `/clock`, so nodes with `use_sim_time` agree with the stamps at any time scale.
+//! An incoming sample is read with or without rmw_zenoh's attachment; one that does not decode
+//! (or is larger than [`MAX_SAMPLE`]) is counted and dropped.
 
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
