@@ -61,11 +61,15 @@ mod imp {
         o
     }
 
-    fn open_node(n: &NodeArgs) -> Result<Ros2Node> {
+    /// The node; `clock`: it publishes `/clock` (the simulated robot's time, which runs at
+    /// `--time-scale` × the wall clock).
+    fn open_node(n: &NodeArgs, clock: bool) -> Result<Ros2Node> {
         if n.cmd_timeout.is_nan() || n.cmd_timeout <= 0.0 {
             anyhow::bail!("--cmd-timeout must be > 0 s (got {})", n.cmd_timeout);
         }
-        let node = Ros2Node::open(&options(n))?;
+        let mut o = options(n);
+        o.clock = clock;
+        let node = Ros2Node::open(&o)?;
         let (cmd, odom) = node.keys();
         let i = node.info();
         omnikin_io::errln!(
@@ -92,7 +96,7 @@ mod imp {
         let addr = server
             .local_addr()
             .context("--ros2 needs a UDP --listen address (the node reaches the robot there)")?;
-        let mut node = open_node(&a.node)?;
+        let mut node = open_node(&a.node, true)?;
         crate::output::catch_signals()?;
         let stop = Arc::new(AtomicBool::new(false));
         let done = Arc::new(AtomicBool::new(false));
@@ -146,14 +150,20 @@ mod imp {
             None,
             OptionNames::CLI,
         )?;
-        let mut node = open_node(&a.node)?;
+        let mut node = open_node(&a.node, false)?;
         crate::output::catch_signals()?;
-        let r = ros2_node::run(&mut s, &mut node, &|| false);
-        omnikin_io::errln!(
-            "ros2: {}",
-            serde_json::to_string(&node.counters).unwrap_or_default()
-        );
-        r.map(|_| ())
+        // The loop ends at the signal's flag; a receive the signal cut short (EINTR) ends it
+        // too, as the same stop, not as a link error.
+        let r = ros2_node::run(&mut s, &mut node, &|| {
+            crate::output::interrupted().is_some()
+        });
+        crate::outln!("{}", serde_json::json!({ "ros2": node.counters }))?;
+        match crate::output::interrupted() {
+            // The stop asked for, carried out (robot stopped, session left, calls answered):
+            // `main` says so in a note and exits with 128 + the signal, as `robot --sim` does.
+            Some(sig) => Err(sig.into()),
+            None => r.map(|_| ()),
+        }
     }
 }
 
@@ -182,7 +192,7 @@ pub fn robot(a: &crate::robot_args::RobotArgs) -> Result<()> {
 }
 
 /// `ros2 --connect ROBOT_ADDR`: the node for a robot on the link, until a signal or the
-/// session is lost.
+/// session is lost; the node's counters (`{"ros2": {…}}`) on stdout.
 pub fn connect(a: &Ros2Args) -> Result<()> {
     imp::connect(a)
 }

@@ -25,8 +25,8 @@ pub struct NodeArgs {
     /// ROS domain id (ROS_DOMAIN_ID), 0-232.
     #[arg(long, default_value_t = 0)]
     pub domain: u32,
-    /// Namespace of the node and its relative topics (cmd_vel, odom, joint_states, imu,
-    /// estop, clear; tf and diagnostics stay absolute).
+    /// Namespace of the node, its relative topics (cmd_vel, odom, joint_states, imu) and its
+    /// services (estop, clear); tf, diagnostics and clock stay absolute.
     #[arg(long, default_value = "")]
     pub namespace: String,
     /// Node name.

@@ -19,12 +19,26 @@
 //! | `joint_states` | `sensor_msgs/msg/JointState` | `wheel_i`, `steer_i`: encoder angles, commanded rates |
 //! | `imu` | `sensor_msgs/msg/Imu` | gyro and accelerometer, when the robot sends them |
 //! | `diagnostics` | `diagnostic_msgs/msg/DiagnosticArray` | mode and faults, at 1 Hz and on every change |
-//! | `estop`, `clear` (in) | `std_msgs/msg/Empty` | any sample: latch the e-stop / clear it (topics, not `std_srvs/srv/Trigger` services: `docs/ros2.md`) |
+//! | `/clock` | `rosgraph_msgs/msg/Clock` | the stamps' time, with [`Ros2Options::clock`] only |
+//!
+//! and two services, `std_srvs/srv/Trigger`, as rmw_zenoh serves them (a Zenoh queryable on
+//! [`service_key`], an `SS` liveliness token, the reply on the service's key with the request's
+//! sequence number and the client's GID in its attachment):
+//!
+//! | service | does | answers `success: true` when |
+//! |---|---|---|
+//! | `estop` | latches the robot's e-stop (any request: an e-stop is never refused for its form) | the robot's telemetry shows the e-stop latched by one of the `EStop`s sent for it |
+//! | `clear` | clears the e-stop latch | the telemetry acknowledges the `Clear` and the mode is no longer e-stop |
+//!
+//! and `success: false` with the mode and faults when the robot does not confirm within
+//! [`CONFIRM`] (or the node stops first).
 //!
 //! Stamps are the robot's clock mapped once onto the Unix epoch at the first telemetry frame
 //! (so differences are exact robot time; with `--time-scale` other than 1 they drift from the
-//! wall clock). An incoming sample is read with or without rmw_zenoh's attachment; one that
-//! does not decode (or is larger than [`MAX_SAMPLE`]) is counted and dropped.
+//! wall clock); with [`Ros2Options::clock`] (`robot --sim --ros2`) the node publishes that
+//! time on `/clock`, so nodes with `use_sim_time` agree with the stamps at any time scale.
+//! An incoming sample is read with or without rmw_zenoh's attachment; one that does not decode
+//! (or is larger than [`MAX_SAMPLE`]) is counted and dropped.
 
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
@@ -32,15 +46,16 @@ use anyhow::{Result, anyhow, bail};
 use omnikin::link::{Estimate, Message, RobotInfo, Telemetry};
 use omnikin::runtime::{Frame, Mode};
 use omnikin_ros2::msg::{
-    DiagnosticArray, Empty, Imu, JointState, Odometry, TfMessage, Time, Twist, TwistStamped,
-    from_cdr, to_cdr,
+    Clock, DiagnosticArray, Imu, JointState, Odometry, TfMessage, Time, Trigger, TriggerRequest,
+    TriggerResponse, Twist, TwistStamped, from_cdr, to_cdr,
 };
 use omnikin_ros2::node::{self as conv, Frames};
-use omnikin_ros2::rmw::{Attachment, Entity, NodeInfo, Qos, gid, topic_key};
+use omnikin_ros2::rmw::{Attachment, Entity, NodeInfo, Qos, gid, service_key, topic_key};
 use zenoh::Wait;
-use zenoh::handlers::{RingChannel, RingChannelHandler};
+use zenoh::handlers::{FifoChannel, FifoChannelHandler, RingChannel, RingChannelHandler};
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::{Publisher, Subscriber};
+use zenoh::query::{Query, Queryable};
 use zenoh::sample::Sample;
 
 use crate::operator::Session;
@@ -51,6 +66,14 @@ pub const MAX_SAMPLE: usize = 4096;
 
 /// Samples a subscription holds between two reads (the oldest are dropped first).
 const QUEUE: usize = 16;
+
+/// Requests a service holds between two reads (rmw_zenoh's service QoS depth, keep last 10;
+/// more wait in Zenoh's queue, none is dropped unanswered).
+const SERVICE_QUEUE: usize = 10;
+
+/// How long the `estop` and `clear` services wait for the robot's telemetry to confirm, s
+/// (then they answer `success: false`).
+pub const CONFIRM: Duration = Duration::from_secs(1);
 
 /// The node's options (`--zenoh`, `--zenoh-listen`, `--domain`, `--namespace`, `--stamped`,
 /// `--ros2-rate`).
@@ -77,12 +100,16 @@ pub struct Ros2Options {
     pub rate: Option<f64>,
     /// `cmd_vel` silence after which the node sends a controlled stop, s.
     pub cmd_timeout: f64,
+    /// Publish `/clock` (`rosgraph_msgs/msg/Clock`) with every telemetry frame: the robot's
+    /// time, the same stamps as the messages', for nodes with `use_sim_time` (a simulated
+    /// robot under `--time-scale` runs faster or slower than the wall clock).
+    pub clock: bool,
 }
 
 impl Ros2Options {
     /// The defaults: connect to `tcp/127.0.0.1:7447` (rmw_zenoh's router), listen on a free
     /// loopback port, no multicast, domain 0, no namespace, node `omnikin`, `Twist`, every
-    /// telemetry frame, 0.5 s command timeout.
+    /// telemetry frame, 0.5 s command timeout, no `/clock`.
     pub fn new() -> Self {
         Ros2Options {
             connect: vec!["tcp/127.0.0.1:7447".into()],
@@ -94,6 +121,7 @@ impl Ros2Options {
             stamped: false,
             rate: None,
             cmd_timeout: 0.5,
+            clock: false,
         }
     }
 }
@@ -117,10 +145,14 @@ pub struct Ros2Counters {
     pub silence_stops: u64,
     /// `odom` messages published.
     pub odom: u64,
-    /// E-stops and clears asked on the `estop` and `clear` topics.
+    /// Calls of the `estop` service.
     pub estop_requests: u64,
-    /// Clears asked.
+    /// Calls of the `clear` service.
     pub clear_requests: u64,
+    /// Service calls answered `success: true` (the robot confirmed).
+    pub service_confirmed: u64,
+    /// Service calls answered `success: false` (not confirmed in time, or refused).
+    pub service_failed: u64,
 }
 
 struct Pub {
@@ -151,6 +183,26 @@ struct Sub {
     _token: LivelinessToken,
 }
 
+/// A `std_srvs/srv/Trigger` service server: a queryable on its key and its `SS` token.
+struct Srv {
+    queryable: Queryable<FifoChannelHandler<Query>>,
+    key: String,
+    _token: LivelinessToken,
+}
+
+/// A service call as received: the query and its rmw_zenoh attachment (when it had one).
+type Request = (Query, Option<Attachment>);
+
+/// A call being served: the query to answer, its rmw_zenoh attachment (when it had one), and
+/// the first link sequence number of the commands sent for it.
+struct Call {
+    query: Query,
+    key: String,
+    attachment: Option<Attachment>,
+    first_seq: u64,
+    deadline: Instant,
+}
+
 /// The node: a Zenoh session, its publishers and subscriptions, and their liveliness tokens.
 pub struct Ros2Node {
     session: zenoh::Session,
@@ -163,9 +215,10 @@ pub struct Ros2Node {
     joints: Pub,
     imu: Option<Pub>,
     diag: Pub,
+    clock: Option<Pub>,
     cmd_vel: Sub,
-    estop: Sub,
-    clear: Sub,
+    estop: Srv,
+    clear: Srv,
     /// What the node counted.
     pub counters: Ros2Counters,
 }
@@ -270,6 +323,11 @@ impl Ros2Node {
         let tf = declare_pub!(TfMessage, "/tf");
         let joints = declare_pub!(JointState, "joint_states");
         let diag = declare_pub!(DiagnosticArray, "/diagnostics");
+        let clock = if o.clock {
+            Some(declare_pub!(Clock, "/clock"))
+        } else {
+            None
+        };
         let subscribe = |topic: &str, token: String, key: String| -> Result<Sub> {
             let subscriber = session
                 .declare_subscriber(key)
@@ -303,8 +361,32 @@ impl Ros2Node {
         } else {
             declare_sub!(Twist, "cmd_vel")
         };
-        let estop = declare_sub!(Empty, "estop");
-        let clear = declare_sub!(Empty, "clear");
+        let mut service = |name: &str| -> Result<Srv> {
+            let topic = info.resolve(name);
+            let id = next_id;
+            next_id += 1;
+            let key = service_key::<Trigger>(o.domain, &topic);
+            let queryable = session
+                .declare_queryable(key.clone())
+                .complete(true)
+                .with(FifoChannel::new(SERVICE_QUEUE))
+                .wait()
+                .map_err(zerr(name))?;
+            let token =
+                info.service_token::<Trigger>(id, Entity::Service, &topic, Qos::KEEP_LAST_10);
+            let t = session
+                .liveliness()
+                .declare_token(token)
+                .wait()
+                .map_err(zerr(name))?;
+            Ok(Srv {
+                queryable,
+                key,
+                _token: t,
+            })
+        };
+        let estop = service("estop")?;
+        let clear = service("clear")?;
         Ok(Ros2Node {
             session,
             info,
@@ -316,6 +398,7 @@ impl Ros2Node {
             joints,
             imu: None,
             diag,
+            clock,
             cmd_vel,
             estop,
             clear,
@@ -365,20 +448,60 @@ impl Ros2Node {
         newest
     }
 
-    /// Whether a sample arrived on `estop` (then `clear`) since the last call.
-    fn take_requests(&mut self) -> (bool, bool) {
-        let drain = |s: &Sub| {
-            let mut any = false;
-            while let Ok(Some(_)) = s.subscriber.try_recv() {
-                any = true;
+    /// The calls of `estop` (then `clear`) received since the last call. A request that is
+    /// not CDR of `std_srvs/srv/Trigger_Request` still counts (the request carries nothing)
+    /// and is counted in `bad_samples` too.
+    fn take_requests(&mut self) -> (Vec<Request>, Vec<Request>) {
+        let mut bad = 0;
+        let mut drain = |s: &Srv| {
+            let mut calls = Vec::new();
+            while let Ok(Some(q)) = s.queryable.try_recv() {
+                let ok = q.payload().is_some_and(|p| {
+                    let b = p.to_bytes();
+                    b.len() <= MAX_SAMPLE && from_cdr::<TriggerRequest>(&b).is_ok()
+                });
+                if !ok {
+                    bad += 1;
+                }
+                let a = q
+                    .attachment()
+                    .and_then(|a| Attachment::decode(&a.to_bytes()));
+                calls.push((q, a));
             }
-            any
+            calls
         };
         let e = drain(&self.estop);
         let c = drain(&self.clear);
-        self.counters.estop_requests += u64::from(e);
-        self.counters.clear_requests += u64::from(c);
+        self.counters.bad_samples += bad;
+        self.counters.estop_requests += e.len() as u64;
+        self.counters.clear_requests += c.len() as u64;
         (e, c)
+    }
+
+    /// Answers `call`: a CDR `Trigger_Response` on the service's key, with rmw_zenoh's
+    /// attachment when the request had one (its sequence number and the client's GID, the
+    /// time now), as `ServiceData::send_response` does.
+    fn answer(&mut self, call: Call, success: bool, message: String) {
+        if success {
+            self.counters.service_confirmed += 1;
+        } else {
+            self.counters.service_failed += 1;
+        }
+        let attachment = call.attachment.map(|a| {
+            Attachment {
+                sequence_number: a.sequence_number,
+                source_timestamp: i64::try_from(unix_ns()).unwrap_or(i64::MAX),
+                source_gid: a.source_gid,
+            }
+            .encode()
+        });
+        let r = TriggerResponse { success, message };
+        // A client gone before its answer is not the node's failure: ignored.
+        let _ = call
+            .query
+            .reply(call.key, to_cdr(&r))
+            .attachment(attachment)
+            .wait();
     }
 
     /// Publishes `odom`, `tf`, `joint_states` and (when the telemetry carries one) `imu` of
@@ -437,6 +560,17 @@ impl Ros2Node {
         })
     }
 
+    /// Publishes `/clock` at `stamp` (when [`Ros2Options::clock`]).
+    ///
+    /// # Errors
+    /// Zenoh refusing a publication.
+    pub fn publish_clock(&mut self, stamp: Time) -> Result<()> {
+        match self.clock.as_mut() {
+            Some(p) => p.put(to_cdr(&Clock { clock: stamp })),
+            None => Ok(()),
+        }
+    }
+
     /// Publishes `diagnostics` of `t`.
     ///
     /// # Errors
@@ -447,21 +581,60 @@ impl Ros2Node {
     }
 }
 
+/// Which service a call is of.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Service {
+    EStop,
+    Clear,
+}
+
 /// Runs the node on an operator session until `stop()` holds or the session fails:
 /// handshake, then `cmd_vel` → velocity commands (a controlled stop after
-/// [`Ros2Options::cmd_timeout`] of silence), telemetry → topics. Leaves the session with a
-/// stop and `Bye` on every exit.
+/// [`Ros2Options::cmd_timeout`] of silence), telemetry → topics, service calls → e-stop and
+/// clear. Leaves the session with a stop and `Bye` on every exit, and answers the calls still
+/// waiting for the robot (`success: false`).
 ///
 /// # Errors
 /// The session's (handshake, lost link, signal) and Zenoh's.
 pub fn run(s: &mut Session, node: &mut Ros2Node, stop: &dyn Fn() -> bool) -> Result<RobotInfo> {
     let info = s.hello()?;
-    let r = serve(s, node, &info, stop);
-    if r.is_err() && s.op.confirmed() {
+    let mut calls = Vec::new();
+    let r = serve(s, node, &info, stop, &mut calls);
+    for (_, c) in calls {
+        node.answer(
+            c,
+            false,
+            "the node stopped before the robot confirmed".into(),
+        );
+    }
+    if s.op.confirmed() {
         let _ = s.send(&Message::Stop);
     }
     let f = s.finish();
     r.and(f).map(|_| info)
+}
+
+/// What the robot's telemetry `t` says of a call whose commands start at link sequence number
+/// `first_seq`: `Some(true)` confirmed, `Some(false)` not confirmed by `deadline`, `None` not
+/// yet.
+fn verdict(
+    kind: Service,
+    first_seq: u64,
+    deadline: Instant,
+    t: &Telemetry,
+    now: Instant,
+) -> Option<bool> {
+    let done = match kind {
+        Service::EStop => t.mode == Mode::EStop && t.estop_seq >= first_seq,
+        Service::Clear => t.ack_seq >= first_seq && t.mode != Mode::EStop,
+    };
+    if done {
+        Some(true)
+    } else if now >= deadline {
+        Some(false)
+    } else {
+        None
+    }
 }
 
 fn serve(
@@ -469,6 +642,7 @@ fn serve(
     node: &mut Ros2Node,
     info: &RobotInfo,
     stop: &dyn Fn() -> bool,
+    calls: &mut Vec<(Service, Call)>,
 ) -> Result<()> {
     let steer = info.kind.steerable();
     let timeout = Duration::try_from_secs_f64(node.options.cmd_timeout)
@@ -488,14 +662,62 @@ fn serve(
             cmd = Some((c, Instant::now()));
             stopping = false;
         }
-        // Each asked once per request, in three frames: the link is a datagram link, and
-        // both are idempotent (the e-stop's latch, the clear of a latch).
-        let (estop, clear) = node.take_requests();
-        for _ in 0..if estop { 3 } else { 0 } {
-            s.send(&Message::EStop)?;
-        }
-        for _ in 0..if clear && !estop { 3 } else { 0 } {
-            s.send(&Message::Clear)?;
+        // Each sent once per batch of calls, in three frames: the link is a datagram link,
+        // and both are idempotent (the e-stop's latch, the clear of a latch). A clear asked
+        // with an e-stop in the same batch is refused: the e-stop wins.
+        let (estops, clears) = node.take_requests();
+        let deadline = Instant::now() + CONFIRM;
+        if !estops.is_empty() {
+            let first_seq = s.next_seq();
+            for _ in 0..3 {
+                s.send(&Message::EStop)?;
+            }
+            for (query, attachment) in estops {
+                let key = node.estop.key.clone();
+                calls.push((
+                    Service::EStop,
+                    Call {
+                        query,
+                        key,
+                        attachment,
+                        first_seq,
+                        deadline,
+                    },
+                ));
+            }
+            for (query, attachment) in clears {
+                let key = node.clear.key.clone();
+                let c = Call {
+                    query,
+                    key,
+                    attachment,
+                    first_seq,
+                    deadline,
+                };
+                node.answer(
+                    c,
+                    false,
+                    "not cleared: an e-stop was asked at the same time".into(),
+                );
+            }
+        } else if !clears.is_empty() {
+            let first_seq = s.next_seq();
+            for _ in 0..3 {
+                s.send(&Message::Clear)?;
+            }
+            for (query, attachment) in clears {
+                let key = node.clear.key.clone();
+                calls.push((
+                    Service::Clear,
+                    Call {
+                        query,
+                        key,
+                        attachment,
+                        first_seq,
+                        deadline,
+                    },
+                ));
+            }
         }
         let m = match cmd {
             Some((c, at)) if at.elapsed() < timeout => Message::SetVelocity {
@@ -522,10 +744,33 @@ fn serve(
         if stopping && matches!(t.mode, Mode::Idle | Mode::EStop) {
             stopping = false;
         }
+        let now = Instant::now();
+        let mut i = 0;
+        while i < calls.len() {
+            let (kind, c) = &calls[i];
+            let Some(ok) = verdict(*kind, c.first_seq, c.deadline, &t, now) else {
+                i += 1;
+                continue;
+            };
+            let kind = *kind;
+            let (_, c) = calls.swap_remove(i);
+            let message = match (kind, ok) {
+                (Service::EStop, true) => format!("e-stop latched (mode {})", t.mode),
+                (Service::Clear, true) => format!("cleared (mode {})", t.mode),
+                (_, false) => format!(
+                    "not confirmed by the robot within {} s (mode {}, faults {})",
+                    CONFIRM.as_secs_f64(),
+                    t.mode,
+                    t.faults
+                ),
+            };
+            node.answer(c, ok, message);
+        }
         let off =
             *offset_ns.get_or_insert_with(|| i128::from(unix_ns()) - i128::from(t.time_us) * 1000);
         let ns = u64::try_from(off + i128::from(t.time_us) * 1000).unwrap_or(0);
         let stamp = conv::stamp_ns(ns);
+        node.publish_clock(stamp)?;
         if period_us.is_none_or(|p| last_pub.is_none_or(|l| t.time_us >= l.saturating_add(p))) {
             let e = s.estimate.filter(|e| e.time_us == t.time_us);
             node.publish(&t, e.as_ref(), steer, stamp)?;
@@ -540,4 +785,32 @@ fn serve(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_call_is_confirmed_only_by_telemetry_of_its_own_commands() {
+        let now = Instant::now();
+        let later = now + CONFIRM;
+        let mut t = crate::test_support::telemetry(0);
+        // E-stop: latched, but by an older e-stop (seq 4 < 5): not this call's, not yet.
+        t.mode = Mode::EStop;
+        t.estop_seq = 4;
+        assert_eq!(verdict(Service::EStop, 5, later, &t, now), None);
+        t.estop_seq = 6;
+        assert_eq!(verdict(Service::EStop, 5, later, &t, now), Some(true));
+        // Not latched by the deadline: refused.
+        t.mode = Mode::Idle;
+        assert_eq!(verdict(Service::EStop, 5, later, &t, later), Some(false));
+        // Clear: acknowledged and out of e-stop; acknowledged but still latched is not.
+        t.ack_seq = 9;
+        assert_eq!(verdict(Service::Clear, 9, later, &t, now), Some(true));
+        assert_eq!(verdict(Service::Clear, 10, later, &t, now), None);
+        t.mode = Mode::EStop;
+        assert_eq!(verdict(Service::Clear, 9, later, &t, now), None);
+        assert_eq!(verdict(Service::Clear, 9, later, &t, later), Some(false));
+    }
 }

@@ -23,6 +23,47 @@ Twist = TS.types["geometry_msgs/msg/Twist"]
 Vector3 = TS.types["geometry_msgs/msg/Vector3"]
 
 
+def register_trigger():
+    """`std_srvs/srv/Trigger` as REP 2011 describes a service for its type hash: a structure
+    of `request_message`, `response_message` and `event_message`, the `_Event` holding a
+    `service_msgs/msg/ServiceEventInfo` and bounded sequences (<= 1) of request and response.
+    rosbags' bundled ServiceEventInfo types `client_gid` as `char[16]`; rosidl's IDL has
+    `uint8[16]` (`char` in a .msg is `uint8`), which is what the type hash covers."""
+    from rosbags.typesys import get_types_from_msg
+    from rosbags.typesys.base import Nodetype
+
+    src = {
+        "std_srvs/srv/Trigger_Request": "",
+        "std_srvs/srv/Trigger_Response": "bool success\nstring message\n",
+        "std_srvs/srv/Trigger_Event": "service_msgs/msg/ServiceEventInfo info\n"
+        "std_srvs/srv/Trigger_Request[<=1] request\nstd_srvs/srv/Trigger_Response[<=1] response\n",
+        "std_srvs/srv/Trigger": "std_srvs/srv/Trigger_Request request_message\n"
+        "std_srvs/srv/Trigger_Response response_message\nstd_srvs/srv/Trigger_Event event_message\n",
+    }
+
+    def srv(o):  # rosbags names every parsed type pkg/msg/Name: put these under srv/
+        if isinstance(o, str):
+            return o.replace("std_srvs/srv/msg/", "std_srvs/srv/")
+        if isinstance(o, (list, tuple)):
+            return type(o)(srv(x) for x in o)
+        return o
+
+    types = {}
+    for name, text in src.items():
+        for k, v in get_types_from_msg(text, name).items():
+            types[srv(k)] = srv(v)
+    consts, fields = TS.fielddefs["service_msgs/msg/ServiceEventInfo"]
+    uint8_gid = (Nodetype.ARRAY, ((Nodetype.BASE, ("uint8", 0)), 16))
+    types["service_msgs/msg/ServiceEventInfo"] = (
+        consts, [(n, uint8_gid if n == "client_gid" else d) for n, d in fields])
+    del TS.fielddefs["service_msgs/msg/ServiceEventInfo"]
+    TS.register(types)
+
+
+register_trigger()
+TRIGGER = "std_srvs/srv/Trigger"
+
+
 def free_tcp_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -47,6 +88,25 @@ def attachment(seq: int) -> bytes:
         ("sequence_number", Int64(seq), "source_timestamp", Int64(time.time_ns()), "source_gid")
     ).to_bytes()
     return head + bytes(range(16))
+
+
+def srv_key(name: str, domain: int = 0) -> str:
+    """rmw_zenoh's key of a service's queryable: the service's DDS name and type hash."""
+    return f"{domain}/{name.strip('/')}/{dds(TRIGGER)}/{TS.hash_rihs01(TRIGGER)}"
+
+
+def call_trigger(client, name: str, seq: int | None):
+    """A `std_srvs/srv/Trigger` call as an rmw_zenoh client makes it: a Zenoh get with the
+    CDR request (encoded by rosbags) and, when `seq`, the attachment with this client's GID;
+    returns the decoded response and the reply's attachment."""
+    req = bytes(TS.serialize_cdr(TS.types["std_srvs/srv/Trigger_Request"](), "std_srvs/srv/Trigger_Request"))
+    replies = list(client.get(srv_key(name), payload=req,
+                              attachment=attachment(seq) if seq else None, timeout=5.0))
+    assert len(replies) == 1 and replies[0].ok, replies
+    r = replies[0].ok
+    assert str(r.key_expr) == srv_key(name)
+    resp = TS.deserialize_cdr(r.payload.to_bytes(), "std_srvs/srv/Trigger_Response")
+    return resp, (r.attachment.to_bytes() if r.attachment is not None else None)
 
 
 def yaw(q) -> float:
@@ -90,9 +150,13 @@ def test_a_simulated_kiwi_is_a_ros2_node_a_zenoh_client_drives(cli, tmp_path):
         return on
 
     subs = [client.declare_subscriber(key(f"/{n}", ty), collect(n)) for n, ty in types.items()]
+    clocks = []
+    subs.append(client.declare_subscriber(
+        key("/clock", "rosgraph_msgs/msg/Clock"),
+        lambda s: clocks.append(TS.deserialize_cdr(s.payload.to_bytes(), "rosgraph_msgs/msg/Clock").clock)))
     robot = subprocess.Popen(
         [str(cli.path), "robot", "--sim", "--robot", "kiwi", "--ros2",
-         "--zenoh", f"tcp/127.0.0.1:{port}", "--max-time", "14"],
+         "--zenoh", f"tcp/127.0.0.1:{port}", "--max-time", "16"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )
     try:
@@ -118,6 +182,10 @@ def test_a_simulated_kiwi_is_a_ros2_node_a_zenoh_client_drives(cli, tmp_path):
                           ("/diagnostics", "diagnostic_msgs/msg/DiagnosticArray")]:
             name = topic.replace("/", "%")
             assert any(f"/MP/%/%/omnikin/{name}/{dds(ty)}/{TS.hash_rihs01(ty)}/" in t for t in tokens), (ty, tokens)
+        # The services: SS tokens with the service type's DDS name and hash.
+        for name in ["%estop", "%clear"]:
+            tok = f"/SS/%/%/omnikin/{name}/std_srvs::srv::dds_::Trigger_/{TS.hash_rihs01(TRIGGER)}/"
+            assert any(tok in t for t in tokens), (name, tokens)
 
         # cmd_vel: 7 s of one twist at 20 Hz, every other sample with rmw_zenoh's attachment,
         # and one malformed sample (counted and dropped).
@@ -139,12 +207,30 @@ def test_a_simulated_kiwi_is_a_ros2_node_a_zenoh_client_drives(cli, tmp_path):
         time.sleep(2.0)
         with lock:
             got = list(odoms)
-        # E-stop and clear: std_msgs/msg/Empty on estop and clear, seen on diagnostics.
-        empty = bytes(TS.serialize_cdr(TS.types["std_msgs/msg/Empty"](), "std_msgs/msg/Empty"))
-        client.put(key("/estop", "std_msgs/msg/Empty"), empty)
-        time.sleep(0.6)
-        client.put(key("/clear", "std_msgs/msg/Empty"), empty)
-        time.sleep(0.6)
+        # E-stop and clear: std_srvs/srv/Trigger calls. The e-stop's reply carries the call's
+        # sequence number and this client's GID back (rmw_zenoh's attachment).
+        resp, att = call_trigger(client, "/estop", 41)
+        assert resp.success and "e-stop" in resp.message, resp
+        assert att is not None and int.from_bytes(att[16:24], "little", signed=True) == 41, att
+        assert att[-16:] == bytes(range(16)), att
+        # Under the e-stop cmd_vel does not move the robot: odom stays where it is.
+        with lock:
+            n_before = len(odoms)
+        for _ in range(20):
+            pub.put(cdr)
+            time.sleep(0.05)
+        time.sleep(0.6)  # past --cmd-timeout: the clear below does not resume that motion
+        with lock:
+            held = [m for _, m, _ in odoms[n_before:]]
+        assert len(held) > 50, len(held)
+        p0 = held[0].pose.pose.position
+        assert all(math.hypot(m.pose.pose.position.x - p0.x, m.pose.pose.position.y - p0.y) < 1e-4
+                   and abs(m.twist.twist.linear.x) < 1e-6 for m in held), held[-1]
+        # Clear, called without an attachment (a plain Zenoh client): a reply without one.
+        resp, att = call_trigger(client, "/clear", None)
+        assert resp.success and "cleared" in resp.message, resp
+        assert att is None
+        time.sleep(0.3)
         out, err = robot.communicate(timeout=30)
     finally:
         if robot.poll() is None:
@@ -159,6 +245,7 @@ def test_a_simulated_kiwi_is_a_ros2_node_a_zenoh_client_drives(cli, tmp_path):
     assert r["cmd_vel"] >= 100 and 0 < r["cmd_vel_with_attachment"] < r["cmd_vel"], r
     assert r["silence_stops"] >= 1, r
     assert r["estop_requests"] == 1 and r["clear_requests"] == 1, r
+    assert r["service_confirmed"] == 2 and r["service_failed"] == 0, r
 
     tf = others["tf"][-1].transforms[0]
     assert (tf.header.frame_id, tf.child_frame_id) == ("odom", "base_link")
@@ -178,6 +265,10 @@ def test_a_simulated_kiwi_is_a_ros2_node_a_zenoh_client_drives(cli, tmp_path):
     assert seqs[0] >= 1 and all(b > a for a, b in zip(seqs, seqs[1:]))
     msgs = [m for _, m, _ in got]
     assert all(m.header.frame_id == "odom" and m.child_frame_id == "base_link" for m in msgs)
+    # /clock (a simulated robot's) holds the stamps' time: every odom stamp is a clock tick.
+    ticks = {(c.sec, c.nanosec) for c in clocks}
+    assert len(ticks) >= 0.9 * len(msgs) and all(
+        (m.header.stamp.sec, m.header.stamp.nanosec) in ticks for m in msgs[10:-10]), len(ticks)
 
     def t(m) -> float:
         return m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
@@ -305,10 +396,10 @@ def test_ros2_connect_bridges_a_robot_on_the_link(cli):
     finally:
         bridge.send_signal(2)
         try:
-            _, err = bridge.communicate(timeout=10)
+            out, err = bridge.communicate(timeout=10)
         except subprocess.TimeoutExpired:
             bridge.kill()
-            _, err = bridge.communicate()
+            out, err = bridge.communicate()
         robot.kill()
         robot.communicate()
         sub.undeclare()
@@ -316,4 +407,8 @@ def test_ros2_connect_bridges_a_robot_on_the_link(cli):
     # The robot's default telemetry rate, 20 Hz.
     assert 15 <= rate <= 25, rate
     assert odoms[-1].pose.pose.position.x > 0.1, odoms[-1].pose.pose.position
-    assert '"cmd_vel":30' in err, err
+    # Ctrl-C is the stop asked for: the robot stopped and the session left, the counters on
+    # stdout, a note (no error) and the status 128 + SIGINT, as `robot --sim` ends.
+    assert bridge.returncode == 130, err
+    assert "note: stopped by SIGINT" in err and "error" not in err, err
+    assert json.loads(out)["ros2"]["cmd_vel"] == 30, out

@@ -408,6 +408,104 @@ impl RosMessage for Empty {
         "RIHS01_20b625256f32d5dbc0d04fee44f43c41e51c70d3502f84b4a08e7a9c26a96312";
 }
 
+/// `rosgraph_msgs/msg/Clock`: the time that nodes with `use_sim_time` take as "now".
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Clock {
+    /// The current time.
+    pub clock: Time,
+}
+
+impl RosMessage for Clock {
+    const MSGDEF: &'static str = "builtin_interfaces/Time clock\n\
+================================================================================\n\
+MSG: builtin_interfaces/Time\n\
+int32 sec\n\
+uint32 nanosec\n";
+    const TYPE_NAME: &'static str = "rosgraph_msgs/msg/Clock";
+    const TYPE_HASH: &'static str =
+        "RIHS01_692f7a66e93a3c83e71765d033b60349ba68023a8c689a79e48078bcb5c58564";
+}
+
+/// A ROS 2 service type: its name, the DDS name rmw_zenoh writes in key expressions and
+/// liveliness tokens, its RIHS01 hash, and its request and response messages.
+pub trait RosService {
+    /// `package/srv/Name`, e.g. `std_srvs/srv/Trigger`.
+    const TYPE_NAME: &'static str;
+    /// The RIHS01 hash of the *service's* type description (REP 2011): the structure with
+    /// fields `request_message`, `response_message` and `event_message`, which references
+    /// `_Request`, `_Response`, `_Event`, `service_msgs/msg/ServiceEventInfo` and
+    /// `builtin_interfaces/msg/Time` — what rmw_zenoh puts in a service's key and token.
+    const TYPE_HASH: &'static str;
+    /// The request.
+    type Request: RosMessage;
+    /// The response.
+    type Response: RosMessage;
+
+    /// The DDS type name rmw_zenoh writes: the response's, `package::srv::dds_::Name_Response_`,
+    /// without its `Response_` (`rmw_service_data.cpp`), i.e. `package::srv::dds_::Name_`.
+    fn dds_type_name() -> String {
+        let mut parts = Self::TYPE_NAME.split('/');
+        let (pkg, kind, name) = (
+            parts.next().unwrap_or_default(),
+            parts.next().unwrap_or_default(),
+            parts.next().unwrap_or_default(),
+        );
+        format!("{pkg}::{kind}::dds_::{name}_")
+    }
+}
+
+/// `std_srvs/srv/Trigger_Request`: no fields; CDR carries the one byte of an empty structure
+/// (`structure_needs_at_least_one_member`), `00 01 00 00 00` with its header.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TriggerRequest {
+    /// Always 0; any value is accepted on reading.
+    pub structure_needs_at_least_one_member: u8,
+}
+
+impl RosMessage for TriggerRequest {
+    const MSGDEF: &'static str = "";
+    const TYPE_NAME: &'static str = "std_srvs/srv/Trigger_Request";
+    const TYPE_HASH: &'static str =
+        "RIHS01_d010825374ce8918e72bfd826c82603e60f45419e932ea976f807b74a863a199";
+}
+
+/// `std_srvs/srv/Trigger_Response`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TriggerResponse {
+    /// Whether the service did what it was asked.
+    pub success: bool,
+    /// What happened, for a person.
+    pub message: String,
+}
+
+impl RosMessage for TriggerResponse {
+    const MSGDEF: &'static str = "bool success\nstring message\n";
+    const TYPE_NAME: &'static str = "std_srvs/srv/Trigger_Response";
+    const TYPE_HASH: &'static str =
+        "RIHS01_2d946c21e2fc3f1e9ca6986a8191d85fcc70097a8bb7771a053564bc47009cdf";
+}
+
+/// `std_srvs/srv/Trigger`: an empty request, a `(success, message)` response.
+///
+/// Its RIHS01 hash was computed with `rosbags` from the type descriptions REP 2011 gives a
+/// service (module doc of [`RosService::TYPE_HASH`]), with `ServiceEventInfo.client_gid` as
+/// `uint8[16]` — `char` in a `.msg` is `uint8` in rosidl's IDL, while rosbags' bundled
+/// definition types it as `char` (type id 13), which gives another hash. With `uint8`,
+/// `service_msgs/msg/ServiceEventInfo` hashes to the `RIHS01_41bcbbe0…` that independent ROS 2
+/// client libraries carry, and the service to the hash below, which a third-party rmw_zenoh
+/// client has in its `Trigger` key (`crates/omnikin-py/tests/test_ros2_node.py` re-computes
+/// it with rosbags).
+#[derive(Clone, Copy, Debug)]
+pub struct Trigger;
+
+impl RosService for Trigger {
+    const TYPE_NAME: &'static str = "std_srvs/srv/Trigger";
+    const TYPE_HASH: &'static str =
+        "RIHS01_eeff2cd6fa5ad9d27cdf4dec64818317839b62f212a91e6b5304b634b2062c5f";
+    type Request = TriggerRequest;
+    type Response = TriggerResponse;
+}
+
 #[cfg(test)]
 mod empty_tests {
     use super::*;
@@ -420,5 +518,31 @@ mod empty_tests {
             Some(Empty::default())
         );
         assert_eq!(Empty::dds_type_name(), "std_msgs::msg::dds_::Empty_");
+    }
+
+    #[test]
+    fn a_clock_is_a_time() {
+        let c = Clock {
+            clock: Time { sec: 2, nanosec: 5 },
+        };
+        assert_eq!(to_cdr(&c), [0, 1, 0, 0, 2, 0, 0, 0, 5, 0, 0, 0]);
+        assert_eq!(Clock::dds_type_name(), "rosgraph_msgs::msg::dds_::Clock_");
+        assert!(Clock::MSGDEF.starts_with("builtin_interfaces/Time clock\n====="));
+    }
+
+    #[test]
+    fn a_trigger_is_an_empty_request_and_a_flag_and_text_response() {
+        assert_eq!(Trigger::dds_type_name(), "std_srvs::srv::dds_::Trigger_");
+        assert_eq!(to_cdr(&TriggerRequest::default()), [0, 1, 0, 0, 0]);
+        let r = TriggerResponse {
+            success: true,
+            message: "ok".into(),
+        };
+        // bool, 3 bytes of padding to the string's u32 length (3: "ok" and its NUL).
+        assert_eq!(
+            to_cdr(&r),
+            [0, 1, 0, 0, 1, 0, 0, 0, 3, 0, 0, 0, b'o', b'k', 0]
+        );
+        assert_eq!(from_cdr::<TriggerResponse>(&to_cdr(&r)).ok(), Some(r));
     }
 }

@@ -8,6 +8,11 @@
 //!
 //! * a topic's data: `<domain>/<topic without its leading and trailing '/'>/<dds type>/<type hash>`,
 //!   e.g. `0/cmd_vel/geometry_msgs::msg::dds_::Twist_/RIHS01_9c45…`;
+//! * a service's queryable: the same with the service type's DDS name and hash,
+//!   `0/estop/std_srvs::srv::dds_::Trigger_/RIHS01_eeff…` ([`service_key`]); a call is a Zenoh
+//!   `get` there with the CDR request and the client's attachment, the answer a reply on the
+//!   same key with the CDR response and an attachment of the call's sequence number, a new
+//!   timestamp and the *client's* GID (`rmw_service_data.cpp`);
 //! * a liveliness token: `@ros2_lv/<domain>/<session zid>/<node id>/<entity id>/<NN|MP|MS|SS|SC>/<enclave>/<namespace>/<node>`
 //!   and, for a publisher, subscription, service or client,
 //!   `/<topic>/<dds type>/<type hash>/<qos>`, every `/` inside a name written `%` (an empty
@@ -18,11 +23,12 @@
 //!   `i64`, `source_timestamp`, an `i64` (ns since the Unix epoch), `source_gid`, 16 bytes —
 //!   each string a LEB128 length and its bytes, each `i64` 8 little-endian bytes. Later
 //!   rmw_zenoh versions write the three values without their names; [`Attachment::decode`]
-//!   reads both.
+//!   reads both;
+//! * an entity's GID: XXH3-128 of its liveliness token ([`gid`]).
 
 use std::fmt::Write as _;
 
-use crate::msg::RosMessage;
+use crate::msg::{RosMessage, RosService};
 
 /// The admin space of rmw_zenoh's liveliness tokens.
 pub const ADMIN_SPACE: &str = "@ros2_lv";
@@ -171,8 +177,8 @@ impl NodeInfo {
         self.token_head(self.node_id, Entity::Node)
     }
 
-    /// The liveliness token of a publisher, subscription, service or client of this node:
-    /// `entity_id` unique within the session, `topic` fully qualified ([`NodeInfo::resolve`]).
+    /// The liveliness token of a publisher or subscription of this node: `entity_id` unique
+    /// within the session, `topic` fully qualified ([`NodeInfo::resolve`]).
     pub fn entity_token<M: RosMessage>(
         &self,
         entity_id: u32,
@@ -180,15 +186,40 @@ impl NodeInfo {
         topic: &str,
         qos: Qos,
     ) -> String {
+        self.token(entity_id, e, topic, &M::dds_type_name(), M::TYPE_HASH, qos)
+    }
+
+    /// The liveliness token of a service server ([`Entity::Service`]) or client of this node:
+    /// the service's DDS name (`std_srvs::srv::dds_::Trigger_`) and its type hash in place of a
+    /// message's, `service` fully qualified.
+    pub fn service_token<S: RosService>(
+        &self,
+        entity_id: u32,
+        e: Entity,
+        service: &str,
+        qos: Qos,
+    ) -> String {
+        self.token(
+            entity_id,
+            e,
+            service,
+            &S::dds_type_name(),
+            S::TYPE_HASH,
+            qos,
+        )
+    }
+
+    fn token(
+        &self,
+        entity_id: u32,
+        e: Entity,
+        name: &str,
+        dds: &str,
+        hash: &str,
+        qos: Qos,
+    ) -> String {
         let mut s = self.token_head(entity_id, e);
-        let _ = write!(
-            s,
-            "/{}/{}/{}/{}",
-            mangle(topic),
-            M::dds_type_name(),
-            M::TYPE_HASH,
-            qos.to_keyexpr()
-        );
+        let _ = write!(s, "/{}/{}/{}/{}", mangle(name), dds, hash, qos.to_keyexpr());
         s
     }
 }
@@ -211,6 +242,18 @@ pub fn topic_key<M: RosMessage>(domain: u32, topic: &str) -> String {
         topic.trim_matches('/'),
         M::dds_type_name(),
         M::TYPE_HASH
+    )
+}
+
+/// The key expression of a service (its queryable): `<domain>/<service>/<dds type>/<type hash>`,
+/// as [`topic_key`] with the service type's names (`rmw_service_data.cpp`: a server declares a
+/// queryable there; a client's request is a Zenoh `get` on it, and the reply is on the same key).
+pub fn service_key<S: RosService>(domain: u32, service: &str) -> String {
+    format!(
+        "{domain}/{}/{}/{}",
+        service.trim_matches('/'),
+        S::dds_type_name(),
+        S::TYPE_HASH
     )
 }
 
@@ -280,30 +323,53 @@ impl Attachment {
     }
 }
 
-/// A GID for an entity from its liveliness token: rmw_zenoh hashes the token with XXH3-128;
-/// this node takes the first 16 bytes of a 64-bit FNV-1a of the token and of its reverse,
-/// which is stable and distinct per entity (a subscriber only compares GIDs for equality).
+/// An entity's GID as rmw_zenoh computes it (`Entity::Entity` in `liveliness_utils.cpp`): the
+/// XXH3-128 hash (seed 0, default secret) of its whole liveliness token, the low 64 bits then
+/// the high 64 bits, each in little-endian byte order (a `memcpy` of each `uint64_t` on the
+/// little-endian machines ROS 2 runs on). Subscribers compare GIDs; a service reply carries
+/// the client's.
 pub fn gid(token: &str) -> [u8; 16] {
-    let fnv = |bytes: &mut dyn Iterator<Item = u8>| {
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        for b in bytes {
-            h ^= u64::from(b);
-            h = h.wrapping_mul(0x0100_0000_01b3);
-        }
-        h
-    };
-    let a = fnv(&mut token.bytes());
-    let b = fnv(&mut token.bytes().rev());
+    let h = xxhash_rust::xxh3::xxh3_128(token.as_bytes());
     let mut g = [0u8; 16];
-    g[..8].copy_from_slice(&a.to_le_bytes());
-    g[8..].copy_from_slice(&b.to_le_bytes());
+    g[..8].copy_from_slice(&(h as u64).to_le_bytes());
+    g[8..].copy_from_slice(&((h >> 64) as u64).to_le_bytes());
     g
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::msg::{Odometry, Twist};
+    use crate::msg::{Odometry, Trigger, Twist};
+
+    #[test]
+    fn gids_are_xxh3_128_of_the_token_low_half_first() {
+        // Known XXH3-128 values (seed 0), from the reference implementation's (xxHash's)
+        // canonical output, checked with the `xxhash` Python package (the C library):
+        // "" -> 99aa06d3014798d8 6001c324468d497f, "hello" -> b5e9c1ad071b3e7f c779cfaa5e523818
+        // (high64, low64).
+        let mut empty = [0u8; 16];
+        empty[..8].copy_from_slice(&0x6001_c324_468d_497f_u64.to_le_bytes());
+        empty[8..].copy_from_slice(&0x99aa_06d3_0147_98d8_u64.to_le_bytes());
+        assert_eq!(gid(""), empty);
+        let mut hello = [0u8; 16];
+        hello[..8].copy_from_slice(&0xc779_cfaa_5e52_3818_u64.to_le_bytes());
+        hello[8..].copy_from_slice(&0xb5e9_c1ad_071b_3e7f_u64.to_le_bytes());
+        assert_eq!(gid("hello"), hello);
+        assert_ne!(gid("a"), gid("b"));
+    }
+
+    #[test]
+    fn services_are_keyed_and_announced_with_the_service_type() {
+        assert_eq!(
+            service_key::<Trigger>(0, "/estop"),
+            "0/estop/std_srvs::srv::dds_::Trigger_/RIHS01_eeff2cd6fa5ad9d27cdf4dec64818317839b62f212a91e6b5304b634b2062c5f"
+        );
+        let n = NodeInfo::new(3, "ab", "robot1", "omnikin");
+        assert_eq!(
+            n.service_token::<Trigger>(7, Entity::Service, "/robot1/clear", Qos::KEEP_LAST_10),
+            "@ros2_lv/3/ab/0/7/SS/%/%robot1/omnikin/%robot1%clear/std_srvs::srv::dds_::Trigger_/RIHS01_eeff2cd6fa5ad9d27cdf4dec64818317839b62f212a91e6b5304b634b2062c5f/::,10:,:,:,,"
+        );
+    }
 
     #[test]
     fn topic_keys_are_domain_topic_type_hash() {
