@@ -413,7 +413,7 @@ impl DynamicSimulation {
         match (&self.outcome, plant) {
             (DynamicOutcome::Sphere(run), _) => vec![format!(
                 "dynamic plant: largest tilt {:.3} rad, pull-out events {:?}, roller slips {:?}, \
-                 lift-offs {:?}, floor-cone exits {}, lost steps {:?}",
+                 lift-offs {:?}, floor slides {}, lost steps {:?}",
                 run.max_tilt,
                 run.pull_outs,
                 run.contact_events.roller_slips,

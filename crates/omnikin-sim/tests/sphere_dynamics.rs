@@ -211,8 +211,9 @@ fn the_lean_grows_a_smooth_circle_by_the_predicted_factor() {
     // tilted platform axes rolls the shell at v cos θ + R ω0 sin θ and, with the shell's spin
     // held by the pivot friction, turns the platform at ω0 cos θ − (v/R) sin θ: the radius
     // grows by (cos θ + (R/r) sin θ)/(cos θ − (r/R) sin θ) ≈ 1 + (R/r + r/R) θ.
-    // Rigid roller contacts (slip off): the law is about the rolling kinematics alone.
-    let p = SphereDynamics::paper_000().rigid_contacts();
+    // Every slip off (rigid roller contacts, a floor the shell cannot slide on): the law is
+    // about the rolling kinematics alone.
+    let p = SphereDynamics::paper_000().no_slip();
     let big_r = p.geometry.shell_radius;
     for v in [0.1, 0.2] {
         let radius = 0.2;
