@@ -3,7 +3,9 @@
 //! preset's `[dynamics]`, each run `REPS` times; prints, per series and in total, the best
 //! wall time per trial, the simulated time and their ratio (× real time), and the process's
 //! CPU time per pass over the eight (Linux `/proc/self/stat`, 10 ms ticks: on a loaded
-//! machine the CPU time is the steadier figure).
+//! machine the CPU time is the steadier figure). Beside each series: its deterministic
+//! figures at that sub-step (largest deviation, % of the path; circles: radius ratio), to
+//! compare sub-steps.
 //!
 //! ```text
 //! cargo run --release -p omnikin-sim --example sphere_trial_cost -- [SUBSTEP_S] [REPS]
@@ -13,7 +15,7 @@
 
 use omnikin::description::RobotDescription;
 use omnikin_sim::dynamics::sphere::{SphereDynamics, simulate_plan};
-use omnikin_sim::reproduce::sphere_2019_series;
+use omnikin_sim::reproduce::{deterministic_figures, sphere_2019_series};
 use std::time::Instant;
 
 fn main() {
@@ -29,26 +31,34 @@ fn main() {
         .unwrap_or(5);
     let series = sphere_2019_series(&d, 100.0).expect("series");
     println!(
-        "sub-step {} s, best of {reps}: series, wall per trial [ms], simulated [s], × real time",
+        "sub-step {} s, best of {reps}: series, wall per trial [ms], simulated [s], × real time, \
+         max dev [%], radius ratio",
         p.max_substep
     );
     let (mut wall, mut simulated) = (0.0, 0.0);
-    let cpu0 = cpu_seconds();
+    let mut cpu_runs = 0.0;
     for s in &series {
         let mut best = f64::INFINITY;
+        let cpu0 = cpu_seconds();
         for _ in 0..reps {
             let t0 = Instant::now();
             let run = simulate_plan(p, &s.plan).expect("trial");
             best = best.min(t0.elapsed().as_secs_f64());
             std::hint::black_box(run);
         }
+        if let (Some(a), Some(b)) = (cpu0, cpu_seconds()) {
+            cpu_runs += b - a;
+        }
         let span = s.plan.samples.last().unwrap().t - s.plan.samples[0].t;
+        let (dev, ratio) = deterministic_figures(p, s).expect("figures");
         println!(
-            "{:<11} {:>8.2} {:>7.2} {:>8.0}",
+            "{:<11} {:>8.2} {:>7.2} {:>8.0} {:>9.4} {}",
             s.name,
             best * 1e3,
             span,
-            span / best
+            span / best,
+            dev,
+            ratio.map_or("—".into(), |r| format!("{r:.5}"))
         );
         wall += best;
         simulated += span;
@@ -59,8 +69,8 @@ fn main() {
         simulated,
         simulated / wall
     );
-    if let (Some(a), Some(b)) = (cpu0, cpu_seconds()) {
-        let per_pass = (b - a) / reps as f64;
+    if cpu_runs > 0.0 {
+        let per_pass = cpu_runs / reps as f64;
         println!(
             "CPU time per pass over the eight: {:.1} ms ({:.0} × real time)",
             per_pass * 1e3,
