@@ -87,13 +87,19 @@ fn the_dynamic_plant_writes_the_same_files_and_grows_the_fast_circle() {
             ("lift_off", sum("lift_offs")),
             ("floor_slip", floor),
         ] {
-            assert!(count(kind) <= n && (n == 0) == (count(kind) == 0), "{kind}: {log:?}");
+            assert!(
+                count(kind) <= n && (n == 0) == (count(kind) == 0),
+                "{kind}: {log:?}"
+            );
         }
         let end = std::f64::consts::TAU / omega.parse::<f64>().unwrap() + 0.01;
         let t: Vec<f64> = log.iter().map(|e| e["t"].as_f64().unwrap()).collect();
         assert!(t.windows(2).all(|w| w[0] <= w[1]) && t.iter().all(|&t| t > 0.0 && t < end));
         if omega == "2" {
-            assert!(floor > 0, "the full-speed 0.4 m/s start slides the shell: {sim}");
+            assert!(
+                floor > 0,
+                "the full-speed 0.4 m/s start slides the shell: {sim}"
+            );
         }
         ratios.push(m["radius_ratio"].as_f64().unwrap());
     }

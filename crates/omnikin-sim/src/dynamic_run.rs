@@ -450,6 +450,26 @@ impl DynamicSimulation {
     }
 }
 
+/// The sphere run's contact events in time order, for `metrics.json`'s `simulation`: each
+/// `{"t": s, "kind": "roller_slip" | "lift_off" | "floor_slip" | "lost_steps", "wheel": i}`
+/// (`t` the end of the plan step in which it began; no wheel for a floor slip; `steps` for
+/// lost steps).
+fn contact_log_json(run: &DynamicTrial) -> Value {
+    run.contact_log
+        .iter()
+        .map(|e| match e.kind {
+            ContactEventKind::RollerSlip => {
+                json!({"t": e.t, "kind": "roller_slip", "wheel": e.wheel})
+            }
+            ContactEventKind::LiftOff => json!({"t": e.t, "kind": "lift_off", "wheel": e.wheel}),
+            ContactEventKind::FloorSlip => json!({"t": e.t, "kind": "floor_slip"}),
+            ContactEventKind::LostSteps(n) => {
+                json!({"t": e.t, "kind": "lost_steps", "wheel": e.wheel, "steps": n})
+            }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -497,24 +517,4 @@ mod tests {
             Err(DynamicError::NotBallbot)
         ));
     }
-}
-
-/// The sphere run's contact events in time order, for `metrics.json`'s `simulation`: each
-/// `{"t": s, "kind": "roller_slip" | "lift_off" | "floor_slip" | "lost_steps", "wheel": i}`
-/// (`t` the end of the plan step in which it began; no wheel for a floor slip; `steps` for
-/// lost steps).
-fn contact_log_json(run: &DynamicTrial) -> Value {
-    run.contact_log
-        .iter()
-        .map(|e| match e.kind {
-            ContactEventKind::RollerSlip => {
-                json!({"t": e.t, "kind": "roller_slip", "wheel": e.wheel})
-            }
-            ContactEventKind::LiftOff => json!({"t": e.t, "kind": "lift_off", "wheel": e.wheel}),
-            ContactEventKind::FloorSlip => json!({"t": e.t, "kind": "floor_slip"}),
-            ContactEventKind::LostSteps(n) => {
-                json!({"t": e.t, "kind": "lost_steps", "wheel": e.wheel, "steps": n})
-            }
-        })
-        .collect()
 }
