@@ -67,6 +67,40 @@ fn the_dynamic_plant_writes_the_same_files_and_grows_the_fast_circle() {
         assert_eq!(m["simulation"]["plant"], "dynamic");
         assert_eq!(m["runs"], 1);
         assert!(m["simulation"]["max_tilt_rad"].as_f64().unwrap() > 0.0);
+        // Each contact event with its time: as many of each kind as the counts say, in time
+        // order, inside the run (the 0.4 m/s circle's full-speed start slides the shell).
+        let sim = &m["simulation"];
+        let log = sim["contact_events"].as_array().unwrap();
+        let count = |kind: &str| log.iter().filter(|e| e["kind"] == kind).count() as u64;
+        let sum = |key: &str| -> u64 {
+            sim[key]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_u64().unwrap())
+                .sum()
+        };
+        // One entry per kind, wheel and plan step (several starts in one step: one entry).
+        let floor = sim["floor_slips"].as_u64().unwrap();
+        for (kind, n) in [
+            ("roller_slip", sum("roller_slips")),
+            ("lift_off", sum("lift_offs")),
+            ("floor_slip", floor),
+        ] {
+            assert!(
+                count(kind) <= n && (n == 0) == (count(kind) == 0),
+                "{kind}: {log:?}"
+            );
+        }
+        let end = std::f64::consts::TAU / omega.parse::<f64>().unwrap() + 0.01;
+        let t: Vec<f64> = log.iter().map(|e| e["t"].as_f64().unwrap()).collect();
+        assert!(t.windows(2).all(|w| w[0] <= w[1]) && t.iter().all(|&t| t > 0.0 && t < end));
+        if omega == "2" {
+            assert!(
+                floor > 0,
+                "the full-speed 0.4 m/s start slides the shell: {sim}"
+            );
+        }
         ratios.push(m["radius_ratio"].as_f64().unwrap());
     }
     // The kinematic plant gives 1.000 for both; the dynamics grow the fast circle much more.

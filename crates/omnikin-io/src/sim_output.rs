@@ -449,7 +449,7 @@ impl<'a> Report<'a> {
                 "name": f.fitted_name, "value": f.fitted_value, "unit": "m",
                 "comment": f.fitted_comment,
             })),
-            "dynamic_contact_events_note": source.map(|_| "series.*.dynamic_nominal_contact_events: roller slips and lift-offs per wheel, floor-cone exits (steps), lost steps per wheel, of the deterministic model with the robot file's values (no trial jitter); series.*.dynamic_contact_events: the same events over every trial of the dynamic profile (each with its jitter), summed over the wheels: total, trials_with_any, max_per_trial"),
+            "dynamic_contact_events_note": source.map(|_| "series.*.dynamic_nominal_contact_events: roller slips and lift-offs per wheel, floor slides (starts of the shell sliding on the floor), lost steps per wheel, of the deterministic model with the robot file's values (no trial jitter); series.*.dynamic_contact_events: the same events over every trial of the dynamic profile (each with its jitter), summed over the wheels: total, trials_with_any, max_per_trial"),
             "series": self.all,
         });
         write_file(&out.join("metrics.json"), |w| {
@@ -481,7 +481,7 @@ pub fn contact_sentence(tallies: &[(String, omnikin_sim::reproduce::ContactTally
     let kinds: [(&str, Kind); 4] = [
         ("roller slips", |t| t.roller_slips),
         ("lift-offs", |t| t.lift_offs),
-        ("floor-cone exits", |t| t.floor_slips),
+        ("floor slides", |t| t.floor_slips),
         ("lost steps", |t| t.lost_steps),
     ];
     let parts: Vec<String> = kinds

@@ -1,9 +1,11 @@
 //! Cost of one dynamic trial: paper 000's 0.4 m/s circle (0.2 m, one turn, full-speed start,
-//! 100 Hz plan = 315 steps of 10 ms, each 10 RK4 sub-steps of 1 ms with the wheel-constraint
-//! projection) through the shell + platform model (`dynamics::sphere`) with the default
-//! parameters. Criterion reports the time per trial (one circle): 8.8 ms (8.2–9.3) on the
-//! project's 2-core machine, i.e. ≈ 2.8 µs per 1 ms sub-step (four derivative evaluations, each a
-//! 6 × 6 Cholesky solve and a 3 × 3 constraint solve, plus the projection).
+//! 100 Hz plan = 315 steps of 10 ms, each 5 RK4 sub-steps of 2 ms — the default since the
+//! sub-step was raised from 1 ms — with the wheel-constraint projection) through the shell +
+//! platform model (`dynamics::sphere`) with the default parameters. At the former 1 ms
+//! sub-step Criterion reported 8.8 ms (8.2–9.3) per trial on the project's 2-core machine,
+//! i.e. ≈ 2.8 µs per sub-step (four derivative evaluations, each a 6 × 6 Cholesky solve and a
+//! 3 × 3 constraint solve, plus the projection); the 2 ms sub-step halves the sub-steps
+//! (docs/sphere-dynamics.md, "Cost of a trial").
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use omnikin::description::RobotDescription;

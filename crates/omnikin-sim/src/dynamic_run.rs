@@ -21,7 +21,9 @@ use crate::Trial;
 use crate::dynamics::ballbot::BallbotDynamics;
 use crate::dynamics::ballbot::closed_loop::Push;
 use crate::dynamics::ballbot::plan_run::{PlanRun, PlanRunError, PlanRunOptions, run_plan};
-use crate::dynamics::sphere::{DynamicTrial, DynamicsError, SphereDynamics, simulate_plan};
+use crate::dynamics::sphere::{
+    ContactEventKind, DynamicTrial, DynamicsError, SphereDynamics, simulate_plan,
+};
 use crate::metrics::{Evaluation, MetricsError, Run, evaluate};
 
 /// Largest push magnitude, N·s.
@@ -333,6 +335,7 @@ impl DynamicPlant {
                     "lost_steps": run.contact_events.lost_steps,
                     "min_roller_normal_n": run.min_normal,
                     "min_shell_spin_rad_s": run.shell_spin.iter().cloned().fold(0.0, f64::min),
+                    "contact_events": contact_log_json(run),
                 });
             }
             (
@@ -413,7 +416,7 @@ impl DynamicSimulation {
         match (&self.outcome, plant) {
             (DynamicOutcome::Sphere(run), _) => vec![format!(
                 "dynamic plant: largest tilt {:.3} rad, pull-out events {:?}, roller slips {:?}, \
-                 lift-offs {:?}, floor-cone exits {}, lost steps {:?}",
+                 lift-offs {:?}, floor slides {}, lost steps {:?}",
                 run.max_tilt,
                 run.pull_outs,
                 run.contact_events.roller_slips,
@@ -445,6 +448,26 @@ impl DynamicSimulation {
             _ => Vec::new(),
         }
     }
+}
+
+/// The sphere run's contact events in time order, for `metrics.json`'s `simulation`: each
+/// `{"t": s, "kind": "roller_slip" | "lift_off" | "floor_slip" | "lost_steps", "wheel": i}`
+/// (`t` the end of the plan step in which it began; no wheel for a floor slip; `steps` for
+/// lost steps).
+fn contact_log_json(run: &DynamicTrial) -> Value {
+    run.contact_log
+        .iter()
+        .map(|e| match e.kind {
+            ContactEventKind::RollerSlip => {
+                json!({"t": e.t, "kind": "roller_slip", "wheel": e.wheel})
+            }
+            ContactEventKind::LiftOff => json!({"t": e.t, "kind": "lift_off", "wheel": e.wheel}),
+            ContactEventKind::FloorSlip => json!({"t": e.t, "kind": "floor_slip"}),
+            ContactEventKind::LostSteps(n) => {
+                json!({"t": e.t, "kind": "lost_steps", "wheel": e.wheel, "steps": n})
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -267,8 +267,8 @@ pub fn dynamic_profile(params: SphereDynamics) -> DynamicProfile {
 }
 
 /// The contact events of `series` run once through the deterministic model `params` (the
-/// robot file's values, without the trials' jitter): roller slips, lift-offs, floor-cone
-/// exits and lost steps ([`crate::dynamics::sphere::ContactEvents`]).
+/// robot file's values, without the trials' jitter): roller slips, lift-offs, floor slides
+/// and lost steps ([`crate::dynamics::sphere::ContactEvents`]).
 ///
 /// # Errors
 /// The dynamics' error.

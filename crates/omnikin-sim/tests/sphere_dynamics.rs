@@ -38,7 +38,10 @@ fn tilted(axis: Vector3<f64>, angle: f64, w: Vector3<f64>, big_w: Vector3<f64>) 
 
 #[test]
 fn energy_is_conserved_unpowered_without_friction() {
-    let p = SphereDynamics::paper_000().frictionless();
+    // At a 1 ms sub-step: RK4's energy drift falls as h⁴ (4.6e-9 J over these 10 s at the
+    // default 2 ms, above the bound; well below it at 1 ms).
+    let mut p = SphereDynamics::paper_000().frictionless();
+    p.max_substep = 1e-3;
     let s0 = tilted(
         Vector3::new(1.0, 0.3, 0.0),
         0.4,
@@ -211,8 +214,9 @@ fn the_lean_grows_a_smooth_circle_by_the_predicted_factor() {
     // tilted platform axes rolls the shell at v cos θ + R ω0 sin θ and, with the shell's spin
     // held by the pivot friction, turns the platform at ω0 cos θ − (v/R) sin θ: the radius
     // grows by (cos θ + (R/r) sin θ)/(cos θ − (r/R) sin θ) ≈ 1 + (R/r + r/R) θ.
-    // Rigid roller contacts (slip off): the law is about the rolling kinematics alone.
-    let p = SphereDynamics::paper_000().rigid_contacts();
+    // Every slip off (rigid roller contacts, a floor the shell cannot slide on): the law is
+    // about the rolling kinematics alone.
+    let p = SphereDynamics::paper_000().no_slip();
     let big_r = p.geometry.shell_radius;
     for v in [0.1, 0.2] {
         let radius = 0.2;

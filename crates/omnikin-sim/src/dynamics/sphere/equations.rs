@@ -5,7 +5,8 @@
 //! M-metric projection onto the wheel constraints; the energy.
 
 use omnikin::nalgebra::{
-    Cholesky, Const, Matrix3, Matrix6, Quaternion, UnitQuaternion, Vector2, Vector3, Vector6,
+    Cholesky, Const, Matrix3, Matrix6, Quaternion, SMatrix, SVector, UnitQuaternion, Vector2,
+    Vector3, Vector6,
 };
 use omnikin::sphere::SphereOmni;
 
@@ -52,7 +53,30 @@ pub(crate) struct Y {
     pub p: Vector2<f64>,
     /// Wheel angles relative to the platform, rad.
     pub chi: Vector3<f64>,
+    /// Shell centre velocity `(ẋ, ẏ)`, world frame, m/s: a generalised speed of its own while
+    /// the shell slides on the floor ([`Floor::Slide`]); while it rolls, kept equal to
+    /// `R Ω × γ` by the integrator (and ignored by the rolling equations).
+    pub v: Vector2<f64>,
 }
+
+/// The shell's contact with the floor during a sub-step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Floor {
+    /// Rolling without slip: `v = R Ω × γ` (the constraint built into the generalised speeds
+    /// `u = (ω, Ω)`); the floor supplies whatever horizontal force that takes.
+    Roll,
+    /// Sliding: the centre velocity `v` is free (generalised speeds `(ω, Ω, v)`) and the
+    /// floor's horizontal force is the Coulomb force `μ_f N d` at the contact point `C − R γ`,
+    /// with the floor's normal force `N` (first field, N) and the unit direction `d` (second,
+    /// world `(x, y)`: opposite to the contact point's slip velocity, or at the onset the
+    /// direction of the force the rolling contact needed) frozen over the sub-step (Karnopp's
+    /// stick–slip switching, as for the rollers); it sticks again when the slip velocity
+    /// `v − R Ω × γ` no longer opposes `d`.
+    Slide(f64, Vector2<f64>),
+}
+
+/// Generalised speeds of the sliding shell `(ω, Ω, v)`.
+pub(crate) type U8 = SVector<f64, 8>;
 
 impl Y {
     /// `self + h · d`.
@@ -63,7 +87,29 @@ impl Y {
             big_w: self.big_w + d.big_w * h,
             p: self.p + d.p * h,
             chi: self.chi + d.chi * h,
+            v: self.v + d.v * h,
         }
+    }
+
+    /// The generalised speeds of the sliding shell `(ω, Ω, v)`.
+    pub fn u8(&self) -> U8 {
+        U8::from_column_slice(&[
+            self.w.x,
+            self.w.y,
+            self.w.z,
+            self.big_w.x,
+            self.big_w.y,
+            self.big_w.z,
+            self.v.x,
+            self.v.y,
+        ])
+    }
+
+    /// Sets `(ω, Ω, v)` from `u`.
+    pub fn set_u8(&mut self, u: &U8) {
+        self.w = Vector3::new(u[0], u[1], u[2]);
+        self.big_w = Vector3::new(u[3], u[4], u[5]);
+        self.v = Vector2::new(u[6], u[7]);
     }
 
     /// The generalised speeds `u = (ω, Ω)`.
@@ -172,6 +218,8 @@ pub(crate) struct Model {
     pub viscous: f64,
     /// Normal preload per wheel, N.
     pub preload: f64,
+    /// Shell–floor friction coefficient μ_f (`f64::INFINITY` = the shell never slides).
+    pub mu_floor: f64,
     /// The motors' torque–angle law when they are steppers (`motor = "stepper"`).
     pub stepper: Option<Stepper>,
 }
@@ -200,6 +248,11 @@ pub(crate) struct Deriv {
     /// Horizontal floor force over the vertical one (the friction coefficient the floor must
     /// supply); infinite when the vertical force is not positive.
     pub floor_ratio: f64,
+    /// The floor's force on the robot `F = m_s a_C + m_p a_p + M g γ`, world frame, N.
+    pub floor_force: Vector3<f64>,
+    /// Power dissipated by the shell sliding on the floor `−F_t·v_s` (the Coulomb force times
+    /// the contact point's slip velocity), W; 0 while rolling. Included in `floor_power`.
+    pub floor_slide_power: f64,
 }
 
 /// A matrix of the solve was singular (only for a state that is no longer finite).
@@ -207,6 +260,14 @@ pub(crate) struct Deriv {
 pub(crate) struct Singular(pub &'static str);
 
 const GAMMA: Vector3<f64> = Vector3::new(0.0, 0.0, 1.0);
+
+/// A wheel's constraint row in the sliding shell's speeds `(ω, Ω, v)` (its contact does not
+/// involve `v`).
+fn row8(row: &Vector6<f64>) -> U8 {
+    let mut r = U8::zeros();
+    r.fixed_rows_mut::<6>(0).copy_from(row);
+    r
+}
 
 impl Model {
     pub fn new(p: &SphereDynamics) -> Result<(Self, SphereOmni<f64>), DynamicsError> {
@@ -244,6 +305,7 @@ impl Model {
             mu: p.roller_friction,
             viscous: p.roller_viscous,
             preload: p.roller_preload,
+            mu_floor: p.floor_friction,
             stepper: (p.motor == MotorModel::Stepper).then(|| Stepper::of(p)),
         };
         Ok((m, kin))
@@ -333,8 +395,10 @@ impl Model {
 
     /// The time derivative of `y` with the motors in `drive`, the commanded wheel angles
     /// `field` (rad, for a stepper), rates `chi_d` (rad/s, for the slip velocity of a sliding
-    /// roller and a stepper) and accelerations `chi_dd` (rad/s², for a locked wheel), and the
-    /// forces at that state ([`Deriv`]).
+    /// roller and a stepper) and accelerations `chi_dd` (rad/s², for a locked wheel), the
+    /// shell rolling or sliding on the floor (`floor`), and the forces at that state
+    /// ([`Deriv`]).
+    #[allow(clippy::too_many_arguments)]
     pub fn derivative(
         &self,
         y: &Y,
@@ -342,6 +406,7 @@ impl Model {
         field: &[f64; 3],
         chi_d: &[f64; 3],
         chi_dd: &[f64; 3],
+        floor: &Floor,
     ) -> Result<Deriv, Singular> {
         let f = self.frame(&y.q);
         let (w, big_w) = (y.w, y.big_w);
@@ -353,53 +418,77 @@ impl Model {
         let rhs_w = k.cross(&GAMMA) * (self.mp * self.g * self.h)
             + k.cross(&wb) * (self.mp * self.h)
             - w.cross(&(jw * w));
-        let floor = self.floor_torque(&big_w);
-        let rhs_o = floor - GAMMA.cross(&wb) * (self.mp * self.r);
-        let rhs = Vector6::new(rhs_w.x, rhs_w.y, rhs_w.z, rhs_o.x, rhs_o.y, rhs_o.z);
-        let chol = MassSolve::new(&f)?;
-        let u0 = chol.solve(&rhs);
-        let yc: [Vector6<f64>; 3] = core::array::from_fn(|i| chol.solve(&f.rows[i]));
+        let torque = self.floor_torque(&big_w);
         let rel = big_w - w;
-        let mut s = Matrix3::zeros();
-        let mut b = Vector3::zeros();
-        let mut any_locked = false;
-        for i in 0..3 {
-            let given = match drive[i] {
-                Drive::Locked => {
-                    any_locked = true;
-                    for j in 0..3 {
-                        s[(i, j)] = f.rows[i].dot(&yc[j]);
-                    }
-                    let sg = f.rot * self.s[i];
-                    // C_i u̇ = κ_i χ̈_i − Ċ_i u, Ċ_i u = (ω × σ_i)·(Ω − ω).
-                    b[i] = self.kappa[i] * chi_dd[i] - w.cross(&sg).dot(&rel) - f.rows[i].dot(&u0);
-                    continue;
-                }
-                Drive::Force(l) => l,
-                Drive::Slip(n, dir) => {
-                    let v = self.slip_velocity(i, &f.rows[i], &u, chi_d[i]);
-                    self.friction_lambda(i, v, dir, n)
-                }
-                Drive::Lifted => 0.0,
-                Drive::Stepper(off) => {
-                    self.stepper_lambda(i, y, &f.rows[i], off, field[i], chi_d[i])
-                }
-            };
-            s[(i, i)] = 1.0;
-            b[i] = given;
-        }
-        let lambda = if any_locked {
-            s.lu()
-                .solve(&b)
-                .ok_or(Singular("wheel constraint matrix"))?
-        } else {
-            b
+        // C_i u̇ = κ_i χ̈_i − Ċ_i u, Ċ_i u = (ω × σ_i)·(Ω − ω): the locked wheels' right side.
+        let lock_rhs: [f64; 3] = core::array::from_fn(|i| {
+            let sg = f.rot * self.s[i];
+            self.kappa[i] * chi_dd[i] - w.cross(&sg).dot(&rel)
+        });
+        let (w_dot, big_w_dot, a_c, lambda, slide) = match *floor {
+            Floor::Roll => {
+                let rhs_o = torque - GAMMA.cross(&wb) * (self.mp * self.r);
+                let rhs = Vector6::new(rhs_w.x, rhs_w.y, rhs_w.z, rhs_o.x, rhs_o.y, rhs_o.z);
+                let chol = MassSolve::new(&f)?;
+                let u0 = chol.solve(&rhs);
+                let yc: [Vector6<f64>; 3] = core::array::from_fn(|i| chol.solve(&f.rows[i]));
+                let lambda = self.wheel_forces(
+                    y,
+                    &f.rows,
+                    drive,
+                    field,
+                    chi_d,
+                    |i, j| f.rows[i].dot(&yc[j]),
+                    core::array::from_fn(|i| lock_rhs[i] - f.rows[i].dot(&u0)),
+                )?;
+                let ud = u0 + yc[0] * lambda[0] + yc[1] * lambda[1] + yc[2] * lambda[2];
+                let big_w_dot = Vector3::new(ud[3], ud[4], ud[5]);
+                (
+                    Vector3::new(ud[0], ud[1], ud[2]),
+                    big_w_dot,
+                    big_w_dot.cross(&GAMMA) * self.r,
+                    lambda,
+                    None,
+                )
+            }
+            Floor::Slide(normal, dir) => {
+                // The floor's Coulomb force at the contact C − R γ: on v, and its moment
+                // (−R γ) × F_t on the shell.
+                let ft = dir * (self.mu_floor * normal.max(0.0));
+                let ft3 = Vector3::new(ft.x, ft.y, 0.0);
+                let rhs_o = torque - GAMMA.cross(&ft3) * self.r;
+                let mut rhs = U8::zeros();
+                rhs.fixed_rows_mut::<3>(0).copy_from(&rhs_w);
+                rhs.fixed_rows_mut::<3>(3).copy_from(&rhs_o);
+                rhs[6] = ft.x - self.mp * wb.x;
+                rhs[7] = ft.y - self.mp * wb.y;
+                let chol = self
+                    .mass8(&f)
+                    .cholesky()
+                    .ok_or(Singular("sliding mass matrix"))?;
+                let u0 = chol.solve(&rhs);
+                let rows8: [U8; 3] = core::array::from_fn(|i| row8(&f.rows[i]));
+                let yc: [U8; 3] = core::array::from_fn(|i| chol.solve(&rows8[i]));
+                let lambda = self.wheel_forces(
+                    y,
+                    &f.rows,
+                    drive,
+                    field,
+                    chi_d,
+                    |i, j| rows8[i].dot(&yc[j]),
+                    core::array::from_fn(|i| lock_rhs[i] - rows8[i].dot(&u0)),
+                )?;
+                let ud = u0 + yc[0] * lambda[0] + yc[1] * lambda[1] + yc[2] * lambda[2];
+                (
+                    Vector3::new(ud[0], ud[1], ud[2]),
+                    Vector3::new(ud[3], ud[4], ud[5]),
+                    Vector3::new(ud[6], ud[7], 0.0),
+                    lambda,
+                    Some(ft),
+                )
+            }
         };
-        let ud = u0 + yc[0] * lambda[0] + yc[1] * lambda[1] + yc[2] * lambda[2];
-        let w_dot = Vector3::new(ud[0], ud[1], ud[2]);
-        let big_w_dot = Vector3::new(ud[3], ud[4], ud[5]);
-        // Platform centre of mass at C − h k: a_p = R Ω̇ × γ − h ω̇ × k − h ω × (ω × k).
-        let a_c = big_w_dot.cross(&GAMMA) * self.r;
+        // Platform centre of mass at C − h k: a_p = a_C − h ω̇ × k − h ω × (ω × k).
         let a_p = a_c - w_dot.cross(&k) * self.h - w.cross(&w.cross(&k)) * self.h;
         // The platform's Newton equation: m_p a_p = −m_p g γ − Σ N_i p̂_i − Σ f_i α_i.
         let mut push = -(a_p + GAMMA * self.g) * self.mp;
@@ -416,12 +505,17 @@ impl Model {
             f64::INFINITY
         };
         let wq = Quaternion::new(0.0, w.x, w.y, w.z);
+        let (p_dot, floor_slide_power) = match slide {
+            None => (self.centre_velocity(&big_w), 0.0),
+            Some(ft) => (y.v, -ft.dot(&self.floor_slip_velocity(y))),
+        };
         let d = Y {
             q: wq * y.q * 0.5,
             w: w_dot,
             big_w: big_w_dot,
-            p: self.centre_velocity(&big_w),
+            p: p_dot,
             chi: Vector3::from_fn(|i, _| f.rows[i].dot(&u) / self.kappa[i]),
+            v: Vector2::new(a_c.x, a_c.y),
         };
         let contact_power = (0..3).map(|i| lambda[i] * f.rows[i].dot(&u)).sum();
         let (mut motor_power, mut slip_power) = (0.0, 0.0);
@@ -441,11 +535,172 @@ impl Model {
             lambda: lambda.into(),
             normal,
             contact_power,
-            floor_power: floor.dot(&big_w),
+            floor_power: torque.dot(&big_w) - floor_slide_power,
             motor_power,
             slip_power,
             floor_ratio,
+            floor_force: ff,
+            floor_slide_power,
         })
+    }
+
+    /// The wheels' constraint forces `λ`, N: given by each motor's or contact's law, or for
+    /// the locked wheels solved from `Σ_j (C_i M⁻¹ C_jᵀ) λ_j = b_i` with `cyc(i, j) =
+    /// C_i M⁻¹ C_jᵀ` and `free[i]` = `κ_i χ̈_i − Ċ_i u − C_i M⁻¹ Q` (in whichever
+    /// generalised speeds the floor contact leaves).
+    #[allow(clippy::too_many_arguments)]
+    fn wheel_forces(
+        &self,
+        y: &Y,
+        rows: &[Vector6<f64>; 3],
+        drive: &[Drive; 3],
+        field: &[f64; 3],
+        chi_d: &[f64; 3],
+        cyc: impl Fn(usize, usize) -> f64,
+        free: [f64; 3],
+    ) -> Result<Vector3<f64>, Singular> {
+        let u = y.u();
+        let mut s = Matrix3::zeros();
+        let mut b = Vector3::zeros();
+        let mut any_locked = false;
+        for i in 0..3 {
+            let given = match drive[i] {
+                Drive::Locked => {
+                    any_locked = true;
+                    for j in 0..3 {
+                        s[(i, j)] = cyc(i, j);
+                    }
+                    b[i] = free[i];
+                    continue;
+                }
+                Drive::Force(l) => l,
+                Drive::Slip(n, dir) => {
+                    let v = self.slip_velocity(i, &rows[i], &u, chi_d[i]);
+                    self.friction_lambda(i, v, dir, n)
+                }
+                Drive::Lifted => 0.0,
+                Drive::Stepper(off) => self.stepper_lambda(i, y, &rows[i], off, field[i], chi_d[i]),
+            };
+            s[(i, i)] = 1.0;
+            b[i] = given;
+        }
+        if any_locked {
+            s.lu().solve(&b).ok_or(Singular("wheel constraint matrix"))
+        } else {
+            Ok(b)
+        }
+    }
+
+    /// The mass matrix of the sliding shell in `(ω, Ω, v)`: `M_ωω` as rolling,
+    /// `M_ΩΩ = I_s I`, `M_vv = M I₂`, `M_ωv = −m_p h [k]×` (the platform's centre of mass moves
+    /// at `v + h k × ω`); with `v = R Ω × γ` it reduces to [`Frame::mass`].
+    pub fn mass8(&self, f: &Frame) -> SMatrix<f64, 8, 8> {
+        let k = f.rot.column(2).into_owned();
+        let mut m = SMatrix::<f64, 8, 8>::zeros();
+        m.fixed_view_mut::<3, 3>(0, 0)
+            .copy_from(&f.mass.fixed_view::<3, 3>(0, 0));
+        for a in 3..6 {
+            m[(a, a)] = self.is;
+        }
+        let total = self.ms + self.mp;
+        m[(6, 6)] = total;
+        m[(7, 7)] = total;
+        // −m_p h [k]× v, v = (v_x, v_y, 0).
+        let c = -self.mp * self.h;
+        let kx = k.cross_matrix();
+        for r in 0..3 {
+            for j in 0..2 {
+                m[(r, 6 + j)] = c * kx[(r, j)];
+                m[(6 + j, r)] = c * kx[(r, j)];
+            }
+        }
+        m
+    }
+
+    /// Slip velocity of the shell's floor-contact point `v − R Ω × γ`, world `(x, y)`, m/s.
+    pub fn floor_slip_velocity(&self, y: &Y) -> Vector2<f64> {
+        y.v - self.centre_velocity(&y.big_w)
+    }
+
+    /// Total mechanical energy of the sliding shell `½ uᵀ M₈ u − m_p g h (k·γ)` with
+    /// `u = (ω, Ω, v)`, J; equal to [`Model::energy_in`] when `v = R Ω × γ`.
+    pub fn energy8(&self, f: &Frame, y: &Y) -> f64 {
+        let u = y.u8();
+        let k = f.rot.column(2).into_owned();
+        0.5 * u.dot(&(self.mass8(f) * u)) - self.mp * self.g * self.h * k.dot(&GAMMA)
+    }
+
+    /// Projects the sliding shell's `(ω, Ω, v)` onto the locked wheels' constraints in the
+    /// metric of [`Model::mass8`] (as [`Model::project`] does for the rolling shell).
+    pub fn project8(
+        &self,
+        f: &Frame,
+        y: &mut Y,
+        drive: &[Drive; 3],
+        chi_d: &[f64; 3],
+    ) -> Result<(), Singular> {
+        if !drive.contains(&Drive::Locked) {
+            return Ok(());
+        }
+        let chol = self
+            .mass8(f)
+            .cholesky()
+            .ok_or(Singular("sliding mass matrix"))?;
+        let rows8: [U8; 3] = core::array::from_fn(|i| row8(&f.rows[i]));
+        let yc: [U8; 3] = core::array::from_fn(|i| chol.solve(&rows8[i]));
+        let u = y.u8();
+        let mut s = Matrix3::zeros();
+        let mut e = Vector3::zeros();
+        for i in 0..3 {
+            if drive[i] == Drive::Locked {
+                for j in 0..3 {
+                    s[(i, j)] = if drive[j] == Drive::Locked {
+                        rows8[i].dot(&yc[j])
+                    } else {
+                        0.0
+                    };
+                }
+                e[i] = rows8[i].dot(&u) - self.kappa[i] * chi_d[i];
+            } else {
+                s[(i, i)] = 1.0;
+            }
+        }
+        let mu = s
+            .lu()
+            .solve(&e)
+            .ok_or(Singular("wheel constraint matrix"))?;
+        let u = u - yc[0] * mu[0] - yc[1] * mu[1] - yc[2] * mu[2];
+        y.set_u8(&u);
+        Ok(())
+    }
+
+    /// The sticking floor's impulse: projects `(ω, Ω, v)` onto the rolling constraint
+    /// `v − R Ω × γ = 0` in the metric of [`Model::mass8`] (the smallest kinetic-energy
+    /// correction, an impulse at the contact point), then sets `v` exactly to `R Ω × γ`.
+    pub fn stick_floor(&self, f: &Frame, y: &mut Y) -> Result<(), Singular> {
+        let chol = self
+            .mass8(f)
+            .cholesky()
+            .ok_or(Singular("sliding mass matrix"))?;
+        // g_x = v_x − R Ω_y, g_y = v_y + R Ω_x.
+        let mut gx = U8::zeros();
+        gx[6] = 1.0;
+        gx[4] = -self.r;
+        let mut gy = U8::zeros();
+        gy[7] = 1.0;
+        gy[3] = self.r;
+        let (yx, yy) = (chol.solve(&gx), chol.solve(&gy));
+        let s = omnikin::nalgebra::Matrix2::new(gx.dot(&yx), gx.dot(&yy), gy.dot(&yx), gy.dot(&yy));
+        let u = y.u8();
+        let e = Vector2::new(gx.dot(&u), gy.dot(&u));
+        let mu = s
+            .lu()
+            .solve(&e)
+            .ok_or(Singular("floor constraint matrix"))?;
+        let u = u - yx * mu.x - yy * mu.y;
+        y.set_u8(&u);
+        y.v = self.centre_velocity(&y.big_w);
+        Ok(())
     }
 
     /// Shell centre velocity from rolling without slip, `v = R Ω × γ`, world `(x, y)`, m/s.

@@ -24,7 +24,8 @@
 //! polycarbonate shell on these floors): hard plastic on a hard smooth floor 0.002–0.01 (less
 //! on concrete, which indents least), on carpet an order more (the pile is pressed down ahead
 //! of the contact, 0.01–0.06); plastic on vinyl, linoleum or concrete μ 0.2–0.6, on carpet
-//! 0.3–0.7. The shell slides on the floor only past `μ_f` (the model reports such steps).
+//! 0.3–0.7. The shell slides on the floor when the rolling shell would need more than `μ_f`
+//! (a Coulomb slide, reported as a floor-slip event: [`super::SphereDynamics::floor_friction`]).
 
 use omnikin::description::FloorSurface;
 

@@ -44,9 +44,25 @@
 //! wheels and rollers are massless (their inertia is lumped into the platform); each wheel
 //! touches the shell at one point (paper 000's ideal Mecanum wheel) and transmits force only
 //! along the roller axis `α_i` (plus a normal force through `C`, which has no moment about
-//! `C`); the shell rolls on the horizontal floor without slipping horizontally (the floor
-//! force's friction cone is checked and a step outside it reported, not simulated); the normal
-//! force in the floor's friction laws is the static `M g`.
+//! `C`); the shell rolls on the horizontal floor without slipping horizontally while the floor
+//! force stays inside its friction cone, and slides when it would leave it (below); the normal
+//! force in the floor's pivot-friction and rolling-resistance laws is the static `M g`.
+//!
+//! **The shell sliding on the floor.** The floor force the rolling shell needs,
+//! `F = m_s a_C + m_p a_p + M g γ`, is checked at the start of each sub-step against the cone
+//! `|F_h| ≤ μ_f F_z` ([`SphereDynamics::floor_friction`]). Outside it the shell **slides**
+//! ([`SphereStep::floor_slip`], a floor-slip event): the centre velocity `v` becomes a
+//! generalised speed of its own, `u = (ω, Ω, v) ∈ ℝ⁸`, with the mass matrix
+//! `diag-blocks(M_ωω, I_s I, M I₂)` coupled by `M_ωv = −m_p h [k]×` (the platform's centre of
+//! mass moves at `v + h k × ω`; with `v = R Ω × γ` it is the rolling `M` above), and the
+//! floor's horizontal force is the Coulomb force `F_t = μ_f N d` at the contact point
+//! `C − R γ` (on `v`: `F_t`; on `Ω`: `−R γ × F_t`), `N = F_z` and `d` frozen over the sub-step
+//! (`N` iterated to the value its own friction gives; `d` the direction of the needed force at
+//! the onset, then opposite to the contact point's slip velocity `v_s = v − R Ω × γ`). The
+//! slide dissipates `−F_t·v_s ≥ 0` ([`SphereStep::floor_slide_work`], counted in
+//! [`SphereStep::floor_work`]); when `v_s·d` reaches 0 the floor sticks again: an impulse at
+//! the contact projects `u` onto `v = R Ω × γ` in the metric of the 8 × 8 mass matrix (its
+//! work, the floor's too).
 //!
 //! **Roller–shell contacts** (unilateral, with friction). The platform's Newton equation
 //! `m_p a_p = −m_p g γ − Σ N_i p̂_i − Σ f_i α_i` (`p̂_i` the unit direction from `C` to contact
@@ -159,7 +175,8 @@
 //! command ramped linearly over each [`SphereSim::step`]; after each sub-step `q` is normalised
 //! and `u` is projected onto the locked wheels' constraints in the metric of `M`
 //! (`u ← u − Y (C Y)⁻¹ (C u − κ χ̇)`, the smallest kinetic-energy correction), so the wheel
-//! constraints hold to rounding; the floor constraint holds by construction. Fixed-size
+//! constraints hold to rounding; the floor constraint holds by construction while the shell
+//! rolls (and by the sticking impulse when a slide ends). Fixed-size
 //! `nalgebra` matrices only: no allocation per step, and a fixed sequence of operations, so
 //! the results do not depend on threads or the machine's load.
 //!

@@ -81,7 +81,7 @@ impl DynamicProfile {
     }
 
     /// [`DynamicProfile::trial`] with the trial's contact events (roller slips, lift-offs,
-    /// floor-cone exits, lost steps over the run, [`SphereSim::contact_events`]); the same
+    /// floor slides, lost steps over the run, [`SphereSim::contact_events`]); the same
     /// draws, so the trial is the same.
     ///
     /// [`SphereSim::contact_events`]: super::SphereSim::contact_events

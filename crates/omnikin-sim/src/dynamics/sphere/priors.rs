@@ -105,7 +105,7 @@ pub const PRIORS: [Prior; 11] = [
         low: 0.2,
         high: 0.6,
         unit: "",
-        source: "estimate: hard plastic on linoleum/vinyl (counts floor-cone exits only)",
+        source: "estimate: hard plastic on linoleum/vinyl (the shell slides past it)",
     },
     Prior {
         key: "tracked_height",

@@ -8,7 +8,7 @@ use omnikin::nalgebra::{UnitQuaternion, Vector2, Vector3};
 use omnikin::sphere::SphereOmni;
 use omnikin::wrap_angle;
 
-use super::equations::{Drive, Model, Singular, Y};
+use super::equations::{Drive, Floor, Model, Singular, Y};
 use super::params::{DynamicsError, SphereDynamics};
 use super::stepper::Stepper;
 
@@ -109,14 +109,21 @@ pub struct SphereStep {
     /// sticking rollers, sliding rollers' friction, the sticking impulses that relock a
     /// sliding roller), J.
     pub contact_work: f64,
-    /// Work done over the step by the floor torque (pivot friction, rolling resistance), J.
+    /// Work done over the step by the floor (pivot friction, rolling resistance, the sliding
+    /// shell's Coulomb force and the impulse that makes it roll again), J.
     pub floor_work: f64,
+    /// Energy the shell sliding on the floor dissipated over the step, J (≥ 0; part of
+    /// `floor_work`, with the opposite sign).
+    pub floor_slide_work: f64,
     /// Largest ratio of horizontal to vertical floor force over the step (the friction
     /// coefficient the floor must supply to keep the shell rolling).
     pub floor_ratio: f64,
-    /// The floor force left the friction cone `μ_f` during this step (the shell would slide;
-    /// the model keeps it rolling and reports it).
+    /// The shell started sliding on the floor during this step: the floor force the rolling
+    /// shell needed left the friction cone `μ_f` (from then on the floor's horizontal force is
+    /// the Coulomb force `μ_f N`, until the slip stops).
     pub floor_slip: bool,
+    /// The shell is sliding on the floor at the end of the step.
+    pub floor_sliding: bool,
     /// Mechanical work the motors delivered to their rotors over the step, J (for a sliding
     /// roller the rotor turns at the commanded rate; see `slip_work`).
     pub motor_work: f64,
@@ -134,7 +141,8 @@ pub struct ContactEvents {
     pub roller_slips: [u64; 3],
     /// Times each wheel lost contact with the shell.
     pub lift_offs: [u64; 3],
-    /// Steps in which the floor force left its friction cone.
+    /// Times the shell started sliding on the floor (the floor force the rolling shell needed
+    /// left the friction cone `μ_f`).
     pub floor_slips: u64,
     /// Full steps each stepper lost (4 per electrical cycle its rotor slipped against the
     /// field; always 0 with `motor = "rate"`, whose motors resynchronise).
@@ -144,7 +152,8 @@ pub struct ContactEvents {
 /// Constraint residuals of the current state (see [`SphereSim::residuals`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Residuals {
-    /// |velocity of the shell's floor-contact point| `|v + Ω × (−R γ)|`, m/s.
+    /// |velocity of the shell's floor-contact point| `|v + Ω × (−R γ)|`, m/s: 0 while the
+    /// shell rolls, its slip speed while it slides.
     pub floor: f64,
     /// Per wheel, with its motor holding the commanded rate: the velocity mismatch along the
     /// roller axis `α_i` between the wheel's and the shell's material at the contact
@@ -164,6 +173,8 @@ pub struct SphereSim {
     /// Commanded wheel rates in force now (the end of the last ramp), rad/s.
     command: [f64; 3],
     drive: [Drive; 3],
+    /// The shell rolling or sliding on the floor.
+    floor: Floor,
     heading: f64,
     pull_outs: [u64; 3],
     events: ContactEvents,
@@ -215,6 +226,7 @@ impl SphereSim {
             big_w: state.shell_rate,
             p: Vector2::from(state.centre),
             chi: Vector3::from(state.wheel_angles),
+            v: Vector2::zeros(),
         };
         let mut sim = Self {
             params,
@@ -224,6 +236,7 @@ impl SphereSim {
             t: state.t,
             command: [0.0; 3],
             drive: [Drive::Locked; 3],
+            floor: Floor::Roll,
             heading: state.yaw(),
             pull_outs: [0; 3],
             events: ContactEvents::default(),
@@ -231,6 +244,7 @@ impl SphereSim {
             offset: [0.0; 3],
             cycle: [0; 3],
         };
+        sim.y.v = sim.model.centre_velocity(&sim.y.big_w);
         sim.command = sim.model.wheel_rates(&sim.y);
         sim.drive = [sim.stick(0); 3];
         Ok(sim)
@@ -271,7 +285,15 @@ impl SphereSim {
     /// Total mechanical energy (kinetic + the platform's potential, zero at the shell centre's
     /// height), J.
     pub fn energy(&self) -> f64 {
-        self.model.energy(&self.y)
+        match self.floor {
+            Floor::Roll => self.model.energy(&self.y),
+            Floor::Slide(..) => self.model.energy8(&self.model.frame(&self.y.q), &self.y),
+        }
+    }
+
+    /// The shell is sliding on the floor.
+    pub fn floor_sliding(&self) -> bool {
+        matches!(self.floor, Floor::Slide(..))
     }
 
     /// Pull-out events so far per motor (times it started slipping).
@@ -293,7 +315,10 @@ impl SphereSim {
     pub fn residuals(&self) -> Residuals {
         let m = &self.model;
         let big_w = self.y.big_w;
-        let v = m.centre_velocity(&big_w);
+        let v = match self.floor {
+            Floor::Roll => m.centre_velocity(&big_w),
+            Floor::Slide(..) => self.y.v,
+        };
         let contact = Vector3::new(v.x, v.y, 0.0) + big_w.cross(&Vector3::new(0.0, 0.0, -m.r));
         let f = m.frame(&self.y.q);
         let u = self.y.u();
@@ -378,6 +403,10 @@ impl SphereSim {
         let mut lost = [0u64; 3];
         let field0 = self.field;
         let mut floor_ratio = 0.0f64;
+        let mu_floor = self.model.mu_floor;
+        let floor_on = mu_floor.is_finite();
+        let mut floor_slip = false;
+        let mut floor_slide_work = 0.0;
         let diverged = |_: Singular| DynamicsError::Input {
             what: "state",
             value: f64::NAN,
@@ -395,16 +424,53 @@ impl SphereSim {
             let a0 = field_at(t0);
             let mut k1 = self
                 .model
-                .derivative(&self.y, &self.drive, &a0, &c0, &slope)
+                .derivative(&self.y, &self.drive, &a0, &c0, &slope, &self.floor)
                 .map_err(diverged)?;
-            if target.is_some() {
-                // Contacts first (a roller slides or a wheel lifts at the contact's limit), then
-                // the motor's pull-out torque; re-solved until the modes agree with the forces.
+            if target.is_some() || floor_on {
+                // Contacts first (the shell slides on the floor, a roller slides or a wheel
+                // lifts at the contact's limit), then the motor's pull-out torque; re-solved
+                // until the modes agree with the forces.
                 for _ in 0..4 {
                     let mut changed = false;
                     // A sliding roller's normal force followed the state: k1 must be redone.
                     let mut dirty = false;
+                    // The sliding shell's frozen normal force is iterated to the one its own
+                    // friction force gives (a fixed point, in the mode loop's passes).
+                    let mut floor_moved = false;
+                    if floor_on {
+                        let ff = k1.floor_force;
+                        match self.floor {
+                            Floor::Roll if k1.floor_ratio > mu_floor => {
+                                // The rolling shell needs more than μ_f N: it slides, the
+                                // floor's force in the direction of the force it needed.
+                                let fh = Vector2::new(ff.x, ff.y);
+                                let n = fh.norm();
+                                let dir = if n > 0.0 { fh / n } else { Vector2::x() };
+                                self.floor = Floor::Slide(ff.z.max(0.0), dir);
+                                floor_slip = true;
+                                self.events.floor_slips += 1;
+                                changed = true;
+                            }
+                            Floor::Slide(old, dir) => {
+                                // The normal force and the slip's direction follow the state
+                                // (frozen within the sub-step); not a change of mode.
+                                let vs = self.model.floor_slip_velocity(&self.y);
+                                let sn = vs.norm();
+                                let dir_now = if sn > 1e-12 { -vs / sn } else { dir };
+                                let n = ff.z.max(0.0);
+                                if n != old || dir_now != dir {
+                                    self.floor = Floor::Slide(n, dir_now);
+                                    dirty = true;
+                                    floor_moved = (n - old).abs() > 1e-9 * n.max(1.0);
+                                }
+                            }
+                            _ => {}
+                        }
+                    }
                     for i in 0..3 {
+                        if target.is_none() {
+                            break;
+                        }
                         let (l, nf) = (k1.lambda[i], k1.normal[i]);
                         let f_roller = l.abs() * lever[i] / r;
                         let motor_limit = match &stepper {
@@ -463,7 +529,7 @@ impl SphereSim {
                                 // force can unload it again): no lift/land chatter.
                                 let landed = self
                                     .model
-                                    .derivative(&self.y, &trial, &a0, &c0, &slope)
+                                    .derivative(&self.y, &trial, &a0, &c0, &slope, &self.floor)
                                     .map_err(diverged)?;
                                 if landed.normal[i] > 0.0 {
                                     self.drive = trial;
@@ -479,9 +545,9 @@ impl SphereSim {
                     }
                     k1 = self
                         .model
-                        .derivative(&self.y, &self.drive, &a0, &c0, &slope)
+                        .derivative(&self.y, &self.drive, &a0, &c0, &slope, &self.floor)
                         .map_err(diverged)?;
-                    if !changed {
+                    if !(changed || floor_moved) {
                         break;
                     }
                 }
@@ -500,20 +566,21 @@ impl SphereSim {
             }
             floor_ratio = floor_ratio.max(k1.floor_ratio);
             let d = &self.drive;
+            let fl = &self.floor;
             let cm = cmd_at(t0 + 0.5 * h);
             let c1 = cmd_at(t_end);
             let (am, a1) = (field_at(t0 + 0.5 * h), field_at(t_end));
             let k2 = self
                 .model
-                .derivative(&self.y.add(&k1.d, 0.5 * h), d, &am, &cm, &slope)
+                .derivative(&self.y.add(&k1.d, 0.5 * h), d, &am, &cm, &slope, fl)
                 .map_err(diverged)?;
             let k3 = self
                 .model
-                .derivative(&self.y.add(&k2.d, 0.5 * h), d, &am, &cm, &slope)
+                .derivative(&self.y.add(&k2.d, 0.5 * h), d, &am, &cm, &slope, fl)
                 .map_err(diverged)?;
             let k4 = self
                 .model
-                .derivative(&self.y.add(&k3.d, h), d, &a1, &c1, &slope)
+                .derivative(&self.y.add(&k3.d, h), d, &a1, &c1, &slope, fl)
                 .map_err(diverged)?;
             let mut y = self.y.add(&k1.d, h / 6.0);
             y = y.add(&k2.d, h / 3.0);
@@ -527,6 +594,11 @@ impl SphereSim {
                     + k4.contact_power);
             floor_work += h / 6.0
                 * (k1.floor_power + 2.0 * k2.floor_power + 2.0 * k3.floor_power + k4.floor_power);
+            floor_slide_work += h / 6.0
+                * (k1.floor_slide_power
+                    + 2.0 * k2.floor_slide_power
+                    + 2.0 * k3.floor_slide_power
+                    + k4.floor_slide_power);
             motor_work += h / 6.0
                 * (k1.motor_power + 2.0 * k2.motor_power + 2.0 * k3.motor_power + k4.motor_power);
             slip_work += h / 6.0
@@ -538,7 +610,8 @@ impl SphereSim {
                 .iter()
                 .chain(y.w.iter())
                 .chain(y.big_w.iter())
-                .chain(y.p.iter()))
+                .chain(y.p.iter())
+                .chain(y.v.iter()))
             .all(|v| v.is_finite())
             {
                 return Err(diverged(Singular("state")));
@@ -547,6 +620,17 @@ impl SphereSim {
                 Some(_) => c1,
                 None => self.model.wheel_rates(&y),
             };
+            if let Floor::Slide(_, dir) = self.floor {
+                // The sliding shell rolls again once its slip velocity no longer opposes the
+                // friction force: the floor's sticking impulse, whose work is the floor's.
+                if self.model.floor_slip_velocity(&y).dot(&dir) >= 0.0 {
+                    let f = self.model.frame(&y.q);
+                    let e0 = self.model.energy8(&f, &y);
+                    self.model.stick_floor(&f, &mut y).map_err(diverged)?;
+                    floor_work += self.model.energy8(&f, &y) - e0;
+                    self.floor = Floor::Roll;
+                }
+            }
             if target.is_some() {
                 // One frame for the end of the sub-step: the projection changes only `u`.
                 let f = self.model.frame(&y.q);
@@ -572,19 +656,27 @@ impl SphereSim {
                 }
                 // The projection is the sticking contacts' impulse: its work is theirs.
                 if self.drive.contains(&Drive::Locked) {
-                    let e0 = self.model.energy_in(&f, &y);
-                    self.model
-                        .project(&f, &mut y, &self.drive, &cmd)
-                        .map_err(diverged)?;
-                    contact_work += self.model.energy_in(&f, &y) - e0;
+                    if self.floor == Floor::Roll {
+                        let e0 = self.model.energy_in(&f, &y);
+                        self.model
+                            .project(&f, &mut y, &self.drive, &cmd)
+                            .map_err(diverged)?;
+                        contact_work += self.model.energy_in(&f, &y) - e0;
+                    } else {
+                        let e0 = self.model.energy8(&f, &y);
+                        self.model
+                            .project8(&f, &mut y, &self.drive, &cmd)
+                            .map_err(diverged)?;
+                        contact_work += self.model.energy8(&f, &y) - e0;
+                    }
                 }
+            }
+            if self.floor == Floor::Roll {
+                // Rolling: the centre velocity is the constraint's.
+                y.v = self.model.centre_velocity(&y.big_w);
             }
             self.y = y;
             self.command = cmd;
-        }
-        let floor_slip = floor_ratio > self.params.floor_friction;
-        if floor_slip {
-            self.events.floor_slips += 1;
         }
         if target.is_none() {
             self.command = self.model.wheel_rates(&self.y);
@@ -627,8 +719,10 @@ impl SphereSim {
             lifted: core::array::from_fn(|i| self.drive[i] == Drive::Lifted),
             contact_work,
             floor_work,
+            floor_slide_work,
             floor_ratio,
             floor_slip,
+            floor_sliding: self.floor_sliding(),
             motor_work,
             slip_work,
             lost_steps: lost,

@@ -35,7 +35,8 @@ pub struct DynamicTrial {
     pub pull_outs: [u64; 3],
     /// Largest |motor torque| per motor over the run, N·m.
     pub peak_torque: [f64; 3],
-    /// Contact events counted over the run (roller slips, lift-offs, floor-cone exits).
+    /// Contact events counted over the run (roller slips, lift-offs, floor slides, lost
+    /// steps).
     pub contact_events: ContactEvents,
     /// Each contact event with the time of the plan step in which it began, in time order.
     pub contact_log: Vec<ContactEvent>,
@@ -51,7 +52,8 @@ pub enum ContactEventKind {
     RollerSlip,
     /// A wheel lost contact with the shell (its normal force reached 0).
     LiftOff,
-    /// The floor force left its friction cone (the shell would slide on the floor).
+    /// The shell started sliding on the floor (the floor force the rolling shell needed left
+    /// the friction cone `μ_f`).
     FloorSlip,
     /// A stepper lost this many full steps during the plan step (`motor = "stepper"`).
     LostSteps(u64),
