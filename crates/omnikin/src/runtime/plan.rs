@@ -22,6 +22,28 @@
 //! The splice's begin refuses an upload that does not fit the free slots
 //! ([`CommandError::SpliceNoRoom`]) and a splice with no plan running
 //! ([`CommandError::NothingToSplice`]). No second buffer: the plan memory stays `N` points.
+//!
+//! ## Re-based splice
+//! A splice begun with `PlanSpliceRebased` is planned from where the robot **is** (its
+//! estimate, predicted to `t_s` by the operator) rather than from the running plan's
+//! reference: its first point's x and y are not checked against the reference (heading,
+//! velocity and yaw rate are, as above, so the command stays continuous). At the switch the
+//! runtime **re-bases** the reference on the measured pose: with `r(t)` the splice's reference,
+//! `p` the pose and `t₀` the plan time of the switch cycle, the offset `o = p − r(t₀)` is
+//! added to the reference and fades out linearly over `T = max(`[`REBASE_MIN_BLEND`]`,
+//! |o| / max_correction)`:
+//!
+//! `r'(t) = r(t) + o · (1 − (t − t₀)/T)` for `t₀ ≤ t < t₀ + T`, and its feed-forward velocity
+//! `v'(t) = v(t) − o/T` (the reference's own derivative).
+//!
+//! So the tracking error at the switch is exactly zero — the position loop pulls nowhere — and
+//! the robot is brought onto the splice's path no faster than `max_correction`, the position
+//! loop's own authority (`|o|/T ≤ max_correction`). The offset is the operator's prediction
+//! error (a few centimetres), not the drift: the drift is in the splice's path, planned from
+//! the estimate. The offset is independent of which plan runs: a plain splice armed while it
+//! fades is checked against the plan's points and the fade goes on across its switch; a fresh
+//! plan clears it. The planned acceleration (the tilt feedback's lean) is the plan's, without
+//! the fade.
 
 use super::command::{CommandError, PlanPoint, check_motion};
 use super::config::Config;
@@ -38,6 +60,11 @@ use crate::{Pose2, Real, Twist2, wrap_angle as wrap};
 pub const SPLICE_MAX_JUMP: f64 = 1.0e-3;
 
 /// The fields of [`CommandError::OverLimit`] for a splice's jump in x, y, heading, vx, vy, yaw rate.
+/// Shortest fade of a re-based splice's offset, s (module docs, "Re-based splice"): a second,
+/// the scale of a position-loop time constant (`1/k_position` is 0.5 s with [`Config::new`]'s
+/// gains), so that a small offset leaves the reference's velocity within a few mm/s of the plan's.
+pub const REBASE_MIN_BLEND: f64 = 1.0;
+
 const JUMP_FIELDS: [&str; 6] = [
     "splice.x_jump",
     "splice.y_jump",
@@ -74,7 +101,17 @@ pub(super) struct PlanBuffer<T, const N: usize> {
     splice: bool,
     /// A complete splice was started: switch to it at its first point's time.
     armed: bool,
-    /// The feed-forward (world twist) of the previous [`PlanBuffer::follow`].
+    /// The upload is a re-based splice (module docs): its position is not checked, and the
+    /// reference is re-based on the pose at its switch.
+    rebase: bool,
+    /// The re-base offset `o` added to the reference (world, m) at plan time `offset_t`.
+    offset: [T; 2],
+    /// Plan time of the re-base, s.
+    offset_t: T,
+    /// The offset's fade time `T`, s (zero: no offset).
+    offset_for: T,
+    /// The plan's feed-forward (world twist, without a re-base's fade) of the previous
+    /// [`PlanBuffer::follow`].
     last_ff: Twist2<T>,
     /// The planned world acceleration of the latest [`PlanBuffer::follow`]: the change of its
     /// feed-forward over the cycle, m/s² (what a sphere's tilt feedback leans for).
@@ -107,6 +144,10 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
             upload: 0,
             splice: false,
             armed: false,
+            rebase: false,
+            offset: [T::zero(); 2],
+            offset_t: T::zero(),
+            offset_for: T::zero(),
             last_ff: zero_twist(),
             accel: [T::zero(); 2],
         }
@@ -128,6 +169,10 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         self.last_ff = zero_twist();
         self.accel = [T::zero(); 2];
         self.armed = false;
+        self.rebase = false;
+        self.offset = [T::zero(); 2];
+        self.offset_t = T::zero();
+        self.offset_for = T::zero();
     }
 
     /// Point `i` of the running plan.
@@ -142,13 +187,15 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
 
     /// `PlanBegin` (`splice` false): clears the buffer for plan `id` of `len` points, refused
     /// while a plan runs. `PlanSplice` (`splice` true): an upload of `len` points into the
-    /// free slots after the running plan, which goes on.
+    /// free slots after the running plan, which goes on; `PlanSpliceRebased` (`splice` and
+    /// `rebase` true): the same, re-based at its switch (module docs).
     pub(super) fn begin(
         &mut self,
         id: u16,
         len: u16,
         running: bool,
         splice: bool,
+        rebase: bool,
     ) -> Result<(), CommandError> {
         if len as usize > N {
             return Err(CommandError::PlanTooLong { len, capacity: N });
@@ -160,7 +207,7 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
             if id == self.status.id {
                 // A copy of this splice's begin (an operator re-sends it until telemetry shows
                 // the id): it must not clear the upload, nor disarm a started splice.
-                return if self.splice {
+                return if self.splice && self.rebase == rebase {
                     Ok(())
                 } else {
                     Err(CommandError::OutOfRange {
@@ -183,6 +230,7 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
             self.upload = 0;
         }
         self.splice = splice;
+        self.rebase = splice && rebase;
         self.armed = false;
         self.started = false;
         self.status = PlanStatus {
@@ -305,6 +353,7 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         }
         self.base = self.upload;
         self.len = n;
+        self.offset_for = T::zero();
         self.time = self.up(0).t;
         self.reference_time = self.time;
         self.index = 0;
@@ -334,10 +383,11 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         let (pose, twist) = self.reference_at(first.t, first.pose);
         self.index = index;
         // Component by component (no square roots, names in one table: the firmware's flash
-        // is tight).
+        // is tight). A re-based splice starts where the robot is: its position is free.
+        let free = if self.rebase { T::zero() } else { T::one() };
         let jumps = [
-            first.pose.x - pose.x,
-            first.pose.y - pose.y,
+            (first.pose.x - pose.x) * free,
+            (first.pose.y - pose.y) * free,
             first.pose.heading - pose.heading,
             first.twist.vx - twist.vx,
             first.twist.vy - twist.vy,
@@ -361,26 +411,60 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
     /// reference velocity over the coming cycle; advances the plan time. Returns the target and
     /// whether the plan ended (the caller then stops).
     pub(super) fn follow(&mut self, pose: Pose2<T>, dt: T, cfg: &Config<T>) -> (Twist2<T>, bool) {
+        let mut rebase = false;
         if self.armed && self.time >= self.up(0).t {
-            // The splice's first point is the running plan's reference at its time: switch.
+            // The splice's first point is the running plan's reference at its time (or, for a
+            // re-based splice, where the robot was predicted to be): switch.
             self.base = self.upload;
             self.len = self.status.len as usize;
             self.index = 0;
             self.armed = false;
             self.splice = false;
+            rebase = self.rebase;
+            self.rebase = false;
         }
-        let (r, _) = self.reference_at(self.time, pose);
-        let (_, ff) = self.reference_at(self.time + dt * T::of(0.5), pose);
+        let (mut r, _) = self.reference_at(self.time, pose);
+        let (_, plan_ff) = self.reference_at(self.time + dt * T::of(0.5), pose);
+        if rebase {
+            // Re-base on the measured pose: zero tracking error at the switch, the offset
+            // fading no faster than the position loop's authority (module docs).
+            let o = [pose.x - r.x, pose.y - r.y];
+            let n = (o[0] * o[0] + o[1] * o[1]).sqrt();
+            let floor = T::of(REBASE_MIN_BLEND);
+            let by_speed = if cfg.max_correction > T::zero() {
+                n / cfg.max_correction
+            } else {
+                floor
+            };
+            self.offset = o;
+            self.offset_t = self.time;
+            self.offset_for = if by_speed > floor { by_speed } else { floor };
+        }
+        let mut ff = plan_ff;
+        if self.offset_for > T::zero() {
+            let fade = |t: T| T::one() - (t - self.offset_t) / self.offset_for;
+            let w = fade(self.time);
+            if w > T::zero() {
+                r.x += self.offset[0] * w;
+                r.y += self.offset[1] * w;
+            }
+            if fade(self.time + dt * T::of(0.5)) > T::zero() {
+                ff.vx -= self.offset[0] / self.offset_for;
+                ff.vy -= self.offset[1] / self.offset_for;
+            } else {
+                self.offset_for = T::zero();
+            }
+        }
         self.reference = r;
         self.reference_time = self.time;
         self.time += dt;
         if dt > T::zero() {
             self.accel = [
-                (ff.vx - self.last_ff.vx) / dt,
-                (ff.vy - self.last_ff.vy) / dt,
+                (plan_ff.vx - self.last_ff.vx) / dt,
+                (plan_ff.vy - self.last_ff.vy) / dt,
             ];
         }
-        self.last_ff = ff;
+        self.last_ff = plan_ff;
         let (ex, ey) = (r.x - pose.x, r.y - pose.y);
         let (mut cx, mut cy) = (cfg.k_position * ex, cfg.k_position * ey);
         let cn = (cx * cx + cy * cy).sqrt();
