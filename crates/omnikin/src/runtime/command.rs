@@ -82,8 +82,8 @@ pub enum Command<'a, T> {
         len: u16,
     },
     /// [`Command::PlanSplice`] planned from where the robot **is** rather than from the
-    /// running plan's reference: its first point's position is not checked (its heading,
-    /// velocity and yaw rate are), and at its switch the runtime re-bases the reference on the
+    /// running plan's reference: its first point's position and velocity are not checked (its
+    /// heading and yaw rate are), and at its switch the runtime re-bases the reference on the
     /// measured pose, the offset fading out no faster than `max_correction` (`runtime/plan.rs`'s
     /// module docs, "Re-based splice"). For a re-plan after the robot drifted from its plan.
     PlanSpliceRebased {

@@ -28,7 +28,7 @@
 //!   ([`CommandError::OverLimit`] naming `splice.x_jump`, `splice.y_jump`,
 //!   `splice.heading_jump`, `splice.vx_jump`, `splice.vy_jump` or `splice.yaw_rate_jump`). [`plan_reference`] gives an operator that reference.
 //!   [`Command::PlanSpliceRebased`] is the same upload planned from where the robot is (after
-//!   a drift): its position is not checked, and at its switch the reference is re-based on
+//!   a drift): its position and velocity are not checked, and at its switch the reference is re-based on
 //!   the measured pose (zero tracking error), the offset fading out no faster than
 //!   [`Config::max_correction`].
 //!

@@ -26,8 +26,10 @@
 //! ## Re-based splice
 //! A splice begun with `PlanSpliceRebased` is planned from where the robot **is** (its
 //! estimate, predicted to `t_s` by the operator) rather than from the running plan's
-//! reference: its first point's x and y are not checked against the reference (heading,
-//! velocity and yaw rate are, as above, so the command stays continuous). At the switch the
+//! reference: its first point's position and velocity (x, y, vx, vy) are not checked against
+//! the reference — a robot held up or pushed is elsewhere on (or off) its path, moving as it
+//! does there — while heading and yaw rate are, as above. A change of velocity at the switch
+//! is then shaped like any other by the slew's acceleration limit. At the switch the
 //! runtime **re-bases** the reference on the measured pose: with `r(t)` the splice's reference,
 //! `p` the pose and `t₀` the plan time of the switch cycle, the offset `o = p − r(t₀)` is
 //! added to the reference and fades out linearly over `T = max(`[`REBASE_MIN_BLEND`]`,
@@ -104,12 +106,12 @@ pub(super) struct PlanBuffer<T, const N: usize> {
     /// The upload is a re-based splice (module docs): its position is not checked, and the
     /// reference is re-based on the pose at its switch.
     rebase: bool,
-    /// The re-base offset `o` added to the reference (world, m) at plan time `offset_t`.
-    offset: [T; 2],
-    /// Plan time of the re-base, s.
-    offset_t: T,
-    /// The offset's fade time `T`, s (zero: no offset).
-    offset_for: T,
+    /// The re-base offset's fade rate `o/T` (world, m/s): the reference is moved by
+    /// `fade · (fade_end − t)` until `fade_end` (three numbers, not four: the firmware's
+    /// `Runtime` is held to a RAM budget).
+    fade: [T; 2],
+    /// Plan time at which the offset has faded out, s (not after the plan time: no offset).
+    fade_end: T,
     /// The plan's feed-forward (world twist, without a re-base's fade) of the previous
     /// [`PlanBuffer::follow`].
     last_ff: Twist2<T>,
@@ -145,9 +147,8 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
             splice: false,
             armed: false,
             rebase: false,
-            offset: [T::zero(); 2],
-            offset_t: T::zero(),
-            offset_for: T::zero(),
+            fade: [T::zero(); 2],
+            fade_end: T::zero(),
             last_ff: zero_twist(),
             accel: [T::zero(); 2],
         }
@@ -170,9 +171,8 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         self.accel = [T::zero(); 2];
         self.armed = false;
         self.rebase = false;
-        self.offset = [T::zero(); 2];
-        self.offset_t = T::zero();
-        self.offset_for = T::zero();
+        self.fade = [T::zero(); 2];
+        self.fade_end = T::zero();
     }
 
     /// Point `i` of the running plan.
@@ -353,7 +353,8 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         }
         self.base = self.upload;
         self.len = n;
-        self.offset_for = T::zero();
+        self.fade_end = T::zero();
+        self.fade = [T::zero(); 2];
         self.time = self.up(0).t;
         self.reference_time = self.time;
         self.index = 0;
@@ -383,14 +384,15 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         let (pose, twist) = self.reference_at(first.t, first.pose);
         self.index = index;
         // Component by component (no square roots, names in one table: the firmware's flash
-        // is tight). A re-based splice starts where the robot is: its position is free.
+        // is tight). A re-based splice starts where the robot is: its position and velocity
+        // are free.
         let free = if self.rebase { T::zero() } else { T::one() };
         let jumps = [
             (first.pose.x - pose.x) * free,
             (first.pose.y - pose.y) * free,
             first.pose.heading - pose.heading,
-            first.twist.vx - twist.vx,
-            first.twist.vy - twist.vy,
+            (first.twist.vx - twist.vx) * free,
+            (first.twist.vy - twist.vy) * free,
             first.twist.yaw_rate - twist.yaw_rate,
         ];
         for (jump, field) in jumps.iter().zip(JUMP_FIELDS) {
@@ -436,23 +438,19 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
             } else {
                 floor
             };
-            self.offset = o;
-            self.offset_t = self.time;
-            self.offset_for = if by_speed > floor { by_speed } else { floor };
+            let fade_for = if by_speed > floor { by_speed } else { floor };
+            self.fade = [o[0] / fade_for, o[1] / fade_for];
+            self.fade_end = self.time + fade_for;
         }
         let mut ff = plan_ff;
-        if self.offset_for > T::zero() {
-            let fade = |t: T| T::one() - (t - self.offset_t) / self.offset_for;
-            let w = fade(self.time);
-            if w > T::zero() {
-                r.x += self.offset[0] * w;
-                r.y += self.offset[1] * w;
-            }
-            if fade(self.time + dt * T::of(0.5)) > T::zero() {
-                ff.vx -= self.offset[0] / self.offset_for;
-                ff.vy -= self.offset[1] / self.offset_for;
-            } else {
-                self.offset_for = T::zero();
+        let left = self.fade_end - self.time;
+        if left > T::zero() {
+            // The offset o·(1 − (t − t₀)/T) = (o/T)·(t_end − t), and its rate −o/T.
+            r.x += self.fade[0] * left;
+            r.y += self.fade[1] * left;
+            if left > dt * T::of(0.5) {
+                ff.vx -= self.fade[0];
+                ff.vy -= self.fade[1];
             }
         }
         self.reference = r;
