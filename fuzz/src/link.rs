@@ -621,6 +621,7 @@ fn voided_by_estop(m: &Message) -> bool {
             | Message::SetVelocity { .. }
             | Message::PlanBegin { .. }
             | Message::PlanSplice { .. }
+            | Message::PlanSpliceRebased { .. }
             | Message::PlanChunk { .. }
             | Message::PlanStart { .. }
             | Message::SetPose { .. }

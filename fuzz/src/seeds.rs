@@ -115,6 +115,10 @@ pub fn messages() -> Vec<(&'static str, Message)> {
         ("plan-begin", Message::PlanBegin { id: 1, len: 3 }),
         ("plan-splice", Message::PlanSplice { id: 2, len: 3 }),
         (
+            "plan-splice-rebased",
+            Message::PlanSpliceRebased { id: 2, len: 3 },
+        ),
+        (
             "plan-chunk",
             Message::PlanChunk {
                 id: 1,

@@ -129,8 +129,9 @@ pub enum DriveAction {
     /// Drive to a goal across a map: plan from the robot's estimate around the shapes, upload,
     /// and while it runs re-plan: when `drive obstacle` adds a shape, by splicing a new plan
     /// onto the running one at its reference, which the robot takes without stopping; when the
-    /// estimate drifts more than --replan-tolerance from the reference, from the estimate
-    /// after a stop.
+    /// estimate drifts more than --replan-tolerance from the reference, by a splice from the
+    /// estimate that the robot takes with its reference re-based where it is, also without
+    /// stopping.
     Goal {
         /// The goal X,Y[,H] (world frame; m, m, rad; heading default: kept).
         #[arg(allow_hyphen_values = true, value_name = "X,Y[,H]")]

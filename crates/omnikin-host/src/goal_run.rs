@@ -12,11 +12,19 @@
 //! 3. **The replacement is a splice** ([`omnikin_plan::splice::splice_to_goal`]): it starts
 //!    on the running plan's reference at a splice time `t_s` a little ahead of the robot's plan
 //!    time — position, heading, velocity and yaw rate, computed from the very points the robot
-//!    holds — and the robot switches to it at `t_s` without slowing down. The runtime takes a
-//!    replacement only on its own reference (a jump over 1e-3 is refused), so a **drift**,
-//!    where the robot is away from that reference, is re-planned from the estimate after a
-//!    stop (step 4): a splice on the reference would leave the runtime's position loop to pull
-//!    the robot straight back across whatever lies between.
+//!    holds — and the robot switches to it at `t_s` without slowing down. A **drift**, where
+//!    the robot is away from that reference, is re-planned from where the robot will be: the
+//!    plan time `τ` whose reference is nearest the estimate, the reference and velocity at
+//!    `τ + (t_s − now)` moved by the estimate's offset from the reference at `τ` — and uploaded
+//!    as a re-based splice
+//!    ([`Message::PlanSpliceRebased`]; the runtime takes it at `t_s` with its reference
+//!    re-based on the measured pose, so the position loop does not pull the robot back across
+//!    whatever lies between — a splice on the reference did, 9.7 cm into a shape after a
+//!    0.45 m lag). A robot **held up** (moving at under half its reference's speed) is stopped
+//!    and re-planned at rest instead: it is not going on along its path as the prediction
+//!    assumes, and until a splice takes over the running plan would drive it across a corner.
+//!    If no splice can be laid (the predicted start within the clearance of a shape, refusals,
+//!    the plan ending), the robot is stopped and re-planned at rest (step 4).
 //!    `t_s` leaves room for the planning and the upload, both measured (robot time from the
 //!    telemetry clock's rate); a splice the robot refuses (its `rejected` count grows: too
 //!    late, off the plan, no room) is retried twice with twice the lead.
@@ -37,7 +45,7 @@ use omnikin::{Pose2, Twist2, wrap_angle};
 use omnikin_plan::map::goal::{goal_heading, goal_path};
 use omnikin_plan::map::{Map, Obstacle, Shape};
 use omnikin_plan::planner::{PlanOptions, Timing, plan};
-use omnikin_plan::splice::splice_to_goal;
+use omnikin_plan::splice::{splice_from, splice_start};
 use omnikin_plan::{Plan, RobotModel};
 
 use crate::actions::RobotRefused;
@@ -388,6 +396,44 @@ fn held(points: &[WirePoint]) -> Vec<PlanPoint<f64>> {
         .collect()
 }
 
+/// Where a drifted robot at `est` (world, m) at plan time `now` will be at `t_s`, and how it
+/// will move there, on the running plan `points`: the plan time `τ` whose reference is nearest
+/// `est` (closest point of the points' polyline, times up to `t_s`), then the reference at
+/// `τ + (t_s − now)` — position and world velocity — moved by `est`'s offset from the reference
+/// at `τ`. A robot held up is behind on its path, one pushed is beside it: either way it goes
+/// on along the path from where it is (module docs, step 3).
+fn predict_drifted(
+    points: &[PlanPoint<f64>],
+    est: [f64; 2],
+    now: f64,
+    t_s: f64,
+) -> ([f64; 2], [f64; 2]) {
+    let mut best = (f64::INFINITY, now);
+    for w in points.windows(2).filter(|w| w[0].t <= t_s) {
+        let (a, b) = (w[0].pose, w[1].pose);
+        let (dx, dy) = (b.x - a.x, b.y - a.y);
+        let l2 = dx * dx + dy * dy;
+        let u = if l2 > 0.0 {
+            (((est[0] - a.x) * dx + (est[1] - a.y) * dy) / l2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let d = (a.x + u * dx - est[0]).hypot(a.y + u * dy - est[1]);
+        if d < best.0 {
+            best = (d, w[0].t + u * (w[1].t - w[0].t));
+        }
+    }
+    let tau = best.1;
+    let at = |t: f64| omnikin::runtime::plan_reference(points, t);
+    match (at(tau), at(tau + (t_s - now))) {
+        (Some((here, _)), Some((there, v))) => (
+            [there.x + est[0] - here.x, there.y + est[1] - here.y],
+            [v.vx, v.vy],
+        ),
+        _ => (est, [0.0, 0.0]),
+    }
+}
+
 /// A plan of `spec` from `from` at rest, heading `h0`.
 fn plan_at_rest(spec: &GoalSpec, from: [f64; 2], h0: f64) -> Result<(Plan, f64)> {
     let way = goal_path(&spec.map, spec.clearance, from, spec.goal)?;
@@ -650,19 +696,28 @@ impl Session {
         out: &mut GoalDriven,
         say: &mut dyn FnMut(String),
     ) -> Result<()> {
-        if let ReplanReason::Drift(_) = reason {
-            // The runtime takes a replacement only on its reference, which the robot is away
-            // from: a splice there would leave the position loop to pull the robot straight
-            // back across whatever lies between (measured: 9.7 cm into a shape after a 0.45 m
-            // lag). From the estimate, at rest, the route is around the shapes again.
-            say(format!(
-                "re-plan ({reason}): the runtime splices only on its reference, so stopping to re-plan from the estimate"
-            ));
-            return self.restart(run, out, say);
+        let drift = matches!(reason, ReplanReason::Drift(_));
+        if drift && let Some(t) = self.latest {
+            // A robot held up (moving at under half its reference's speed) is not going on
+            // along its path as a splice from the estimate predicts; until the splice takes
+            // over, the running plan's feed-forward — the direction of a reference that may be
+            // past a corner — and its position loop would drive it across the corner
+            // (measured: held 1.5 s at 5x real time, a re-based splice 2 s of robot time ahead
+            // left the true shell 3.8 cm inside a shape). It is not moving: stop and re-plan.
+            let v = f64::from(t.twist[0]).hypot(f64::from(t.twist[1]));
+            let v_ref = omnikin::runtime::plan_reference(&run.running, f64::from(t.plan_time))
+                .map_or(0.0, |(_, w)| w.vx.hypot(w.vy));
+            if v < 0.5 * v_ref {
+                say(format!(
+                    "re-plan ({reason}): the robot is held up ({v:.3} m/s against its reference's {v_ref:.3} m/s); stopping to re-plan from the estimate"
+                ));
+                return self.restart(run, out, say);
+            }
         }
         match self.splice(run, reason, out, say)? {
             Ok(()) => Ok(()),
-            Err(SpliceFailed::TooLate) if self.rest_is_clear(run) => {
+            // A drifted robot is not on the rest of the plan: the rest being clear says nothing.
+            Err(SpliceFailed::TooLate) if !drift && self.rest_is_clear(run) => {
                 say(format!(
                     "re-plan ({reason}): the plan ends before a splice could reach the robot, and its rest keeps clear of the map: left as it is"
                 ));
@@ -732,7 +787,8 @@ impl Session {
         })
     }
 
-    /// Plans and uploads a splice, retrying with a longer lead when the robot refuses it.
+    /// Plans and uploads a splice, retrying with a longer lead when the robot refuses it. For
+    /// a drift, a re-based splice from the estimate moved along the reference to `t_s`.
     fn splice(
         &mut self,
         run: &mut Run<'_>,
@@ -763,10 +819,20 @@ impl Session {
             }
             let mut found = None;
             let mut why = String::new();
+            let mut start = match splice_start(&run.running, t_s) {
+                Ok(s) => s,
+                Err(e) => return Ok(Err(SpliceFailed::Plan(e.to_string()))),
+            };
+            let rebased = matches!(reason, ReplanReason::Drift(_));
+            if rebased {
+                let est = [f64::from(t.pose[0]), f64::from(t.pose[1])];
+                let (position, velocity) = predict_drifted(&run.running, est, now, t_s);
+                start.position = position;
+                start.velocity = velocity;
+            }
             for clearance in tries {
-                match splice_to_goal(
-                    &run.running,
-                    t_s,
+                match splice_from(
+                    start,
                     run.spec.goal,
                     run.spec.heading,
                     &run.spec.map,
@@ -788,7 +854,7 @@ impl Session {
             let pts = plan_points(&spliced.planned.plan, run.cap);
             let id = run.id();
             let u0 = Instant::now();
-            let taken = self.upload_splice(id, pts.clone())?;
+            let taken = self.upload_splice(id, pts.clone(), rebased)?;
             let secs = u0.elapsed().as_secs_f64();
             run.upload_secs_per_point = run.upload_secs_per_point.max(secs / pts.len() as f64);
             let [vx, vy] = spliced.start.velocity;
@@ -804,7 +870,15 @@ impl Session {
                     retries,
                 };
                 say(format!(
-                    "re-plan ({reason}) at plan time {now:.3} s: plan {id} spliced at {t_s:.3} s at {:.3} m/s, {:.3} m in {:.2} s to the goal (clearance {kept:.3} m), {} points uploaded in {secs:.2} s",
+                    "re-plan ({reason}) at plan time {now:.3} s: plan {id} spliced{} at {t_s:.3} s at {:.3} m/s, {:.3} m in {:.2} s to the goal (clearance {kept:.3} m), {} points uploaded in {secs:.2} s",
+                    if rebased {
+                        format!(
+                            " from the estimate ({:.3}, {:.3})",
+                            start.position[0], start.position[1]
+                        )
+                    } else {
+                        String::new()
+                    },
                     rec.speed,
                     spliced.smoothed.path.length(),
                     spliced.planned.plan.duration(),
@@ -824,10 +898,17 @@ impl Session {
 
     /// Uploads `points` as a splice `id` of the running plan and arms it: `Ok(true)` when the
     /// robot took it, `Ok(false)` when it refused a step (its `rejected` count grew).
+    /// `rebased`: a splice planned from where the robot is ([`Message::PlanSpliceRebased`]),
+    /// otherwise from the running plan's reference ([`Message::PlanSplice`]).
     ///
     /// # Errors
     /// The link's (no confirmation within the timeout, the session lost).
-    pub fn upload_splice(&mut self, id: u16, points: Vec<WirePoint>) -> Result<bool> {
+    pub fn upload_splice(
+        &mut self,
+        id: u16,
+        points: Vec<WirePoint>,
+        rebased: bool,
+    ) -> Result<bool> {
         let rejected = |s: &Session| s.latest.map_or(0, |t| t.rejected);
         let n = points.len() as u16;
         // The session's MCAP log gets the replacement on `/plan`, as the first plan.
@@ -847,6 +928,7 @@ impl Session {
                 return Ok(t.rejected == before && t.plan.id == id && t.plan.received == n);
             }
             let m = match up.step() {
+                UploadStep::Begin if rebased => Message::PlanSpliceRebased { id, len: n },
                 UploadStep::Begin => Message::PlanSplice { id, len: n },
                 _ => up.message(),
             };

@@ -297,6 +297,7 @@ impl RobotServer {
                             msg,
                             Message::PlanBegin { .. }
                                 | Message::PlanSplice { .. }
+                                | Message::PlanSpliceRebased { .. }
                                 | Message::PlanChunk { .. }
                                 | Message::PlanStart { .. }
                         );

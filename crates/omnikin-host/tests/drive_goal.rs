@@ -212,22 +212,17 @@ fn an_obstacle_added_mid_run_is_spliced_around_without_a_stop_and_the_truth_stay
     assert!(miss < 0.1, "ended {miss} m from the goal");
 }
 
-/// The robot held still for 1.5 s of robot time (`robot --sim --obstacle`: its wheels
-/// blocked) while its plan's reference runs on: the estimate drifts past the tolerance, and
-/// the run stops it and re-plans from the estimate (the runtime splices only on its
-/// reference, which the robot is away from: a splice there took the true shell 9.7 cm into a
-/// shape as the position loop pulled the robot back across a corner). The truth keeps off
-/// the shapes and the robot reaches the goal.
-#[test]
-fn a_drift_past_the_tolerance_stops_and_re_plans_from_the_estimate() {
+/// The robot held still for `block` s of robot time from 6 s (`robot --sim --obstacle`: its
+/// wheels blocked) while its plan's reference runs on: the estimate drifts past the
+/// tolerance, and the run re-plans from where the robot is, without a stop — a re-based
+/// splice (`PlanSpliceRebased`: the runtime re-bases its reference on the measured pose at the
+/// switch, so its position loop does not pull the robot back across a corner; a splice on the
+/// reference took the true shell 9.7 cm into a shape after a 0.45 m lag).
+fn drift_run(name: &str, sim: SimOptions, served: RobotDescription) -> DriftRun {
     let desc = RobotDescription::preset("sphere-omni").unwrap();
     let (footprint, _) = footprint_radius(&desc);
-    let sim = SimOptions {
-        obstacle: Some((6.0, 1.5)),
-        ..SimOptions::default()
-    };
     let log = std::env::temp_dir().join(format!(
-        "omnikin-drive-goal-drift-{}.csv",
+        "omnikin-drive-goal-drift-{}-{name}.csv",
         std::process::id()
     ));
     let mut serve = ServeOptions::new("127.0.0.1:0");
@@ -235,7 +230,7 @@ fn a_drift_past_the_tolerance_stops_and_re_plans_from_the_estimate() {
     serve.telemetry_rate = 50.0;
     serve.max_time = Some(200.0);
     serve.log = Some(log.clone());
-    let server = RobotServer::new(&desc, &sim, serve).unwrap();
+    let server = RobotServer::new(&served, &sim, serve).unwrap();
     let addr = server.local_addr().unwrap().to_string();
     let stop = std::sync::Arc::new(AtomicBool::new(false));
     let stop2 = stop.clone();
@@ -290,30 +285,144 @@ fn a_drift_past_the_tolerance_stops_and_re_plans_from_the_estimate() {
     let mut rows = text.lines();
     let head: Vec<&str> = rows.next().unwrap().split(',').collect();
     let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
-    let (cx, cy) = (col("true_x"), col("true_y"));
-    let truth: Vec<[f64; 2]> = rows
+    let (ct, cx, cy) = (col("t"), col("true_x"), col("true_y"));
+    let truth: Vec<[f64; 3]> = rows
         .map(|r| {
             let v: Vec<f64> = r
                 .split(',')
                 .map(|x| x.parse().unwrap_or(f64::NAN))
                 .collect();
-            [v[cx], v[cy]]
+            [v[ct], v[cx], v[cy]]
         })
         .collect();
     let gap = truth
         .iter()
-        .map(|p| map.clearance(*p) - footprint)
+        .map(|p| map.clearance([p[1], p[2]]) - footprint)
         .fold(f64::INFINITY, f64::min);
     let end = truth.last().unwrap();
-    let miss = (end[0] - GOAL[0]).hypot(end[1] - GOAL[1]);
+    let miss = (end[1] - GOAL[0]).hypot(end[2] - GOAL[1]);
+    DriftRun {
+        driven,
+        lines,
+        truth,
+        gap,
+        miss,
+    }
+}
+
+/// What [`drift_run`] saw.
+struct DriftRun {
+    driven: omnikin_host::goal_run::GoalDriven,
+    /// The goal run's lines.
+    lines: Vec<String>,
+    /// The truth `[t, x, y]` at every control cycle.
+    truth: Vec<[f64; 3]>,
+    /// The smallest true gap between the shell and a shape, m.
+    gap: f64,
+    /// The distance from the goal at the end, m.
+    miss: f64,
+}
+
+/// The slowest true speed over 0.1 s windows (ten 100 Hz cycles) of `truth` within `from..to`
+/// of robot time, m/s.
+fn slowest(truth: &[[f64; 3]], from: f64, to: f64) -> f64 {
+    let near: Vec<&[f64; 3]> = truth
+        .iter()
+        .filter(|p| p[0] >= from && p[0] <= to)
+        .collect();
+    near.windows(11)
+        .map(|w| {
+            let (a, b) = (w[0], w[10]);
+            (b[1] - a[1]).hypot(b[2] - a[2]) / (b[0] - a[0])
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// A robot whose motors are slower than the plan assumes (a weak battery: the served robot's
+/// wheel-rate limit 3 rad/s, about 0.25 m/s of the sphere, against the preset's 12 rad/s the
+/// plans are made for at 0.3 m/s) falls behind while it moves: the drift passes the tolerance
+/// on the move and is re-planned from where the robot is by a re-based splice, without a stop;
+/// its true speed stays up through every switch made on the move and the truth keeps off every
+/// shape. The plans keep asking for 0.3 m/s, so the drift comes back every 2 s or so; a few
+/// re-plans cannot be spliced (the predicted start too close to a shape, the plan ending) and
+/// stop (counted and printed, not asserted).
+///
+/// **A finding, not a pass** (ignored: `cargo test -p omnikin-host --test drive_goal --
+/// --ignored` runs it): measured, 18 re-based splices and 3 stops, the drift up to 0.574 m,
+/// the true speed through the third switch 0.121 m/s (of 0.3), and the true shell 3.1 cm
+/// inside a shape; the robot ends 3.1 cm from the goal. Re-planning from the estimate does not
+/// rescue a robot that cannot do the speed its plans ask for: the lag comes back, and between
+/// splices the running plan's feed-forward (the direction of a reference ahead, past a corner)
+/// and its position loop cut the corners. What is needed: plans within what the robot
+/// actually does (its measured speed), or a feed-forward taken at the robot's own progress.
+#[test]
+#[ignore = "a finding: a robot slower than its plans touches a shape (3.1 cm) despite re-based splices"]
+fn a_drift_on_the_move_re_plans_from_the_estimate_without_a_stop() {
+    let mut weak = RobotDescription::preset("sphere-omni").unwrap();
+    weak.limits.max_wheel_rate = Some(3.0);
+    let DriftRun {
+        driven,
+        lines,
+        truth,
+        gap,
+        miss,
+    } = drift_run("weak", SimOptions::default(), weak);
+    let drift: Vec<_> = driven
+        .splices
+        .iter()
+        .filter(|r| matches!(r.reason, ReplanReason::Drift(_)))
+        .collect();
+    assert!(!drift.is_empty(), "{lines:#?}");
+    // The first re-plan is a re-based splice, taken on the move (no stop before it).
+    let first = lines.iter().find(|l| l.starts_with("re-plan (")).unwrap();
+    assert!(first.contains("spliced from the estimate"), "{lines:#?}");
     eprintln!(
-        "drift: {} stop(s) to re-plan, max |estimate - reference| {:.4} m; smallest true gap {gap:.4} m; end {miss:.4} m from the goal",
-        driven.stops, driven.max_deviation
+        "weak motors: {} re-based splice(s), {} stop(s); max |estimate - reference| {:.4} m; smallest true gap {gap:.4} m; end {miss:.4} m from the goal",
+        drift.len(),
+        driven.stops,
+        driven.max_deviation
     );
-    assert!(
-        lines.iter().any(|l| l.starts_with("re-plan (drift ")),
-        "{lines:#?}"
+    for sp in drift.iter().filter(|sp| sp.speed > 0.05) {
+        let t_switch = sp.asked_robot_time + sp.t_s - sp.asked_at;
+        // Through the switch: from 0.1 s before it to 0.5 s after.
+        let v = slowest(&truth, t_switch - 0.1, t_switch + 0.5);
+        eprintln!(
+            "re-based splice switched at robot time {t_switch:.3} s at {:.3} m/s (reference): slowest true speed through it {v:.3} m/s",
+            sp.speed
+        );
+        assert!(v > 0.5 * sp.speed, "slowed to {v} m/s at the switch");
+    }
+    assert!(gap > 0.0, "the true shell touched a shape (gap {gap} m)");
+    assert!(miss < 0.01, "ended {miss} m from the goal");
+}
+
+/// The robot held still for 1.5 s (a lag of about 0.45 m: where a splice on the reference took
+/// the shell 9.7 cm into a shape, and a re-based splice 2 s of robot time ahead 3.8 cm): a robot
+/// held up is stopped and re-planned from the estimate at rest, the truth keeps clear.
+#[test]
+fn a_drift_while_held_up_stops_and_re_plans_from_the_estimate() {
+    let sim = SimOptions {
+        obstacle: Some((6.0, 1.5)),
+        ..SimOptions::default()
+    };
+    let DriftRun {
+        driven,
+        lines,
+        gap,
+        miss,
+        ..
+    } = drift_run(
+        "held",
+        sim,
+        RobotDescription::preset("sphere-omni").unwrap(),
     );
+    eprintln!(
+        "held 1.5 s: {} splice(s), {} stop(s), max |estimate - reference| {:.4} m; smallest true gap {gap:.4} m; end {miss:.4} m from the goal",
+        driven.splices.len(),
+        driven.stops,
+        driven.max_deviation
+    );
+    assert!(lines.iter().any(|l| l.contains("is held up")), "{lines:#?}");
     assert!(driven.splices.is_empty(), "{lines:#?}");
     assert_eq!(driven.stops, 1, "{lines:#?}");
     assert!(gap > 0.0, "the true shell touched a shape (gap {gap} m)");

@@ -89,7 +89,8 @@ pub fn splice_start(points: &[PlanPoint<f64>], t_s: f64) -> Result<SpliceStart, 
 /// A replacement plan and how it was made.
 #[derive(Clone, Debug)]
 pub struct Spliced {
-    /// Where it starts (the running plan's reference at the splice time).
+    /// Where it starts (the running plan's reference at the splice time, or the position the
+    /// robot was predicted at: [`splice_from`]).
     pub start: SpliceStart,
     /// The path (lead-in, route and fillets) and its clearance.
     pub smoothed: Smoothed,
@@ -130,7 +131,40 @@ pub fn splice_to_goal(
     robot: &RobotModel,
     opts: &PlanOptions,
 ) -> Result<Spliced, PlanningError> {
-    let start = splice_start(points, t_s)?;
+    splice_from(splice_start(points, t_s)?, to, heading, map, f, robot, opts)
+}
+
+/// [`splice_to_goal`] from a given start: the running plan's reference ([`splice_start`]) or,
+/// for a re-plan after a drift, that reference moved to where the robot is predicted to be at
+/// `start.t` (position only; heading, velocity and yaw rate the reference's, which the robot
+/// checks: [`omnikin::runtime::Command::PlanSpliceRebased`]). Steps 2–4 of the module docs.
+///
+/// # Errors
+/// As [`splice_to_goal`], without [`splice_start`]'s: a non-finite start is refused.
+pub fn splice_from(
+    start: SpliceStart,
+    to: [f64; 2],
+    heading: Option<f64>,
+    map: &Map,
+    f: f64,
+    robot: &RobotModel,
+    opts: &PlanOptions,
+) -> Result<Spliced, PlanningError> {
+    let t_s = start.t;
+    let finite = [
+        start.t,
+        start.position[0],
+        start.position[1],
+        start.heading,
+        start.velocity[0],
+        start.velocity[1],
+        start.yaw_rate,
+    ];
+    if finite.iter().any(|v| !v.is_finite()) {
+        return Err(PlanningError::Infeasible(format!(
+            "the splice's start {start:?} is not finite"
+        )));
+    }
     let Timing::TimeOptimal { limits } = opts.timing else {
         return Err(PlanningError::Infeasible(
             "a splice needs the time-optimal timing (it starts at the running plan's speed)".into(),

@@ -105,11 +105,24 @@ impl Rig {
         splice: bool,
     ) -> Result<(), CommandError> {
         let len = pts.len() as u16;
-        self.cmd(if splice {
-            Command::PlanSplice { id, len }
-        } else {
-            Command::PlanBegin { id, len }
-        })?;
+        self.upload_with(
+            if splice {
+                Command::PlanSplice { id, len }
+            } else {
+                Command::PlanBegin { id, len }
+            },
+            id,
+            pts,
+        )
+    }
+    /// `begin` (a begin or splice of `pts` as plan `id`), its chunks of 8 points, and its start.
+    fn upload_with(
+        &mut self,
+        begin: Command<'_, f64>,
+        id: u16,
+        pts: &[PlanPoint<f64>],
+    ) -> Result<(), CommandError> {
+        self.cmd(begin)?;
         for (k, c) in pts.chunks(8).enumerate() {
             self.cmd(Command::PlanChunk {
                 id,
@@ -405,4 +418,131 @@ fn a_splice_between_plan_points_starts_on_the_plan_reference() {
         ),
         "{e:?}"
     );
+}
+
+/// After a drift — here the estimate set 6 cm to the side of the reference at 1.9 s, as a fix
+/// would move it — a splice planned from where the robot is (`PlanSpliceRebased`: B moved by
+/// the error seen when it was asked for) is taken at 2.0 s without a stop: the tracking error
+/// is zero at the switch, the offset left by the prediction (the position loop closed part of
+/// the gap meanwhile) fades out no faster than `max_correction`, and the robot ends at the
+/// moved B's end. The same points as a plain splice are refused (off the reference), and a
+/// re-based splice whose heading jumps is refused too.
+#[test]
+fn a_rebased_splice_starts_where_the_robot_is_with_zero_tracking_error_at_the_switch() {
+    let a = plan_a();
+    let mut rig = Rig::new();
+    rig.upload(1, &a, false).unwrap();
+    rig.run_to(1.9);
+    let st = rig.rt.status();
+    rig.cmd(Command::SetPose(Pose2::new(
+        st.pose.x,
+        st.pose.y + 0.06,
+        st.pose.heading,
+    )))
+    .unwrap();
+    rig.step();
+    let st = rig.rt.status();
+    let e = [st.pose.x - st.reference.x, st.pose.y - st.reference.y];
+    assert!((e[1] - 0.06).abs() < 0.01, "{e:?}");
+    let mut b = splice_b(&a, 2.0);
+    for p in &mut b {
+        p.pose.x += e[0];
+        p.pose.y += e[1];
+    }
+    let plain = rig.upload(2, &b, true);
+    assert!(
+        matches!(
+            plain,
+            Err(CommandError::OverLimit {
+                field: "splice.y_jump",
+                ..
+            })
+        ),
+        "{plain:?}"
+    );
+    let mut turned = b.clone();
+    turned[0].pose.heading += 0.01;
+    let len = b.len() as u16;
+    let e3 = rig.upload_with(Command::PlanSpliceRebased { id: 3, len }, 3, &turned);
+    assert!(
+        matches!(
+            e3,
+            Err(CommandError::OverLimit {
+                field: "splice.heading_jump",
+                ..
+            })
+        ),
+        "{e3:?}"
+    );
+    rig.upload_with(Command::PlanSpliceRebased { id: 4, len }, 4, &b)
+        .unwrap();
+    let from = rig.log.len();
+    rig.run_out();
+    let log = &rig.log[from..];
+    let switch = log.iter().position(|s| s.plan_time >= 2.0 - 1e-9).unwrap();
+    let before = &log[switch - 1];
+    let at = &log[switch];
+    assert!(
+        dist(before.pose, before.reference) > 0.03,
+        "the drift was still there before the switch: {}",
+        dist(before.pose, before.reference)
+    );
+    assert!(
+        dist(at.pose, at.reference) < 1e-9,
+        "tracking error at the switch {}",
+        dist(at.pose, at.reference)
+    );
+    // The position loop stops pulling towards A (its correction, at most `max_correction`,
+    // goes), the fade's velocity comes in (at most `max_correction`), B's own change: the
+    // command moves by no more than that in the cycle.
+    let mc = Config::<f64>::new(100.0).max_correction;
+    let acc = plan_accel(&a).max(plan_accel(&b));
+    let (c0, c1) = (before.command, at.command);
+    let dv = (c1.vx - c0.vx).hypot(c1.vy - c0.vy);
+    assert!(dv <= 2.0 * mc + acc * DT * 1.01, "command step {dv} m/s");
+    // Never stopped: trajectory mode to B's end, the body speed never below B's speed less
+    // `max_correction` around the switch.
+    let end = log.iter().position(|s| s.mode != Mode::Trajectory).unwrap();
+    assert!(log[end - 1].plan_time >= b[b.len() - 1].t - DT - 1e-9);
+    for s in &log[switch.saturating_sub(10)..switch + 50] {
+        let (_, twist) = plan_reference(&b, s.plan_time.max(2.0)).unwrap();
+        let v = s.command.vx.hypot(s.command.vy);
+        assert!(
+            v >= twist.vx.hypot(twist.vy) - 2.0 * mc,
+            "speed {v} m/s at {}",
+            s.plan_time
+        );
+    }
+    // Tracking stays tight after the switch — within the lag the slew leaves while the body
+    // sheds the pull towards A at its acceleration limit (`Δv²/(2a)`), and the 2 mm of a
+    // plain splice — and the robot ends at the moved B's end.
+    let slew = Config::<f64>::new(100.0).slew.accel;
+    // The body's velocity before the switch (B's plus the pull towards A) against B's at the
+    // switch: the target's step the slew sheds.
+    let (_, vb) = plan_reference(&b, 2.0).unwrap();
+    let shed = (before.command.vx - vb.vx).hypot(before.command.vy - vb.vy);
+    let worst = log[switch..]
+        .iter()
+        .map(|s| dist(s.pose, s.reference))
+        .fold(0.0, f64::max);
+    assert!(
+        worst < shed * shed / (2.0 * slew) + 2e-3,
+        "tracking error after the switch {worst} m (velocity shed {shed} m/s)"
+    );
+    let last = log.last().unwrap();
+    assert!(
+        dist(last.pose, b[b.len() - 1].pose) < 2e-3,
+        "ended at {:?}, B's end {:?}",
+        last.pose,
+        b[b.len() - 1].pose
+    );
+    // The offset the re-base took: what the position loop closed between the ask and the
+    // switch (under 10 cm/s for 0.1 s).
+    let o = dist(at.reference, plan_reference(&b, at.plan_time).unwrap().0);
+    eprintln!(
+        "drift {:.4} m before the switch, re-base offset {o:.4} m, command step {dv:.4} m/s, \
+         tracking error after {worst:.2e} m",
+        dist(before.pose, before.reference)
+    );
+    assert!(o > 0.0 && o <= mc * 0.1 + 1e-3, "offset {o} m");
 }

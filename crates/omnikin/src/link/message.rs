@@ -411,6 +411,17 @@ pub enum Message {
         /// Points to follow.
         len: u16,
     },
+    /// Operator → robot: begin uploading plan `id` of `len` points as a **re-based** splice
+    /// of the running plan, planned from where the robot is ([`Command::PlanSpliceRebased`]);
+    /// its chunks and start are the usual ones. Appended after [`Message::PlanSplice`], so every
+    /// earlier message keeps its encoding: a robot without it drops it as `malformed` (the
+    /// operator's upload does not complete, and it re-plans another way).
+    PlanSpliceRebased {
+        /// Plan id.
+        id: u16,
+        /// Points to follow.
+        len: u16,
+    },
 }
 
 /// Who holds the robot ([`Message::Busy`]).
@@ -478,6 +489,7 @@ impl Message {
                 | Message::SetVelocity { .. }
                 | Message::PlanBegin { .. }
                 | Message::PlanSplice { .. }
+                | Message::PlanSpliceRebased { .. }
                 | Message::PlanChunk { .. }
                 | Message::PlanStart { .. }
                 | Message::SetPose { .. }
@@ -505,6 +517,9 @@ impl Message {
             },
             Message::PlanBegin { id, len } => Command::PlanBegin { id: *id, len: *len },
             Message::PlanSplice { id, len } => Command::PlanSplice { id: *id, len: *len },
+            Message::PlanSpliceRebased { id, len } => {
+                Command::PlanSpliceRebased { id: *id, len: *len }
+            }
             Message::PlanChunk { id, offset, points } => {
                 let n = points.len().min(CHUNK_POINTS);
                 for (dst, src) in buf.iter_mut().zip(points.iter()) {

@@ -308,6 +308,7 @@ impl<T: Real> BalanceRuntime<T> {
             }
             Command::PlanBegin { .. }
             | Command::PlanSplice { .. }
+            | Command::PlanSpliceRebased { .. }
             | Command::PlanChunk { .. }
             | Command::PlanStart { .. } => Err(CommandError::NotSupported {
                 what: "plans",

@@ -81,6 +81,17 @@ pub enum Command<'a, T> {
         /// Number of points that will follow.
         len: u16,
     },
+    /// [`Command::PlanSplice`] planned from where the robot **is** rather than from the
+    /// running plan's reference: its first point's position and velocity are not checked (its
+    /// heading and yaw rate are), and at its switch the runtime re-bases the reference on the
+    /// measured pose, the offset fading out no faster than `max_correction` (`runtime/plan.rs`'s
+    /// module docs, "Re-based splice"). For a re-plan after the robot drifted from its plan.
+    PlanSpliceRebased {
+        /// Plan identifier chosen by the operator (the chunks and start name it).
+        id: u16,
+        /// Number of points that will follow.
+        len: u16,
+    },
     /// Start following plan `id` (all its points must have arrived); for a splice, arm it.
     PlanStart {
         /// Plan identifier.

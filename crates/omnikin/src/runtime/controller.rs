@@ -300,8 +300,9 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 self.mode = Mode::Velocity;
                 Ok(())
             }
-            Command::PlanBegin { id, len } => self.plan.begin(id, len, running, false),
-            Command::PlanSplice { id, len } => self.plan.begin(id, len, running, true),
+            Command::PlanBegin { id, len } => self.plan.begin(id, len, running, false, false),
+            Command::PlanSplice { id, len } => self.plan.begin(id, len, running, true, false),
+            Command::PlanSpliceRebased { id, len } => self.plan.begin(id, len, running, true, true),
             Command::PlanChunk { id, offset, points } => {
                 self.plan.chunk(id, offset, points, running, &self.config)
             }

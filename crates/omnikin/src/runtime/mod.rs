@@ -27,6 +27,10 @@
 //!   `t_s` within [`SPLICE_MAX_JUMP`] in each of x, y, heading, vx, vy and yaw rate
 //!   ([`CommandError::OverLimit`] naming `splice.x_jump`, `splice.y_jump`,
 //!   `splice.heading_jump`, `splice.vx_jump`, `splice.vy_jump` or `splice.yaw_rate_jump`). [`plan_reference`] gives an operator that reference.
+//!   [`Command::PlanSpliceRebased`] is the same upload planned from where the robot is (after
+//!   a drift): its position and velocity are not checked, and at its switch the reference is re-based on
+//!   the measured pose (zero tracking error), the offset fading out no faster than
+//!   [`Config::max_correction`].
 //!
 //! ## Guarantees
 //! * **No allocation, no panic** in [`Runtime::handle`] and [`Runtime::cycle`] (tested with a
@@ -129,7 +133,7 @@ pub use command::{
 };
 pub use config::{Config, ConfigError, RATE_HZ_RANGE, TiltFeedback};
 pub use controller::Runtime;
-pub use plan::SPLICE_MAX_JUMP;
+pub use plan::{REBASE_MIN_BLEND, SPLICE_MAX_JUMP};
 pub use reference::plan_reference;
 pub use status::{Faults, FixCounters, Mode, PlanStatus, Status};
 

@@ -22,6 +22,30 @@
 //! The splice's begin refuses an upload that does not fit the free slots
 //! ([`CommandError::SpliceNoRoom`]) and a splice with no plan running
 //! ([`CommandError::NothingToSplice`]). No second buffer: the plan memory stays `N` points.
+//!
+//! ## Re-based splice
+//! A splice begun with `PlanSpliceRebased` is planned from where the robot **is** (its
+//! estimate, predicted to `t_s` by the operator) rather than from the running plan's
+//! reference: its first point's position and velocity (x, y, vx, vy) are not checked against
+//! the reference — a robot held up or pushed is elsewhere on (or off) its path, moving as it
+//! does there — while heading and yaw rate are, as above. A change of velocity at the switch
+//! is then shaped like any other by the slew's acceleration limit. At the switch the
+//! runtime **re-bases** the reference on the measured pose: with `r(t)` the splice's reference,
+//! `p` the pose and `t₀` the plan time of the switch cycle, the offset `o = p − r(t₀)` is
+//! added to the reference and fades out linearly over `T = max(`[`REBASE_MIN_BLEND`]`,
+//! |o| / max_correction)`:
+//!
+//! `r'(t) = r(t) + o · (1 − (t − t₀)/T)` for `t₀ ≤ t < t₀ + T`, and its feed-forward velocity
+//! `v'(t) = v(t) − o/T` (the reference's own derivative).
+//!
+//! So the tracking error at the switch is exactly zero — the position loop pulls nowhere — and
+//! the robot is brought onto the splice's path no faster than `max_correction`, the position
+//! loop's own authority (`|o|/T ≤ max_correction`). The offset is the operator's prediction
+//! error (a few centimetres), not the drift: the drift is in the splice's path, planned from
+//! the estimate. The offset is independent of which plan runs: a plain splice armed while it
+//! fades is checked against the plan's points and the fade goes on across its switch; a fresh
+//! plan clears it. The planned acceleration (the tilt feedback's lean) is the plan's, without
+//! the fade.
 
 use super::command::{CommandError, PlanPoint, check_motion};
 use super::config::Config;
@@ -38,6 +62,11 @@ use crate::{Pose2, Real, Twist2, wrap_angle as wrap};
 pub const SPLICE_MAX_JUMP: f64 = 1.0e-3;
 
 /// The fields of [`CommandError::OverLimit`] for a splice's jump in x, y, heading, vx, vy, yaw rate.
+/// Shortest fade of a re-based splice's offset, s (module docs, "Re-based splice"): a second,
+/// the scale of a position-loop time constant (`1/k_position` is 0.5 s with [`Config::new`]'s
+/// gains), so that a small offset leaves the reference's velocity within a few mm/s of the plan's.
+pub const REBASE_MIN_BLEND: f64 = 1.0;
+
 const JUMP_FIELDS: [&str; 6] = [
     "splice.x_jump",
     "splice.y_jump",
@@ -74,7 +103,17 @@ pub(super) struct PlanBuffer<T, const N: usize> {
     splice: bool,
     /// A complete splice was started: switch to it at its first point's time.
     armed: bool,
-    /// The feed-forward (world twist) of the previous [`PlanBuffer::follow`].
+    /// The upload is a re-based splice (module docs): its position is not checked, and the
+    /// reference is re-based on the pose at its switch.
+    rebase: bool,
+    /// The re-base offset's fade rate `o/T` (world, m/s): the reference is moved by
+    /// `fade · (fade_end − t)` until `fade_end` (three numbers, not four: the firmware's
+    /// `Runtime` is held to a RAM budget).
+    fade: [T; 2],
+    /// Plan time at which the offset has faded out, s (not after the plan time: no offset).
+    fade_end: T,
+    /// The plan's feed-forward (world twist, without a re-base's fade) of the previous
+    /// [`PlanBuffer::follow`].
     last_ff: Twist2<T>,
     /// The planned world acceleration of the latest [`PlanBuffer::follow`]: the change of its
     /// feed-forward over the cycle, m/s² (what a sphere's tilt feedback leans for).
@@ -107,6 +146,9 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
             upload: 0,
             splice: false,
             armed: false,
+            rebase: false,
+            fade: [T::zero(); 2],
+            fade_end: T::zero(),
             last_ff: zero_twist(),
             accel: [T::zero(); 2],
         }
@@ -128,6 +170,9 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         self.last_ff = zero_twist();
         self.accel = [T::zero(); 2];
         self.armed = false;
+        self.rebase = false;
+        self.fade = [T::zero(); 2];
+        self.fade_end = T::zero();
     }
 
     /// Point `i` of the running plan.
@@ -142,13 +187,15 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
 
     /// `PlanBegin` (`splice` false): clears the buffer for plan `id` of `len` points, refused
     /// while a plan runs. `PlanSplice` (`splice` true): an upload of `len` points into the
-    /// free slots after the running plan, which goes on.
+    /// free slots after the running plan, which goes on; `PlanSpliceRebased` (`splice` and
+    /// `rebase` true): the same, re-based at its switch (module docs).
     pub(super) fn begin(
         &mut self,
         id: u16,
         len: u16,
         running: bool,
         splice: bool,
+        rebase: bool,
     ) -> Result<(), CommandError> {
         if len as usize > N {
             return Err(CommandError::PlanTooLong { len, capacity: N });
@@ -160,7 +207,7 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
             if id == self.status.id {
                 // A copy of this splice's begin (an operator re-sends it until telemetry shows
                 // the id): it must not clear the upload, nor disarm a started splice.
-                return if self.splice {
+                return if self.splice && self.rebase == rebase {
                     Ok(())
                 } else {
                     Err(CommandError::OutOfRange {
@@ -183,6 +230,7 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
             self.upload = 0;
         }
         self.splice = splice;
+        self.rebase = splice && rebase;
         self.armed = false;
         self.started = false;
         self.status = PlanStatus {
@@ -305,6 +353,8 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         }
         self.base = self.upload;
         self.len = n;
+        self.fade_end = T::zero();
+        self.fade = [T::zero(); 2];
         self.time = self.up(0).t;
         self.reference_time = self.time;
         self.index = 0;
@@ -334,13 +384,15 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
         let (pose, twist) = self.reference_at(first.t, first.pose);
         self.index = index;
         // Component by component (no square roots, names in one table: the firmware's flash
-        // is tight).
+        // is tight). A re-based splice starts where the robot is: its position and velocity
+        // are free.
+        let free = if self.rebase { T::zero() } else { T::one() };
         let jumps = [
-            first.pose.x - pose.x,
-            first.pose.y - pose.y,
+            (first.pose.x - pose.x) * free,
+            (first.pose.y - pose.y) * free,
             first.pose.heading - pose.heading,
-            first.twist.vx - twist.vx,
-            first.twist.vy - twist.vy,
+            (first.twist.vx - twist.vx) * free,
+            (first.twist.vy - twist.vy) * free,
             first.twist.yaw_rate - twist.yaw_rate,
         ];
         for (jump, field) in jumps.iter().zip(JUMP_FIELDS) {
@@ -361,26 +413,56 @@ impl<T: Real, const N: usize> PlanBuffer<T, N> {
     /// reference velocity over the coming cycle; advances the plan time. Returns the target and
     /// whether the plan ended (the caller then stops).
     pub(super) fn follow(&mut self, pose: Pose2<T>, dt: T, cfg: &Config<T>) -> (Twist2<T>, bool) {
+        let mut rebase = false;
         if self.armed && self.time >= self.up(0).t {
-            // The splice's first point is the running plan's reference at its time: switch.
+            // The splice's first point is the running plan's reference at its time (or, for a
+            // re-based splice, where the robot was predicted to be): switch.
             self.base = self.upload;
             self.len = self.status.len as usize;
             self.index = 0;
             self.armed = false;
             self.splice = false;
+            rebase = self.rebase;
+            self.rebase = false;
         }
-        let (r, _) = self.reference_at(self.time, pose);
-        let (_, ff) = self.reference_at(self.time + dt * T::of(0.5), pose);
+        let (mut r, _) = self.reference_at(self.time, pose);
+        let (_, plan_ff) = self.reference_at(self.time + dt * T::of(0.5), pose);
+        if rebase {
+            // Re-base on the measured pose: zero tracking error at the switch, the offset
+            // fading no faster than the position loop's authority (module docs).
+            let o = [pose.x - r.x, pose.y - r.y];
+            let n = (o[0] * o[0] + o[1] * o[1]).sqrt();
+            let floor = T::of(REBASE_MIN_BLEND);
+            let by_speed = if cfg.max_correction > T::zero() {
+                n / cfg.max_correction
+            } else {
+                floor
+            };
+            let fade_for = if by_speed > floor { by_speed } else { floor };
+            self.fade = [o[0] / fade_for, o[1] / fade_for];
+            self.fade_end = self.time + fade_for;
+        }
+        let mut ff = plan_ff;
+        let left = self.fade_end - self.time;
+        if left > T::zero() {
+            // The offset o·(1 − (t − t₀)/T) = (o/T)·(t_end − t), and its rate −o/T.
+            r.x += self.fade[0] * left;
+            r.y += self.fade[1] * left;
+            if left > dt * T::of(0.5) {
+                ff.vx -= self.fade[0];
+                ff.vy -= self.fade[1];
+            }
+        }
         self.reference = r;
         self.reference_time = self.time;
         self.time += dt;
         if dt > T::zero() {
             self.accel = [
-                (ff.vx - self.last_ff.vx) / dt,
-                (ff.vy - self.last_ff.vy) / dt,
+                (plan_ff.vx - self.last_ff.vx) / dt,
+                (plan_ff.vy - self.last_ff.vy) / dt,
             ];
         }
-        self.last_ff = ff;
+        self.last_ff = plan_ff;
         let (ex, ey) = (r.x - pose.x, r.y - pose.y);
         let (mut cx, mut cy) = (cfg.k_position * ex, cfg.k_position * ey);
         let cn = (cx * cx + cy * cy).sqrt();
