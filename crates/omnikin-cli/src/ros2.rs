@@ -93,47 +93,14 @@ mod imp {
         serve.telemetry_rate = a.node.ros2_rate.unwrap_or(control).max(a.telemetry_rate);
         let key = serve.key.clone();
         let server = RobotServer::new(&desc, &a.sim_options(), serve)?;
-        let addr = server
-            .local_addr()
-            .context("--ros2 needs a UDP --listen address (the node reaches the robot there)")?;
-        let mut node = open_node(&a.node, true)?;
         crate::output::catch_signals()?;
-        let stop = Arc::new(AtomicBool::new(false));
-        let done = Arc::new(AtomicBool::new(false));
-        let (stop2, done2) = (stop.clone(), done.clone());
-        let robot = std::thread::spawn(move || {
-            let r = server.run(Some(&stop2));
-            done2.store(true, Ordering::SeqCst);
-            r
-        });
-        let local = if addr.ip().is_unspecified() {
-            std::net::SocketAddr::from(([127, 0, 0, 1], addr.port()))
-        } else {
-            addr
-        };
-        let bridged = Session::open(
-            &local.to_string(),
+        let served = ros2_node::serve_simulated(
+            server,
             key.as_deref(),
-            20.0,
-            2.0,
-            None,
-            OptionNames::CLI,
-        )
-        .and_then(|mut s| ros2_node::run(&mut s, &mut node, &|| done.load(Ordering::SeqCst)));
-        stop.store(true, Ordering::SeqCst);
-        let served = robot
-            .join()
-            .map_err(|_| anyhow!("the simulated robot's thread panicked"))??;
-        if let Err(e) = bridged
-            && served.interrupted.is_none()
-        {
-            return Err(e);
-        }
-        let mut summary = served.summary;
-        if let Some(m) = summary.as_object_mut() {
-            m.insert("ros2".into(), serde_json::to_value(node.counters)?);
-        }
-        crate::outln!("{summary}")?;
+            || open_node(&a.node, true),
+            &AtomicBool::new(false),
+        )?;
+        crate::outln!("{}", served.summary)?;
         match served.interrupted {
             Some(sig) => Err(sig.into()),
             None => Ok(()),

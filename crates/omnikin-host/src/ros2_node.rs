@@ -40,6 +40,7 @@
 //! An incoming sample is read with or without rmw_zenoh's attachment; one that does not decode
 //! (or is larger than [`MAX_SAMPLE`]) is counted and dropped.
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use anyhow::{Result, anyhow, bail};
@@ -58,7 +59,9 @@ use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::query::{Query, Queryable};
 use zenoh::sample::Sample;
 
+use crate::names::OptionNames;
 use crate::operator::Session;
+use crate::robot_serve::{RobotServer, ServeSummary};
 
 /// The largest incoming sample decoded, bytes (a `TwistStamped` with a 4 KiB `frame_id`);
 /// larger ones are counted as bad and dropped unread.
@@ -612,6 +615,58 @@ pub fn run(s: &mut Session, node: &mut Ros2Node, stop: &dyn Fn() -> bool) -> Res
     }
     let f = s.finish();
     r.and(f).map(|_| info)
+}
+
+/// `robot --sim … --ros2`: serves the simulated robot `server` in a thread of its own and
+/// makes the node `open` gives its operator over the loopback link (`key`: the server's key
+/// file) until the robot stops (`--max-time`, a signal, `stop`). The served robot's summary carries the node's
+/// counters under `ros2`. A node failure is the error unless a signal ended the robot first
+/// (the stop asked for, carried out).
+///
+/// # Errors
+/// A server that listens on no UDP address (the node reaches the robot there), the simulated
+/// robot's, and the node's session's.
+pub fn serve_simulated(
+    server: RobotServer,
+    key: Option<&std::path::Path>,
+    open: impl FnOnce() -> Result<Ros2Node>,
+    stop: &AtomicBool,
+) -> Result<ServeSummary> {
+    let addr = server.local_addr().ok_or_else(|| {
+        anyhow!("--ros2 needs a UDP --listen address (the node reaches the robot there)")
+    })?;
+    let mut node = open()?;
+    let node = &mut node;
+    let local = if addr.ip().is_unspecified() {
+        std::net::SocketAddr::from(([127, 0, 0, 1], addr.port()))
+    } else {
+        addr
+    };
+    let done = AtomicBool::new(false);
+    let (served, bridged) = std::thread::scope(|scope| {
+        let robot = scope.spawn(|| {
+            let r = server.run(Some(stop));
+            done.store(true, Ordering::SeqCst);
+            r
+        });
+        let bridged = Session::open(&local.to_string(), key, 20.0, 2.0, None, OptionNames::CLI)
+            .and_then(|mut s| run(&mut s, node, &|| done.load(Ordering::SeqCst)));
+        stop.store(true, Ordering::SeqCst);
+        let served = robot
+            .join()
+            .map_err(|_| anyhow!("the simulated robot's thread panicked"));
+        (served, bridged)
+    });
+    let mut served = served??;
+    if let Err(e) = bridged
+        && served.interrupted.is_none()
+    {
+        return Err(e);
+    }
+    if let Some(m) = served.summary.as_object_mut() {
+        m.insert("ros2".into(), serde_json::to_value(node.counters)?);
+    }
+    Ok(served)
 }
 
 /// What the robot's telemetry `t` says of a call whose commands start at link sequence number

@@ -28,7 +28,7 @@ pub const MAX_MESSAGE: usize = 8 * 1024 * 1024;
 
 /// A command from a page, for the relay.
 #[derive(Debug)]
-pub enum Command {
+pub enum HubCommand {
     /// Teleop while the dead-man is held: fractions of the console's --speed and --turn,
     /// each clamped to [-1, 1] (robot frame: forward, left, counter-clockwise).
     Teleop {
@@ -110,7 +110,7 @@ pub struct Hub {
     /// `console --robot`: the robot's name and body limits; an uploaded plan asking for more
     /// is refused ([`crate::body_limits::plan_excess`]).
     pub robot_limits: std::sync::OnceLock<(String, omnikin::description::BodyLimits)>,
-    tx: SyncSender<Command>,
+    tx: SyncSender<HubCommand>,
 }
 
 struct Inner {
@@ -124,7 +124,7 @@ struct Inner {
 
 impl Hub {
     /// A hub and the relay's end of the command queue.
-    pub fn new() -> (Arc<Self>, Receiver<Command>) {
+    pub fn new() -> (Arc<Self>, Receiver<HubCommand>) {
         let (tx, rx) = sync_channel(QUEUE);
         (
             Arc::new(Hub {
@@ -269,13 +269,13 @@ impl Hub {
                 return Ok(());
             }
             PageMessage::Teleop { vx, vy, yaw } => match (axis(vx), axis(vy), axis(yaw)) {
-                (Some(vx), Some(vy), Some(yaw)) => Command::Teleop { vx, vy, yaw },
+                (Some(vx), Some(vy), Some(yaw)) => HubCommand::Teleop { vx, vy, yaw },
                 _ => return Err("teleop: vx, vy and yaw must be finite numbers".into()),
             },
-            PageMessage::Stop => Command::Stop,
-            PageMessage::Clear => Command::Clear,
-            PageMessage::PlanRun { set_pose } => Command::PlanRun { set_pose },
-            PageMessage::Record { on } => Command::Record(on),
+            PageMessage::Stop => HubCommand::Stop,
+            PageMessage::Clear => HubCommand::Clear,
+            PageMessage::PlanRun { set_pose } => HubCommand::PlanRun { set_pose },
+            PageMessage::Record { on } => HubCommand::Record(on),
             PageMessage::Plan { name, csv } => {
                 let name: String = name
                     .chars()
@@ -297,7 +297,7 @@ impl Hub {
                         ));
                     }
                 }
-                Command::Plan {
+                HubCommand::Plan {
                     name,
                     plan: Box::new(plan),
                 }
@@ -305,7 +305,7 @@ impl Hub {
         };
         // A valid command that moves the robot or changes what it will do: only from the holder
         // (recording is open to every page).
-        if !matches!(cmd, Command::Record(_)) {
+        if !matches!(cmd, HubCommand::Record(_)) {
             let mut g = self.lock();
             match &g.holder {
                 Some(h) if h != page => {
@@ -361,7 +361,7 @@ mod tests {
         hub.handle(&a, r#"{"type":"teleop","vx":1,"vy":0,"yaw":0}"#)
             .unwrap();
         assert_eq!(hub.holder(), Some(a.clone()));
-        assert!(matches!(rx.try_recv(), Ok(Command::Teleop { .. })));
+        assert!(matches!(rx.try_recv(), Ok(HubCommand::Teleop { .. })));
         // The other page: refused, told who holds them, nothing reaches the relay.
         for m in [
             r#"{"type":"teleop","vx":1,"vy":0,"yaw":0}"#,
@@ -377,7 +377,7 @@ mod tests {
         hub.handle(&b, r#"{"type":"estop"}"#).unwrap();
         assert!(hub.estop.load(Ordering::SeqCst));
         hub.handle(&b, r#"{"type":"record","on":true}"#).unwrap();
-        assert!(matches!(rx.try_recv(), Ok(Command::Record(true))));
+        assert!(matches!(rx.try_recv(), Ok(HubCommand::Record(true))));
         // An explicit take-over, announced; then the first page is refused.
         hub.handle(&b, r#"{"type":"take_control"}"#).unwrap();
         assert_eq!(hub.holder(), Some(b.clone()));
@@ -430,7 +430,7 @@ mod tests {
         hub.handle(&p1(), r#"{"type":"teleop","vx":50,"vy":-3,"yaw":0.25}"#)
             .unwrap();
         match rx.try_recv().unwrap() {
-            Command::Teleop { vx, vy, yaw } => assert_eq!((vx, vy, yaw), (1.0, -1.0, 0.25)),
+            HubCommand::Teleop { vx, vy, yaw } => assert_eq!((vx, vy, yaw), (1.0, -1.0, 0.25)),
             c => panic!("{c:?}"),
         }
     }
@@ -486,7 +486,7 @@ mod tests {
         let msg = r#"{"type":"plan","name":"fast.csv","csv":"t,x,y,heading,vx,vy,yaw_rate,w1,w2,w3\n0,0,0,0,0,0,0,0,0,0\n0.1,0.01,0,0,0.2,0,0,0,0,0\n0.2,0.03,0,0,0.2,0,0,0,0,0\n"}"#;
         // Without --robot it is accepted (nothing to compare with).
         hub.handle(&p1(), msg).unwrap();
-        assert!(matches!(rx.try_recv().unwrap(), Command::Plan { .. }));
+        assert!(matches!(rx.try_recv().unwrap(), HubCommand::Plan { .. }));
         hub.robot_limits.set(("kiwi".into(), limits)).unwrap();
         let e = hub.handle(&p1(), msg).unwrap_err();
         assert!(

@@ -26,7 +26,7 @@ use omnikin::runtime::{Faults, Frame, Mode};
 use omnikin_plan::Plan;
 use serde_json::{Value, json};
 
-use super::hub::{Command, Hub};
+use super::hub::{Hub, HubCommand};
 use crate::console_operator::ConsoleOperator;
 use crate::operator::RobotBusy;
 use crate::plan_upload::{PlanUpload, Progress};
@@ -164,7 +164,7 @@ impl PlanMessage {
 
 /// Runs the relay until the hub shuts down. `first` is the session opened (and its address
 /// and key checked) before the server started.
-pub fn run(hub: Arc<Hub>, rx: Receiver<Command>, cfg: RelayConfig, first: ConsoleOperator) {
+pub fn run(hub: Arc<Hub>, rx: Receiver<HubCommand>, cfg: RelayConfig, first: ConsoleOperator) {
     let mut r = Relay {
         hub,
         cfg,
@@ -276,7 +276,7 @@ impl Relay {
     /// operator holds the robot, a control command or an e-stop from a page is its user's act:
     /// the wait ends at once and the next handshake takes over (an e-stop is then sent in the
     /// new session; a teleop command is kept for it).
-    fn wait(&mut self, d: Duration, rx: &Receiver<Command>) {
+    fn wait(&mut self, d: Duration, rx: &Receiver<HubCommand>) {
         let end = Instant::now() + d;
         while Instant::now() < end && !self.hub.shutdown.load(Ordering::SeqCst) {
             if self.held.is_some() && self.hub.estop.load(Ordering::SeqCst) {
@@ -285,8 +285,8 @@ impl Relay {
             }
             while let Ok(c) = rx.try_recv() {
                 match c {
-                    Command::Plan { name, plan } => self.preview(name, *plan),
-                    Command::Teleop { vx, vy, yaw } if self.held.is_some() => {
+                    HubCommand::Plan { name, plan } => self.preview(name, *plan),
+                    HubCommand::Teleop { vx, vy, yaw } if self.held.is_some() => {
                         let v = [
                             (vx * self.cfg.speed) as f32,
                             (vy * self.cfg.speed) as f32,
@@ -296,17 +296,17 @@ impl Relay {
                         self.take_control("teleop");
                         return;
                     }
-                    Command::Stop | Command::Clear | Command::PlanRun { .. }
+                    HubCommand::Stop | HubCommand::Clear | HubCommand::PlanRun { .. }
                         if self.held.is_some() =>
                     {
                         self.take_control("a command (send it again once connected)");
                         return;
                     }
-                    Command::Teleop { .. }
-                    | Command::Stop
-                    | Command::Clear
-                    | Command::PlanRun { .. }
-                    | Command::Record(_) => {
+                    HubCommand::Teleop { .. }
+                    | HubCommand::Stop
+                    | HubCommand::Clear
+                    | HubCommand::PlanRun { .. }
+                    | HubCommand::Record(_) => {
                         self.event("warn", "not connected to the robot: command ignored");
                     }
                 }
@@ -334,7 +334,7 @@ impl Relay {
     }
 
     /// One session: until it fails (the error says why) or the hub shuts down (`Ok`).
-    fn session(&mut self, o: &mut ConsoleOperator, rx: &Receiver<Command>) -> Result<()> {
+    fn session(&mut self, o: &mut ConsoleOperator, rx: &Receiver<HubCommand>) -> Result<()> {
         let (period, timeout) = o.periods();
         let mut tick = Instant::now();
         let mut last_link = Instant::now();
@@ -400,9 +400,9 @@ impl Relay {
         Ok(())
     }
 
-    fn command(&mut self, c: Command, o: &mut ConsoleOperator) -> Result<()> {
+    fn command(&mut self, c: HubCommand, o: &mut ConsoleOperator) -> Result<()> {
         match c {
-            Command::Teleop { vx, vy, yaw } => {
+            HubCommand::Teleop { vx, vy, yaw } => {
                 // Latched (or being latched): the robot would reject it; the page shows why.
                 if self.estop.is_some() || self.prev.is_some_and(|t| t.mode == Mode::EStop) {
                     return Ok(());
@@ -418,7 +418,7 @@ impl Relay {
                 self.teleop = Some((v, Instant::now() + TELEOP_HOLD));
                 self.stop = None;
             }
-            Command::Stop => {
+            HubCommand::Stop => {
                 if self.upload.take().is_some() {
                     self.plan_status("failed", "cancelled by stop", None);
                 }
@@ -433,7 +433,7 @@ impl Relay {
                     self.event("info", "stop sent");
                 }
             }
-            Command::Clear => {
+            HubCommand::Clear => {
                 self.clear = Some(Pending {
                     first: o.next_seq(),
                     since: Instant::now(),
@@ -441,9 +441,9 @@ impl Relay {
                 });
                 o.send(&Message::Clear)?;
             }
-            Command::Plan { name, plan } => self.preview(name, *plan),
-            Command::Record(on) => self.record(on),
-            Command::PlanRun { set_pose } => {
+            HubCommand::Plan { name, plan } => self.preview(name, *plan),
+            HubCommand::Record(on) => self.record(on),
+            HubCommand::PlanRun { set_pose } => {
                 let cap = self.info.map_or(2, |i| i.plan_capacity as usize).max(2);
                 let Some((name, pts)) = self
                     .plan
