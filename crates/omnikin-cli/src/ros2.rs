@@ -33,10 +33,9 @@ pub struct Ros2Args {
 
 #[cfg(feature = "ros2")]
 mod imp {
-    use std::sync::Arc;
-    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::atomic::AtomicBool;
 
-    use anyhow::{Context, Result, anyhow};
+    use anyhow::Result;
     use omnikin_host::names::OptionNames;
     use omnikin_host::operator::Session;
     use omnikin_host::robot_serve::RobotServer;
