@@ -35,10 +35,62 @@ use crate::{Actuators, MAX_WHEELS, Real, Twist2, wrap_angle};
 
 use super::controller::Runtime;
 use super::cycle_inverse::CycleInverse;
-use super::hal::MotorCommand;
+use super::hal::{ImuSample, MotorCommand};
 use super::limits::saturation_scale;
 use super::plan::zero_twist;
 use super::status::{Faults, Mode};
+
+/// One step of the tilt estimate of [`TiltFeedback`] (its docs give the filter): `up` (the
+/// estimated up direction in the platform frame, unit; `None` before the first sample) is
+/// carried by the gyro over `dt` and pulled toward the direction of the accelerometer minus
+/// the commanded robot-frame acceleration `a` (m/s²) with the time constant `τ`. Returns the
+/// new estimate, `None` (and `up` unchanged) while the accelerometer reads nothing usable.
+///
+/// [`TiltFeedback`]: super::TiltFeedback
+#[inline(always)]
+pub(super) fn tilt_estimate<T: Real>(
+    up: &mut Option<[T; 3]>,
+    imu: &ImuSample<T>,
+    a: [T; 2],
+    dt: T,
+    tf: &super::TiltFeedback<T>,
+) -> Option<[T; 3]> {
+    let f = imu.accel;
+    let m = [f[0] - a[0], f[1] - a[1], f[2]];
+    let mn = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+    if !mn.is_finite() || mn <= T::zero() {
+        return *up;
+    }
+    let meas = [m[0] / mn, m[1] / mn, m[2] / mn];
+    let Some(g) = *up else {
+        *up = Some(meas);
+        return *up;
+    };
+    let w = imu.gyro;
+    // Gyro: d γ/dt = γ × ω (a world-fixed vector in the turning platform frame).
+    let p = [
+        g[0] + dt * (g[1] * w[2] - g[2] * w[1]),
+        g[1] + dt * (g[2] * w[0] - g[0] * w[2]),
+        g[2] + dt * (g[0] * w[1] - g[1] * w[0]),
+    ];
+    // Accelerometer minus the commanded acceleration, with the gain Δt/τ (at most 1).
+    let mut k = dt / tf.accel_time_constant;
+    if k > T::one() {
+        k = T::one();
+    }
+    let q = [
+        p[0] + k * (meas[0] - p[0]),
+        p[1] + k * (meas[1] - p[1]),
+        p[2] + k * (meas[2] - p[2]),
+    ];
+    let qn = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt();
+    *up = if qn > T::zero() && qn.is_finite() {
+        Some([q[0] / qn, q[1] / qn, q[2] / qn])
+    } else {
+        Some(meas)
+    };
+    *up
+}
 
 impl<T: Real, const N: usize> Runtime<T, N> {
     /// Desaturation → slew → inverse kinematics → motor-acceleration limit → final rate
@@ -78,31 +130,32 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         // Tilt feedback (a sphere's pendulous platform, `Config::tilt`): added after the slew,
         // which keeps the command without it.
         let dv = match (&cfg.tilt, &self.imu) {
-            (Some(tf), Some(imu)) => {
-                let g = imu.accel;
-                let norm = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-                if norm > T::zero() {
-                    // The plan's acceleration (none outside a plan), at most the slew's limit:
-                    // a plan that starts at full speed asks a step.
-                    let [mut ax, mut ay] = if self.mode == Mode::Trajectory {
-                        self.plan.accel
-                    } else {
-                        [T::zero(); 2]
-                    };
-                    let an = (ax * ax + ay * ay).sqrt();
-                    if an > cfg.slew.accel {
-                        ax = ax * cfg.slew.accel / an;
-                        ay = ay * cfg.slew.accel / an;
-                    }
-                    let a = to_robot(Twist2::new(ax, ay, T::zero()));
-                    let k = -tf.shell_radius * tf.gain;
-                    Twist2::new(
-                        k * (g[0] / norm - tf.lean_per_accel * a.vx),
-                        k * (g[1] / norm - tf.lean_per_accel * a.vy),
-                        T::zero(),
-                    )
+            (Some(tf), Some(_)) => {
+                // The plan's acceleration (none outside a plan), at most the slew's limit:
+                // a plan that starts at full speed asks a step.
+                let [mut ax, mut ay] = if self.mode == Mode::Trajectory {
+                    self.plan.accel
                 } else {
-                    zero_twist()
+                    [T::zero(); 2]
+                };
+                let an = (ax * ax + ay * ay).sqrt();
+                if an > cfg.slew.accel {
+                    ax = ax * cfg.slew.accel / an;
+                    ay = ay * cfg.slew.accel / an;
+                }
+                let a = to_robot(Twist2::new(ax, ay, T::zero()));
+                // The next cycle's tilt estimate subtracts it from the accelerometer.
+                self.tilt_accel = [a.vx, a.vy];
+                match self.tilt_up {
+                    Some(up) => {
+                        let k = -tf.shell_radius * tf.gain;
+                        Twist2::new(
+                            k * (up[0] - tf.lean_per_accel * a.vx),
+                            k * (up[1] - tf.lean_per_accel * a.vy),
+                            T::zero(),
+                        )
+                    }
+                    None => zero_twist(),
                 }
             }
             _ => zero_twist(),
