@@ -74,12 +74,6 @@ pub struct Runtime<T, const N: usize> {
     /// Encoder angles of the newest successful read (the steer angles the inverse uses).
     pub(super) encoders: EncoderAngles<T>,
     pub(super) imu: Option<ImuSample<T>>,
-    /// The tilt estimate of [`Config::tilt`]: up in the platform frame (`None` before the
-    /// first accelerometer sample; see [`super::TiltFeedback`]).
-    pub(super) tilt_up: Option<[T; 3]>,
-    /// The robot-frame acceleration the last cycle commanded (what the tilt estimate
-    /// subtracts from the accelerometer), m/s²; zero once used.
-    pub(super) tilt_accel: [T; 2],
     twist: Twist2<T>,
     slip_residual: T,
     /// Slip and collision events ([`Config::events`]).
@@ -88,6 +82,13 @@ pub struct Runtime<T, const N: usize> {
     /// a quarter of the smoothing time).
     event_steps: EventDecimator<T>,
     rejected: u32,
+    /// The tilt estimate of [`Config::tilt`]: up in the platform frame, unit (all zero before
+    /// the first accelerometer sample; see [`super::TiltFeedback`]). Last in the struct: the
+    /// firmware's boot builds the runtime in one frame (bench/budgets.toml).
+    pub(super) tilt_up: [T; 3],
+    /// The robot-frame acceleration the last cycle commanded (what the tilt estimate
+    /// subtracts from the accelerometer), m/s²; zero once used.
+    pub(super) tilt_accel: [T; 2],
 }
 
 /// The heading rate an IMU sample gives, rad/s: the gyro's z (a platform that stays level),
@@ -137,13 +138,13 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             last_command: zero_twist(),
             encoders: EncoderAngles::zero(),
             imu: None,
-            tilt_up: None,
-            tilt_accel: [T::zero(); 2],
             twist: zero_twist(),
             slip_residual: z,
             events: EventDetector::new(config.events, robot.motors() > 3),
             event_steps: EventDecimator::new(Self::event_period(&config)),
             rejected: 0,
+            tilt_up: [z; 3],
+            tilt_accel: [z; 2],
         })
     }
 
@@ -187,13 +188,13 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         self.last_command = zero_twist();
         self.encoders = EncoderAngles::zero();
         self.imu = None;
-        self.tilt_up = None;
-        self.tilt_accel = [z; 2];
         self.twist = zero_twist();
         self.slip_residual = z;
         self.events = EventDetector::new(config.events, robot.motors() > 3);
         self.event_steps = EventDecimator::new(Self::event_period(&config));
         self.rejected = 0;
+        self.tilt_up = [z; 3];
+        self.tilt_accel = [z; 2];
         Ok(())
     }
 
@@ -462,7 +463,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
     /// acceleration ([`super::TiltFeedback`]). `None` without `Config::tilt` or before the
     /// first IMU sample.
     pub fn tilt_estimate(&self) -> Option<[T; 3]> {
-        self.tilt_up
+        super::shape::tilt_known(self.tilt_up)
     }
 
     /// The state after the latest [`Runtime::cycle`] (the content of telemetry): mode, this
@@ -559,7 +560,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             (true, Some(s)) => HeadingInput::GyroRate(yaw_rate(
                 &s,
                 if cfg.tilt.is_some() {
-                    self.tilt_up
+                    super::shape::tilt_known(self.tilt_up)
                 } else {
                     None
                 },

@@ -40,31 +40,42 @@ use super::limits::saturation_scale;
 use super::plan::zero_twist;
 use super::status::{Faults, Mode};
 
+/// The tilt estimate `up` when it holds one (all zero: none yet).
+#[inline(always)]
+pub(super) fn tilt_known<T: Real>(up: [T; 3]) -> Option<[T; 3]> {
+    let z = T::zero();
+    if up[0] == z && up[1] == z && up[2] == z {
+        None
+    } else {
+        Some(up)
+    }
+}
+
 /// One step of the tilt estimate of [`TiltFeedback`] (its docs give the filter): `up` (the
-/// estimated up direction in the platform frame, unit; `None` before the first sample) is
+/// estimated up direction in the platform frame, unit; all zero before the first sample) is
 /// carried by the gyro over `dt` and pulled toward the direction of the accelerometer minus
-/// the commanded robot-frame acceleration `a` (m/s²) with the time constant `τ`. Returns the
-/// new estimate, `None` (and `up` unchanged) while the accelerometer reads nothing usable.
+/// the commanded robot-frame acceleration `a` (m/s²) with the time constant `τ`. `up` is left
+/// unchanged while the accelerometer reads nothing usable.
 ///
 /// [`TiltFeedback`]: super::TiltFeedback
 #[inline(always)]
 pub(super) fn tilt_estimate<T: Real>(
-    up: &mut Option<[T; 3]>,
+    up: &mut [T; 3],
     imu: &ImuSample<T>,
     a: [T; 2],
     dt: T,
     tf: &super::TiltFeedback<T>,
-) -> Option<[T; 3]> {
+) {
     let f = imu.accel;
     let m = [f[0] - a[0], f[1] - a[1], f[2]];
     let mn = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
     if !mn.is_finite() || mn <= T::zero() {
-        return *up;
+        return;
     }
     let meas = [m[0] / mn, m[1] / mn, m[2] / mn];
-    let Some(g) = *up else {
-        *up = Some(meas);
-        return *up;
+    let Some(g) = tilt_known(*up) else {
+        *up = meas;
+        return;
     };
     let w = imu.gyro;
     // Gyro: d γ/dt = γ × ω (a world-fixed vector in the turning platform frame).
@@ -85,11 +96,10 @@ pub(super) fn tilt_estimate<T: Real>(
     ];
     let qn = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt();
     *up = if qn > T::zero() && qn.is_finite() {
-        Some([q[0] / qn, q[1] / qn, q[2] / qn])
+        [q[0] / qn, q[1] / qn, q[2] / qn]
     } else {
-        Some(meas)
+        meas
     };
-    *up
 }
 
 impl<T: Real, const N: usize> Runtime<T, N> {
@@ -146,7 +156,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
                 let a = to_robot(Twist2::new(ax, ay, T::zero()));
                 // The next cycle's tilt estimate subtracts it from the accelerometer.
                 self.tilt_accel = [a.vx, a.vy];
-                match self.tilt_up {
+                match tilt_known(self.tilt_up) {
                     Some(up) => {
                         let k = -tf.shell_radius * tf.gain;
                         Twist2::new(
