@@ -9,7 +9,8 @@
 //!    time + latency) goes to the runtime as a [`Command::Fix`] stamped with its **capture**
 //!    time and σ = the camera's noise, as the link would deliver it;
 //! 2. the runtime's cycle reads the plant's encoders (the stepper angles) and IMU (the tilted
-//!    platform's gyro and accelerometer), runs its fusion and trajectory controller and writes
+//!    platform's gyro, and its accelerometer's specific force at the platform's centre of mass,
+//!    [`crate::sil::SilImu`]), runs its fusion and trajectory controller and writes
 //!    wheel-rate set-points;
 //! 3. each set-point is scaled by this trial's wheel error (radius error and speed fluctuation
 //!    of [`DynamicProfile`], a rate error the encoders see) and the plant advances one period
@@ -24,7 +25,8 @@
 //! The controller is the runtime's own (`v = v_ref + k_position · (p_ref − p̂)`, clamped to
 //! `max_correction`; docs of [`omnikin::runtime`]) with, when [`Config::tilt`] is set, its tilt
 //! feedback and lean feed-forward ([`omnikin::runtime::TiltFeedback`], designed here by
-//! [`tilt_feedback`] from the dynamics, its linearised figures by [`tilt_margins`]); nothing
+//! [`tilt_feedback`] from the dynamics, its linearised figures by [`tilt_margins`] and, with
+//! the runtime's tilt estimate in the loop, by [`tilt_poles`]); nothing
 //! here adds control. What is weak: the trajectory gains are [`Config::new`]'s, not designed
 //! from the linearised dynamics, and the runtime's odometry is the level kinematic model's,
 //! blind to the lean (the camera corrects it, with its latency). docs/closed-loop.md has the
