@@ -16,8 +16,8 @@ use super::config::{Config, ConfigError};
 use super::hal::{EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOutputs};
 use super::limits::Slew;
 use super::plan::{PlanBuffer, zero_twist};
-use super::shape::tilt_estimate;
 use super::status::{Faults, FixCounters, Mode, Status};
+use super::tilt::{tilt_estimate, tilt_known};
 
 /// Longest sample of the event detector, s: odometry steps are merged up to this (and up to a
 /// quarter of the detector's smoothing time), so a 1 kHz loop runs it at 400 Hz; a loop at
@@ -463,7 +463,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
     /// acceleration ([`super::TiltFeedback`]). `None` without `Config::tilt` or before the
     /// first IMU sample.
     pub fn tilt_estimate(&self) -> Option<[T; 3]> {
-        super::shape::tilt_known(self.tilt_up)
+        tilt_known(self.tilt_up)
     }
 
     /// The state after the latest [`Runtime::cycle`] (the content of telemetry): mode, this
@@ -560,7 +560,7 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             (true, Some(s)) => HeadingInput::GyroRate(yaw_rate(
                 &s,
                 if cfg.tilt.is_some() {
-                    super::shape::tilt_known(self.tilt_up)
+                    tilt_known(self.tilt_up)
                 } else {
                     None
                 },
