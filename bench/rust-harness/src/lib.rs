@@ -147,7 +147,7 @@ impl Loop {
     }
 
     /// The sphere's loop with the tilt feedback (`Config::tilt`, paper 000's preset: gain
-    /// 8.61 /s, `R` 0.15 m, lean 0.146 rad per m/s²) and the heading from the gyro's vertical
+    /// 8.61 /s, `R` 0.15 m, lean 0.146 rad per m/s², the tilt estimate's 1 s) and the heading from the gyro's vertical
     /// component: what [`Loop::step_tilted`] measures.
     pub fn tilted(robot: Robot<f64>) -> Self {
         let mut lp = Self::new(robot);
@@ -156,6 +156,7 @@ impl Loop {
             gain: 8.61,
             shell_radius: 0.15,
             lean_per_accel: 0.146,
+            accel_time_constant: 1.0,
         });
         cfg.heading_from_gyro = true;
         lp.rt = Runtime::new(*lp.rt.robot(), cfg, Pose2::new(0.0, 0.0, 0.0)).expect("valid config");

@@ -83,6 +83,7 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
         config,
         profile: DynamicProfile::hardware(params),
         camera,
+        gravity_only_imu: false,
     };
     let figure = a.figure_format.file_name("figure");
     create_dir_for(&a.out, &["metrics.json", "trials.csv", "mean.csv", &figure])?;
@@ -121,7 +122,9 @@ pub fn simulate(a: &SimulateArgs, d: &RobotDescription, plan: &Plan) -> Result<(
         "tilt_feedback": config.tilt.map(|t| json!({
             "gain_per_s": t.gain, "lean_per_accel_rad_s2_per_m": t.lean_per_accel,
             "shell_radius_m": t.shell_radius, "damping_ratio": closed_loop::TILT_DAMPING_RATIO,
+            "accel_time_constant_s": t.accel_time_constant,
         })),
+        "imu": "specific force at the platform's centre of mass (gyro + accelerometer)",
         "variation": "DynamicProfile::hardware (1 % wheel radius, 1 % speed, 3 % com_depth, 20 % pivot friction)",
         "max_tilt_rad": max(&|t| t.max_tilt),
         "pull_outs": sum(&|t| t.pull_outs.iter().sum()),

@@ -99,11 +99,40 @@ pub fn check(d: &RobotDescription) -> Result<CheckReport, String> {
             m.phase_margin_deg,
             1e3 * m.delay_margin
         );
+        // With the runtime's tilt estimate in the loop (gyro + accelerometer minus the
+        // commanded acceleration), the IMU at the platform's centre of mass.
+        let e = crate::closed_loop::tilt_poles(&p, &tf, p.com_depth);
+        let pole = |x: (f64, f64)| {
+            if x.1.abs() > 1e-9 {
+                format!("{:.2} ± {:.2}j", x.0, x.1.abs())
+            } else {
+                format!("{:.2}", x.0)
+            }
+        };
+        let pair = e.poles.iter().find(|x| x.1.abs() > 1e-9).copied();
+        text += &format!(
+            "tilt estimate (accelerometer time constant {:.2} s, IMU {:.3} m below the shell \
+             centre): closed-loop poles {}{} rad/s, damping ratio {:.3}\n",
+            tf.accel_time_constant,
+            p.com_depth,
+            pair.map(|x| format!("{}, ", pole(x))).unwrap_or_default(),
+            e.poles
+                .iter()
+                .filter(|x| x.1.abs() <= 1e-9)
+                .map(|x| pole(*x))
+                .collect::<Vec<_>>()
+                .join(", "),
+            e.damping_ratio
+        );
         j["tilt_feedback"] = json!({
             "gain_per_s": tf.gain, "lean_per_accel": tf.lean_per_accel,
             "rocking_rad_per_s": m.open_frequency, "damping_ratio": m.damping_ratio,
             "crossover_rad_per_s": m.crossover, "phase_margin_deg": m.phase_margin_deg,
             "delay_margin_s": m.delay_margin,
+            "accel_time_constant_s": tf.accel_time_constant,
+            "imu_depth_m": p.com_depth,
+            "poles_with_estimate": e.poles.iter().map(|x| [x.0, x.1]).collect::<Vec<_>>(),
+            "damping_ratio_with_estimate": e.damping_ratio,
         });
     }
     j["limits"] = json!({

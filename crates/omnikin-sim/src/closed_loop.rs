@@ -9,7 +9,8 @@
 //!    time + latency) goes to the runtime as a [`Command::Fix`] stamped with its **capture**
 //!    time and σ = the camera's noise, as the link would deliver it;
 //! 2. the runtime's cycle reads the plant's encoders (the stepper angles) and IMU (the tilted
-//!    platform's gyro and accelerometer), runs its fusion and trajectory controller and writes
+//!    platform's gyro, and its accelerometer's specific force at the platform's centre of mass,
+//!    [`crate::sil::SilImu`]), runs its fusion and trajectory controller and writes
 //!    wheel-rate set-points;
 //! 3. each set-point is scaled by this trial's wheel error (radius error and speed fluctuation
 //!    of [`DynamicProfile`], a rate error the encoders see) and the plant advances one period
@@ -24,7 +25,8 @@
 //! The controller is the runtime's own (`v = v_ref + k_position · (p_ref − p̂)`, clamped to
 //! `max_correction`; docs of [`omnikin::runtime`]) with, when [`Config::tilt`] is set, its tilt
 //! feedback and lean feed-forward ([`omnikin::runtime::TiltFeedback`], designed here by
-//! [`tilt_feedback`] from the dynamics, its linearised figures by [`tilt_margins`]); nothing
+//! [`tilt_feedback`] from the dynamics, its linearised figures by [`tilt_margins`] and, with
+//! the runtime's tilt estimate in the loop, by [`tilt_poles`]); nothing
 //! here adds control. What is weak: the trajectory gains are [`Config::new`]'s, not designed
 //! from the linearised dynamics, and the runtime's odometry is the level kinematic model's,
 //! blind to the lean (the camera corrects it, with its latency). docs/closed-loop.md has the
@@ -39,7 +41,7 @@ use rand_distr::{Distribution, StandardNormal};
 use crate::camera::Camera;
 use crate::dynamics::sphere::{DynamicProfile, DynamicsError};
 use crate::sensors::{CameraGaps, CameraProfile};
-use crate::sil::{Held, SilPlant};
+use crate::sil::{Held, SilImu, SilPlant};
 use crate::{SimError, Trial};
 
 /// Plan points the runtime holds ([`Runtime`]'s `N`): a longer plan is decimated evenly
@@ -62,6 +64,10 @@ pub struct ClosedLoopOptions {
     pub profile: DynamicProfile,
     /// The overhead camera and the frames it loses; `None`: no camera (odometry only).
     pub camera: Option<(CameraProfile, CameraGaps)>,
+    /// The idealised accelerometer that reads gravity alone ([`SilImu::GravityOnly`]), for
+    /// comparison; `false` (what a real IMU reads): the specific force at the platform's
+    /// centre of mass ([`SilImu::at_centre_of_mass`]).
+    pub gravity_only_imu: bool,
 }
 
 /// One closed-loop run.
@@ -198,6 +204,9 @@ pub fn run(
             .map_err(|e| ClosedLoopError::Runtime(e.to_string()))?,
     );
     let mut plant = SilPlant::dynamic(robot, params, start)?;
+    if opts.gravity_only_imu {
+        plant.set_imu(SilImu::GravityOnly);
+    }
     let points = plan_points(plan);
     let len = points.len() as u16;
     rt.handle(Command::PlanBegin { id: 1, len }, 0)
@@ -398,6 +407,14 @@ pub fn config(
 /// made before any closed-loop run was compared, not fitted).
 pub const TILT_DAMPING_RATIO: f64 = core::f64::consts::FRAC_1_SQRT_2;
 
+/// Time constant of the tilt estimate's pull toward the accelerometer
+/// ([`omnikin::runtime::TiltFeedback::accel_time_constant`]), s: 1 s, below the rocking's
+/// 7.5 rad/s by a factor of about 7, where the linearised loop with the estimator
+/// ([`tilt_poles`]) keeps a damping ratio above 0.6 (preset: 0.64; 0.39 with the accelerometer
+/// alone) and a gyro bias `b` leans the estimate by only `b τ`. Chosen from [`tilt_poles`]
+/// before any closed-loop run was compared, not fitted.
+pub const TILT_ACCEL_TIME_CONSTANT: f64 = 1.0;
+
 /// The tilt feedback of [`omnikin::runtime::TiltFeedback`] designed from the dynamics `p`
 /// (the linearised rocking about the level platform, the derivation on that type):
 ///
@@ -424,6 +441,85 @@ pub fn tilt_feedback(
         gain: 2.0 * TILT_DAMPING_RATIO * (k * j).sqrt() / b,
         shell_radius: r,
         lean_per_accel: (m * r - mp * h + is / r) / k,
+        accel_time_constant: TILT_ACCEL_TIME_CONSTANT,
+    }
+}
+
+/// The tilt loop with its estimator, linearised per horizontal axis ([`tilt_poles`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TiltPoles {
+    /// The characteristic polynomial `a₃ s³ + a₂ s² + a₁ s + a₀`, highest power first.
+    pub coefficients: [f64; 4],
+    /// Its roots, rad/s (`re`, `im`), sorted by real part, the slowest last.
+    pub poles: [(f64, f64); 3],
+    /// The smallest damping ratio `−re/|s|` among the poles (negative: unstable).
+    pub damping_ratio: f64,
+}
+
+/// The closed tilt loop's poles with the runtime's tilt estimate in it
+/// ([`omnikin::runtime::TiltFeedback`]): the feedback `tf` on the dynamics `p`, the IMU
+/// `imu_depth` (m) below the shell centre on the platform's axis, regulation about the level
+/// platform at rest (no commanded acceleration), the gyro exact.
+///
+/// Per axis (the notation of [`tilt_feedback`], `γ_x = −θ`): the wheels get
+/// `u = −c γ̂_x = c θ − c e` with the estimate's error `e = γ̂_x − γ_x`; the plant
+/// `J θ̈ + K θ = −B u̇` (`K = m_p g h`); the accelerometer's direction is
+/// `γ_x + a_p/g` with the IMU point's acceleration `a_p = ẍ − d θ̈ = R u̇ + (R − d) θ̈`; the
+/// filter makes `τ ė + e = a_p/g`. Eliminating `u`, `e`:
+///
+/// ```text
+/// (J s² + B c s + K)(τ' s + 1) = (B c / g) s² (R c + (R − d) s),   τ' = τ + R c / g
+/// a₃ = J τ + c (J R − B (R − d))/g,  a₂ = J + B c τ,  a₁ = B c + K τ + K R c/g,  a₀ = K
+/// ```
+///
+/// `τ → ∞` (gyro alone) leaves the designed pair and an integrator (the drift a gyro alone
+/// cannot see); `τ = 0` (the accelerometer alone) has `a₃ = c (J R − B (R − d))/g`, which is
+/// negative with the IMU at the shell centre on the preset (`J < B`): unstable.
+pub fn tilt_poles(
+    p: &crate::dynamics::sphere::SphereDynamics,
+    tf: &omnikin::runtime::TiltFeedback<f64>,
+    imu_depth: f64,
+) -> TiltPoles {
+    let r = p.geometry.shell_radius;
+    let (mp, h, ms, is) = (p.platform_mass, p.com_depth, p.shell_mass, p.shell_inertia);
+    let ip = 0.5 * (p.platform_inertia[0][0] + p.platform_inertia[1][1]);
+    let j = is + ms * r * r + ip + mp * (r - h) * (r - h);
+    let k = mp * p.gravity * h;
+    let b = (mp + ms) * r * r + is - mp * h * r;
+    let (c, g, tau, d) = (tf.gain, p.gravity, tf.accel_time_constant, imu_depth);
+    let a = [
+        j * tau + c * (j * r - b * (r - d)) / g,
+        j + b * c * tau,
+        b * c + k * tau + k * r * c / g,
+        k,
+    ];
+    // The roots as the companion matrix's eigenvalues.
+    let comp = omnikin::nalgebra::Matrix3::new(
+        -a[1] / a[0],
+        -a[2] / a[0],
+        -a[3] / a[0],
+        1.0,
+        0.0,
+        0.0,
+        0.0,
+        1.0,
+        0.0,
+    );
+    let ev = comp.complex_eigenvalues();
+    let mut poles = [
+        (ev[0].re, ev[0].im),
+        (ev[1].re, ev[1].im),
+        (ev[2].re, ev[2].im),
+    ];
+    poles.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let damping_ratio = poles
+        .iter()
+        .map(|&(re, im)| -re / re.hypot(im))
+        .fold(f64::INFINITY, f64::min);
+    TiltPoles {
+        coefficients: a,
+        poles,
+        damping_ratio,
     }
 }
 

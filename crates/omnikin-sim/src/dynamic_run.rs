@@ -294,7 +294,12 @@ impl DynamicPlant {
     ) -> Result<DynamicSimulation, DynamicError> {
         let (outcome, trial) = match self {
             DynamicPlant::Sphere(p) => {
-                let run = simulate_plan(*p, plan)?;
+                let mut run = simulate_plan(*p, plan)?;
+                // The IMU at the platform's centre of mass (as the closed loop's board has
+                // it, `SilImu::at_centre_of_mass`): its accelerometer feels the rocking.
+                for a in &mut run.attitude {
+                    a.imu_offset = [0.0, 0.0, -p.com_depth];
+                }
                 let trial = run.trial.clone();
                 (DynamicOutcome::Sphere(Box::new(run)), trial)
             }

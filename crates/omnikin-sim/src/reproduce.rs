@@ -874,6 +874,7 @@ pub fn paper_000_closed_loop(
             crate::sensors::CameraProfile::paper_000(),
             crate::sensors::CameraGaps::default(),
         )),
+        gravity_only_imu: false,
     }
 }
 

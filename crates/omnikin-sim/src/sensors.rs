@@ -19,9 +19,12 @@
 //!   `Rᵀ ω̃`, so their angles are the plant's level ones mapped by `G Rᵀ G⁻¹`
 //!   ([`crate::odometry::tilt::shell_maps`]); the other kinds' wheel angles are the plant's.
 //! * with a per-sample [`PlatformAttitude`] ([`emit_with_attitude`], the sphere's dynamic plant),
-//!   both on the platform as the dynamic model moves it: the IMU (at the shell centre, the
-//!   platform frame's origin) reads the model's body rates, the accelerometer
-//!   `Rₖᵀ (a + g e₃)` and the magnetometer `Rₖᵀ B` with `Rₖ = Rz(ψₖ) Ry(pitchₖ) Rx(rollₖ)` the
+//!   both on the platform as the dynamic model moves it: the IMU (at
+//!   [`PlatformAttitude::imu_offset`] from the shell centre; `omnikin simulate --plant
+//!   dynamic` puts it at the platform's centre of mass) reads the model's body rates, the
+//!   accelerometer `Rₖᵀ (a + g e₃)` with `a` that point's acceleration (the second difference
+//!   of its positions, the rocking's lever arm included) and the magnetometer `Rₖᵀ B` with
+//!   `Rₖ = Rz(ψₖ) Ry(pitchₖ) Rx(rollₖ)` the
 //!   platform's orientation at sample k; the encoder log's `gyro_z` is the body rate's z; the
 //!   wheel angles are the model's own (slipping, stalled), not mapped;
 //! * **camera fixes** of the robot centre every `period` seconds with Gaussian noise, a fixed
@@ -131,6 +134,10 @@ pub struct PlatformAttitude {
     pub pitch: f64,
     /// Angular velocity of the platform, platform frame (x forward, y left, z up), rad/s.
     pub body_rate: [f64; 3],
+    /// Where the IMU sits, platform frame, from the trial pose's point (the sphere's shell
+    /// centre), m: the accelerometer reads the specific force of that point, the rocking's
+    /// lever-arm terms included. `[0, 0, 0]` (the default): at the pose's point.
+    pub imu_offset: [f64; 3],
 }
 
 impl PlatformAttitude {
@@ -143,6 +150,7 @@ impl PlatformAttitude {
             roll,
             pitch,
             body_rate: [w.x, w.y, w.z],
+            imu_offset: [0.0; 3],
         }
     }
 
@@ -605,12 +613,27 @@ pub fn emit_with_attitude(
         let r = omnikin::nalgebra::Matrix3::from_fn(|i, j| m[i][j]);
         Some(g * r.transpose() * g_inv)
     });
+    // The IMU point's world position at sample i, relative to the pose's point at height 0:
+    // the lever arm `Rz(ψ) M r` of a dynamic model's attitude (zero without one).
+    let arm = |i: usize| -> [f64; 3] {
+        match attitude {
+            Some(a) if a[i].imu_offset != [0.0; 3] => {
+                let m = a[i].matrix();
+                let r = a[i].imu_offset;
+                let h = [0, 1, 2].map(|row| (0..3).map(|j| m[row][j] * r[j]).sum::<f64>());
+                let (s, c) = heading(i).sin_cos();
+                [c * h[0] - s * h[1], s * h[0] + c * h[1], h[2]]
+            }
+            _ => [0.0; 3],
+        }
+    };
     // Specific force in the heading frame (x forward, y left, z up), m/s².
     let specific_force = |k: usize| {
         let (s, c) = heading(k).sin_cos();
-        let ax = second_derivative(&t[..n], k, |i| trial.pose[i].x);
-        let ay = second_derivative(&t[..n], k, |i| trial.pose[i].y);
-        [c * ax + s * ay, -s * ax + c * ay, 9.81]
+        let ax = second_derivative(&t[..n], k, |i| trial.pose[i].x + arm(i)[0]);
+        let ay = second_derivative(&t[..n], k, |i| trial.pose[i].y + arm(i)[1]);
+        let az = second_derivative(&t[..n], k, |i| arm(i)[2]);
+        [c * ax + s * ay, -s * ax + c * ay, 9.81 + az]
     };
     for k in 0..n {
         let mut level = trial.wheel_angles[k];

@@ -17,8 +17,11 @@
 //! ([`crate::dynamics::sphere::SphereSim`]) on the board instead (sphere-omni only): the
 //! set-points are ramped over each [`SilPlant::advance`] into the stepper motors of the model,
 //! the encoders read the model's wheel angles, the gyro reads the platform's angular velocity
-//! in the platform frame (a tilted platform's gyro z is not the world yaw rate), and the true
-//! pose is the shell centre with the platform's heading.
+//! in the platform frame (a tilted platform's gyro z is not the world yaw rate), the
+//! accelerometer reads the **specific force** at the IMU's mounting point on the platform
+//! ([`SilImu`]: the point's acceleration, with the rocking's tangential and centripetal terms,
+//! minus gravity, in the platform frame), and the true pose is the shell centre with the
+//! platform's heading.
 
 use omnikin::runtime::hal::{
     Clock, EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOutputs,
@@ -51,6 +54,38 @@ pub struct SilPlant {
     obstacle: Option<(u64, u64)>,
 }
 
+/// What the dynamic plant's accelerometer reads ([`SilPlant::set_imu`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SilImu {
+    /// The specific force `Qᵀ (a_p + g ẑ)` at the point `offset` (m, platform frame, from the
+    /// shell centre; the platform's z axis points up from its centre of mass toward the
+    /// shell centre), `Q` the platform's orientation. `a_p` is the point's acceleration
+    /// averaged over the last [`SilPlant::advance`] (the change of its velocity
+    /// `v_C + ω × Q r` over the step, divided by the step: the model's velocities are exact,
+    /// its accelerations are not part of its state), so a 100 Hz loop sees what an
+    /// accelerometer averaging over its 10 ms sample reads. It includes the shell centre's
+    /// acceleration and the rocking's tangential (`ω̇ × Q r`) and centripetal
+    /// (`ω × (ω × Q r)`) terms. What a real accelerometer reads.
+    SpecificForce {
+        /// The IMU's position in the platform frame relative to the shell centre, m.
+        offset: [f64; 3],
+    },
+    /// An idealisation no real sensor gives: the accelerometer reads gravity alone,
+    /// `Qᵀ g ẑ` (the platform's tilt without any acceleration). For comparison only.
+    GravityOnly,
+}
+
+impl SilImu {
+    /// The default: the specific force at the platform's centre of mass, `com_depth` below
+    /// the shell centre on the platform's axis (where paper 000's board and IMU sit, between
+    /// the wheels; `p` the plant's dynamics).
+    pub fn at_centre_of_mass(p: &SphereDynamics) -> Self {
+        Self::SpecificForce {
+            offset: [0.0, 0.0, -p.com_depth],
+        }
+    }
+}
+
 /// The sphere's dynamic model on the board, with what its last step reported.
 #[derive(Clone, Debug)]
 struct DynamicBoard {
@@ -61,6 +96,10 @@ struct DynamicBoard {
     pose: Pose2<f64>,
     /// True robot-frame twist (shell centre velocity, platform yaw rate) of the last step.
     twist: Twist2<f64>,
+    /// The accelerometer's model.
+    imu: SilImu,
+    /// The IMU point's acceleration over the last step, world frame, m/s².
+    imu_accel: omnikin::nalgebra::Vector3<f64>,
 }
 
 impl DynamicBoard {
@@ -68,16 +107,37 @@ impl DynamicBoard {
         let sim =
             SphereSim::with_state(params, SphereState::at_rest(pose.x, pose.y, pose.heading))?;
         let heading_offset = pose.heading - sim.state().yaw();
+        let imu = SilImu::at_centre_of_mass(&params);
         Ok(Self {
             sim,
             heading_offset,
             pose,
             twist: Twist2::new(0.0, 0.0, 0.0),
+            imu,
+            imu_accel: omnikin::nalgebra::Vector3::zeros(),
         })
     }
 
+    /// The world-frame velocity of the platform point `offset` (platform frame, from the shell
+    /// centre), m/s: the shell centre's rolling velocity `v_C = R Ω × ẑ` plus `ω × Q r`.
+    fn point_velocity(&self, offset: [f64; 3]) -> omnikin::nalgebra::Vector3<f64> {
+        let st = self.sim.state();
+        let r = self.sim.params().geometry.shell_radius;
+        let om = st.shell_rate;
+        let v_c = omnikin::nalgebra::Vector3::new(r * om.y, -r * om.x, 0.0);
+        let arm = st.orientation * omnikin::nalgebra::Vector3::from(offset);
+        v_c + st.platform_rate.cross(&arm)
+    }
+
     fn step(&mut self, dt: f64, wheel: &[f64; MAX_WHEELS]) -> Result<(), DynamicsError> {
+        let v0 = match self.imu {
+            SilImu::SpecificForce { offset } => Some((offset, self.point_velocity(offset))),
+            SilImu::GravityOnly => None,
+        };
         let st = self.sim.step(dt, [wheel[0], wheel[1], wheel[2]])?;
+        if let Some((offset, v0)) = v0 {
+            self.imu_accel = (self.point_velocity(offset) - v0) / dt;
+        }
         let heading = st.heading + self.heading_offset;
         self.pose = Pose2::new(st.centre[0], st.centre[1], heading);
         // Rolling without slip: v_C = R Ω × γ.
@@ -128,6 +188,21 @@ impl SilPlant {
         let mut s = Self::new(robot, Profile::default(), 0, pose);
         s.dynamic = Some(Box::new(board));
         Ok(s)
+    }
+
+    /// Sets what the dynamic plant's accelerometer reads (default
+    /// [`SilImu::at_centre_of_mass`]); no effect on the kinematic plant. The reading follows
+    /// from the next [`SilPlant::advance`] on.
+    pub fn set_imu(&mut self, imu: SilImu) {
+        if let Some(d) = &mut self.dynamic {
+            d.imu = imu;
+            d.imu_accel = omnikin::nalgebra::Vector3::zeros();
+        }
+    }
+
+    /// The dynamic plant's accelerometer model.
+    pub fn imu(&self) -> Option<SilImu> {
+        self.dynamic.as_deref().map(|d| d.imu)
     }
 
     /// Whether the plant is the dynamic model ([`SilPlant::dynamic`]).
@@ -309,7 +384,12 @@ impl Imu<f64> for SilPlant {
         if let Some(d) = &self.dynamic {
             let st = d.sim.state();
             let w = st.orientation.inverse() * st.platform_rate;
-            let g = st.orientation.inverse() * omnikin::nalgebra::Vector3::new(0.0, 0.0, 9.81);
+            let a = match d.imu {
+                SilImu::SpecificForce { .. } => d.imu_accel,
+                SilImu::GravityOnly => omnikin::nalgebra::Vector3::zeros(),
+            };
+            let g = st.orientation.inverse()
+                * (a + omnikin::nalgebra::Vector3::new(0.0, 0.0, d.sim.params().gravity));
             return Ok(Some(ImuSample {
                 gyro: [w.x, w.y, w.z],
                 accel: [g.x, g.y, g.z],

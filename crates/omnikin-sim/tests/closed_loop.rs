@@ -52,6 +52,7 @@ fn options(camera: Option<(CameraProfile, CameraGaps)>) -> ClosedLoopOptions {
         ),
         profile: DynamicProfile::exact(params()),
         camera,
+        gravity_only_imu: false,
     }
 }
 

@@ -38,10 +38,19 @@ fn options(d: &RobotDescription, params: SphereDynamics, variant: &str) -> Close
         ),
         profile: reproduce::dynamic_profile(params),
         camera: Some((CameraProfile::paper_000(), CameraGaps::default())),
+        gravity_only_imu: false,
     };
     for part in variant.split('+') {
         match part {
             "nocam" => o.camera = None,
+            // The idealised accelerometer that reads gravity alone (for comparison).
+            "gonly" => o.gravity_only_imu = true,
+            // The tilt estimate's accelerometer time constant, s (diagnostic).
+            p if p.starts_with("tau") => {
+                if let Some(t) = o.config.tilt.as_mut() {
+                    t.accel_time_constant = p[3..].parse::<f64>().unwrap();
+                }
+            }
             "cam" => {}
             p if p.starts_with("camh") => {
                 let s: f64 = p[4..].parse().unwrap_or(0.01);

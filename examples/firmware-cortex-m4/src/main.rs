@@ -521,6 +521,7 @@ fn tilt_check(rt: &mut Runtime<f32, PLAN_CAPACITY>) -> Option<f32> {
         gain: 8.61,
         shell_radius: 0.15,
         lean_per_accel: 0.146,
+        accel_time_constant: 1.0,
     });
     cfg.heading_from_gyro = true;
     let robot = Robot::Sphere(SphereOmni::new(SphereParams::preset()).ok()?);

@@ -78,13 +78,13 @@ pub struct Config<T> {
 /// (paper 000's robot): the commanded robot-frame velocity gets
 ///
 /// ```text
-/// Δv = −R c (γ_xy − L a_xy)
+/// Δv = −R c (γ̂_xy − L a_xy)
 /// ```
 ///
-/// before the inverse kinematics, where `γ` is the up direction in the platform frame (the
-/// IMU's accelerometer, normalised; `(0, 0, 1)` level), `a` the commanded robot-frame
-/// acceleration of this cycle (the slewed command's change, m/s²), `R`
-/// [`TiltFeedback::shell_radius`], `c` [`TiltFeedback::gain`] and `L`
+/// before the inverse kinematics, where `γ̂` is the **estimated** up direction in the platform
+/// frame (`(0, 0, 1)` level; the tilt estimate below), `a` the plan's robot-frame acceleration
+/// of this cycle (the change of its feed-forward velocity, at most the slew's `max_accel`,
+/// m/s²), `R` [`TiltFeedback::shell_radius`], `c` [`TiltFeedback::gain`] and `L`
 /// [`TiltFeedback::lean_per_accel`].
 ///
 /// **Why `Δv ∝ tilt`.** Per horizontal axis, linearised about the level platform at rest
@@ -96,12 +96,30 @@ pub struct Config<T> {
 /// Feeding back the tilt *rate* would only change the mode's inertia. `L a` is the
 /// quasi-static lean of a steady acceleration linearised (`m_p g h θ = a (M R − m_p h +
 /// I_s/R)`, module doc of `omnikin_plan::tilt`), so a steady curve keeps its lean and the
-/// feedback acts on the rocking about it. A host computes the three numbers from the robot's
+/// feedback acts on the rocking about it. A host computes the numbers from the robot's
 /// dynamics (`omnikin_sim::closed_loop::tilt_feedback`).
 ///
+/// **The tilt estimate.** An accelerometer reads the specific force `f = Qᵀ (a_p + g ẑ)`, so
+/// its direction is the *apparent* vertical: in a steady acceleration it leans by `a/g`
+/// (more than the platform's own lean `L a` on the preset), and the rocking's own
+/// acceleration enters it (`a_p = R u̇ + (R − d) θ̈` at a point `d` below the shell centre). Fed
+/// back directly it destabilises the loop. So `γ̂` is a complementary filter: the gyro `ω`
+/// (platform frame) carries it through the rocking, `γ̂ ← γ̂ + Δt γ̂ × ω` (a world-fixed
+/// vector seen from a turning frame), and it is pulled toward the accelerometer's direction
+/// **after subtracting the acceleration the runtime commanded**, `f − (a_x, a_y, 0)`, with
+/// the time constant `τ` [`TiltFeedback::accel_time_constant`]:
+/// `γ̂ ← γ̂ + (Δt/τ) (dir(f − a) − γ̂)`, then normalised. Linearised per axis, with the
+/// estimate's error `e = γ̂_x − γ_x`, `τ ė + e = (a_p − a)/g`, and the loop's characteristic
+/// polynomial is the cubic of `omnikin_sim::closed_loop::tilt_poles`: for `τ → ∞` the
+/// designed pair and an integrator; for `τ → 0` (the accelerometer alone) the leading
+/// coefficient is `c (J R − B (R − d))/g`, negative with the IMU at the shell centre on the
+/// preset (`J < B`: unstable), and with it at the centre of mass the damping falls from 0.71
+/// to 0.39. The estimate starts at the first accelerometer direction (minus the commanded
+/// acceleration).
+///
 /// With it, a gyro heading ([`Config::heading_from_gyro`]) integrates the angular velocity's
-/// vertical component (the gyro against the accelerometer's direction) instead of the gyro's
-/// z, which a leaning platform reads short by `cos θ`.
+/// vertical component (the gyro against `γ̂`) instead of the gyro's z, which a leaning
+/// platform reads short by `cos θ`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TiltFeedback<T> {
     /// `c`, 1/s: relative roll rate per radian of tilt.
@@ -110,6 +128,9 @@ pub struct TiltFeedback<T> {
     pub shell_radius: T,
     /// `L`, rad per m/s²: the quasi-static lean per unit acceleration.
     pub lean_per_accel: T,
+    /// `τ`, s: how slowly the tilt estimate follows the accelerometer (minus the commanded
+    /// acceleration); faster than `τ` it follows the gyro. Must be > 0.
+    pub accel_time_constant: T,
 }
 
 impl<T: Real> Config<T> {
@@ -276,6 +297,7 @@ impl<T: Real> Config<T> {
             nonneg(t.gain, "tilt.gain")?;
             pos(t.shell_radius, "tilt.shell_radius")?;
             nonneg(t.lean_per_accel, "tilt.lean_per_accel")?;
+            pos(t.accel_time_constant, "tilt.accel_time_constant")?;
         }
         Ok(())
     }

@@ -17,6 +17,7 @@ use super::hal::{EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOut
 use super::limits::Slew;
 use super::plan::{PlanBuffer, zero_twist};
 use super::status::{Faults, FixCounters, Mode, Status};
+use super::tilt::{tilt_estimate, tilt_known};
 
 /// Longest sample of the event detector, s: odometry steps are merged up to this (and up to a
 /// quarter of the detector's smoothing time), so a 1 kHz loop runs it at 400 Hz; a loop at
@@ -81,23 +82,27 @@ pub struct Runtime<T, const N: usize> {
     /// a quarter of the smoothing time).
     event_steps: EventDecimator<T>,
     rejected: u32,
+    /// The tilt estimate of [`Config::tilt`]: up in the platform frame, unit (all zero before
+    /// the first accelerometer sample; see [`super::TiltFeedback`]). Last in the struct: the
+    /// firmware's boot builds the runtime in one frame (bench/budgets.toml).
+    pub(super) tilt_up: [T; 3],
+    /// The robot-frame acceleration the last cycle commanded (what the tilt estimate
+    /// subtracts from the accelerometer), m/s²; zero once used.
+    pub(super) tilt_accel: [T; 2],
 }
 
 /// The heading rate an IMU sample gives, rad/s: the gyro's z (a platform that stays level),
-/// or, with `tilted` (a sphere's pendulous platform, [`Config::tilt`]), the angular velocity's
-/// component along the vertical, `ω · γ` with `γ` the accelerometer's direction (up in the
-/// platform frame): on a platform leaning by `θ` while it turns at `ψ̇`, the gyro's z reads
-/// `ψ̇ cos θ`, and the heading would lag by `1 − cos θ` of every turn (2 % at 0.2 rad).
+/// or, with `up` (a sphere's pendulous platform, [`Config::tilt`]: the tilt estimate, up in
+/// the platform frame, unit), the angular velocity's component along the vertical, `ω · γ̂`:
+/// on a platform leaning by `θ` while it turns at `ψ̇`, the gyro's z reads `ψ̇ cos θ`, and the
+/// heading would lag by `1 − cos θ` of every turn (2 % at 0.2 rad).
 #[inline(always)]
-fn yaw_rate<T: Real>(s: &ImuSample<T>, tilted: bool) -> T {
-    if tilted {
-        let (g, w) = (s.accel, s.gyro);
-        let n = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-        if n > T::zero() {
-            return (w[0] * g[0] + w[1] * g[1] + w[2] * g[2]) / n;
-        }
+fn yaw_rate<T: Real>(s: &ImuSample<T>, up: Option<[T; 3]>) -> T {
+    let w = s.gyro;
+    match up {
+        Some(g) => w[0] * g[0] + w[1] * g[1] + w[2] * g[2],
+        None => w[2],
     }
-    s.gyro[2]
 }
 
 impl<T: Real, const N: usize> Runtime<T, N> {
@@ -138,6 +143,8 @@ impl<T: Real, const N: usize> Runtime<T, N> {
             events: EventDetector::new(config.events, robot.motors() > 3),
             event_steps: EventDecimator::new(Self::event_period(&config)),
             rejected: 0,
+            tilt_up: [z; 3],
+            tilt_accel: [z; 2],
         })
     }
 
@@ -186,6 +193,8 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         self.events = EventDetector::new(config.events, robot.motors() > 3);
         self.event_steps = EventDecimator::new(Self::event_period(&config));
         self.rejected = 0;
+        self.tilt_up = [z; 3];
+        self.tilt_accel = [z; 2];
         Ok(())
     }
 
@@ -450,6 +459,14 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         faults
     }
 
+    /// The tilt estimate of [`Config::tilt`]: the up direction in the platform frame (unit;
+    /// `(0, 0, 1)` level), from the gyro and the accelerometer minus the commanded
+    /// acceleration ([`super::TiltFeedback`]). `None` without `Config::tilt` or before the
+    /// first IMU sample.
+    pub fn tilt_estimate(&self) -> Option<[T; 3]> {
+        tilt_known(self.tilt_up)
+    }
+
     /// The state after the latest [`Runtime::cycle`] (the content of telemetry): mode, this
     /// cycle's and the latched faults, the control's pose (fused once a fix was accepted) and
     /// the wheel odometry's, the command, the motors, the plan. Before the first cycle: time 0,
@@ -510,7 +527,14 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         faults: &mut Faults,
     ) -> bool {
         match imu.read() {
-            Ok(Some(s)) => self.imu = Some(s),
+            Ok(Some(s)) => {
+                self.imu = Some(s);
+                if let Some(tf) = &self.config.tilt {
+                    let dt = T::one() / self.config.rate_hz;
+                    tilt_estimate(&mut self.tilt_up, &s, self.tilt_accel, dt, tf);
+                    self.tilt_accel = [T::zero(); 2];
+                }
+            }
             Ok(None) => {}
             Err(_) => {
                 faults.insert(Faults::HARDWARE);
@@ -534,7 +558,14 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         let base = *self.odo_base_us.get_or_insert(now_us);
         let t = T::of(now_us.saturating_sub(base) as f64 * 1e-6);
         let heading = match (cfg.heading_from_gyro, self.imu) {
-            (true, Some(s)) => HeadingInput::GyroRate(yaw_rate(&s, cfg.tilt.is_some())),
+            (true, Some(s)) => HeadingInput::GyroRate(yaw_rate(
+                &s,
+                if cfg.tilt.is_some() {
+                    tilt_known(self.tilt_up)
+                } else {
+                    None
+                },
+            )),
             _ => HeadingInput::Wheels,
         };
         if !self.odo.time().is_none_or(|t0| t > t0) {

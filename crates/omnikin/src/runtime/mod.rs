@@ -124,6 +124,7 @@ mod plan;
 mod reference;
 mod shape;
 mod status;
+mod tilt;
 
 use crate::Real;
 pub use balance::{BalanceRuntime, BalanceRuntimeConfig, BalanceStatus};

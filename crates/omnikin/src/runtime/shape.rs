@@ -39,6 +39,7 @@ use super::hal::MotorCommand;
 use super::limits::saturation_scale;
 use super::plan::zero_twist;
 use super::status::{Faults, Mode};
+use super::tilt::tilt_known;
 
 impl<T: Real, const N: usize> Runtime<T, N> {
     /// Desaturation → slew → inverse kinematics → motor-acceleration limit → final rate
@@ -78,31 +79,32 @@ impl<T: Real, const N: usize> Runtime<T, N> {
         // Tilt feedback (a sphere's pendulous platform, `Config::tilt`): added after the slew,
         // which keeps the command without it.
         let dv = match (&cfg.tilt, &self.imu) {
-            (Some(tf), Some(imu)) => {
-                let g = imu.accel;
-                let norm = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-                if norm > T::zero() {
-                    // The plan's acceleration (none outside a plan), at most the slew's limit:
-                    // a plan that starts at full speed asks a step.
-                    let [mut ax, mut ay] = if self.mode == Mode::Trajectory {
-                        self.plan.accel
-                    } else {
-                        [T::zero(); 2]
-                    };
-                    let an = (ax * ax + ay * ay).sqrt();
-                    if an > cfg.slew.accel {
-                        ax = ax * cfg.slew.accel / an;
-                        ay = ay * cfg.slew.accel / an;
-                    }
-                    let a = to_robot(Twist2::new(ax, ay, T::zero()));
-                    let k = -tf.shell_radius * tf.gain;
-                    Twist2::new(
-                        k * (g[0] / norm - tf.lean_per_accel * a.vx),
-                        k * (g[1] / norm - tf.lean_per_accel * a.vy),
-                        T::zero(),
-                    )
+            (Some(tf), Some(_)) => {
+                // The plan's acceleration (none outside a plan), at most the slew's limit:
+                // a plan that starts at full speed asks a step.
+                let [mut ax, mut ay] = if self.mode == Mode::Trajectory {
+                    self.plan.accel
                 } else {
-                    zero_twist()
+                    [T::zero(); 2]
+                };
+                let an = (ax * ax + ay * ay).sqrt();
+                if an > cfg.slew.accel {
+                    ax = ax * cfg.slew.accel / an;
+                    ay = ay * cfg.slew.accel / an;
+                }
+                let a = to_robot(Twist2::new(ax, ay, T::zero()));
+                // The next cycle's tilt estimate subtracts it from the accelerometer.
+                self.tilt_accel = [a.vx, a.vy];
+                match tilt_known(self.tilt_up) {
+                    Some(up) => {
+                        let k = -tf.shell_radius * tf.gain;
+                        Twist2::new(
+                            k * (up[0] - tf.lean_per_accel * a.vx),
+                            k * (up[1] - tf.lean_per_accel * a.vy),
+                            T::zero(),
+                        )
+                    }
+                    None => zero_twist(),
                 }
             }
             _ => zero_twist(),
