@@ -90,8 +90,8 @@ fn main() {
     let k = |i: u64| i as usize & (K - 1);
     match (kernel, rob) {
         ("tilt", Robot::Sphere(_)) => {
-            // The sphere's cycle with the tilt feedback and the gyro heading (not a budgeted
-            // kind: docs/closed-loop.md states its count).
+            // The sphere's cycle with the tilt feedback and the gyro heading (`sphere-tilt`
+            // in bench/budgets.toml).
             let mut lp = Loop::tilted(rob);
             for i in 1..n {
                 black_box(lp.step_tilted(&inp));
