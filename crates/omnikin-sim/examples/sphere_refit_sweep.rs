@@ -43,7 +43,7 @@ fn main() -> ExitCode {
     if args.is_empty() {
         for p in &PRIORS {
             for v in [p.low, p.high] {
-                rows.push((label(p, v, "range"), p.set(&base, v)));
+                rows.push((label(p, v), p.set(&base, v)));
             }
         }
     } else {
@@ -66,7 +66,7 @@ fn main() -> ExitCode {
                     ));
                 }
             };
-            rows.push((label(p, v, "probe"), p.set(&base, v)));
+            rows.push((label(p, v), p.set(&base, v)));
         }
     }
     let (lo, hi) = c5_band();
@@ -124,14 +124,22 @@ fn c5_band() -> (f64, f64) {
     (0.9 * r, 1.1 * r)
 }
 
-/// `` `key` = v unit (low–high) `` for a row.
-fn label(p: &Prior, v: f64, what: &str) -> String {
+/// `` `key` = v unit (range low–high) `` for a row, with `, outside` when `v` is not in it.
+fn label(p: &Prior, v: f64) -> String {
     let unit = if p.unit.is_empty() {
         String::new()
     } else {
         format!(" {}", p.unit)
     };
-    format!("`{}` = {v}{unit} ({what} {}–{})", p.key, p.low, p.high)
+    let outside = if (p.low..=p.high).contains(&v) {
+        ""
+    } else {
+        ", outside"
+    };
+    format!(
+        "`{}` = {v}{unit} (range {}–{}{outside})",
+        p.key, p.low, p.high
+    )
 }
 
 fn fail(msg: &str) -> ExitCode {
