@@ -1,6 +1,7 @@
 //! The dynamic plant in Monte Carlo (`omnikin_sim::dynamics::sphere::DynamicProfile`) and its
 //! one-parameter fit: identical results for any thread count, a real scatter between trials,
-//! the exact profile equal to the deterministic run, and a fit that meets its target.
+//! the exact profile equal to the deterministic run, a fit that meets its target, and a second
+//! value in its range that, with the depth re-fitted, reaches the paper's 0.5 m/s circle.
 
 use omnikin::description::RobotDescription;
 use omnikin_plan::generators::Circle;
@@ -201,4 +202,33 @@ fn the_default_2_ms_sub_step_gives_the_1_ms_figures_of_the_eight_series() {
             assert!((r - r1).abs() <= 0.005 * r1, "{}: {r} vs {r1}", s.name);
         }
     }
+}
+
+/// docs/sphere-dynamics.md, "The 0.5 m/s circle with one fitted parameter": on the preset the
+/// deterministic 0.5 m/s circle misses the paper's 1.6 ± 10 %, but one other value inside its
+/// documented range (roller μ at 0.3), with `com_depth` re-fitted to the 0.4 m/s circle's 1.4,
+/// puts it inside the band with the depth inside its parts range — the statement is not a sharp
+/// test (the value is not shipped: it would be a second fitted parameter).
+#[test]
+fn a_second_value_in_its_range_with_the_depth_refitted_reaches_the_0_5_circle() {
+    use omnikin_sim::dynamics::sphere::priors::{COM_DEPTH_PARTS_RANGE, PRIORS};
+    use omnikin_sim::reproduce::{deterministic_figures, fit_to_paper, sphere_2019_series};
+    let d = RobotDescription::preset("sphere-omni").unwrap();
+    let base = SphereDynamics::from_description(&d).unwrap();
+    let series = sphere_2019_series(&d, 100.0).unwrap();
+    let c5 = series.iter().find(|s| s.name == "circle-0.5").unwrap();
+    let ratio5 = |p: SphereDynamics| deterministic_figures(p, c5).unwrap().1.unwrap();
+    let (lo, hi) = (0.9 * 1.6, 1.1 * 1.6);
+    assert!(ratio5(base) > hi, "preset: {}", ratio5(base));
+    let mu = PRIORS.iter().find(|p| p.key == "roller_friction").unwrap();
+    let robot = mu.set(&base, mu.low);
+    let fit = fit_to_paper(robot, &series).unwrap();
+    assert!((fit.achieved_radius_ratio - 1.4).abs() < 2e-3, "{fit:?}");
+    let (dlo, dhi) = COM_DEPTH_PARTS_RANGE;
+    assert!(fit.value > dlo && fit.value < dhi, "{fit:?}");
+    let r5 = ratio5(SphereDynamics {
+        com_depth: fit.value,
+        ..robot
+    });
+    assert!(r5 > lo && r5 < hi, "roller μ {}: circle-0.5 {r5}", mu.low);
 }
