@@ -12,13 +12,12 @@
 //!
 //! The simulated **truth** (the shell's centre; the footprint is the shell's radius) must keep
 //! off every shape at every control cycle. The test prints the smallest gap it left and the
-//! largest tilt. Measured (seed as here): 122.0 m over the 20 legs, smallest gap 0.0453 m
-//! (the plans keep 0.05 m), worst miss at a goal 6.3 mm, largest estimate error 11.2 mm,
-//! largest tilt 5.94°.
+//! largest tilt. Measured (seed as here): 122.0 m over the 20 legs, smallest gap 0.0450 m
+//! (the plans keep 0.05 m), worst miss at a goal 6.5 mm, largest estimate error 11.2 mm,
+//! largest tilt 6.05°.
 //!
-//! The simulated IMU's accelerometer reads gravity alone ([`SilPlant`]'s), the condition under
-//! which docs/closed-loop.md's targets hold; with one that also feels the platform's
-//! acceleration the tilt feedback as built is worse than none (that document's status).
+//! The simulated IMU's accelerometer reads the specific force at the platform's centre of mass
+//! ([`SilPlant`]'s default), and the runtime feeds back its tilt estimate (docs/closed-loop.md).
 
 use omnikin::Pose2;
 use omnikin::description::RobotDescription;
