@@ -939,10 +939,10 @@ fn version_mismatch_is_named_both_ways() {
         while !d2.load(Ordering::Relaxed) && Instant::now() < deadline {
             if let Ok((n, from)) = v1_robot.recv_from(&mut buf) {
                 let mut f = buf[..n - 1].to_vec();
-                if let Some((_, omnikin::link::v1::Frame::Hello { .. })) =
+                if let Some((_, omnikin::link::v1::V1Frame::Hello { .. })) =
                     omnikin::link::v1::parse(&mut f, None)
                 {
-                    let info = omnikin::link::v1::RobotInfo {
+                    let info = omnikin::link::v1::V1RobotInfo {
                         protocol: 1,
                         kind: omnikin::link::RobotKind::Sphere,
                         plan_capacity: 4096,
@@ -1275,7 +1275,7 @@ fn a_forged_v1_hello_ack_does_not_end_the_operators_attempt() {
         let done = Arc::new(AtomicBool::new(false));
         let d2 = done.clone();
         let h = std::thread::spawn(move || {
-            let info = omnikin::link::v1::RobotInfo {
+            let info = omnikin::link::v1::V1RobotInfo {
                 protocol: 1,
                 kind: omnikin::link::RobotKind::Sphere,
                 plan_capacity: 4096,

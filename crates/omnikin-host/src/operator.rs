@@ -285,12 +285,12 @@ impl Session {
                     // ends nothing).
                     let proven = self.key.as_ref().and_then(|k| {
                         match v1::parse(&mut copy.clone(), Some(k)) {
-                            Some((_, v1::Frame::HelloAck(i))) => Some(i),
+                            Some((_, v1::V1Frame::HelloAck(i))) => Some(i),
                             _ => None,
                         }
                     });
                     let plain = match v1::parse(&mut copy.clone(), None) {
-                        Some((_, v1::Frame::HelloAck(i))) if from_robot => Some(i),
+                        Some((_, v1::V1Frame::HelloAck(i))) if from_robot => Some(i),
                         _ => None,
                     };
                     if let Some(i) = proven.or(plain)

@@ -282,7 +282,7 @@ pub fn simulate_shard(
 }
 
 /// The fingerprint of the series plans (their every sample, exactly).
-fn series_fingerprint(series: &[omnikin_sim::reproduce::Series]) -> String {
+fn series_fingerprint(series: &[omnikin_sim::reproduce::PaperSeries]) -> String {
     let text: String = series
         .iter()
         .map(|s| format!("{}:{:?}\n", s.name, s.plan))
@@ -292,7 +292,7 @@ fn series_fingerprint(series: &[omnikin_sim::reproduce::Series]) -> String {
 
 fn reproduce_inputs(
     info: &ReproduceInfo,
-    series: &[omnikin_sim::reproduce::Series],
+    series: &[omnikin_sim::reproduce::PaperSeries],
 ) -> BTreeMap<String, String> {
     let mut m = BTreeMap::new();
     m.insert("trials".into(), info.trials.to_string());
@@ -331,7 +331,7 @@ pub fn reproduce_shard(
     shard: Shard,
     info: &ReproduceInfo,
     plants: &omnikin_sim::reproduce::Plants<'_>,
-    series: &[omnikin_sim::reproduce::Series],
+    series: &[omnikin_sim::reproduce::PaperSeries],
     pool: &rayon::ThreadPool,
 ) -> Result<()> {
     let start = std::time::Instant::now();

@@ -333,7 +333,7 @@ impl<'a> Report<'a> {
     /// `pool.install`).
     pub fn prior_band(
         &self,
-        s: &omnikin_sim::reproduce::Series,
+        s: &omnikin_sim::reproduce::PaperSeries,
     ) -> Result<Option<omnikin_sim::reproduce::PriorBand>> {
         let Some(d) = self.info.dynamic.as_ref() else {
             return Ok(None);
@@ -347,7 +347,7 @@ impl<'a> Report<'a> {
     /// they were made).
     pub fn add(
         &mut self,
-        s: &omnikin_sim::reproduce::Series,
+        s: &omnikin_sim::reproduce::PaperSeries,
         outcomes: &[omnikin_sim::reproduce::Outcome],
         tally: Option<omnikin_sim::reproduce::ContactTally>,
         band: Option<omnikin_sim::reproduce::PriorBand>,

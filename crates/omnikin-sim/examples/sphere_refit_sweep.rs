@@ -19,7 +19,9 @@
 use omnikin::description::RobotDescription;
 use omnikin_sim::dynamics::sphere::SphereDynamics;
 use omnikin_sim::dynamics::sphere::priors::{COM_DEPTH_PARTS_RANGE, PRIORS, Prior};
-use omnikin_sim::reproduce::{PAPER_RADIUS_RATIOS, Series, deterministic_figures, fit_to_paper};
+use omnikin_sim::reproduce::{
+    PAPER_RADIUS_RATIOS, PaperSeries, deterministic_figures, fit_to_paper,
+};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
@@ -91,8 +93,8 @@ fn main() -> ExitCode {
 fn row(
     name: &str,
     robot: SphereDynamics,
-    series: &[Series],
-    c5: &Series,
+    series: &[PaperSeries],
+    c5: &PaperSeries,
     (lo, hi): (f64, f64),
     (dlo, dhi): (f64, f64),
 ) -> String {

@@ -17,7 +17,7 @@ use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use crate::sensors::{CameraFix, CameraGaps, CameraProfile, SensorProfile};
+use crate::sensors::{CameraGaps, CameraProfile, SensorProfile, SimulatedFix};
 
 /// The camera: a checked profile, its own seeded random stream, and the fixes in flight.
 #[derive(Clone, Debug)]
@@ -26,7 +26,7 @@ pub struct Camera {
     gaps: CameraGaps,
     rng: ChaCha8Rng,
     next_frame: u64,
-    pending: VecDeque<CameraFix>,
+    pending: VecDeque<SimulatedFix>,
 }
 
 impl Camera {
@@ -86,7 +86,7 @@ impl Camera {
         } else {
             (0.0, 0.0)
         };
-        self.pending.push_back(CameraFix {
+        self.pending.push_back(SimulatedFix {
             t,
             arrival: t + p.latency,
             x: x + p.noise_std * nx + ox,
@@ -97,7 +97,7 @@ impl Camera {
     }
 
     /// The oldest fix whose arrival time is at or before `t`, if any (call until `None`).
-    pub fn deliver(&mut self, t: f64) -> Option<CameraFix> {
+    pub fn deliver(&mut self, t: f64) -> Option<SimulatedFix> {
         if self.pending.front().is_some_and(|f| f.arrival <= t + 1e-9) {
             self.pending.pop_front()
         } else {

@@ -51,7 +51,7 @@ pub enum Experiment {
 
 /// One planned series of the experiment design.
 #[derive(Clone, Debug)]
-pub struct Series {
+pub struct PaperSeries {
     /// `square` or `circle`.
     pub experiment: Experiment,
     /// The paper's speed index `k` (1, 2, 4, 5).
@@ -66,7 +66,7 @@ pub struct Series {
     pub plan: Plan,
 }
 
-impl Series {
+impl PaperSeries {
     /// `"square"` or `"circle"`.
     pub fn experiment_name(&self) -> &'static str {
         match self.experiment {
@@ -91,7 +91,7 @@ pub const PAPER_MAX_DEVIATION_FROM_MEAN_M: f64 = 0.110;
 pub fn sphere_2019_series(
     robot: &RobotDescription,
     rate: f64,
-) -> Result<Vec<Series>, omnikin_plan::PlanningError> {
+) -> Result<Vec<PaperSeries>, omnikin_plan::PlanningError> {
     omnikin_plan::limits::check_range(
         "rate",
         rate,
@@ -108,7 +108,7 @@ pub fn sphere_2019_series(
             &model,
             &sq.options(rate, OnLimit::Reject),
         )?;
-        out.push(Series {
+        out.push(PaperSeries {
             experiment: Experiment::Square,
             k,
             speed: sq.speed,
@@ -124,7 +124,7 @@ pub fn sphere_2019_series(
     for k in [1.0, 2.0, 4.0, 5.0] {
         let c = Circle::paper(k);
         let p = plan(&c.path()?, &c.heading(), &model, &c.options(rate))?;
-        out.push(Series {
+        out.push(PaperSeries {
             experiment: Experiment::Circle,
             k,
             speed: c.speed(),
@@ -247,7 +247,10 @@ impl DynamicSource {
 /// # Errors
 /// [`DynamicsError::Input`] when `series` has no [`DYNAMIC_FIT_SERIES`] or no depth in the
 /// search bracket reaches 1.4; the dynamics' error.
-pub fn fit_to_paper(base: SphereDynamics, series: &[Series]) -> Result<DynamicFit, DynamicsError> {
+pub fn fit_to_paper(
+    base: SphereDynamics,
+    series: &[PaperSeries],
+) -> Result<DynamicFit, DynamicsError> {
     let s = series
         .iter()
         .find(|s| s.name == DYNAMIC_FIT_SERIES)
@@ -274,7 +277,7 @@ pub fn dynamic_profile(params: SphereDynamics) -> DynamicProfile {
 /// The dynamics' error.
 pub fn nominal_contact_events(
     params: SphereDynamics,
-    series: &Series,
+    series: &PaperSeries,
 ) -> Result<crate::dynamics::sphere::ContactEvents, DynamicsError> {
     Ok(crate::dynamics::sphere::simulate_plan(params, &series.plan)?.contact_events)
 }
@@ -377,7 +380,7 @@ pub const DEFAULT_PRIOR_SAMPLES: usize = 20;
 /// The dynamics' error; the metrics' error as [`DynamicsError::Input`].
 pub fn deterministic_figures(
     params: SphereDynamics,
-    series: &Series,
+    series: &PaperSeries,
 ) -> Result<(f64, Option<f64>), DynamicsError> {
     let t = crate::dynamics::sphere::simulate_plan(params, &series.plan)?.trial;
     let m = crate::metrics::evaluate(&series.plan, &[crate::trial_run(t)])
@@ -422,7 +425,7 @@ fn p5_p95(v: &mut [f64]) -> [f64; 2] {
 /// Any run's error.
 pub fn prior_band(
     base: SphereDynamics,
-    series: &Series,
+    series: &PaperSeries,
     samples: usize,
     seed: u64,
 ) -> Result<Option<PriorBand>, DynamicsError> {
@@ -458,7 +461,7 @@ pub fn prior_band(
 /// Any run's error.
 pub fn sensitivity_markdown(
     base: SphereDynamics,
-    series: &[Series],
+    series: &[PaperSeries],
 ) -> Result<String, DynamicsError> {
     use crate::dynamics::sphere::priors::{COM_DEPTH_PARTS_RANGE, PRIORS};
     use rayon::prelude::*;
@@ -588,7 +591,12 @@ impl<'a> Plants<'a> {
     ///
     /// # Errors
     /// [`SimError::Mismatch`] for a profile that does not run; the trial's error.
-    pub fn trial(&self, series: &Series, name: &str, i: usize) -> Result<crate::Trial, SimError> {
+    pub fn trial(
+        &self,
+        series: &PaperSeries,
+        name: &str,
+        i: usize,
+    ) -> Result<crate::Trial, SimError> {
         self.trial_with_events(series, name, i).map(|(t, _)| t)
     }
 
@@ -599,7 +607,7 @@ impl<'a> Plants<'a> {
     /// As [`Plants::trial`].
     pub fn trial_with_events(
         &self,
-        series: &Series,
+        series: &PaperSeries,
         name: &str,
         i: usize,
     ) -> Result<(crate::Trial, Option<crate::dynamics::sphere::ContactEvents>), SimError> {
@@ -631,7 +639,7 @@ impl<'a> Plants<'a> {
     /// As [`Plants::trial`].
     pub fn run_recording(
         &self,
-        series: &Series,
+        series: &PaperSeries,
         name: &str,
         i: usize,
         contacts: &ContactRecorder,
@@ -664,7 +672,7 @@ fn tracking_offset(name: &str) -> [f64; 2] {
 /// # Errors
 /// `run`'s error as [`MonteCarloError::Visit`]; the metrics' error.
 pub fn evaluate_series<E: Send>(
-    series: &Series,
+    series: &PaperSeries,
     runs: &[(&'static str, usize)],
     run: &(dyn Fn(&str, usize) -> Result<Run, E> + Sync),
     progress: &(dyn Fn() + Sync),
@@ -700,7 +708,7 @@ pub fn evaluate_series<E: Send>(
 /// Any trial's error.
 pub fn run_series(
     robot: &omnikin::Robot<f64>,
-    series: &Series,
+    series: &PaperSeries,
     trials: usize,
     seed: u64,
     kinematic: &[&str],
@@ -731,7 +739,7 @@ pub fn run_series(
 /// A trial's error ([`MonteCarloError::Sim`]) or `visit`'s ([`MonteCarloError::Visit`]).
 pub fn shard_series<E: Send>(
     plants: &Plants<'_>,
-    series: &Series,
+    series: &PaperSeries,
     runs: &[(&'static str, core::ops::Range<usize>)],
     progress: &(dyn Fn() + Sync),
     mut visit: impl FnMut(
@@ -763,7 +771,7 @@ fn fmt_opt(v: Option<f64>, digits: usize) -> String {
 /// One row of the results table.
 #[derive(Clone, Debug, Serialize)]
 pub struct Row {
-    /// Series name.
+    /// The series's name.
     pub series: String,
     /// Centre speed, m/s.
     pub speed_m_per_s: f64,
@@ -809,7 +817,7 @@ pub struct Row {
 
 /// Builds a table row from a series' outcomes (in [`profiles`] order) and the dynamic
 /// profile's prior band, when drawn.
-pub fn row(series: &Series, outcomes: &[Outcome], band: Option<&PriorBand>) -> Row {
+pub fn row(series: &PaperSeries, outcomes: &[Outcome], band: Option<&PriorBand>) -> Row {
     let m = |name: &str| {
         outcomes
             .iter()

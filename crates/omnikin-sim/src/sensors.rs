@@ -462,7 +462,7 @@ pub struct ImuRow {
 
 /// One camera fix of the robot centre (world frame).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CameraFix {
+pub struct SimulatedFix {
     /// When the frame was taken, s.
     pub t: f64,
     /// When it arrived, s (`t + latency`).
@@ -485,7 +485,7 @@ pub struct Sensors {
     /// The IMU log (empty without [`SensorProfile::imu`]).
     pub imu: Vec<ImuRow>,
     /// Camera fixes in order of the time taken (empty without [`SensorProfile::camera`]).
-    pub fixes: Vec<CameraFix>,
+    pub fixes: Vec<SimulatedFix>,
     /// The gyro-z bias actually applied in this trial (profile bias + drawn part), rad/s.
     pub gyro_bias: f64,
 }
@@ -745,7 +745,7 @@ pub fn emit_with_attitude(
                 left -= 1;
             }
             let p = trial.pose[k];
-            let mut fix = CameraFix {
+            let mut fix = SimulatedFix {
                 t: t[k],
                 arrival: t[k] + cam.latency,
                 x: p.x + cam.noise_std * gauss(rng),
@@ -842,7 +842,7 @@ pub fn write_encoder_log<W: Write>(rows: &[EncoderRow], mut out: W) -> std::io::
 
 /// Writes camera fixes as the tracked-trajectory CSV of conventions.md, `t,x,y` plus `heading`
 /// when the fixes carry it, plus an `arrival` column (s): `t` is when the frame was taken.
-pub fn write_fixes<W: Write>(fixes: &[CameraFix], mut out: W) -> std::io::Result<()> {
+pub fn write_fixes<W: Write>(fixes: &[SimulatedFix], mut out: W) -> std::io::Result<()> {
     let heading = fixes.first().is_some_and(|f| f.heading.is_some());
     writeln!(
         out,

@@ -3,7 +3,7 @@
 
 use omnikin::Robot;
 use omnikin::control::ball_velocity_from_wheels;
-use omnikin::control::{BalanceConfig, BalanceController, Command, Plane, Status};
+use omnikin::control::{BalanceCommand, BalanceConfig, BalanceController, BalanceState, Plane};
 use omnikin::nalgebra::{UnitQuaternion, Vector3};
 use omnikin_plan::RobotModel;
 use omnikin_plan::generators::Square;
@@ -159,7 +159,7 @@ fn closed_loop(
     s0: BallbotState,
     seconds: f64,
     pushes: &[Push],
-    command: impl FnMut(f64) -> Command<f64>,
+    command: impl FnMut(f64) -> BalanceCommand<f64>,
 ) -> (Vec<CycleRecord>, BallbotState) {
     let p = plant();
     let mut c = controller();
@@ -184,7 +184,7 @@ fn tilted(deg: f64, axis: Vector3<f64>) -> BallbotState {
 fn closed_loop_is_upright_within_3_s_from_5_degrees() {
     let p = plant();
     for ax in [Vector3::x(), Vector3::y(), Vector3::new(1.0, -2.0, 0.0)] {
-        let (log, end) = closed_loop(tilted(5.0, ax), 6.0, &[], |_| Command::hold());
+        let (log, end) = closed_loop(tilted(5.0, ax), 6.0, &[], |_| BalanceCommand::hold());
         let settle = log
             .iter()
             .rev()
@@ -201,7 +201,10 @@ fn closed_loop_is_upright_within_3_s_from_5_degrees() {
             p.tilt(&end) / DEG
         );
         assert!(settle <= 3.0, "settles at {settle} s");
-        assert!(log.iter().all(|r| r.output.status == Status::Balancing));
+        assert!(
+            log.iter()
+                .all(|r| r.output.status == BalanceState::Balancing)
+        );
         assert!(p.tilt(&end) < 0.1 * DEG);
     }
 }
@@ -212,7 +215,10 @@ const LEAD_IN: f64 = 1.0;
 
 /// A plan's commands, the plan starting at [`LEAD_IN`]: the sample's world velocity, the
 /// acceleration to the next sample and, with `preview`, the previewed lean.
-fn plan_commands(plan: &omnikin_plan::Plan, preview: bool) -> impl FnMut(f64) -> Command<f64> + '_ {
+fn plan_commands(
+    plan: &omnikin_plan::Plan,
+    preview: bool,
+) -> impl FnMut(f64) -> BalanceCommand<f64> + '_ {
     let s = &plan.samples;
     let dt = s[1].t - s[0].t;
     let lead = (LEAD_IN / dt).round() as usize;
@@ -231,9 +237,9 @@ fn plan_commands(plan: &omnikin_plan::Plan, preview: bool) -> impl FnMut(f64) ->
     move |t| {
         let k = (t / dt).round() as usize;
         if k >= n {
-            return Command::hold();
+            return BalanceCommand::hold();
         }
-        Command {
+        BalanceCommand {
             velocity: vel[k],
             acceleration: acc[k],
             yaw_rate: k.checked_sub(lead).map_or(0.0, |i| s[i].twist.yaw_rate),
@@ -316,7 +322,10 @@ fn closed_loop_follows_the_square_within_5_cm_and_8_degrees() {
     );
     assert!(max_err < 0.05, "tracking error {max_err} m");
     assert!(max_tilt < 8.0 * DEG, "tilt {} deg", max_tilt / DEG);
-    assert!(log.iter().all(|r| r.output.status == Status::Balancing));
+    assert!(
+        log.iter()
+            .all(|r| r.output.status == BalanceState::Balancing)
+    );
     // The path was actually driven (not a robot standing at the origin).
     let far = log
         .iter()
@@ -333,7 +342,7 @@ fn push(impulse: f64) -> (Vec<CycleRecord>, BallbotState) {
         time: 0.5,
         impulse: [impulse, 0.0],
     }];
-    closed_loop(p.upright(0.0), 6.0, &pushes, |_| Command::hold())
+    closed_loop(p.upright(0.0), 6.0, &pushes, |_| BalanceCommand::hold())
 }
 
 /// Survived: 12 N·s on the body's centre of mass (≈ 0.7 m/s of the 17.6 kg robot's centre of
@@ -353,7 +362,10 @@ fn survives_a_push_and_falls_with_motors_off_beyond_a_larger_one() {
         max_tilt / DEG,
         p.tilt(&end) / DEG
     );
-    assert!(log.iter().all(|r| r.output.status == Status::Balancing));
+    assert!(
+        log.iter()
+            .all(|r| r.output.status == BalanceState::Balancing)
+    );
     assert!(p.tilt(&end) < 0.5 * DEG);
     assert!(
         saturated > 0,
@@ -363,7 +375,7 @@ fn survives_a_push_and_falls_with_motors_off_beyond_a_larger_one() {
     let (log, _) = push(FATAL_PUSH);
     let fall = log
         .iter()
-        .position(|r| r.output.status == Status::Fallen)
+        .position(|r| r.output.status == BalanceState::Fallen)
         .expect("a push this size must make it fall");
     eprintln!(
         "push {FATAL_PUSH} N·s: fall detected at {:.3} s at {:.1}°",
@@ -372,7 +384,7 @@ fn survives_a_push_and_falls_with_motors_off_beyond_a_larger_one() {
     );
     assert!(log[fall].output.tilt > 20.0 * DEG);
     for r in &log[fall..] {
-        assert_eq!(r.output.status, Status::Fallen);
+        assert_eq!(r.output.status, BalanceState::Fallen);
         assert_eq!(r.output.wheel_torques, [0.0; 3], "motors must be off");
     }
 }
@@ -449,7 +461,7 @@ fn balances_on_wheel_odometry_corrected_for_the_lean() {
             tilted(5.0, Vector3::new(1.0, 1.0, 0.0)),
             &opts,
             &mut measure,
-            |_| Command::hold(),
+            |_| BalanceCommand::hold(),
             |_| {},
         )
         .unwrap();
@@ -507,8 +519,8 @@ fn balances_with_sensor_noise() {
             }
             Ok(m)
         },
-        |_| Command::hold(),
-        |r| assert_eq!(r.output.status, Status::Balancing),
+        |_| BalanceCommand::hold(),
+        |r| assert_eq!(r.output.status, BalanceState::Balancing),
     )
     .unwrap();
     eprintln!(

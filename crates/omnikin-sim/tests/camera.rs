@@ -3,13 +3,13 @@
 //! 2 mm) with its `CameraGaps`.
 
 use omnikin_sim::camera::Camera;
-use omnikin_sim::sensors::{CameraFix, CameraGaps, CameraProfile};
+use omnikin_sim::sensors::{CameraGaps, CameraProfile, SimulatedFix};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 /// Runs the camera for `secs` at 1 kHz over a truth moving at 0.3 m/s along x; every delivered
 /// fix with the time it was seen.
-fn run(profile: CameraProfile, gaps: CameraGaps, seed: u64, secs: f64) -> Vec<(f64, CameraFix)> {
+fn run(profile: CameraProfile, gaps: CameraGaps, seed: u64, secs: f64) -> Vec<(f64, SimulatedFix)> {
     let mut cam = Camera::new(profile, gaps, ChaCha8Rng::seed_from_u64(seed)).unwrap();
     let mut out = Vec::new();
     let n = (secs * 1000.0).round() as usize;

@@ -5,8 +5,8 @@ use omnikin::InputError;
 use omnikin::ballbot::Ballbot;
 use omnikin::control::lqr::{self, LqrError};
 use omnikin::control::{
-    BalanceConfig, BalanceController, BalanceError, Command, Lean, Measurement, PlanarModel, Plane,
-    PlantParams, Status,
+    BalanceCommand, BalanceConfig, BalanceController, BalanceError, BalanceState, Lean,
+    Measurement, PlanarModel, Plane, PlantParams,
 };
 use omnikin::nalgebra::{Matrix1, Matrix2, Matrix4, SMatrix, UnitQuaternion, Vector2, Vector3};
 
@@ -275,10 +275,10 @@ fn static_feed_forward_holds_the_commanded_acceleration_in_the_linear_model() {
         ball_velocity: [vel, 0.0],
         ..still()
     };
-    let cmd = Command {
+    let cmd = BalanceCommand {
         velocity: [vel, 0.0],
         acceleration: [acc, 0.0],
-        ..Command::hold()
+        ..BalanceCommand::hold()
     };
     let out = c.step(&meas, &cmd).unwrap();
     assert!(!out.saturated);
@@ -297,7 +297,7 @@ fn static_feed_forward_holds_the_commanded_acceleration_in_the_linear_model() {
     assert!(sol[0] > (acc / 9.81f64).atan() && sol[0] < 1.5 * (acc / 9.81f64).atan());
     // A previewed lean equal to the static one asks the same torque (its ball row).
     let mut c2 = BalanceController::new(cfg).unwrap();
-    let with_lean = Command {
+    let with_lean = BalanceCommand {
         lean: Some(Lean {
             tilt: [sol[0], 0.0],
             rate: [0.0; 2],
@@ -319,7 +319,7 @@ fn saturation_keeps_the_torque_direction_and_a_fall_turns_the_motors_off() {
         tilt_rate: [0.5, 0.3],
         ..still()
     };
-    let out = c.step(&meas, &Command::hold()).unwrap();
+    let out = c.step(&meas, &BalanceCommand::hold()).unwrap();
     assert!(out.saturated && out.scale < 1.0 && out.scale > 0.0);
     let peak = out.wheel_torques.iter().fold(0.0f64, |a, t| a.max(t.abs()));
     assert!((peak - cfg.torque_limit).abs() < 1e-12);
@@ -333,28 +333,28 @@ fn saturation_keeps_the_torque_direction_and_a_fall_turns_the_motors_off() {
     for i in 0..3 {
         assert!((back[i] - out.model_torques[i]).abs() < 1e-12);
     }
-    assert_eq!(out.status, Status::Balancing);
+    assert_eq!(out.status, BalanceState::Balancing);
 
     // Past the 20° threshold: fallen, motors off, latched.
     let over = Measurement {
         tilt: [15.0 * DEG, 15.0 * DEG], // ≈ 21°
         ..still()
     };
-    let out = c.step(&over, &Command::hold()).unwrap();
+    let out = c.step(&over, &BalanceCommand::hold()).unwrap();
     assert!(
         out.tilt > 20.0 * DEG && out.tilt < 22.0 * DEG,
         "{}",
         out.tilt / DEG
     );
-    assert_eq!(out.status, Status::Fallen);
+    assert_eq!(out.status, BalanceState::Fallen);
     assert_eq!(out.wheel_torques, [0.0; 3]);
-    let out = c.step(&still(), &Command::hold()).unwrap();
-    assert_eq!(out.status, Status::Fallen, "the fall must latch");
+    let out = c.step(&still(), &BalanceCommand::hold()).unwrap();
+    assert_eq!(out.status, BalanceState::Fallen, "the fall must latch");
     assert_eq!(out.wheel_torques, [0.0; 3]);
     c.reset();
     assert_eq!(
-        c.step(&still(), &Command::hold()).unwrap().status,
-        Status::Balancing
+        c.step(&still(), &BalanceCommand::hold()).unwrap().status,
+        BalanceState::Balancing
     );
     // Just below the threshold it still balances.
     let mut c = BalanceController::new(cfg).unwrap();
@@ -363,29 +363,29 @@ fn saturation_keeps_the_torque_direction_and_a_fall_turns_the_motors_off() {
         ..still()
     };
     assert_eq!(
-        c.step(&under, &Command::hold()).unwrap().status,
-        Status::Balancing
+        c.step(&under, &BalanceCommand::hold()).unwrap().status,
+        BalanceState::Balancing
     );
 }
 
 #[test]
 fn bad_input_is_an_error_and_leaves_the_state_alone() {
     let mut c = controller();
-    c.step(&still(), &Command::hold()).unwrap();
+    c.step(&still(), &BalanceCommand::hold()).unwrap();
     let before = c;
     let bad = Measurement {
         ball_velocity: [0.0, f64::NAN],
         ..still()
     };
     assert_eq!(
-        c.step(&bad, &Command::hold()).unwrap_err(),
+        c.step(&bad, &BalanceCommand::hold()).unwrap_err(),
         InputError::NonFinite {
             field: "ball_velocity[1]"
         }
     );
-    let bad_cmd = Command {
+    let bad_cmd = BalanceCommand {
         yaw_rate: f64::INFINITY,
-        ..Command::hold()
+        ..BalanceCommand::hold()
     };
     assert!(c.step(&still(), &bad_cmd).is_err());
     assert_eq!(c, before);
@@ -430,7 +430,7 @@ fn f32_and_f64_controllers_agree() {
     let mut worst_abs = 0.0f64;
     for k in 0..600 {
         let m = wobble(k);
-        let cmd = Command {
+        let cmd = BalanceCommand {
             velocity: [0.1, 0.0],
             acceleration: [0.0, 0.02],
             yaw_rate: 0.3,
@@ -444,7 +444,7 @@ fn f32_and_f64_controllers_agree() {
             ball_position: m.ball_position.map(|v| v as f32),
             ball_velocity: m.ball_velocity.map(|v| v as f32),
         };
-        let cmd32 = Command {
+        let cmd32 = BalanceCommand {
             velocity: [0.1f32, 0.0],
             acceleration: [0.0, 0.02],
             yaw_rate: 0.3,

@@ -1135,7 +1135,7 @@ fn v1_peers_and_v3_peers_name_the_mismatch() {
         // (`v1::parse` refuses trailing bytes), so the limits are not in it.
         let m = bot.link.version_reply(&bot.info, &mut buf).unwrap();
         let (_, f) = v1::parse(&mut buf[..m - 1].to_vec(), key.as_ref()).unwrap();
-        assert!(matches!(f, v1::Frame::HelloAck(i) if i.protocol == PROTOCOL_VERSION));
+        assert!(matches!(f, v1::V1Frame::HelloAck(i) if i.protocol == PROTOCOL_VERSION));
         if key.is_some() {
             let other = Key::new(b"another key of the same length!!").unwrap();
             assert_eq!(v1::parse(&mut buf[..m - 1].to_vec(), Some(&other)), None);
@@ -1143,9 +1143,9 @@ fn v1_peers_and_v3_peers_name_the_mismatch() {
         // A v1 robot's answer reaches a later operator as a version drop, readable as v1.
         let mut op = OperatorLink::new(key.clone());
         let n = v1::encode_hello_ack(
-            &v1::RobotInfo {
+            &v1::V1RobotInfo {
                 protocol: 1,
-                ..v1::RobotInfo::from(&info(false))
+                ..v1::V1RobotInfo::from(&info(false))
             },
             1,
             key.as_ref(),
@@ -1154,7 +1154,7 @@ fn v1_peers_and_v3_peers_name_the_mismatch() {
         .unwrap();
         assert_eq!(op_rx(&mut op, &buf[..n]), Err(DropReason::Version(1)));
         let (_, f) = v1::parse(&mut buf[..n - 1].to_vec(), key.as_ref()).unwrap();
-        assert!(matches!(f, v1::Frame::HelloAck(i) if i.protocol == 1));
+        assert!(matches!(f, v1::V1Frame::HelloAck(i) if i.protocol == 1));
     }
 }
 

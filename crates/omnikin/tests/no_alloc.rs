@@ -70,7 +70,7 @@ fn kinematics_calls_allocate_nothing() {
 
 #[test]
 fn balance_controller_allocates_nothing() {
-    use omnikin::control::{BalanceConfig, BalanceController, Command, Measurement};
+    use omnikin::control::{BalanceCommand, BalanceConfig, BalanceController, Measurement};
     let (n, _) = allocations(|| {
         // Construction (ZOH discretisation, three Riccati iterations) and cycles, f32 and f64.
         let mut c = BalanceController::<f32>::new(BalanceConfig::preset()).unwrap();
@@ -86,7 +86,7 @@ fn balance_controller_allocates_nothing() {
                 ball_position: [t, 0.0],
                 ball_velocity: [0.1, 0.0],
             };
-            acc += c.step(&m, &Command::hold()).unwrap().wheel_torques[0] as f64;
+            acc += c.step(&m, &BalanceCommand::hold()).unwrap().wheel_torques[0] as f64;
         }
         let bad = Measurement {
             tilt: [f64::NAN, 0.0],
@@ -96,7 +96,7 @@ fn balance_controller_allocates_nothing() {
             ball_position: [0.0; 2],
             ball_velocity: [0.0; 2],
         };
-        acc += c64.step(&bad, &Command::hold()).is_err() as u8 as f64;
+        acc += c64.step(&bad, &BalanceCommand::hold()).is_err() as u8 as f64;
         acc
     });
     assert_eq!(n, 0, "the balance controller allocated {n} times");

@@ -2,7 +2,9 @@
 //! start-up, in software `f64`), then run in `f32` at 200 Hz against the linearised planar
 //! models of the preset (the controller's own zero-order-hold models) from a 5° lean.
 
-use omnikin::control::{BalanceConfig, BalanceController, Command, Measurement, Status};
+use omnikin::control::{
+    BalanceCommand, BalanceConfig, BalanceController, BalanceState, Measurement,
+};
 
 /// What the run showed.
 pub struct BalanceRun {
@@ -40,12 +42,12 @@ pub fn run() -> Option<BalanceRun> {
             ball_position: [r * s[1][0], -r * s[0][0]],
             ball_velocity: [r * s[1][2], -r * s[0][2]],
         };
-        let o = c.step(&m, &Command::hold()).ok()?;
+        let o = c.step(&m, &BalanceCommand::hold()).ok()?;
         if o.tilt >= 0.5f32.to_radians() {
             out.settle_s = k as f32 * dt;
         }
         out.saturated += o.saturated as u32;
-        out.fell |= o.status == Status::Fallen;
+        out.fell |= o.status == BalanceState::Fallen;
         out.final_tilt_deg = o.tilt.to_degrees();
         for (p, d) in designs.iter().enumerate() {
             let n = d.states;

@@ -202,10 +202,10 @@ fn main() {
 /// turned into heading-frame tilts ([`Measurement::from_attitude`]), then one controller step
 /// (two 4-state LQR laws with feed-forward, the yaw law, the wheel-torque map, saturation).
 fn balance_cycles<T: omnikin::Real>(n: u64) {
-    use omnikin::control::{BalanceConfig, BalanceController, Command, Measurement};
+    use omnikin::control::{BalanceCommand, BalanceConfig, BalanceController, Measurement};
     use omnikin::nalgebra::{UnitQuaternion, Vector3};
     let mut c = BalanceController::<T>::new(BalanceConfig::preset()).unwrap();
-    let cmd = Command {
+    let cmd = BalanceCommand {
         velocity: [T::of(0.1), T::of(0.0)],
         acceleration: [T::of(0.0), T::of(0.05)],
         yaw_rate: T::of(0.1),

@@ -6,7 +6,7 @@
 //! **Cycle** ([`BalanceController::step`], at the rate of [`BalanceConfig::rate_hz`]):
 //! 1. *Fall check*: the tilt `ϑ` (angle between the body z axis and the vertical, from the
 //!    heading-frame tilts, `tan²ϑ = tan²θ_x + tan²θ_y`) above [`BalanceConfig::fall_tilt`]
-//!    latches [`Status::Fallen`]: all torques 0 (motors off) until [`BalanceController::reset`].
+//!    latches [`BalanceState::Fallen`]: all torques 0 (motors off) until [`BalanceController::reset`].
 //! 2. *Reference*: the commanded world velocity `v_ref` is integrated into a reference position
 //!    `p_ref` (started at the measured position on the first cycle), the commanded yaw rate
 //!    into a reference yaw. The position error `p − p_ref` is limited to
@@ -48,7 +48,7 @@ use nalgebra::{Matrix2, Matrix4, Vector2, Vector4};
 use super::config::{BalanceConfig, BalanceError, Weights, check, plant_f64, validate_plant};
 use super::lqr::{self, LqrError};
 use super::planar::{PlanarModel, Plane, PlantParams};
-use super::signals::{BalanceOutput, Command, Measurement, Status};
+use super::signals::{BalanceCommand, BalanceOutput, BalanceState, Measurement};
 use crate::ballbot::Ballbot;
 use crate::real::{finite, finite_out};
 use crate::{InputError, Real};
@@ -305,7 +305,7 @@ impl<T: Real> BalanceController<T> {
     pub fn step(
         &mut self,
         m: &Measurement<T>,
-        cmd: &Command<T>,
+        cmd: &BalanceCommand<T>,
     ) -> Result<BalanceOutput<T>, InputError> {
         finite(m.tilt[0], "tilt[0]")?;
         finite(m.tilt[1], "tilt[1]")?;
@@ -343,7 +343,7 @@ impl<T: Real> BalanceController<T> {
             saturated: false,
             scale: z,
             tilt,
-            status: Status::Fallen,
+            status: BalanceState::Fallen,
         };
         if self.fallen || !tilt.is_finite() || tilt > self.config.fall_tilt {
             self.fallen = true;
@@ -416,7 +416,7 @@ impl<T: Real> BalanceController<T> {
             saturated,
             scale,
             tilt,
-            status: Status::Balancing,
+            status: BalanceState::Balancing,
         })
     }
 }

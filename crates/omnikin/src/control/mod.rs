@@ -21,4 +21,6 @@ pub mod signals;
 pub use balance::{BalanceController, PlaneDesign};
 pub use config::{BalanceConfig, BalanceError, PRESET_TORQUE_LIMIT, Weights, validate_plant};
 pub use planar::{PlanarModel, Plane, PlantParams};
-pub use signals::{BalanceOutput, Command, Lean, Measurement, Status, ball_velocity_from_wheels};
+pub use signals::{
+    BalanceCommand, BalanceOutput, BalanceState, Lean, Measurement, ball_velocity_from_wheels,
+};

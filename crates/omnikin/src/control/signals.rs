@@ -1,6 +1,6 @@
 //! What the balance controller reads and writes each cycle: the measured state
-//! ([`Measurement`], from the AHRS and the odometry), the motion to follow ([`Command`], with an
-//! optional previewed [`Lean`]) and the output ([`BalanceOutput`], [`Status`]).
+//! ([`Measurement`], from the AHRS and the odometry), the motion to follow ([`BalanceCommand`], with an
+//! optional previewed [`Lean`]) and the output ([`BalanceOutput`], [`BalanceState`]).
 
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -104,7 +104,7 @@ pub fn ball_velocity_from_wheels<T: Real>(
 
 /// The motion to follow, one control cycle (a plan sample).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Command<T> {
+pub struct BalanceCommand<T> {
     /// Ball velocity, world frame, m/s.
     pub velocity: [T; 2],
     /// Ball acceleration, world frame, m/s² (the feed-forward lean; 0 if unknown).
@@ -119,7 +119,7 @@ pub struct Command<T> {
     pub lean: Option<Lean<T>>,
 }
 
-impl<T: Real> Command<T> {
+impl<T: Real> BalanceCommand<T> {
     /// Stand still.
     pub fn hold() -> Self {
         Self {
@@ -133,7 +133,7 @@ impl<T: Real> Command<T> {
 
 /// Balancing, or fallen (latched; motors off).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Status {
+pub enum BalanceState {
     /// Balancing.
     Balancing,
     /// The tilt passed the fall threshold: motors off until reset.
@@ -156,5 +156,5 @@ pub struct BalanceOutput<T> {
     /// Tilt `ϑ`, rad.
     pub tilt: T,
     /// Balancing or fallen.
-    pub status: Status,
+    pub status: BalanceState,
 }

@@ -65,7 +65,7 @@ pub struct RobotLimits {
 }
 
 /// Who the robot is, in its answer to a Hello ([`HelloAck`]; v1's fields, then the limits
-/// added in protocol 4 — a v1 answer carries [`v1::RobotInfo`](super::v1::RobotInfo)).
+/// added in protocol 4 — a v1 answer carries [`v1::V1RobotInfo`](super::v1::V1RobotInfo)).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RobotInfo {
     /// The robot's protocol version.

@@ -342,7 +342,7 @@ impl RobotLink {
         info: &RobotInfo,
         out: &mut [u8],
     ) -> Result<usize, EncodeError> {
-        let mut i = v1::RobotInfo::from(info);
+        let mut i = v1::V1RobotInfo::from(info);
         i.protocol = PROTOCOL_VERSION;
         let n = v1::encode_hello_ack(&i, self.v1_seq, self.key.as_ref(), out)?;
         self.v1_seq = self.v1_seq.saturating_add(1);

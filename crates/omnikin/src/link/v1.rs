@@ -2,7 +2,7 @@
 //! that v1 and later peers tell each other apart: a later robot answers a v1 frame with a v1
 //! HelloAck saying its protocol (e.g. `protocol: 4`); a later operator that gets no answer
 //! probes with a v1 Hello, so an older robot's HelloAck (`protocol: 1`, 2 or 3) names the
-//! mismatch. The v1 HelloAck's body is frozen ([`RobotInfo`]): every version encodes it alike.
+//! mismatch. The v1 HelloAck's body is frozen ([`V1RobotInfo`]): every version encodes it alike.
 
 use serde::Serialize;
 
@@ -19,7 +19,7 @@ const FLAG_AUTH: u8 = 1;
 /// [`link::RobotInfo`](super::RobotInfo) appends the body limits, which a v1 answer does not
 /// carry: a v1 operator decodes the body exactly, trailing bytes refused).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct RobotInfo {
+pub struct V1RobotInfo {
     /// The robot's protocol version.
     pub protocol: u8,
     /// Robot model.
@@ -34,7 +34,7 @@ pub struct RobotInfo {
     pub authenticated: bool,
 }
 
-impl From<&super::RobotInfo> for RobotInfo {
+impl From<&super::RobotInfo> for V1RobotInfo {
     fn from(i: &super::RobotInfo) -> Self {
         Self {
             protocol: i.protocol,
@@ -50,17 +50,17 @@ impl From<&super::RobotInfo> for RobotInfo {
 /// The first two variants of v1's `Message` (postcard writes the variant index first, so
 /// these encode and decode exactly as v1's `Hello` and `HelloAck`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub enum Frame {
+pub enum V1Frame {
     /// v1 `Hello { protocol }`.
     Hello {
         /// The sender's protocol version.
         protocol: u8,
     },
-    /// v1 `HelloAck(RobotInfo)`.
-    HelloAck(RobotInfo),
+    /// v1 `HelloAck(V1RobotInfo)`.
+    HelloAck(V1RobotInfo),
 }
 
-fn encode(f: &Frame, seq: u64, key: Option<&Key>, out: &mut [u8]) -> Result<usize, EncodeError> {
+fn encode(f: &V1Frame, seq: u64, key: Option<&Key>, out: &mut [u8]) -> Result<usize, EncodeError> {
     let mut raw = [0u8; MAX_RAW];
     raw[0] = VERSION;
     raw[1] = if key.is_some() { FLAG_AUTH } else { 0 };
@@ -82,7 +82,7 @@ fn encode(f: &Frame, seq: u64, key: Option<&Key>, out: &mut [u8]) -> Result<usiz
 /// # Errors
 /// [`EncodeError::TooLarge`] when `out` is too small.
 pub fn encode_hello(seq: u64, key: Option<&Key>, out: &mut [u8]) -> Result<usize, EncodeError> {
-    encode(&Frame::Hello { protocol: VERSION }, seq, key, out)
+    encode(&V1Frame::Hello { protocol: VERSION }, seq, key, out)
 }
 
 /// A v1 HelloAck carrying `info`.
@@ -90,17 +90,17 @@ pub fn encode_hello(seq: u64, key: Option<&Key>, out: &mut [u8]) -> Result<usize
 /// # Errors
 /// [`EncodeError::TooLarge`] when `out` is too small.
 pub fn encode_hello_ack(
-    info: &RobotInfo,
+    info: &V1RobotInfo,
     seq: u64,
     key: Option<&Key>,
     out: &mut [u8],
 ) -> Result<usize, EncodeError> {
-    encode(&Frame::HelloAck(*info), seq, key, out)
+    encode(&V1Frame::HelloAck(*info), seq, key, out)
 }
 
 /// Decodes a v1 Hello or HelloAck (the bytes between delimiters, decoded in place; the
 /// tag checked when `key` is given, as v1 did). `None` for anything else, never a panic.
-pub fn parse(frame: &mut [u8], key: Option<&Key>) -> Option<(u64, Frame)> {
+pub fn parse(frame: &mut [u8], key: Option<&Key>) -> Option<(u64, V1Frame)> {
     let n = super::cobs_decode_in_place(frame)?;
     let raw = frame.get(..n)?;
     if n < HEADER + 1 + 4 {
@@ -122,7 +122,7 @@ pub fn parse(frame: &mut [u8], key: Option<&Key>) -> Option<(u64, Frame)> {
             return None;
         }
     }
-    match postcard::take_from_bytes::<Frame>(&data[HEADER..end]) {
+    match postcard::take_from_bytes::<V1Frame>(&data[HEADER..end]) {
         Ok((f, [])) => Some((u64::from_le_bytes(s), f)),
         _ => None,
     }

@@ -48,7 +48,7 @@ use super::hal::{Encoders, Imu, MotorTorques, TorqueCommand};
 use super::status::{Faults, Mode};
 use crate::ballbot::Ballbot;
 use crate::control::{
-    BalanceConfig, BalanceController, BalanceError, Measurement, Status as BalanceState,
+    BalanceConfig, BalanceController, BalanceError, BalanceState, Measurement,
     ball_velocity_from_wheels,
 };
 use crate::estimate::ahrs::{Mahony, MahonyGains};
@@ -429,7 +429,7 @@ impl<T: Real> BalanceRuntime<T> {
         let k = if n > step { step / n } else { T::one() };
         let d = [d[0] * k, d[1] * k];
         self.command = [self.command[0] + d[0], self.command[1] + d[1]];
-        let cmd = crate::control::Command {
+        let cmd = crate::control::BalanceCommand {
             velocity: self.command,
             // No feed-forward lean: without a preview of the commands a lean step makes the
             // ball roll back first and then overshoot (a 0.2 m/s command peaked at 0.59 m/s

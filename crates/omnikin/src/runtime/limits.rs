@@ -60,7 +60,7 @@ pub fn saturation_scale<T: Real>(cmd: &MotorCommand<T>, limits: &RateLimits<T>) 
 
 /// Result of [`desaturate`].
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Desaturated<T> {
+pub struct DesaturatedTwist<T> {
     /// The scaled robot-frame twist (same direction as the request), m/s, m/s, rad/s.
     pub twist: Twist2<T>,
     /// Its motor rates, rad/s, every one within the limits.
@@ -81,18 +81,18 @@ pub fn desaturate<T: Real>(
     twist: Twist2<T>,
     steer: &[T; MAX_WHEELS],
     limits: &RateLimits<T>,
-) -> Result<Desaturated<T>, InputError> {
+) -> Result<DesaturatedTwist<T>, InputError> {
     let rates = motor_rates(robot, twist, steer)?;
     let scale = saturation_scale(&rates, limits);
     if scale >= T::one() {
-        return Ok(Desaturated {
+        return Ok(DesaturatedTwist {
             twist,
             rates,
             scale: T::one(),
         });
     }
     let k = |x: [T; MAX_WHEELS]| x.map(|v| v * scale);
-    Ok(Desaturated {
+    Ok(DesaturatedTwist {
         twist: Twist2::new(twist.vx * scale, twist.vy * scale, twist.yaw_rate * scale),
         rates: MotorCommand {
             wheel: k(rates.wheel),

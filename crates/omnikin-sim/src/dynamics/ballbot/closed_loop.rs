@@ -2,7 +2,7 @@
 //! wheel torques held (zero-order hold) over RK4 sub-steps of the 3D model, pushes as impulses
 //! on the body's centre of mass.
 
-use omnikin::control::{BalanceController, BalanceOutput, Command, Measurement};
+use omnikin::control::{BalanceCommand, BalanceController, BalanceOutput, Measurement};
 use omnikin::nalgebra::Vector3;
 
 use super::model::BallbotPlant;
@@ -26,7 +26,7 @@ pub struct CycleRecord {
     /// The plant's state at the start of the cycle (after any push).
     pub state: BallbotState,
     /// The command of this cycle.
-    pub command: Command<f64>,
+    pub command: BalanceCommand<f64>,
     /// The controller's output (the wheel torques held over the cycle).
     pub output: BalanceOutput<f64>,
     /// Wheel rates at the start of the cycle, rad/s.
@@ -57,7 +57,7 @@ pub fn run(
     controller: &mut BalanceController<f64>,
     state: BallbotState,
     opts: &RunOptions<'_>,
-    command: impl FnMut(f64) -> Command<f64>,
+    command: impl FnMut(f64) -> BalanceCommand<f64>,
     record: impl FnMut(&CycleRecord),
 ) -> Result<BallbotState, omnikin::InputError> {
     run_with(
@@ -83,7 +83,7 @@ pub fn run_with(
     mut state: BallbotState,
     opts: &RunOptions<'_>,
     mut measure: impl FnMut(f64, &BallbotState) -> Result<Measurement<f64>, omnikin::InputError>,
-    mut command: impl FnMut(f64) -> Command<f64>,
+    mut command: impl FnMut(f64) -> BalanceCommand<f64>,
     mut record: impl FnMut(&CycleRecord),
 ) -> Result<BallbotState, omnikin::InputError> {
     let dt = controller.period();

@@ -19,7 +19,7 @@
 //! threshold; the model keeps falling until the body tilts past [`FLOOR_TILT`], where it would
 //! hit the floor (not modelled): from there the robot lies still where it fell.
 
-use omnikin::control::{BalanceConfig, BalanceController, Command, Status};
+use omnikin::control::{BalanceCommand, BalanceConfig, BalanceController, BalanceState};
 use omnikin::nalgebra::{UnitQuaternion, Vector3};
 use omnikin::{MAX_WHEELS, Pose2};
 use omnikin_plan::Plan;
@@ -282,14 +282,14 @@ pub fn run_plan(
             m.ball_velocity[i] += nz.velocity * n();
         }
         m.yaw_rate += nz.rate * n();
-        let cmd = Command {
+        let cmd = BalanceCommand {
             velocity: vel[k],
             acceleration: acc[k],
             yaw_rate: yaw_rate_at(plan, t - lead + t0),
             lean: Some(lean[k]),
         };
         let out = controller.step(&m, &cmd)?;
-        if out.status == Status::Fallen && run.fallen_at.is_none() {
+        if out.status == BalanceState::Fallen && run.fallen_at.is_none() {
             run.fallen_at = Some(t);
         }
         run.saturated_cycles += out.saturated as usize;

@@ -1,6 +1,6 @@
 //! A lean the ballbot can follow: the previewed reference lean for a planned ball motion
 //! (stable inversion of the planar models), for the balance controller's
-//! [`omnikin::control::Command::lean`].
+//! [`omnikin::control::BalanceCommand::lean`].
 //!
 //! Adding the two rows of a vertical planar model eliminates the torque:
 //! `(a + b) φ̈ + (b + c) θ̈ = G θ − c_f φ̇`, i.e. `θ̈ − z² θ = −h(t)` with `z² = G/(b + c)` and
