@@ -8,3 +8,9 @@ pub mod mcap;
 pub mod ros2;
 pub mod seeds;
 pub mod text;
+
+/// The telemetry schema the MCAP `/link` encoder and decoder ([`mcap::foxglove`],
+/// [`mcap::proto`]) derive their counters from, compiled here from its source as they are.
+#[path = "../../crates/omnikin-io/src/telemetry_schema.rs"]
+#[allow(dead_code)]
+pub mod telemetry_schema;
