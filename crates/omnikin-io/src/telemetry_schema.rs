@@ -237,7 +237,7 @@ pub const FIELDS: [Field; 24] = [
         doc: "the robot's wheel (module) count: the used length of the per-wheel fields",
         csv: CsvColumns::None,
         json: JsonKey::Key("wheels"),
-        value: |t| Value::Count(t.wheels.into()),
+        value: |t| Value::Count(usize::from(t.wheels).min(MAX_WHEELS) as u64),
     },
     Field {
         unit: "",
@@ -262,54 +262,70 @@ pub struct Counter {
     pub name: &'static str,
     /// What it counts.
     pub doc: &'static str,
+    /// Its field number in the MCAP `omnikin.LinkCounters` protobuf message: fixed for good
+    /// once a log carries it (a new counter takes the next free number, from
+    /// [`NEXT_FIELD_NUMBER`]; [`DROPPED_FIELD`] and [`REJECTED_FIELD`] are taken).
+    pub field: u32,
     /// Reads it.
     pub value: fn(&LinkCounters) -> u32,
 }
 
-/// The receive counters the host side records and shows, in their column order.
+/// The receive counters the host side records and shows, in their column order. The core's
+/// `throttled` (Hellos a host dropped unread over their sender's rate) and `stale` (commands
+/// held back by an e-stop, also in `ok`) are not recorded (a test lists every field of
+/// [`LinkCounters`], so a new one is a decision here).
 pub const LINK_COUNTERS: [Counter; 9] = [
     Counter {
         name: "ok",
+        field: 2,
         doc: "Frames accepted",
         value: |c| c.ok,
     },
     Counter {
         name: "framing",
+        field: 3,
         doc: "Dropped: framing",
         value: |c| c.framing,
     },
     Counter {
         name: "crc",
+        field: 4,
         doc: "Dropped: CRC",
         value: |c| c.crc,
     },
     Counter {
         name: "version",
+        field: 5,
         doc: "Dropped: protocol version",
         value: |c| c.version,
     },
     Counter {
         name: "auth",
+        field: 6,
         doc: "Dropped: authentication",
         value: |c| c.auth,
     },
     Counter {
         name: "replay",
+        field: 7,
         doc: "Dropped: replay",
         value: |c| c.replay,
     },
     Counter {
         name: "malformed",
+        field: 8,
         doc: "Dropped: malformed",
         value: |c| c.malformed,
     },
     Counter {
         name: "session",
+        field: 9,
         doc: "Dropped: other session",
         value: |c| c.session,
     },
     Counter {
         name: "entropy",
+        field: 10,
         doc: "Dropped: entropy failure",
         value: |c| c.entropy,
     },
@@ -320,6 +336,13 @@ pub const RX_PREFIX: &str = "rx_";
 
 /// The name of the derived counter of every frame dropped ([`LinkCounters::dropped`]).
 pub const DROPPED: &str = "dropped";
+/// [`DROPPED`]'s field number in the MCAP `omnikin.LinkCounters` message.
+pub const DROPPED_FIELD: u32 = 11;
+/// The field number of the runtime's rejected commands in the MCAP `omnikin.LinkCounters`
+/// message.
+pub const REJECTED_FIELD: u32 = 12;
+/// The field number the next receive counter added to [`LINK_COUNTERS`] takes.
+pub const NEXT_FIELD_NUMBER: u32 = 13;
 
 /// The CSV header of a robot of `wheels` wheels (`steer`: with steer motors), from [`FIELDS`].
 pub fn csv_header(wheels: usize, steer: bool) -> String {
@@ -473,6 +496,54 @@ mod tests {
         t.link.replay = 2;
         t.link.entropy = 1;
         t
+    }
+
+    #[test]
+    fn every_link_counter_is_recorded_or_left_out_by_name() {
+        // No `..`: a field added to the core's counters fails to compile here until it is
+        // put in LINK_COUNTERS or named as left out.
+        let LinkCounters {
+            ok: _,
+            framing: _,
+            crc: _,
+            version: _,
+            auth: _,
+            replay: _,
+            malformed: _,
+            session: _,
+            entropy: _,
+            throttled: _,
+            stale: _,
+        } = LinkCounters::default();
+        let recorded: Vec<&str> = LINK_COUNTERS.iter().map(|c| c.name).collect();
+        assert_eq!(
+            recorded,
+            [
+                "ok",
+                "framing",
+                "crc",
+                "version",
+                "auth",
+                "replay",
+                "malformed",
+                "session",
+                "entropy"
+            ]
+        );
+    }
+
+    #[test]
+    fn protobuf_field_numbers_are_fixed_and_unique() {
+        // The numbers logs already carry: 2..=10 for the nine counters, 11 dropped, 12 rejected.
+        let fields: Vec<u32> = LINK_COUNTERS.iter().map(|c| c.field).collect();
+        assert_eq!(fields, (2..=10).collect::<Vec<u32>>());
+        let mut all = fields.clone();
+        all.extend([DROPPED_FIELD, REJECTED_FIELD]);
+        let n = all.len();
+        all.sort_unstable();
+        all.dedup();
+        assert_eq!(all.len(), n, "a field number used twice");
+        assert!(all.iter().all(|f| (2..NEXT_FIELD_NUMBER).contains(f)));
     }
 
     #[test]

@@ -384,6 +384,21 @@ impl Counters {
         n
     };
 
+    /// The protobuf field number of each counter, in the order of [`Counters::NAMES`]
+    /// ([`telemetry_schema::Counter::field`], then [`telemetry_schema::DROPPED_FIELD`] and
+    /// [`telemetry_schema::REJECTED_FIELD`]).
+    pub const FIELDS: [u32; COUNTER_COUNT] = {
+        let mut n = [0; COUNTER_COUNT];
+        let mut i = 0;
+        while i < telemetry_schema::LINK_COUNTERS.len() {
+            n[i] = telemetry_schema::LINK_COUNTERS[i].field;
+            i += 1;
+        }
+        n[i] = telemetry_schema::DROPPED_FIELD;
+        n[i + 1] = telemetry_schema::REJECTED_FIELD;
+        n
+    };
+
     /// Every counter of the link's [`LinkCounters`] and the runtime's rejected commands.
     pub fn from_link(c: &LinkCounters, rejected: u32) -> Self {
         let mut v = [None; COUNTER_COUNT];

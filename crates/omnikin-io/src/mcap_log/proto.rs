@@ -25,7 +25,7 @@
 //! }
 //! // Link receive counters (frames since start) and commands rejected by the runtime; a
 //! // counter the source does not know is absent. The fields are the telemetry schema's
-//! // counters (crate::telemetry_schema) in their order, numbered from 2: today
+//! // counters (crate::telemetry_schema), each with its fixed number: today
 //! message LinkCounters {
 //!   google.protobuf.Timestamp timestamp = 1;
 //!   optional uint64 ok = 2;        optional uint64 framing = 3;  optional uint64 crc = 4;
@@ -55,7 +55,7 @@ use prost_types::{
 };
 use serde_json::{Value, json};
 
-use super::foxglove::{COUNTER_COUNT, Counters, Topic};
+use super::foxglove::{Counters, Topic};
 
 /// MCAP `message_encoding` of the protobuf channels.
 pub const MESSAGE_ENCODING: &str = "protobuf";
@@ -146,9 +146,9 @@ pub struct WheelRates {
     pub measured_steer: Vec<f32>,
 }
 
-/// omnikin's `LinkCounters`: the timestamp (field 1) and the counters in the order of
-/// [`Counters::NAMES`] as `optional uint64` fields 2, 3, … — the names and their number come
-/// from [`crate::telemetry_schema`], so this message (its encoder, decoder and descriptor,
+/// omnikin's `LinkCounters`: the timestamp (field 1) and the counters of [`Counters::NAMES`] as
+/// `optional uint64` fields numbered by [`Counters::FIELDS`] — names and numbers come from
+/// [`crate::telemetry_schema`], so this message (its encoder, decoder and descriptor,
 /// [`link_counters_descriptor`]) follows a counter added there.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct LinkCounters {
@@ -158,9 +158,11 @@ pub struct LinkCounters {
     pub counters: Counters,
 }
 
-/// The field number of the `i`-th counter of [`Counters::NAMES`].
+/// The field number of the `i`-th counter of [`Counters::NAMES`] ([`Counters::FIELDS`]: fixed
+/// per counter, so a counter added to the schema leaves the others' numbers as old logs carry
+/// them).
 fn counter_field(i: usize) -> u32 {
-    i as u32 + 2
+    Counters::FIELDS[i]
 }
 
 impl Message for LinkCounters {
@@ -182,7 +184,7 @@ impl Message for LinkCounters {
         buf: &mut impl prost::bytes::Buf,
         ctx: prost::encoding::DecodeContext,
     ) -> Result<(), prost::DecodeError> {
-        let counter = (tag as usize).checked_sub(2).filter(|&i| i < COUNTER_COUNT);
+        let counter = Counters::FIELDS.iter().position(|&f| f == tag);
         match (tag, counter) {
             (1, _) => prost::encoding::message::merge(
                 wire_type,
