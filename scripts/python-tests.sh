@@ -41,7 +41,7 @@ pip=("$tmp/venv/bin/pip" --disable-pip-version-check --quiet)
 # yourdfpy: test_urdf.py reads `omnikin urdf` with an independent URDF parser; rosbags:
 # test_ros2_messages.py re-makes the ROS 2 CDR fixture of crates/omnikin-ros2. eclipse-zenoh:
 # test_ros2_node.py is a ROS 2 peer (rmw_zenoh's wire format) of `robot --sim --ros2`.
-"${pip[@]}" install pytest matplotlib mcap mcap-protobuf-support pandas yourdfpy rosbags eclipse-zenoh \
+"${pip[@]}" install pytest matplotlib mcap mcap-protobuf-support pandas yourdfpy "rosbags>=0.11,<0.12" "eclipse-zenoh>=1.1,<2" \
   || skip "cannot install pytest, matplotlib, mcap, mcap-protobuf-support, pandas, yourdfpy, rosbags and eclipse-zenoh from PyPI"
 # --locked: the extension builds against the committed Cargo.lock, like every other crate.
 # The dev profile shares target/debug with `cargo test` (same settings, see Cargo.toml), so in CI
@@ -50,7 +50,13 @@ MATURIN_PEP517_ARGS="--locked --profile ${PYTHON_WHEEL_PROFILE:-dev}" "${pip[@]}
 # With the ROS 2 node (feature ros2): Zenoh compiles here, not in the tests stage (docs/ros2.md
 # has its cost).
 cargo build -p omnikin-cli --features ros2 --locked --quiet
+# The Rust tests behind the `ros2` feature (the workspace's test stage builds without it): the
+# node's unit tests and `ros2 --connect`'s signal handling.
+cargo test -p omnikin-host --features ros2 --locked --quiet --lib ros2_node
+cargo test -p omnikin-cli --features ros2 --locked --quiet --test ros2
 # From another directory: the tests import the installed package, not the source tree.
+# OMNIKIN_REQUIRE_ROS2: a zenoh that installed but does not import fails the node's tests
+# instead of skipping them; -rs prints any skip with its reason.
 cd "$tmp"
-OMNIKIN_BIN="$root/target/debug/omnikin" MPLBACKEND=Agg \
-  "$tmp/venv/bin/python" -m pytest -q -p no:cacheprovider "$root/crates/omnikin-py/tests"
+OMNIKIN_BIN="$root/target/debug/omnikin" MPLBACKEND=Agg OMNIKIN_REQUIRE_ROS2=1 \
+  "$tmp/venv/bin/python" -m pytest -q -rs -p no:cacheprovider "$root/crates/omnikin-py/tests"

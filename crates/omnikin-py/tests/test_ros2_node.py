@@ -15,7 +15,14 @@ import time
 
 import pytest
 
-zenoh = pytest.importorskip("zenoh")
+import os  # noqa: E402
+
+# scripts/python-tests.sh (CI) installs eclipse-zenoh and sets OMNIKIN_REQUIRE_ROS2=1: there a
+# missing or broken zenoh fails the run instead of skipping the node's tests.
+if os.environ.get("OMNIKIN_REQUIRE_ROS2") == "1":
+    import zenoh  # noqa: E402
+else:
+    zenoh = pytest.importorskip("zenoh")
 from rosbags.typesys import Stores, get_typestore  # noqa: E402
 
 TS = get_typestore(Stores.ROS2_JAZZY)
