@@ -25,6 +25,11 @@ use omnikin_plan::planner::{InitialSteer, MotionLimits, OnLimit, PlanOptions, Ti
 const MAP: &str = include_str!("../../../examples/maps/cluttered.toml");
 /// Robot time per wall time.
 const TIME_SCALE: f64 = 5.0;
+/// The simulated robot's watchdog, s of robot time: the default 0.5 s of wall clock a real-time
+/// robot allows, scaled by [`TIME_SCALE`]. At the default 0.5 s of robot time (0.1 s of wall
+/// clock at 5×) one scheduler stall of a loaded machine between two heartbeats stopped the
+/// robot (`link_lost`) and failed a run.
+const WATCHDOG: f64 = 0.5 * TIME_SCALE;
 /// Clearance the plans keep beyond the footprint, m.
 const MARGIN: f64 = 0.08;
 /// The simulated robot starts at the origin: the map is moved by (-0.5, -0.5) so that the
@@ -46,6 +51,7 @@ fn an_obstacle_added_mid_run_is_spliced_around_without_a_stop_and_the_truth_stay
     let sim = SimOptions {
         disturbances: Some(profile.into()),
         seed: 40,
+        watchdog: WATCHDOG,
         ..SimOptions::default()
     };
     let log = std::env::temp_dir().join(format!("omnikin-drive-goal-{}.csv", std::process::id()));
@@ -225,6 +231,10 @@ fn drift_run(name: &str, sim: SimOptions, served: RobotDescription) -> DriftRun 
         "omnikin-drive-goal-drift-{}-{name}.csv",
         std::process::id()
     ));
+    let sim = SimOptions {
+        watchdog: WATCHDOG,
+        ..sim
+    };
     let mut serve = ServeOptions::new("127.0.0.1:0");
     serve.time_scale = TIME_SCALE;
     serve.telemetry_rate = 50.0;
