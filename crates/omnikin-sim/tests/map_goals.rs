@@ -13,7 +13,7 @@
 
 use omnikin::Pose2;
 use omnikin::description::RobotDescription;
-use omnikin::runtime::{CameraFix, Command, Config, PlanPoint, Runtime};
+use omnikin::runtime::{CameraFix, Command, Config, Runtime};
 use omnikin_plan::RobotModel;
 use omnikin_plan::map::Map;
 use omnikin_plan::map::footprint::footprint_radius;
@@ -21,53 +21,15 @@ use omnikin_plan::map::goal::{goal_heading, goal_path};
 use omnikin_plan::planner::{InitialSteer, MotionLimits, OnLimit, PlanOptions, Timing, plan};
 use omnikin_sim::profile::Profile;
 use omnikin_sim::sil::SilPlant;
-use rand::{RngExt, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
-const MAP: &str = include_str!("../../../examples/maps/cluttered.toml");
+#[path = "common/map_goals.rs"]
+mod common;
+use common::{CAPACITY, GOALS, MAP, MARGIN, RATE, REACHED, points, random_goal};
+
 const PROFILE: &str = include_str!("../../../examples/profiles/noisy.toml");
-/// Clearance the plans keep beyond the footprint, m: room for tracking errors.
-const MARGIN: f64 = 0.05;
-/// Control rate, Hz.
-const RATE: f64 = 100.0;
-/// Plan points the runtime holds.
-const CAPACITY: usize = 512;
-/// Goals reached in a row.
-const GOALS: usize = 20;
-/// How close the true position must come to each goal, m.
-const REACHED: f64 = 0.03;
-
-/// A random goal of `map` with room for the planned footprint `f`, at least 1 m from `from`.
-fn random_goal(rng: &mut ChaCha8Rng, map: &Map, f: f64, from: [f64; 2]) -> [f64; 2] {
-    loop {
-        let p = [rng.random_range(0.0..10.0), rng.random_range(0.0..10.0)];
-        if map.clearance(p) >= f * 1.1 && (p[0] - from[0]).hypot(p[1] - from[1]) >= 1.0 {
-            return p;
-        }
-    }
-}
-
-/// The plan's samples as the runtime's points, evenly decimated to at most [`CAPACITY`]
-/// (keeping the last), as `drive plan` uploads them.
-fn points(p: &omnikin_plan::Plan) -> Vec<PlanPoint<f64>> {
-    let n = p.samples.len();
-    let step = n.div_ceil(CAPACITY - 1).max(1);
-    let mut idx: Vec<usize> = (0..n).step_by(step).collect();
-    if idx.last() != Some(&(n - 1)) {
-        idx.push(n - 1);
-    }
-    idx.iter()
-        .map(|&i| {
-            let s = &p.samples[i];
-            PlanPoint {
-                t: s.t,
-                pose: s.pose,
-                twist: s.twist,
-            }
-        })
-        .collect()
-}
 
 #[test]
 fn the_true_robot_reaches_twenty_random_goals_without_touching_an_obstacle() {

@@ -22,7 +22,7 @@
 use omnikin::Pose2;
 use omnikin::description::RobotDescription;
 use omnikin::runtime::hal::{EncoderAngles, Encoders, Imu, ImuSample, MotorCommand, MotorOutputs};
-use omnikin::runtime::{CameraFix, Command, PlanPoint, Runtime};
+use omnikin::runtime::{CameraFix, Command, Runtime};
 use omnikin_plan::RobotModel;
 use omnikin_plan::map::Map;
 use omnikin_plan::map::footprint::footprint_radius;
@@ -33,52 +33,13 @@ use omnikin_sim::closed_loop;
 use omnikin_sim::dynamics::sphere::{DynamicProfile, SphereDynamics};
 use omnikin_sim::sensors::{CameraGaps, CameraProfile};
 use omnikin_sim::sil::SilPlant;
-use rand::{RngExt, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-const MAP: &str = include_str!("../../../examples/maps/cluttered.toml");
-/// Clearance the plans keep beyond the footprint, m (`map_goals.rs`'s, not changed here).
-const MARGIN: f64 = 0.05;
-/// Control rate, Hz (`omnikin robot`'s).
-const RATE: f64 = 100.0;
-/// Plan points the runtime holds.
-const CAPACITY: usize = 512;
-/// Goals reached in a row.
-const GOALS: usize = 20;
-/// How close the true shell centre must come to each goal, m (`map_goals.rs`'s).
-const REACHED: f64 = 0.03;
-
-/// A random goal of `map` with room for the planned footprint `f`, at least 1 m from `from`
-/// (`map_goals.rs`'s draw).
-fn random_goal(rng: &mut ChaCha8Rng, map: &Map, f: f64, from: [f64; 2]) -> [f64; 2] {
-    loop {
-        let p = [rng.random_range(0.0..10.0), rng.random_range(0.0..10.0)];
-        if map.clearance(p) >= f * 1.1 && (p[0] - from[0]).hypot(p[1] - from[1]) >= 1.0 {
-            return p;
-        }
-    }
-}
-
-/// The plan's samples as the runtime's points, evenly decimated to at most [`CAPACITY`].
-fn points(p: &omnikin_plan::Plan) -> Vec<PlanPoint<f64>> {
-    let n = p.samples.len();
-    let step = n.div_ceil(CAPACITY - 1).max(1);
-    let mut idx: Vec<usize> = (0..n).step_by(step).collect();
-    if idx.last() != Some(&(n - 1)) {
-        idx.push(n - 1);
-    }
-    idx.iter()
-        .map(|&i| {
-            let s = &p.samples[i];
-            PlanPoint {
-                t: s.t,
-                pose: s.pose,
-                twist: s.twist,
-            }
-        })
-        .collect()
-}
+#[path = "common/map_goals.rs"]
+mod common;
+use common::{CAPACITY, GOALS, MAP, MARGIN, RATE, REACHED, points, random_goal};
 
 /// The motor board: the runtime's set-points scaled by the drawn wheel errors (the rate error
 /// the encoders see, as the closed loop's trials apply it).
